@@ -1,0 +1,74 @@
+"""Exceptions and warnings raised by fl_design.
+
+Every error names the offending value and says what would be valid. Each class subclasses a
+builtin (``ValueError`` for bad input, ``RuntimeError`` for failures while computing) so that
+callers can catch either the precise class or the builtin.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> try:
+...     fl.EHGO(rho=2, eps=-1.0, T=1e-3)
+... except fl.errors.ParameterError as err:
+...     print(type(err).__mro__[1].__name__, "ValueError" in [c.__name__ for c in type(err).__mro__])
+FlDesignError True
+"""
+
+from __future__ import annotations
+
+
+class FlDesignError(Exception):
+    """Base class of every exception raised by fl_design."""
+
+
+# --- bad input (ValueError) -------------------------------------------------------------------
+class ParameterError(FlDesignError, ValueError):
+    """A numeric parameter is out of range, non-finite or of the wrong type."""
+
+
+class DimensionError(ParameterError):
+    """An array or sequence has the wrong length or shape."""
+
+
+class HurwitzError(ParameterError):
+    """A polynomial that must be Hurwitz has roots outside the open left half-plane."""
+
+
+class PlantDefinitionError(FlDesignError, ValueError):
+    """A plant's symbolic definition is inconsistent (unknown symbols, shapes, missing input...)."""
+
+
+class RelativeDegreeError(FlDesignError, ValueError):
+    """The relative degree is not defined (input coefficient vanishes, or input never appears)."""
+
+
+class DesignMismatchError(FlDesignError, ValueError):
+    """Parts that must agree do not (observer vs controller order, plant vs design relative degree)."""
+
+
+# --- failures while computing (RuntimeError) ---------------------------------------------------
+class ComputationError(FlDesignError, RuntimeError):
+    """A computation could not be carried out (solver failure, compiler missing, ...)."""
+
+
+class MissingDependencyError(FlDesignError, RuntimeError):
+    """An optional dependency needed for the requested feature is not installed."""
+
+
+# --- warnings --------------------------------------------------------------------------------
+class UnstableDiscretizationWarning(UserWarning):
+    """A discretization was built although its state matrix is not Schur stable."""
+
+
+__all__ = [
+    "FlDesignError",
+    "ParameterError",
+    "DimensionError",
+    "HurwitzError",
+    "PlantDefinitionError",
+    "RelativeDegreeError",
+    "DesignMismatchError",
+    "ComputationError",
+    "MissingDependencyError",
+    "UnstableDiscretizationWarning",
+]
