@@ -92,9 +92,11 @@ def hurwitz_monic(name: str, coeffs_high_to_low: np.ndarray, *, what: str) -> np
     roots = np.roots(np.concatenate([[1.0], np.asarray(coeffs_high_to_low, dtype=float)]))
     bad = roots[roots.real >= 0.0]
     if bad.size:
-        shown = ", ".join(f"{r.real:.6g}{r.imag:+.6g}j" for r in bad)
+        shown = ", ".join(
+            f"{r.real:.6g}" if abs(r.imag) < 1e-12 else f"{r.real:.6g}{r.imag:+.6g}j" for r in bad
+        )
         raise HurwitzError(
-            f"{name}={list(np.asarray(coeffs_high_to_low, dtype=float))} give {what} with roots "
+            f"{name}={np.asarray(coeffs_high_to_low, dtype=float).tolist()} give {what} with roots "
             f"not in the open left half-plane: {shown}; choose coefficients whose polynomial is "
             "Hurwitz (e.g. binomial coefficients, all roots at -1)"
         )
