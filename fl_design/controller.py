@@ -236,7 +236,7 @@ def _checked_gains(gains) -> tuple[float, ...]:
 def _checked_estimate_limits(limits, rho: int) -> tuple[Interval | None, ...]:
     if limits is None:
         return (None,) * rho
-    if np.ndim(limits) == 0 or isinstance(limits, str):
+    if not isinstance(limits, (Sequence, np.ndarray)) or isinstance(limits, str):
         raise DimensionError(
             f"estimate_limits must be a sequence of {rho} entries (None, c or (lo, hi)), "
             f"got {limits!r}"
