@@ -227,10 +227,29 @@ def _checked_gains(gains) -> tuple[float, ...]:
     arr = v.real_vector("gains", gains)
     if arr.size == 0:
         raise DimensionError("gains must have at least one entry (k_1, ..., k_rho), got none")
-    v.hurwitz_monic("gains", arr[::-1], what="s^rho + k_rho s^(rho-1) + ... + k_1")
+    try:
+        v.hurwitz_monic("gains", arr[::-1], what="s^rho + k_rho s^(rho-1) + ... + k_1")
+    except HurwitzError:
+        roots = np.roots(np.concatenate([[1.0], arr[::-1]]))
+        shown = ", ".join(f"{z:.6g}".strip("()") for z in roots[roots.real >= 0.0])
+        raise HurwitzError(
+            f"gains=(k_1, ..., k_rho)={arr.tolist()} give {_poly_text(arr)} with roots not in the "
+            f"open left half-plane: {shown}; choose gains whose polynomial is Hurwitz, e.g. "
+            "fl.gains_from_poles([-1] * rho) or fl.lqr_gains(rho)"
+        ) from None
     if np.any(arr <= 0.0):  # implied by Hurwitz; kept for roots numerically at 0
         raise ParameterError(f"gains must all be > 0, got {arr.tolist()}")
     return tuple(float(k) for k in arr)
+
+
+def _poly_text(gains: np.ndarray) -> str:
+    rho = gains.size
+    terms = [f"s^{rho}"]
+    for i in range(rho - 1, -1, -1):  # coefficient of s^i is k_(i+1)
+        power = "" if i == 0 else (" s" if i == 1 else f" s^{i}")
+        sign = "-" if gains[i] < 0 else "+"
+        terms.append(f"{sign} {abs(gains[i]):g}{power}")
+    return " ".join(terms)
 
 
 def _checked_estimate_limits(limits, rho: int) -> tuple[Interval | None, ...]:
