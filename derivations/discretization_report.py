@@ -34,8 +34,8 @@ def _rule(title: str) -> str:
 def _text_block(d) -> str:
     names = [f"{s}(k+1)" for s in d.extended_states]
     width = max(len(n) for n in names)
-    lines = [f"F^e: exact ZOH Taylor series of the extended chain to order "
-             f"{d.extended_order} in T (input held, sigma evolves):"]
+    lines = [(f"F^e: exact ZOH Taylor series of the extended chain to order "
+              f"{d.extended_order} in T (input held, sigma evolves):")]
     lines += [f"  {n.ljust(width)} = {e}" for n, e in zip(names, d.extended_exact)]
     lines.append(f"  Lagrange remainder of x(k+1) at order N = {d.order} "
                  "(*_mid: state at an intermediate time):")

@@ -11,7 +11,8 @@ in ``T`` is the Lie series
 the last term being the Lagrange remainder (``theta`` may differ per component). In the normal
 form ``x_i' = x_(i+1)``, ``x_rho' = sigma(t)`` this reads
 
-    x_i(k+1) = sum_{j=0}^{rho-i} T^j/j! x_(i+j) + T^(rho-i+1)/(rho-i+1)! sigma + T^(rho-i+2)/... sigma_dot + ...
+    x_i(k+1) = sum_{j=0}^{rho-i} T^j/j! x_(i+j) + T^(rho-i+1)/(rho-i+1)! sigma
+               + T^(rho-i+2)/(rho-i+2)! sigma_dot + ...
 
 Taking ``sigma`` as an extra state held constant gives the approximate extended model
 ``F^a = exp(T N)`` (``N`` the shift matrix), ``[[1, T, T^2/2], [0, 1, T], [0, 0, 1]]`` for
@@ -33,7 +34,6 @@ Matrix([
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -176,23 +176,8 @@ def _mid(symbol: sp.Symbol) -> sp.Symbol:
     return sp.Symbol(f"{symbol.name}_mid", **symbol.assumptions0)
 
 
-def lowest_power(expr, var: sp.Symbol) -> int | None:
-    """Lowest power of ``var`` with a non-zero coefficient in the polynomial ``expr`` (None if 0).
-
-    Parameters
-    ----------
-    expr : sympy expression
-        Polynomial in ``var`` (coefficients may be any expressions in other symbols).
-    var : sympy.Symbol
-        The variable.
-
-    Examples
-    --------
-    >>> import sympy as sp
-    >>> T, s = sp.symbols("T s")
-    >>> lowest_power(T**3 * s / 6 + T**4, T)
-    3
-    """
+def _lowest_power(expr, var: sp.Symbol) -> int | None:
+    """Lowest power of ``var`` with a non-zero coefficient in the polynomial ``expr`` (None: 0)."""
     expr = sp.expand(expr)
     if expr == 0:
         return None
@@ -381,9 +366,8 @@ class Discretization:
 
     def _orders(self, residual: sp.MatrixBase, var: sp.Symbol) -> tuple[int, ...]:
         # a component that vanishes up to the series' order is O(var^(extended_order + 1))
-        return tuple(
-            lowest_power(r, var) or self.extended_order + 1 for r in residual
-        )
+        powers = (_lowest_power(r, var) for r in residual)
+        return tuple(self.extended_order + 1 if p is None else p for p in powers)
 
     @cached_property
     def residual_orders_T(self) -> tuple[int, ...]:

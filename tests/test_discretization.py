@@ -39,7 +39,8 @@ def test_approx_rho2_is_the_papers_matrix():
     d = fl.taylor_discretization(2, order=3)
     paper = sp.Matrix([[1, T, T**2 / 2], [0, 1, T], [0, 0, 1]])
     assert sp.simplify(d.approx - paper) == sp.zeros(3, 3)
-    paper_eps = sp.Matrix([[1, EPS * ALPHA, (EPS * ALPHA) ** 2 / 2], [0, 1, EPS * ALPHA], [0, 0, 1]])
+    ea = EPS * ALPHA
+    paper_eps = sp.Matrix([[1, ea, ea**2 / 2], [0, 1, ea], [0, 0, 1]])
     assert sp.simplify(d.approx_in_eps() - paper_eps) == sp.zeros(3, 3)
     assert (d.T, d.alpha, d.eps) == (T, ALPHA, EPS)
 
@@ -224,7 +225,6 @@ def test_linear_plant_remainder_is_next_series_term_at_the_marker():
     plant = _damped_double_integrator()
     order, h = 2, 0.1
     d = fl.taylor_discretization(plant, order=order)
-    p, v = plant.states
     assert {s.name for s in d.mid_states} <= {"p_mid", "v_mid"}
     x0, u0 = np.array([0.4, -1.1]), 0.8
     at = {sp.Symbol("p_mid", real=True): x0[0], sp.Symbol("v_mid", real=True): x0[1],
