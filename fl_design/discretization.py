@@ -420,8 +420,10 @@ class Discretization:
     def chain_substitution(self, *, max_derivative: int | None = None) -> dict:
         """Map the chain symbols to the plant: ``x_i -> L_F^(i-1) h``, ``sigma^(j) -> L_F^j sigma``.
 
-        With it, :attr:`extended_exact`, :attr:`residual` and :attr:`remainder` of the chain view
-        become expressions in the plant's states and held input.
+        With it the chain-view expressions (:attr:`extended_exact`, :attr:`residual`) become
+        expressions in the plant's states and held input. Apply it with
+        ``expr.subs(mapping, simultaneous=True)``: the chain's ``x1, x2, ...`` may have the same
+        names as the plant's states.
 
         Parameters
         ----------

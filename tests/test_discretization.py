@@ -162,33 +162,7 @@ C_DAMP = 0.7
 
 def _damped_double_integrator():
     p, v, u, c = sp.symbols("p v u c", real=True)
-    states, rhs = (p, v), [v, -c * v + u]
-    plant_cls = getattr(fl, "Plant", None) if _has_plant_module() else None
-    if plant_cls is not None:
-        return plant_cls.from_ode(states, u, rhs, p, params={c: C_DAMP}, name="damped")
-    return _StandInPlant(states, u, sp.Matrix(rhs), p, {c: C_DAMP})
-
-
-def _has_plant_module():
-    import importlib.util
-
-    return importlib.util.find_spec("fl_design.plant") is not None
-
-
-class _StandInPlant:
-    """Only used while fl_design/plant.py does not exist yet (same attributes as the contract)."""
-
-    def __init__(self, states, input, rhs, output, params):
-        self.states, self.input, self.rhs, self.output, self.params = (
-            states, input, rhs, output, params)
-        self.n, self.name = len(states), "stand-in"
-
-    def normal_form(self):
-        from types import SimpleNamespace
-
-        sigma = sp.Matrix([self.output]).jacobian(self.states) * self.rhs
-        sigma = (sp.Matrix(sigma).jacobian(self.states) * self.rhs)[0]
-        return SimpleNamespace(rho=2, sigma=sigma, coordinates=(self.states[0], self.states[1]))
+    return fl.Plant.from_ode((p, v), u, [v, -c * v + u], p, params={c: C_DAMP}, name="damped")
 
 
 def _zoh(Tn):
@@ -244,7 +218,7 @@ def test_linear_plant_chain_view_maps_onto_plant_series():
     chain = fl.taylor_discretization(d.rho, order=order)
     sub = d.chain_substitution(max_derivative=order)
     # coordinates are the states here, so the chain series is the plant series term by term
-    assert sp.expand(chain.exact.subs(sub) - d.exact) == sp.zeros(2, 1)
+    assert sp.expand(chain.exact.subs(sub, simultaneous=True) - d.exact) == sp.zeros(2, 1)
     sigma_dot = sub[sigma_symbol(1)]
     c = next(iter(plant.params))
     assert sp.expand(sigma_dot - (-c) * (-c * plant.states[1] + plant.input)) == 0
@@ -323,3 +297,44 @@ def test_discretization_is_immutable_and_summarizes():
     data = d.to_dict()
     assert data["residual_orders"] == [4, 3, 2, 1] and data["rho"] == 3
     assert len(data["approx"]) == 4 and data["plant"] is None
+
+
+# --- nonlinear plants: F^e against integration, chain view against the plant's coordinates -------
+def _nonlinear_plant():
+    """x1' = x2 + x1^2, x2' = -sin(x1) - c x2 + (1 + x1^2/2) u, y = x1: coordinates != states."""
+    x1, x2, u, c = sp.symbols("x1 x2 u c", real=True)
+    rhs = [x2 + x1**2, -sp.sin(x1) - c * x2 + (1 + x1**2 / 2) * u]
+    return fl.Plant.from_ode((x1, x2), u, rhs, x1, params={c: 0.4}, name="nonlinear")
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_nonlinear_plant_exact_error_is_order_plus_one_against_solve_ivp(order):
+    plant = _nonlinear_plant()
+    f = fl.taylor_discretization(plant, order=order).exact_function()
+    field = sp.lambdify([plant.states, plant.input], list(plant.rhs.subs(plant.params)))
+    x0, u0 = np.array([0.3, -0.2]), 0.5
+    hs = np.geomspace(0.02, 0.16, 5)
+    errs = []
+    for h in hs:
+        sol = solve_ivp(lambda t, x: field(x, u0), (0.0, h), x0, method="DOP853",
+                        rtol=1e-13, atol=1e-15)
+        errs.append(np.linalg.norm(sol.y[:, -1] - f(x0, u0, h)))
+    assert abs(_slope(hs, errs) - (order + 1)) < 0.2
+
+
+def test_chain_view_agrees_with_plant_coordinates_up_to_the_order():
+    plant = _nonlinear_plant()
+    order = 3
+    d = fl.taylor_discretization(plant, order=order)
+    nf = plant.normal_form()
+    assert d.rho == nf.rho == 2 and d.residual_orders == (3, 2, 1)
+    sub = d.chain_substitution()
+    assert sub[chain_states(2)[1]] == nf.coordinates[1]
+    chain = fl.taylor_discretization(d.rho, order=order)
+    x_next = dict(zip(plant.states, d.exact))
+    for i, coord in enumerate(nf.coordinates):
+        # z_i(x(k+1)) from the plant's series vs the chain series in z, sigma^(j) = L_F^j sigma
+        diff = sp.expand(coord.subs(x_next, simultaneous=True)
+                         - chain.exact[i].subs(sub, simultaneous=True))  # exact arithmetic
+        low = min(m[0] for m in sp.Poly(diff, T).monoms()) if diff != 0 else order + 1
+        assert low >= order + 1, f"component {i}: mismatch at T^{low}"
