@@ -434,8 +434,11 @@ class Discretization:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.taylor_discretization(fl.plants.trms_yaw(), order=2)  # doctest: +SKIP
-        >>> d.residual[0].subs(d.chain_substitution())  # doctest: +SKIP
+        >>> d = fl.taylor_discretization(fl.plants.pendulum(), order=2)
+        >>> d.chain_substitution()[sigma_symbol(0)]
+        b*u - c*theta_dot - g*sin(theta)/l
+        >>> d.residual_leading_terms[2].subs(d.chain_substitution(), simultaneous=True)
+        T*(-c*(b*u - c*theta_dot - g*sin(theta)/l) - g*theta_dot*cos(theta)/l)
         """
         plant = self._require_plant("chain_substitution()")
         top = self.extended_order if max_derivative is None else integer(
@@ -460,9 +463,11 @@ class Discretization:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.taylor_discretization(fl.plants.trms_yaw(), order=2)  # doctest: +SKIP
-        >>> d.exact_function()([0.0, 0.0], 0.1, 1e-3).shape  # doctest: +SKIP
-        (2,)
+        >>> d = fl.taylor_discretization(fl.plants.pendulum(), order=2)
+        >>> d.exact[0]
+        T**2*(b*u - c*theta_dot - g*sin(theta)/l)/2 + T*theta_dot + theta
+        >>> d.exact_function()([0.1, 0.0], 0.0, 1e-3).round(8)
+        array([ 0.09999951, -0.00097912])
         """
         plant = self._require_plant("exact_function()")
         params = {sp.Symbol(k) if isinstance(k, str) else k: v

@@ -322,19 +322,58 @@ def test_nonlinear_plant_exact_error_is_order_plus_one_against_solve_ivp(order):
     assert abs(_slope(hs, errs) - (order + 1)) < 0.2
 
 
-def test_chain_view_agrees_with_plant_coordinates_up_to_the_order():
-    plant = _nonlinear_plant()
-    order = 3
+@pytest.mark.parametrize("make,order", [(_nonlinear_plant, 3), (fl.plants.trms_yaw, 2),
+                                        (fl.plants.pendulum, 3), (fl.plants.flexible_joint, 2)],
+                         ids=["nonlinear", "trms_yaw", "pendulum", "flexible_joint"])
+def test_chain_view_agrees_with_plant_coordinates_up_to_the_order(make, order):
+    plant = make()
     d = fl.taylor_discretization(plant, order=order)
     nf = plant.normal_form()
-    assert d.rho == nf.rho == 2 and d.residual_orders == (3, 2, 1)
-    sub = d.chain_substitution()
-    assert sub[chain_states(2)[1]] == nf.coordinates[1]
+    sub = d.chain_substitution(max_derivative=order)
+    assert [sub[x] for x in chain_states(d.rho)] == list(nf.coordinates)
     chain = fl.taylor_discretization(d.rho, order=order)
     x_next = dict(zip(plant.states, d.exact))
     for i, coord in enumerate(nf.coordinates):
-        # z_i(x(k+1)) from the plant's series vs the chain series in z, sigma^(j) = L_F^j sigma
-        diff = sp.expand(coord.subs(x_next, simultaneous=True)
-                         - chain.exact[i].subs(sub, simultaneous=True))  # exact arithmetic
-        low = min(m[0] for m in sp.Poly(diff, T).monoms()) if diff != 0 else order + 1
-        assert low >= order + 1, f"component {i}: mismatch at T^{low}"
+        # z_i(x(k+1)) from the plant's series vs the chain series with sigma^(j) = L_F^j sigma:
+        # equal up to T^order (exact arithmetic, parameters symbolic)
+        diff = coord.subs(x_next, simultaneous=True) - chain.exact[i].subs(sub, simultaneous=True)
+        head = sp.series(diff, T, 0, order + 1).removeO()
+        assert sp.simplify(head) == 0, f"component {i + 1} differs below T^{order + 1}: {head}"
+
+
+# --- the plant library ---------------------------------------------------------------------------
+LIBRARY = {
+    "trms_yaw": (lambda: fl.plants.trms_yaw(), [0.1, 0.5]),
+    "trms_yaw_motor_lag": (lambda: fl.plants.trms_yaw(motor_lag=True), None),
+    "pendulum": (lambda: fl.plants.pendulum(), None),
+    "flexible_joint": (lambda: fl.plants.flexible_joint(), None),
+}
+
+
+@pytest.mark.parametrize("name", list(LIBRARY))
+def test_library_plant_residual_orders_follow_its_relative_degree(name):
+    plant = LIBRARY[name][0]()
+    d = fl.taylor_discretization(plant, order=2)
+    rho = plant.relative_degree()
+    assert d.rho == rho and d.states == tuple(plant.states) and d.input == plant.input
+    assert d.residual_orders == tuple(range(rho + 1, 1, -1)) + (1,)
+    assert d.approx == approximate_extended_model(rho)
+    assert d.to_dict()["plant"] == plant.name
+
+
+@pytest.mark.parametrize("name", list(LIBRARY))
+def test_library_plant_exact_error_is_order_plus_one_against_solve_ivp(name):
+    make, x_start = LIBRARY[name]
+    plant = make()
+    order = 2
+    f = fl.taylor_discretization(plant, order=order).exact_function()
+    field = plant.casadi().f
+    x0 = np.array(x_start if x_start is not None else 0.2 + 0.1 * np.arange(plant.n))
+    u0 = float(plant.u_eq) + 0.3
+    hs = np.geomspace(5e-3, 4e-2, 5)
+    errs = []
+    for h in hs:
+        sol = solve_ivp(lambda t, x: np.asarray(field(x, u0)).ravel(), (0.0, h), x0,
+                        method="DOP853", rtol=1e-13, atol=1e-15)
+        errs.append(np.linalg.norm(sol.y[:, -1] - f(x0, u0, h)))
+    assert abs(_slope(hs, errs) - (order + 1)) < 0.2
