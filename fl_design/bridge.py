@@ -101,8 +101,8 @@ class _Translator:
             raise PlantDefinitionError(f"symbol {e} is not an argument of the function")
         if e is sp.true or e is sp.false:
             return ca.SX(1.0 if e is sp.true else 0.0)
-        if e.is_Number or isinstance(e, sp.NumberSymbol):
-            value = complex(e)
+        if e.is_number:  # any constant sub-expression, folded to one float
+            value = complex(e.evalf())
             if value.imag != 0.0 or not math.isfinite(value.real):
                 raise PlantDefinitionError(f"the constant {e} is not a finite real number")
             return ca.SX(value.real)

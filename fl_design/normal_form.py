@@ -150,13 +150,16 @@ def lie_chain(plant) -> LieChain:
     derivs = [y]
     for i in range(1, plant.n + 1):
         y = _lie_step(y, states, rhs)
-        derivs.append(y)
         b = sp.diff(y, u)
-        if not _identically_zero(b.xreplace(back), probe):
-            out = tuple(tidy(d.xreplace(back)) for d in derivs)
-            b = tidy(_drop_dirac(b).xreplace(back))
-            _check_b_at_operating_point(plant, i, b, probe)
-            return LieChain(rho=i, derivatives=out, b=b)
+        if _identically_zero(b.xreplace(back), probe):
+            derivs.append(y.subs(u, 0))  # exact; drops round-off terms such as 1e-16*u
+            y = derivs[-1]
+            continue
+        derivs.append(y)
+        out = tuple(tidy(d.xreplace(back)) for d in derivs)
+        b = tidy(_drop_dirac(b).xreplace(back))
+        _check_b_at_operating_point(plant, i, b, probe)
+        return LieChain(rho=i, derivatives=out, b=b)
     raise RelativeDegreeError(
         f"the input {plant.input} does not appear in y, y', ..., y^({plant.n}) of plant "
         f"{plant.name!r} (n = {plant.n}): the relative degree is not defined; the output "
