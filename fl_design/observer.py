@@ -626,4 +626,4 @@ def _lsim_blocked(A, B, C, D, u, x0, block: int = 128) -> np.ndarray:
     return out.reshape(nb * L, m)[:N]
 
 
-__all__ = ["EHGO", "StateSpaceMatrices", "binomial_coeffs", "METHODS"]
+__all__ = ["EHGO", "METHODS", "StateSpaceMatrices", "binomial_coeffs"]
