@@ -55,7 +55,7 @@ def _text_block(plant, nf, bounds) -> str:
 
 
 def _latex_block(plant, nf, bounds) -> str:
-    names = {s: r"\dot{\%s}" % s.name[:-4] for s in plant.states if s.name.endswith("_dot")}
+    names = {s: rf"\dot{{\{s.name[:-4]}}}" for s in plant.states if s.name.endswith("_dot")}
 
     def tex(expr):
         return sp.latex(expr, symbol_names=names)
@@ -64,8 +64,8 @@ def _latex_block(plant, nf, bounds) -> str:
         rf"\rho &= {nf.rho}",
         rf"\sigma = y^{{({nf.rho})}} &= {tex(nf.sigma)}",
         rf"a &= {tex(nf.a)}",
-        rf"b = \frac{{\partial \sigma}}{{\partial u}} &= {tex(nf.b)}"
-        rf" = {tex(_numeric(plant, nf.b))}",
+        (rf"b = \frac{{\partial \sigma}}{{\partial u}} &= {tex(nf.b)}"
+         rf" = {tex(_numeric(plant, nf.b))}"),
         rf"b &\in [{bounds[0]:.6g},\ {bounds[1]:.6g}]",
     ]
     return "\\begin{align*}\n" + " \\\\\n".join(rows) + "\n\\end{align*}"

@@ -9,6 +9,9 @@ non-affinely: then ``b`` (and ``a``) depend on ``u``, and ``sigma`` is still the
 ``DiracDelta`` terms from differentiating ``sign``/``Heaviside`` are dropped (the derivative almost
 everywhere).
 
+``b`` is bounded over the plant's region and input range by :func:`b_bounds` (a dense grid
+plus bounded local refinement; see :meth:`fl_design.Plant.b_bounds`).
+
 The zero dynamics (``n > rho``) are judged on the linearization ``(A, B, C)`` at the operating
 point: their eigenvalues are the invariant zeros of ``(A, B, C)``, computed as the eigenvalues of
 ``A - B (C A^(rho-1) B)^-1 C A^rho`` restricted to the kernel of ``[C; CA; ...; CA^(rho-1)]``.
@@ -37,12 +40,14 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 import scipy.linalg
+import scipy.optimize
+import scipy.stats
 import sympy as sp
 
 from .bridge import to_casadi
-from .errors import RelativeDegreeError
+from .errors import ComputationError, ParameterError, RelativeDegreeError
 
-_ZERO_TOL = 1e-10  # |d y^(i)/du| below this at every random point counts as identically zero
+_ZERO_TOL = 1e-10  # |d y^(i)/du| <= tol * max(1, |y^(i)|) at every probe point: identically zero
 _N_PROBE = 16  # random points for the numeric zero tests
 
 
@@ -116,12 +121,13 @@ class _Probe:
         return np.broadcast_to(out, (_N_PROBE,))
 
 
-def _identically_zero(expr: sp.Expr, probe: _Probe) -> bool:
+def _identically_zero(expr: sp.Expr, probe: _Probe, scale: float = 1.0) -> bool:
+    """Zero at every probe point (relative to ``scale``), else confirmed by ``simplify``."""
     if expr == 0:
         return True
     vals = probe.values(expr)
     finite = vals[np.isfinite(vals)]
-    if finite.size and np.any(np.abs(finite) > _ZERO_TOL):
+    if finite.size and np.any(np.abs(finite) > _ZERO_TOL * max(1.0, scale)):
         return False
     return finite.size > 0 or sp.simplify(expr) == 0
 
@@ -151,7 +157,8 @@ def lie_chain(plant) -> LieChain:
     for i in range(1, plant.n + 1):
         y = _lie_step(y, states, rhs)
         b = sp.diff(y, u)
-        if _identically_zero(b.xreplace(back), probe):
+        scale = float(np.nanmax(np.abs(probe.values(y.xreplace(back))), initial=0.0))
+        if _identically_zero(b.xreplace(back), probe, scale):
             derivs.append(y.subs(u, 0))  # exact; drops round-off terms such as 1e-16*u
             y = derivs[-1]
             continue
@@ -178,6 +185,88 @@ def _check_b_at_operating_point(plant, rho: int, b: sp.Expr, probe: _Probe) -> N
             f"is {value.real:.3g} at the operating point ({where}): the relative degree is not "
             "defined there; choose an operating point (or output) where b != 0"
         )
+
+
+# --- bounds of b over the region ------------------------------------------------------------
+def _box(plant, variables: list) -> list[tuple[float, float]]:
+    box = []
+    for v in variables:
+        if v == plant.input:
+            if plant.input_range is None:
+                raise ParameterError(
+                    f"b depends on the input {v} but plant {plant.name!r} has no input_range; "
+                    "pass input_range=(lo, hi)"
+                )
+            box.append(plant.input_range)
+        else:
+            rng = (plant.region or {}).get(v)
+            if rng is None:
+                raise ParameterError(
+                    f"b depends on the state {v} but the region of plant {plant.name!r} gives no "
+                    f"range for it; pass region={{{v.name!r}: (lo, hi), ...}}"
+                )
+            box.append(rng)
+    return box
+
+
+def _grid(box, anchors) -> np.ndarray:
+    k = len(box)
+    m = min(2001, int(np.floor(200_000 ** (1.0 / k))))
+    if m >= 5:
+        axes = []
+        for (lo, hi), a in zip(box, anchors):
+            extra = [p for p in (0.0, a) if lo < p < hi]
+            axes.append(np.unique(np.concatenate([np.linspace(lo, hi, m), extra])))
+        return np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")])
+    lo, hi = np.array(box).T
+    pts = scipy.stats.qmc.Sobol(k, scramble=True, seed=0).random_base2(16)
+    return scipy.stats.qmc.scale(pts, lo, hi).T
+
+
+def b_bounds(plant, *, allow_sign_change: bool = False) -> tuple[float, float]:
+    """``(b_min, b_max)`` over the plant's region x input range (see :meth:`fl_design.Plant.b_bounds`)."""
+    b = plant._lie_chain().b.subs(plant.params)
+    variables = [s for s in (*plant.states, plant.input) if s in b.free_symbols]
+    if not variables:
+        val = float(b)
+        bounds = (val, val)
+    else:
+        box = _box(plant, variables)
+        ops = {**dict(zip(plant.states, plant.x_op.tolist())), plant.input: plant.u_eq}
+        fn = sp.lambdify(variables, b, modules="numpy")
+        pts = _grid(box, [ops[v] for v in variables])
+        with np.errstate(all="ignore"):
+            vals = np.broadcast_to(np.asarray(fn(*pts), dtype=float), pts.shape[1:])
+        if not np.all(np.isfinite(vals)):
+            bad = pts[:, np.argmin(np.isfinite(vals))]
+            raise ComputationError(f"b = {b} is not finite on the region, e.g. at "
+                                   f"{dict(zip(map(str, variables), bad.tolist()))}")
+        bounds = (_refine(fn, pts, vals, box, +1.0), _refine(fn, pts, vals, box, -1.0))
+    lo, hi = bounds
+    if not allow_sign_change and lo <= 0.0 <= hi:
+        raise RelativeDegreeError(
+            f"b = {plant._lie_chain().b} of plant {plant.name!r} ranges over [{lo:.6g}, {hi:.6g}] on "
+            "the region: it changes sign or vanishes, but the method needs a known sign of b; "
+            "shrink the region/input_range (or pass allow_sign_change=True to get the bounds)"
+        )
+    return bounds
+
+
+def _refine(fn, pts, vals, box, sign: float) -> float:
+    """min of sign*b (sign=+1 minimum, -1 maximum) from the grid, polished by L-BFGS-B."""
+    best = float(np.min(sign * vals))
+    order = np.argsort(sign * vals)[:4]
+
+    def obj(z):
+        with np.errstate(all="ignore"):
+            v = sign * float(fn(*z))
+        return v if np.isfinite(v) else np.inf
+
+    for i in order:
+        res = scipy.optimize.minimize(obj, pts[:, i], method="L-BFGS-B", bounds=box)
+        if np.isfinite(res.fun):
+            best = min(best, float(res.fun))
+    return sign * best
 
 
 # --- zero dynamics ------------------------------------------------------------------------------
@@ -397,7 +486,7 @@ def derive_normal_form(plant) -> NormalForm:
     b = chain.b
     a = tidy(sigma.subs(u, 0)) if u not in b.free_symbols else tidy(sigma - b * u)
     args = [list(plant.states), [u]]
-    names = dict(subs=plant.params, input_names=["x", "u"])
+    names = {"subs": plant.params, "input_names": ["x", "u"]}
     a_fn = to_casadi(a, args, "a", output_name="a", **names)
     b_fn = to_casadi(b, args, "b", output_name="b", **names)
     if rho < plant.n:
@@ -415,5 +504,12 @@ def derive_normal_form(plant) -> NormalForm:
                       internal_dynamics_reason=reason, affine=u not in b.free_symbols)
 
 
-__all__ = ["NormalForm", "InternalDynamics", "LieChain", "lie_chain", "derive_normal_form",
-           "zero_dynamics_matrix", "tidy"]
+__all__ = [
+    "InternalDynamics",
+    "LieChain",
+    "NormalForm",
+    "derive_normal_form",
+    "lie_chain",
+    "tidy",
+    "zero_dynamics_matrix",
+]

@@ -27,13 +27,12 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 import scipy.optimize
-import scipy.stats
 import sympy as sp
 
 from . import _validate as V
 from .bridge import to_casadi
-from .errors import ComputationError, ParameterError, PlantDefinitionError, RelativeDegreeError
-from .normal_form import LieChain, NormalForm, derive_normal_form, lie_chain
+from .errors import PlantDefinitionError
+from .normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
 
 
 @dataclass(frozen=True)
@@ -354,8 +353,8 @@ class Plant:
                 f"output={self._output})")
 
     def __reduce__(self):
-        kw = dict(params=self._params_map, name=self._name, input_range=self._input_range,
-                  region=self._region, operating_point=dict(zip(self._states, self._x_op.tolist())))
+        kw = {"params": self._params_map, "name": self._name, "input_range": self._input_range,
+                  "region": self._region, "operating_point": dict(zip(self._states, self._x_op.tolist()))}
         return (_rebuild, (self._states, self._input, list(self._rhs), self._output, kw))
 
     def with_params(self, **values: float) -> Plant:
@@ -491,7 +490,7 @@ class Plant:
             f, h = self._fh
             chain = self._lie_chain()
             args = [list(self._states), [self._input]]
-            kw = dict(subs=self._params_map, input_names=["x", "u"])
+            kw = {"subs": self._params_map, "input_names": ["x", "u"]}
             sigma = to_casadi(chain.derivatives[chain.rho], args, "sigma", output_name="sigma", **kw)
             b = to_casadi(chain.b, args, "b", output_name="b", **kw)
             self._cache["casadi"] = PlantFunctions(f=f, h=h, sigma=sigma, b=b)
@@ -533,92 +532,12 @@ class Plant:
         """
         key = ("bounds", bool(allow_sign_change))
         if key not in self._cache:
-            self._cache[key] = _b_bounds(self, bool(allow_sign_change))
+            self._cache[key] = b_bounds(self, allow_sign_change=bool(allow_sign_change))
         return self._cache[key]
 
 
 def _rebuild(states, input, rhs, output, kw) -> Plant:
     return Plant(states, input, rhs, output, **kw)
-
-
-def _box(plant: Plant, variables: list) -> list[tuple[float, float]]:
-    box = []
-    for v in variables:
-        if v == plant.input:
-            if plant.input_range is None:
-                raise ParameterError(
-                    f"b depends on the input {v} but plant {plant.name!r} has no input_range; "
-                    "pass input_range=(lo, hi)"
-                )
-            box.append(plant.input_range)
-        else:
-            rng = (plant.region or {}).get(v)
-            if rng is None:
-                raise ParameterError(
-                    f"b depends on the state {v} but the region of plant {plant.name!r} gives no "
-                    f"range for it; pass region={{{v.name!r}: (lo, hi), ...}}"
-                )
-            box.append(rng)
-    return box
-
-
-def _grid(box, anchors) -> np.ndarray:
-    k = len(box)
-    m = min(2001, int(np.floor(200_000 ** (1.0 / k))))
-    if m >= 5:
-        axes = []
-        for (lo, hi), a in zip(box, anchors):
-            extra = [p for p in (0.0, a) if lo < p < hi]
-            axes.append(np.unique(np.concatenate([np.linspace(lo, hi, m), extra])))
-        return np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")])
-    lo, hi = np.array(box).T
-    pts = scipy.stats.qmc.Sobol(k, scramble=True, seed=0).random_base2(16)
-    return scipy.stats.qmc.scale(pts, lo, hi).T
-
-
-def _b_bounds(plant: Plant, allow_sign_change: bool) -> tuple[float, float]:
-    b = plant._lie_chain().b.subs(plant.params)
-    variables = [s for s in (*plant.states, plant.input) if s in b.free_symbols]
-    if not variables:
-        val = float(b)
-        bounds = (val, val)
-    else:
-        box = _box(plant, variables)
-        ops = {**dict(zip(plant.states, plant.x_op.tolist())), plant.input: plant.u_eq}
-        fn = sp.lambdify(variables, b, modules="numpy")
-        pts = _grid(box, [ops[v] for v in variables])
-        with np.errstate(all="ignore"):
-            vals = np.broadcast_to(np.asarray(fn(*pts), dtype=float), pts.shape[1:])
-        if not np.all(np.isfinite(vals)):
-            bad = pts[:, np.argmin(np.isfinite(vals))]
-            raise ComputationError(f"b = {b} is not finite on the region, e.g. at "
-                                   f"{dict(zip(map(str, variables), bad.tolist()))}")
-        bounds = (_refine(fn, pts, vals, box, +1.0), _refine(fn, pts, vals, box, -1.0))
-    lo, hi = bounds
-    if not allow_sign_change and lo <= 0.0 <= hi:
-        raise RelativeDegreeError(
-            f"b = {plant._lie_chain().b} of plant {plant.name!r} ranges over [{lo:.6g}, {hi:.6g}] on "
-            "the region: it changes sign or vanishes, but the method needs a known sign of b; "
-            "shrink the region/input_range (or pass allow_sign_change=True to get the bounds)"
-        )
-    return bounds
-
-
-def _refine(fn, pts, vals, box, sign: float) -> float:
-    """min of sign*b (sign=+1 minimum, -1 maximum) from the grid, polished by L-BFGS-B."""
-    best = float(np.min(sign * vals))
-    order = np.argsort(sign * vals)[:4]
-
-    def obj(z):
-        with np.errstate(all="ignore"):
-            v = sign * float(fn(*z))
-        return v if np.isfinite(v) else np.inf
-
-    for i in order:
-        res = scipy.optimize.minimize(obj, pts[:, i], method="L-BFGS-B", bounds=box)
-        if np.isfinite(res.fun):
-            best = min(best, float(res.fun))
-    return sign * best
 
 
 __all__ = ["Plant", "PlantFunctions"]

@@ -94,13 +94,13 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
     (3, (3.6..., 6.8...))
     """
     vals = _pos(I2=I2, delta=delta, k2=k2, T20=T20, b2=b2)
-    vals.update({k: V.nonnegative(k, v) for k, v in dict(a2=a2, B1=B1, B2=B2).items()})
+    vals.update({k: V.nonnegative(k, v) for k, v in {"a2": a2, "B1": B1, "B2": B2}.items()})
     if motor_lag:
         vals["T21"] = V.positive("T21", T21)
     sym = {k: sp.Symbol(k, positive=True) for k in vals}
     phi, w, tau, u = sp.symbols("phi phi_dot tau u", real=True)
     s = sym
-    torque = lambda t: s["a2"] * t * sp.Abs(t) + s["b2"] * t  # noqa: E731
+    torque = lambda t: s["a2"] * t * sp.Abs(t) + s["b2"] * t
     friction = s["B1"] * w + s["B2"] * sp.tanh(w / s["delta"])
     region = {phi: (-math.pi, math.pi), w: (-3.0, 3.0)}
     if motor_lag:
@@ -115,7 +115,7 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
                           input_range=input_range, region=region)
 
 
-def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,  # noqa: E741
+def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
              input_range=(-20.0, 20.0)) -> Plant:
     """Damped pendulum driven by a torque: ``theta'' = -(g/l) sin(theta) - c theta' + b u``.
 
@@ -228,4 +228,4 @@ def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h
                                   q2: (-math.pi, math.pi), w2: (-10.0, 10.0)})
 
 
-__all__ = ["trms_yaw", "pendulum", "flexible_joint"]
+__all__ = ["flexible_joint", "pendulum", "trms_yaw"]
