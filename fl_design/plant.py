@@ -65,8 +65,8 @@ class PlantFunctions:
 
 
 def _symbols(name: str, value) -> tuple:
-    if isinstance(value, sp.MatrixBase):
-        value = list(value)
+    if isinstance(value, (sp.MatrixBase, np.ndarray)):
+        value = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
     if isinstance(value, sp.Symbol) or not isinstance(value, Sequence) or isinstance(value, str):
         raise PlantDefinitionError(f"{name} must be a sequence of sympy Symbols, got {value!r}")
     out = tuple(value)
@@ -163,8 +163,8 @@ class Plant:
             raise PlantDefinitionError(f"input must be a sympy Symbol, got {input!r}")
         if input.name in {s.name for s in sts}:
             raise PlantDefinitionError(f"the input {input} is also listed among the states {sts}")
-        rows = list(rhs) if isinstance(rhs, (sp.MatrixBase, Sequence)) and not isinstance(rhs, str) \
-            else None
+        rows = list(rhs) if isinstance(rhs, (sp.MatrixBase, Sequence, np.ndarray)) and \
+            not isinstance(rhs, str) else None
         if rows is None:
             raise PlantDefinitionError(f"rhs must be a sequence of {len(sts)} expressions, got {rhs!r}")
         if len(rows) != len(sts):

@@ -41,8 +41,8 @@ def test_attributes_and_params_by_name_or_symbol():
     assert p.input_range == (-3.0, 3.0)
     assert p.region == {x1: (-1.0, 1.0), x2: (-2.0, 2.0)}
     assert p.x_op.tolist() == [0.0, 0.0] and p.u_eq == 0.0
-    q = fl.Plant.from_ode([x1, x2], u, [x2, -k * x1 + u], x1, params={k: 2.0})
-    assert q.params == p.params
+    q = fl.Plant.from_ode(np.array([x1, x2]), u, np.array([x2, -k * x1 + u]), x1, params={k: 2.0})
+    assert q.params == p.params and q.states == p.states
 
 
 def test_immutable():
