@@ -60,6 +60,10 @@ class UnstableDiscretizationWarning(UserWarning):
     """A discretization was built although its state matrix is not Schur stable."""
 
 
+class CompilationWarning(UserWarning):
+    """No C compiler (or compilation failed): a kernel runs in CasADi's interpreter instead."""
+
+
 __all__ = [
     "FlDesignError",
     "ParameterError",
@@ -71,4 +75,5 @@ __all__ = [
     "ComputationError",
     "MissingDependencyError",
     "UnstableDiscretizationWarning",
+    "CompilationWarning",
 ]
