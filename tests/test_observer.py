@@ -294,3 +294,24 @@ def test_symbolic_update_wrong_parameter_length():
     obs = fl.EHGO(2, 0.05, 1e-3)
     with pytest.raises(DimensionError, match="p must be a vector of length 27"):
         obs.symbolic_update(casadi.SX.sym("xi", 3), casadi.SX.sym("y"), casadi.SX.sym("p", 5))
+
+
+@pytest.mark.parametrize("rho", [1, 2, 3, 4, 6])
+@pytest.mark.parametrize("alpha", np.logspace(-4, 3, 8))
+def test_bilinear_is_the_continuous_observer_at_the_tustin_frequency(rho, alpha):
+    """Closed form: G_d(z) = G_c(s) with s = (2/T)(z-1)/(z+1); in scaled coordinates
+    G_c = (eps s I - F)^-1 L, well conditioned for every alpha, so the tolerance is tight."""
+    T = 1e-3
+    obs = fl.EHGO(rho, T / alpha, T)
+    n = rho + 1
+    F = companion(obs.coeffs)
+    L = np.asarray(obs.coeffs, dtype=float)
+    w = np.logspace(-2, 2, 9) / obs.eps
+    w = w[w * T < 3.0]
+    if w.size < 3:
+        w = np.linspace(0.1, 3.0, 9) / T
+    z = np.exp(1j * w * T)
+    Gd = freq_resp(*obs.matrices, z)
+    eps_s = (2.0 / obs.alpha) * (z - 1.0) / (z + 1.0)
+    Gc = np.array([np.linalg.solve(es * np.eye(n) - F, L) for es in eps_s])
+    np.testing.assert_allclose(Gd, Gc, rtol=1e-8, atol=1e-12 * np.abs(Gc).max())
