@@ -110,6 +110,59 @@ def test_ehgo_design_follows_the_normative_order(rho):
     _assert_close(np.asarray(state).ravel(), out.state[60])
 
 
+def _ls_loop(est, ctrl, ys, rs):
+    """Steps 1-7 with an independent polynomial fit (numpy Polynomial.fit) for step 1."""
+    N, rho = est.window, est.rho
+    u, z = ctrl.u0, 0.0
+    us, xhats = [], []
+    t = (np.arange(N) - (N - 1)) * T  # oldest first, current sample at t = 0
+    for k, (y, r) in enumerate(zip(ys, rs)):
+        if k + 1 < N:  # window not full: steps 2-5 skipped, u and z stay at their values
+            us.append(u)
+            xhats.append(None)
+            continue
+        fit = np.polynomial.Polynomial.fit(t, ys[k + 1 - N : k + 1], est.degree)
+        xhat = [fit.deriv(i)(0.0) if i else fit(0.0) for i in range(rho + 1)]
+        u, z, xc = _controller_part(ctrl, xhat, r, u, z)
+        us.append(u)
+        xhats.append(xc)
+    return np.array(us), xhats, z
+
+
+@pytest.mark.parametrize("window, degree", [(9, None), (26, 3)])
+def test_least_squares_design_holds_until_the_window_is_full(window, degree):
+    est = fl.LeastSquaresEstimator(rho=2, T=T, window=window, degree=degree)
+    ctrl = fl.DynamicController((2.0, 4.0), 2e-4, ki=3.0, u_limits=(-0.2, 0.25), u0=0.05,
+                                estimate_limits=(None, 0.4))
+    design = fl.Design(observer=est, controller=ctrl)
+    t = np.arange(300) * T
+    ys = 0.3 * np.sin(30.0 * t) + 0.1 + 1e-3 * np.random.default_rng(window).standard_normal(300)
+    rs = np.where(t < 0.15, 0.3, -2.0)
+    u_ref, xhat_ref, z_ref = _ls_loop(est, ctrl, ys, rs)
+    out = design.run(ys, rs)
+    lay = design.state_layout
+    held = slice(0, window - 1)
+    np.testing.assert_array_equal(out.u[held], ctrl.u0)
+    np.testing.assert_array_equal(out.state[1:window, lay["z"]].ravel(), 0.0)
+    assert out.u[window - 1] != ctrl.u0  # acts at the first full window
+    _assert_close(out.u, u_ref)
+    _assert_close(out.xhat[window - 1 :], np.array(xhat_ref[window - 1 :]))
+    _assert_close(out.state[-1, lay["z"]], z_ref)
+    assert np.any(u_ref == -0.2) and np.any(u_ref == 0.25)
+    raw = np.array([np.polynomial.Polynomial.fit((np.arange(window) - window + 1) * T,
+                                                 ys[k + 1 - window : k + 1], est.degree)
+                    .deriv()(0.0) for k in range(window - 1, 300)])
+    assert np.any(np.abs(raw) > 0.4), "the estimate limit must be exercised"
+
+
+def test_replace_eps_is_refused_for_the_least_squares_estimator():
+    design = fl.Design(observer=fl.LeastSquaresEstimator(rho=2, T=T, window=9),
+                       controller=fl.DynamicController((2, 4), 3e-4))
+    with pytest.raises(errors.ParameterError, match=r"eps=0.01 cannot be set.*no eps"):
+        design.replace(eps=0.01)
+    assert design.replace(gamma=1e-3).controller.gamma == 1e-3
+
+
 def test_step_equals_parametric_step_with_the_design_parameters():
     design = _ehgo_design(3)
     rng = np.random.default_rng(0)
