@@ -1,0 +1,178 @@
+"""All of fl_design's matplotlib code: results' ``.plot()`` methods delegate here.
+
+matplotlib is imported only when a plot is drawn. Figures are made with ``pyplot.subplots``,
+which picks a non-interactive backend (Agg) when no display is available, so plotting works on
+servers and in CI; pass ``ax``/``axes`` to draw into your own figure.
+
+Examples
+--------
+>>> import numpy as np
+>>> from fl_design.sweep import StabilityMap
+>>> from fl_design.plotting import plot_stability_map
+>>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
+...                  {}, 1e-3, 1.0, 0.1)
+>>> fig = plot_stability_map(m, curves={"theory": (np.array([1.0, 2.0]), np.array([0.2, 0.1]))})
+>>> fig.axes[0].get_xscale(), fig.axes[0].get_yscale()
+('log', 'log')
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import ParameterError
+
+#: Colours of the classification: diverged, undecided, stable.
+STATUS_COLORS = ("#d62728", "#ffd966", "#2ca02c")
+
+
+def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(nrows, 1, sharex=sharex, figsize=figsize, squeeze=False)
+    return fig, list(axes[:, 0])
+
+
+def plot_response(resp, *, axes=None, title: str | None = None):
+    """Output and reference, input, and ``sigma`` with its estimate, over time.
+
+    Parameters
+    ----------
+    resp : Response
+        A simulation result.
+    axes : sequence of 3 Axes, optional
+        Where to draw (default a new figure).
+    title : str, optional
+        Title (default: status and key metrics).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.plotting import plot_response
+    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> fig = plot_response(fl.simulate(fl.plants.pendulum(), d, 0.1, 0.5))
+    >>> [ax.get_ylabel() for ax in fig.axes]
+    ['output y', 'input u', 'sigma']
+    """
+    if axes is None:
+        fig, axes = _new_axes(3)
+    else:
+        axes = list(axes)
+        if len(axes) != 3:
+            raise ParameterError(f"axes must be 3 matplotlib Axes, got {len(axes)}")
+        fig = axes[0].figure
+    t = resp.t
+    ax = axes[0]
+    if np.any(resp.ym != resp.y):
+        ax.plot(t, resp.ym, color="0.75", lw=0.6, label="measured")
+    ax.plot(t, resp.r, "k--", lw=1.0, label="reference")
+    ax.plot(t, resp.y, color="C0", lw=1.4, label="y")
+    ax.plot(t, resp.xhat[:, 0], color="C1", lw=0.8, ls=":", label="estimate")
+    ax.set_ylabel("output y")
+    ax.legend(loc="best", fontsize="small")
+    axes[1].step(t, resp.u, where="post", color="C2", lw=1.0)
+    axes[1].set_ylabel("input u")
+    axes[2].plot(t, resp.sigma, color="C0", lw=1.2, label="sigma (true)")
+    axes[2].plot(t, resp.sigmahat, color="C1", lw=0.8, label="sigma estimate")
+    axes[2].set_ylabel("sigma")
+    axes[2].set_xlabel("time (s)")
+    axes[2].legend(loc="best", fontsize="small")
+    if resp.diverged:
+        for a in axes:
+            a.axvline(resp.divergence_time, color=STATUS_COLORS[0], lw=1.0)
+    if title is None:
+        title = (f"{resp.status}: overshoot {resp.overshoot:.3g} %, settling "
+                 f"{resp.settling_time:.3g} s")
+    axes[0].set_title(title)
+    return fig
+
+
+def _edges(values: np.ndarray) -> np.ndarray:
+    """Cell edges of a log-spaced (or single-valued) grid for pcolormesh."""
+    v = np.log(np.asarray(values, dtype=float))
+    if v.size == 1:
+        return np.exp(np.array([v[0] - 0.1, v[0] + 0.1]))
+    mid = (v[:-1] + v[1:]) / 2
+    return np.exp(np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]]))
+
+
+def _curve_points(curve, gamma: np.ndarray):
+    if callable(curve):
+        g = np.geomspace(gamma[0], gamma[-1], 200) if gamma.size > 1 else gamma
+        return g, np.asarray(curve(g), dtype=float) * np.ones_like(g)
+    try:
+        g, e = (np.asarray(a, dtype=float) for a in curve)
+    except (TypeError, ValueError):
+        raise ParameterError("a curve must be a callable gamma -> eps or a pair "
+                             f"(gamma_values, eps_values), got {curve!r}") from None
+    if g.shape != e.shape:
+        raise ParameterError(f"a curve's gamma and eps arrays differ in shape: {g.shape} vs "
+                             f"{e.shape}")
+    return g, e
+
+
+def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True):
+    """Heat map of a :class:`~fl_design.sweep.StabilityMap` over (gamma, eps), log axes.
+
+    Parameters
+    ----------
+    smap : StabilityMap
+        The sweep result.
+    ax : Axes, optional
+        Where to draw (default a new figure).
+    curves : dict, optional
+        ``{label: callable gamma -> eps, or (gamma_values, eps_values)}`` overlaid as lines.
+    show_eps_star : bool, optional
+        Draw the map's empirical ``eps_star(gamma)`` (white markers).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sweep import StabilityMap
+    >>> from fl_design.plotting import plot_stability_map
+    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                  1e-3, 1.0, 0.1)
+    >>> plot_stability_map(m).axes[0].get_xlabel()
+    'gamma'
+    """
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    if ax is None:
+        fig, (ax,) = _new_axes(1, figsize=(7.0, 5.0))
+    fig = ax.figure
+    cmap = ListedColormap(list(STATUS_COLORS))
+    norm = BoundaryNorm([-1.5, -0.5, 0.5, 1.5], cmap.N)
+    ax.pcolormesh(_edges(smap.gamma), _edges(smap.eps), np.asarray(smap.status), cmap=cmap,
+                  norm=norm, shading="flat")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("gamma")
+    ax.set_ylabel("eps")
+    handles = [Patch(color=c, label=n) for c, n in zip(STATUS_COLORS,
+                                                        ("diverged", "undecided", "stable"))]
+    if show_eps_star:
+        star = np.array([smap.eps_star(g) for g in smap.gamma])
+        (h,) = ax.plot(smap.gamma, star, "w^", mec="k", ms=5, label="eps* (this map)")
+        handles.append(h)
+    for i, (label, curve) in enumerate((curves or {}).items()):
+        g, e = _curve_points(curve, np.asarray(smap.gamma))
+        (h,) = ax.plot(g, e, color=f"C{i % 10}", lw=1.8, label=str(label))
+        handles.append(h)
+    ax.set_xlim(_edges(smap.gamma)[[0, -1]])
+    ax.set_ylim(_edges(smap.eps)[[0, -1]])
+    ax.legend(handles=handles, loc="best", fontsize="small")
+    ax.set_title(f"closed-loop runs of {smap.duration:g} s, T = {smap.T:g} s")
+    return fig
+
+
+__all__ = ["STATUS_COLORS", "plot_response", "plot_stability_map"]
