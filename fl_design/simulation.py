@@ -326,7 +326,8 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray) -> tuple[np.ndarray, int | None]:
     integ = ca.integrator("fl_cvodes", "cvodes", {"x": x, "p": u,
                                                   "ode": loop.plant.casadi().f(x, u)},
                           0.0, run.T, {"abstol": 1e-12, "reltol": 1e-10,
-                                       "max_num_steps": 20000})
+                                       "max_num_steps": 20000,
+                                       "disable_internal_warnings": True})
     xk, sk = run.x0.copy(), loop.design.initial_state()
     out = np.full((loop.record_layout.size, run.N), np.nan)
     x_op = loop.plant.x_op
