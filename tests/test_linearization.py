@@ -1,0 +1,150 @@
+"""sampled_linearization / linearized_eps_star against hand-built matrices and simulations."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import scipy.signal
+import sympy as sp
+
+import fl_design as fl
+from fl_design.errors import ComputationError, DesignMismatchError, ParameterError
+
+T = 1e-3
+
+
+def pendulum_design(eps=0.02, gamma=1e-2, **kw):
+    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T),
+                     controller=fl.DynamicController((2, 4), gamma, **kw))
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    return fl.plants.pendulum()
+
+
+@pytest.fixture(scope="module")
+def oscillator():
+    x1, x2, u = sp.symbols("x1 x2 u")
+    return fl.Plant.from_ode([x1, x2], u, [x2, -2 * x1 - 0.5 * x2 + 1.5 * u], x1)
+
+
+@pytest.mark.parametrize("ki", [0.0, 0.7])
+def test_linear_plant_matrix_equals_hand_built_loop(oscillator, ki):
+    """Linear plant: M equals the loop assembled from scipy's ZOH plant and the EHGO matrices."""
+    k1, k2, gamma = 2.0, 4.0, 0.02
+    obs = fl.EHGO(rho=2, eps=0.03, T=T)
+    design = fl.Design(observer=obs, controller=fl.DynamicController((k1, k2), gamma, ki=ki))
+    lin = fl.sampled_linearization(oscillator, design)
+
+    A = np.array([[0.0, 1.0], [-2.0, -0.5]])
+    B = np.array([[0.0], [1.5]])
+    C = np.array([[1.0, 0.0]])
+    Ad, Bd, *_ = scipy.signal.cont2discrete((A, B, C, np.zeros((1, 1))), T, method="zoh")
+    Ao, Bo, _, _ = obs.matrices
+    Cu, Du = obs.output_matrices()
+    n, m = 2, 3
+    size = n + m + 2
+    Px = np.hstack([np.eye(n), np.zeros((n, m + 2))])
+    Pxi = np.hstack([np.zeros((m, n)), np.eye(m), np.zeros((m, 2))])
+    eu, ez = np.eye(size)[n + m], np.eye(size)[n + m + 1]
+    L = Du.reshape(-1, 1) @ (C @ Px) + Cu @ Pxi  # xhat_1, xhat_2, sigmahat as rows
+    Z = ez + T * L[0]
+    U = eu + gamma * (-k1 * L[0] - k2 * L[1] - ki * Z - L[2])
+    M = np.vstack([Ad @ Px + Bd @ U[None, :], Bo.reshape(-1, 1) @ (C @ Px) + Ao @ Pxi, U, Z])
+
+    np.testing.assert_allclose(lin.matrix, M, rtol=0, atol=1e-12)
+    assert lin.state_names == ("x1", "x2", "xi_0", "xi_1", "xi_2", "u", "z")
+    np.testing.assert_allclose(lin.x_eq, [0.0, 0.0], atol=1e-15)
+
+
+def test_decoupled_integrator_mode_is_exactly_one(pendulum):
+    lin = fl.sampled_linearization(pendulum, pendulum_design())
+    assert lin.decoupled == ("z",)
+    full = np.linalg.eigvals(lin.matrix)
+    one = np.argmin(np.abs(full - 1.0))
+    assert full[one] == 1.0
+    rest = np.delete(full, one)
+    np.testing.assert_allclose(np.sort_complex(rest), np.sort_complex(lin.eigenvalues),
+                               atol=1e-12)
+    assert lin.spectral_radius == pytest.approx(np.max(np.abs(rest)))
+    coupled = fl.sampled_linearization(pendulum, pendulum_design(ki=0.5))
+    assert coupled.decoupled == () and coupled.eigenvalues.size == 7
+    json.dumps(lin.to_dict())
+
+
+def test_growth_rate_of_simulation_matches_spectral_radius(pendulum):
+    """Unstable eps: the simulated oscillation grows at log(spectral radius) per sample."""
+    design = pendulum_design(eps=0.05)
+    lin = fl.sampled_linearization(pendulum, design)
+    assert not lin.stable
+    rate = math.log(lin.spectral_radius) / T
+    resp = fl.simulate(pendulum, design, 1e-6, 12.0)  # tiny step: linear regime
+    err = np.abs(resp.y - 1e-6)
+    period = 2 * math.pi / abs(np.angle(lin.eigenvalues[0]) / T)
+    w = int(round(period / T))
+    starts = np.arange(0, err.size - w, w)
+    envelope = np.array([err[i:i + w].max() for i in starts])
+    late = resp.t[starts] > 5.0
+    slope = np.polyfit(resp.t[starts][late], np.log(envelope[late]), 1)[0]
+    assert slope == pytest.approx(rate, rel=0.03)
+
+
+def test_equilibrium_at_another_reference(pendulum):
+    design = pendulum_design(ki=0.3)
+    lin = fl.sampled_linearization(pendulum, design, r=0.1)
+    np.testing.assert_allclose(lin.x_eq, [0.1, 0.0], atol=1e-12)
+    lay = design.state_layout
+    assert lin.s_eq[lay["u"]][0] == pytest.approx(9.81 * math.sin(0.1), rel=1e-12)
+    Cu, Du = design.observer.output_matrices()
+    np.testing.assert_allclose(Cu @ lin.s_eq[lay["estimator"]] + Du.ravel() * 0.1, [0.1, 0.0, 0.0],
+                               atol=1e-10)
+
+
+def test_unreachable_reference_has_no_equilibrium(pendulum):
+    design = pendulum_design(u_limits=(-1.0, 1.0))
+    with pytest.raises(ComputationError, match="no closed-loop equilibrium found for r=0.5"):
+        fl.sampled_linearization(pendulum, design, r=0.5)
+
+
+def test_linearized_eps_star_is_the_stability_crossing(pendulum):
+    design = pendulum_design()
+    eps_star = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0), rtol=1e-7)
+    below = fl.sampled_linearization(pendulum, design.replace(eps=eps_star * (1 - 1e-5)))
+    above = fl.sampled_linearization(pendulum, design.replace(eps=eps_star * (1 + 1e-5)))
+    assert below.spectral_radius < 1.0 < above.spectral_radius
+    # every scanned eps below eps* is stable
+    for eps in np.geomspace(0.005, eps_star, 12)[:-1]:
+        assert fl.sampled_linearization(pendulum, design.replace(eps=eps)).stable
+    # a larger gamma shrinks eps* (the paper's trade-off)
+    assert fl.linearized_eps_star(pendulum, design, gamma=3e-2, eps_range=(0.005, 1.0)) < eps_star
+
+
+def test_linearized_eps_star_range_ends(pendulum):
+    design = pendulum_design()
+    assert math.isnan(fl.linearized_eps_star(pendulum, design, eps_range=(0.05, 1.0)))
+    assert fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 0.02)) == 0.02
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(eps_range=(0.0, 1.0)), "eps_range must satisfy 0 < lo < hi"),
+    (dict(eps_range=(1.0, 0.1)), "lo < hi"),
+    (dict(n_scan=1), "n_scan must be >= 2"),
+    (dict(rtol=0.0), "rtol must be > 0"),
+    (dict(gamma=-1.0), "gamma must be > 0"),
+])
+def test_linearized_eps_star_bad_input(pendulum, kwargs, match):
+    with pytest.raises(ParameterError, match=match):
+        fl.linearized_eps_star(pendulum, pendulum_design(), **kwargs)
+
+
+def test_linearization_bad_input(pendulum):
+    with pytest.raises(ParameterError, match="r must be finite"):
+        fl.sampled_linearization(pendulum, pendulum_design(), r=math.inf)
+    d1 = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=T),
+                   controller=fl.DynamicController((1,), 1e-2))
+    with pytest.raises(DesignMismatchError, match="relative degree 2"):
+        fl.sampled_linearization(pendulum, d1)
