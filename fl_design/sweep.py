@@ -35,6 +35,7 @@ import os
 import pickle
 import sys
 import threading
+import types
 from collections import OrderedDict
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -593,3 +594,19 @@ def estimate_eps_star(plant, design, *, reference, duration: float, eps_range=No
 
 
 __all__ = ["EpsStarEstimate", "StabilityMap", "estimate_eps_star", "run_grid", "sweep"]
+
+
+class _CallableModule(types.ModuleType):
+    """``fl_design.sweep`` names both this module and the function :func:`sweep`.
+
+    Importing the module (``from fl_design.sweep import StabilityMap``, or the lazy loading of
+    ``fl.StabilityMap``) makes Python set the package attribute ``fl_design.sweep`` to the
+    module, hiding the function. Calling the module therefore calls :func:`sweep`, so that
+    ``fl.sweep(...)`` works whatever was imported first.
+    """
+
+    def __call__(self, *args, **kwargs) -> StabilityMap:
+        return sweep(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
