@@ -186,19 +186,21 @@ def summary_from_trajectories(*, r, y, u, xhat, sigmahat, sigma, coords, y0: flo
     est = (np.column_stack([xhat, sigmahat]) - np.column_stack([coords, sigma]))[:last]
     tail = e[k_tail:]
     prog = np.sign(step) * (y[:last] - y0)
-    first = lambda mask: float(np.argmax(mask)) if mask.any() else -1.0  # noqa: E731
+    first = lambda mask: float(np.argmax(mask)) if mask.any() else -1.0
     outside = np.flatnonzero(np.abs(e) > tol)
-    return dict(
-        N=N, k_tail=k_tail, step=step, tol=tol, diverged=float(divergence_index is not None),
-        k_div=-1.0 if divergence_index is None else float(divergence_index),
-        e_max=e.max(initial=-np.inf), e_min=e.min(initial=np.inf),
-        abs_e_sum=np.abs(e).sum(), u2_sum=(uu * uu).sum(), du_sum=np.abs(np.diff(uu)).sum(),
-        est2_sum=(est * est).sum(axis=0),
-        tail_abs_e_max=np.abs(tail).max(initial=0.0), tail_e_max=tail.max(initial=-np.inf),
-        tail_e_min=tail.min(initial=np.inf), tail_e_sum=tail.sum(),
-        k10=first(prog >= 0.1 * abs(step)), k90=first(prog >= 0.9 * abs(step)),
-        k_out=float(outside[-1]) if outside.size else -1.0,
-    )
+    return {
+        "N": N, "k_tail": k_tail, "step": step, "tol": tol,
+        "diverged": float(divergence_index is not None),
+        "k_div": -1.0 if divergence_index is None else float(divergence_index),
+        "e_max": e.max(initial=-np.inf), "e_min": e.min(initial=np.inf),
+        "abs_e_sum": np.abs(e).sum(), "u2_sum": (uu * uu).sum(),
+        "du_sum": np.abs(np.diff(uu)).sum(),
+        "est2_sum": (est * est).sum(axis=0),
+        "tail_abs_e_max": np.abs(tail).max(initial=0.0), "tail_e_max": tail.max(initial=-np.inf),
+        "tail_e_min": tail.min(initial=np.inf), "tail_e_sum": tail.sum(),
+        "k10": first(prog >= 0.1 * abs(step)), "k90": first(prog >= 0.9 * abs(step)),
+        "k_out": float(outside[-1]) if outside.size else -1.0,
+    }
 
 
 @dataclass(frozen=True)
@@ -322,7 +324,7 @@ class Response:
         return data
 
     def plot(self, *, axes=None, title: str | None = None):
-        """Output, input and estimation error over time (see :func:`fl_design.plotting.plot_response`).
+        """Output, input and sigma over time (:func:`fl_design.plotting.plot_response`).
 
         Parameters
         ----------
@@ -353,5 +355,12 @@ class Response:
                 f"overshoot={self.overshoot:.3g}%, settling_time={self.settling_time:.3g} s)")
 
 
-__all__ = ["METRIC_NAMES", "Response", "STATUS_CODES", "STATUS_NAMES", "classify",
-           "metrics_from_summary", "summary_from_trajectories"]
+__all__ = [
+    "METRIC_NAMES",
+    "STATUS_CODES",
+    "STATUS_NAMES",
+    "Response",
+    "classify",
+    "metrics_from_summary",
+    "summary_from_trajectories",
+]

@@ -30,6 +30,7 @@ from .closed_loop import HUGE, ClosedLoop, default_substeps
 from .errors import DimensionError, ParameterError
 from .response import Response
 
+
 def default_divergence_bound(plant) -> np.ndarray:
     """Per-state bound on ``|x - x_op|``: 10 x the region's width, else 1e6.
 
@@ -136,7 +137,7 @@ def _reference(reference, N: int, T: float) -> np.ndarray:
     if callable(reference):
         try:
             values = np.asarray(reference(t), dtype=float)
-        except Exception:  # a scalar-only callable: sample it point by point
+        except (TypeError, ValueError, AttributeError):  # scalar-only: sample point by point
             values = None
         if values is None or values.shape != (N,):
             values = np.array([float(reference(tk)) for tk in t])
@@ -187,7 +188,7 @@ def prepare_run(plant, design, reference, duration, *, x0=None, noise_std=0.0,
     """
     T = design.T
     duration = V.positive("duration", duration)
-    N = int(round(duration / T))
+    N = round(duration / T)
     if N < 1:
         raise ParameterError(f"duration={duration!r} is shorter than one sample (T={T!r}); "
                              "give a duration >= T")
@@ -217,7 +218,7 @@ def prepare_run(plant, design, reference, duration, *, x0=None, noise_std=0.0,
     scale = max(abs(step), float(np.ptp(r)))
     return RunSetup(loop=loop, N=N, r=r, noise=noise, x0=x0, y0=y0, step=step,
                     tol=tolerance * (scale if scale > 0 else 1.0), q=q,
-                    k_tail=min(N - 1, int(math.floor((1.0 - tail_fraction) * N))), bound=bound)
+                    k_tail=min(N - 1, math.floor((1.0 - tail_fraction) * N)), bound=bound)
 
 
 def simulate(plant, design, reference, duration, *, x0=None, noise_std: float = 0.0,

@@ -264,7 +264,7 @@ class EpsStarEstimate:
         >>> EpsStarEstimate(1.0, (1.0, float("inf")), 2, (), False).to_dict()["bracket"]
         [1.0, None]
         """
-        num = lambda v: float(v) if np.isfinite(v) else None  # noqa: E731
+        num = lambda v: float(v) if np.isfinite(v) else None
         return {"eps_star": num(self.eps_star), "bracket": [num(b) for b in self.bracket],
                 "n_simulations": self.n_simulations, "converged": self.converged,
                 "history": [[e, s, num(t)] for e, s, t in self.history]}
@@ -280,7 +280,7 @@ def _runner(run: RunSetup, compiled: bool, cache_dir):
     try:
         key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps, compiled,
                             None if cache_dir is None else str(cache_dir)))
-    except Exception:  # unpicklable user objects: no memo
+    except (pickle.PicklingError, TypeError, AttributeError):  # unpicklable: no memo
         return run.loop.runner(compiled=compiled, cache_dir=cache_dir)
     with _RUNNERS_LOCK:
         if key in _RUNNERS:
@@ -350,6 +350,13 @@ def _parameter_columns(design, eps: np.ndarray, gamma: np.ndarray) -> np.ndarray
     return np.column_stack(cols)
 
 
+def _cores() -> int:
+    """Cores this process may use (the affinity mask when the OS has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
 def run_grid(run: RunSetup, P: np.ndarray, *, executor: Executor | None = None,
              progress: bool = True, threads: int | None = None, chunk_size: int | None = None,
              compiled: bool = True, cache_dir=None, desc: str = "sweep") -> np.ndarray:
@@ -366,7 +373,8 @@ def run_grid(run: RunSetup, P: np.ndarray, *, executor: Executor | None = None,
     progress : bool, optional
         Progress bar (tqdm if installed, else a counter on stderr).
     threads : int, optional
-        Threads per chunk in this process (default ``os.cpu_count()``; 1 with an executor).
+        Threads per chunk in this process (default: the cores available; 1 per task with an
+        executor).
     chunk_size : int, optional
         Runs per chunk (default 64).
     compiled : bool, optional
@@ -394,8 +402,7 @@ def run_grid(run: RunSetup, P: np.ndarray, *, executor: Executor | None = None,
     bar = _Progress(n_runs, bool(progress), desc)
     try:
         if executor is None:
-            n_thr = V.integer("threads", threads if threads is not None else os.cpu_count() or 1,
-                              minimum=1)
+            n_thr = V.integer("threads", threads if threads is not None else _cores(), minimum=1)
             for a, b in pieces:
                 out[:, a:b] = _run_chunk(run, P[:, a:b], compiled, cache_dir, n_thr)
                 bar.update(b - a)
@@ -455,8 +462,8 @@ def sweep(plant, design, *, eps, gamma, duration: float, reference, x0=None,
     progress : bool, optional
         Show a progress bar (tqdm if installed, else a counter on stderr); default True.
     threads : int, optional
-        Threads used in this process (default ``os.cpu_count()``; per task with an executor,
-        default 1).
+        Threads used in this process (default: the cores available to it; per task with an
+        executor, default 1).
     chunk_size : int, optional
         Grid points per chunk/task (default 64).
     compiled : bool, optional

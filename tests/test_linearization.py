@@ -85,7 +85,7 @@ def test_growth_rate_of_simulation_matches_spectral_radius(pendulum):
     resp = fl.simulate(pendulum, design, 1e-6, 12.0)  # tiny step: linear regime
     err = np.abs(resp.y - 1e-6)
     period = 2 * math.pi / abs(np.angle(lin.eigenvalues[0]) / T)
-    w = int(round(period / T))
+    w = round(period / T)
     starts = np.arange(0, err.size - w, w)
     envelope = np.array([err[i:i + w].max() for i in starts])
     late = resp.t[starts] > 5.0
@@ -130,11 +130,11 @@ def test_linearized_eps_star_range_ends(pendulum):
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(eps_range=(0.0, 1.0)), "eps_range must satisfy 0 < lo < hi"),
-    (dict(eps_range=(1.0, 0.1)), "lo < hi"),
-    (dict(n_scan=1), "n_scan must be >= 2"),
-    (dict(rtol=0.0), "rtol must be > 0"),
-    (dict(gamma=-1.0), "gamma must be > 0"),
+    ({"eps_range": (0.0, 1.0)}, "eps_range must satisfy 0 < lo < hi"),
+    ({"eps_range": (1.0, 0.1)}, "lo < hi"),
+    ({"n_scan": 1}, "n_scan must be >= 2"),
+    ({"rtol": 0.0}, "rtol must be > 0"),
+    ({"gamma": -1.0}, "gamma must be > 0"),
 ])
 def test_linearized_eps_star_bad_input(pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):

@@ -10,6 +10,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+import itertools
+
 import numpy as np
 import pytest
 import scipy.integrate
@@ -17,8 +19,7 @@ import sympy as sp
 
 import fl_design as fl
 from fl_design.closed_loop import ClosedLoop, default_substeps
-from fl_design.errors import (CompilationWarning, DesignMismatchError, DimensionError,
-                              ParameterError)
+from fl_design.errors import CompilationWarning, DesignMismatchError, DimensionError, ParameterError
 from fl_design.simulation import default_divergence_bound, prepare_run
 
 T = 1e-3
@@ -84,9 +85,9 @@ def test_plant_is_integrated_under_zero_order_hold(pendulum):
     resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, x0=[0.2, -0.1])
     g, c = 9.81, 0.5
     x = np.array([0.2, -0.1])
-    for k in range(0, resp.t.size - 1):
+    for k in range(resp.t.size - 1):
         u = resp.u[k]
-        sol = scipy.integrate.solve_ivp(lambda t, z: [z[1], -g * np.sin(z[0]) - c * z[1] + u],
+        sol = scipy.integrate.solve_ivp(lambda t, z, u=u: [z[1], -g * np.sin(z[0]) - c * z[1] + u],
                                         (0.0, T), x, rtol=1e-12, atol=1e-14, method="DOP853")
         x = sol.y[:, -1]
         np.testing.assert_allclose(resp.x[k + 1], x, rtol=0, atol=1e-9)
@@ -174,11 +175,11 @@ def test_ehgo_input_noise_falls_when_eps_rises():
         measured = np.diff(resp.u)
         assert np.std(measured[500:]) == pytest.approx(np.std(predicted[500:]), rel=0.02)
         sizes.append(np.std(measured[500:]))
-    assert all(a > b for a, b in zip(sizes, sizes[1:]))
+    assert all(a > b for a, b in itertools.pairwise(sizes))
     assert sizes[0] > 20 * sizes[-1]
 
 
-@pytest.mark.parametrize("kw", [dict(), dict(compiled=True), dict(method="cvodes")],
+@pytest.mark.parametrize("kw", [{}, {"compiled": True}, {"method": "cvodes"}],
                          ids=["interpreted", "compiled", "cvodes"])
 def test_finite_escape_is_classified_not_raised(kw, tmp_path):
     if kw.get("compiled"):
@@ -249,25 +250,25 @@ def test_compiled_kernel_is_cached(pendulum, tmp_path):
 
 # --- bad input ---------------------------------------------------------------------------------
 @pytest.mark.parametrize("kwargs, error, match", [
-    (dict(duration=-1.0), ParameterError, "duration must be > 0"),
-    (dict(duration=0.0), ParameterError, "duration must be > 0"),
-    (dict(duration=1e-4), ParameterError, "shorter than one sample"),
-    (dict(reference=np.zeros(7)), DimensionError, "N = round\\(duration/T\\) = 100 samples"),
-    (dict(reference=np.zeros((100, 2))), DimensionError, "shape \\(100, 2\\)"),
-    (dict(reference=lambda t: np.nan * t), ParameterError, "non-finite"),
-    (dict(x0=[0.0]), DimensionError, "x0 must have length 2"),
-    (dict(noise_std=-1.0), ParameterError, "noise_std must be >= 0"),
-    (dict(quantization=0.0), ParameterError, "quantization must be > 0"),
-    (dict(seed=-1), ParameterError, "seed must be >= 0"),
-    (dict(tail_fraction=0.0), ParameterError, "tail_fraction must be in \\(0, 1\\]"),
-    (dict(tolerance=-0.1), ParameterError, "tolerance must be > 0"),
-    (dict(divergence_bound=[1.0, -1.0]), ParameterError, "divergence_bound must be > 0"),
-    (dict(divergence_bound=[1.0]), DimensionError, "divergence_bound must have length 2"),
-    (dict(substeps=0), ParameterError, "substeps must be >= 1"),
-    (dict(method="euler"), ParameterError, "method must be 'rk4' or 'cvodes'"),
+    ({"duration": -1.0}, ParameterError, "duration must be > 0"),
+    ({"duration": 0.0}, ParameterError, "duration must be > 0"),
+    ({"duration": 1e-4}, ParameterError, "shorter than one sample"),
+    ({"reference": np.zeros(7)}, DimensionError, "N = round\\(duration/T\\) = 100 samples"),
+    ({"reference": np.zeros((100, 2))}, DimensionError, "shape \\(100, 2\\)"),
+    ({"reference": lambda t: np.nan * t}, ParameterError, "non-finite"),
+    ({"x0": [0.0]}, DimensionError, "x0 must have length 2"),
+    ({"noise_std": -1.0}, ParameterError, "noise_std must be >= 0"),
+    ({"quantization": 0.0}, ParameterError, "quantization must be > 0"),
+    ({"seed": -1}, ParameterError, "seed must be >= 0"),
+    ({"tail_fraction": 0.0}, ParameterError, "tail_fraction must be in \\(0, 1\\]"),
+    ({"tolerance": -0.1}, ParameterError, "tolerance must be > 0"),
+    ({"divergence_bound": [1.0, -1.0]}, ParameterError, "divergence_bound must be > 0"),
+    ({"divergence_bound": [1.0]}, DimensionError, "divergence_bound must have length 2"),
+    ({"substeps": 0}, ParameterError, "substeps must be >= 1"),
+    ({"method": "euler"}, ParameterError, "method must be 'rk4' or 'cvodes'"),
 ])
 def test_bad_input_is_refused(pendulum, kwargs, error, match):
-    args = dict(reference=0.1, duration=0.1)
+    args = {"reference": 0.1, "duration": 0.1}
     args.update(kwargs)
     reference, duration = args.pop("reference"), args.pop("duration")
     with pytest.raises(error, match=match):

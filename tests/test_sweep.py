@@ -143,8 +143,8 @@ def test_diverging_runs_stop_early_and_are_classified(cache):
 
 
 def test_chunking_and_threads_do_not_change_results(pendulum, small_map, cache):
-    kw = dict(eps=small_map.eps, gamma=small_map.gamma, duration=8.0, reference=0.05,
-              noise_std=1e-4, tolerance=0.1, progress=False, cache_dir=cache)
+    kw = {"eps": small_map.eps, "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
+              "noise_std": 1e-4, "tolerance": 0.1, "progress": False, "cache_dir": cache}
     other = fl.sweep(pendulum, pendulum_design(), chunk_size=5, threads=1, **kw)
     assert_same(small_map, other)
     with ThreadPoolExecutor(2) as pool:
@@ -161,8 +161,9 @@ def assert_same(a: StabilityMap, b: StabilityMap) -> None:
 
 def test_dask_cluster_gives_identical_results(pendulum, small_map, cache):
     distributed = pytest.importorskip("dask.distributed")
-    kw = dict(eps=small_map.eps, gamma=small_map.gamma, duration=8.0, reference=0.05,
-              noise_std=1e-4, tolerance=0.1, progress=False, cache_dir=cache, chunk_size=3)
+    kw = {"eps": small_map.eps, "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
+              "noise_std": 1e-4, "tolerance": 0.1, "progress": False, "cache_dir": cache,
+              "chunk_size": 3}
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
@@ -171,8 +172,8 @@ def test_dask_cluster_gives_identical_results(pendulum, small_map, cache):
 
 
 def test_interpreted_kernel_equals_compiled(pendulum, small_map):
-    kw = dict(eps=small_map.eps[:2], gamma=small_map.gamma, duration=8.0, reference=0.05,
-              noise_std=1e-4, tolerance=0.1, progress=False)
+    kw = {"eps": small_map.eps[:2], "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
+              "noise_std": 1e-4, "tolerance": 0.1, "progress": False}
     interp = fl.sweep(pendulum, pendulum_design(), compiled=False, **kw)
     np.testing.assert_array_equal(interp.status, small_map.status[:2])
     for name, value in interp.metrics.items():
@@ -180,8 +181,8 @@ def test_interpreted_kernel_equals_compiled(pendulum, small_map):
 
 
 def test_memory_does_not_grow_with_run_length(pendulum, cache):
-    kw = dict(eps=[0.01, 0.02], gamma=[1e-2, 3e-2], reference=0.05, progress=False,
-              cache_dir=cache)
+    kw = {"eps": [0.01, 0.02], "gamma": [1e-2, 3e-2], "reference": 0.05, "progress": False,
+              "cache_dir": cache}
     fl.sweep(pendulum, pendulum_design(), duration=1.0, **kw)  # warm-up (compile, load)
     peaks = []
     for duration in (2.0, 20.0):
@@ -195,7 +196,8 @@ def test_memory_does_not_grow_with_run_length(pendulum, cache):
 
 
 def test_progress_bar_and_fallback_counter(pendulum, cache, capsys, monkeypatch):
-    kw = dict(eps=[0.01, 0.02], gamma=[1e-2], duration=0.2, reference=0.05, cache_dir=cache)
+    kw = {"eps": [0.01, 0.02], "gamma": [1e-2], "duration": 0.2, "reference": 0.05,
+          "cache_dir": cache}
     fl.sweep(pendulum, pendulum_design(), progress=False, **kw)
     assert capsys.readouterr().err == ""
     fl.sweep(pendulum, pendulum_design(), progress=True, **kw)
@@ -208,18 +210,18 @@ def test_progress_bar_and_fallback_counter(pendulum, cache, capsys, monkeypatch)
 
 # --- bad input ---------------------------------------------------------------------------------
 @pytest.mark.parametrize("kwargs, error, match", [
-    (dict(eps=[0.01, 0.0]), ParameterError, "eps values must be finite and > 0, got \\[0.0\\]"),
-    (dict(eps=[-0.01]), ParameterError, "eps values must be finite and > 0"),
-    (dict(gamma=[]), ParameterError, "gamma must contain at least one value"),
-    (dict(gamma=[1e-2, 1e-2]), ParameterError, "gamma has repeated values"),
-    (dict(duration=-2.0), ParameterError, "duration must be > 0"),
-    (dict(reference=np.zeros(3)), DimensionError, "N = round\\(duration/T\\) = 100 samples"),
-    (dict(executor="threads"), ParameterError, "executor must be a concurrent.futures.Executor"),
-    (dict(chunk_size=0), ParameterError, "chunk_size must be >= 1"),
+    ({"eps": [0.01, 0.0]}, ParameterError, "eps values must be finite and > 0, got \\[0.0\\]"),
+    ({"eps": [-0.01]}, ParameterError, "eps values must be finite and > 0"),
+    ({"gamma": []}, ParameterError, "gamma must contain at least one value"),
+    ({"gamma": [1e-2, 1e-2]}, ParameterError, "gamma has repeated values"),
+    ({"duration": -2.0}, ParameterError, "duration must be > 0"),
+    ({"reference": np.zeros(3)}, DimensionError, "N = round\\(duration/T\\) = 100 samples"),
+    ({"executor": "threads"}, ParameterError, "executor must be a concurrent.futures.Executor"),
+    ({"chunk_size": 0}, ParameterError, "chunk_size must be >= 1"),
 ])
 def test_sweep_bad_input(pendulum, cache, kwargs, error, match):
-    args = dict(eps=[0.01], gamma=[1e-2], duration=0.1, reference=0.05, progress=False,
-                cache_dir=cache)
+    args = {"eps": [0.01], "gamma": [1e-2], "duration": 0.1, "reference": 0.05, "progress": False,
+                "cache_dir": cache}
     args.update(kwargs)
     with pytest.raises(error, match=match):
         fl.sweep(pendulum, pendulum_design(), **args)
@@ -239,11 +241,11 @@ def test_sweep_refuses_mismatched_or_eps_less_designs(pendulum):
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(eps_range=(0.0, 1.0)), "eps_range must satisfy 0 < lo < hi"),
-    (dict(eps_range=(0.1, 0.01)), "lo < hi"),
-    (dict(rtol=-1.0), "rtol must be > 0"),
-    (dict(max_simulations=1), "max_simulations must be >= 2"),
-    (dict(gamma=0.0), "gamma must be > 0"),
+    ({"eps_range": (0.0, 1.0)}, "eps_range must satisfy 0 < lo < hi"),
+    ({"eps_range": (0.1, 0.01)}, "lo < hi"),
+    ({"rtol": -1.0}, "rtol must be > 0"),
+    ({"max_simulations": 1}, "max_simulations must be >= 2"),
+    ({"gamma": 0.0}, "gamma must be > 0"),
 ])
 def test_estimate_eps_star_bad_input(pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):
@@ -253,7 +255,7 @@ def test_estimate_eps_star_bad_input(pendulum, kwargs, match):
 
 def test_bench_quick_runs():
     proc = subprocess.run([sys.executable, str(ROOT / "verify" / "bench_sweep.py"), "--quick"],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
     for text in ("ns per closed-loop step", "ratio kernel / plain C", "ratio solve_ivp / kernel",
                  "TRMS map", "bytes per extra run"):
@@ -272,5 +274,5 @@ def test_sweep_stays_callable_whatever_is_imported_first():
         "print(isinstance(m, StabilityMap), isinstance(fl.StabilityMap, type))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=120)
+                          timeout=120, check=False)
     assert proc.stdout.split() == ["True", "True"], proc.stderr

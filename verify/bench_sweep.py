@@ -90,7 +90,7 @@ def plain_c_ns(run, cache_dir: str, repeats: int) -> tuple[float, float]:
     """Median ns per step of a plain C loop over the generated ``fl_loop``; and its final y."""
     loop, design = run.loop, run.loop.design
     f = loop.sample
-    fmt = lambda a: ", ".join(repr(float(v)) for v in np.ravel(a))  # noqa: E731
+    fmt = lambda a: ", ".join(repr(float(v)) for v in np.ravel(a))
     source = "#define _POSIX_C_SOURCE 199309L\n" + generate_source(f) + _MAIN.format(
         sz_arg=max(1, f.sz_arg()), sz_res=max(1, f.sz_res()), sz_iw=max(1, f.sz_iw()),
         sz_w=max(1, f.sz_w()), n_p=loop.n_p, p=fmt(design.parameter_vector()), n=loop.n,
@@ -132,7 +132,7 @@ def solve_ivp_ns(plant, design, n_samples: int, repeats: int) -> float:
         for k in range(n_samples):
             s_next, u = step(s, float(h(x)), REFERENCE)
             s, u = np.asarray(s_next).ravel(), float(u)
-            sol = scipy.integrate.solve_ivp(lambda t, z: rhs(z, u), (k * T, (k + 1) * T), x)
+            sol = scipy.integrate.solve_ivp(lambda t, z, u=u: rhs(z, u), (k * T, (k + 1) * T), x)
             x = sol.y[:, -1]
         times.append(time.perf_counter() - t0)
     return statistics.median(times) / n_samples * 1e9
@@ -178,7 +178,7 @@ def main(argv=None) -> int:
         nsp = kernel_ns(run, cache, reps, 16 if quick else 64, threads=cores)
         print(f"kernel: {ns1:.1f} ns per closed-loop step (1 thread, median of {reps}); "
               f"{nsp:.1f} ns/step throughput with {cores} threads")
-        plain, y_plain = plain_c_ns(run, cache, reps)
+        plain, _y_plain = plain_c_ns(run, cache, reps)
         ratio_c = ns1 / plain
         print(f"plain C loop of the same generated step and integrator: {plain:.1f} ns per step "
               f"(median of {reps})")
