@@ -290,3 +290,37 @@ def test_prepare_run_constants(pendulum):
     assert run.N == 1000 and run.k_tail == 750
     assert run.y0 == 0.05 and run.step == pytest.approx(0.15)
     assert run.tol == pytest.approx(0.02 * 0.2)  # scale = peak-to-peak of r (0.2) > |step|
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["interpreted", "generated C"])
+def test_if_else_drops_nan_and_inf_of_the_rejected_branch(compiled, tmp_path):
+    """The divergence freeze relies on it: if_else selects, it does not multiply by 0/1."""
+    import casadi as ca
+
+    from fl_design._compile import build, generate_source
+
+    c, a, b = ca.SX.sym("c"), ca.SX.sym("a"), ca.SX.sym("b")
+    fn = ca.Function("fl_select", [c, a, b], [ca.if_else(c, a, b), a <= 1.0])
+    if compiled:
+        fn = ca.external("fl_select", str(build(generate_source(fn), "fl_select",
+                                                cache_dir=tmp_path)))
+    for cond, x, y in [(0, np.nan, 2.0), (0, np.inf, 2.0), (0, -np.inf, 2.0), (1, 2.0, np.nan),
+                       (1, 2.0, np.inf)]:
+        assert float(fn(cond, x, y)[0]) == 2.0
+    assert float(fn(1, np.nan, 0.0)[1]) == 0.0  # NaN fails every comparison: out of bounds
+
+
+def test_runners_agree_on_diverging_runs_including_skipped_samples(tmp_path):
+    """The compiled driver skips a frozen run's samples; the accumulators are unchanged."""
+    run = prepare_run(escape_plant(), escape_design(), 0.0, 20.0, x0=[2.0],
+                      divergence_bound=1e300)
+    P = np.column_stack([escape_design().replace(gamma=g).parameter_vector()
+                         for g in (1e-3, 1e-2)])
+    acc0 = run.initial_accumulator(P)
+    native = run.loop.runner(cache_dir=tmp_path).run(acc0, run.D, threads=2)
+    interp = run.loop.runner(compiled=False).run(acc0, run.D)
+    np.testing.assert_array_equal(native, interp)
+    info = run.loop.layout.unpack(native)
+    np.testing.assert_array_equal(info["k"], [run.N, run.N])
+    np.testing.assert_array_equal(info["diverged"], [1.0, 1.0])
+    assert np.all(np.isfinite(info["x"]))
