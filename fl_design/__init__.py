@@ -39,9 +39,9 @@ _LAZY = {
     "Design": "design",
     "simulate": "simulation",
     "Response": "response",
-    "sweep": "sweep",
-    "StabilityMap": "sweep",
-    "estimate_eps_star": "sweep",
+    "sweep": "sweeps",
+    "StabilityMap": "sweeps",
+    "estimate_eps_star": "sweeps",
     "sampled_linearization": "linearization",
     "linearized_eps_star": "linearization",
 }
@@ -63,4 +63,4 @@ def __dir__():
     return sorted(list(globals()) + list(_LAZY))
 
 
-__all__ = ["errors", "__version__", *_LAZY]
+__all__ = ["errors", "__version__", *_LAZY]  # noqa: PLE0604 (names of the lazy table)

@@ -97,7 +97,7 @@ def _print_table(rows: list[dict], title: str) -> None:
     print(f"  {'design':<16}{'stable':>7}{'overshoot %':>13}{'settle s':>10}{'IAE':>9}"
           f"{'u RMS':>9}{'u TV':>10}{'flops':>7}")
     for r in rows:
-        print(f"  {r['design']:<16}{str(r['stable']):>7}{r['overshoot_%']:>13.1f}"
+        print(f"  {r['design']:<16}{r['stable']!s:>7}{r['overshoot_%']:>13.1f}"
               f"{r['settling_time_s']:>10.2f}{r['iae']:>9.3f}{r['u_rms']:>9.3f}"
               f"{r['u_total_variation']:>10.2f}{r['flops_per_step']:>7d}")
 
@@ -126,7 +126,7 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
     """
     from .linearization import linearized_eps_star, sampled_linearization
     from .simulation import simulate
-    from .sweep import sweep
+    from .sweeps import sweep
 
     start = time.perf_counter()
     out = Path(out_dir)

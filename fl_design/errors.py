@@ -65,15 +65,15 @@ class CompilationWarning(UserWarning):
 
 
 __all__ = [
-    "FlDesignError",
-    "ParameterError",
+    "CompilationWarning",
+    "ComputationError",
+    "DesignMismatchError",
     "DimensionError",
+    "FlDesignError",
     "HurwitzError",
+    "MissingDependencyError",
+    "ParameterError",
     "PlantDefinitionError",
     "RelativeDegreeError",
-    "DesignMismatchError",
-    "ComputationError",
-    "MissingDependencyError",
     "UnstableDiscretizationWarning",
-    "CompilationWarning",
 ]

@@ -38,8 +38,9 @@ def derivation_report(plant, *, latex: bool = False) -> str:
     from .discretization import taylor_discretization
 
     nf = plant.normal_form()
-    lines = [f"Plant: {plant.name}", f"  states: {', '.join(map(str, plant.states))};"
-             f" input: {plant.input}; output y = {plant.output}",
+    lines = [f"Plant: {plant.name}",
+             (f"  states: {', '.join(map(str, plant.states))};"
+              f" input: {plant.input}; output y = {plant.output}"),
              f"  relative degree rho = {nf.rho} (n = {plant.n})",
              "  normal-form coordinates L_f^(i-1) h:"]
     lines += [f"    x{i + 1} = {_fmt(c, False)}" for i, c in enumerate(nf.coordinates)]

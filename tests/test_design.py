@@ -71,10 +71,10 @@ def _assert_close(actual, expected, *, tol=1e-12):
 
 
 EHGO_CASES = {
-    2: dict(eps=0.01, gains=(2.0, 4.0), gamma=0.05, ki=5.0, u_limits=(-0.4, 0.6),
-            estimate_limits=(None, 3.0)),
-    3: dict(eps=0.02, gains=(1.0, 3.0, 3.0), gamma=0.01, ki=2.0, u_limits=(-0.3, 0.3),
-            estimate_limits=(None, (-2.0, 2.5), 20.0)),
+    2: {"eps": 0.01, "gains": (2.0, 4.0), "gamma": 0.05, "ki": 5.0, "u_limits": (-0.4, 0.6),
+            "estimate_limits": (None, 3.0)},
+    3: {"eps": 0.02, "gains": (1.0, 3.0, 3.0), "gamma": 0.01, "ki": 2.0, "u_limits": (-0.3, 0.3),
+            "estimate_limits": (None, (-2.0, 2.5), 20.0)},
 }
 
 

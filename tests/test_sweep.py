@@ -20,7 +20,7 @@ import sympy as sp
 
 import fl_design as fl
 from fl_design.errors import DesignMismatchError, DimensionError, ParameterError
-from fl_design.sweep import StabilityMap
+from fl_design.sweeps import StabilityMap
 
 T = 1e-3
 ROOT = Path(__file__).resolve().parents[1]
@@ -263,10 +263,10 @@ def test_bench_quick_runs():
 
 
 def test_sweep_stays_callable_whatever_is_imported_first():
-    """Importing the module fl_design.sweep must not hide the function fl.sweep."""
+    """Importing the module fl_design.sweeps (and the lazy names) keeps fl.sweep the function."""
     code = (
         "import fl_design as fl\n"
-        "from fl_design.sweep import StabilityMap\n"
+        "from fl_design.sweeps import StabilityMap\n"
         "d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),\n"
         "              controller=fl.DynamicController((2, 4), 1e-2))\n"
         "m = fl.sweep(fl.plants.pendulum(), d, eps=[0.02], gamma=[0.01], duration=0.1,\n"

@@ -35,7 +35,6 @@ import os
 import pickle
 import sys
 import threading
-import types
 from collections import OrderedDict
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -70,7 +69,7 @@ class StabilityMap:
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.sweep import StabilityMap
+    >>> from fl_design.sweeps import StabilityMap
     >>> m = StabilityMap(eps=np.array([0.01, 0.02, 0.04]), gamma=np.array([1e-3, 1e-2]),
     ...                  status=np.array([[1, 1], [1, 0], [-1, 1]]), metrics={},
     ...                  T=1e-3, duration=1.0, tol=1e-3)
@@ -118,7 +117,7 @@ class StabilityMap:
         Examples
         --------
         >>> import numpy as np
-        >>> from fl_design.sweep import StabilityMap
+        >>> from fl_design.sweeps import StabilityMap
         >>> StabilityMap(np.array([1.0, 2.0]), np.array([0.5]), np.array([[0], [1]]), {},
         ...              1e-3, 1.0, 0.1).eps_star(0.5)
         nan
@@ -150,7 +149,7 @@ class StabilityMap:
         Examples
         --------
         >>> import numpy as np
-        >>> from fl_design.sweep import StabilityMap
+        >>> from fl_design.sweeps import StabilityMap
         >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0, 3.0, 4.0, 5.0]),
         ...                  np.array([[1, 0, 1, 1, 0]]), {}, 1e-3, 1.0, 0.1)
         >>> m.gamma_bounds(0.1), m.gamma_bounds(0.1, around=1.0)
@@ -178,7 +177,7 @@ class StabilityMap:
         Examples
         --------
         >>> import numpy as np
-        >>> from fl_design.sweep import StabilityMap
+        >>> from fl_design.sweeps import StabilityMap
         >>> m = StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[1]]),
         ...                  {"iae": np.array([[np.nan]])}, 1e-3, 1.0, 0.1)
         >>> m.to_dict()["metrics"], m.to_dict()["status"]
@@ -212,7 +211,7 @@ class StabilityMap:
         Examples
         --------
         >>> import numpy as np
-        >>> from fl_design.sweep import StabilityMap
+        >>> from fl_design.sweeps import StabilityMap
         >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]),
         ...                  np.array([[1, 1], [0, -1]]), {}, 1e-3, 1.0, 0.1)
         >>> fig = m.plot(curves={"bound": lambda g: 0.15 / g})
@@ -244,7 +243,7 @@ class EpsStarEstimate:
 
     Examples
     --------
-    >>> from fl_design.sweep import EpsStarEstimate
+    >>> from fl_design.sweeps import EpsStarEstimate
     >>> EpsStarEstimate(0.04, (0.04, 0.0405), 9, (), True).to_dict()["bracket"]
     [0.04, 0.0405]
     """
@@ -260,7 +259,7 @@ class EpsStarEstimate:
 
         Examples
         --------
-        >>> from fl_design.sweep import EpsStarEstimate
+        >>> from fl_design.sweeps import EpsStarEstimate
         >>> EpsStarEstimate(1.0, (1.0, float("inf")), 2, (), False).to_dict()["bracket"]
         [1.0, None]
         """
@@ -391,7 +390,7 @@ def run_grid(run: RunSetup, P: np.ndarray, *, executor: Executor | None = None,
 
     Examples
     --------
-    >>> from fl_design.sweep import run_grid
+    >>> from fl_design.sweeps import run_grid
     >>> callable(run_grid)
     True
     """
@@ -601,19 +600,3 @@ def estimate_eps_star(plant, design, *, reference, duration: float, eps_range=No
 
 
 __all__ = ["EpsStarEstimate", "StabilityMap", "estimate_eps_star", "run_grid", "sweep"]
-
-
-class _CallableModule(types.ModuleType):
-    """``fl_design.sweep`` names both this module and the function :func:`sweep`.
-
-    Importing the module (``from fl_design.sweep import StabilityMap``, or the lazy loading of
-    ``fl.StabilityMap``) makes Python set the package attribute ``fl_design.sweep`` to the
-    module, hiding the function. Calling the module therefore calls :func:`sweep`, so that
-    ``fl.sweep(...)`` works whatever was imported first.
-    """
-
-    def __call__(self, *args, **kwargs) -> StabilityMap:
-        return sweep(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule
