@@ -16,16 +16,6 @@ from fl_design.errors import ComputationError, DesignMismatchError, ParameterErr
 T = 1e-3
 
 
-def pendulum_design(eps=0.02, gamma=1e-2, **kw):
-    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T),
-                     controller=fl.DynamicController((2, 4), gamma, **kw))
-
-
-@pytest.fixture(scope="module")
-def pendulum():
-    return fl.plants.pendulum()
-
-
 @pytest.fixture(scope="module")
 def oscillator():
     x1, x2, u = sp.symbols("x1 x2 u")
@@ -61,7 +51,7 @@ def test_linear_plant_matrix_equals_hand_built_loop(oscillator, ki):
     np.testing.assert_allclose(lin.x_eq, [0.0, 0.0], atol=1e-15)
 
 
-def test_decoupled_integrator_mode_is_exactly_one(pendulum):
+def test_decoupled_integrator_mode_is_exactly_one(pendulum_design, pendulum):
     lin = fl.sampled_linearization(pendulum, pendulum_design())
     assert lin.decoupled == ("z",)
     full = np.linalg.eigvals(lin.matrix)
@@ -76,7 +66,7 @@ def test_decoupled_integrator_mode_is_exactly_one(pendulum):
     json.dumps(lin.to_dict())
 
 
-def test_growth_rate_of_simulation_matches_spectral_radius(pendulum):
+def test_growth_rate_of_simulation_matches_spectral_radius(pendulum_design, pendulum):
     """Unstable eps: the simulated oscillation grows at log(spectral radius) per sample."""
     design = pendulum_design(eps=0.05)
     lin = fl.sampled_linearization(pendulum, design)
@@ -93,7 +83,7 @@ def test_growth_rate_of_simulation_matches_spectral_radius(pendulum):
     assert slope == pytest.approx(rate, rel=0.03)
 
 
-def test_equilibrium_at_another_reference(pendulum):
+def test_equilibrium_at_another_reference(pendulum_design, pendulum):
     design = pendulum_design(ki=0.3)
     lin = fl.sampled_linearization(pendulum, design, r=0.1)
     np.testing.assert_allclose(lin.x_eq, [0.1, 0.0], atol=1e-12)
@@ -104,13 +94,13 @@ def test_equilibrium_at_another_reference(pendulum):
                                atol=1e-10)
 
 
-def test_unreachable_reference_has_no_equilibrium(pendulum):
+def test_unreachable_reference_has_no_equilibrium(pendulum_design, pendulum):
     design = pendulum_design(u_limits=(-1.0, 1.0))
     with pytest.raises(ComputationError, match="no closed-loop equilibrium found for r=0.5"):
         fl.sampled_linearization(pendulum, design, r=0.5)
 
 
-def test_linearized_eps_star_is_the_stability_crossing(pendulum):
+def test_linearized_eps_star_is_the_stability_crossing(pendulum_design, pendulum):
     design = pendulum_design()
     eps_star = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0), rtol=1e-7)
     below = fl.sampled_linearization(pendulum, design.replace(eps=eps_star * (1 - 1e-5)))
@@ -123,7 +113,7 @@ def test_linearized_eps_star_is_the_stability_crossing(pendulum):
     assert fl.linearized_eps_star(pendulum, design, gamma=3e-2, eps_range=(0.005, 1.0)) < eps_star
 
 
-def test_linearized_eps_star_range_ends(pendulum):
+def test_linearized_eps_star_range_ends(pendulum_design, pendulum):
     design = pendulum_design()
     assert math.isnan(fl.linearized_eps_star(pendulum, design, eps_range=(0.05, 1.0)))
     assert fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 0.02)) == 0.02
@@ -136,12 +126,12 @@ def test_linearized_eps_star_range_ends(pendulum):
     ({"rtol": 0.0}, "rtol must be > 0"),
     ({"gamma": -1.0}, "gamma must be > 0"),
 ])
-def test_linearized_eps_star_bad_input(pendulum, kwargs, match):
+def test_linearized_eps_star_bad_input(pendulum_design, pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):
         fl.linearized_eps_star(pendulum, pendulum_design(), **kwargs)
 
 
-def test_linearization_bad_input(pendulum):
+def test_linearization_bad_input(pendulum_design, pendulum):
     with pytest.raises(ParameterError, match="r must be finite"):
         fl.sampled_linearization(pendulum, pendulum_design(), r=math.inf)
     d1 = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=T),

@@ -25,11 +25,6 @@ from fl_design.simulation import default_divergence_bound, prepare_run
 T = 1e-3
 
 
-def pendulum_design(eps=0.02, gamma=1e-2, **kw):
-    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T),
-                     controller=fl.DynamicController((2, 4), gamma, **kw))
-
-
 def trms_design(eps=0.05, gamma=3e-4):
     return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T, coeffs=(6, 11, 6)),
                      controller=fl.DynamicController((2, 4), gamma, ki=1e-3,
@@ -49,7 +44,10 @@ def escape_design():
 
 # Plants of the library with a design each (rho 2, 2, 3, 4).
 CASES = {
-    "pendulum": (fl.plants.pendulum, lambda: pendulum_design(), 0.05),
+    "pendulum": (fl.plants.pendulum,
+                 lambda: fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=T),
+                                   controller=fl.DynamicController((2, 4), 1e-2)),
+                 0.05),
     "trms_yaw": (fl.plants.trms_yaw, lambda: trms_design(), 0.3),
     "trms_yaw_motor_lag": (lambda: fl.plants.trms_yaw(motor_lag=True),
                            lambda: fl.Design(observer=fl.EHGO(rho=3, eps=0.05, T=T),
@@ -60,11 +58,6 @@ CASES = {
                                          controller=fl.DynamicController((1, 4, 6, 4), 1e-5)),
                        0.1),
 }
-
-
-@pytest.fixture(scope="module")
-def pendulum():
-    return fl.plants.pendulum()
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -80,7 +73,7 @@ def test_rk4_loop_agrees_with_cvodes_reference(name):
     assert np.max(np.abs(fast.x - ref.x)) <= 1e-6 * max(1.0, np.max(np.abs(ref.x)))
 
 
-def test_plant_is_integrated_under_zero_order_hold(pendulum):
+def test_plant_is_integrated_under_zero_order_hold(pendulum_design, pendulum):
     """The states equal an independent solve_ivp of the plant with the logged u held."""
     resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, x0=[0.2, -0.1])
     g, c = 9.81, 0.5
@@ -93,7 +86,7 @@ def test_plant_is_integrated_under_zero_order_hold(pendulum):
         np.testing.assert_allclose(resp.x[k + 1], x, rtol=0, atol=1e-9)
 
 
-def test_design_sees_the_measurements_it_is_given(pendulum):
+def test_design_sees_the_measurements_it_is_given(pendulum_design, pendulum):
     """u from the loop equals Design.run (the design's own mapaccum) fed with the logged ym."""
     resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, noise_std=1e-3, seed=3)
     ol = pendulum_design().run(resp.ym, resp.r)
@@ -102,7 +95,7 @@ def test_design_sees_the_measurements_it_is_given(pendulum):
     np.testing.assert_allclose(resp.sigmahat, ol.xhat[:, 2], rtol=1e-12, atol=1e-12)
 
 
-def test_true_sigma_and_coordinates(pendulum):
+def test_true_sigma_and_coordinates(pendulum_design, pendulum):
     resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.3)
     th, om = resp.x[:, 0], resp.x[:, 1]
     np.testing.assert_allclose(resp.coords[:, 0], th, atol=1e-15)
@@ -110,7 +103,7 @@ def test_true_sigma_and_coordinates(pendulum):
     np.testing.assert_allclose(resp.sigma, -9.81 * np.sin(th) - 0.5 * om + resp.u, atol=1e-12)
 
 
-def test_noise_and_quantization_are_injected_deterministically(pendulum):
+def test_noise_and_quantization_are_injected_deterministically(pendulum_design, pendulum):
     d, q, std = pendulum_design(), 1e-3, 2e-3
     resp = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7)
     w = std * np.random.default_rng(7).standard_normal(resp.t.size)
@@ -124,7 +117,7 @@ def test_noise_and_quantization_are_injected_deterministically(pendulum):
     assert not np.array_equal(other.u, quant.u)
 
 
-def test_compiled_kernel_equals_interpreted(pendulum, tmp_path):
+def test_compiled_kernel_equals_interpreted(pendulum_design, pendulum, tmp_path):
     d = pendulum_design()
     a = fl.simulate(pendulum, d, 0.1, 0.5, noise_std=1e-3, quantization=1e-4)
     b = fl.simulate(pendulum, d, 0.1, 0.5, noise_std=1e-3, quantization=1e-4, compiled=True,
@@ -134,7 +127,7 @@ def test_compiled_kernel_equals_interpreted(pendulum, tmp_path):
     assert list(tmp_path.glob("fl_loop_*.so"))
 
 
-def test_metrics_follow_their_definitions(pendulum):
+def test_metrics_follow_their_definitions(pendulum_design, pendulum):
     resp = fl.simulate(pendulum, pendulum_design(gamma=3e-3), 0.1, 15.0)
     y, u, r, t = resp.y, resp.u, 0.1, resp.t
     step = r - y[0]
@@ -195,7 +188,7 @@ def test_finite_escape_is_classified_not_raised(kw, tmp_path):
     assert len(fig.axes) == 3
 
 
-def test_divergence_bound_default_and_custom(pendulum):
+def test_divergence_bound_default_and_custom(pendulum_design, pendulum):
     np.testing.assert_allclose(default_divergence_bound(pendulum), [20 * math.pi, 200.0])
     resp = fl.simulate(pendulum, pendulum_design(eps=0.2), 0.05, 10.0, divergence_bound=0.2)
     assert resp.diverged
@@ -203,7 +196,7 @@ def test_divergence_bound_default_and_custom(pendulum):
     assert np.all(np.abs(resp.x[: k - 1]) <= 0.2)
 
 
-def test_reference_forms(pendulum):
+def test_reference_forms(pendulum_design, pendulum):
     d = pendulum_design()
     const = fl.simulate(pendulum, d, 0.1, 0.2)
     arr = fl.simulate(pendulum, d, np.full(200, 0.1), 0.2)
@@ -220,7 +213,7 @@ def test_default_substeps_bound_h_lambda(pendulum):
     assert default_substeps(pendulum, 1.0) == math.ceil(lam)
 
 
-def test_no_compiler_falls_back_with_a_warning(pendulum, tmp_path, monkeypatch):
+def test_no_compiler_falls_back_with_a_warning(pendulum_design, pendulum, tmp_path, monkeypatch):
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
     with pytest.warns(CompilationWarning, match="no C compiler"):
         resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.2, compiled=True,
@@ -229,13 +222,13 @@ def test_no_compiler_falls_back_with_a_warning(pendulum, tmp_path, monkeypatch):
     np.testing.assert_array_equal(resp.u, ref.u)
 
 
-def test_failing_compiler_falls_back_with_a_warning(pendulum, tmp_path, monkeypatch):
+def test_failing_compiler_falls_back_with_a_warning(pendulum_design, pendulum, tmp_path, monkeypatch):
     monkeypatch.setenv("CC", "false")
     with pytest.warns(CompilationWarning, match="failed"):
         fl.simulate(pendulum, pendulum_design(), 0.1, 0.2, compiled=True, cache_dir=tmp_path)
 
 
-def test_compiled_kernel_is_cached(pendulum, tmp_path):
+def test_compiled_kernel_is_cached(pendulum_design, pendulum, tmp_path):
     d = pendulum_design()
     fl.simulate(pendulum, d, 0.1, 0.1, compiled=True, cache_dir=tmp_path)
     libs = list(tmp_path.glob("fl_loop_*.so"))
@@ -267,7 +260,7 @@ def test_compiled_kernel_is_cached(pendulum, tmp_path):
     ({"substeps": 0}, ParameterError, "substeps must be >= 1"),
     ({"method": "euler"}, ParameterError, "method must be 'rk4' or 'cvodes'"),
 ])
-def test_bad_input_is_refused(pendulum, kwargs, error, match):
+def test_bad_input_is_refused(pendulum_design, pendulum, kwargs, error, match):
     args = {"reference": 0.1, "duration": 0.1}
     args.update(kwargs)
     reference, duration = args.pop("reference"), args.pop("duration")
@@ -284,7 +277,7 @@ def test_relative_degree_mismatch_is_refused(pendulum):
         ClosedLoop(pendulum, d1, substeps=1)
 
 
-def test_prepare_run_constants(pendulum):
+def test_prepare_run_constants(pendulum_design, pendulum):
     run = prepare_run(pendulum, pendulum_design(), lambda t: 0.2 * (t >= 0.5), 1.0,
                       x0=[0.05, 0.0], tail_fraction=0.25)
     assert run.N == 1000 and run.k_tail == 750

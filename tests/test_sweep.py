@@ -26,30 +26,20 @@ T = 1e-3
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def pendulum_design(eps=0.02, gamma=1e-2, **kw):
-    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T),
-                     controller=fl.DynamicController((2, 4), gamma, **kw))
-
-
-@pytest.fixture(scope="module")
-def pendulum():
-    return fl.plants.pendulum()
-
-
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory):
     return tmp_path_factory.mktemp("kernels")
 
 
 @pytest.fixture(scope="module")
-def small_map(pendulum, cache):
+def small_map(pendulum_design, pendulum, cache):
     """A 4 x 3 map with noise: stable, undecided and diverged points."""
     return fl.sweep(pendulum, pendulum_design(), eps=[0.01, 0.03, 0.1, 0.3],
                     gamma=[3e-3, 1e-2, 3e-2], duration=8.0, reference=0.05, noise_std=1e-4,
                     tolerance=0.1, progress=False, cache_dir=cache)
 
 
-def test_each_point_equals_its_own_simulation(pendulum, small_map):
+def test_each_point_equals_its_own_simulation(pendulum_design, pendulum, small_map):
     """Running sums in the compiled kernel == NumPy metrics of the full trajectory."""
     codes = {"stable": 1, "undecided": 0, "diverged": -1}
     for i, eps in enumerate(small_map.eps):
@@ -99,7 +89,7 @@ def test_eps_star_and_gamma_bounds_definitions():
         m.gamma_bounds(0.03)
 
 
-def test_empirical_eps_star_agrees_with_linearized(pendulum, cache):
+def test_empirical_eps_star_agrees_with_linearized(pendulum_design, pendulum, cache):
     """Pendulum, K = (2, 4), gamma = 0.01, ki = 0, small step: within 10 % (issue criterion)."""
     design = pendulum_design()
     lin = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0))
@@ -116,7 +106,7 @@ def test_empirical_eps_star_agrees_with_linearized(pendulum, cache):
     json.dumps(est.to_dict())
 
 
-def test_estimate_eps_star_range_ends(pendulum, cache):
+def test_estimate_eps_star_range_ends(pendulum_design, pendulum, cache):
     design = pendulum_design()
     low = fl.estimate_eps_star(pendulum, design, reference=0.05, duration=5.0,
                                eps_range=(0.2, 1.0), cache_dir=cache)
@@ -142,7 +132,7 @@ def test_diverging_runs_stop_early_and_are_classified(cache):
         assert np.all(np.isnan(smap.metrics["iae"]))
 
 
-def test_chunking_and_threads_do_not_change_results(pendulum, small_map, cache):
+def test_chunking_and_threads_do_not_change_results(pendulum_design, pendulum, small_map, cache):
     kw = {"eps": small_map.eps, "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
               "noise_std": 1e-4, "tolerance": 0.1, "progress": False, "cache_dir": cache}
     other = fl.sweep(pendulum, pendulum_design(), chunk_size=5, threads=1, **kw)
@@ -159,7 +149,7 @@ def assert_same(a: StabilityMap, b: StabilityMap) -> None:
         np.testing.assert_array_equal(a.metrics[name], b.metrics[name])
 
 
-def test_dask_cluster_gives_identical_results(pendulum, small_map, cache):
+def test_dask_cluster_gives_identical_results(pendulum_design, pendulum, small_map, cache):
     distributed = pytest.importorskip("dask.distributed")
     kw = {"eps": small_map.eps, "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
               "noise_std": 1e-4, "tolerance": 0.1, "progress": False, "cache_dir": cache,
@@ -171,7 +161,7 @@ def test_dask_cluster_gives_identical_results(pendulum, small_map, cache):
     assert_same(small_map, remote)
 
 
-def test_interpreted_kernel_equals_compiled(pendulum, small_map):
+def test_interpreted_kernel_equals_compiled(pendulum_design, pendulum, small_map):
     kw = {"eps": small_map.eps[:2], "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
               "noise_std": 1e-4, "tolerance": 0.1, "progress": False}
     interp = fl.sweep(pendulum, pendulum_design(), compiled=False, **kw)
@@ -180,7 +170,7 @@ def test_interpreted_kernel_equals_compiled(pendulum, small_map):
         np.testing.assert_allclose(value, small_map.metrics[name][:2], rtol=1e-12, atol=0)
 
 
-def test_memory_does_not_grow_with_run_length(pendulum, cache):
+def test_memory_does_not_grow_with_run_length(pendulum_design, pendulum, cache):
     kw = {"eps": [0.01, 0.02], "gamma": [1e-2, 3e-2], "reference": 0.05, "progress": False,
               "cache_dir": cache}
     fl.sweep(pendulum, pendulum_design(), duration=1.0, **kw)  # warm-up (compile, load)
@@ -195,7 +185,7 @@ def test_memory_does_not_grow_with_run_length(pendulum, cache):
     assert all(np.shape(v)[:2] == (2, 2) for v in smap.metrics.values())
 
 
-def test_progress_bar_and_fallback_counter(pendulum, cache, capsys, monkeypatch):
+def test_progress_bar_and_fallback_counter(pendulum_design, pendulum, cache, capsys, monkeypatch):
     kw = {"eps": [0.01, 0.02], "gamma": [1e-2], "duration": 0.2, "reference": 0.05,
           "cache_dir": cache}
     fl.sweep(pendulum, pendulum_design(), progress=False, **kw)
@@ -219,7 +209,7 @@ def test_progress_bar_and_fallback_counter(pendulum, cache, capsys, monkeypatch)
     ({"executor": "threads"}, ParameterError, "executor must be a concurrent.futures.Executor"),
     ({"chunk_size": 0}, ParameterError, "chunk_size must be >= 1"),
 ])
-def test_sweep_bad_input(pendulum, cache, kwargs, error, match):
+def test_sweep_bad_input(pendulum_design, pendulum, cache, kwargs, error, match):
     args = {"eps": [0.01], "gamma": [1e-2], "duration": 0.1, "reference": 0.05, "progress": False,
                 "cache_dir": cache}
     args.update(kwargs)
@@ -247,7 +237,7 @@ def test_sweep_refuses_mismatched_or_eps_less_designs(pendulum):
     ({"max_simulations": 1}, "max_simulations must be >= 2"),
     ({"gamma": 0.0}, "gamma must be > 0"),
 ])
-def test_estimate_eps_star_bad_input(pendulum, kwargs, match):
+def test_estimate_eps_star_bad_input(pendulum_design, pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):
         fl.estimate_eps_star(pendulum, pendulum_design(), reference=0.05, duration=0.1,
                              **kwargs)
