@@ -24,6 +24,7 @@ Function(demo:(i0,i1)->(o0[2]) SXFunction)
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Mapping, Sequence
 
@@ -61,6 +62,7 @@ _RELATIONAL = {
     sp.Equality: lambda a, b: a == b,
     sp.Unequality: lambda a, b: a != b,
 }
+_FOLDED = {sp.Min: ca.fmin, sp.Max: ca.fmax, sp.And: ca.logic_and, sp.Or: ca.logic_or}
 
 
 def _group(arg) -> list[sp.Symbol]:
@@ -145,22 +147,12 @@ class _Translator:
             x = self(e.args[0])
             at0 = self(e.args[1]) if len(e.args) > 1 else ca.SX(0.5)
             return ca.if_else(x > 0, 1.0, ca.if_else(x == 0, at0, 0.0))
-        if func in (sp.Min, sp.Max):
-            op = ca.fmin if func is sp.Min else ca.fmax
-            out = self(e.args[0])
-            for a in e.args[1:]:
-                out = op(out, self(a))
-            return out
+        if func in _FOLDED:  # n-ary Min, Max, And, Or: left fold of the binary CasADi op
+            return functools.reduce(_FOLDED[func], (self(a) for a in e.args))
         if func is sp.Piecewise:
             return self._piecewise(e)
         if func in _RELATIONAL:
             return _RELATIONAL[func](self(e.args[0]), self(e.args[1]))
-        if func is sp.And or func is sp.Or:
-            op = ca.logic_and if func is sp.And else ca.logic_or
-            out = self(e.args[0])
-            for a in e.args[1:]:
-                out = op(out, self(a))
-            return out
         if func is sp.Not:
             return ca.logic_not(self(e.args[0]))
         name = getattr(func, "__name__", type(e).__name__)
