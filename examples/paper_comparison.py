@@ -16,7 +16,7 @@ import argparse
 import numpy as np
 
 import fl_design as fl
-from fl_design.demo import baseline_design, paper_design
+from fl_design.app import baseline_design, paper_design
 
 
 def main(argv=None) -> int:

@@ -18,33 +18,62 @@ Examples
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING
 
 from . import errors
 
 __version__ = "0.1.0"
 
-# public name -> module that defines it
+# public name -> module that defines it (None: the sub-module or sub-package itself)
 _LAZY = {
-    "Plant": "plant",
-    "NormalForm": "normal_form",
-    "plants": None,  # the sub-module itself
-    "Discretization": "discretization",
-    "taylor_discretization": "discretization",
-    "approximate_extended_model": "discretization",
-    "EHGO": "observer",
-    "LeastSquaresEstimator": "least_squares",
-    "DynamicController": "controller",
-    "gains_from_poles": "controller",
-    "lqr_gains": "controller",
+    "Plant": "symbolic",
+    "NormalForm": "symbolic",
+    "Discretization": "symbolic",
+    "taylor_discretization": "symbolic",
+    "approximate_extended_model": "symbolic",
+    "EHGO": "design",
+    "LeastSquaresEstimator": "design",
+    "DynamicController": "design",
+    "gains_from_poles": "design",
+    "lqr_gains": "design",
     "Design": "design",
-    "simulate": "simulation",
-    "Response": "response",
-    "sweep": "sweeps",
-    "StabilityMap": "sweeps",
-    "estimate_eps_star": "sweeps",
-    "sampled_linearization": "linearization",
-    "linearized_eps_star": "linearization",
+    "simulate": "sim",
+    "Response": "sim",
+    "sweep": "sim",
+    "StabilityMap": "sim",
+    "estimate_eps_star": "sim",
+    "sampled_linearization": "analysis",
+    "linearized_eps_star": "analysis",
+    # sub-modules and layers
+    "plants": None,
+    "plotting": None,
+    "symbolic": None,
+    "design": None,
+    "sim": None,
+    "analysis": None,
+    "codegen": None,
+    "app": None,
 }
+
+if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
+    from . import analysis, app, codegen, design, plants, plotting, sim, symbolic
+    from .analysis import linearized_eps_star, sampled_linearization
+    from .design import (
+        EHGO,
+        Design,
+        DynamicController,
+        LeastSquaresEstimator,
+        gains_from_poles,
+        lqr_gains,
+    )
+    from .sim import Response, StabilityMap, estimate_eps_star, simulate, sweep
+    from .symbolic import (
+        Discretization,
+        NormalForm,
+        Plant,
+        approximate_extended_model,
+        taylor_discretization,
+    )
 
 
 def __getattr__(name: str):

@@ -1,5 +1,5 @@
-"""``python -m fl_design``: the command-line interface (see :mod:`fl_design.cli`)."""
+"""``python -m fl_design``: the command-line interface (see :mod:`fl_design.app`)."""
 
-from .cli import main
+from .app._cli import main
 
 raise SystemExit(main())

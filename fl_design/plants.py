@@ -26,7 +26,7 @@ import math
 import sympy as sp
 
 from . import _validate as V
-from .plant import Plant
+from .symbolic._plant import Plant
 
 
 def _pos(**values) -> dict:

@@ -7,7 +7,7 @@ servers and in CI; pass ``ax``/``axes`` to draw into your own figure.
 Examples
 --------
 >>> import numpy as np
->>> from fl_design.sweeps import StabilityMap
+>>> from fl_design.sim import StabilityMap
 >>> from fl_design.plotting import plot_stability_map
 >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
 ...                  {}, 1e-3, 1.0, 0.1)
@@ -117,7 +117,7 @@ def _curve_points(curve, gamma: np.ndarray):
 
 
 def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True):
-    """Heat map of a :class:`~fl_design.sweeps.StabilityMap` over (gamma, eps), log axes.
+    """Heat map of a :class:`~fl_design.sim.StabilityMap` over (gamma, eps), log axes.
 
     Parameters
     ----------
@@ -137,7 +137,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.sweeps import StabilityMap
+    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import plot_stability_map
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
     ...                  1e-3, 1.0, 0.1)

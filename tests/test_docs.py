@@ -12,7 +12,7 @@ import pytest
 import fl_design
 
 MODULES = sorted(
-    m.name for m in pkgutil.iter_modules(fl_design.__path__, "fl_design.")
+    m.name for m in pkgutil.walk_packages(fl_design.__path__, "fl_design.")
     if m.name not in {"fl_design.__main__"}
 )
 

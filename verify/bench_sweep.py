@@ -35,9 +35,9 @@ import scipy.integrate
 import sympy as sp
 
 import fl_design as fl
-from fl_design._compile import build, generate_source
-from fl_design.response import STATUS_CODES
-from fl_design.simulation import prepare_run
+from fl_design.codegen import build, generate_source
+from fl_design.sim import STATUS_CODES
+from fl_design.sim import prepare_run
 
 T = 1e-3
 REFERENCE = 0.3

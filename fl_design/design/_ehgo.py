@@ -1,0 +1,629 @@
+"""The extended high-gain observer (EHGO) of the paper, discretized in scaled coordinates.
+
+The model-free (``phi0 = 0``) EHGO of order ``rho + 1`` estimates ``y, y', ..., y^(rho-1)`` and
+the lumped term ``sigma = y^(rho)`` with the gains ``H_i = alpha_i / eps^i``. In the scaled
+coordinates ``q = D xhat``, ``D = diag(1, eps, ..., eps^rho)``, it reads::
+
+    eps q' = F q + L y,   F = [[-alpha_1,     1, 0, ..., 0],
+                               [-alpha_2,     0, 1, ..., 0],
+                               ...
+                               [-alpha_(rho+1), 0, ..., 0]],   L = (alpha_1, ..., alpha_(rho+1))
+
+which contains no negative power of ``eps``. In the normalized time ``t / eps`` the sampling
+step is ``alpha = T / eps``; the pair ``(F, L)`` is discretized with that step (bilinear by
+default, Schur for every ``alpha > 0``) and the sampled observer is::
+
+    xhat_k     = D^-1 (C_d xi_k + D_d y_k)
+    xi_(k+1)   = A_d xi_k + B_d y_k
+
+Examples
+--------
+>>> import fl_design as fl
+>>> obs = fl.EHGO(rho=2, eps=0.05, T=1e-3, coeffs=(6, 11, 6))   # the paper's observer
+>>> obs.alpha, obs.state_size, obs.is_schur
+(0.02, 3, True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from dataclasses import KW_ONLY, dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+import scipy.signal
+
+from .. import _validate as v
+from ..errors import (
+    DimensionError,
+    MissingDependencyError,
+    ParameterError,
+    UnstableDiscretizationWarning,
+)
+
+#: user-facing method name -> scipy.signal.cont2discrete method
+METHODS = {
+    "bilinear": "bilinear",
+    "forward_euler": "euler",
+    "backward_euler": "backward_diff",
+    "zoh": "zoh",
+}
+MAX_RHO = 6
+#: eigenvalue of A_d as a function of alpha * lam, lam an eigenvalue of F
+_EIG_MAP = {
+    "bilinear": lambda al: (1 + al / 2) / (1 - al / 2),
+    "forward_euler": lambda al: 1 + al,
+    "backward_euler": lambda al: 1 / (1 - al),
+    "zoh": np.exp,
+}
+
+
+class StateSpaceMatrices(NamedTuple):
+    """Matrices ``(A, B, C, D)`` of a state-space model (a tuple: unpack or pass to scipy)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+
+def binomial_coeffs(rho: int) -> tuple[float, ...]:
+    """Coefficients ``alpha_i = C(rho+1, i)`` of ``(s + 1)^(rho+1)``: all observer poles at -1.
+
+    Closed form (the pole is repeated: never computed by a pole-placement routine).
+
+    Examples
+    --------
+    >>> from fl_design.design import binomial_coeffs
+    >>> binomial_coeffs(2)
+    (3.0, 3.0, 1.0)
+    """
+    return tuple(float(math.comb(rho + 1, i)) for i in range(1, rho + 2))
+
+
+def _companion(coeffs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``F`` (observer companion form) and ``L`` of ``eps q' = F q + L y``."""
+    n = coeffs.size
+    F = np.eye(n, k=1)
+    F[:, 0] = -coeffs
+    return F, coeffs.reshape(n, 1).copy()
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _conjugate_closed(poles: np.ndarray, *, tol: float) -> list[complex]:
+    """Return the poles whose complex conjugate is missing from ``poles`` (empty if closed)."""
+    remaining = list(poles)
+    unpaired = []
+    while remaining:
+        p = remaining.pop(0)
+        if abs(p.imag) <= tol:
+            continue
+        dist = [abs(q - np.conj(p)) for q in remaining]
+        if dist and min(dist) <= tol:
+            remaining.pop(int(np.argmin(dist)))
+        else:
+            unpaired.append(p)
+    return unpaired
+
+
+@dataclass(frozen=True)
+class EHGO:
+    """Discrete-time extended high-gain observer (estimator protocol of :class:`fl_design.Design`).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree of the plant, 1..6; the observer has ``rho + 1`` states
+        ``(y, y', ..., y^(rho-1), sigma)``.
+    eps : float
+        Observer time constant ``eps > 0`` (the paper's tunable software parameter).
+    T : float
+        Sampling time ``T > 0`` in seconds.
+    coeffs : sequence of float, optional
+        ``(alpha_1, ..., alpha_(rho+1))`` of the Hurwitz polynomial
+        ``s^(rho+1) + alpha_1 s^rho + ... + alpha_(rho+1)`` (checked). Default: all roots at -1,
+        the binomial coefficients ``C(rho+1, i)``. See :meth:`from_poles`.
+    method : {"bilinear", "forward_euler", "backward_euler", "zoh"}, optional
+        Discretization of the scaled observer with step ``alpha = T / eps`` (done by
+        ``scipy.signal.cont2discrete``). ``"bilinear"`` (default, the paper's) and the two
+        others but ``"forward_euler"`` are Schur for every ``alpha > 0``; forward Euler only for
+        ``alpha < alpha_max`` (see :attr:`alpha_max`).
+    allow_unstable : bool, optional
+        Keyword-only. Build a forward-Euler observer beyond its stability limit, with an
+        :class:`~fl_design.errors.UnstableDiscretizationWarning`, instead of raising
+        ParameterError. Default False.
+
+    Attributes
+    ----------
+    alpha : float
+        ``T / eps``, the step in normalized time.
+    matrices : StateSpaceMatrices
+        ``(A_d, B_d, C_d, D_d)`` of the scaled discrete observer.
+    scaling, unscaling : numpy.ndarray
+        The diagonals of ``D = diag(1, eps, ..., eps^rho)`` and of ``D^-1``.
+    state_size : int
+        ``rho + 1``.
+
+    Raises
+    ------
+    ParameterError
+        ``rho`` not an integer in 1..6, ``eps`` or ``T`` not finite and > 0, unknown
+        ``method``, or forward Euler beyond its limit.
+    DimensionError
+        ``coeffs`` not of length ``rho + 1``.
+    HurwitzError
+        ``coeffs`` do not give a Hurwitz polynomial.
+
+    Notes
+    -----
+    :meth:`initial_state` is ``xi = 0``: the first estimate is ``xhat_0 = D^-1 D_d y_0``.
+
+    Examples
+    --------
+    >>> import numpy as np, fl_design as fl
+    >>> obs = fl.EHGO(rho=2, eps=0.05, T=1e-3)
+    >>> obs.coeffs
+    (3.0, 3.0, 1.0)
+    >>> t = np.arange(2000) * obs.T
+    >>> xhat = obs.filter(np.sin(t))                       # y, y', y'' = sigma
+    >>> truth = [np.sin(t[-1]), np.cos(t[-1]), -np.sin(t[-1])]
+    >>> np.abs(xhat[-1] - truth).round(2)                  # O(eps^3), O(eps^2), O(eps)
+    array([0.  , 0.  , 0.05])
+    """
+
+    rho: int
+    eps: float
+    T: float
+    coeffs: tuple[float, ...] | None = None
+    method: str = "bilinear"
+    _: KW_ONLY
+    allow_unstable: bool = False
+    _mats: StateSpaceMatrices = field(init=False, repr=False, compare=False)
+    _roots: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        rho = v.integer("rho", self.rho, minimum=1, maximum=MAX_RHO)
+        eps = v.positive("eps", self.eps)
+        T = v.positive("T", self.T)
+        if not isinstance(self.method, str) or self.method not in METHODS:
+            raise ParameterError(
+                f"method={self.method!r} is not a known discretization; valid methods: "
+                f"{', '.join(repr(m) for m in METHODS)}"
+            )
+        if self.coeffs is None:
+            coeffs = np.array(binomial_coeffs(rho))
+        else:
+            coeffs = v.real_vector(
+                f"coeffs (alpha_1..alpha_{rho + 1} for rho={rho})", self.coeffs, length=rho + 1
+            )
+        roots = v.hurwitz_monic("coeffs", coeffs, what="the observer polynomial")
+        if self.coeffs is None:
+            roots = -np.ones(rho + 1, dtype=complex)  # exact: numpy.roots smears a repeated root
+        for name, value in (("rho", rho), ("eps", eps), ("T", T)):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "coeffs", tuple(float(c) for c in coeffs))
+        object.__setattr__(self, "allow_unstable", bool(self.allow_unstable))
+        object.__setattr__(self, "_roots", roots)
+        if self.method == "forward_euler":
+            self._check_euler_limit()
+        F, L = _companion(coeffs)
+        n = rho + 1
+        Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete(
+            (F, L, np.eye(n), np.zeros((n, 1))), self.alpha, method=METHODS[self.method]
+        )
+        object.__setattr__(self, "_mats", StateSpaceMatrices(*map(_frozen, (Ad, Bd, Cd, Dd))))
+        if self.method != "forward_euler" and not self.is_schur:
+            warnings.warn(
+                f"A_d of method={self.method!r} has spectral radius {self.spectral_radius:.17g} "
+                f">= 1 in floating point at alpha = T/eps = {self.alpha:.6g}; choose a less "
+                "extreme ratio T/eps",
+                UnstableDiscretizationWarning,
+                stacklevel=3,
+            )
+
+    def _check_euler_limit(self) -> None:
+        amax = self.alpha_max
+        if self.alpha < amax:
+            return
+        msg = (
+            f"method='forward_euler' is unstable at alpha = T/eps = {self.alpha:.6g} "
+            f"(T={self.T!r}, eps={self.eps!r}): it needs alpha < alpha_max = {amax:.6g}, "
+            f"i.e. eps > eps_min = T/alpha_max = {self.T / amax:.6g}; use method='bilinear' "
+            "(stable for every alpha), a larger eps, a smaller T, or allow_unstable=True"
+        )
+        if not self.allow_unstable:
+            raise ParameterError(msg)
+        warnings.warn(msg, UnstableDiscretizationWarning, stacklevel=4)
+
+    # --- construction helpers --------------------------------------------------------------
+    @classmethod
+    def from_poles(
+        cls, rho: int, eps: float, T: float, poles, *, method: str = "bilinear",
+        allow_unstable: bool = False,
+    ) -> EHGO:
+        """Observer whose normalized polynomial has the given roots (times ``1/eps`` in s).
+
+        The coefficients are the closed-form product ``prod (s - p_i)`` (``numpy.poly``).
+
+        Parameters
+        ----------
+        rho : int
+            Relative degree, 1..6.
+        eps : float
+            Observer time constant > 0.
+        T : float
+            Sampling time > 0.
+        poles : sequence of complex
+            ``rho + 1`` roots in the open left half-plane; complex ones in conjugate pairs.
+        method : str, optional
+            Discretization, as in :class:`EHGO`.
+        allow_unstable : bool, optional
+            As in :class:`EHGO`.
+
+        Returns
+        -------
+        EHGO
+
+        Raises
+        ------
+        DimensionError
+            Wrong number of poles.
+        ParameterError
+            Non-finite poles, or complex poles without their conjugate.
+        HurwitzError
+            A pole is not in the open left half-plane.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.EHGO.from_poles(2, 0.05, 1e-3, [-1, -2, -3]).coeffs
+        (6.0, 11.0, 6.0)
+        """
+        rho = v.integer("rho", rho, minimum=1, maximum=MAX_RHO)
+        try:
+            p = np.asarray(poles, dtype=complex)
+        except (TypeError, ValueError):
+            raise ParameterError(f"poles must be numbers, got {poles!r}") from None
+        if p.ndim != 1 or p.size != rho + 1:
+            raise DimensionError(
+                f"poles must be a sequence of rho+1 = {rho + 1} numbers, got shape {p.shape}"
+            )
+        if not np.all(np.isfinite(p)):
+            raise ParameterError(f"poles must be finite, got {p.tolist()}")
+        unpaired = _conjugate_closed(p, tol=1e-9 * max(1.0, float(np.max(np.abs(p)))))
+        if unpaired:
+            raise ParameterError(
+                f"complex poles must come in conjugate pairs; no conjugate for {unpaired}"
+            )
+        coeffs = np.real(np.poly(p))[1:]
+        return cls(rho, eps, T, tuple(coeffs), method, allow_unstable=allow_unstable)
+
+    def replace(self, **changes) -> EHGO:
+        """A copy with fields changed (re-validated), e.g. ``obs.replace(eps=0.02)``.
+
+        When ``rho`` changes and the coefficients are the default binomial ones, the new
+        observer gets the default coefficients of the new ``rho``.
+
+        Parameters
+        ----------
+        **changes
+            Any of ``rho, eps, T, coeffs, method, allow_unstable``.
+
+        Returns
+        -------
+        EHGO
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.EHGO(2, 0.05, 1e-3).replace(eps=0.01).alpha
+        0.1
+        """
+        valid = {f.name for f in dataclasses.fields(self) if f.init}
+        unknown = set(changes) - valid
+        if unknown:
+            raise ParameterError(
+                f"EHGO has no field(s) {sorted(unknown)}; valid fields: {sorted(valid)}"
+            )
+        if "rho" in changes and "coeffs" not in changes and self.coeffs == binomial_coeffs(self.rho):
+            changes["coeffs"] = None
+        return dataclasses.replace(self, **changes)
+
+    # --- derived quantities ------------------------------------------------------------------
+    @property
+    def alpha(self) -> float:
+        """``T / eps``: the sampling step in the observer's normalized time."""
+        return self.T / self.eps
+
+    @property
+    def state_size(self) -> int:
+        """Length of the observer state ``xi``: ``rho + 1``."""
+        return self.rho + 1
+
+    @property
+    def matrices(self) -> StateSpaceMatrices:
+        """``(A_d, B_d, C_d, D_d)`` of the scaled discrete observer (read-only arrays)."""
+        return self._mats
+
+    @property
+    def scaling(self) -> np.ndarray:
+        """Diagonal of ``D = diag(1, eps, ..., eps^rho)`` (``q = D xhat``)."""
+        return self.eps ** np.arange(self.rho + 1, dtype=float)
+
+    @property
+    def unscaling(self) -> np.ndarray:
+        """Diagonal of ``D^-1 = diag(1, 1/eps, ..., 1/eps^rho)`` (``xhat = D^-1 q``)."""
+        return 1.0 / self.scaling
+
+    @property
+    def gains(self) -> np.ndarray:
+        """Unscaled observer gains ``H_i = alpha_i / eps^i``, i = 1..rho+1."""
+        return np.asarray(self.coeffs) / self.eps ** np.arange(1, self.rho + 2, dtype=float)
+
+    @property
+    def poles(self) -> np.ndarray:
+        """Roots of ``s^(rho+1) + alpha_1 s^rho + ... + alpha_(rho+1)`` (eigenvalues of F)."""
+        return self._roots.copy()
+
+    @property
+    def alpha_max(self) -> float:
+        """Forward-Euler stability limit ``min_lam -2 Re(lam) / |lam|^2`` over the roots.
+
+        ``I + alpha F`` is Schur iff ``alpha < alpha_max``. The roots come from
+        ``numpy.roots`` (exact -1 for the default coefficients): for a user-given root of
+        multiplicity m they are accurate to about ``1e-16^(1/m)``, so the limit of repeated roots
+        is then slightly underestimated (the safe side).
+        """
+        lam = self._roots
+        return float(np.min(-2.0 * lam.real / np.abs(lam) ** 2))
+
+    @property
+    def spectral_radius(self) -> float:
+        """Largest modulus of the eigenvalues of ``A_d``.
+
+        Computed from the roots ``lam`` of the observer polynomial through the method's exact
+        eigenvalue map (bilinear ``(1 + alpha lam/2) / (1 - alpha lam/2)``, forward Euler
+        ``1 + alpha lam``, backward Euler ``1 / (1 - alpha lam)``, ZOH ``exp(alpha lam)``):
+        ``numpy.linalg.eigvals(A_d)`` would smear the repeated eigenvalue of the default
+        coefficients by ``~1e-16^(1/(rho+1))``.
+        """
+        z = _EIG_MAP[self.method](self.alpha * self._roots)
+        return float(np.max(np.abs(z)))
+
+    @property
+    def is_schur(self) -> bool:
+        """True when every eigenvalue of ``A_d`` lies strictly inside the unit circle."""
+        return self.spectral_radius < 1.0
+
+    @property
+    def flops_per_step(self) -> int:
+        """Multiply-adds per sample: ``2 n^2 + 2 n``, n = rho + 1.
+
+        With ``D^-1 C_d`` and ``D^-1 D_d`` folded into constants: ``n^2 + n`` for the output
+        and ``n^2 + n`` for the state update.
+        """
+        n = self.state_size
+        return 2 * n * n + 2 * n
+
+    def continuous(self) -> StateSpaceMatrices:
+        """The unscaled continuous observer ``(A - H C, H, I, 0)``, input y, output xhat_ext.
+
+        Returns
+        -------
+        StateSpaceMatrices
+            ``A - H C`` with ``A`` the chain of ``rho + 1`` integrators, ``C = e_1^T``, and
+            ``H_i = alpha_i / eps^i`` (badly scaled for small eps: that is why the discrete
+            observer is built in scaled coordinates).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.EHGO(1, 0.5, 1e-3, coeffs=(3, 2)).continuous().B.ravel()
+        array([6., 8.])
+        """
+        n = self.state_size
+        H = self.gains.reshape(n, 1)
+        A = np.eye(n, k=1)
+        A[:, 0] -= H[:, 0]
+        return StateSpaceMatrices(A, H, np.eye(n), np.zeros((n, 1)))
+
+    def output_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(D^-1 C_d, D^-1 D_d)``: the map ``(xi_k, y_k) -> xhat_k`` in unscaled units."""
+        d = self.unscaling.reshape(-1, 1)
+        return d * self._mats.C, d * self._mats.D
+
+    def to_statespace(self):
+        """python-control ``StateSpace`` (dt = T) from y to the unscaled ``xhat_ext``.
+
+        Returns
+        -------
+        control.StateSpace
+            ``rho + 1`` outputs: ``y, y', ..., y^(rho-1), sigma`` estimates.
+
+        Raises
+        ------
+        MissingDependencyError
+            python-control is not installed (``pip install fl_design[control]``).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> sys = fl.EHGO(2, 0.05, 1e-3).to_statespace()
+        >>> sys.noutputs, sys.dt
+        (3, 0.001)
+        """
+        try:
+            import control
+        except ImportError:
+            raise MissingDependencyError(
+                "EHGO.to_statespace needs python-control: pip install fl_design[control]"
+            ) from None
+        C, D = self.output_matrices()
+        return control.StateSpace(self._mats.A, self._mats.B, C, D, dt=self.T)
+
+    # --- estimator protocol ------------------------------------------------------------------
+    def initial_state(self) -> np.ndarray:
+        """``xi_0 = 0`` (length rho+1); then ``xhat_0 = D^-1 D_d y_0``.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.EHGO(1, 0.1, 1e-3).initial_state()
+        array([0., 0.])
+        """
+        return np.zeros(self.state_size)
+
+    def parameter_vector(self) -> np.ndarray:
+        """``[A_d, B_d, C_d, D_d, diag(D^-1)]`` flattened row-major, length ``2 n^2 + 3 n``.
+
+        All that depends on ``eps`` and ``T``: an observer of the same ``rho``, ``coeffs`` and
+        ``method`` but another ``eps`` is obtained by passing its vector to
+        :meth:`symbolic_update`.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.EHGO(2, 0.05, 1e-3).parameter_vector().shape
+        (27,)
+        """
+        A, B, C, D = self._mats
+        return np.concatenate([A.ravel(), B.ravel(), C.ravel(), D.ravel(), self.unscaling])
+
+    def symbolic_update(self, xi, y, p):
+        """One observer step as CasADi expressions (steps 1 and 7 of the normative loop).
+
+        Parameters
+        ----------
+        xi : casadi.SX or MX or DM, shape (rho+1,)
+            Observer state ``xi_k``.
+        y : casadi scalar
+            Measurement ``y_k``.
+        p : casadi vector
+            Parameters laid out as :meth:`parameter_vector`.
+
+        Returns
+        -------
+        xhat_ext : (rho+1, 1)
+            ``D^-1 (C_d xi_k + D_d y_k)`` = ``[xhat_1..xhat_rho, sigmahat]``.
+        xi_next : (rho+1, 1)
+            ``A_d xi_k + B_d y_k``.
+        ready : scalar
+            Constant 1 (the EHGO estimate is always available).
+
+        Examples
+        --------
+        >>> import casadi, fl_design as fl
+        >>> obs = fl.EHGO(1, 0.1, 1e-3)
+        >>> xhat, xi1, ready = obs.symbolic_update(casadi.DM.zeros(2), 1.0, obs.parameter_vector())
+        >>> xhat.shape, float(ready)
+        ((2, 1), 1.0)
+        """
+        import casadi
+
+        n = self.state_size
+        xi, y, p = _as_casadi(xi), _as_casadi(y), _as_casadi(p)
+        _check_len("xi", xi, n)
+        _check_len("p", p, 2 * n * n + 3 * n)
+        A = _rows(p, 0, n, n)
+        B = p[n * n : n * n + n]
+        C = _rows(p, n * n + n, n, n)
+        D = p[2 * n * n + n : 2 * n * n + 2 * n]
+        dinv = p[2 * n * n + 2 * n :]
+        xhat = dinv * (casadi.mtimes(C, xi) + D * y)
+        xi_next = casadi.mtimes(A, xi) + B * y
+        return xhat, xi_next, type(xi)(1.0)
+
+    # --- numpy convenience -------------------------------------------------------------------
+    def filter(self, y_samples, *, xi0=None) -> np.ndarray:
+        """Run the observer over measured samples (exactly the loop's steps 1 and 7).
+
+        Parameters
+        ----------
+        y_samples : array_like, shape (N,)
+            Measurements ``y_0 .. y_(N-1)`` taken every ``T``.
+        xi0 : array_like, optional
+            Initial observer state; default :meth:`initial_state`.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N, rho+1)
+            ``xhat_k`` (unscaled) for every sample.
+
+        Examples
+        --------
+        >>> import numpy as np, fl_design as fl
+        >>> fl.EHGO(1, 0.1, 1e-3).filter(np.ones(5000))[-1].round(6)
+        array([1., 0.])
+        """
+        y = v.real_vector("y_samples", np.ravel(y_samples) if np.ndim(y_samples) else y_samples)
+        n = self.state_size
+        x0 = np.zeros(n) if xi0 is None else v.real_vector("xi0", xi0, length=n)
+        C, D = self.output_matrices()
+        return _lsim_blocked(self._mats.A, self._mats.B, C, D, y, x0)
+
+
+# --- helpers ---------------------------------------------------------------------------------
+def _as_casadi(x):
+    import casadi
+
+    if isinstance(x, (casadi.SX, casadi.MX, casadi.DM)):
+        return x
+    return casadi.DM(np.asarray(x, dtype=float))
+
+
+def _check_len(name: str, x, n: int) -> None:
+    if x.numel() != n or min(x.shape) > 1:
+        raise DimensionError(f"{name} must be a vector of length {n}, got shape {x.shape}")
+
+
+def _rows(p, start: int, rows: int, cols: int):
+    """Matrix stored row-major in ``p[start : start + rows*cols]`` (CasADi is column-major)."""
+    import casadi
+
+    return casadi.reshape(p[start : start + rows * cols], cols, rows).T
+
+
+def _lsim_blocked(A, B, C, D, u, x0, block: int = 128) -> np.ndarray:
+    """Outputs of ``x+ = A x + B u, out = C x + D u`` for scalar input u, vectorized per block.
+
+    Within a block of length L the outputs are a Toeplitz product with the Markov parameters
+    plus the free response of the block's initial state; only the L-step state propagation
+    between blocks is a Python loop (N / L iterations).
+    """
+    N, n, m = u.size, A.shape[0], C.shape[0]
+    if N == 0:
+        return np.zeros((0, m))
+    L = min(block, N)
+    pw = np.empty((L + 1, n, n))
+    pw[0] = np.eye(n)
+    for i in range(1, L + 1):
+        pw[i] = pw[i - 1] @ A
+    h = np.empty((L, m))
+    h[0] = D[:, 0]
+    h[1:] = (C @ pw[: L - 1] @ B)[..., 0]
+    lag = np.arange(L)[:, None] - np.arange(L)[None, :]
+    toeplitz = np.where((lag >= 0)[..., None], h[np.clip(lag, 0, None)], 0.0)  # (L, L, m)
+    free = C @ pw[:L]  # (L, m, n)
+    reach = (pw[L - 1 :: -1] @ B)[..., 0]  # (L, n): A^(L-1-j) B
+    nb = -(-N // L)
+    U = np.zeros(nb * L)
+    U[:N] = u
+    U = U.reshape(nb, L)
+    drive = U @ reach  # (nb, n)
+    X0 = np.empty((nb, n))
+    x = np.asarray(x0, dtype=float)
+    for b in range(nb):
+        X0[b] = x
+        x = pw[L] @ x + drive[b]
+    out = np.einsum("ijm,bj->bim", toeplitz, U) + np.einsum("imn,bn->bim", free, X0)
+    return out.reshape(nb * L, m)[:N]
+
+
+__all__ = ["EHGO", "METHODS", "StateSpaceMatrices", "binomial_coeffs"]

@@ -1,0 +1,264 @@
+"""The least-squares data-driven estimator of Fraile, Marchi and Tabuada (the paper's baseline).
+
+A polynomial of degree ``d >= rho`` is fitted by least squares to the last ``N = window``
+samples at the relative times ``t_j = -(N-1-j) T`` (j = 0 oldest, j = N-1 the current sample);
+its derivatives at ``t = 0`` are the estimates ``y, y', ..., y^(rho)``, the last being
+``sigmahat``. With a constant ``T`` the fit is one precomputed linear map::
+
+    xhat_ext_k = M @ (y_(k-N+1), ..., y_k),    M in R^((rho+1) x N)
+
+Examples
+--------
+>>> import numpy as np, fl_design as fl
+>>> est = fl.LeastSquaresEstimator(rho=2, T=1e-3, window=9)
+>>> t = np.arange(20) * est.T
+>>> est.filter(1 + 2 * t + 3 * t**2)[-1].round(8)         # y, y', y'' at t[-1]
+array([1.039083, 2.114   , 6.      ])
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from .. import _validate as v
+from ..errors import DimensionError, ParameterError
+
+
+def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarray:
+    """``M`` mapping the last ``window`` samples (oldest first) to ``y, ..., y^(rho)`` at t = 0.
+
+    Time is scaled by ``tau = T * window`` (``s = t / tau`` in ``(-1, 0]``) so that the
+    Vandermonde matrix ``V_ji = s_j^i`` stays well conditioned whatever ``T``; its
+    pseudo-inverse comes from ``scipy.linalg.lstsq`` (SVD-based) and the coefficients of
+    ``s^i`` are turned into derivatives by ``i! / tau^i``.
+
+    Examples
+    --------
+    >>> from fl_design.design import derivative_matrix
+    >>> derivative_matrix(2, 1, 1, 0.5).round(12) + 0.0           # two-point difference
+    array([[ 0.,  1.],
+           [-2.,  2.]])
+    """
+    tau = T * window
+    s = -(window - 1 - np.arange(window)) / window
+    V = np.vander(s, degree + 1, increasing=True)
+    pinv = scipy.linalg.lstsq(V, np.eye(window), lapack_driver="gelsd")[0]
+    fact = np.array([math.factorial(i) / tau**i for i in range(rho + 1)])
+    return fact[:, None] * pinv[: rho + 1]
+
+
+@dataclass(frozen=True)
+class LeastSquaresEstimator:
+    """Causal sliding-window least-squares differentiator (estimator protocol of ``Design``).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree, 1..6: estimates ``y, y', ..., y^(rho-1)`` and ``sigma = y^(rho)``.
+    T : float
+        Sampling time > 0.
+    window : int
+        Number ``N`` of samples in the fit, ``N >= degree + 1``.
+    degree : int, optional
+        Degree of the fitted polynomial, ``>= rho``; default ``rho``.
+
+    Attributes
+    ----------
+    matrix : numpy.ndarray
+        ``M``, shape ``(rho+1, window)``; row ``i`` gives ``y^(i)`` at the current sample.
+    state_size : int
+        ``window + 1``: the buffer of the last samples and a sample counter.
+
+    Raises
+    ------
+    ParameterError
+        ``rho`` not in 1..6, ``T`` not finite and > 0, ``degree < rho``, bad ``window``.
+    DimensionError
+        ``window < degree + 1`` (the fit would be underdetermined).
+
+    Notes
+    -----
+    State layout: ``[y_(k-N+1), ..., y_k, count]`` with the oldest sample first. Until
+    ``window`` samples have been shifted in, ``ready`` is 0 and the design's controller holds
+    its state. Multiply-adds per sample: ``(rho+1) * window`` (:attr:`flops_per_step`).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> est = fl.LeastSquaresEstimator(2, 1e-3, window=9)
+    >>> est.degree, est.state_size, est.flops_per_step
+    (2, 10, 27)
+    """
+
+    rho: int
+    T: float
+    window: int
+    degree: int | None = None
+    _M: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        rho = v.integer("rho", self.rho, minimum=1, maximum=6)
+        T = v.positive("T", self.T)
+        degree = rho if self.degree is None else v.integer("degree", self.degree)
+        if degree < rho:
+            raise ParameterError(
+                f"degree={degree} must be >= rho={rho}: a polynomial of lower degree has no "
+                f"{rho}-th derivative to estimate sigma"
+            )
+        window = v.integer("window", self.window, minimum=1)
+        if window < degree + 1:
+            raise DimensionError(
+                f"window={window} samples cannot determine a polynomial of degree {degree}: "
+                f"need window >= degree + 1 = {degree + 1}"
+            )
+        for name, value in (("rho", rho), ("T", T), ("degree", degree), ("window", window)):
+            object.__setattr__(self, name, value)
+        M = derivative_matrix(window, degree, rho, T)
+        M.flags.writeable = False
+        object.__setattr__(self, "_M", M)
+
+    def replace(self, **changes) -> LeastSquaresEstimator:
+        """A copy with fields changed (re-validated), e.g. ``est.replace(window=26)``.
+
+        When ``rho`` changes and ``degree`` was the default (``== rho``), the degree follows.
+
+        Parameters
+        ----------
+        **changes
+            Any of ``rho, T, window, degree``.
+
+        Returns
+        -------
+        LeastSquaresEstimator
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.LeastSquaresEstimator(2, 1e-3, 9).replace(window=26).window
+        26
+        """
+        valid = {f.name for f in dataclasses.fields(self) if f.init}
+        unknown = set(changes) - valid
+        if unknown:
+            raise ParameterError(
+                f"LeastSquaresEstimator has no field(s) {sorted(unknown)} (it has no eps: its "
+                f"time scale is the window N*T); valid fields: {sorted(valid)}"
+            )
+        if "rho" in changes and "degree" not in changes and self.degree == self.rho:
+            changes["degree"] = None
+        return dataclasses.replace(self, **changes)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """``M`` (read-only), shape ``(rho+1, window)``: ``xhat_ext = M @ buffer``."""
+        return self._M
+
+    @property
+    def state_size(self) -> int:
+        """``window + 1``: sample buffer and counter."""
+        return self.window + 1
+
+    @property
+    def flops_per_step(self) -> int:
+        """Multiply-adds per sample of ``M @ buffer``: ``(rho + 1) * window``."""
+        return (self.rho + 1) * self.window
+
+    def initial_state(self) -> np.ndarray:
+        """Empty buffer and zero count: ``zeros(window + 1)``.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.LeastSquaresEstimator(1, 1e-3, 3).initial_state()
+        array([0., 0., 0., 0.])
+        """
+        return np.zeros(self.state_size)
+
+    def parameter_vector(self) -> np.ndarray:
+        """``M`` flattened row-major (length ``(rho+1) * window``).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.LeastSquaresEstimator(1, 1e-3, 3).parameter_vector().shape
+        (6,)
+        """
+        return self._M.ravel()
+
+    def symbolic_update(self, xi, y, p):
+        """Shift ``y_k`` into the buffer and fit (steps 1 and 7 of the normative loop).
+
+        Parameters
+        ----------
+        xi : casadi.SX or MX or DM, shape (window+1,)
+            ``[buffer (oldest first), count]``.
+        y : casadi scalar
+            Measurement ``y_k``.
+        p : casadi vector
+            ``M`` flattened row-major, as :meth:`parameter_vector`.
+
+        Returns
+        -------
+        xhat_ext : (rho+1, 1)
+            ``M @ buffer_new``, ``buffer_new = (buffer[1:], y_k)``.
+        xi_next : (window+1, 1)
+            ``[buffer_new, min(count + 1, window)]``.
+        ready : scalar
+            1 when ``count + 1 >= window`` (the window is full), else 0.
+
+        Examples
+        --------
+        >>> import casadi, fl_design as fl
+        >>> est = fl.LeastSquaresEstimator(1, 1e-3, 3)
+        >>> xhat, xi, ready = est.symbolic_update(casadi.DM.zeros(4), 1.0, est.parameter_vector())
+        >>> xi.T, float(ready)
+        (DM([[0, 0, 1, 1]]), 0.0)
+        """
+        import casadi
+
+        from ._ehgo import _as_casadi, _check_len, _rows
+
+        N, m = self.window, self.rho + 1
+        xi, y, p = _as_casadi(xi), _as_casadi(y), _as_casadi(p)
+        _check_len("xi", xi, N + 1)
+        _check_len("p", p, m * N)
+        buffer = casadi.vertcat(xi[1:N], y)
+        count = casadi.fmin(xi[N] + 1, N)
+        xhat = casadi.mtimes(_rows(p, 0, m, N), buffer)
+        return xhat, casadi.vertcat(buffer, count), count >= N
+
+    def filter(self, y_samples) -> np.ndarray:
+        """Estimates for every sample; NaN rows while the window is not yet full.
+
+        Parameters
+        ----------
+        y_samples : array_like, shape (K,)
+            Measurements taken every ``T``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (K, rho+1)
+            Row ``k`` is ``M @ (y_(k-N+1), ..., y_k)`` for ``k >= N-1``, NaN before.
+
+        Examples
+        --------
+        >>> import numpy as np, fl_design as fl
+        >>> fl.LeastSquaresEstimator(1, 0.1, 2).filter([0.0, 1.0, 3.0])
+        array([[nan, nan],
+               [ 1., 10.],
+               [ 3., 20.]])
+        """
+        y = v.real_vector("y_samples", np.ravel(y_samples))
+        out = np.full((y.size, self.rho + 1), np.nan)
+        if y.size >= self.window:
+            windows = np.lib.stride_tricks.sliding_window_view(y, self.window)
+            out[self.window - 1 :] = windows @ self._M.T
+        return out
+
+
+__all__ = ["LeastSquaresEstimator", "derivative_matrix"]

@@ -1,0 +1,543 @@
+"""The symbolic SISO plant ``x' = f(x, u)``, ``y = h(x)``: validated on construction, immutable.
+
+A :class:`Plant` holds SymPy expressions (parameters kept symbolic, their values alongside), an
+operating point with its equilibrium input, an optional input range and region of interest. It
+derives its relative degree and normal form (:mod:`fl_design.symbolic`), bounds the input
+coefficient ``b`` over the region (:meth:`Plant.b_bounds`) and hands CasADi functions to the
+numerical layers (:meth:`Plant.casadi`, through the one bridge :func:`fl_design.symbolic.to_casadi`).
+
+Examples
+--------
+>>> import sympy as sp
+>>> import fl_design as fl
+>>> th, om, u = sp.symbols("theta omega u")
+>>> g, c = sp.symbols("g c", positive=True)
+>>> plant = fl.Plant.from_ode([th, om], u, [om, -g * sp.sin(th) - c * om + u], th,
+...                           params={"g": 9.81, c: 0.5}, input_range=(-20, 20))
+>>> plant.relative_degree(), plant.u_eq
+(2, 0.0)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import casadi as ca
+import numpy as np
+import scipy.optimize
+import sympy as sp
+
+from .. import _validate as V
+from ._bridge import to_casadi
+from ..errors import PlantDefinitionError
+from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
+
+
+@dataclass(frozen=True)
+class PlantFunctions:
+    """CasADi SX functions of a plant, numeric parameters substituted.
+
+    Parameters
+    ----------
+    f : casadi.Function
+        ``f(x[n], u) -> xdot[n]``.
+    h : casadi.Function
+        ``h(x[n]) -> y``.
+    sigma : casadi.Function
+        ``sigma(x[n], u) -> y^(rho)``, the true lumped term ``a + b u`` (also for a non-affine input).
+    b : casadi.Function
+        ``b(x[n], u) -> d y^(rho)/du``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fns = fl.plants.pendulum().casadi()
+    >>> float(fns.b([0.3, 0.0], 0.0))
+    1.0
+    """
+
+    f: ca.Function
+    h: ca.Function
+    sigma: ca.Function
+    b: ca.Function
+
+
+def _symbols(name: str, value) -> tuple:
+    if isinstance(value, (sp.MatrixBase, np.ndarray)):
+        value = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
+    if isinstance(value, sp.Symbol) or not isinstance(value, Sequence) or isinstance(value, str):
+        raise PlantDefinitionError(f"{name} must be a sequence of sympy Symbols, got {value!r}")
+    out = tuple(value)
+    if not out:
+        raise PlantDefinitionError(f"{name} must contain at least one state, got an empty sequence")
+    bad = [s for s in out if not isinstance(s, sp.Symbol)]
+    if bad:
+        raise PlantDefinitionError(f"{name} must be sympy Symbols, got {bad!r}")
+    names = [s.name for s in out]
+    dup = sorted({nm for nm in names if names.count(nm) > 1})
+    if dup:
+        raise PlantDefinitionError(f"{name} contains duplicate state(s) {dup}; each state once")
+    return out
+
+
+def _sympify(what: str, value) -> sp.Expr:
+    try:
+        out = sp.sympify(value)
+    except (sp.SympifyError, TypeError) as err:
+        raise PlantDefinitionError(f"{what} must be a sympy expression, got {value!r}") from err
+    if not isinstance(out, sp.Expr):
+        raise PlantDefinitionError(f"{what} must be a scalar sympy expression, got {out!r}")
+    return out
+
+
+def _key(kind: str, key, by_name: Mapping[str, sp.Symbol]) -> sp.Symbol:
+    name = key.name if isinstance(key, sp.Symbol) else key
+    if not isinstance(name, str) or name not in by_name or (
+            isinstance(key, sp.Symbol) and by_name[name] != key):
+        raise PlantDefinitionError(
+            f"{kind} key {key!r} is not one of the allowed symbols {sorted(by_name)}"
+        )
+    return by_name[name]
+
+
+class Plant:
+    """A SISO plant ``x' = f(x, u)``, ``y = h(x)`` defined by SymPy expressions.
+
+    Validated on construction and immutable; derived results (relative degree, normal form,
+    CasADi functions, bounds) are computed on first use and cached. Build it with
+    :meth:`Plant.from_ode` (same arguments) or take one from :mod:`fl_design.plants`.
+
+    Parameters
+    ----------
+    states : sequence of sympy.Symbol
+        The n states, distinct.
+    input : sympy.Symbol
+        The input u (not a state).
+    rhs : sequence of n sympy expressions or sympy.Matrix
+        ``f(x, u)``; every free symbol must be a state, the input or a parameter, and the input
+        must appear.
+    output : sympy expression
+        ``h(x)``: a function of the states (and parameters) only; it may not contain the input.
+    params : dict, optional
+        ``{Symbol or name: value}`` numeric values of the remaining symbols (finite reals).
+    name : str, optional
+        A label for reports (default ``"plant"``).
+    input_range : (lo, hi) or float, optional
+        Admissible inputs; a scalar c > 0 means ``(-c, c)``.
+    region : dict, optional
+        ``{state Symbol or name: (lo, hi)}`` region of interest (some states may be left out).
+    operating_point : dict, optional
+        ``{state Symbol or name: value}`` (missing states are 0; default: the origin). It must
+        be an equilibrium for some input ``u_eq`` (solved numerically), inside the region and,
+        with ``u_eq``, inside the input range.
+
+    Attributes
+    ----------
+    states, input, rhs, output, params, name, n, input_range, region, x_op, u_eq
+
+    Raises
+    ------
+    PlantDefinitionError
+        Inconsistent definition: unknown symbols (named), wrong lengths, duplicate states, an
+        output that is not a function of the states, an input missing from ``rhs``, an operating
+        point that is not an equilibrium for any (admissible) input.
+    ParameterError
+        Non-finite parameter values, reversed or empty intervals.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> import fl_design as fl
+    >>> x1, x2, u = sp.symbols("x1 x2 u")
+    >>> plant = fl.Plant(states=[x1, x2], input=u, rhs=[x2, -x1 + u + u**3 / 3], output=x1)
+    >>> plant.relative_degree(), plant.normal_form().b
+    (2, u**2 + 1)
+    """
+
+    def __init__(self, states, input, rhs, output, *, params=None, name=None, input_range=None,
+                 region=None, operating_point=None):
+        sts = _symbols("states", states)
+        if not isinstance(input, sp.Symbol):
+            raise PlantDefinitionError(f"input must be a sympy Symbol, got {input!r}")
+        if input.name in {s.name for s in sts}:
+            raise PlantDefinitionError(f"the input {input} is also listed among the states {sts}")
+        rows = list(rhs) if isinstance(rhs, (sp.MatrixBase, Sequence, np.ndarray)) and \
+            not isinstance(rhs, str) else None
+        if rows is None:
+            raise PlantDefinitionError(f"rhs must be a sequence of {len(sts)} expressions, got {rhs!r}")
+        if len(rows) != len(sts):
+            raise PlantDefinitionError(
+                f"rhs has {len(rows)} entries but there are {len(sts)} states {list(sts)}; give one "
+                "derivative per state"
+            )
+        f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e) for i, e in enumerate(rows)])
+        h = _sympify("output", output)
+        pars = self._params(params, f, h, sts, input)
+        self._check_symbols(f, h, sts, input, pars)
+        set_ = object.__setattr__
+        set_(self, "_states", sts)
+        set_(self, "_input", input)
+        set_(self, "_rhs", f)
+        set_(self, "_output", h)
+        set_(self, "_params_map", pars)
+        if name is not None and not isinstance(name, str):
+            raise PlantDefinitionError(f"name must be a string, got {name!r}")
+        set_(self, "_name", name or "plant")
+        set_(self, "_input_range", V.interval("input_range", input_range))
+        by_name = {s.name: s for s in sts}
+        reg = None
+        if region is not None:
+            if not isinstance(region, Mapping):
+                raise PlantDefinitionError(f"region must be a dict {{state: (lo, hi)}}, got {region!r}")
+            reg = {_key("region", k, by_name): V.interval(f"region[{k}]", v, allow_none=False)
+                   for k, v in region.items()}
+        set_(self, "_region", reg)
+        set_(self, "_x_op", self._operating_point(operating_point, by_name))
+        set_(self, "_u_eq", self._equilibrium_input())
+        set_(self, "_cache", {})
+
+    @classmethod
+    def from_ode(cls, states, input, rhs, output, *, params=None, name=None, input_range=None,
+                 region=None, operating_point=None) -> Plant:
+        """Build a plant from ``x' = rhs(x, u)``, ``y = output(x)`` (see :class:`Plant`).
+
+        Parameters
+        ----------
+        states : sequence of sympy.Symbol
+            The n states.
+        input : sympy.Symbol
+            The input.
+        rhs : sequence of n sympy expressions or sympy.Matrix
+            ``f(x, u)``.
+        output : sympy expression
+            ``h(x)``.
+        params : dict, optional
+            ``{Symbol or name: value}``.
+        name : str, optional
+            A label (default ``"plant"``).
+        input_range : (lo, hi) or float, optional
+            Admissible inputs.
+        region : dict, optional
+            ``{state or name: (lo, hi)}``.
+        operating_point : dict, optional
+            ``{state or name: value}`` (default: the origin).
+
+        Returns
+        -------
+        Plant
+
+        Examples
+        --------
+        >>> import sympy as sp
+        >>> import fl_design as fl
+        >>> x1, x2, u = sp.symbols("x1 x2 u")
+        >>> fl.Plant.from_ode([x1, x2], u, [x2, x1 * u + 1], x1, operating_point={x1: 1.0}).u_eq
+        -1.0
+        """
+        return cls(states, input, rhs, output, params=params, name=name, input_range=input_range,
+                   region=region, operating_point=operating_point)
+
+    # --- validation helpers ----------------------------------------------------------------------
+    @staticmethod
+    def _params(params, f, h, sts, u) -> dict:
+        if params is None:
+            return {}
+        if not isinstance(params, Mapping):
+            raise PlantDefinitionError(f"params must be a dict {{symbol or name: value}}, got {params!r}")
+        free = f.free_symbols | h.free_symbols
+        taken = {s.name for s in sts} | {u.name}
+        by_name = {s.name: s for s in free if s.name not in taken}
+        out = {}
+        for k, v in params.items():
+            nm = k.name if isinstance(k, sp.Symbol) else k
+            if nm in taken:
+                raise PlantDefinitionError(f"params key {k!r} is a state or the input, not a parameter")
+            sym = _key("params", k, by_name) if by_name else None
+            if sym is None:
+                raise PlantDefinitionError(f"params key {k!r} does not appear in rhs or output")
+            out[sym] = V.real_scalar(f"params[{nm}]", v)
+        return out
+
+    @staticmethod
+    def _check_symbols(f, h, sts, u, pars) -> None:
+        known = set(sts) | {u} | set(pars)
+        unknown = sorted(str(s) for s in (f.free_symbols | h.free_symbols) - known)
+        if unknown:
+            raise PlantDefinitionError(
+                f"unknown symbol(s) {unknown}: each must be a state {[str(s) for s in sts]}, the "
+                f"input {u} or a parameter with a value in params"
+            )
+        if u not in f.free_symbols:
+            raise PlantDefinitionError(f"the input {u} does not appear in rhs: the plant is not actuated")
+        if u in h.free_symbols:
+            raise PlantDefinitionError(
+                f"the output {h} depends on the input {u} (relative degree 0); the output must be "
+                "a function of the states only"
+            )
+        if not h.free_symbols & set(sts):
+            raise PlantDefinitionError(
+                f"the output {h} is not a function of the states {[str(s) for s in sts]}"
+            )
+
+    def _operating_point(self, point, by_name) -> np.ndarray:
+        x = np.zeros(len(self._states))
+        if point is not None:
+            if not isinstance(point, Mapping):
+                raise PlantDefinitionError(f"operating_point must be a dict {{state: value}}, got {point!r}")
+            for k, v in point.items():
+                sym = _key("operating_point", k, by_name)
+                x[self._states.index(sym)] = V.real_scalar(f"operating_point[{k}]", v)
+        for s, (lo, hi) in (self._region or {}).items():
+            xi = x[self._states.index(s)]
+            if not lo <= xi <= hi:
+                raise PlantDefinitionError(
+                    f"the operating point {s}={xi:g} lies outside the region [{lo:g}, {hi:g}]"
+                )
+        x.setflags(write=False)
+        return x
+
+    def _equilibrium_input(self) -> float:
+        fn = sp.lambdify([self._input], list(self._rhs.subs(self._params_map).subs(
+            dict(zip(self._states, self._x_op.tolist())))), modules="numpy")
+
+        def resid(u):
+            with np.errstate(all="ignore"):
+                return np.asarray(fn(float(np.ravel(u)[0])), dtype=float)
+
+        scale = max([1.0] + [float(np.nanmax(np.abs(resid(v)))) for v in (0.0, -1.0, 1.0)])
+        tol = 1e-9 * scale
+        best_u, best_r = 0.0, float(np.max(np.abs(resid(0.0))))
+        for u0 in (0.0, 1.0, -1.0, *(self._input_range or ())):
+            if best_r <= tol:
+                break
+            sol = scipy.optimize.least_squares(resid, [u0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+            r = float(np.max(np.abs(resid(sol.x[0]))))
+            if r < best_r:
+                best_u, best_r = float(sol.x[0]), r
+        where = ", ".join(f"{s}={v:g}" for s, v in zip(self._states, self._x_op))
+        if not best_r <= tol:
+            raise PlantDefinitionError(
+                f"the operating point ({where}) is not an equilibrium for any input: the smallest "
+                f"residual max|f(x_op, u)| is {best_r:.3g} (at u={best_u:.6g}); choose a point where "
+                "f(x_op, u_eq) = 0 for some u_eq"
+            )
+        best_u = 0.0 if abs(best_u) < 1e-12 else best_u
+        if self._input_range and not self._input_range[0] <= best_u <= self._input_range[1]:
+            raise PlantDefinitionError(
+                f"the operating point ({where}) needs the input u_eq={best_u:.6g}, outside the "
+                f"input range {self._input_range}"
+            )
+        return best_u
+
+    # --- read-only attributes --------------------------------------------------------------------
+    def __setattr__(self, key, value):
+        raise AttributeError(f"Plant is immutable; cannot set {key!r} (build a new plant)")
+
+    states = property(lambda self: self._states, doc="The states (tuple of Symbol).")
+    input = property(lambda self: self._input, doc="The input Symbol.")
+    rhs = property(lambda self: self._rhs, doc="f(x, u): n x 1 sympy Matrix, parameters symbolic.")
+    output = property(lambda self: self._output, doc="h(x), a sympy expression.")
+    params = property(lambda self: dict(self._params_map), doc="{Symbol: float} parameter values.")
+    name = property(lambda self: self._name, doc="Label of the plant.")
+    n = property(lambda self: len(self._states), doc="Number of states.")
+    input_range = property(lambda self: self._input_range, doc="(lo, hi) or None.")
+    region = property(lambda self: None if self._region is None else dict(self._region),
+                      doc="{state Symbol: (lo, hi)} or None.")
+    x_op = property(lambda self: self._x_op, doc="Operating point (read-only array of n floats).")
+    u_eq = property(lambda self: self._u_eq, doc="Equilibrium input at the operating point.")
+
+    def __repr__(self) -> str:
+        return (f"Plant(name={self._name!r}, states={list(self._states)}, input={self._input}, "
+                f"output={self._output})")
+
+    def __reduce__(self):
+        kw = {"params": self._params_map, "name": self._name, "input_range": self._input_range,
+                  "region": self._region, "operating_point": dict(zip(self._states, self._x_op.tolist()))}
+        return (_rebuild, (self._states, self._input, list(self._rhs), self._output, kw))
+
+    def with_params(self, **values: float) -> Plant:
+        """A new plant with some parameter values replaced (by name).
+
+        Parameters
+        ----------
+        **values : float
+            ``name=value`` for existing parameters.
+
+        Returns
+        -------
+        Plant
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> p = fl.plants.pendulum().with_params(c=0.1)
+        >>> {str(k): v for k, v in p.params.items()}["c"]
+        0.1
+        """
+        names = {s.name: s for s in self._params_map}
+        unknown = sorted(set(values) - set(names))
+        if unknown:
+            raise PlantDefinitionError(f"unknown parameter(s) {unknown}; the plant has {sorted(names)}")
+        new = {**self._params_map, **{names[k]: v for k, v in values.items()}}
+        return Plant(self._states, self._input, list(self._rhs), self._output, params=new,
+                     name=self._name, input_range=self._input_range, region=self._region,
+                     operating_point=dict(zip(self._states, self._x_op.tolist())))
+
+    # --- derived quantities ----------------------------------------------------------------------
+    def _lie_chain(self) -> LieChain:
+        if "chain" not in self._cache:
+            self._cache["chain"] = lie_chain(self)
+        return self._cache["chain"]
+
+    def relative_degree(self) -> int:
+        """The relative degree rho, by Lie derivatives along ``f(x, u)`` with u held constant.
+
+        rho is the first i for which ``d y^(i)/du`` is not identically zero (checked at random
+        points of the region, then symbolically); the input may enter non-affinely.
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        RelativeDegreeError
+            If the input does not appear up to ``y^(n)``, or ``b = d y^(rho)/du`` vanishes at the
+            operating point ``(x_op, u_eq)`` (the message names the point and ``b``).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.plants.flexible_joint().relative_degree()
+        4
+        """
+        return self._lie_chain().rho
+
+    def normal_form(self) -> NormalForm:
+        """The normal form: rho, ``sigma = y^(rho)``, ``a``, ``b``, coordinates, zero dynamics.
+
+        Returns
+        -------
+        NormalForm
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> nf = fl.plants.trms_yaw().normal_form()
+        >>> nf.rho, nf.minimum_phase
+        (2, True)
+        """
+        if "nf" not in self._cache:
+            self._cache["nf"] = derive_normal_form(self)
+        return self._cache["nf"]
+
+    @cached_property
+    def _fh(self) -> tuple[ca.Function, ca.Function]:
+        args = [list(self._states), [self._input]]
+        f = to_casadi(self._rhs, args, "f", subs=self._params_map, input_names=["x", "u"],
+                      output_name="xdot")
+        h = to_casadi(self._output, [list(self._states)], "h", subs=self._params_map,
+                      input_names=["x"], output_name="y")
+        return f, h
+
+    def linearization(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Jacobians ``(A, B, C, D)`` at the operating point ``(x_op, u_eq)``.
+
+        Returns
+        -------
+        A : numpy.ndarray, shape (n, n)
+        B : numpy.ndarray, shape (n, 1)
+        C : numpy.ndarray, shape (1, n)
+        D : numpy.ndarray, shape (1, 1)
+            Always zero (the output does not depend on the input).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> A, B, C, D = fl.plants.pendulum().linearization()
+        >>> A.round(3).tolist(), B.ravel().tolist()
+        ([[0.0, 1.0], [-9.81, -0.5]], [0.0, 1.0])
+        """
+        f, h = self._fh
+        x, u = ca.SX.sym("x", self.n), ca.SX.sym("u")
+        jac = ca.Function("lin", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u),
+                                          ca.jacobian(h(x), x)])
+        A, B, C = (np.array(m.full(), dtype=float) for m in jac(self._x_op, self._u_eq))
+        return A, B.reshape(self.n, 1), C.reshape(1, self.n), np.zeros((1, 1))
+
+    def casadi(self) -> PlantFunctions:
+        """CasADi SX functions ``f, h, sigma, b`` with numeric parameters (cached).
+
+        Returns
+        -------
+        PlantFunctions
+
+        Raises
+        ------
+        RelativeDegreeError
+            If the relative degree is not defined (``sigma`` and ``b`` need it).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fns = fl.plants.trms_yaw().casadi()
+        >>> fns.f
+        Function(f:(x[2],u)->(xdot[2]) SXFunction)
+        """
+        if "casadi" not in self._cache:
+            f, h = self._fh
+            chain = self._lie_chain()
+            args = [list(self._states), [self._input]]
+            kw = {"subs": self._params_map, "input_names": ["x", "u"]}
+            sigma = to_casadi(chain.derivatives[chain.rho], args, "sigma", output_name="sigma", **kw)
+            b = to_casadi(chain.b, args, "b", output_name="b", **kw)
+            self._cache["casadi"] = PlantFunctions(f=f, h=h, sigma=sigma, b=b)
+        return self._cache["casadi"]
+
+    def b_bounds(self, *, allow_sign_change: bool = False) -> tuple[float, float]:
+        """Bounds ``(b_min, b_max)`` of ``b = d y^(rho)/du`` over ``region x input_range``.
+
+        Method: ``b`` is evaluated (NumPy) on a dense tensor grid over the box of the variables
+        it actually depends on (at most ~2e5 points: 2001 per axis in 1-D, 447 in 2-D, 58 in 3-D;
+        each axis also contains 0 and the operating point when inside; beyond 7 variables a
+        scrambled Sobol sample of 2^16 points), then the 4 best grid points of each extreme are
+        refined by bounded L-BFGS-B. A constant ``b`` is returned exactly; extremes on the box's
+        faces, edges, corners or at 0 (kinks of ``|x|``) are found exactly.
+
+        Parameters
+        ----------
+        allow_sign_change : bool, optional
+            The method needs a known sign of b: by default a range containing 0 raises
+            RelativeDegreeError; True returns the bounds anyway.
+
+        Returns
+        -------
+        (float, float)
+
+        Raises
+        ------
+        ParameterError
+            ``b`` depends on a state without a range in ``region`` (named) or on the input and
+            ``input_range`` is missing.
+        RelativeDegreeError
+            ``b`` changes sign or vanishes on the region (unless ``allow_sign_change``).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.plants.trms_yaw().b_bounds()
+        (3.6..., 6.8...)
+        """
+        key = ("bounds", bool(allow_sign_change))
+        if key not in self._cache:
+            self._cache[key] = b_bounds(self, allow_sign_change=bool(allow_sign_change))
+        return self._cache[key]
+
+
+def _rebuild(states, input, rhs, output, kw) -> Plant:
+    return Plant(states, input, rhs, output, **kw)
+
+
+__all__ = ["Plant", "PlantFunctions"]

@@ -1,0 +1,319 @@
+"""simulate / Response: the sampled loop against independent integrations and definitions."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import itertools
+
+import numpy as np
+import pytest
+import scipy.integrate
+import sympy as sp
+
+import fl_design as fl
+from fl_design.sim import ClosedLoop, default_substeps
+from fl_design.errors import CompilationWarning, DesignMismatchError, DimensionError, ParameterError
+from fl_design.sim import default_divergence_bound, prepare_run
+
+T = 1e-3
+
+
+def trms_design(eps=0.05, gamma=3e-4):
+    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T, coeffs=(6, 11, 6)),
+                     controller=fl.DynamicController((2, 4), gamma, ki=1e-3,
+                                                     estimate_limits=(None, 0.05)))
+
+
+def escape_plant():
+    """x' = x^2 + u: finite escape time 1/x0 without control."""
+    x, u = sp.symbols("x u")
+    return fl.Plant.from_ode([x], u, [x**2 + u], x, name="escape")
+
+
+def escape_design():
+    return fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=1e-2),
+                     controller=fl.DynamicController((1,), 1e-3))
+
+
+# Plants of the library with a design each (rho 2, 2, 3, 4).
+CASES = {
+    "pendulum": (fl.plants.pendulum,
+                 lambda: fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=T),
+                                   controller=fl.DynamicController((2, 4), 1e-2)),
+                 0.05),
+    "trms_yaw": (fl.plants.trms_yaw, lambda: trms_design(), 0.3),
+    "trms_yaw_motor_lag": (lambda: fl.plants.trms_yaw(motor_lag=True),
+                           lambda: fl.Design(observer=fl.EHGO(rho=3, eps=0.05, T=T),
+                                             controller=fl.DynamicController((1, 3, 3), 1e-4)),
+                           0.2),
+    "flexible_joint": (fl.plants.flexible_joint,
+                       lambda: fl.Design(observer=fl.EHGO(rho=4, eps=0.01, T=T),
+                                         controller=fl.DynamicController((1, 4, 6, 4), 1e-5)),
+                       0.1),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_rk4_loop_agrees_with_cvodes_reference(name):
+    make_plant, make_design, r = CASES[name]
+    plant, design = make_plant(), make_design()
+    fast = fl.simulate(plant, design, r, 1.0)
+    ref = fl.simulate(plant, design, r, 1.0, method="cvodes")
+    assert not fast.diverged and not ref.diverged
+    scale = max(abs(r), np.max(np.abs(ref.y)))
+    assert np.max(np.abs(fast.y - ref.y)) <= 1e-6 * scale
+    assert np.max(np.abs(fast.u - ref.u)) <= 1e-6 * max(1.0, np.max(np.abs(ref.u)))
+    assert np.max(np.abs(fast.x - ref.x)) <= 1e-6 * max(1.0, np.max(np.abs(ref.x)))
+
+
+def test_plant_is_integrated_under_zero_order_hold(pendulum_design, pendulum):
+    """The states equal an independent solve_ivp of the plant with the logged u held."""
+    resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, x0=[0.2, -0.1])
+    g, c = 9.81, 0.5
+    x = np.array([0.2, -0.1])
+    for k in range(resp.t.size - 1):
+        u = resp.u[k]
+        sol = scipy.integrate.solve_ivp(lambda t, z, u=u: [z[1], -g * np.sin(z[0]) - c * z[1] + u],
+                                        (0.0, T), x, rtol=1e-12, atol=1e-14, method="DOP853")
+        x = sol.y[:, -1]
+        np.testing.assert_allclose(resp.x[k + 1], x, rtol=0, atol=1e-9)
+
+
+def test_design_sees_the_measurements_it_is_given(pendulum_design, pendulum):
+    """u from the loop equals Design.run (the design's own mapaccum) fed with the logged ym."""
+    resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, noise_std=1e-3, seed=3)
+    ol = pendulum_design().run(resp.ym, resp.r)
+    np.testing.assert_allclose(resp.u, ol.u, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(resp.xhat, ol.xhat[:, :2], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(resp.sigmahat, ol.xhat[:, 2], rtol=1e-12, atol=1e-12)
+
+
+def test_true_sigma_and_coordinates(pendulum_design, pendulum):
+    resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.3)
+    th, om = resp.x[:, 0], resp.x[:, 1]
+    np.testing.assert_allclose(resp.coords[:, 0], th, atol=1e-15)
+    np.testing.assert_allclose(resp.coords[:, 1], om, atol=1e-15)
+    np.testing.assert_allclose(resp.sigma, -9.81 * np.sin(th) - 0.5 * om + resp.u, atol=1e-12)
+
+
+def test_noise_and_quantization_are_injected_deterministically(pendulum_design, pendulum):
+    d, q, std = pendulum_design(), 1e-3, 2e-3
+    resp = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7)
+    w = std * np.random.default_rng(7).standard_normal(resp.t.size)
+    np.testing.assert_allclose(resp.ym - resp.y, w, atol=1e-15)
+    quant = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7, quantization=q)
+    np.testing.assert_allclose(quant.ym / q, np.round(quant.ym / q), atol=1e-9)
+    assert np.max(np.abs(quant.ym - (quant.y + w))) <= q / 2 + 1e-15
+    again = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7, quantization=q)
+    np.testing.assert_array_equal(again.u, quant.u)
+    other = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=8, quantization=q)
+    assert not np.array_equal(other.u, quant.u)
+
+
+def test_compiled_kernel_equals_interpreted(pendulum_design, pendulum, tmp_path):
+    d = pendulum_design()
+    a = fl.simulate(pendulum, d, 0.1, 0.5, noise_std=1e-3, quantization=1e-4)
+    b = fl.simulate(pendulum, d, 0.1, 0.5, noise_std=1e-3, quantization=1e-4, compiled=True,
+                    cache_dir=tmp_path)
+    for name in ("y", "ym", "u", "xhat", "sigmahat", "sigma", "x"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert list(tmp_path.glob("fl_loop_*.so"))
+
+
+def test_metrics_follow_their_definitions(pendulum_design, pendulum):
+    resp = fl.simulate(pendulum, pendulum_design(gamma=3e-3), 0.1, 15.0)
+    y, u, r, t = resp.y, resp.u, 0.1, resp.t
+    step = r - y[0]
+    assert resp.overshoot == pytest.approx(max(0.0, 100 * (y.max() - r) / step), abs=1e-12)
+    t10 = t[np.argmax(y >= 0.1 * step)]
+    t90 = t[np.argmax(y >= 0.9 * step)]
+    assert resp.rise_time == pytest.approx(t90 - t10, abs=1e-12)
+    outside = np.flatnonzero(np.abs(y - r) > resp.tol)
+    assert resp.settling_time == pytest.approx(t[outside[-1]] + T, abs=1e-12)
+    assert resp.tol == pytest.approx(0.02 * step)
+    # IAE is the rectangle rule of the integral of |e|: compare with the trapezoid rule.
+    assert resp.iae == pytest.approx(scipy.integrate.trapezoid(np.abs(y - r), t), rel=1e-3)
+    assert resp.input_rms == pytest.approx(np.sqrt(np.mean(u**2)), rel=1e-12)
+    assert resp.input_tv == pytest.approx(np.sum(np.abs(np.diff(u))), rel=1e-12)
+    tail = slice(int(0.8 * t.size), None)
+    assert resp.steady_state_error == pytest.approx(np.mean(y[tail] - r), rel=1e-9, abs=1e-15)
+    assert resp.tail_amplitude == pytest.approx(np.ptp(y[tail]), rel=1e-12)
+    est = np.sqrt(np.mean((resp.xhat - resp.coords) ** 2, axis=0))
+    np.testing.assert_allclose(resp.estimation_rms[:2], est, rtol=1e-12)
+    assert resp.stable == (resp.tail_error <= resp.tol and resp.tail_amplitude <= resp.tol)
+    json.dumps(resp.to_dict())
+
+
+def test_ehgo_input_noise_falls_when_eps_rises():
+    """Input noise at rest: falls from eps = 0.05 to 0.5, as the observer's own filter predicts.
+
+    Near rest ``u_k - u_(k-1) = gamma (v_k - sigmahat_k)`` with the estimates driven by the noise:
+    filtering the same noise with ``EHGO.filter`` (open loop) predicts its size.
+    """
+    plant, gamma, std = fl.plants.trms_yaw(), 3e-4, 1e-3
+    sizes = []
+    for eps in (0.05, 0.1, 0.2, 0.5):
+        d = trms_design(eps=eps, gamma=gamma)
+        resp = fl.simulate(plant, d, 0.0, 2.0, noise_std=std, seed=0)
+        assert resp.stable
+        xh = d.observer.filter(std * np.random.default_rng(0).standard_normal(resp.t.size))
+        predicted = gamma * (-2 * xh[:, 0] - 4 * xh[:, 1] - xh[:, 2])
+        measured = np.diff(resp.u)
+        assert np.std(measured[500:]) == pytest.approx(np.std(predicted[500:]), rel=0.02)
+        sizes.append(np.std(measured[500:]))
+    assert all(a > b for a, b in itertools.pairwise(sizes))
+    assert sizes[0] > 20 * sizes[-1]
+
+
+@pytest.mark.parametrize("kw", [{}, {"compiled": True}, {"method": "cvodes"}],
+                         ids=["interpreted", "compiled", "cvodes"])
+def test_finite_escape_is_classified_not_raised(kw, tmp_path):
+    if kw.get("compiled"):
+        kw = dict(kw, cache_dir=tmp_path)
+    resp = fl.simulate(escape_plant(), escape_design(), 0.0, 3.0, x0=[2.0],
+                       divergence_bound=1e300, **kw)
+    assert resp.status == "diverged" and resp.diverged and not resp.stable
+    assert 0.45 <= resp.divergence_time <= 0.6  # escape of x' = x^2 from 2 at t = 0.5
+    k = resp.divergence_index
+    assert np.all(np.isnan(resp.y[k:])) and np.all(np.isfinite(resp.y[:k]))
+    assert math.isnan(resp.overshoot) and math.isnan(resp.iae)
+    fig = resp.plot()
+    assert len(fig.axes) == 3
+
+
+def test_divergence_bound_default_and_custom(pendulum_design, pendulum):
+    np.testing.assert_allclose(default_divergence_bound(pendulum), [20 * math.pi, 200.0])
+    resp = fl.simulate(pendulum, pendulum_design(eps=0.2), 0.05, 10.0, divergence_bound=0.2)
+    assert resp.diverged
+    k = resp.divergence_index
+    assert np.all(np.abs(resp.x[: k - 1]) <= 0.2)
+
+
+def test_reference_forms(pendulum_design, pendulum):
+    d = pendulum_design()
+    const = fl.simulate(pendulum, d, 0.1, 0.2)
+    arr = fl.simulate(pendulum, d, np.full(200, 0.1), 0.2)
+    fun = fl.simulate(pendulum, d, lambda t: 0.1 + 0 * t, 0.2)
+    scalar_fun = fl.simulate(pendulum, d, lambda t: 0.1 if t >= 0 else 0.0, 0.2)
+    for other in (arr, fun, scalar_fun):
+        np.testing.assert_array_equal(other.u, const.u)
+    np.testing.assert_allclose(fun.t, np.arange(200) * T)
+
+
+def test_default_substeps_bound_h_lambda(pendulum):
+    assert default_substeps(pendulum, 1e-3) == 1
+    lam = np.max(np.abs(np.linalg.eigvals(pendulum.linearization()[0])))
+    assert default_substeps(pendulum, 1.0) == math.ceil(lam)
+
+
+def test_no_compiler_falls_back_with_a_warning(pendulum_design, pendulum, tmp_path, monkeypatch):
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    with pytest.warns(CompilationWarning, match="no C compiler"):
+        resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.2, compiled=True,
+                           cache_dir=tmp_path)
+    ref = fl.simulate(pendulum, pendulum_design(), 0.1, 0.2)
+    np.testing.assert_array_equal(resp.u, ref.u)
+
+
+def test_failing_compiler_falls_back_with_a_warning(pendulum_design, pendulum, tmp_path, monkeypatch):
+    monkeypatch.setenv("CC", "false")
+    with pytest.warns(CompilationWarning, match="failed"):
+        fl.simulate(pendulum, pendulum_design(), 0.1, 0.2, compiled=True, cache_dir=tmp_path)
+
+
+def test_compiled_kernel_is_cached(pendulum_design, pendulum, tmp_path):
+    d = pendulum_design()
+    fl.simulate(pendulum, d, 0.1, 0.1, compiled=True, cache_dir=tmp_path)
+    libs = list(tmp_path.glob("fl_loop_*.so"))
+    stamp = libs[0].stat().st_mtime_ns
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fl.simulate(pendulum, d.replace(eps=0.05, gamma=3e-3), 0.2, 0.1, compiled=True,
+                    cache_dir=tmp_path)
+    assert list(tmp_path.glob("fl_loop_*.so")) == libs
+    assert libs[0].stat().st_mtime_ns == stamp
+
+
+# --- bad input ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"duration": -1.0}, ParameterError, "duration must be > 0"),
+    ({"duration": 0.0}, ParameterError, "duration must be > 0"),
+    ({"duration": 1e-4}, ParameterError, "shorter than one sample"),
+    ({"reference": np.zeros(7)}, DimensionError, "N = round\\(duration/T\\) = 100 samples"),
+    ({"reference": np.zeros((100, 2))}, DimensionError, "shape \\(100, 2\\)"),
+    ({"reference": lambda t: np.nan * t}, ParameterError, "non-finite"),
+    ({"x0": [0.0]}, DimensionError, "x0 must have length 2"),
+    ({"noise_std": -1.0}, ParameterError, "noise_std must be >= 0"),
+    ({"quantization": 0.0}, ParameterError, "quantization must be > 0"),
+    ({"seed": -1}, ParameterError, "seed must be >= 0"),
+    ({"tail_fraction": 0.0}, ParameterError, "tail_fraction must be in \\(0, 1\\]"),
+    ({"tolerance": -0.1}, ParameterError, "tolerance must be > 0"),
+    ({"divergence_bound": [1.0, -1.0]}, ParameterError, "divergence_bound must be > 0"),
+    ({"divergence_bound": [1.0]}, DimensionError, "divergence_bound must have length 2"),
+    ({"substeps": 0}, ParameterError, "substeps must be >= 1"),
+    ({"method": "euler"}, ParameterError, "method must be 'rk4' or 'cvodes'"),
+])
+def test_bad_input_is_refused(pendulum_design, pendulum, kwargs, error, match):
+    args = {"reference": 0.1, "duration": 0.1}
+    args.update(kwargs)
+    reference, duration = args.pop("reference"), args.pop("duration")
+    with pytest.raises(error, match=match):
+        fl.simulate(pendulum, pendulum_design(), reference, duration, **args)
+
+
+def test_relative_degree_mismatch_is_refused(pendulum):
+    d1 = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=T),
+                   controller=fl.DynamicController((1,), 1e-2))
+    with pytest.raises(DesignMismatchError, match="relative degree 2 but the design serves rho=1"):
+        fl.simulate(pendulum, d1, 0.1, 0.1)
+    with pytest.raises(DesignMismatchError, match="relative degree"):
+        ClosedLoop(pendulum, d1, substeps=1)
+
+
+def test_prepare_run_constants(pendulum_design, pendulum):
+    run = prepare_run(pendulum, pendulum_design(), lambda t: 0.2 * (t >= 0.5), 1.0,
+                      x0=[0.05, 0.0], tail_fraction=0.25)
+    assert run.N == 1000 and run.k_tail == 750
+    assert run.y0 == 0.05 and run.step == pytest.approx(0.15)
+    assert run.tol == pytest.approx(0.02 * 0.2)  # scale = peak-to-peak of r (0.2) > |step|
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["interpreted", "generated C"])
+def test_if_else_drops_nan_and_inf_of_the_rejected_branch(compiled, tmp_path):
+    """The divergence freeze relies on it: if_else selects, it does not multiply by 0/1."""
+    import casadi as ca
+
+    from fl_design.codegen import build, generate_source
+
+    c, a, b = ca.SX.sym("c"), ca.SX.sym("a"), ca.SX.sym("b")
+    fn = ca.Function("fl_select", [c, a, b], [ca.if_else(c, a, b), a <= 1.0])
+    if compiled:
+        fn = ca.external("fl_select", str(build(generate_source(fn), "fl_select",
+                                                cache_dir=tmp_path)))
+    for cond, x, y in [(0, np.nan, 2.0), (0, np.inf, 2.0), (0, -np.inf, 2.0), (1, 2.0, np.nan),
+                       (1, 2.0, np.inf)]:
+        assert float(fn(cond, x, y)[0]) == 2.0
+    assert float(fn(1, np.nan, 0.0)[1]) == 0.0  # NaN fails every comparison: out of bounds
+
+
+def test_runners_agree_on_diverging_runs_including_skipped_samples(tmp_path):
+    """The compiled driver skips a frozen run's samples; the accumulators are unchanged."""
+    run = prepare_run(escape_plant(), escape_design(), 0.0, 20.0, x0=[2.0],
+                      divergence_bound=1e300)
+    P = np.column_stack([escape_design().replace(gamma=g).parameter_vector()
+                         for g in (1e-3, 1e-2)])
+    acc0 = run.initial_accumulator(P)
+    native = run.loop.runner(cache_dir=tmp_path).run(acc0, run.D, threads=2)
+    interp = run.loop.runner(compiled=False).run(acc0, run.D)
+    np.testing.assert_array_equal(native, interp)
+    info = run.loop.layout.unpack(native)
+    np.testing.assert_array_equal(info["k"], [run.N, run.N])
+    np.testing.assert_array_equal(info["diverged"], [1.0, 1.0])
+    assert np.all(np.isfinite(info["x"]))
