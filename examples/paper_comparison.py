@@ -16,7 +16,8 @@ import argparse
 import numpy as np
 
 import fl_design as fl
-from fl_design.app import baseline_design, paper_design
+from fl_design.presets import least_squares_design as baseline_design
+from fl_design.presets import paper_design
 
 
 def main(argv=None) -> int:
@@ -37,7 +38,7 @@ def main(argv=None) -> int:
                                seed=args.seed)
             print(f"  {name:<15}{resp.status:>10}{resp.overshoot:>13.1f}{resp.input_rms:>9.3f}"
                   f"{resp.input_tv:>11.2f}{resp.estimation_rms[-1]:>15.4g}"
-                  f"{design.observer.flops_per_step:>7d}")
+                  f"{design.estimator.flops_per_step:>7d}")
     return 0
 
 

@@ -46,6 +46,7 @@ _LAZY = {
     "linearized_eps_star": "analysis",
     # sub-modules and layers
     "plants": None,
+    "presets": None,
     "plotting": None,
     "symbolic": None,
     "design": None,
@@ -56,7 +57,7 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
-    from . import analysis, app, codegen, design, plants, plotting, sim, symbolic
+    from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic
     from .analysis import linearized_eps_star, sampled_linearization
     from .design import (
         EHGO,

@@ -23,6 +23,13 @@ def real_scalar(name: str, value) -> float:
     return out
 
 
+def boolean(name: str, value) -> bool:
+    """Return ``value`` if it is a bool (NumPy bools too), else raise ParameterError naming it."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ParameterError(f"{name} must be True or False, got {value!r}")
+
+
 def positive(name: str, value) -> float:
     """Return ``value`` as a finite float > 0, or raise ParameterError naming it."""
     out = real_scalar(name, value)

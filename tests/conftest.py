@@ -20,7 +20,7 @@ def pendulum_design():
     """Factory of the pendulum bench design: EHGO (poles at -1/eps), K = (2, 4), T = 1 ms."""
 
     def make(eps=0.02, gamma=1e-2, **kw):
-        return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T_BENCH),
+        return fl.Design(estimator=fl.EHGO(rho=2, eps=eps, T=T_BENCH),
                          controller=fl.DynamicController((2, 4), gamma, **kw))
 
     return make

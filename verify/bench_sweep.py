@@ -44,10 +44,8 @@ REFERENCE = 0.3
 
 
 def trms_design(eps: float = 0.05, gamma: float = 3e-4) -> fl.Design:
-    """The paper's TRMS yaw design: EHGO (6, 11, 6), K = (2, 4), ki = 1e-3, |xhat_2| <= 0.05."""
-    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T, coeffs=(6, 11, 6)),
-                     controller=fl.DynamicController((2, 4), gamma, ki=1e-3,
-                                                     estimate_limits=(None, 0.05)))
+    """The paper's TRMS yaw design (``fl.presets.paper_design``)."""
+    return fl.presets.paper_design(eps, gamma)
 
 
 _MAIN = r"""

@@ -22,7 +22,7 @@ that mode is coupled and stays in the spectrum.)
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+>>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
 ...                    controller=fl.DynamicController((2, 4), 1e-2))
 >>> lin = fl.sampled_linearization(fl.plants.pendulum(), design)
 >>> lin.decoupled, lin.spectral_radius < 1
@@ -66,7 +66,7 @@ class SampledLinearization:
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2, ki=0.5))
     >>> lin = fl.sampled_linearization(fl.plants.pendulum(), d)
     >>> lin.decoupled, lin.eigenvalues.size
@@ -93,7 +93,7 @@ class SampledLinearization:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 1e-2))
         >>> sorted(fl.sampled_linearization(fl.plants.pendulum(), d).to_dict())[:3]
         ['decoupled', 'eigenvalues', 'matrix']
@@ -191,7 +191,7 @@ def sampled_linearization(plant, design, *, r: float | None = None,
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> lin = fl.sampled_linearization(fl.plants.pendulum(), d)
     >>> lin.matrix.shape, lin.state_names[-2:]
@@ -240,7 +240,7 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> eps_star = fl.linearized_eps_star(fl.plants.pendulum(), d, eps_range=(0.01, 2.0))
     >>> 0.01 < eps_star < 2.0

@@ -10,8 +10,7 @@ Examples
 """
 
 from ._cli import build_parser, main
-from ._demo import baseline_design, paper_controller, paper_design, run_demo
+from ._demo import run_demo
 from ._report import derivation_report
 
-__all__ = ["baseline_design", "build_parser", "derivation_report", "main", "paper_controller",
-           "paper_design", "run_demo"]
+__all__ = ["build_parser", "derivation_report", "main", "run_demo"]

@@ -14,9 +14,9 @@ plant with the paper's numbers (``T = 1 ms``, ``eps = 0.05``, observer polynomia
 
 Examples
 --------
->>> from fl_design.app import paper_design
->>> paper_design().controller.gains
-(2.0, 4.0)
+>>> from fl_design.app import run_demo
+>>> run_demo.__name__
+'run_demo'
 """
 
 from __future__ import annotations
@@ -28,61 +28,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import plants
-from ..design._controller import DynamicController
-from ..design._design import Design
-from ..design._least_squares import LeastSquaresEstimator
-from ..design._ehgo import EHGO
+from ..presets import PAPER_STEP
+from ..presets import least_squares_design as baseline_design
+from ..presets import paper_design
 from ._report import derivation_report
 
-T_PAPER = 1e-3
-STEP = 0.3
+STEP = PAPER_STEP
 NOISE_STD = float(np.sqrt(1e-3))  # the paper adds noise of variance 0.001 to the yaw sensor
-
-
-def paper_controller() -> DynamicController:
-    """The paper's TRMS controller: ``k = (2, 4)``, ``gamma = 3e-4``, ``k_I = 1e-3``, ``|xhat_2| <= 0.05``.
-
-    Examples
-    --------
-    >>> paper_controller().estimate_limits[1]
-    (-0.05, 0.05)
-    """
-    return DynamicController(gains=(2.0, 4.0), gamma=3e-4, ki=1e-3, u_limits=(-2.5, 2.5),
-                             estimate_limits=(None, 0.05))
-
-
-def paper_design(eps: float = 0.05) -> Design:
-    """The paper's TRMS design: EHGO with ``s^3 + 6 s^2 + 11 s + 6``, ``T = 1 ms``.
-
-    Parameters
-    ----------
-    eps : float, optional
-        Observer time constant (the paper's 0.05 by default).
-
-    Examples
-    --------
-    >>> paper_design(0.1).observer.alpha
-    0.01
-    """
-    obs = EHGO(rho=2, eps=eps, T=T_PAPER, coeffs=(6.0, 11.0, 6.0))
-    return Design(observer=obs, controller=paper_controller())
-
-
-def baseline_design(window: int) -> Design:
-    """The least-squares baseline with the same controller (the paper compares windows 9 and 26).
-
-    Parameters
-    ----------
-    window : int
-        Number of samples in the least-squares fit.
-
-    Examples
-    --------
-    >>> baseline_design(9).observer.window
-    9
-    """
-    return Design(observer=LeastSquaresEstimator(rho=2, T=T_PAPER, window=window),
-                  controller=paper_controller())
 
 
 def _row(name: str, resp, flops: int) -> dict:
@@ -138,7 +90,7 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
     design = paper_design()
     lin = sampled_linearization(plant, design, r=0.0)
     eps_lin = linearized_eps_star(plant, design)
-    print(f"\nSampled linearized loop at eps = {design.observer.eps}: spectral radius "
+    print(f"\nSampled linearized loop at eps = {design.estimator.eps}: spectral radius "
           f"{lin.spectral_radius:.9f} ({'stable' if lin.stable else 'UNSTABLE'})")
     print(f"Linearized eps* for gamma = {design.controller.gamma} (eps in [1e-3, 1]): {eps_lin:.4g}")
 
@@ -151,7 +103,7 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
         rows = []
         for name, d in candidates:
             resp = simulate(plant, d, STEP, duration, noise_std=noise_std, seed=1)
-            rows.append(_row(name, resp, d.observer.flops_per_step))
+            rows.append(_row(name, resp, d.estimator.flops_per_step))
             responses[(name, noise_std)] = resp
         _print_table(rows, f"0.3 rad step, {duration:g} s, {title}:")
         summary[title] = rows

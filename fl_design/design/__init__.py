@@ -13,6 +13,7 @@ Examples
 
 from ._controller import DynamicController, gains_from_poles, lqr_gains
 from ._design import Design, OpenLoopRun
+from ._estimator import Estimator, replace_fields
 from ._ehgo import EHGO, METHODS, StateSpaceMatrices, binomial_coeffs
 from ._least_squares import LeastSquaresEstimator, derivative_matrix
 
@@ -21,6 +22,7 @@ __all__ = [
     "METHODS",
     "Design",
     "DynamicController",
+    "Estimator",
     "LeastSquaresEstimator",
     "OpenLoopRun",
     "StateSpaceMatrices",
@@ -28,4 +30,5 @@ __all__ = [
     "derivative_matrix",
     "gains_from_poles",
     "lqr_gains",
+    "replace_fields",
 ]

@@ -13,21 +13,21 @@ Examples
 --------
 >>> import fl_design as fl
 >>> ctrl = fl.DynamicController((2, 4), 3e-4, ki=1e-3, estimate_limits=(None, 0.05))
->>> ctrl.rho, ctrl.estimate_limits
-(2, (None, (-0.05, 0.05)))
+>>> ctrl.rho, ctrl.estimate_limits, ctrl.estimate_ranges
+(2, (None, 0.05), (None, (-0.05, 0.05)))
 >>> fl.gains_from_poles([-1, -1])
 (1.0, 2.0)
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
-from dataclasses import KW_ONLY, dataclass
+from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
 from .. import _validate as v
+from ._estimator import replace_fields
 from ..errors import ComputationError, DimensionError, HurwitzError, ParameterError
 
 Interval = tuple[float, float]
@@ -78,6 +78,11 @@ class DynamicController:
     ----------
     rho : int
         Relative degree served, ``len(gains)``.
+    u_range : (float, float) or None
+        The input saturation in use (``u_limits`` stays as given: a scalar ``c`` is
+        ``(-c, c)`` here).
+    estimate_ranges : tuple
+        ``rho`` entries, each None or ``(lo, hi)``: the estimate limits in use.
 
     Raises
     ------
@@ -95,7 +100,7 @@ class DynamicController:
     >>> import fl_design as fl
     >>> ctrl = fl.DynamicController(gains=(2, 4), gamma=3e-4, ki=1e-3,
     ...                             estimate_limits=(None, 0.05), u_limits=(-2.5, 2.5))
-    >>> ctrl.gains, ctrl.gamma, ctrl.ki, ctrl.u_limits
+    >>> ctrl.gains, ctrl.gamma, ctrl.ki, ctrl.u_range
     ((2.0, 4.0), 0.0003, 0.001, (-2.5, 2.5))
     """
 
@@ -106,6 +111,8 @@ class DynamicController:
     u_limits: Interval | None = None
     estimate_limits: tuple[Interval | None, ...] | None = None
     u0: float = 0.0
+    u_range: Interval | None = field(init=False, repr=False, compare=False)
+    estimate_ranges: tuple[Interval | None, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         gains = _checked_gains(self.gains)
@@ -118,8 +125,8 @@ class DynamicController:
             "gains": gains,
             "gamma": v.positive("gamma", self.gamma),
             "ki": v.nonnegative("ki", self.ki),
-            "u_limits": u_limits,
-            "estimate_limits": _checked_estimate_limits(self.estimate_limits, rho),
+            "u_range": u_limits,
+            "estimate_ranges": _checked_estimate_limits(self.estimate_limits, rho),
             "u0": u0,
         }
         for name, value in fields.items():
@@ -144,7 +151,7 @@ class DynamicController:
         >>> fl.DynamicController((2, 4), 3e-4).replace(gamma=1e-3).gamma
         0.001
         """
-        return dataclasses.replace(self, **changes)
+        return replace_fields(self, changes)
 
     def symbolic_law(self, xhat_ext, r, u_prev, z_prev, ready, gamma, T: float):
         """Steps 2-5 of the normative loop as CasADi expressions.
@@ -189,7 +196,7 @@ class DynamicController:
                 f"xhat_ext must have rho + 1 = {rho + 1} entries, got {xhat_ext.numel()}"
             )
         parts = [xhat_ext[i] for i in range(rho + 1)]
-        for i, lim in enumerate(self.estimate_limits):
+        for i, lim in enumerate(self.estimate_ranges):
             if lim is not None:
                 parts[i] = ca.fmin(ca.fmax(parts[i], lim[0]), lim[1])
         xhat_c = ca.vertcat(*parts)
@@ -199,19 +206,19 @@ class DynamicController:
         for i in range(1, rho):
             vk = vk - self.gains[i] * parts[i]
         u = u_prev + gamma * (vk - parts[rho])
-        if self.u_limits is not None:
-            u = ca.fmin(ca.fmax(u, self.u_limits[0]), self.u_limits[1])
+        if self.u_range is not None:
+            u = ca.fmin(ca.fmax(u, self.u_range[0]), self.u_range[1])
         hold = ready == 0
         return ca.if_else(hold, u_prev, u), ca.if_else(hold, z_prev, z), xhat_c
 
     def __repr__(self) -> str:
         opts = [f"ki={self.ki:g}"] if self.ki else []
-        if self.u_limits is not None:
-            opts.append(f"u_limits=({self.u_limits[0]:g}, {self.u_limits[1]:g})")
-        if any(lim is not None for lim in self.estimate_limits):
+        if self.u_range is not None:
+            opts.append(f"u_limits=({self.u_range[0]:g}, {self.u_range[1]:g})")
+        if any(lim is not None for lim in self.estimate_ranges):
             shown = ", ".join(
                 "None" if lim is None else f"({lim[0]:g}, {lim[1]:g})"
-                for lim in self.estimate_limits
+                for lim in self.estimate_ranges
             )
             opts.append(f"estimate_limits=({shown})")
         if self.u0:

@@ -1,14 +1,14 @@
 """A Design joins an estimator and the dynamic controller into the one loop-step function.
 
 The step follows the normative sampled loop (estimator output, clamp, integrator, ``v``,
-saturated dynamic law, observer update) and is built once as a CasADi SX graph. Simulation,
+saturated dynamic law, estimator update) and is built once as a CasADi SX graph. Simulation,
 sweeps and C generation call :attr:`Design.step` / :attr:`Design.parametric_step`; they never
 re-implement the loop.
 
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+>>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
 ...                    controller=fl.DynamicController((2, 4), 3e-4))
 >>> design.step.name(), design.step.name_in(), design.step.name_out()
 ('fl_step', ['state', 'y', 'r'], ['state_next', 'u'])
@@ -18,16 +18,14 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from .. import _validate as v
 from ._controller import DynamicController
+from ._estimator import Estimator
 from ..errors import DesignMismatchError, DimensionError, ParameterError
 
-_PROTOCOL = ("rho", "T", "state_size", "initial_state", "parameter_vector", "symbolic_update",
-             "replace")
 
 
 @dataclass(frozen=True)
@@ -46,7 +44,7 @@ class OpenLoopRun:
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 3e-4))
     >>> sorted(d.run([0.0, 0.1], 0.0).to_dict())
     ['state', 'u', 'xhat']
@@ -74,25 +72,23 @@ class Design:
 
     State layout (a flat vector, see :attr:`state_layout`)::
 
-        [ estimator state (observer.state_size) ...,  u,  z ]
+        [ estimator state (estimator.state_size) ...,  u,  z ]
 
     ``u`` is the last (saturated) input ``u_(k-1)``, starting at ``controller.u0``; ``z`` is
     the integrator state, starting at 0.
 
     Parameters
     ----------
-    observer : EHGO or LeastSquaresEstimator
-        Any object implementing the estimator protocol (``rho``, ``T``, ``state_size``,
-        ``initial_state()``, ``parameter_vector()``, ``symbolic_update(xi, y, p)``,
-        ``replace(**changes)``).
+    estimator : EHGO or LeastSquaresEstimator
+        An :class:`~fl_design.design.Estimator` (the declared interface).
     controller : DynamicController
-        The dynamic controller; its ``rho`` must equal the observer's.
+        The dynamic controller; its ``rho`` must equal the estimator's.
 
     Attributes
     ----------
     parametric_step : casadi.Function
         ``fl_step_p(state, y, r, p) -> (state_next, u, xhat)`` with
-        ``p = parameter_vector()`` (observer parameters, then ``gamma``) and ``xhat`` the
+        ``p = parameter_vector()`` (estimator parameters, then ``gamma``) and ``xhat`` the
         ``rho + 1`` estimates after clamping.
     step : casadi.Function
         ``fl_step(state, y, r) -> (state_next, u)``: ``parametric_step`` with ``p`` replaced by
@@ -101,9 +97,9 @@ class Design:
     Raises
     ------
     DesignMismatchError
-        The observer and the controller serve different relative degrees.
+        The estimator and the controller serve different relative degrees.
     ParameterError
-        ``observer`` does not implement the estimator protocol, or ``controller`` is not a
+        ``estimator`` is not an :class:`~fl_design.design.Estimator`, or ``controller`` is not a
         :class:`DynamicController`.
 
     Examples
@@ -113,7 +109,7 @@ class Design:
     >>> import fl_design as fl
     >>> obs = fl.EHGO(rho=2, eps=0.05, T=1e-3, coeffs=(6, 11, 6))
     >>> ctrl = fl.DynamicController((2, 4), 3e-4, ki=1e-3, estimate_limits=(None, 0.05))
-    >>> design = fl.Design(observer=obs, controller=ctrl)
+    >>> design = fl.Design(estimator=obs, controller=ctrl)
     >>> design.state_size, design.state_layout["u"]
     (5, slice(3, 4, None))
     >>> state_next, u = design.step(design.initial_state(), 0.0, 0.3)
@@ -121,24 +117,23 @@ class Design:
     True
     """
 
-    observer: Any
+    estimator: Estimator
     controller: DynamicController
 
     def __post_init__(self) -> None:
-        missing = [name for name in _PROTOCOL if not hasattr(self.observer, name)]
-        if missing:
+        if not isinstance(self.estimator, Estimator):
             raise ParameterError(
-                f"observer={type(self.observer).__name__} does not implement the estimator "
-                f"protocol (missing {', '.join(missing)}); use fl.EHGO or "
-                "fl.LeastSquaresEstimator"
+                f"estimator must be an fl_design estimator (fl.EHGO or "
+                f"fl.LeastSquaresEstimator, subclasses of fl.design.Estimator), got "
+                f"{type(self.estimator).__name__}"
             )
         if not isinstance(self.controller, DynamicController):
             raise ParameterError(
                 f"controller must be a fl.DynamicController, got {type(self.controller).__name__}"
             )
-        if self.observer.rho != self.controller.rho:
+        if self.estimator.rho != self.controller.rho:
             raise DesignMismatchError(
-                f"observer rho={self.observer.rho} ({type(self.observer).__name__}) differs "
+                f"estimator rho={self.estimator.rho} ({type(self.estimator).__name__}) differs "
                 f"from controller rho={self.controller.rho} (gains={self.controller.gains}); "
                 "both must serve the same relative degree"
             )
@@ -151,18 +146,18 @@ class Design:
 
     @property
     def T(self) -> float:
-        """Sampling time (the observer's)."""
-        return float(self.observer.T)
+        """Sampling time (the estimator's)."""
+        return float(self.estimator.T)
 
     @property
     def state_size(self) -> int:
         """Length of the design state: estimator state + ``u`` + ``z``."""
-        return int(self.observer.state_size) + 2
+        return int(self.estimator.state_size) + 2
 
     @property
     def state_layout(self) -> dict[str, slice]:
         """Where each part sits in the state vector: ``estimator``, ``u``, ``z``."""
-        m = int(self.observer.state_size)
+        m = int(self.estimator.state_size)
         return {"estimator": slice(0, m), "u": slice(m, m + 1), "z": slice(m + 1, m + 2)}
 
     def initial_state(self) -> np.ndarray:
@@ -171,26 +166,26 @@ class Design:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 3e-4, u0=0.5))
         >>> d.initial_state()[d.state_layout["u"]]
         array([0.5])
         """
-        xi0 = np.asarray(self.observer.initial_state(), dtype=float).ravel()
+        xi0 = np.asarray(self.estimator.initial_state(), dtype=float).ravel()
         return np.concatenate([xi0, [self.controller.u0, 0.0]])
 
     def parameter_vector(self) -> np.ndarray:
-        """Numbers a sweep may change: ``observer.parameter_vector()`` then ``gamma``.
+        """Numbers a sweep may change: ``estimator.parameter_vector()`` then ``gamma``.
 
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 3e-4))
         >>> float(d.parameter_vector()[-1])
         0.0003
         """
-        p_obs = np.asarray(self.observer.parameter_vector(), dtype=float).ravel()
+        p_obs = np.asarray(self.estimator.parameter_vector(), dtype=float).ravel()
         return np.concatenate([p_obs, [self.controller.gamma]])
 
     # --- the one symbolic graph ------------------------------------------------------------
@@ -198,12 +193,12 @@ class Design:
     def _functions(self):
         import casadi as ca
 
-        m = int(self.observer.state_size)
+        m = int(self.estimator.state_size)
         n_p = self.parameter_vector().size
         state = ca.SX.sym("state", m + 2)
         y, r = ca.SX.sym("y"), ca.SX.sym("r")
         p = ca.SX.sym("p", n_p)
-        xhat_ext, xi_next, ready = self.observer.symbolic_update(state[:m], y, p[: n_p - 1])
+        xhat_ext, xi_next, ready = self.estimator.symbolic_update(state[:m], y, p[: n_p - 1])
         u, z, xhat = self.controller.symbolic_law(
             xhat_ext, r, state[m], state[m + 1], ready, p[n_p - 1], self.T
         )
@@ -233,12 +228,12 @@ class Design:
 
     # --- derived designs and runs ----------------------------------------------------------
     def replace(self, *, eps: float | None = None, gamma: float | None = None) -> Design:
-        """A new design with the observer's ``eps`` and/or the controller's ``gamma`` changed.
+        """A new design with the estimator's ``eps`` and/or the controller's ``gamma`` changed.
 
         Parameters
         ----------
         eps : float, optional
-            New observer time constant (only for estimators that have one, e.g. the EHGO).
+            New estimator time constant (only for estimators that have one, e.g. the EHGO).
         gamma : float, optional
             New controller gain.
 
@@ -250,23 +245,23 @@ class Design:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 3e-4))
         >>> d2 = d.replace(eps=0.01, gamma=1e-3)
-        >>> d2.observer.eps, d2.controller.gamma
+        >>> d2.estimator.eps, d2.controller.gamma
         (0.01, 0.001)
         """
-        observer, controller = self.observer, self.controller
+        estimator, controller = self.estimator, self.controller
         if eps is not None:
-            if not hasattr(observer, "eps"):
+            if not estimator.has_time_constant:
                 raise ParameterError(
-                    f"eps={eps!r} cannot be set: {type(observer).__name__} has no eps "
+                    f"eps={eps!r} cannot be set: {type(estimator).__name__} has no eps "
                     "(only the EHGO has an observer time constant); leave eps=None"
                 )
-            observer = observer.replace(eps=eps)
+            estimator = estimator.replace(eps=eps)
         if gamma is not None:
             controller = controller.replace(gamma=gamma)
-        return Design(observer=observer, controller=controller)
+        return Design(estimator=estimator, controller=controller)
 
     def run(self, y_sequence, r_sequence=0.0, *, state0=None) -> OpenLoopRun:
         """Run the loop step over given measurements (open loop: ``u`` is not fed back).
@@ -291,7 +286,7 @@ class Design:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 3e-4, u_limits=(-1, 1)))
         >>> out = d.run([0.0, 0.5, 1.0], r_sequence=0.0)
         >>> out.u.shape, out.xhat.shape, out.state.shape
@@ -325,11 +320,11 @@ class Design:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 3e-4))
         >>> print(d.describe())  # doctest: +ELLIPSIS
         Design (rho = 2, T = 0.001 s)
-          observer:   EHGO(...)
+          estimator:  EHGO(...)
           controller: DynamicController(gains=(2, 4), gamma=0.0003)
           state:      [estimator 0:3, u 3, z 4]
         """
@@ -337,13 +332,13 @@ class Design:
         m = lay["u"].start
         return "\n".join([
             f"Design (rho = {self.rho}, T = {self.T:g} s)",
-            f"  observer:   {self.observer!r}",
+            f"  estimator:  {self.estimator!r}",
             f"  controller: {self.controller!r}",
             f"  state:      [estimator 0:{m}, u {m}, z {m + 1}]",
         ])
 
     def __repr__(self) -> str:
-        return f"Design(observer={self.observer!r}, controller={self.controller!r})"
+        return f"Design(estimator={self.estimator!r}, controller={self.controller!r})"
 
 
 __all__ = ["Design", "OpenLoopRun"]

@@ -26,7 +26,6 @@ Examples
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from dataclasses import KW_ONLY, dataclass, field
@@ -36,6 +35,7 @@ import numpy as np
 import scipy.signal
 
 from .. import _validate as v
+from ._estimator import Estimator, as_casadi, check_length, rows
 from ..errors import (
     DimensionError,
     MissingDependencyError,
@@ -114,7 +114,7 @@ def _conjugate_closed(poles: np.ndarray, *, tol: float) -> list[complex]:
 
 
 @dataclass(frozen=True)
-class EHGO:
+class EHGO(Estimator):
     """Discrete-time extended high-gain observer (estimator protocol of :class:`fl_design.Design`).
 
     Parameters
@@ -142,6 +142,9 @@ class EHGO:
 
     Attributes
     ----------
+    alphas : tuple of float
+        The coefficients ``(alpha_1, ..., alpha_(rho+1))`` in use (``coeffs`` stays as given:
+        None means the default binomial ones).
     alpha : float
         ``T / eps``, the step in normalized time.
     matrices : StateSpaceMatrices
@@ -169,8 +172,8 @@ class EHGO:
     --------
     >>> import numpy as np, fl_design as fl
     >>> obs = fl.EHGO(rho=2, eps=0.05, T=1e-3)
-    >>> obs.coeffs
-    (3.0, 3.0, 1.0)
+    >>> obs.coeffs is None, obs.alphas                   # as given; the coefficients used
+    (True, (3.0, 3.0, 1.0))
     >>> t = np.arange(2000) * obs.T
     >>> xhat = obs.filter(np.sin(t))                       # y, y', y'' = sigma
     >>> truth = [np.sin(t[-1]), np.cos(t[-1]), -np.sin(t[-1])]
@@ -185,6 +188,7 @@ class EHGO:
     method: str = "bilinear"
     _: KW_ONLY
     allow_unstable: bool = False
+    alphas: tuple[float, ...] = field(init=False, repr=False, compare=False)
     _mats: StateSpaceMatrices = field(init=False, repr=False, compare=False)
     _roots: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -208,8 +212,8 @@ class EHGO:
             roots = -np.ones(rho + 1, dtype=complex)  # exact: numpy.roots smears a repeated root
         for name, value in (("rho", rho), ("eps", eps), ("T", T)):
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "coeffs", tuple(float(c) for c in coeffs))
-        object.__setattr__(self, "allow_unstable", bool(self.allow_unstable))
+        object.__setattr__(self, "alphas", tuple(float(c) for c in coeffs))
+        v.boolean("allow_unstable", self.allow_unstable)
         object.__setattr__(self, "_roots", roots)
         if self.method == "forward_euler":
             self._check_euler_limit()
@@ -283,7 +287,7 @@ class EHGO:
         Examples
         --------
         >>> import fl_design as fl
-        >>> fl.EHGO.from_poles(2, 0.05, 1e-3, [-1, -2, -3]).coeffs
+        >>> fl.EHGO.from_poles(2, 0.05, 1e-3, [-1, -2, -3]).alphas
         (6.0, 11.0, 6.0)
         """
         rho = v.integer("rho", rho, minimum=1, maximum=MAX_RHO)
@@ -305,11 +309,13 @@ class EHGO:
         coeffs = np.real(np.poly(p))[1:]
         return cls(rho, eps, T, tuple(coeffs), method, allow_unstable=allow_unstable)
 
+    has_time_constant = True
+
     def replace(self, **changes) -> EHGO:
         """A copy with fields changed (re-validated), e.g. ``obs.replace(eps=0.02)``.
 
-        When ``rho`` changes and the coefficients are the default binomial ones, the new
-        observer gets the default coefficients of the new ``rho``.
+        Fields keep the values given: default coefficients (``coeffs=None``) stay the
+        default ones of the new ``rho`` when ``rho`` changes.
 
         Parameters
         ----------
@@ -320,21 +326,18 @@ class EHGO:
         -------
         EHGO
 
+        Raises
+        ------
+        ParameterError
+            An unknown field name (the valid ones are listed).
+
         Examples
         --------
         >>> import fl_design as fl
         >>> fl.EHGO(2, 0.05, 1e-3).replace(eps=0.01).alpha
         0.1
         """
-        valid = {f.name for f in dataclasses.fields(self) if f.init}
-        unknown = set(changes) - valid
-        if unknown:
-            raise ParameterError(
-                f"EHGO has no field(s) {sorted(unknown)}; valid fields: {sorted(valid)}"
-            )
-        if "rho" in changes and "coeffs" not in changes and self.coeffs == binomial_coeffs(self.rho):
-            changes["coeffs"] = None
-        return dataclasses.replace(self, **changes)
+        return super().replace(**changes)
 
     # --- derived quantities ------------------------------------------------------------------
     @property
@@ -365,7 +368,7 @@ class EHGO:
     @property
     def gains(self) -> np.ndarray:
         """Unscaled observer gains ``H_i = alpha_i / eps^i``, i = 1..rho+1."""
-        return np.asarray(self.coeffs) / self.eps ** np.arange(1, self.rho + 2, dtype=float)
+        return np.asarray(self.alphas) / self.eps ** np.arange(1, self.rho + 2, dtype=float)
 
     @property
     def poles(self) -> np.ndarray:
@@ -528,12 +531,12 @@ class EHGO:
         import casadi
 
         n = self.state_size
-        xi, y, p = _as_casadi(xi), _as_casadi(y), _as_casadi(p)
-        _check_len("xi", xi, n)
-        _check_len("p", p, 2 * n * n + 3 * n)
-        A = _rows(p, 0, n, n)
+        xi, y, p = as_casadi(xi), as_casadi(y), as_casadi(p)
+        check_length("xi", xi, n)
+        check_length("p", p, 2 * n * n + 3 * n)
+        A = rows(p, 0, n, n)
         B = p[n * n : n * n + n]
-        C = _rows(p, n * n + n, n, n)
+        C = rows(p, n * n + n, n, n)
         D = p[2 * n * n + n : 2 * n * n + 2 * n]
         dinv = p[2 * n * n + 2 * n :]
         xhat = dinv * (casadi.mtimes(C, xi) + D * y)
@@ -570,26 +573,6 @@ class EHGO:
 
 
 # --- helpers ---------------------------------------------------------------------------------
-def _as_casadi(x):
-    import casadi
-
-    if isinstance(x, (casadi.SX, casadi.MX, casadi.DM)):
-        return x
-    return casadi.DM(np.asarray(x, dtype=float))
-
-
-def _check_len(name: str, x, n: int) -> None:
-    if x.numel() != n or min(x.shape) > 1:
-        raise DimensionError(f"{name} must be a vector of length {n}, got shape {x.shape}")
-
-
-def _rows(p, start: int, rows: int, cols: int):
-    """Matrix stored row-major in ``p[start : start + rows*cols]`` (CasADi is column-major)."""
-    import casadi
-
-    return casadi.reshape(p[start : start + rows * cols], cols, rows).T
-
-
 def _lsim_blocked(A, B, C, D, u, x0, block: int = 128) -> np.ndarray:
     """Outputs of ``x+ = A x + B u, out = C x + D u`` for scalar input u, vectorized per block.
 

@@ -18,7 +18,6 @@ array([1.039083, 2.114   , 6.      ])
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -26,6 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from .. import _validate as v
+from ._estimator import Estimator, as_casadi, check_length, rows
 from ..errors import DimensionError, ParameterError
 
 
@@ -53,7 +53,7 @@ def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarra
 
 
 @dataclass(frozen=True)
-class LeastSquaresEstimator:
+class LeastSquaresEstimator(Estimator):
     """Causal sliding-window least-squares differentiator (estimator protocol of ``Design``).
 
     Parameters
@@ -69,6 +69,8 @@ class LeastSquaresEstimator:
 
     Attributes
     ----------
+    fit_degree : int
+        The degree in use (``degree`` stays as given: None means ``rho``).
     matrix : numpy.ndarray
         ``M``, shape ``(rho+1, window)``; row ``i`` gives ``y^(i)`` at the current sample.
     state_size : int
@@ -91,7 +93,7 @@ class LeastSquaresEstimator:
     --------
     >>> import fl_design as fl
     >>> est = fl.LeastSquaresEstimator(2, 1e-3, window=9)
-    >>> est.degree, est.state_size, est.flops_per_step
+    >>> est.fit_degree, est.state_size, est.flops_per_step
     (2, 10, 27)
     """
 
@@ -99,6 +101,7 @@ class LeastSquaresEstimator:
     T: float
     window: int
     degree: int | None = None
+    fit_degree: int = field(init=False, repr=False, compare=False)
     _M: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -116,8 +119,9 @@ class LeastSquaresEstimator:
                 f"window={window} samples cannot determine a polynomial of degree {degree}: "
                 f"need window >= degree + 1 = {degree + 1}"
             )
-        for name, value in (("rho", rho), ("T", T), ("degree", degree), ("window", window)):
+        for name, value in (("rho", rho), ("T", T), ("window", window)):
             object.__setattr__(self, name, value)
+        object.__setattr__(self, "fit_degree", degree)
         M = derivative_matrix(window, degree, rho, T)
         M.flags.writeable = False
         object.__setattr__(self, "_M", M)
@@ -142,16 +146,7 @@ class LeastSquaresEstimator:
         >>> fl.LeastSquaresEstimator(2, 1e-3, 9).replace(window=26).window
         26
         """
-        valid = {f.name for f in dataclasses.fields(self) if f.init}
-        unknown = set(changes) - valid
-        if unknown:
-            raise ParameterError(
-                f"LeastSquaresEstimator has no field(s) {sorted(unknown)} (it has no eps: its "
-                f"time scale is the window N*T); valid fields: {sorted(valid)}"
-            )
-        if "rho" in changes and "degree" not in changes and self.degree == self.rho:
-            changes["degree"] = None
-        return dataclasses.replace(self, **changes)
+        return super().replace(**changes)
 
     @property
     def matrix(self) -> np.ndarray:
@@ -221,15 +216,13 @@ class LeastSquaresEstimator:
         """
         import casadi
 
-        from ._ehgo import _as_casadi, _check_len, _rows
-
         N, m = self.window, self.rho + 1
-        xi, y, p = _as_casadi(xi), _as_casadi(y), _as_casadi(p)
-        _check_len("xi", xi, N + 1)
-        _check_len("p", p, m * N)
+        xi, y, p = as_casadi(xi), as_casadi(y), as_casadi(p)
+        check_length("xi", xi, N + 1)
+        check_length("p", p, m * N)
         buffer = casadi.vertcat(xi[1:N], y)
         count = casadi.fmin(xi[N] + 1, N)
-        xhat = casadi.mtimes(_rows(p, 0, m, N), buffer)
+        xhat = casadi.mtimes(rows(p, 0, m, N), buffer)
         return xhat, casadi.vertcat(buffer, count), count >= N
 
     def filter(self, y_samples) -> np.ndarray:

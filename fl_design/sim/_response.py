@@ -34,7 +34,7 @@ All other metrics of a diverged run are NaN.
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+>>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
 ...                    controller=fl.DynamicController((2, 4), 1e-2))
 >>> resp = fl.simulate(fl.plants.pendulum(), design, 0.1, 20.0)
 >>> resp.status, round(resp.settling_time, 2), round(resp.overshoot, 3)
@@ -237,7 +237,7 @@ class Response:
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> resp = fl.simulate(fl.plants.pendulum(), d, 0.1, 2.0)
     >>> resp.y.shape, resp.xhat.shape, sorted(resp.metrics)[:3]
@@ -301,7 +301,7 @@ class Response:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 1e-2))
         >>> sorted(fl.simulate(fl.plants.pendulum(), d, 0.1, 0.05).to_dict())[:4]
         ['T', 'coords', 'divergence_index', 'k_tail']
@@ -340,7 +340,7 @@ class Response:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 1e-2))
         >>> fig = fl.simulate(fl.plants.pendulum(), d, 0.1, 0.5).plot()
         >>> len(fig.axes)

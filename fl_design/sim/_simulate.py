@@ -10,7 +10,7 @@ reference against which the fixed-step integrator is checked (tests).
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+>>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
 ...                    controller=fl.DynamicController((2, 4), 1e-2))
 >>> resp = fl.simulate(fl.plants.pendulum(), design, 0.1, 20.0, noise_std=1e-4)
 >>> resp.status, bool(abs(resp.y[-1] - 0.1) < 1e-3)
@@ -88,7 +88,7 @@ class RunSetup:
     --------
     >>> import fl_design as fl
     >>> from fl_design.sim import prepare_run
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> run = prepare_run(fl.plants.pendulum(), d, 0.1, 1.0)
     >>> run.N, run.k_tail, run.step, run.D.shape
@@ -181,7 +181,7 @@ def prepare_run(plant, design, reference, duration, *, x0=None, noise_std=0.0,
     --------
     >>> import fl_design as fl
     >>> from fl_design.sim import prepare_run
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> prepare_run(fl.plants.pendulum(), d, lambda t: 0.1 * (t > 0.5), 1.0).r[[0, -1]]
     array([0. , 0.1])
@@ -282,7 +282,7 @@ def simulate(plant, design, reference, duration, *, x0=None, noise_std: float = 
     Examples
     --------
     >>> import fl_design as fl
-    >>> design = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...                    controller=fl.DynamicController((2, 4), 1e-2))
     >>> resp = fl.simulate(fl.plants.pendulum(), design, 0.2, 20.0)
     >>> resp.stable, round(float(resp.y[-1]), 3)

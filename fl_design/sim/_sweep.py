@@ -20,7 +20,7 @@ into chunks; with ``executor`` (any ``concurrent.futures.Executor``, e.g. a Dask
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+>>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
 ...                    controller=fl.DynamicController((2, 4), 1e-2))
 >>> smap = fl.sweep(fl.plants.pendulum(), design, eps=[0.02, 0.2], gamma=[0.01],
 ...                 duration=6.0, reference=0.05, progress=False, compiled=False)
@@ -488,7 +488,7 @@ def sweep(plant, design, *, eps, gamma, duration: float, reference, x0=None,
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> smap = fl.sweep(fl.plants.pendulum(), d, eps=[0.02, 0.2], gamma=[0.003, 0.01],
     ...                 duration=2.0, reference=0.05, progress=False, compiled=False)
@@ -554,7 +554,7 @@ def estimate_eps_star(plant, design, *, reference, duration: float, eps_range=No
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
     ...               controller=fl.DynamicController((2, 4), 1e-2))
     >>> est = fl.estimate_eps_star(fl.plants.pendulum(), d, reference=0.05, duration=20.0,
     ...                            eps_range=(0.01, 0.1), rtol=0.05, compiled=False)

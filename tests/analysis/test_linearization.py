@@ -27,7 +27,7 @@ def test_linear_plant_matrix_equals_hand_built_loop(oscillator, ki):
     """Linear plant: M equals the loop assembled from scipy's ZOH plant and the EHGO matrices."""
     k1, k2, gamma = 2.0, 4.0, 0.02
     obs = fl.EHGO(rho=2, eps=0.03, T=T)
-    design = fl.Design(observer=obs, controller=fl.DynamicController((k1, k2), gamma, ki=ki))
+    design = fl.Design(estimator=obs, controller=fl.DynamicController((k1, k2), gamma, ki=ki))
     lin = fl.sampled_linearization(oscillator, design)
 
     A = np.array([[0.0, 1.0], [-2.0, -0.5]])
@@ -89,7 +89,7 @@ def test_equilibrium_at_another_reference(pendulum_design, pendulum):
     np.testing.assert_allclose(lin.x_eq, [0.1, 0.0], atol=1e-12)
     lay = design.state_layout
     assert lin.s_eq[lay["u"]][0] == pytest.approx(9.81 * math.sin(0.1), rel=1e-12)
-    Cu, Du = design.observer.output_matrices()
+    Cu, Du = design.estimator.output_matrices()
     np.testing.assert_allclose(Cu @ lin.s_eq[lay["estimator"]] + Du.ravel() * 0.1, [0.1, 0.0, 0.0],
                                atol=1e-10)
 
@@ -134,7 +134,7 @@ def test_linearized_eps_star_bad_input(pendulum_design, pendulum, kwargs, match)
 def test_linearization_bad_input(pendulum_design, pendulum):
     with pytest.raises(ParameterError, match="r must be finite"):
         fl.sampled_linearization(pendulum, pendulum_design(), r=math.inf)
-    d1 = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=T),
+    d1 = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=T),
                    controller=fl.DynamicController((1,), 1e-2))
     with pytest.raises(DesignMismatchError, match="relative degree 2"):
         fl.sampled_linearization(pendulum, d1)

@@ -19,10 +19,10 @@ def test_paper_trms_setting_is_normalized():
     ctrl = fl.DynamicController((2, 4), 3e-4, ki=1e-3, estimate_limits=(None, 0.05))
     assert ctrl.rho == 2
     assert ctrl.gains == (2.0, 4.0)
-    assert (ctrl.gamma, ctrl.ki, ctrl.u0, ctrl.u_limits) == (3e-4, 1e-3, 0.0, None)
-    assert ctrl.estimate_limits == (None, (-0.05, 0.05))
-    assert fl.DynamicController((1, 3, 3), 1.0).estimate_limits == (None, None, None)
-    assert fl.DynamicController((2, 4), 1.0, u_limits=2).u_limits == (-2.0, 2.0)
+    assert (ctrl.gamma, ctrl.ki, ctrl.u0, ctrl.u_range) == (3e-4, 1e-3, 0.0, None)
+    assert ctrl.estimate_ranges == (None, (-0.05, 0.05))
+    assert fl.DynamicController((1, 3, 3), 1.0).estimate_ranges == (None, None, None)
+    assert fl.DynamicController((2, 4), 1.0, u_limits=2).u_range == (-2.0, 2.0)
 
 
 @pytest.mark.parametrize(
@@ -66,7 +66,7 @@ def test_options_are_keyword_only_and_replace_revalidates():
         fl.DynamicController((2, 4), 3e-4, 1e-3)  # ki must be named
     ctrl = fl.DynamicController((2, 4), 3e-4, estimate_limits=(None, (-1, 2)), u_limits=(-1, 1))
     assert ctrl.replace(gamma=1e-2).gamma == 1e-2
-    assert ctrl.replace(gamma=1e-2).estimate_limits == ctrl.estimate_limits
+    assert ctrl.replace(gamma=1e-2).estimate_limits == ctrl.estimate_ranges
     with pytest.raises(errors.ParameterError, match="gamma must be > 0"):
         ctrl.replace(gamma=-1.0)
     assert "gains=(2, 4)" in repr(ctrl) and "u_limits=(-1, 1)" in repr(ctrl)
@@ -77,7 +77,7 @@ def _law_numpy(ctrl, xhat_ext, r, u_prev, z_prev, ready, gamma, T):
     """Steps 2-5 of DESIGN.md, written out independently."""
     x = np.array(xhat_ext, dtype=float)
     for i in range(1, ctrl.rho):
-        lim = ctrl.estimate_limits[i]
+        lim = ctrl.estimate_ranges[i]
         if lim is not None:
             x[i] = min(max(x[i], lim[0]), lim[1])
     if not ready:
@@ -86,8 +86,8 @@ def _law_numpy(ctrl, xhat_ext, r, u_prev, z_prev, ready, gamma, T):
     v = -ctrl.gains[0] * (x[0] - r) - sum(ctrl.gains[i] * x[i] for i in range(1, ctrl.rho))
     v -= ctrl.ki * z
     u = u_prev + gamma * (v - x[ctrl.rho])
-    if ctrl.u_limits is not None:
-        u = min(max(u, ctrl.u_limits[0]), ctrl.u_limits[1])
+    if ctrl.u_range is not None:
+        u = min(max(u, ctrl.u_range[0]), ctrl.u_range[1])
     return u, z, x
 
 

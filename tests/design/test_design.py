@@ -23,13 +23,13 @@ def _controller_part(ctrl, xhat, r, u_prev, z_prev):
     rho = ctrl.rho
     x = np.array(xhat, dtype=float)
     for i in range(1, rho):  # step 2: clamp xhat_2..xhat_rho
-        x[i] = _clamp(x[i], ctrl.estimate_limits[i])
+        x[i] = _clamp(x[i], ctrl.estimate_ranges[i])
     z = z_prev + T * (x[0] - r)  # step 3
     v = -ctrl.gains[0] * (x[0] - r)  # step 4
     for i in range(1, rho):
         v -= ctrl.gains[i] * x[i]
     v -= ctrl.ki * z
-    u = _clamp(u_prev + ctrl.gamma * (v - x[rho]), ctrl.u_limits)  # step 5
+    u = _clamp(u_prev + ctrl.gamma * (v - x[rho]), ctrl.u_range)  # step 5
     return u, z, x
 
 
@@ -84,17 +84,17 @@ def _ehgo_design(rho, **over):
     ctrl = fl.DynamicController(case["gains"], case["gamma"], ki=case["ki"],
                                 u_limits=case["u_limits"],
                                 estimate_limits=case["estimate_limits"], u0=0.1)
-    return fl.Design(observer=obs, controller=ctrl)
+    return fl.Design(estimator=obs, controller=ctrl)
 
 
 @pytest.mark.parametrize("rho", [2, 3])
 def test_ehgo_design_follows_the_normative_order(rho):
     design = _ehgo_design(rho)
     ys, rs = _signal(400, seed=rho)
-    u_ref, xhat_ref, state_ref = _ehgo_loop(design.observer, design.controller, ys, rs)
-    lo, hi = design.controller.u_limits
+    u_ref, xhat_ref, state_ref = _ehgo_loop(design.estimator, design.controller, ys, rs)
+    lo, hi = design.controller.u_range
     assert np.any(u_ref == lo) and np.any(u_ref == hi), "both input limits must be exercised"
-    raw = _ehgo_loop(design.observer, design.controller.replace(estimate_limits=None), ys, rs)[1]
+    raw = _ehgo_loop(design.estimator, design.controller.replace(estimate_limits=None), ys, rs)[1]
     assert np.any(raw[:, 1] != xhat_ref[:, 1]), "the estimate limit must be exercised"
     assert np.any(np.abs(xhat_ref[:, 0] - rs) > 0.1) and design.controller.ki > 0
 
@@ -121,7 +121,7 @@ def _ls_loop(est, ctrl, ys, rs):
             us.append(u)
             xhats.append(None)
             continue
-        fit = np.polynomial.Polynomial.fit(t, ys[k + 1 - N : k + 1], est.degree)
+        fit = np.polynomial.Polynomial.fit(t, ys[k + 1 - N : k + 1], est.fit_degree)
         xhat = [fit.deriv(i)(0.0) if i else fit(0.0) for i in range(rho + 1)]
         u, z, xc = _controller_part(ctrl, xhat, r, u, z)
         us.append(u)
@@ -134,7 +134,7 @@ def test_least_squares_design_holds_until_the_window_is_full(window, degree):
     est = fl.LeastSquaresEstimator(rho=2, T=T, window=window, degree=degree)
     ctrl = fl.DynamicController((2.0, 4.0), 2e-4, ki=3.0, u_limits=(-0.2, 0.25), u0=0.05,
                                 estimate_limits=(None, 0.4))
-    design = fl.Design(observer=est, controller=ctrl)
+    design = fl.Design(estimator=est, controller=ctrl)
     t = np.arange(300) * T
     ys = 0.3 * np.sin(30.0 * t) + 0.1 + 1e-3 * np.random.default_rng(window).standard_normal(300)
     rs = np.where(t < 0.15, 0.3, -2.0)
@@ -150,13 +150,13 @@ def test_least_squares_design_holds_until_the_window_is_full(window, degree):
     _assert_close(out.state[-1, lay["z"]], z_ref)
     assert np.any(u_ref == -0.2) and np.any(u_ref == 0.25)
     raw = np.array([np.polynomial.Polynomial.fit((np.arange(window) - window + 1) * T,
-                                                 ys[k + 1 - window : k + 1], est.degree)
+                                                 ys[k + 1 - window : k + 1], est.fit_degree)
                     .deriv()(0.0) for k in range(window - 1, 300)])
     assert np.any(np.abs(raw) > 0.4), "the estimate limit must be exercised"
 
 
 def test_replace_eps_is_refused_for_the_least_squares_estimator():
-    design = fl.Design(observer=fl.LeastSquaresEstimator(rho=2, T=T, window=9),
+    design = fl.Design(estimator=fl.LeastSquaresEstimator(rho=2, T=T, window=9),
                        controller=fl.DynamicController((2, 4), 3e-4))
     with pytest.raises(errors.ParameterError, match=r"eps=0.01 cannot be set.*no eps"):
         design.replace(eps=0.01)
@@ -191,7 +191,7 @@ def test_function_signatures_follow_the_contract():
 
 def test_state_layout_initial_state_and_parameters():
     design = _ehgo_design(2)
-    obs, ctrl = design.observer, design.controller
+    obs, ctrl = design.estimator, design.controller
     m = obs.state_size
     assert design.state_size == m + 2
     lay = design.state_layout
@@ -207,14 +207,14 @@ def test_state_layout_initial_state_and_parameters():
 def test_replace_eps_equals_a_design_built_from_scratch():
     design = _ehgo_design(2)
     new = design.replace(eps=0.003, gamma=0.02)
-    scratch = fl.Design(observer=fl.EHGO(rho=2, eps=0.003, T=T),
+    scratch = fl.Design(estimator=fl.EHGO(rho=2, eps=0.003, T=T),
                         controller=design.controller.replace(gamma=0.02))
     np.testing.assert_array_equal(new.parameter_vector(), scratch.parameter_vector())
     ys, rs = _signal(200, seed=5)
     a, b = new.run(ys, rs), scratch.run(ys, rs)
     np.testing.assert_array_equal(a.u, b.u)
     np.testing.assert_array_equal(a.state, b.state)
-    assert design.observer.eps == EHGO_CASES[2]["eps"]  # the original is unchanged
+    assert design.estimator.eps == EHGO_CASES[2]["eps"]  # the original is unchanged
     # and the original graph evaluated with the new parameters agrees too (what sweeps do)
     state = scratch.initial_state()
     for k in range(50):
@@ -237,7 +237,7 @@ def test_saturation_is_respected_and_is_the_controller_state():
     design = _ehgo_design(2, gamma=10.0)
     ys, rs = _signal(300, seed=3)
     out = design.run(ys, rs)
-    lo, hi = design.controller.u_limits
+    lo, hi = design.controller.u_range
     assert np.all(out.u >= lo) and np.all(out.u <= hi)
     assert np.any(out.u == lo) and np.any(out.u == hi)
     np.testing.assert_array_equal(out.state[1:, design.state_layout["u"]].ravel(), out.u)
@@ -271,16 +271,22 @@ def test_run_bad_inputs(args, kwargs, error, match):
 
 
 def test_rho_mismatch_names_both():
-    with pytest.raises(errors.DesignMismatchError, match=r"observer rho=3.*controller rho=2"):
-        fl.Design(observer=fl.EHGO(rho=3, eps=0.05, T=T),
+    with pytest.raises(errors.DesignMismatchError, match=r"estimator rho=3.*controller rho=2"):
+        fl.Design(estimator=fl.EHGO(rho=3, eps=0.05, T=T),
                   controller=fl.DynamicController((2, 4), 1e-3))
 
 
-def test_observer_must_implement_the_protocol():
-    with pytest.raises(errors.ParameterError, match=r"estimator protocol \(missing .*symbolic"):
-        fl.Design(observer=object(), controller=fl.DynamicController((2, 4), 1e-3))
+def test_estimator_must_be_an_estimator():
+    with pytest.raises(errors.ParameterError, match=r"estimator must be an fl_design estimator"):
+        fl.Design(estimator=object(), controller=fl.DynamicController((2, 4), 1e-3))
+
+    class Incomplete(fl.design.Estimator):  # declares nothing: cannot even be built
+        pass
+
+    with pytest.raises(TypeError, match="abstract"):
+        Incomplete()
     with pytest.raises(errors.ParameterError, match=r"controller must be a fl.DynamicController"):
-        fl.Design(observer=fl.EHGO(rho=2, eps=0.05, T=T), controller=(2, 4))
+        fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=T), controller=(2, 4))
 
 
 def test_pickles_and_describes():
@@ -292,4 +298,4 @@ def test_pickles_and_describes():
                                   np.asarray(design.step(x0, 0.2, 0.1)[0]))
     text = design.describe()
     assert "rho = 3" in text and "DynamicController(gains=(1, 3, 3)" in text
-    assert repr(design).startswith("Design(observer=")
+    assert repr(design).startswith("Design(estimator=")

@@ -23,7 +23,7 @@ def poly_truth(coeffs, t, rho):
 @pytest.mark.parametrize("rho, degree, window, T", CASES)
 def test_exact_on_polynomials_up_to_degree(rho, degree, window, T):
     est = fl.LeastSquaresEstimator(rho, T, window, degree)
-    d = est.degree
+    d = est.fit_degree
     rng = np.random.default_rng(rho * 100 + window)
     tau = window * T  # coefficients O(1) in the time unit of the window: no term dominates
     t = np.arange(window + 15) * T
@@ -44,8 +44,8 @@ def test_not_exact_beyond_degree(rho, degree, window, T):
     est = fl.LeastSquaresEstimator(rho, T, window, degree)
     tau = window * T
     t = np.arange(window + 5) * T
-    coeffs = np.zeros(est.degree + 2)
-    coeffs[-1] = tau ** -(est.degree + 1)  # ((t)/tau)^(degree+1): O(1) over the window
+    coeffs = np.zeros(est.fit_degree + 2)
+    coeffs[-1] = tau ** -(est.fit_degree + 1)  # ((t)/tau)^(degree+1): O(1) over the window
     truth = poly_truth(coeffs, t, rho)[window - 1 :]
     err = np.abs(est.filter(P.polyval(t, coeffs))[window - 1 :] - truth)
     scale = np.max(np.abs(truth), axis=0) + 1 / tau ** np.arange(rho + 1)
@@ -57,7 +57,7 @@ def test_matrix_equals_numpy_polyfit(rho, degree, window, T):
     est = fl.LeastSquaresEstimator(rho, T, window, degree)
     y = np.random.default_rng(7).standard_normal(window)
     tj = -(window - 1 - np.arange(window)) * T
-    fit = np.polynomial.Polynomial.fit(tj, y, est.degree)  # its own domain scaling
+    fit = np.polynomial.Polynomial.fit(tj, y, est.fit_degree)  # its own domain scaling
     ref = np.array([fit.deriv(i)(0.0) if i else fit(0.0) for i in range(rho + 1)])
     got = est.matrix @ y
     scale = np.abs(ref) + np.max(np.abs(y)) / (window * T) ** np.arange(rho + 1)
@@ -87,7 +87,7 @@ def test_flops_and_replace():
     est = fl.LeastSquaresEstimator(2, 1e-3, window=9)
     assert est.flops_per_step == 27 and est.replace(window=26).flops_per_step == 78
     assert fl.EHGO(2, 0.05, 1e-3).flops_per_step < est.flops_per_step
-    assert est.replace(rho=3).degree == 3
+    assert est.replace(rho=3).fit_degree == 3
     assert est.replace(T=2e-3) == fl.LeastSquaresEstimator(2, 2e-3, 9)
     with pytest.raises(ParameterError, match="has no eps"):
         est.replace(eps=0.1)

@@ -56,7 +56,7 @@ def unscaled_error_bound(obs):
     Es = d[:, None] * (P @ np.abs(L) @ np.abs(Uf)) / d[None, :]
     rhs = np.abs(np.hstack([np.eye(n) + T / 2 * Ac, T * H]))
     Rs = d[:, None] * rhs / np.r_[d, 1.0][None, :]
-    Ms = np.eye(n) - obs.alpha / 2 * companion(obs.coeffs)
+    Ms = np.eye(n) - obs.alpha / 2 * companion(obs.alphas)
     gam = 3 * n * U
     Xs = np.linalg.norm(np.hstack(obs.matrices[:2]), 2)
     return gam * np.linalg.norm(np.linalg.inv(Ms), 2) * (
@@ -109,8 +109,8 @@ def test_other_methods_equal_unscaled_cont2discrete(method):
 
 def test_default_coeffs_are_binomial_and_continuous_gains():
     obs = fl.EHGO(3, 0.1, 1e-3)
-    assert obs.coeffs == (4.0, 6.0, 4.0, 1.0)
-    np.testing.assert_allclose(np.poly(-np.ones(4))[1:], obs.coeffs)
+    assert obs.alphas == (4.0, 6.0, 4.0, 1.0)
+    np.testing.assert_allclose(np.poly(-np.ones(4))[1:], obs.alphas)
     np.testing.assert_allclose(obs.gains, [4 / 0.1, 6 / 0.01, 4 / 1e-3, 1 / 1e-4])
     np.testing.assert_allclose(obs.alpha, 1e-2)
     np.testing.assert_allclose(obs.unscaling, 1 / np.array([1, 0.1, 0.01, 0.001]))
@@ -139,7 +139,7 @@ def test_a_stable_methods_are_schur_for_every_alpha(rp, log_alpha, method):
     rho, poles = rp
     T = 1e-3
     obs = fl.EHGO.from_poles(rho, T / 10.0**log_alpha, T, poles, method=method)
-    np.testing.assert_allclose(obs.coeffs, np.real(np.poly(poles))[1:], rtol=1e-12)
+    np.testing.assert_allclose(obs.alphas, np.real(np.poly(poles))[1:], rtol=1e-12)
     A = obs.matrices.A
     # independent certificate: the discrete Lyapunov equation A^T P A - P = -I has P > 0
     P = sla.solve_discrete_lyapunov(A.T, np.eye(rho + 1))
@@ -250,7 +250,7 @@ def test_to_statespace_without_control(monkeypatch):
 
 def test_replace_and_from_poles():
     obs = fl.EHGO(2, 0.05, 1e-3)
-    assert obs.replace(rho=3).coeffs == (4.0, 6.0, 4.0, 1.0)
+    assert obs.replace(rho=3).alphas == (4.0, 6.0, 4.0, 1.0)
     assert obs.replace(T=2e-3).alpha == pytest.approx(0.04)
     with pytest.raises(ParameterError, match="valid fields"):
         obs.replace(gamma=1.0)
@@ -304,8 +304,8 @@ def test_bilinear_is_the_continuous_observer_at_the_tustin_frequency(rho, alpha)
     T = 1e-3
     obs = fl.EHGO(rho, T / alpha, T)
     n = rho + 1
-    F = companion(obs.coeffs)
-    L = np.asarray(obs.coeffs, dtype=float)
+    F = companion(obs.alphas)
+    L = np.asarray(obs.alphas, dtype=float)
     w = np.logspace(-2, 2, 9) / obs.eps
     w = w[w * T < 3.0]
     if w.size < 3:

@@ -25,10 +25,9 @@ from fl_design.sim import default_divergence_bound, prepare_run
 T = 1e-3
 
 
-def trms_design(eps=0.05, gamma=3e-4):
-    return fl.Design(observer=fl.EHGO(rho=2, eps=eps, T=T, coeffs=(6, 11, 6)),
-                     controller=fl.DynamicController((2, 4), gamma, ki=1e-3,
-                                                     estimate_limits=(None, 0.05)))
+def trms_design(eps: float = 0.05, gamma: float = 3e-4) -> fl.Design:
+    """The paper's TRMS yaw design (``fl.presets.paper_design``)."""
+    return fl.presets.paper_design(eps, gamma)
 
 
 def escape_plant():
@@ -38,23 +37,23 @@ def escape_plant():
 
 
 def escape_design():
-    return fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=1e-2),
+    return fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=1e-2),
                      controller=fl.DynamicController((1,), 1e-3))
 
 
 # Plants of the library with a design each (rho 2, 2, 3, 4).
 CASES = {
     "pendulum": (fl.plants.pendulum,
-                 lambda: fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=T),
+                 lambda: fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=T),
                                    controller=fl.DynamicController((2, 4), 1e-2)),
                  0.05),
     "trms_yaw": (fl.plants.trms_yaw, lambda: trms_design(), 0.3),
     "trms_yaw_motor_lag": (lambda: fl.plants.trms_yaw(motor_lag=True),
-                           lambda: fl.Design(observer=fl.EHGO(rho=3, eps=0.05, T=T),
+                           lambda: fl.Design(estimator=fl.EHGO(rho=3, eps=0.05, T=T),
                                              controller=fl.DynamicController((1, 3, 3), 1e-4)),
                            0.2),
     "flexible_joint": (fl.plants.flexible_joint,
-                       lambda: fl.Design(observer=fl.EHGO(rho=4, eps=0.01, T=T),
+                       lambda: fl.Design(estimator=fl.EHGO(rho=4, eps=0.01, T=T),
                                          controller=fl.DynamicController((1, 4, 6, 4), 1e-5)),
                        0.1),
 }
@@ -163,7 +162,7 @@ def test_ehgo_input_noise_falls_when_eps_rises():
         d = trms_design(eps=eps, gamma=gamma)
         resp = fl.simulate(plant, d, 0.0, 2.0, noise_std=std, seed=0)
         assert resp.stable
-        xh = d.observer.filter(std * np.random.default_rng(0).standard_normal(resp.t.size))
+        xh = d.estimator.filter(std * np.random.default_rng(0).standard_normal(resp.t.size))
         predicted = gamma * (-2 * xh[:, 0] - 4 * xh[:, 1] - xh[:, 2])
         measured = np.diff(resp.u)
         assert np.std(measured[500:]) == pytest.approx(np.std(predicted[500:]), rel=0.02)
@@ -269,7 +268,7 @@ def test_bad_input_is_refused(pendulum_design, pendulum, kwargs, error, match):
 
 
 def test_relative_degree_mismatch_is_refused(pendulum):
-    d1 = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=T),
+    d1 = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=T),
                    controller=fl.DynamicController((1,), 1e-2))
     with pytest.raises(DesignMismatchError, match="relative degree 2 but the design serves rho=1"):
         fl.simulate(pendulum, d1, 0.1, 0.1)

@@ -120,7 +120,7 @@ def test_diverging_runs_stop_early_and_are_classified(cache):
     """Finite escape on a grid: classified, never raised; the compiled driver skips the rest."""
     x, u = sp.symbols("x u")
     plant = fl.Plant.from_ode([x], u, [x**2 + u], x, name="escape")
-    design = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=1e-2),
+    design = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=1e-2),
                        controller=fl.DynamicController((1,), 1e-3))
     for compiled in (True, False):
         smap = fl.sweep(plant, design, eps=[0.05, 0.1], gamma=[1e-3, 1e-2], duration=50.0,
@@ -218,12 +218,12 @@ def test_sweep_bad_input(pendulum_design, pendulum, cache, kwargs, error, match)
 
 
 def test_sweep_refuses_mismatched_or_eps_less_designs(pendulum):
-    d1 = fl.Design(observer=fl.EHGO(rho=1, eps=0.05, T=T),
+    d1 = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=T),
                    controller=fl.DynamicController((1,), 1e-2))
     with pytest.raises(DesignMismatchError, match="relative degree 2"):
         fl.sweep(pendulum, d1, eps=[0.01], gamma=[1e-2], duration=0.1, reference=0.0,
                  progress=False)
-    ls = fl.Design(observer=fl.LeastSquaresEstimator(rho=2, T=T, window=10),
+    ls = fl.Design(estimator=fl.LeastSquaresEstimator(rho=2, T=T, window=10),
                    controller=fl.DynamicController((2, 4), 1e-2))
     with pytest.raises(ParameterError, match="has no eps"):
         fl.sweep(pendulum, ls, eps=[0.01], gamma=[1e-2], duration=0.1, reference=0.0,
@@ -257,7 +257,7 @@ def test_sweep_stays_callable_whatever_is_imported_first():
     code = (
         "import fl_design as fl\n"
         "from fl_design.sim import StabilityMap\n"
-        "d = fl.Design(observer=fl.EHGO(rho=2, eps=0.02, T=1e-3),\n"
+        "d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),\n"
         "              controller=fl.DynamicController((2, 4), 1e-2))\n"
         "m = fl.sweep(fl.plants.pendulum(), d, eps=[0.02], gamma=[0.01], duration=0.1,\n"
         "             reference=0.0, progress=False, compiled=False)\n"
