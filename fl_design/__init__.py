@@ -38,6 +38,12 @@ _LAZY = {
     "lqr_gains": "design",
     "Design": "design",
     "simulate": "sim",
+    "Scenario": "sim",
+    "Noise": "sim",
+    "Classifier": "sim",
+    "RK4": "sim",
+    "Cvodes": "sim",
+    "Kernel": "sim",
     "Response": "sim",
     "sweep": "sim",
     "StabilityMap": "sim",
@@ -67,7 +73,19 @@ if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on 
         gains_from_poles,
         lqr_gains,
     )
-    from .sim import Response, StabilityMap, estimate_eps_star, simulate, sweep
+    from .sim import (
+        RK4,
+        Classifier,
+        Cvodes,
+        Kernel,
+        Noise,
+        Response,
+        Scenario,
+        StabilityMap,
+        estimate_eps_star,
+        simulate,
+        sweep,
+    )
     from .symbolic import (
         Discretization,
         NormalForm,

@@ -13,6 +13,7 @@ Examples
 """
 
 from ._closed_loop import HUGE, AccumulatorLayout, ClosedLoop, accumulator_layout, default_substeps
+from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
 from ._response import (
     METRIC_NAMES,
     STATUS_CODES,
@@ -31,13 +32,19 @@ __all__ = [
     "METRIC_NAMES",
     "STATUS_CODES",
     "STATUS_NAMES",
+    "RK4",
     "AccumulatorLayout",
+    "Classifier",
+    "Cvodes",
     "ClosedLoop",
     "EpsStarEstimate",
     "InterpretedRunner",
+    "Kernel",
     "NativeRunner",
+    "Noise",
     "Response",
     "RunSetup",
+    "Scenario",
     "StabilityMap",
     "accumulator_layout",
     "classify",

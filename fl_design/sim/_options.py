@@ -1,0 +1,534 @@
+"""Run options as frozen, validated objects: one TOML table each in a configuration.
+
+* :class:`Scenario` - what is run: reference, duration, initial state, measurement
+  :class:`Noise` and quantization;
+* :class:`Classifier` - how a run is judged: tolerance, tail window, divergence bound;
+* :class:`RK4` / :class:`Cvodes` - how the plant is integrated between samples;
+* :class:`Kernel` - where it runs: compiled C or CasADi's interpreter, the compiled-kernel cache,
+  threads and chunks of a sweep.
+
+:func:`fl_design.simulate`, :func:`fl_design.sweep` and :func:`fl_design.estimate_eps_star`
+take these objects; no option is re-declared or forwarded by hand. Every object is valid the
+moment it exists and keeps the values given (normalized values are derived when a run is
+prepared, where the sampling time is known).
+
+Examples
+--------
+>>> import fl_design as fl
+>>> sc = fl.Scenario(0.3, 20.0, noise=fl.Noise(std=1e-3, seed=1))
+>>> sc.n_samples(1e-3), sc.noise.std
+(20000, 0.001)
+>>> fl.Classifier().tolerance, fl.RK4().substeps
+(0.02, None)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import KW_ONLY, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import DimensionError, ParameterError
+
+
+def _jsonable(value):
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if callable(value):
+        return f"<callable {getattr(value, '__name__', type(value).__name__)}>"
+    return np.asarray(value, dtype=float).tolist()
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Additive white Gaussian measurement noise ``w_k = std * N(0, 1)``, reproducible.
+
+    Parameters
+    ----------
+    std : float, optional
+        Standard deviation (>= 0; default 0: no noise). The paper's "variance 0.001" is
+        ``std = sqrt(1e-3)``.
+    seed : int, optional
+        Seed of ``numpy.random.default_rng`` (>= 0; default 0).
+
+    Raises
+    ------
+    ParameterError
+        Negative or non-finite ``std``, or a ``seed`` that is not a non-negative integer.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.Noise(std=0.1, seed=3).samples(3).round(3)
+    array([ 0.204, -0.256,  0.042])
+    """
+
+    std: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        V.nonnegative("noise std", self.std)
+        V.integer("noise seed", self.seed, minimum=0)
+
+    def samples(self, n: int) -> np.ndarray:
+        """``n`` noise samples (zeros when ``std == 0``).
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+
+        Returns
+        -------
+        numpy.ndarray
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Noise().samples(2)
+        array([0., 0.])
+        """
+        std = float(self.std)
+        if std == 0.0:
+            return np.zeros(n)
+        return std * np.random.default_rng(int(self.seed)).standard_normal(n)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Noise(0.1, 2).to_dict()
+        {'std': 0.1, 'seed': 2}
+        """
+        return {"std": float(self.std), "seed": int(self.seed)}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """What one closed-loop run does: reference, duration, start, measurement imperfections.
+
+    Parameters
+    ----------
+    reference : float, callable or array_like
+        A constant (a step at t = 0 from the initial output), a function ``r(t)`` sampled at
+        ``t = kT``, or ``N = round(duration / T)`` samples.
+    duration : float
+        Length of the run in seconds (> 0; at least one sample of the design's ``T``).
+    x0 : array_like, optional
+        Initial plant state (default: the plant's operating point).
+    noise : Noise, optional
+        Measurement noise (default none).
+    quantization : float, optional
+        Quantization step of the measurement, > 0 (default none): ``q floor(y/q + 1/2)``.
+
+    Raises
+    ------
+    ParameterError
+        Non-positive or non-finite duration, a non-finite constant reference or ``x0``,
+        ``noise`` not a :class:`Noise`, a non-positive quantization.
+    DimensionError
+        A reference array or ``x0`` that is not one-dimensional.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> sc = fl.Scenario(lambda t: 0.3 * (t >= 1.0), 5.0)
+    >>> sc.reference_samples(1.0)
+    array([0. , 0.3, 0.3, 0.3, 0.3])
+    """
+
+    reference: Any
+    duration: float
+    _: KW_ONLY
+    x0: Any = None
+    noise: Noise = field(default_factory=Noise)
+    quantization: float | None = None
+
+    def __post_init__(self) -> None:
+        V.positive("duration", self.duration)
+        ref = self.reference
+        if isinstance(ref, str) or ref is None:
+            raise ParameterError(
+                f"reference must be a number, a callable r(t) or an array of samples, got {ref!r}")
+        if not callable(ref):
+            if np.ndim(ref) == 0:
+                V.real_scalar("reference", ref)
+            else:
+                V.real_vector("reference", ref)
+        if self.x0 is not None:
+            V.real_vector("x0", self.x0)
+        if not isinstance(self.noise, Noise):
+            raise ParameterError(f"noise must be a fl.Noise(std, seed), got {self.noise!r}")
+        if self.quantization is not None:
+            V.positive("quantization", self.quantization)
+
+    def n_samples(self, T: float) -> int:
+        """``N = round(duration / T)``, the number of samples at sampling time ``T``.
+
+        Parameters
+        ----------
+        T : float
+            Sampling time.
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        ParameterError
+            The duration is shorter than one sample.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.0, 1.0).n_samples(1e-3)
+        1000
+        """
+        N = round(float(self.duration) / T)
+        if N < 1:
+            raise ParameterError(
+                f"duration={self.duration!r} is shorter than one sample (T={T!r}); give a "
+                f"duration >= T")
+        return N
+
+    def reference_samples(self, T: float) -> np.ndarray:
+        """The reference at ``t = 0, T, ..., (N-1) T``.
+
+        Parameters
+        ----------
+        T : float
+            Sampling time.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)``.
+
+        Raises
+        ------
+        DimensionError
+            A reference array whose length is not ``N``.
+        ParameterError
+            A callable reference returning non-finite values.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.1, 0.003).reference_samples(1e-3)
+        array([0.1, 0.1, 0.1])
+        """
+        N = self.n_samples(T)
+        ref = self.reference
+        t = np.arange(N) * T
+        if callable(ref):
+            try:
+                values = np.asarray(ref(t), dtype=float)
+            except (TypeError, ValueError, AttributeError):  # scalar-only: point by point
+                values = None
+            if values is None or values.shape != (N,):
+                values = np.array([float(ref(tk)) for tk in t])
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                raise ParameterError(
+                    f"reference(t) returned a non-finite value {values[bad[0]]!r} at sample "
+                    f"{bad[0]} (t = {t[bad[0]]:g} s); it must be finite")
+            return values
+        if np.ndim(ref) == 0:
+            return np.full(N, float(ref))
+        arr = np.asarray(ref, dtype=float)
+        if arr.shape != (N,):
+            raise DimensionError(
+                f"reference must be a scalar, a callable r(t) or an array of N = "
+                f"round(duration/T) = {N} samples (t = 0, T, ..., (N-1)T), got shape {arr.shape}")
+        return arr.copy()
+
+    def replace(self, **changes) -> Scenario:
+        """A copy with fields changed, validated again.
+
+        Parameters
+        ----------
+        **changes
+            New values of ``reference``, ``duration``, ``x0``, ``noise``, ``quantization``.
+
+        Returns
+        -------
+        Scenario
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.3, 20.0).replace(duration=5.0).duration
+        5.0
+        """
+        from ..design import replace_fields
+
+        return replace_fields(self, changes)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields (a callable reference by its name).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.3, 20.0).to_dict()["noise"]
+        {'std': 0.0, 'seed': 0}
+        """
+        return {"reference": _jsonable(self.reference), "duration": float(self.duration),
+                "x0": _jsonable(self.x0), "noise": self.noise.to_dict(),
+                "quantization": _jsonable(self.quantization)}
+
+
+@dataclass(frozen=True)
+class Classifier:
+    """How a run is judged: settling band, tail window and divergence bound.
+
+    Parameters
+    ----------
+    tolerance : float, optional
+        Relative tolerance of the settling band (default 0.02): ``tol = tolerance * scale``
+        with ``scale = max(|step|, peak-to-peak of r)`` (1 output unit when both vanish).
+    tail_fraction : float, optional
+        Fraction of the run, at its end, used for the tail metrics, in (0, 1] (default 0.2).
+    divergence_bound : float or array_like, optional
+        Bound on ``|x - x_op|`` per state beyond which a run is diverged (default: 10 x the
+        region's width per state, else 1e6; see :func:`fl_design.sim.default_divergence_bound`).
+
+    Raises
+    ------
+    ParameterError
+        A non-positive tolerance or bound, a tail fraction outside (0, 1].
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.Classifier(tolerance=0.05).tail_fraction
+    0.2
+    """
+
+    tolerance: float = 0.02
+    tail_fraction: float = 0.2
+    divergence_bound: Any = None
+
+    def __post_init__(self) -> None:
+        V.positive("tolerance", self.tolerance)
+        tail = V.real_scalar("tail_fraction", self.tail_fraction)
+        if not 0.0 < tail <= 1.0:
+            raise ParameterError(f"tail_fraction must be in (0, 1], got {tail!r}")
+        bound = self.divergence_bound
+        if bound is not None:
+            if np.ndim(bound) == 0:
+                V.positive("divergence_bound", bound)
+            else:
+                arr = V.real_vector("divergence_bound", bound)
+                if np.any(arr <= 0):
+                    raise ParameterError(f"divergence_bound must be > 0, got {arr.tolist()}")
+
+    def bound_for(self, plant) -> np.ndarray:
+        """Per-state divergence bound for ``plant``.
+
+        Parameters
+        ----------
+        plant : Plant
+            The plant.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n,)``.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Classifier(divergence_bound=2.0).bound_for(fl.plants.pendulum()).tolist()
+        [2.0, 2.0]
+        """
+        bound = self.divergence_bound
+        if bound is None:
+            region = plant.region or {}
+            return np.array([10.0 * (region[s][1] - region[s][0]) if s in region else 1e6
+                             for s in plant.states])
+        if np.ndim(bound) == 0:
+            return np.full(plant.n, float(bound))
+        return V.real_vector("divergence_bound", bound, length=plant.n)
+
+    def k_tail(self, N: int) -> int:
+        """First sample of the tail window of a run of ``N`` samples.
+
+        Parameters
+        ----------
+        N : int
+            Samples in the run.
+
+        Returns
+        -------
+        int
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Classifier().k_tail(1000)
+        800
+        """
+        return min(N - 1, math.floor((1.0 - float(self.tail_fraction)) * N))
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Classifier().to_dict()["tolerance"]
+        0.02
+        """
+        return {"tolerance": float(self.tolerance), "tail_fraction": float(self.tail_fraction),
+                "divergence_bound": _jsonable(self.divergence_bound)}
+
+
+@dataclass(frozen=True)
+class RK4:
+    """Fixed-step classical Runge-Kutta between samples, the input held (zero-order hold).
+
+    Parameters
+    ----------
+    substeps : int, optional
+        RK4 steps per sample (>= 1; default :func:`fl_design.sim.default_substeps`, from the
+        plant's fastest linearized mode).
+
+    Raises
+    ------
+    ParameterError
+        ``substeps`` not a positive integer.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.RK4(substeps=4).substeps
+    4
+    """
+
+    substeps: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.substeps is not None:
+            V.integer("substeps", self.substeps, minimum=1)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.RK4().to_dict()
+        {'method': 'rk4', 'substeps': None}
+        """
+        return {"method": "rk4", "substeps": self.substeps}
+
+
+@dataclass(frozen=True)
+class Cvodes:
+    """CasADi's adaptive ``cvodes`` (BDF) sample by sample: the slow reference integrator.
+
+    Parameters
+    ----------
+    reltol, abstol : float, optional
+        Tolerances (default 1e-10, 1e-12).
+    max_num_steps : int, optional
+        Internal step budget per sample (default 20000).
+
+    Raises
+    ------
+    ParameterError
+        Non-positive tolerances or step budget.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.Cvodes().reltol
+    1e-10
+    """
+
+    reltol: float = 1e-10
+    abstol: float = 1e-12
+    max_num_steps: int = 20000
+
+    def __post_init__(self) -> None:
+        V.positive("reltol", self.reltol)
+        V.positive("abstol", self.abstol)
+        V.integer("max_num_steps", self.max_num_steps, minimum=1)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Cvodes().to_dict()["method"]
+        'cvodes'
+        """
+        return {"method": "cvodes", "reltol": float(self.reltol), "abstol": float(self.abstol),
+                "max_num_steps": int(self.max_num_steps)}
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """Where runs execute: compiled C (cached) or CasADi's interpreter, threads and chunks.
+
+    Parameters
+    ----------
+    compiled : bool, optional
+        Generated C, compiled once and cached (default True; falls back to the interpreter
+        with a :class:`~fl_design.errors.CompilationWarning` when no compiler works).
+    cache_dir : path-like, optional
+        Cache of compiled kernels (default ``$FL_DESIGN_CACHE``, else
+        ``$XDG_CACHE_HOME/fl_design``, else ``~/.cache/fl_design``).
+    threads : int, optional
+        Threads per process of a sweep (default: the cores available; 1 per task with an
+        executor).
+    chunk_size : int, optional
+        Grid points per chunk/task of a sweep (default 64).
+
+    Raises
+    ------
+    ParameterError
+        ``compiled`` not a bool, ``threads`` or ``chunk_size`` not a positive integer.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.Kernel(compiled=False).compiled
+    False
+    """
+
+    compiled: bool = True
+    cache_dir: Any = None
+    threads: int | None = None
+    chunk_size: int | None = None
+
+    def __post_init__(self) -> None:
+        V.boolean("compiled", self.compiled)
+        if self.threads is not None:
+            V.integer("threads", self.threads, minimum=1)
+        if self.chunk_size is not None:
+            V.integer("chunk_size", self.chunk_size, minimum=1)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Kernel().to_dict()["compiled"]
+        True
+        """
+        return {"compiled": bool(self.compiled),
+                "cache_dir": None if self.cache_dir is None else str(self.cache_dir),
+                "threads": self.threads, "chunk_size": self.chunk_size}
+
+
+__all__ = ["RK4", "Classifier", "Cvodes", "Kernel", "Noise", "Scenario"]
