@@ -34,8 +34,7 @@ def main(argv=None) -> int:
         print(f"  {'estimator':<15}{'status':>10}{'overshoot %':>13}{'u RMS':>9}{'u TV':>11}"
               f"{'sigma err RMS':>15}{'flops':>7}")
         for name, design in designs.items():
-            resp = fl.simulate(plant, design, 0.3, duration, noise_std=np.sqrt(noise_var),
-                               seed=args.seed)
+            resp = fl.simulate(plant, design, fl.Scenario(0.3, duration, noise=fl.Noise(std=np.sqrt(noise_var), seed=args.seed)))
             print(f"  {name:<15}{resp.status:>10}{resp.overshoot:>13.1f}{resp.input_rms:>9.3f}"
                   f"{resp.input_tv:>11.2f}{resp.estimation_rms[-1]:>15.4g}"
                   f"{design.estimator.flops_per_step:>7d}")

@@ -36,8 +36,7 @@ import sympy as sp
 
 import fl_design as fl
 from fl_design.codegen import build, generate_source
-from fl_design.sim import STATUS_CODES
-from fl_design.sim import prepare_run
+from fl_design.sim import STATUS_CODES, prepare_run
 
 T = 1e-3
 REFERENCE = 0.3
@@ -141,18 +140,14 @@ def trms_map(n_grid: int, duration: float, threads: int) -> tuple[float, object]
     with tempfile.TemporaryDirectory() as cache:
         t0 = time.perf_counter()
         plant = fl.plants.trms_yaw()
-        smap = fl.sweep(plant, trms_design(), eps=np.geomspace(1e-3, 1.0, n_grid),
-                        gamma=np.geomspace(1e-5, 1e-1, n_grid), duration=duration,
-                        reference=REFERENCE, progress=False, threads=threads, cache_dir=cache)
+        smap = fl.sweep(plant, trms_design(), fl.Scenario(REFERENCE, duration), eps=np.geomspace(1e-3, 1.0, n_grid), gamma=np.geomspace(1e-5, 1e-1, n_grid), progress=False, kernel=fl.Kernel(cache_dir=cache, threads=threads))
         return time.perf_counter() - t0, smap
 
 
 def peak_memory(plant, design, duration: float, n_grid: int, cache_dir: str) -> float:
     """Peak traced Python memory (MB) of a sweep."""
     tracemalloc.start()
-    fl.sweep(plant, design, eps=np.geomspace(0.01, 0.5, n_grid),
-             gamma=np.geomspace(1e-4, 1e-2, n_grid), duration=duration, reference=REFERENCE,
-             progress=False, cache_dir=cache_dir)
+    fl.sweep(plant, design, fl.Scenario(REFERENCE, duration), eps=np.geomspace(0.01, 0.5, n_grid), gamma=np.geomspace(1e-4, 1e-2, n_grid), progress=False, kernel=fl.Kernel(cache_dir=cache_dir))
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     return peak / 1e6
@@ -167,7 +162,7 @@ def main(argv=None) -> int:
     duration, n_grid = (2.0, 8) if quick else (20.0, 64)
     reps = 3 if quick else 7
     plant, design = fl.plants.trms_yaw(), trms_design()
-    run = prepare_run(plant, design, REFERENCE, duration)
+    run = prepare_run(plant, design, fl.Scenario(REFERENCE, duration))
     print(f"fl_design sweep benchmark{' (--quick)' if quick else ''}: TRMS yaw, T = {T:g} s, "
           f"RK4 with {run.loop.substeps} substeps, {cores} cores available")
     ok = True

@@ -38,8 +38,8 @@ import casadi as ca
 import numpy as np
 
 from .. import _validate as V
-from ..sim._closed_loop import ClosedLoop, default_substeps
 from ..errors import ComputationError, ParameterError
+from ..sim._closed_loop import ClosedLoop, default_substeps
 
 
 @dataclass(frozen=True)

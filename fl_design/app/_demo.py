@@ -21,16 +21,16 @@ Examples
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
 from .. import plants
-from ..presets import PAPER_STEP
+from .._json import dumps
+from ..presets import PAPER_STEP, paper_design
 from ..presets import least_squares_design as baseline_design
-from ..presets import paper_design
+from ..sim import Noise, Scenario
 from ._report import derivation_report
 
 STEP = PAPER_STEP
@@ -102,7 +102,7 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
     for noise_std, title in ((0.0, "noise-free"), (NOISE_STD, f"noise std {NOISE_STD:.4f}")):
         rows = []
         for name, d in candidates:
-            resp = simulate(plant, d, STEP, duration, noise_std=noise_std, seed=1)
+            resp = simulate(plant, d, Scenario(STEP, duration, noise=Noise(std=noise_std, seed=1)))
             rows.append(_row(name, resp, d.estimator.flops_per_step))
             responses[(name, noise_std)] = resp
         _print_table(rows, f"0.3 rad step, {duration:g} s, {title}:")
@@ -111,8 +111,8 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
     n_grid = 5 if quick else 17
     grid_eps = np.geomspace(0.01, 1.0, n_grid)
     grid_gamma = np.geomspace(3e-5, 3e-1, n_grid)  # contains the paper's gamma = 3e-4
-    smap = sweep(plant, design, eps=grid_eps, gamma=grid_gamma, duration=duration,
-                       reference=STEP, progress=show_progress)
+    smap = sweep(plant, design, Scenario(STEP, duration), eps=grid_eps, gamma=grid_gamma,
+                 progress=show_progress)
     print(f"\nStability map {grid_eps.size} x {grid_gamma.size} (eps x gamma): "
           f"{int(np.sum(smap.labels == 'stable'))} stable, "
           f"{int(np.sum(smap.labels == 'undecided'))} undecided, "
@@ -135,7 +135,7 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
     fig = responses[("EHGO eps=0.05", 0.0)].plot().figure
     fig.savefig(out / "response.png", dpi=110)
     smap.plot().figure.savefig(out / "stability_map.png", dpi=110)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    (out / "summary.json").write_text(dumps(summary, indent=2))
     print(f"\nWrote {out / 'summary.json'}, response.png, stability_map.png "
           f"in {time.perf_counter() - start:.1f} s")
     return 0

@@ -13,8 +13,9 @@ Examples
 
 from ._controller import DynamicController, gains_from_poles, lqr_gains
 from ._design import Design, OpenLoopRun
-from ._estimator import Estimator, replace_fields
 from ._ehgo import EHGO, METHODS, StateSpaceMatrices, binomial_coeffs
+from ._estimator import Estimator, replace_fields
+from ._layout import Layout
 from ._least_squares import LeastSquaresEstimator, derivative_matrix
 
 __all__ = [
@@ -23,6 +24,7 @@ __all__ = [
     "Design",
     "DynamicController",
     "Estimator",
+    "Layout",
     "LeastSquaresEstimator",
     "OpenLoopRun",
     "StateSpaceMatrices",

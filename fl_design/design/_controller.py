@@ -27,8 +27,8 @@ from dataclasses import KW_ONLY, dataclass, field
 import numpy as np
 
 from .. import _validate as v
-from ._estimator import replace_fields
 from ..errors import ComputationError, DimensionError, HurwitzError, ParameterError
+from ._estimator import replace_fields
 
 Interval = tuple[float, float]
 

@@ -22,10 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _validate as v
+from ..errors import DesignMismatchError, DimensionError, ParameterError
 from ._controller import DynamicController
 from ._estimator import Estimator
-from ..errors import DesignMismatchError, DimensionError, ParameterError
-
+from ._layout import Layout
 
 
 @dataclass(frozen=True)
@@ -155,10 +155,15 @@ class Design:
         return int(self.estimator.state_size) + 2
 
     @property
-    def state_layout(self) -> dict[str, slice]:
+    def state_layout(self) -> Layout:
         """Where each part sits in the state vector: ``estimator``, ``u``, ``z``."""
-        m = int(self.estimator.state_size)
-        return {"estimator": slice(0, m), "u": slice(m, m + 1), "z": slice(m + 1, m + 2)}
+        return Layout((("estimator", int(self.estimator.state_size)), ("u", 1), ("z", 1)))
+
+    @property
+    def parameter_layout(self) -> Layout:
+        """Where each part sits in :meth:`parameter_vector`: ``estimator``, ``gamma``."""
+        n = int(np.asarray(self.estimator.parameter_vector()).size)
+        return Layout((("estimator", n), ("gamma", 1)))
 
     def initial_state(self) -> np.ndarray:
         """Initial design state ``[estimator initial state, u0, 0]``.

@@ -35,13 +35,13 @@ import numpy as np
 import scipy.signal
 
 from .. import _validate as v
-from ._estimator import Estimator, as_casadi, check_length, rows
 from ..errors import (
     DimensionError,
     MissingDependencyError,
     ParameterError,
     UnstableDiscretizationWarning,
 )
+from ._estimator import Estimator, as_casadi, check_length, rows
 
 #: user-facing method name -> scipy.signal.cont2discrete method
 METHODS = {

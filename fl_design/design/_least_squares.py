@@ -25,8 +25,8 @@ import numpy as np
 import scipy.linalg
 
 from .. import _validate as v
-from ._estimator import Estimator, as_casadi, check_length, rows
 from ..errors import DimensionError, ParameterError
+from ._estimator import Estimator, as_casadi, check_length, rows
 
 
 def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarray:

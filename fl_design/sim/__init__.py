@@ -1,62 +1,86 @@
 """Simulation layer: the sampled closed loop, its compiled kernel, ``simulate`` and ``sweep``.
 
-Modules: ``_closed_loop`` (plant + design as CasADi functions, the accumulating step),
-``_runners`` (compiled C driver or CasADi interpreter over samples and grid columns),
-``_simulate`` (:func:`simulate`), ``_response`` (:class:`Response`, metrics, classification),
-``_sweep`` (:func:`sweep`, :class:`StabilityMap`, :func:`estimate_eps_star`).
+Modules: ``_options`` (run options: :class:`Scenario`, :class:`Noise`, :class:`Classifier`,
+:class:`RK4`, :class:`Cvodes`, :class:`Kernel`), ``_metrics`` (the one table of a run's
+accumulators and metrics, :class:`Status`), ``_closed_loop`` (plant + design as CasADi
+functions, the accumulating step), ``_runners`` (compiled C driver or CasADi interpreter),
+``_run`` (:func:`prepare_run`), ``_simulate`` (:func:`simulate`), ``_response``
+(:class:`Response`), ``_grid`` (chunks over threads/executors), ``_sweep`` (:func:`sweep`,
+:func:`estimate_eps_star`), ``_stability_map`` (:class:`StabilityMap`).
 
 Examples
 --------
 >>> from fl_design.sim import STATUS_CODES
 >>> sorted(STATUS_CODES)
-['diverged', 'stable', 'undecided']
+['diverged', 'solver_failed', 'stable', 'undecided']
 """
 
-from ._closed_loop import HUGE, AccumulatorLayout, ClosedLoop, accumulator_layout, default_substeps
-from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
-from ._response import (
+from ._closed_loop import HUGE, ClosedLoop, accumulator_layout, default_substeps
+from ._grid import parameter_columns, run_grid
+from ._metrics import (
+    ACCUMULATORS,
     METRIC_NAMES,
+    METRICS,
+    RUN_CONSTANTS,
     STATUS_CODES,
     STATUS_NAMES,
-    Response,
+    Accumulator,
+    Metric,
+    Status,
     classify,
+    initial_values,
+    metric_layout,
     metrics_from_summary,
-    summary_from_trajectories,
+    signals,
+    update,
 )
+from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
+from ._response import Response
+from ._run import RunSetup, default_divergence_bound, prepare_run
 from ._runners import InterpretedRunner, NativeRunner, make_runner, runner_source
-from ._simulate import RunSetup, default_divergence_bound, prepare_run, simulate
-from ._sweep import EpsStarEstimate, StabilityMap, estimate_eps_star, run_grid, sweep
+from ._simulate import simulate
+from ._stability_map import EpsStarEstimate, StabilityMap
+from ._sweep import estimate_eps_star, sweep
 
 __all__ = [
+    "ACCUMULATORS",
     "HUGE",
+    "METRICS",
     "METRIC_NAMES",
+    "RK4",
+    "RUN_CONSTANTS",
     "STATUS_CODES",
     "STATUS_NAMES",
-    "RK4",
-    "AccumulatorLayout",
+    "Accumulator",
     "Classifier",
-    "Cvodes",
     "ClosedLoop",
+    "Cvodes",
     "EpsStarEstimate",
     "InterpretedRunner",
     "Kernel",
+    "Metric",
     "NativeRunner",
     "Noise",
     "Response",
     "RunSetup",
     "Scenario",
     "StabilityMap",
+    "Status",
     "accumulator_layout",
     "classify",
     "default_divergence_bound",
     "default_substeps",
     "estimate_eps_star",
+    "initial_values",
     "make_runner",
+    "metric_layout",
     "metrics_from_summary",
+    "parameter_columns",
     "prepare_run",
     "run_grid",
     "runner_source",
+    "signals",
     "simulate",
-    "summary_from_trajectories",
     "sweep",
+    "update",
 ]

@@ -25,11 +25,8 @@ state ``acc`` holds the plant and design states, running metrics, the run's cons
   is tested for the interpreted and the compiled kernel.
 * **padding**: samples ``k >= N`` change nothing (only ``k < N`` samples count), so blocks of
   samples may be padded and a frozen run may skip its remaining samples.
-* running metrics (over accepted samples, error ``e = y - r`` on the true output): max and
-  min of ``e``, sums of ``|e|``, ``u^2``, ``|u_k - u_(k-1)|`` and of the squared estimation
-  errors ``xhat_i - y^(i-1)``, ``sigmahat - sigma``; over the tail ``k >= k_tail``: max ``|e|``,
-  max and min of ``e``, sum of ``e``; the first samples where the output has covered 10 % and
-  90 % of the step and the last sample with ``|e| > tol``.
+* running metrics: every accepted sample updates the accumulators of
+  :data:`fl_design.sim.ACCUMULATORS` (defined once, in :mod:`fl_design.sim._metrics`).
 
 The step is run over the samples and over the grid's parameter columns by a compiled C driver
 (or, without a compiler, by CasADi's ``fold`` in its interpreter): see :mod:`fl_design.sim._runners`.
@@ -57,95 +54,20 @@ import casadi as ca
 import numpy as np
 
 from .. import _validate as V
-from ..errors import DesignMismatchError, ParameterError
+from ..design import Layout
+from ..errors import DesignMismatchError
+from ._metrics import RUN_CONSTANTS, metric_layout, signals, update
 
 #: Any design-state or input magnitude beyond this counts as non-finite (divergence).
 HUGE = 1e300
 
 
-@dataclass(frozen=True)
-class AccumulatorLayout:
-    """Named slices of the accumulator vector of the sweep kernel.
-
-    Parameters
-    ----------
-    fields : tuple of (str, int)
-        Names and lengths, in order.
-
-    Examples
-    --------
-    >>> from fl_design.sim import accumulator_layout
-    >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
-    >>> lay.slices["x"], lay.size > 2 + 5 + 28
-    (slice(0, 2, None), True)
-    """
-
-    fields: tuple
-
-    @functools.cached_property
-    def slices(self) -> dict[str, slice]:
-        """``{name: slice}`` into the accumulator."""
-        out, start = {}, 0
-        for name, length in self.fields:
-            out[name] = slice(start, start + length)
-            start += length
-        return out
-
-    @property
-    def size(self) -> int:
-        """Length of the accumulator."""
-        return sum(length for _, length in self.fields)
-
-    def pack(self, **values) -> np.ndarray:
-        """An accumulator (or a matrix with one column per run) from named values.
-
-        Every field must be given; a value is a scalar, a vector of the field's length, or a
-        matrix ``(length, m)`` for ``m`` runs.
-
-        Examples
-        --------
-        >>> from fl_design.sim import AccumulatorLayout
-        >>> AccumulatorLayout((("a", 1), ("b", 2))).pack(a=1.0, b=[2.0, 3.0]).ravel().tolist()
-        [1.0, 2.0, 3.0]
-        """
-        missing = [name for name, _ in self.fields if name not in values]
-        if missing:
-            raise ParameterError(f"accumulator fields {missing} are missing")
-        cols = max(np.shape(v)[1] if np.ndim(v) == 2 else 1 for v in values.values())
-        acc = np.empty((self.size, cols))
-        for name, length in self.fields:
-            value = np.asarray(values[name], dtype=float)
-            acc[self.slices[name]] = value.reshape(length, -1) if value.ndim else value
-        return acc
-
-    def unpack(self, acc) -> dict[str, np.ndarray]:
-        """Named rows of an accumulator matrix ``(size, m)`` (scalar fields as ``(m,)``).
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from fl_design.sim import AccumulatorLayout
-        >>> AccumulatorLayout((("a", 1), ("b", 2))).unpack(np.arange(3.0))["a"]
-        array([0.])
-        """
-        acc = np.asarray(acc, dtype=float)
-        acc = acc.reshape(self.size, -1)
-        return {name: (acc[self.slices[name]][0] if length == 1 else acc[self.slices[name]])
-                for name, length in self.fields}
-
-
-_METRIC_FIELDS = ("e_max", "e_min", "abs_e_sum", "u2_sum", "du_sum")
-_TAIL_FIELDS = ("tail_abs_e_max", "tail_e_max", "tail_e_min", "tail_e_sum")
-_MARK_FIELDS = ("k10", "k90", "k_out")
-
-
-def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> AccumulatorLayout:
+def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     """The accumulator of a plant with ``n`` states and a design of state size ``m``.
 
     Fields: ``x`` (n), ``s`` (m), ``u_prev``, ``k``, ``diverged``, ``k_div``, the running
-    metrics ``e_max e_min abs_e_sum u2_sum du_sum est2_sum (rho+1) tail_abs_e_max tail_e_max
-    tail_e_min tail_e_sum k10 k90 k_out``, and the run's constants ``N k_tail y0 step tol q
-    x_op (n) bound (n) p (n_p)``.
+    values of :data:`fl_design.sim.ACCUMULATORS` (``est2_sum`` has ``rho + 1`` entries), and
+    the run's constants ``N k_tail y0 step tol q x_op (n) bound (n) p (n_p)``.
 
     Parameters
     ----------
@@ -154,20 +76,20 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> AccumulatorLayo
 
     Returns
     -------
-    AccumulatorLayout
+    Layout
 
     Examples
     --------
     >>> from fl_design.sim import accumulator_layout
-    >>> "est2_sum" in accumulator_layout(n=2, m=5, rho=2, n_p=28).slices
-    True
+    >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
+    >>> lay["x"], "est2_sum" in lay, lay.size
+    (slice(0, 2, None), True, 64)
     """
     fields = [("x", n), ("s", m), ("u_prev", 1), ("k", 1), ("diverged", 1), ("k_div", 1)]
-    fields += [(name, 1) for name in _METRIC_FIELDS] + [("est2_sum", rho + 1)]
-    fields += [(name, 1) for name in _TAIL_FIELDS + _MARK_FIELDS]
-    fields += [(name, 1) for name in ("N", "k_tail", "y0", "step", "tol", "q")]
+    fields += list(metric_layout(rho).fields)
+    fields += [(name, 1) for name in (*RUN_CONSTANTS, "q")]
     fields += [("x_op", n), ("bound", n), ("p", n_p)]
-    return AccumulatorLayout(tuple(fields))
+    return Layout(tuple(fields))
 
 
 def default_substeps(plant, T: float) -> int:
@@ -294,14 +216,14 @@ class ClosedLoop:
         return int(self.design.parameter_vector().size)
 
     @functools.cached_property
-    def layout(self) -> AccumulatorLayout:
+    def layout(self) -> Layout:
         """The accumulator layout (:func:`accumulator_layout`)."""
         return accumulator_layout(n=self.n, m=self.m, rho=self.rho, n_p=self.n_p)
 
     @property
-    def record_layout(self) -> AccumulatorLayout:
+    def record_layout(self) -> Layout:
         """Rows of :attr:`record`'s ``out``: ``x y ym u xhat sigma coords``."""
-        return AccumulatorLayout((("x", self.n), ("y", 1), ("ym", 1), ("u", 1),
+        return Layout((("x", self.n), ("y", 1), ("ym", 1), ("u", 1),
                                   ("xhat", self.rho + 1), ("sigma", 1), ("coords", self.rho)))
 
     # --- the functions --------------------------------------------------------------------------
@@ -360,6 +282,25 @@ class ClosedLoop:
                            ["x_next", "s_next", "u", "y", "ym", "xhat", "sigma"])
 
     @functools.cached_property
+    def within_bounds(self) -> ca.Function:
+        """``fl_ok(x_next, s_next, u, x_op, bound) -> ok``: the one divergence rule.
+
+        ``ok = 1`` when every ``|x_next_i - x_op_i| <= bound_i`` and every design state and
+        the input are below :data:`HUGE` in magnitude; NaN fails every comparison, so a
+        non-finite value is never ok. The kernel and the ``cvodes`` reference both call it.
+        """
+        x, xo, b = ca.SX.sym("x", self.n), ca.SX.sym("x_op", self.n), ca.SX.sym("b", self.n)
+        s, u = ca.SX.sym("s", self.m), ca.SX.sym("u")
+        ok = 1
+        for i in range(self.n):
+            ok = ok * (ca.fabs(x[i] - xo[i]) <= b[i])
+        for i in range(self.m):
+            ok = ok * (ca.fabs(s[i]) < HUGE)
+        ok = ok * (ca.fabs(u) < HUGE)
+        return ca.Function("fl_ok", [x, s, u, xo, b], [ok],
+                           ["x_next", "s_next", "u", "x_op", "bound"], ["ok"])
+
+    @functools.cached_property
     def _accumulating(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
         """Symbolic ``(acc, d, acc_next, out)`` of one accumulating step."""
         lay = self.layout
@@ -368,12 +309,7 @@ class ClosedLoop:
         r, w = d[0], d[1]
         s_next, u, y, ym, xhat, sigma, coords = self.control(a["x"], a["s"], r, w, a["q"], a["p"])
         x_next = self.plant_step(a["x"], u)
-        ok = 1
-        for i in range(self.n):
-            ok = ok * (ca.fabs(x_next[i] - a["x_op"][i]) <= a["bound"][i])
-        for i in range(self.m):
-            ok = ok * (ca.fabs(s_next[i]) < HUGE)
-        ok = ok * (ca.fabs(u) < HUGE)
+        ok = self.within_bounds(x_next, s_next, u, a["x_op"], a["bound"])
         k = a["k"]
         active = k < a["N"]
         live = active * (1 - a["diverged"])
@@ -385,26 +321,10 @@ class ClosedLoop:
         new["k"] = k + active
         new["diverged"] = ca.if_else(newdiv, 1, a["diverged"])
         new["k_div"] = ca.if_else(newdiv, k + 1, a["k_div"])
-        e = y - r
-        tail = k >= a["k_tail"]
-        est_err = xhat - ca.vertcat(coords, sigma)
-        upd = {
-            "e_max": ca.fmax(a["e_max"], e), "e_min": ca.fmin(a["e_min"], e),
-            "abs_e_sum": a["abs_e_sum"] + ca.fabs(e), "u2_sum": a["u2_sum"] + u * u,
-            "du_sum": a["du_sum"] + ca.if_else(k > 0, ca.fabs(u - a["u_prev"]), 0),
-            "est2_sum": a["est2_sum"] + est_err * est_err,
-            "tail_abs_e_max": ca.if_else(tail, ca.fmax(a["tail_abs_e_max"], ca.fabs(e)),
-                                         a["tail_abs_e_max"]),
-            "tail_e_max": ca.if_else(tail, ca.fmax(a["tail_e_max"], e), a["tail_e_max"]),
-            "tail_e_min": ca.if_else(tail, ca.fmin(a["tail_e_min"], e), a["tail_e_min"]),
-            "tail_e_sum": ca.if_else(tail, a["tail_e_sum"] + e, a["tail_e_sum"]),
-        }
-        progress = ca.sign(a["step"]) * (y - a["y0"])
-        for name, frac in (("k10", 0.1), ("k90", 0.9)):
-            reached = (a[name] < 0) * (progress >= frac * ca.fabs(a["step"]))
-            upd[name] = ca.if_else(reached, k, a[name])
-        upd["k_out"] = ca.if_else(ca.fabs(e) > a["tol"], k, a["k_out"])
-        for name, value in upd.items():
+        sig = signals(e=y - r, u=u, u_prev=a["u_prev"], k=k,
+                      est_err=xhat - ca.vertcat(coords, sigma), y=y, y0=a["y0"],
+                      step=a["step"], tol=a["tol"], k_tail=a["k_tail"])
+        for name, value in update(a, sig).items():
             new[name] = ca.if_else(accept, value, a[name])
         acc_next = ca.vertcat(*[new[name] for name, _ in lay.fields])
         out = ca.vertcat(a["x"], y, ym, u, xhat, sigma, ca.vec(coords))
@@ -454,4 +374,4 @@ class ClosedLoop:
                            cache_dir=cache_dir)
 
 
-__all__ = ["HUGE", "AccumulatorLayout", "ClosedLoop", "accumulator_layout", "default_substeps"]
+__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps"]

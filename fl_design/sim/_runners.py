@@ -42,6 +42,7 @@ import numpy as np
 from ..codegen import build, generate_source
 from ..errors import ComputationError
 
+
 @functools.lru_cache(maxsize=32)
 def _load(path: str) -> ctypes.CDLL:
     lib = ctypes.CDLL(path)

@@ -44,8 +44,8 @@ import scipy.optimize
 import scipy.stats
 import sympy as sp
 
-from ._bridge import to_casadi
 from ..errors import ComputationError, ParameterError, RelativeDegreeError
+from ._bridge import to_casadi
 
 _ZERO_TOL = 1e-10  # |d y^(i)/du| <= tol * max(1, |y^(i)|) at every probe point: identically zero
 _N_PROBE = 16  # random points for the numeric zero tests

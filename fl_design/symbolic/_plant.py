@@ -30,8 +30,8 @@ import scipy.optimize
 import sympy as sp
 
 from .. import _validate as V
-from ._bridge import to_casadi
 from ..errors import PlantDefinitionError
+from ._bridge import to_casadi
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
 
 

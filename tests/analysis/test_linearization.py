@@ -72,7 +72,7 @@ def test_growth_rate_of_simulation_matches_spectral_radius(pendulum_design, pend
     lin = fl.sampled_linearization(pendulum, design)
     assert not lin.stable
     rate = math.log(lin.spectral_radius) / T
-    resp = fl.simulate(pendulum, design, 1e-6, 12.0)  # tiny step: linear regime
+    resp = fl.simulate(pendulum, design, fl.Scenario(1e-6, 12.0))  # tiny step: linear regime
     err = np.abs(resp.y - 1e-6)
     period = 2 * math.pi / abs(np.angle(lin.eigenvalues[0]) / T)
     w = round(period / T)

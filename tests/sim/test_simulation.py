@@ -18,9 +18,8 @@ import scipy.integrate
 import sympy as sp
 
 import fl_design as fl
-from fl_design.sim import ClosedLoop, default_substeps
 from fl_design.errors import CompilationWarning, DesignMismatchError, DimensionError, ParameterError
-from fl_design.sim import default_divergence_bound, prepare_run
+from fl_design.sim import ClosedLoop, default_divergence_bound, default_substeps, prepare_run
 
 T = 1e-3
 
@@ -63,8 +62,8 @@ CASES = {
 def test_rk4_loop_agrees_with_cvodes_reference(name):
     make_plant, make_design, r = CASES[name]
     plant, design = make_plant(), make_design()
-    fast = fl.simulate(plant, design, r, 1.0)
-    ref = fl.simulate(plant, design, r, 1.0, method="cvodes")
+    fast = fl.simulate(plant, design, fl.Scenario(r, 1.0))
+    ref = fl.simulate(plant, design, fl.Scenario(r, 1.0), integrator=fl.Cvodes())
     assert not fast.diverged and not ref.diverged
     scale = max(abs(r), np.max(np.abs(ref.y)))
     assert np.max(np.abs(fast.y - ref.y)) <= 1e-6 * scale
@@ -74,7 +73,7 @@ def test_rk4_loop_agrees_with_cvodes_reference(name):
 
 def test_plant_is_integrated_under_zero_order_hold(pendulum_design, pendulum):
     """The states equal an independent solve_ivp of the plant with the logged u held."""
-    resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, x0=[0.2, -0.1])
+    resp = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.5, x0=[0.2, -0.1]))
     g, c = 9.81, 0.5
     x = np.array([0.2, -0.1])
     for k in range(resp.t.size - 1):
@@ -87,7 +86,7 @@ def test_plant_is_integrated_under_zero_order_hold(pendulum_design, pendulum):
 
 def test_design_sees_the_measurements_it_is_given(pendulum_design, pendulum):
     """u from the loop equals Design.run (the design's own mapaccum) fed with the logged ym."""
-    resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.5, noise_std=1e-3, seed=3)
+    resp = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.5, noise=fl.Noise(std=1e-3, seed=3)))
     ol = pendulum_design().run(resp.ym, resp.r)
     np.testing.assert_allclose(resp.u, ol.u, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(resp.xhat, ol.xhat[:, :2], rtol=1e-12, atol=1e-12)
@@ -95,7 +94,7 @@ def test_design_sees_the_measurements_it_is_given(pendulum_design, pendulum):
 
 
 def test_true_sigma_and_coordinates(pendulum_design, pendulum):
-    resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.3)
+    resp = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.3))
     th, om = resp.x[:, 0], resp.x[:, 1]
     np.testing.assert_allclose(resp.coords[:, 0], th, atol=1e-15)
     np.testing.assert_allclose(resp.coords[:, 1], om, atol=1e-15)
@@ -104,30 +103,29 @@ def test_true_sigma_and_coordinates(pendulum_design, pendulum):
 
 def test_noise_and_quantization_are_injected_deterministically(pendulum_design, pendulum):
     d, q, std = pendulum_design(), 1e-3, 2e-3
-    resp = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7)
+    resp = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.4, noise=fl.Noise(std=std, seed=7)))
     w = std * np.random.default_rng(7).standard_normal(resp.t.size)
     np.testing.assert_allclose(resp.ym - resp.y, w, atol=1e-15)
-    quant = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7, quantization=q)
+    quant = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.4, quantization=q, noise=fl.Noise(std=std, seed=7)))
     np.testing.assert_allclose(quant.ym / q, np.round(quant.ym / q), atol=1e-9)
     assert np.max(np.abs(quant.ym - (quant.y + w))) <= q / 2 + 1e-15
-    again = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=7, quantization=q)
+    again = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.4, quantization=q, noise=fl.Noise(std=std, seed=7)))
     np.testing.assert_array_equal(again.u, quant.u)
-    other = fl.simulate(pendulum, d, 0.1, 0.4, noise_std=std, seed=8, quantization=q)
+    other = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.4, quantization=q, noise=fl.Noise(std=std, seed=8)))
     assert not np.array_equal(other.u, quant.u)
 
 
 def test_compiled_kernel_equals_interpreted(pendulum_design, pendulum, tmp_path):
     d = pendulum_design()
-    a = fl.simulate(pendulum, d, 0.1, 0.5, noise_std=1e-3, quantization=1e-4)
-    b = fl.simulate(pendulum, d, 0.1, 0.5, noise_std=1e-3, quantization=1e-4, compiled=True,
-                    cache_dir=tmp_path)
+    a = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.5, quantization=1e-4, noise=fl.Noise(std=1e-3)))
+    b = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.5, quantization=1e-4, noise=fl.Noise(std=1e-3)), kernel=fl.Kernel(compiled=True, cache_dir=tmp_path))
     for name in ("y", "ym", "u", "xhat", "sigmahat", "sigma", "x"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     assert list(tmp_path.glob("fl_loop_*.so"))
 
 
 def test_metrics_follow_their_definitions(pendulum_design, pendulum):
-    resp = fl.simulate(pendulum, pendulum_design(gamma=3e-3), 0.1, 15.0)
+    resp = fl.simulate(pendulum, pendulum_design(gamma=3e-3), fl.Scenario(0.1, 15.0))
     y, u, r, t = resp.y, resp.u, 0.1, resp.t
     step = r - y[0]
     assert resp.overshoot == pytest.approx(max(0.0, 100 * (y.max() - r) / step), abs=1e-12)
@@ -160,7 +158,7 @@ def test_ehgo_input_noise_falls_when_eps_rises():
     sizes = []
     for eps in (0.05, 0.1, 0.2, 0.5):
         d = trms_design(eps=eps, gamma=gamma)
-        resp = fl.simulate(plant, d, 0.0, 2.0, noise_std=std, seed=0)
+        resp = fl.simulate(plant, d, fl.Scenario(0.0, 2.0, noise=fl.Noise(std=std, seed=0)))
         assert resp.stable
         xh = d.estimator.filter(std * np.random.default_rng(0).standard_normal(resp.t.size))
         predicted = gamma * (-2 * xh[:, 0] - 4 * xh[:, 1] - xh[:, 2])
@@ -171,13 +169,12 @@ def test_ehgo_input_noise_falls_when_eps_rises():
     assert sizes[0] > 20 * sizes[-1]
 
 
-@pytest.mark.parametrize("kw", [{}, {"compiled": True}, {"method": "cvodes"}],
-                         ids=["interpreted", "compiled", "cvodes"])
-def test_finite_escape_is_classified_not_raised(kw, tmp_path):
-    if kw.get("compiled"):
-        kw = dict(kw, cache_dir=tmp_path)
-    resp = fl.simulate(escape_plant(), escape_design(), 0.0, 3.0, x0=[2.0],
-                       divergence_bound=1e300, **kw)
+@pytest.mark.parametrize("kind", ["interpreted", "compiled", "cvodes"])
+def test_finite_escape_is_classified_not_raised(kind, tmp_path):
+    kw = {"compiled": {"kernel": fl.Kernel(compiled=True, cache_dir=tmp_path)},
+          "cvodes": {"integrator": fl.Cvodes()}}.get(kind, {})
+    resp = fl.simulate(escape_plant(), escape_design(), fl.Scenario(0.0, 3.0, x0=[2.0]),
+                       classifier=fl.Classifier(divergence_bound=1e300), **kw)
     assert resp.status == "diverged" and resp.diverged and not resp.stable
     assert 0.45 <= resp.divergence_time <= 0.6  # escape of x' = x^2 from 2 at t = 0.5
     k = resp.divergence_index
@@ -189,7 +186,7 @@ def test_finite_escape_is_classified_not_raised(kw, tmp_path):
 
 def test_divergence_bound_default_and_custom(pendulum_design, pendulum):
     np.testing.assert_allclose(default_divergence_bound(pendulum), [20 * math.pi, 200.0])
-    resp = fl.simulate(pendulum, pendulum_design(eps=0.2), 0.05, 10.0, divergence_bound=0.2)
+    resp = fl.simulate(pendulum, pendulum_design(eps=0.2), fl.Scenario(0.05, 10.0), classifier=fl.Classifier(divergence_bound=0.2))
     assert resp.diverged
     k = resp.divergence_index
     assert np.all(np.abs(resp.x[: k - 1]) <= 0.2)
@@ -197,10 +194,10 @@ def test_divergence_bound_default_and_custom(pendulum_design, pendulum):
 
 def test_reference_forms(pendulum_design, pendulum):
     d = pendulum_design()
-    const = fl.simulate(pendulum, d, 0.1, 0.2)
-    arr = fl.simulate(pendulum, d, np.full(200, 0.1), 0.2)
-    fun = fl.simulate(pendulum, d, lambda t: 0.1 + 0 * t, 0.2)
-    scalar_fun = fl.simulate(pendulum, d, lambda t: 0.1 if t >= 0 else 0.0, 0.2)
+    const = fl.simulate(pendulum, d, fl.Scenario(0.1, 0.2))
+    arr = fl.simulate(pendulum, d, fl.Scenario(np.full(200, 0.1), 0.2))
+    fun = fl.simulate(pendulum, d, fl.Scenario(lambda t: 0.1 + 0 * t, 0.2))
+    scalar_fun = fl.simulate(pendulum, d, fl.Scenario(lambda t: 0.1 if t >= 0 else 0.0, 0.2))
     for other in (arr, fun, scalar_fun):
         np.testing.assert_array_equal(other.u, const.u)
     np.testing.assert_allclose(fun.t, np.arange(200) * T)
@@ -215,70 +212,81 @@ def test_default_substeps_bound_h_lambda(pendulum):
 def test_no_compiler_falls_back_with_a_warning(pendulum_design, pendulum, tmp_path, monkeypatch):
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
     with pytest.warns(CompilationWarning, match="no C compiler"):
-        resp = fl.simulate(pendulum, pendulum_design(), 0.1, 0.2, compiled=True,
-                           cache_dir=tmp_path)
-    ref = fl.simulate(pendulum, pendulum_design(), 0.1, 0.2)
+        resp = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.2), kernel=fl.Kernel(compiled=True, cache_dir=tmp_path))
+    ref = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.2))
     np.testing.assert_array_equal(resp.u, ref.u)
 
 
 def test_failing_compiler_falls_back_with_a_warning(pendulum_design, pendulum, tmp_path, monkeypatch):
     monkeypatch.setenv("CC", "false")
     with pytest.warns(CompilationWarning, match="failed"):
-        fl.simulate(pendulum, pendulum_design(), 0.1, 0.2, compiled=True, cache_dir=tmp_path)
+        fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.2), kernel=fl.Kernel(compiled=True, cache_dir=tmp_path))
 
 
 def test_compiled_kernel_is_cached(pendulum_design, pendulum, tmp_path):
     d = pendulum_design()
-    fl.simulate(pendulum, d, 0.1, 0.1, compiled=True, cache_dir=tmp_path)
+    fl.simulate(pendulum, d, fl.Scenario(0.1, 0.1), kernel=fl.Kernel(compiled=True, cache_dir=tmp_path))
     libs = list(tmp_path.glob("fl_loop_*.so"))
     stamp = libs[0].stat().st_mtime_ns
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        fl.simulate(pendulum, d.replace(eps=0.05, gamma=3e-3), 0.2, 0.1, compiled=True,
-                    cache_dir=tmp_path)
+        fl.simulate(pendulum, d.replace(eps=0.05, gamma=3e-3), fl.Scenario(0.2, 0.1), kernel=fl.Kernel(compiled=True, cache_dir=tmp_path))
     assert list(tmp_path.glob("fl_loop_*.so")) == libs
     assert libs[0].stat().st_mtime_ns == stamp
 
 
 # --- bad input ---------------------------------------------------------------------------------
-@pytest.mark.parametrize("kwargs, error, match", [
-    ({"duration": -1.0}, ParameterError, "duration must be > 0"),
-    ({"duration": 0.0}, ParameterError, "duration must be > 0"),
-    ({"duration": 1e-4}, ParameterError, "shorter than one sample"),
-    ({"reference": np.zeros(7)}, DimensionError, "N = round\\(duration/T\\) = 100 samples"),
-    ({"reference": np.zeros((100, 2))}, DimensionError, "shape \\(100, 2\\)"),
-    ({"reference": lambda t: np.nan * t}, ParameterError, "non-finite"),
-    ({"x0": [0.0]}, DimensionError, "x0 must have length 2"),
-    ({"noise_std": -1.0}, ParameterError, "noise_std must be >= 0"),
-    ({"quantization": 0.0}, ParameterError, "quantization must be > 0"),
-    ({"seed": -1}, ParameterError, "seed must be >= 0"),
-    ({"tail_fraction": 0.0}, ParameterError, "tail_fraction must be in \\(0, 1\\]"),
-    ({"tolerance": -0.1}, ParameterError, "tolerance must be > 0"),
-    ({"divergence_bound": [1.0, -1.0]}, ParameterError, "divergence_bound must be > 0"),
-    ({"divergence_bound": [1.0]}, DimensionError, "divergence_bound must have length 2"),
-    ({"substeps": 0}, ParameterError, "substeps must be >= 1"),
-    ({"method": "euler"}, ParameterError, "method must be 'rk4' or 'cvodes'"),
+@pytest.mark.parametrize("make, error, match", [
+    (lambda: fl.Scenario(0.1, -1.0), ParameterError, "duration must be > 0"),
+    (lambda: fl.Scenario(0.1, 0.0), ParameterError, "duration must be > 0"),
+    (lambda: fl.Scenario(0.1, 1e-4), ParameterError, "shorter than one sample"),
+    (lambda: fl.Scenario(np.zeros(7), 0.1), DimensionError,
+     "N = round\\(duration/T\\) = 100 samples"),
+    (lambda: fl.Scenario(np.zeros((100, 2)), 0.1), DimensionError, "one-dimensional"),
+    (lambda: fl.Scenario(lambda t: np.nan * t, 0.1), ParameterError, "non-finite"),
+    (lambda: fl.Scenario(0.1, 0.1, x0=[0.0]), DimensionError, "x0 must have length 2"),
+    (lambda: fl.Noise(std=-1.0), ParameterError, "noise std must be >= 0"),
+    (lambda: fl.Scenario(0.1, 0.1, quantization=0.0), ParameterError,
+     "quantization must be > 0"),
+    (lambda: fl.Noise(std=0.1, seed=-1), ParameterError, "noise seed must be >= 0"),
+    (lambda: fl.Scenario(0.1, 0.1, noise=0.1), ParameterError, "noise must be a fl.Noise"),
+    (lambda: fl.Classifier(tail_fraction=0.0), ParameterError,
+     "tail_fraction must be in \\(0, 1\\]"),
+    (lambda: fl.Classifier(tolerance=-0.1), ParameterError, "tolerance must be > 0"),
+    (lambda: fl.Classifier(divergence_bound=[1.0, -1.0]), ParameterError,
+     "divergence_bound must be > 0"),
+    (lambda: fl.Classifier(divergence_bound=[1.0]), DimensionError,
+     "divergence_bound must have length 2"),
+    (lambda: fl.RK4(substeps=0), ParameterError, "substeps must be >= 1"),
+    (lambda: "euler", ParameterError, "integrator must be fl.RK4"),
+    (lambda: fl.Kernel(compiled="no"), ParameterError, "compiled must be True or False"),
 ])
-def test_bad_input_is_refused(pendulum_design, pendulum, kwargs, error, match):
-    args = {"reference": 0.1, "duration": 0.1}
-    args.update(kwargs)
-    reference, duration = args.pop("reference"), args.pop("duration")
+def test_bad_input_is_refused(pendulum_design, pendulum, make, error, match):
+    def run():
+        value = make()
+        if isinstance(value, fl.Scenario):
+            return fl.simulate(pendulum, pendulum_design(), value)
+        key = {fl.Noise: "noise", fl.Classifier: "classifier", fl.Kernel: "kernel"}.get(
+            type(value), "integrator")
+        if key == "noise":
+            return fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.1, noise=value))
+        return fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.1), **{key: value})
+
     with pytest.raises(error, match=match):
-        fl.simulate(pendulum, pendulum_design(), reference, duration, **args)
+        run()
 
 
 def test_relative_degree_mismatch_is_refused(pendulum):
     d1 = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=T),
                    controller=fl.DynamicController((1,), 1e-2))
     with pytest.raises(DesignMismatchError, match="relative degree 2 but the design serves rho=1"):
-        fl.simulate(pendulum, d1, 0.1, 0.1)
+        fl.simulate(pendulum, d1, fl.Scenario(0.1, 0.1))
     with pytest.raises(DesignMismatchError, match="relative degree"):
         ClosedLoop(pendulum, d1, substeps=1)
 
 
 def test_prepare_run_constants(pendulum_design, pendulum):
-    run = prepare_run(pendulum, pendulum_design(), lambda t: 0.2 * (t >= 0.5), 1.0,
-                      x0=[0.05, 0.0], tail_fraction=0.25)
+    run = prepare_run(pendulum, pendulum_design(), fl.Scenario(lambda t: 0.2 * (t >= 0.5), 1.0, x0=[0.05, 0.0]), classifier=fl.Classifier(tail_fraction=0.25))
     assert run.N == 1000 and run.k_tail == 750
     assert run.y0 == 0.05 and run.step == pytest.approx(0.15)
     assert run.tol == pytest.approx(0.02 * 0.2)  # scale = peak-to-peak of r (0.2) > |step|
@@ -304,8 +312,7 @@ def test_if_else_drops_nan_and_inf_of_the_rejected_branch(compiled, tmp_path):
 
 def test_runners_agree_on_diverging_runs_including_skipped_samples(tmp_path):
     """The compiled driver skips a frozen run's samples; the accumulators are unchanged."""
-    run = prepare_run(escape_plant(), escape_design(), 0.0, 20.0, x0=[2.0],
-                      divergence_bound=1e300)
+    run = prepare_run(escape_plant(), escape_design(), fl.Scenario(0.0, 20.0, x0=[2.0]), classifier=fl.Classifier(divergence_bound=1e300))
     P = np.column_stack([escape_design().replace(gamma=g).parameter_vector()
                          for g in (1e-3, 1e-2)])
     acc0 = run.initial_accumulator(P)
@@ -316,3 +323,47 @@ def test_runners_agree_on_diverging_runs_including_skipped_samples(tmp_path):
     np.testing.assert_array_equal(info["k"], [run.N, run.N])
     np.testing.assert_array_equal(info["diverged"], [1.0, 1.0])
     assert np.all(np.isfinite(info["x"]))
+
+
+# --- one home for metrics: the kernel's accumulators == NumPy over the trajectories -----------
+@pytest.mark.parametrize("kind", ["interpreted", "compiled", "cvodes"])
+@pytest.mark.parametrize("case", ["stable", "noisy", "diverging"])
+def test_response_metrics_equal_numpy_oracle(pendulum, pendulum_design, tmp_path, kind, case):
+    from tests.oracles import metrics_from_trajectories
+
+    kw = {"compiled": {"kernel": fl.Kernel(compiled=True, cache_dir=tmp_path)},
+          "cvodes": {"integrator": fl.Cvodes()}}.get(kind, {})
+    design, sc = {
+        "stable": (pendulum_design(), fl.Scenario(0.1, 4.0)),
+        "noisy": (pendulum_design(gamma=3e-2), fl.Scenario(0.1, 4.0, noise=fl.Noise(1e-3, 4))),
+        "diverging": (pendulum_design(eps=0.2), fl.Scenario(0.05, 6.0)),
+    }[case]
+    resp = fl.simulate(pendulum, design, sc, **kw)
+    assert resp.diverged == (case == "diverging")
+    oracle = metrics_from_trajectories(resp)
+    for name, value in oracle.items():
+        np.testing.assert_allclose(resp.metrics[name], value, rtol=1e-9, atol=1e-12,
+                                   err_msg=f"{name} ({kind}, {case})")
+
+
+def test_adding_a_metric_is_one_table_entry(monkeypatch):
+    """A metric added to the table appears in Response.metrics and StabilityMap.metrics."""
+    from fl_design.sim import _metrics
+
+    extra = _metrics.Metric("peak_error", "output",
+                            lambda g, T: np.maximum(g["e_max"], -g["e_min"]))
+    monkeypatch.setattr(_metrics, "METRICS", (*_metrics.METRICS, extra))
+    d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=T),
+                  controller=fl.DynamicController((2, 4), 1e-2))
+    resp = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
+    assert resp.metrics["peak_error"] == pytest.approx(np.max(np.abs(resp.y - resp.r)), rel=1e-12)
+    smap = fl.sweep(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0), eps=[0.02], gamma=[1e-2],
+                    progress=False, kernel=fl.Kernel(compiled=False))
+    assert smap.metrics["peak_error"][0, 0] == pytest.approx(resp.metrics["peak_error"], rel=1e-12)
+
+
+def test_cvodes_failure_on_a_bounded_state_is_a_solver_failure(pendulum, pendulum_design):
+    """A solver that gives up is not a verdict on the loop: status 'solver_failed'."""
+    resp = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.05),
+                       integrator=fl.Cvodes(max_num_steps=1))
+    assert resp.status == "solver_failed" and not resp.diverged and not resp.stable

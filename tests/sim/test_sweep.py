@@ -34,9 +34,7 @@ def cache(tmp_path_factory):
 @pytest.fixture(scope="module")
 def small_map(pendulum_design, pendulum, cache):
     """A 4 x 3 map with noise: stable, undecided and diverged points."""
-    return fl.sweep(pendulum, pendulum_design(), eps=[0.01, 0.03, 0.1, 0.3],
-                    gamma=[3e-3, 1e-2, 3e-2], duration=8.0, reference=0.05, noise_std=1e-4,
-                    tolerance=0.1, progress=False, cache_dir=cache)
+    return fl.sweep(pendulum, pendulum_design(), fl.Scenario(0.05, 8.0, noise=fl.Noise(std=1e-4)), eps=[0.01, 0.03, 0.1, 0.3], gamma=[3e-3, 1e-2, 3e-2], progress=False, classifier=fl.Classifier(tolerance=0.1), kernel=fl.Kernel(cache_dir=cache))
 
 
 def test_each_point_equals_its_own_simulation(pendulum_design, pendulum, small_map):
@@ -45,7 +43,7 @@ def test_each_point_equals_its_own_simulation(pendulum_design, pendulum, small_m
     for i, eps in enumerate(small_map.eps):
         for j, gamma in enumerate(small_map.gamma):
             d = pendulum_design().replace(eps=float(eps), gamma=float(gamma))
-            resp = fl.simulate(pendulum, d, 0.05, 8.0, noise_std=1e-4, tolerance=0.1)
+            resp = fl.simulate(pendulum, d, fl.Scenario(0.05, 8.0, noise=fl.Noise(std=1e-4)), classifier=fl.Classifier(tolerance=0.1))
             assert small_map.status[i, j] == codes[resp.status]
             for name, value in resp.metrics.items():
                 if name == "status":
@@ -93,26 +91,22 @@ def test_empirical_eps_star_agrees_with_linearized(pendulum_design, pendulum, ca
     """Pendulum, K = (2, 4), gamma = 0.01, ki = 0, small step: within 10 % (issue criterion)."""
     design = pendulum_design()
     lin = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0))
-    est = fl.estimate_eps_star(pendulum, design, reference=0.05, duration=20.0,
-                               eps_range=(0.005, 1.0), rtol=0.01, cache_dir=cache)
+    est = fl.estimate_eps_star(pendulum, design, fl.Scenario(0.05, 20.0), eps_range=(0.005, 1.0), rtol=0.01, kernel=fl.Kernel(cache_dir=cache))
     assert est.converged and est.bracket[1] / est.bracket[0] - 1 <= 0.01
     assert abs(est.eps_star / lin - 1.0) <= 0.10
     assert est.history[0][1] == "stable" and est.history[1][1] == "diverged"
     # the map's eps* on a grid around it brackets the same value
     grid = lin * np.array([0.7, 0.8, 0.9, 0.95, 1.05, 1.1, 1.2])
-    smap = fl.sweep(pendulum, design, eps=grid, gamma=[1e-2], duration=20.0, reference=0.05,
-                    progress=False, cache_dir=cache)
+    smap = fl.sweep(pendulum, design, fl.Scenario(0.05, 20.0), eps=grid, gamma=[1e-2], progress=False, kernel=fl.Kernel(cache_dir=cache))
     assert smap.eps_star(1e-2) in (lin * 0.9, lin * 0.95)
     json.dumps(est.to_dict())
 
 
 def test_estimate_eps_star_range_ends(pendulum_design, pendulum, cache):
     design = pendulum_design()
-    low = fl.estimate_eps_star(pendulum, design, reference=0.05, duration=5.0,
-                               eps_range=(0.2, 1.0), cache_dir=cache)
+    low = fl.estimate_eps_star(pendulum, design, fl.Scenario(0.05, 5.0), eps_range=(0.2, 1.0), kernel=fl.Kernel(cache_dir=cache))
     assert math.isnan(low.eps_star) and not low.converged and low.n_simulations == 1
-    high = fl.estimate_eps_star(pendulum, design.replace(gamma=1e-3), reference=0.0,
-                                duration=1.0, eps_range=(0.01, 0.02), cache_dir=cache)
+    high = fl.estimate_eps_star(pendulum, design.replace(gamma=1e-3), fl.Scenario(0.0, 1.0), eps_range=(0.01, 0.02), kernel=fl.Kernel(cache_dir=cache))
     assert high.eps_star == 0.02 and high.bracket == (0.02, math.inf) and not high.converged
 
 
@@ -123,9 +117,7 @@ def test_diverging_runs_stop_early_and_are_classified(cache):
     design = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=1e-2),
                        controller=fl.DynamicController((1,), 1e-3))
     for compiled in (True, False):
-        smap = fl.sweep(plant, design, eps=[0.05, 0.1], gamma=[1e-3, 1e-2], duration=50.0,
-                        reference=0.0, x0=[2.0], divergence_bound=1e300, progress=False,
-                        compiled=compiled, cache_dir=cache)
+        smap = fl.sweep(plant, design, fl.Scenario(0.0, 50.0, x0=[2.0]), eps=[0.05, 0.1], gamma=[1e-3, 1e-2], progress=False, classifier=fl.Classifier(divergence_bound=1e300), kernel=fl.Kernel(compiled=compiled, cache_dir=cache))
         assert np.all(smap.labels == "diverged")
         assert np.all((smap.metrics["divergence_time"] > 0.45)
                       & (smap.metrics["divergence_time"] < 0.7))
@@ -133,13 +125,15 @@ def test_diverging_runs_stop_early_and_are_classified(cache):
 
 
 def test_chunking_and_threads_do_not_change_results(pendulum_design, pendulum, small_map, cache):
-    kw = {"eps": small_map.eps, "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
-              "noise_std": 1e-4, "tolerance": 0.1, "progress": False, "cache_dir": cache}
-    other = fl.sweep(pendulum, pendulum_design(), chunk_size=5, threads=1, **kw)
+    kw = {"eps": small_map.eps, "gamma": small_map.gamma, "progress": False,
+          "classifier": fl.Classifier(tolerance=0.1)}
+    sc = fl.Scenario(0.05, 8.0, noise=fl.Noise(std=1e-4))
+    other = fl.sweep(pendulum, pendulum_design(), sc,
+                     kernel=fl.Kernel(cache_dir=cache, chunk_size=5, threads=1), **kw)
     assert_same(small_map, other)
     with ThreadPoolExecutor(2) as pool:
-        assert_same(small_map, fl.sweep(pendulum, pendulum_design(), executor=pool,
-                                        chunk_size=4, **kw))
+        assert_same(small_map, fl.sweep(pendulum, pendulum_design(), sc, executor=pool,
+                                        kernel=fl.Kernel(cache_dir=cache, chunk_size=4), **kw))
 
 
 def assert_same(a: StabilityMap, b: StabilityMap) -> None:
@@ -151,33 +145,34 @@ def assert_same(a: StabilityMap, b: StabilityMap) -> None:
 
 def test_dask_cluster_gives_identical_results(pendulum_design, pendulum, small_map, cache):
     distributed = pytest.importorskip("dask.distributed")
-    kw = {"eps": small_map.eps, "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
-              "noise_std": 1e-4, "tolerance": 0.1, "progress": False, "cache_dir": cache,
-              "chunk_size": 3}
+    kw = {"eps": small_map.eps, "gamma": small_map.gamma, "progress": False,
+          "classifier": fl.Classifier(tolerance=0.1),
+          "kernel": fl.Kernel(cache_dir=cache, chunk_size=3)}
+    sc = fl.Scenario(0.05, 8.0, noise=fl.Noise(std=1e-4))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        remote = fl.sweep(pendulum, pendulum_design(), executor=client.get_executor(), **kw)
+        remote = fl.sweep(pendulum, pendulum_design(), sc, executor=client.get_executor(), **kw)
     assert_same(small_map, remote)
 
 
 def test_interpreted_kernel_equals_compiled(pendulum_design, pendulum, small_map):
-    kw = {"eps": small_map.eps[:2], "gamma": small_map.gamma, "duration": 8.0, "reference": 0.05,
-              "noise_std": 1e-4, "tolerance": 0.1, "progress": False}
-    interp = fl.sweep(pendulum, pendulum_design(), compiled=False, **kw)
+    interp = fl.sweep(pendulum, pendulum_design(), fl.Scenario(0.05, 8.0, noise=fl.Noise(1e-4)),
+                      eps=small_map.eps[:2], gamma=small_map.gamma, progress=False,
+                      classifier=fl.Classifier(tolerance=0.1), kernel=fl.Kernel(compiled=False))
     np.testing.assert_array_equal(interp.status, small_map.status[:2])
     for name, value in interp.metrics.items():
         np.testing.assert_allclose(value, small_map.metrics[name][:2], rtol=1e-12, atol=0)
 
 
 def test_memory_does_not_grow_with_run_length(pendulum_design, pendulum, cache):
-    kw = {"eps": [0.01, 0.02], "gamma": [1e-2, 3e-2], "reference": 0.05, "progress": False,
-              "cache_dir": cache}
-    fl.sweep(pendulum, pendulum_design(), duration=1.0, **kw)  # warm-up (compile, load)
+    kw = {"eps": [0.01, 0.02], "gamma": [1e-2, 3e-2], "progress": False,
+          "kernel": fl.Kernel(cache_dir=cache)}
+    fl.sweep(pendulum, pendulum_design(), fl.Scenario(0.05, 1.0), **kw)  # warm-up (compile)
     peaks = []
     for duration in (2.0, 20.0):
         tracemalloc.start()
-        smap = fl.sweep(pendulum, pendulum_design(), duration=duration, **kw)
+        smap = fl.sweep(pendulum, pendulum_design(), fl.Scenario(0.05, duration), **kw)
         peaks.append(tracemalloc.get_traced_memory()[1])
         tracemalloc.stop()
     # only the shared N-sample reference/noise inputs grow: 18000 more samples, < 60 bytes each
@@ -186,15 +181,15 @@ def test_memory_does_not_grow_with_run_length(pendulum_design, pendulum, cache):
 
 
 def test_progress_bar_and_fallback_counter(pendulum_design, pendulum, cache, capsys, monkeypatch):
-    kw = {"eps": [0.01, 0.02], "gamma": [1e-2], "duration": 0.2, "reference": 0.05,
-          "cache_dir": cache}
-    fl.sweep(pendulum, pendulum_design(), progress=False, **kw)
+    kw = {"eps": [0.01, 0.02], "gamma": [1e-2], "kernel": fl.Kernel(cache_dir=cache)}
+    sc = fl.Scenario(0.05, 0.2)
+    fl.sweep(pendulum, pendulum_design(), sc, progress=False, **kw)
     assert capsys.readouterr().err == ""
-    fl.sweep(pendulum, pendulum_design(), progress=True, **kw)
+    fl.sweep(pendulum, pendulum_design(), sc, progress=True, **kw)
     assert "2/2" in capsys.readouterr().err  # tqdm
     monkeypatch.setitem(sys.modules, "tqdm", None)
     monkeypatch.setitem(sys.modules, "tqdm.auto", None)
-    fl.sweep(pendulum, pendulum_design(), progress=True, **kw)
+    fl.sweep(pendulum, pendulum_design(), sc, progress=True, **kw)
     assert "sweep: 2/2 runs" in capsys.readouterr().err
 
 
@@ -204,16 +199,19 @@ def test_progress_bar_and_fallback_counter(pendulum_design, pendulum, cache, cap
     ({"eps": [-0.01]}, ParameterError, "eps values must be finite and > 0"),
     ({"gamma": []}, ParameterError, "gamma must contain at least one value"),
     ({"gamma": [1e-2, 1e-2]}, ParameterError, "gamma has repeated values"),
-    ({"duration": -2.0}, ParameterError, "duration must be > 0"),
-    ({"reference": np.zeros(3)}, DimensionError, "N = round\\(duration/T\\) = 100 samples"),
+    ({"scenario": lambda: fl.Scenario(np.zeros(3), 0.1)}, DimensionError,
+     "N = round\\(duration/T\\) = 100 samples"),
+    ({"scenario": lambda: (0.05, 0.1)}, ParameterError, "scenario must be a fl.Scenario"),
     ({"executor": "threads"}, ParameterError, "executor must be a concurrent.futures.Executor"),
-    ({"chunk_size": 0}, ParameterError, "chunk_size must be >= 1"),
+    ({"kernel": lambda: fl.Kernel(chunk_size=0)}, ParameterError, "chunk_size must be >= 1"),
+    ({"kernel": lambda: {"threads": 2}}, ParameterError, "kernel must be a fl.Kernel"),
 ])
 def test_sweep_bad_input(pendulum_design, pendulum, cache, kwargs, error, match):
-    args = {"eps": [0.01], "gamma": [1e-2], "duration": 0.1, "reference": 0.05, "progress": False,
-                "cache_dir": cache}
+    args = {"eps": [0.01], "gamma": [1e-2], "progress": False,
+            "scenario": lambda: fl.Scenario(0.05, 0.1), "kernel": lambda: fl.Kernel(cache_dir=cache)}
     args.update(kwargs)
     with pytest.raises(error, match=match):
+        args = {k: (v() if k in ("scenario", "kernel") else v) for k, v in args.items()}
         fl.sweep(pendulum, pendulum_design(), **args)
 
 
@@ -221,13 +219,11 @@ def test_sweep_refuses_mismatched_or_eps_less_designs(pendulum):
     d1 = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=T),
                    controller=fl.DynamicController((1,), 1e-2))
     with pytest.raises(DesignMismatchError, match="relative degree 2"):
-        fl.sweep(pendulum, d1, eps=[0.01], gamma=[1e-2], duration=0.1, reference=0.0,
-                 progress=False)
+        fl.sweep(pendulum, d1, fl.Scenario(0.0, 0.1), eps=[0.01], gamma=[1e-2], progress=False)
     ls = fl.Design(estimator=fl.LeastSquaresEstimator(rho=2, T=T, window=10),
                    controller=fl.DynamicController((2, 4), 1e-2))
     with pytest.raises(ParameterError, match="has no eps"):
-        fl.sweep(pendulum, ls, eps=[0.01], gamma=[1e-2], duration=0.1, reference=0.0,
-                 progress=False, compiled=False)
+        fl.sweep(pendulum, ls, fl.Scenario(0.0, 0.1), eps=[0.01], gamma=[1e-2], progress=False, kernel=fl.Kernel(compiled=False))
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -239,8 +235,7 @@ def test_sweep_refuses_mismatched_or_eps_less_designs(pendulum):
 ])
 def test_estimate_eps_star_bad_input(pendulum_design, pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):
-        fl.estimate_eps_star(pendulum, pendulum_design(), reference=0.05, duration=0.1,
-                             **kwargs)
+        fl.estimate_eps_star(pendulum, pendulum_design(), fl.Scenario(0.05, 0.1), **kwargs)
 
 
 def test_bench_quick_runs():
@@ -259,8 +254,8 @@ def test_sweep_stays_callable_whatever_is_imported_first():
         "from fl_design.sim import StabilityMap\n"
         "d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),\n"
         "              controller=fl.DynamicController((2, 4), 1e-2))\n"
-        "m = fl.sweep(fl.plants.pendulum(), d, eps=[0.02], gamma=[0.01], duration=0.1,\n"
-        "             reference=0.0, progress=False, compiled=False)\n"
+        "m = fl.sweep(fl.plants.pendulum(), d, fl.Scenario(0.0, 0.1), eps=[0.02], gamma=[0.01],\n"
+        "             progress=False, kernel=fl.Kernel(compiled=False))\n"
         "print(isinstance(m, StabilityMap), isinstance(fl.StabilityMap, type))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -14,6 +14,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 import fl_design as fl
+from fl_design.errors import DimensionError, ParameterError
 from fl_design.symbolic import (
     Discretization,
     approximate_extended_model,
@@ -21,7 +22,6 @@ from fl_design.symbolic import (
     lie_series_terms,
     sigma_symbol,
 )
-from fl_design.errors import DimensionError, ParameterError
 
 T, ALPHA, EPS = sp.symbols("T alpha epsilon", positive=True)
 

@@ -17,12 +17,12 @@ import scipy.signal
 import sympy as sp
 
 import fl_design as fl
-from fl_design.symbolic import to_casadi
 from fl_design.errors import (
     ParameterError,
     PlantDefinitionError,
     RelativeDegreeError,
 )
+from fl_design.symbolic import to_casadi
 
 x1, x2, x3, w, u, k = sp.symbols("x1 x2 x3 w u k")
 

@@ -1,0 +1,430 @@
+"""One home for a run's metrics and status: running accumulators and the metrics they give.
+
+Every metric of a run is computed from a few running accumulators, updated once per accepted
+sample inside the compiled closed-loop kernel (so a sweep keeps a few dozen numbers per grid
+point, whatever the run length). Both tables live here and nothing else defines them: the
+accumulator layout, the kernel's update (:func:`update`), :attr:`fl_design.Response.metrics`
+and the :class:`fl_design.StabilityMap` are derived from them. Adding a metric is one entry in
+:data:`ACCUMULATORS` (if it needs a new running value) and one in :data:`METRICS`.
+
+Per-sample signals (``e = y - r`` on the *true*, noise-free output; samples ``k = 0 .. N-1``,
+``t = kT``; ``step = r_(N-1) - y_0``; ``tol = tolerance * scale`` with ``scale = max(|step|,
+peak-to-peak of r)``, or 1 output unit when both vanish):
+
+============================ ==================================================================
+``overshoot``                ``100 * max(0, max_k sign(step) e_k) / |step|`` in % (NaN if
+                             ``step == 0``); for a step reference the classical overshoot
+``rise_time``                ``t90 - t10``: first times the output has covered 10 % and 90 % of
+                             the step from ``y_0`` (NaN if never, or ``step == 0``)
+``settling_time``            ``(k + 1) T`` for the last ``k`` with ``|e_k| > tol`` (0 if never;
+                             NaN if still outside at the last sample)
+``steady_state_error``       mean of ``e`` over the tail (the last ``tail_fraction`` of the run)
+``iae``                      ``T sum |e_k|``
+``input_rms``                ``sqrt(mean u_k^2)``
+``input_tv``                 total variation ``sum_(k>=1) |u_k - u_(k-1)|``
+``estimation_rms``           RMS of ``xhat_i - y^(i-1)`` (i = 1..rho) and of ``sigmahat - sigma``
+``tail_error``               ``max |e|`` over the tail
+``tail_amplitude``           ``max e - min e`` over the tail (= peak-to-peak of ``y`` for a
+                             constant reference there)
+``divergence_time``          time of the first sample out of bounds / non-finite (NaN if none)
+============================ ==================================================================
+
+Status (:class:`Status`, the same for :func:`fl_design.simulate` and :func:`fl_design.sweep`):
+
+* ``diverged``: at some sample the plant state left ``|x - x_op| <= divergence_bound`` or a
+  state or the input became non-finite (NaN, inf, finite escape); the run is stopped there;
+* ``stable``: not diverged, ``tail_error <= tol`` and ``tail_amplitude <= tol``;
+* ``undecided``: otherwise (still converging, or a sustained oscillation that stays bounded);
+* ``solver_failed``: the reference integrator (``cvodes``) gave up on a sample although the
+  state was within bounds: a failure of the tool, not of the loop.
+
+All other metrics of a diverged run are NaN.
+
+Examples
+--------
+>>> from fl_design.sim import METRICS, Status
+>>> [m.name for m in METRICS][:3], Status.STABLE.label
+(['overshoot', 'rise_time', 'settling_time'], 'stable')
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..design import Layout
+
+
+class Status(enum.IntEnum):
+    """Classification of a run (integer codes are what a :class:`StabilityMap` stores).
+
+    Examples
+    --------
+    >>> from fl_design.sim import Status
+    >>> Status(1).label, Status.from_label("diverged").value
+    ('stable', -1)
+    """
+
+    SOLVER_FAILED = -2
+    DIVERGED = -1
+    UNDECIDED = 0
+    STABLE = 1
+
+    @property
+    def label(self) -> str:
+        """Lower-case name, e.g. ``"stable"``."""
+        return self.name.lower()
+
+    @classmethod
+    def from_label(cls, label: str) -> Status:
+        """The status named ``label`` (``"stable"``, ``"undecided"``, ...).
+
+        Parameters
+        ----------
+        label : str
+            A lower-case status name.
+
+        Returns
+        -------
+        Status
+
+        Examples
+        --------
+        >>> from fl_design.sim import Status
+        >>> Status.from_label("undecided")
+        <Status.UNDECIDED: 0>
+        """
+        return cls[label.upper()]
+
+
+#: Integer codes of the classification by label (``StabilityMap.status`` holds these).
+STATUS_CODES = {s.label: int(s) for s in Status}
+STATUS_NAMES = {code: name for name, code in STATUS_CODES.items()}
+
+
+@dataclass(frozen=True)
+class Accumulator:
+    """A running value of the kernel: its length, initial value and update per sample.
+
+    Parameters
+    ----------
+    name : str
+        Field name in the accumulator.
+    initial : float
+        Value before the first sample.
+    update : callable
+        ``update(prev, s) -> new`` on CasADi expressions, ``s`` the per-sample signals
+        (:func:`signals`).
+    per_estimate : bool, optional
+        One entry per estimate ``rho + 1`` instead of a scalar.
+
+    Examples
+    --------
+    >>> from fl_design.sim import ACCUMULATORS
+    >>> next(a for a in ACCUMULATORS if a.name == "e_max").initial
+    -inf
+    """
+
+    name: str
+    initial: float
+    update: Callable
+    per_estimate: bool = False
+
+
+def _tail(op):
+    return lambda prev, s: _if(s["tail"], op(prev, s), prev)
+
+
+def _if(c, a, b):
+    import casadi as ca
+
+    return ca.if_else(c, a, b)
+
+
+def _fmax(a, b):
+    import casadi as ca
+
+    return ca.fmax(a, b)
+
+
+def _fmin(a, b):
+    import casadi as ca
+
+    return ca.fmin(a, b)
+
+
+#: The running values of a run (order = accumulator order).
+ACCUMULATORS = (
+    Accumulator("e_max", -np.inf, lambda p, s: _fmax(p, s["e"])),
+    Accumulator("e_min", np.inf, lambda p, s: _fmin(p, s["e"])),
+    Accumulator("abs_e_sum", 0.0, lambda p, s: p + s["abs_e"]),
+    Accumulator("u2_sum", 0.0, lambda p, s: p + s["u"] * s["u"]),
+    Accumulator("du_sum", 0.0, lambda p, s: p + _if(s["k"] > 0, s["abs_du"], 0)),
+    Accumulator("est2_sum", 0.0, lambda p, s: p + s["est_err"] * s["est_err"], per_estimate=True),
+    Accumulator("tail_abs_e_max", 0.0, _tail(lambda p, s: _fmax(p, s["abs_e"]))),
+    Accumulator("tail_e_max", -np.inf, _tail(lambda p, s: _fmax(p, s["e"]))),
+    Accumulator("tail_e_min", np.inf, _tail(lambda p, s: _fmin(p, s["e"]))),
+    Accumulator("tail_e_sum", 0.0, _tail(lambda p, s: p + s["e"])),
+    Accumulator("k10", -1.0, lambda p, s: _if((p < 0) * (s["progress"] >= 0.1 * s["abs_step"]),
+                                              s["k"], p)),
+    Accumulator("k90", -1.0, lambda p, s: _if((p < 0) * (s["progress"] >= 0.9 * s["abs_step"]),
+                                              s["k"], p)),
+    Accumulator("k_out", -1.0, lambda p, s: _if(s["abs_e"] > s["tol"], s["k"], p)),
+)
+
+#: Constants of a run stored with its accumulators (inputs of the finalization).
+RUN_CONSTANTS = ("N", "k_tail", "y0", "step", "tol")
+
+
+def metric_layout(rho: int) -> Layout:
+    """The accumulator fields of :data:`ACCUMULATORS` for relative degree ``rho``.
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree (``est2_sum`` has ``rho + 1`` entries).
+
+    Returns
+    -------
+    Layout
+
+    Examples
+    --------
+    >>> from fl_design.sim import metric_layout
+    >>> metric_layout(2)["est2_sum"]
+    slice(5, 8, None)
+    """
+    return Layout(tuple((a.name, rho + 1 if a.per_estimate else 1) for a in ACCUMULATORS))
+
+
+def initial_values(rho: int) -> dict[str, np.ndarray]:
+    """Initial value of every accumulator (``{name: array}``).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from fl_design.sim import initial_values
+    >>> initial_values(1)["est2_sum"].tolist()
+    [0.0, 0.0]
+    """
+    return {a.name: np.full(rho + 1 if a.per_estimate else 1, a.initial) for a in ACCUMULATORS}
+
+
+def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail) -> dict:
+    """The per-sample signals the accumulators read (CasADi expressions).
+
+    Parameters
+    ----------
+    e, u, u_prev, k, y : casadi.SX
+        Error ``y - r``, input ``u_k``, previous input, sample index, true output.
+    est_err : casadi.SX
+        ``(rho + 1,)`` estimation errors.
+    y0, step, tol, k_tail : casadi.SX
+        Run constants.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from fl_design.sim import signals
+    >>> x = ca.SX.sym("x")
+    >>> sorted(signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x,
+    ...                k_tail=x))[:3]
+    ['abs_du', 'abs_e', 'abs_step']
+    """
+    import casadi as ca
+
+    return {"e": e, "abs_e": ca.fabs(e), "u": u, "abs_du": ca.fabs(u - u_prev), "k": k,
+            "est_err": est_err, "tail": k >= k_tail, "tol": tol, "abs_step": ca.fabs(step),
+            "progress": ca.sign(step) * (y - y0)}
+
+
+def update(acc: dict, s: dict) -> dict:
+    """``{name: new value}`` of every accumulator for one sample (CasADi expressions).
+
+    Parameters
+    ----------
+    acc : dict
+        Previous values by name.
+    s : dict
+        Per-sample signals (:func:`signals`).
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from fl_design.sim import ACCUMULATORS, signals, update
+    >>> x = ca.SX.sym("x")
+    >>> sig = signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x, k_tail=x)
+    >>> len(update({a.name: x for a in ACCUMULATORS}, sig)) == len(ACCUMULATORS)
+    True
+    """
+    return {a.name: a.update(acc[a.name], s) for a in ACCUMULATORS}
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A metric of a run: name, unit, and how it follows from the accumulators.
+
+    Parameters
+    ----------
+    name : str
+        Metric name (a key of ``Response.metrics`` and ``StabilityMap.metrics``).
+    unit : str
+        Unit for tables and axes (``"%"``, ``"s"``, ``"output"``, ``"input"``...).
+    finalize : callable
+        ``finalize(g, T) -> array`` from the accumulators and run constants ``g`` (arrays,
+        broadcast) and the sampling time.
+    per_estimate : bool, optional
+        One value per estimate (trailing axis ``rho + 1``).
+
+    Examples
+    --------
+    >>> from fl_design.sim import METRICS
+    >>> next(m for m in METRICS if m.name == "overshoot").unit
+    '%'
+    """
+
+    name: str
+    unit: str
+    finalize: Callable
+    per_estimate: bool = False
+
+
+def _overshoot(g, T):
+    astep = np.abs(g["step"])
+    peak = np.where(g["step"] > 0, g["e_max"], -g["e_min"])
+    return np.where(astep > 0, 100.0 * np.maximum(0.0, peak) / np.where(astep > 0, astep, 1),
+                    np.nan)
+
+
+def _rise(g, T):
+    ok = (np.abs(g["step"]) > 0) & (g["k10"] >= 0) & (g["k90"] >= 0)
+    return np.where(ok, (g["k90"] - g["k10"]) * T, np.nan)
+
+
+#: The metrics of a run (order = table order in reports).
+METRICS = (
+    Metric("overshoot", "%", _overshoot),
+    Metric("rise_time", "s", _rise),
+    Metric("settling_time", "s",
+           lambda g, T: np.where(g["k_out"] >= g["N"] - 1, np.nan, (g["k_out"] + 1) * T)),
+    Metric("steady_state_error", "output", lambda g, T: g["tail_e_sum"] / (g["N"] - g["k_tail"])),
+    Metric("iae", "output s", lambda g, T: g["abs_e_sum"] * T),
+    Metric("input_rms", "input", lambda g, T: np.sqrt(g["u2_sum"] / g["N"])),
+    Metric("input_tv", "input", lambda g, T: g["du_sum"]),
+    Metric("estimation_rms", "per estimate",
+           lambda g, T: np.sqrt(g["est2_sum"] / np.asarray(g["N"])[..., None]), per_estimate=True),
+    Metric("tail_error", "output", lambda g, T: g["tail_abs_e_max"]),
+    Metric("tail_amplitude", "output", lambda g, T: g["tail_e_max"] - g["tail_e_min"]),
+)
+METRIC_NAMES = tuple(m.name for m in METRICS) + ("divergence_time",)
+
+
+def classify(summary: dict) -> np.ndarray:
+    """Status codes (:class:`Status`) from the accumulators (arrays broadcast).
+
+    Parameters
+    ----------
+    summary : dict
+        At least ``diverged``, ``tail_abs_e_max``, ``tail_e_max``, ``tail_e_min``, ``tol``;
+        optionally ``solver_failed``.
+
+    Returns
+    -------
+    numpy.ndarray of int
+
+    Examples
+    --------
+    >>> from fl_design.sim import classify
+    >>> classify(dict(diverged=0, tail_abs_e_max=0.001, tail_e_max=0.001, tail_e_min=0.0,
+    ...               tol=0.01)).tolist()
+    1
+    """
+    div = np.asarray(summary["diverged"]) != 0
+    failed = np.asarray(summary.get("solver_failed", 0)) != 0
+    tol = np.asarray(summary["tol"])
+    with np.errstate(invalid="ignore"):
+        converged = (np.asarray(summary["tail_abs_e_max"]) <= tol) & (
+            np.asarray(summary["tail_e_max"]) - np.asarray(summary["tail_e_min"]) <= tol)
+    code = np.where(div, int(Status.DIVERGED),
+                    np.where(converged, int(Status.STABLE), int(Status.UNDECIDED)))
+    return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)
+
+
+def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
+    """Every metric of :data:`METRICS`, ``divergence_time`` and ``status`` from accumulators.
+
+    Parameters
+    ----------
+    summary : dict
+        Accumulators (:data:`ACCUMULATORS`), run constants (:data:`RUN_CONSTANTS`),
+        ``diverged`` and ``k_div``; arrays of any shape broadcast, ``est2_sum`` with a trailing
+        axis of length ``rho + 1``.
+    T : float
+        Sampling time.
+
+    Returns
+    -------
+    dict
+        ``METRIC_NAMES`` -> arrays, plus ``status`` (codes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim import metrics_from_summary
+    >>> s = dict(N=10, k_tail=8, step=1.0, tol=0.02, diverged=0, k_div=-1, e_max=0.1,
+    ...          e_min=-1.0, abs_e_sum=2.0, u2_sum=10.0, du_sum=1.0, est2_sum=np.zeros(3),
+    ...          tail_abs_e_max=0.01, tail_e_max=0.01, tail_e_min=0.0, tail_e_sum=0.01,
+    ...          k10=1, k90=3, k_out=5)
+    >>> m = metrics_from_summary(s, 0.1)
+    >>> [round(float(m[k]), 12) for k in ("overshoot", "rise_time", "settling_time")]
+    [10.0, 0.2, 0.6]
+    """
+    g = {k: np.asarray(v, dtype=float) for k, v in summary.items()}
+    div = g["diverged"] != 0
+    out = {}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for metric in METRICS:
+            value = metric.finalize(g, T)
+            out[metric.name] = np.where(div[..., None] if metric.per_estimate else div,
+                                        np.nan, value)
+    out["divergence_time"] = np.where(div, g["k_div"] * T, np.nan)
+    out["status"] = classify(g)
+    return out
+
+
+__all__ = [
+    "ACCUMULATORS",
+    "METRICS",
+    "METRIC_NAMES",
+    "RUN_CONSTANTS",
+    "STATUS_CODES",
+    "STATUS_NAMES",
+    "Accumulator",
+    "Metric",
+    "Status",
+    "classify",
+    "initial_values",
+    "metric_layout",
+    "metrics_from_summary",
+    "signals",
+    "update",
+]

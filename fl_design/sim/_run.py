@@ -1,0 +1,222 @@
+"""A prepared run: the closed loop, its samples and constants, shared by simulate and sweep.
+
+:func:`prepare_run` turns the option objects (:class:`~fl_design.Scenario`,
+:class:`~fl_design.RK4`, :class:`~fl_design.Classifier`) into a :class:`RunSetup` at the
+design's sampling time; :meth:`RunSetup.initial_accumulator` lays out one accumulator per run
+(:func:`fl_design.sim.accumulator_layout`) with the initial values of
+:data:`fl_design.sim.ACCUMULATORS`.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> from fl_design.sim import prepare_run
+>>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+...               controller=fl.DynamicController((2, 4), 1e-2))
+>>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
+>>> run.N, run.k_tail, run.step
+(1000, 800, 0.1)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import ParameterError
+from ._closed_loop import ClosedLoop, default_substeps
+from ._metrics import initial_values
+from ._options import RK4, Classifier, Scenario
+
+
+def default_divergence_bound(plant) -> np.ndarray:
+    """Per-state bound on ``|x - x_op|``: 10 x the region's width, else 1e6.
+
+    A run whose state leaves this box is *diverged* (it has left the region of interest ten
+    times over: no controller of that region is working any more); states without a region get
+    a large absolute bound that only catches escapes.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,)`` bounds.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim import default_divergence_bound
+    >>> default_divergence_bound(fl.plants.pendulum()).round(2).tolist()
+    [62.83, 200.0]
+    """
+    return Classifier().bound_for(plant)
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """Validated inputs of one run (or of every run of a sweep): samples and constants.
+
+    Built by :func:`prepare_run`. ``r`` and ``noise`` are the per-sample inputs ``d_k``; the
+    constants go into every accumulator.
+
+    Parameters
+    ----------
+    loop : ClosedLoop
+        Plant, design and integrator.
+    scenario : Scenario
+        The scenario as given.
+    classifier : Classifier
+        The classifier as given.
+    N : int
+        Samples.
+    r, noise : numpy.ndarray
+        ``(N,)`` reference and measurement noise.
+    x0 : numpy.ndarray
+        Initial plant state.
+    y0, step, tol, q : float
+        Initial output, ``r[-1] - y0``, absolute tolerance, quantization step (0: none).
+    k_tail : int
+        First sample of the tail window.
+    bound : numpy.ndarray
+        Divergence bound per state.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim import prepare_run
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
+    >>> run.D.shape, run.tol
+    ((2, 1000), 0.002)
+    """
+
+    loop: ClosedLoop
+    scenario: Scenario
+    classifier: Classifier
+    N: int
+    r: np.ndarray
+    noise: np.ndarray
+    x0: np.ndarray
+    y0: float
+    step: float
+    tol: float
+    q: float
+    k_tail: int
+    bound: np.ndarray
+
+    @property
+    def T(self) -> float:
+        """Sampling time."""
+        return self.loop.T
+
+    @property
+    def D(self) -> np.ndarray:
+        """``(2, N)`` per-sample inputs ``(r_k, w_k)``."""
+        return np.vstack([self.r, self.noise])
+
+    def constants(self) -> dict:
+        """The run constants of the accumulator (``N k_tail y0 step tol``)."""
+        return {"N": float(self.N), "k_tail": float(self.k_tail), "y0": self.y0,
+                "step": self.step, "tol": self.tol}
+
+    def initial_accumulator(self, P) -> np.ndarray:
+        """``(nacc, m)`` accumulators for the parameter columns ``P`` (``(n_p, m)``).
+
+        Parameters
+        ----------
+        P : array_like
+            ``(n_p,)`` or ``(n_p, m)`` design parameter vectors.
+
+        Returns
+        -------
+        numpy.ndarray
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> from fl_design.sim import prepare_run
+        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+        ...               controller=fl.DynamicController((2, 4), 1e-2))
+        >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
+        >>> run.initial_accumulator(d.parameter_vector()).shape
+        (64, 1)
+        """
+        P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
+        design = self.loop.design
+        return self.loop.layout.pack(
+            x=self.x0, s=design.initial_state(), u_prev=design.controller.u0, k=0.0,
+            diverged=0.0, k_div=-1.0, **initial_values(self.loop.rho), **self.constants(),
+            q=self.q, x_op=self.loop.plant.x_op, bound=self.bound, p=P,
+        )
+
+
+def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = None,
+                classifier: Classifier | None = None) -> RunSetup:
+    """Validate a run of ``design`` on ``plant`` under ``scenario`` and lay out its samples.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant; its relative degree must equal ``design.rho``.
+    design : Design
+        Estimator + dynamic controller (its ``T`` is the loop's).
+    scenario : Scenario
+        Reference, duration, initial state, noise, quantization.
+    integrator : RK4, optional
+        Substeps of the fixed-step integrator (default :class:`~fl_design.RK4`).
+    classifier : Classifier, optional
+        Tolerance, tail window and divergence bound (default :class:`~fl_design.Classifier`).
+
+    Returns
+    -------
+    RunSetup
+
+    Raises
+    ------
+    ParameterError
+        A duration shorter than one sample, or an option object of the wrong type.
+    DimensionError
+        A reference array or ``x0`` or bound of the wrong length.
+    DesignMismatchError
+        Relative degrees of plant and design differ.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim import prepare_run
+    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
+    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> sc = fl.Scenario(lambda t: 0.1 * (t > 0.5), 1.0)
+    >>> prepare_run(fl.plants.pendulum(), d, sc).r[[0, -1]]
+    array([0. , 0.1])
+    """
+    integrator = RK4() if integrator is None else integrator
+    classifier = Classifier() if classifier is None else classifier
+    for name, value, cls in (("scenario", scenario, Scenario), ("integrator", integrator, RK4),
+                             ("classifier", classifier, Classifier)):
+        if not isinstance(value, cls):
+            raise ParameterError(f"{name} must be a fl.{cls.__name__}, got {value!r}")
+    T = design.T
+    N = scenario.n_samples(T)
+    steps = default_substeps(plant, T) if integrator.substeps is None else integrator.substeps
+    loop = ClosedLoop(plant, design, substeps=steps)
+    r = scenario.reference_samples(T)
+    x0 = (plant.x_op.copy() if scenario.x0 is None
+          else V.real_vector("x0", scenario.x0, length=plant.n))
+    y0 = float(plant.casadi().h(x0))
+    step = float(r[-1] - y0)
+    scale = max(abs(step), float(np.ptp(r)))
+    q = 0.0 if scenario.quantization is None else float(scenario.quantization)
+    return RunSetup(loop=loop, scenario=scenario, classifier=classifier, N=N, r=r,
+                    noise=scenario.noise.samples(N), x0=x0, y0=y0, step=step,
+                    tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
+                    k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant))
+
+
+__all__ = ["RunSetup", "default_divergence_bound", "prepare_run"]
