@@ -53,8 +53,7 @@ def plot_response(resp, *, axes=None, title: str | None = None):
     --------
     >>> import fl_design as fl
     >>> from fl_design.plotting import plot_response
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> fig = plot_response(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.5)))
     >>> [ax.get_ylabel() for ax in fig.axes]
     ['output y', 'input u', 'sigma']

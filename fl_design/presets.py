@@ -113,5 +113,35 @@ def least_squares_design(window: int, gamma: float = 3e-4, *,
                   controller=paper_controller(gamma, u_limits=u_limits))
 
 
+def pendulum_design(eps: float = 0.02, gamma: float = 1e-2, **controller) -> Design:
+    """A small bench design for the library's damped pendulum (examples and tests).
+
+    EHGO with all observer poles at ``-1/eps`` (binomial coefficients), ``T = 1 ms``, and the
+    dynamic controller ``K = (2, 4)`` (closed-loop polynomial ``s^2 + 4 s + 2``), no limits.
+
+    Parameters
+    ----------
+    eps : float, optional
+        Observer time constant (default 0.02).
+    gamma : float, optional
+        Controller gain (default 1e-2).
+    **controller
+        More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
+
+    Returns
+    -------
+    Design
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> d = fl.presets.pendulum_design()
+    >>> fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 20.0)).status
+    'stable'
+    """
+    return Design(estimator=EHGO(rho=2, eps=eps, T=T_PAPER),
+                  controller=DynamicController((2.0, 4.0), gamma, **controller))
+
+
 __all__ = ["PAPER_COEFFS", "PAPER_STEP", "PAPER_WINDOWS", "T_PAPER", "least_squares_design",
-           "paper_controller", "paper_design"]
+           "paper_controller", "paper_design", "pendulum_design"]

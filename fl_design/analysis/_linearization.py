@@ -22,8 +22,7 @@ that mode is coupled and stays in the spectrum.)
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...                    controller=fl.DynamicController((2, 4), 1e-2))
+>>> design = fl.presets.pendulum_design()
 >>> lin = fl.sampled_linearization(fl.plants.pendulum(), design)
 >>> lin.decoupled, lin.spectral_radius < 1
 (('z',), True)
@@ -93,8 +92,7 @@ class SampledLinearization:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-        ...               controller=fl.DynamicController((2, 4), 1e-2))
+        >>> d = fl.presets.pendulum_design()
         >>> sorted(fl.sampled_linearization(fl.plants.pendulum(), d).to_dict())[:3]
         ['decoupled', 'eigenvalues', 'matrix']
         """
@@ -191,8 +189,7 @@ def sampled_linearization(plant, design, *, r: float | None = None,
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> lin = fl.sampled_linearization(fl.plants.pendulum(), d)
     >>> lin.matrix.shape, lin.state_names[-2:]
     ((7, 7), ('u', 'z'))
@@ -240,8 +237,7 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> eps_star = fl.linearized_eps_star(fl.plants.pendulum(), d, eps_range=(0.01, 2.0))
     >>> 0.01 < eps_star < 2.0
     True

@@ -55,7 +55,18 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of ``fl-design`` (sub-commands ``derive`` and ``demo``)."""
+    """Return the argument parser of ``fl-design`` (sub-commands ``derive`` and ``demo``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+
+    Examples
+    --------
+    >>> from fl_design.app import build_parser
+    >>> build_parser().parse_args(["derive", "--plant", "pendulum"]).plant
+    'pendulum'
+    """
     parser = argparse.ArgumentParser(
         prog="fl-design",
         description="Model-free control of feedback-linearizable SISO plants (EHGO + dynamic controller).",
@@ -74,7 +85,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the process exit code (2 on a bad input)."""
+    """Run the command line; return the process exit code (2 on a bad input).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 on a bad input (the message on stderr, no traceback).
+
+    Examples
+    --------
+    >>> from fl_design.app import main
+    >>> main(["derive", "--plant", "pendulum"])  # doctest: +ELLIPSIS
+    Plant: pendulum...
+    0
+    """
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

@@ -34,6 +34,13 @@ def derivation_report(plant, *, latex: bool = False) -> str:
         Relative degree, normal-form coordinates, ``a`` and ``b`` (``sigma = a + b u``), the
         numeric b-range over the plant's declared region and input range (when declared), the
         zero dynamics verdict and the residual orders of the sampled approximate model.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.app import derivation_report
+    >>> print(derivation_report(fl.plants.pendulum()).splitlines()[0])
+    Plant: pendulum
     """
     from ..symbolic._discretization import taylor_discretization
 

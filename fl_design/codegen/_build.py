@@ -91,6 +91,15 @@ def find_compiler() -> str | None:
 def generate_source(*functions: ca.Function) -> str:
     """The C source CasADi generates for ``functions`` (no header, no main).
 
+    Parameters
+    ----------
+    *functions : casadi.Function
+        The functions to generate, each under its own name.
+
+    Returns
+    -------
+    str
+
     Examples
     --------
     >>> import casadi as ca

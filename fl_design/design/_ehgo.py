@@ -61,7 +61,15 @@ _EIG_MAP = {
 
 
 class StateSpaceMatrices(NamedTuple):
-    """Matrices ``(A, B, C, D)`` of a state-space model (a tuple: unpack or pass to scipy)."""
+    """Matrices ``(A, B, C, D)`` of a state-space model (a tuple: unpack or pass to scipy).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> A, B, C, D = fl.EHGO(rho=1, eps=0.1, T=1e-3).matrices
+    >>> A.shape, D.shape
+    ((2, 2), (2, 1))
+    """
 
     A: np.ndarray
     B: np.ndarray
@@ -73,6 +81,16 @@ def binomial_coeffs(rho: int) -> tuple[float, ...]:
     """Coefficients ``alpha_i = C(rho+1, i)`` of ``(s + 1)^(rho+1)``: all observer poles at -1.
 
     Closed form (the pole is repeated: never computed by a pole-placement routine).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree; the polynomial has degree ``rho + 1``.
+
+    Returns
+    -------
+    tuple of float
+        ``(alpha_1, ..., alpha_(rho+1))``.
 
     Examples
     --------

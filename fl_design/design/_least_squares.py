@@ -37,6 +37,22 @@ def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarra
     pseudo-inverse comes from ``scipy.linalg.lstsq`` (SVD-based) and the coefficients of
     ``s^i`` are turned into derivatives by ``i! / tau^i``.
 
+    Parameters
+    ----------
+    window : int
+        Number of samples ``N`` in the fit (oldest first).
+    degree : int
+        Degree of the fitted polynomial (``>= rho``, ``< window``).
+    rho : int
+        Highest derivative estimated.
+    T : float
+        Sampling time.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rho + 1, window)``.
+
     Examples
     --------
     >>> from fl_design.design import derivative_matrix

@@ -37,7 +37,6 @@ from ._metrics import (
 from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
 from ._response import Response
 from ._run import RunSetup, default_divergence_bound, prepare_run
-from ._runners import InterpretedRunner, NativeRunner, make_runner, runner_source
 from ._simulate import simulate
 from ._stability_map import EpsStarEstimate, StabilityMap
 from ._sweep import estimate_eps_star, sweep
@@ -56,10 +55,8 @@ __all__ = [
     "ClosedLoop",
     "Cvodes",
     "EpsStarEstimate",
-    "InterpretedRunner",
     "Kernel",
     "Metric",
-    "NativeRunner",
     "Noise",
     "Response",
     "RunSetup",
@@ -72,13 +69,11 @@ __all__ = [
     "default_substeps",
     "estimate_eps_star",
     "initial_values",
-    "make_runner",
     "metric_layout",
     "metrics_from_summary",
     "parameter_columns",
     "prepare_run",
     "run_grid",
-    "runner_source",
     "signals",
     "simulate",
     "sweep",

@@ -36,8 +36,7 @@ Examples
 --------
 >>> import fl_design as fl
 >>> from fl_design.sim import ClosedLoop
->>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...                    controller=fl.DynamicController((2, 4), 1e-2))
+>>> design = fl.presets.pendulum_design()
 >>> loop = ClosedLoop(fl.plants.pendulum(), design, substeps=1)
 >>> loop.sample.name_in()
 ['x', 's', 'r', 'w', 'q', 'p']
@@ -164,8 +163,7 @@ class ClosedLoop:
     --------
     >>> import fl_design as fl
     >>> from fl_design.sim import ClosedLoop
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> loop = ClosedLoop(fl.plants.pendulum(), d, substeps=2)
     >>> x1 = loop.sample([0.1, 0.0], d.initial_state(), 0.0, 0.0, 0.0, d.parameter_vector())[0]
     >>> x1.shape
@@ -361,8 +359,7 @@ class ClosedLoop:
         --------
         >>> import fl_design as fl
         >>> from fl_design.sim import ClosedLoop
-        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-        ...               controller=fl.DynamicController((2, 4), 1e-2))
+        >>> d = fl.presets.pendulum_design()
         >>> ClosedLoop(fl.plants.pendulum(), d, substeps=1).runner(compiled=False).compiled
         False
         """

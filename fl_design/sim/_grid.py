@@ -10,8 +10,7 @@ Examples
 --------
 >>> import fl_design as fl
 >>> from fl_design.sim import parameter_columns
->>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...               controller=fl.DynamicController((2, 4), 1e-2))
+>>> d = fl.presets.pendulum_design()
 >>> parameter_columns(d, [0.01, 0.02], [1e-3, 1e-2, 0.1]).shape
 (28, 6)
 """
@@ -161,8 +160,7 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
     --------
     >>> import fl_design as fl
     >>> from fl_design.sim import parameter_columns, prepare_run, run_grid
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.5))
     >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.05], [1e-2]),
     ...                kernel=fl.Kernel(compiled=False), progress=False)

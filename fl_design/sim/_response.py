@@ -7,8 +7,7 @@ shared with the sweep kernel): a :class:`Response` keeps the final accumulators 
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...                    controller=fl.DynamicController((2, 4), 1e-2))
+>>> design = fl.presets.pendulum_design()
 >>> resp = fl.simulate(fl.plants.pendulum(), design, fl.Scenario(0.1, 20.0))
 >>> resp.status, round(resp.settling_time, 2), round(resp.overshoot, 3)
 ('stable', 9.08, 0.0)
@@ -62,8 +61,7 @@ class Response:
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> resp = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 2.0))
     >>> resp.y.shape, resp.xhat.shape, sorted(resp.metrics)[:3]
     ((2000,), (2000, 2), ['divergence_time', 'estimation_rms', 'iae'])
@@ -123,8 +121,7 @@ class Response:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-        ...               controller=fl.DynamicController((2, 4), 1e-2))
+        >>> d = fl.presets.pendulum_design()
         >>> sorted(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.05)).to_dict())[:4]
         ['T', 'coords', 'divergence_index', 'k_tail']
         """
@@ -152,8 +149,7 @@ class Response:
         Examples
         --------
         >>> import fl_design as fl
-        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-        ...               controller=fl.DynamicController((2, 4), 1e-2))
+        >>> d = fl.presets.pendulum_design()
         >>> fig = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.5)).plot()
         >>> len(fig.axes)
         3

@@ -10,8 +10,7 @@ Examples
 --------
 >>> import fl_design as fl
 >>> from fl_design.sim import prepare_run
->>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...               controller=fl.DynamicController((2, 4), 1e-2))
+>>> d = fl.presets.pendulum_design()
 >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
 >>> run.N, run.k_tail, run.step
 (1000, 800, 0.1)
@@ -89,8 +88,7 @@ class RunSetup:
     --------
     >>> import fl_design as fl
     >>> from fl_design.sim import prepare_run
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
     >>> run.D.shape, run.tol
     ((2, 1000), 0.002)
@@ -141,8 +139,7 @@ class RunSetup:
         --------
         >>> import fl_design as fl
         >>> from fl_design.sim import prepare_run
-        >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-        ...               controller=fl.DynamicController((2, 4), 1e-2))
+        >>> d = fl.presets.pendulum_design()
         >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
         >>> run.initial_accumulator(d.parameter_vector()).shape
         (64, 1)
@@ -190,8 +187,7 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     --------
     >>> import fl_design as fl
     >>> from fl_design.sim import prepare_run
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> sc = fl.Scenario(lambda t: 0.1 * (t > 0.5), 1.0)
     >>> prepare_run(fl.plants.pendulum(), d, sc).r[[0, -1]]
     array([0. , 0.1])

@@ -23,9 +23,12 @@ the TRMS loop this costs 1.4-2x the plain C loop, against about 1.1x for the dri
 
 Examples
 --------
->>> from fl_design.sim import InterpretedRunner
->>> InterpretedRunner.compiled
-False
+>>> import fl_design as fl
+>>> from fl_design.sim import ClosedLoop
+>>> loop = ClosedLoop(fl.plants.pendulum(), fl.presets.pendulum_design(), substeps=1)
+>>> runner = loop.runner(compiled=False)
+>>> type(runner).__name__, runner.nacc == loop.layout.size
+('InterpretedRunner', True)
 """
 
 from __future__ import annotations
@@ -73,7 +76,7 @@ class NativeRunner:
 
     Examples
     --------
-    >>> from fl_design.sim import NativeRunner
+    >>> from fl_design.sim._runners import NativeRunner
     >>> NativeRunner.__name__
     'NativeRunner'
     """
@@ -90,7 +93,7 @@ class NativeRunner:
 
         Examples
         --------
-        >>> from fl_design.sim import NativeRunner
+        >>> from fl_design.sim._runners import NativeRunner
         >>> callable(NativeRunner.run)
         True
         """
@@ -119,7 +122,7 @@ class NativeRunner:
 
         Examples
         --------
-        >>> from fl_design.sim import NativeRunner
+        >>> from fl_design.sim._runners import NativeRunner
         >>> callable(NativeRunner.record)
         True
         """
@@ -148,7 +151,7 @@ class InterpretedRunner:
 
     Examples
     --------
-    >>> from fl_design.sim import InterpretedRunner
+    >>> from fl_design.sim._runners import InterpretedRunner
     >>> InterpretedRunner.compiled
     False
     """
@@ -178,7 +181,7 @@ class InterpretedRunner:
 
         Examples
         --------
-        >>> from fl_design.sim import InterpretedRunner
+        >>> from fl_design.sim._runners import InterpretedRunner
         >>> callable(InterpretedRunner.run)
         True
         """
@@ -198,7 +201,7 @@ class InterpretedRunner:
 
         Examples
         --------
-        >>> from fl_design.sim import InterpretedRunner
+        >>> from fl_design.sim._runners import InterpretedRunner
         >>> callable(InterpretedRunner.record)
         True
         """
@@ -216,7 +219,7 @@ def runner_source(accumulate: ca.Function, record: ca.Function, indices: dict) -
 
     Examples
     --------
-    >>> from fl_design.sim import runner_source
+    >>> from fl_design.sim._runners import runner_source
     >>> callable(runner_source)
     True
     """
@@ -277,7 +280,7 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
 
     Examples
     --------
-    >>> from fl_design.sim import make_runner
+    >>> from fl_design.sim._runners import make_runner
     >>> callable(make_runner)
     True
     """

@@ -11,8 +11,7 @@ fixed-step integrator is checked (tests). Metrics come from the accumulators of
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...                    controller=fl.DynamicController((2, 4), 1e-2))
+>>> design = fl.presets.pendulum_design()
 >>> sc = fl.Scenario(0.1, 20.0, noise=fl.Noise(std=1e-4))
 >>> resp = fl.simulate(fl.plants.pendulum(), design, sc)
 >>> resp.status, bool(abs(resp.y[-1] - 0.1) < 1e-3)
@@ -74,8 +73,7 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     Examples
     --------
     >>> import fl_design as fl
-    >>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...                    controller=fl.DynamicController((2, 4), 1e-2))
+    >>> design = fl.presets.pendulum_design()
     >>> resp = fl.simulate(fl.plants.pendulum(), design, fl.Scenario(0.2, 20.0))
     >>> resp.stable, round(float(resp.y[-1]), 3)
     (True, 0.2)

@@ -13,8 +13,7 @@ is cut into chunks (:func:`fl_design.sim.run_grid`); with ``executor`` the chunk
 Examples
 --------
 >>> import fl_design as fl
->>> design = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-...                    controller=fl.DynamicController((2, 4), 1e-2))
+>>> design = fl.presets.pendulum_design()
 >>> smap = fl.sweep(fl.plants.pendulum(), design, fl.Scenario(0.05, 6.0), eps=[0.02, 0.2],
 ...                 gamma=[0.01], kernel=fl.Kernel(compiled=False), progress=False)
 >>> smap.labels[:, 0].tolist(), round(float(smap.metrics["divergence_time"][1, 0]), 3)
@@ -116,8 +115,7 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> smap = fl.sweep(fl.plants.pendulum(), d, fl.Scenario(0.05, 2.0), eps=[0.02, 0.2],
     ...                 gamma=[0.003, 0.01], progress=False)
     >>> smap.status.shape, smap.metrics["overshoot"].shape
@@ -170,8 +168,7 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     Examples
     --------
     >>> import fl_design as fl
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2))
+    >>> d = fl.presets.pendulum_design()
     >>> est = fl.estimate_eps_star(fl.plants.pendulum(), d, fl.Scenario(0.05, 20.0),
     ...                            eps_range=(0.005, 1.0), rtol=0.05)
     >>> est.converged, 0.02 < est.eps_star < 1.0

@@ -20,32 +20,19 @@ from ._discretization import (
     sigma_symbol,
     taylor_discretization,
 )
-from ._normal_form import (
-    InternalDynamics,
-    LieChain,
-    NormalForm,
-    derive_normal_form,
-    lie_chain,
-    tidy,
-    zero_dynamics_matrix,
-)
+from ._normal_form import InternalDynamics, NormalForm
 from ._plant import Plant, PlantFunctions
 
 __all__ = [
     "Discretization",
     "InternalDynamics",
-    "LieChain",
     "NormalForm",
     "Plant",
     "PlantFunctions",
     "approximate_extended_model",
     "chain_states",
-    "derive_normal_form",
-    "lie_chain",
     "lie_series_terms",
     "sigma_symbol",
     "taylor_discretization",
-    "tidy",
     "to_casadi",
-    "zero_dynamics_matrix",
 ]
