@@ -22,8 +22,10 @@ import numpy as np
 
 from .errors import ParameterError
 
-#: Colours of the classification: diverged, undecided, stable.
-STATUS_COLORS = ("#d62728", "#ffd966", "#2ca02c")
+#: Colours of the classification by status code: solver failed, diverged, oscillating,
+#: converging, converged.
+STATUS_COLORS = ("#7f7f7f", "#d62728", "#ff9f1c", "#a6d96a", "#1a9641")
+STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "converged")
 
 
 def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
@@ -141,7 +143,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
     ...                  1e-3, 1.0, 0.1)
     >>> plot_stability_map(m).axes[0].get_xlabel()
-    'gamma'
+    'controller gain gamma'
     """
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
@@ -150,19 +152,27 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
         fig, (ax,) = _new_axes(1, figsize=(7.0, 5.0))
     fig = ax.figure
     cmap = ListedColormap(list(STATUS_COLORS))
-    norm = BoundaryNorm([-1.5, -0.5, 0.5, 1.5], cmap.N)
+    norm = BoundaryNorm([-2.5, -1.5, -0.5, 0.5, 1.5, 2.5], cmap.N)
     ax.pcolormesh(_edges(smap.gamma), _edges(smap.eps), np.asarray(smap.status), cmap=cmap,
                   norm=norm, shading="flat")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("gamma")
-    ax.set_ylabel("eps")
-    handles = [Patch(color=c, label=n) for c, n in zip(STATUS_COLORS,
-                                                        ("diverged", "undecided", "stable"))]
+    ax.set_xlabel("controller gain gamma")
+    ax.set_ylabel("observer time constant eps (s)")
+    present = set(np.unique(np.asarray(smap.status)).tolist())
+    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 3), STATUS_COLORS,
+                                                              STATUS_LABELS) if code in present]
     if show_eps_star:
-        star = np.array([smap.eps_star(g) for g in smap.gamma])
-        (h,) = ax.plot(smap.gamma, star, "w^", mec="k", ms=5, label="eps* (this map)")
-        handles.append(h)
+        stars = [smap.eps_star(g) for g in smap.gamma]
+        inside = [(g, b.lower) for g, b in zip(smap.gamma, stars) if b.value is not None]
+        above = [(g, b.lower) for g, b in zip(smap.gamma, stars) if b.above_range]
+        if inside:
+            (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6, label="eps* (this map)")
+            handles.append(h)
+        if above:
+            (h,) = ax.plot(*zip(*above), "w^", mec="k", ms=6, alpha=0.5,
+                           label="eps* > largest eps scanned")
+            handles.append(h)
     for i, (label, curve) in enumerate((curves or {}).items()):
         g, e = _curve_points(curve, np.asarray(smap.gamma))
         (h,) = ax.plot(g, e, color=f"C{i % 10}", lw=1.8, label=str(label))
@@ -174,4 +184,4 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     return fig
 
 
-__all__ = ["STATUS_COLORS", "plot_response", "plot_stability_map"]
+__all__ = ["STATUS_COLORS", "STATUS_LABELS", "plot_response", "plot_stability_map"]

@@ -137,7 +137,7 @@ def pendulum_design(eps: float = 0.02, gamma: float = 1e-2, **controller) -> Des
     >>> import fl_design as fl
     >>> d = fl.presets.pendulum_design()
     >>> fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 20.0)).status
-    'stable'
+    'converged'
     """
     return Design(estimator=EHGO(rho=2, eps=eps, T=T_PAPER),
                   controller=DynamicController((2.0, 4.0), gamma, **controller))

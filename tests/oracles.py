@@ -71,3 +71,27 @@ def metrics_from_trajectories(resp) -> dict:
         "tail_amplitude": s["tail_e_max"] - s["tail_e_min"],
         "divergence_time": float("nan"),
     }
+
+
+def status_from_trajectories(resp, shrink: float = 0.95) -> str:
+    """The classification from whole trajectories: converged / converging / oscillating."""
+    if resp.divergence_index is not None:
+        return "diverged"
+    e = resp.y - resp.r
+    tail = e[resp.k_tail:]
+    if np.abs(tail).max() <= resp.tol and np.ptp(tail) <= resp.tol:
+        return "converged"
+    half = (e.size - resp.k_tail) // 2
+    first, second = np.abs(tail[:half]).max(), np.abs(tail[half:]).max()
+    return "converging" if second < shrink * first else "oscillating"
+
+
+def region_exit_time(resp, region: dict, states) -> float:
+    """First sample time at which the state is outside the declared region (NaN if never)."""
+    outside = np.zeros(resp.t.size, dtype=bool)
+    for i, s in enumerate(states):
+        if s in region:
+            lo, hi = region[s]
+            outside |= (resp.x[:, i] < lo) | (resp.x[:, i] > hi)
+    hits = np.flatnonzero(outside)
+    return float(hits[0] * resp.T) if hits.size else float("nan")

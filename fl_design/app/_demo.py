@@ -39,17 +39,18 @@ NOISE_STD = float(np.sqrt(1e-3))  # the paper adds noise of variance 0.001 to th
 
 def _row(name: str, resp, flops: int) -> dict:
     m = resp.metrics
-    return {"design": name, "stable": bool(resp.stable), "overshoot_%": m["overshoot"],
+    return {"design": name, "status": resp.status, "verdict": resp.verdict(),
+            "overshoot_%": m["overshoot"],
             "settling_time_s": m["settling_time"], "iae": m["iae"], "u_rms": m["input_rms"],
             "u_total_variation": m["input_tv"], "flops_per_step": flops}
 
 
 def _print_table(rows: list[dict], title: str) -> None:
     print(f"\n{title}")
-    print(f"  {'design':<16}{'stable':>7}{'overshoot %':>13}{'settle s':>10}{'IAE':>9}"
+    print(f"  {'design':<16}{'status':>12}{'overshoot %':>13}{'settle s':>10}{'IAE':>9}"
           f"{'u RMS':>9}{'u TV':>10}{'flops':>7}")
     for r in rows:
-        print(f"  {r['design']:<16}{r['stable']!s:>7}{r['overshoot_%']:>13.1f}"
+        print(f"  {r['design']:<16}{r['status']:>12}{r['overshoot_%']:>13.1f}"
               f"{r['settling_time_s']:>10.2f}{r['iae']:>9.3f}{r['u_rms']:>9.3f}"
               f"{r['u_total_variation']:>10.2f}{r['flops_per_step']:>7d}")
 
@@ -113,10 +114,9 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
     grid_gamma = np.geomspace(3e-5, 3e-1, n_grid)  # contains the paper's gamma = 3e-4
     smap = sweep(plant, design, Scenario(STEP, duration), eps=grid_eps, gamma=grid_gamma,
                  progress=show_progress)
-    print(f"\nStability map {grid_eps.size} x {grid_gamma.size} (eps x gamma): "
-          f"{int(np.sum(smap.labels == 'stable'))} stable, "
-          f"{int(np.sum(smap.labels == 'undecided'))} undecided, "
-          f"{int(np.sum(smap.labels == 'diverged'))} diverged")
+    counts = ", ".join(f"{int(np.sum(smap.labels == lab))} {lab}"
+                       for lab in ("converged", "converging", "oscillating", "diverged"))
+    print(f"\nStability map {grid_eps.size} x {grid_gamma.size} (eps x gamma): {counts}")
     print("  gamma       empirical eps* (grid)   linearized eps* (eps in [1e-3, 1])")
     eps_table = []
     for g in grid_gamma[::2]:
@@ -124,10 +124,10 @@ def run_demo(*, quick: bool = False, out_dir: str | Path = "out", show_progress:
         lin_star = linearized_eps_star(plant, design, gamma=float(g), eps_range=(1e-3, 1.0))
         eps_table.append({"gamma": float(g), "eps_star_empirical": emp,
                           "eps_star_linearized": lin_star})
-        print(f"  {g:<10.3g}  {emp:<22.4g}  {lin_star:.4g}")
+        print(f"  {g:<10.3g}  {emp!s:<22}  {lin_star:.4g}")
     summary["eps_star_table"] = eps_table
-    print("  (empirical: every grid eps' <= eps settled within tolerance on the nonlinear plant; "
-          "'undecided' = not settled by the end,\n   not diverged. The TRMS friction "
+    print("  (empirical: every grid eps' <= eps converges on the nonlinear plant (converging or "
+          "converged);\n   '> x': all scanned eps converge. The TRMS friction "
           "B2 tanh(phi'/1e-3) is very stiff at rest, so the linearization there is over-damped "
           "and its eps* optimistic.)")
     summary["stability_map"] = smap.to_dict()

@@ -12,7 +12,7 @@ Examples
 --------
 >>> from fl_design.sim import STATUS_CODES
 >>> sorted(STATUS_CODES)
-['diverged', 'solver_failed', 'stable', 'undecided']
+['converged', 'converging', 'diverged', 'oscillating', 'solver_failed']
 """
 
 from ._closed_loop import HUGE, ClosedLoop, accumulator_layout, default_substeps
@@ -38,7 +38,7 @@ from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
 from ._response import Response
 from ._run import RunSetup, default_divergence_bound, prepare_run
 from ._simulate import simulate
-from ._stability_map import EpsStarEstimate, StabilityMap
+from ._stability_map import EpsStar, EpsStarEstimate, StabilityMap
 from ._sweep import estimate_eps_star, sweep
 
 __all__ = [
@@ -54,6 +54,7 @@ __all__ = [
     "Classifier",
     "ClosedLoop",
     "Cvodes",
+    "EpsStar",
     "EpsStarEstimate",
     "Kernel",
     "Metric",

@@ -165,7 +165,7 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
     >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.05], [1e-2]),
     ...                kernel=fl.Kernel(compiled=False), progress=False)
     >>> acc.shape, run.loop.layout.unpack(acc)["k"].tolist()
-    ((64, 2), [500.0, 500.0])
+    ((72, 2), [500.0, 500.0])
     """
     kernel = Kernel() if kernel is None else kernel
     if not isinstance(kernel, Kernel):

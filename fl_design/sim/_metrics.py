@@ -27,14 +27,27 @@ peak-to-peak of r)``, or 1 output unit when both vanish):
 ``tail_amplitude``           ``max e - min e`` over the tail (= peak-to-peak of ``y`` for a
                              constant reference there)
 ``divergence_time``          time of the first sample out of bounds / non-finite (NaN if none)
+
+``time_to_tolerance``        converging runs: estimated time from the start until ``|e| <= tol``,
+                             extrapolating the envelope's exponential decay between the two
+                             halves of the tail (NaN for other runs; ``settling_time`` when
+                             converged)
+``region_exit_time``         time of the first sample at which the plant state was outside its
+                             declared region (NaN if never or no region): reported separately,
+                             the loop may still converge
 ============================ ==================================================================
 
-Status (:class:`Status`, the same for :func:`fl_design.simulate` and :func:`fl_design.sweep`):
+Status (:class:`Status`, the same for :func:`fl_design.simulate` and :func:`fl_design.sweep`),
+the questions of Theorem 1 (bounded? converging?) answered from the run:
 
 * ``diverged``: at some sample the plant state left ``|x - x_op| <= divergence_bound`` or a
   state or the input became non-finite (NaN, inf, finite escape); the run is stopped there;
-* ``stable``: not diverged, ``tail_error <= tol`` and ``tail_amplitude <= tol``;
-* ``undecided``: otherwise (still converging, or a sustained oscillation that stays bounded);
+* ``converged``: not diverged, ``tail_error <= tol`` and ``tail_amplitude <= tol``;
+* ``converging``: bounded, not yet within tolerance, and the error envelope shrinks: the
+  largest ``|e|`` over the second half of the tail is below :data:`SHRINK` times that over
+  the first half (``time_to_tolerance`` estimates when it gets there);
+* ``oscillating``: bounded, but the envelope does not shrink: a sustained oscillation or limit
+  cycle (how an unstable loop usually looks behind input saturation) or a persistent offset;
 * ``solver_failed``: the reference integrator (``cvodes``) gave up on a sample although the
   state was within bounds: a failure of the tool, not of the loop.
 
@@ -43,8 +56,8 @@ All other metrics of a diverged run are NaN.
 Examples
 --------
 >>> from fl_design.sim import METRICS, Status
->>> [m.name for m in METRICS][:3], Status.STABLE.label
-(['overshoot', 'rise_time', 'settling_time'], 'stable')
+>>> [m.name for m in METRICS][:3], Status.CONVERGED.label
+(['overshoot', 'rise_time', 'settling_time'], 'converged')
 """
 
 from __future__ import annotations
@@ -64,23 +77,34 @@ class Status(enum.IntEnum):
     Examples
     --------
     >>> from fl_design.sim import Status
-    >>> Status(1).label, Status.from_label("diverged").value
-    ('stable', -1)
+    >>> Status(2).label, Status.from_label("diverged").value, Status.CONVERGING.bounded
+    ('converged', -1, True)
     """
 
     SOLVER_FAILED = -2
     DIVERGED = -1
-    UNDECIDED = 0
-    STABLE = 1
+    OSCILLATING = 0
+    CONVERGING = 1
+    CONVERGED = 2
+
+    @property
+    def bounded(self) -> bool:
+        """The run stayed within bounds (oscillating, converging or converged)."""
+        return self.value >= 0
+
+    @property
+    def convergent(self) -> bool:
+        """The error converges (converging or converged): Theorem 1's conclusion observed."""
+        return self.value >= 1
 
     @property
     def label(self) -> str:
-        """Lower-case name, e.g. ``"stable"``."""
+        """Lower-case name, e.g. ``"converged"``."""
         return self.name.lower()
 
     @classmethod
     def from_label(cls, label: str) -> Status:
-        """The status named ``label`` (``"stable"``, ``"undecided"``, ...).
+        """The status named ``label`` (``"converged"``, ``"oscillating"``, ...).
 
         Parameters
         ----------
@@ -94,8 +118,8 @@ class Status(enum.IntEnum):
         Examples
         --------
         >>> from fl_design.sim import Status
-        >>> Status.from_label("undecided")
-        <Status.UNDECIDED: 0>
+        >>> Status.from_label("converging")
+        <Status.CONVERGING: 1>
         """
         return cls[label.upper()]
 
@@ -156,6 +180,17 @@ def _fmin(a, b):
     return ca.fmin(a, b)
 
 
+#: Envelope ratio (second half of the tail / first half) below which a run is converging.
+SHRINK = 0.95
+
+
+def _half(which):
+    def op(prev, s):
+        inside = s["tail"] * ((s["k"] < s["k_mid"]) if which == 1 else (s["k"] >= s["k_mid"]))
+        return _if(inside, _fmax(prev, s["abs_e"]), prev)
+    return op
+
+
 #: The running values of a run (order = accumulator order).
 ACCUMULATORS = (
     Accumulator("e_max", -np.inf, lambda p, s: _fmax(p, s["e"])),
@@ -173,10 +208,13 @@ ACCUMULATORS = (
     Accumulator("k90", -1.0, lambda p, s: _if((p < 0) * (s["progress"] >= 0.9 * s["abs_step"]),
                                               s["k"], p)),
     Accumulator("k_out", -1.0, lambda p, s: _if(s["abs_e"] > s["tol"], s["k"], p)),
+    Accumulator("env1_max", 0.0, _half(1)),
+    Accumulator("env2_max", 0.0, _half(2)),
+    Accumulator("k_exit", -1.0, lambda p, s: _if((p < 0) * s["outside"], s["k"], p)),
 )
 
 #: Constants of a run stored with its accumulators (inputs of the finalization).
-RUN_CONSTANTS = ("N", "k_tail", "y0", "step", "tol")
+RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol")
 
 
 def metric_layout(rho: int) -> Layout:
@@ -221,7 +259,7 @@ def initial_values(rho: int) -> dict[str, np.ndarray]:
     return {a.name: np.full(rho + 1 if a.per_estimate else 1, a.initial) for a in ACCUMULATORS}
 
 
-def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail) -> dict:
+def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outside) -> dict:
     """The per-sample signals the accumulators read (CasADi expressions).
 
     Parameters
@@ -230,8 +268,10 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail) -> dict:
         Error ``y - r``, input ``u_k``, previous input, sample index, true output.
     est_err : casadi.SX
         ``(rho + 1,)`` estimation errors.
-    y0, step, tol, k_tail : casadi.SX
-        Run constants.
+    y0, step, tol, k_tail, k_mid : casadi.SX
+        Run constants (``k_mid``: first sample of the second half of the tail).
+    outside : casadi.SX
+        1 when the plant state is outside its declared region at sample ``k``.
 
     Returns
     -------
@@ -243,14 +283,14 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail) -> dict:
     >>> from fl_design.sim import signals
     >>> x = ca.SX.sym("x")
     >>> sorted(signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x,
-    ...                k_tail=x))[:3]
+    ...                k_tail=x, k_mid=x, outside=x))[:3]
     ['abs_du', 'abs_e', 'abs_step']
     """
     import casadi as ca
 
     return {"e": e, "abs_e": ca.fabs(e), "u": u, "abs_du": ca.fabs(u - u_prev), "k": k,
             "est_err": est_err, "tail": k >= k_tail, "tol": tol, "abs_step": ca.fabs(step),
-            "progress": ca.sign(step) * (y - y0)}
+            "progress": ca.sign(step) * (y - y0), "k_mid": k_mid, "outside": outside}
 
 
 def update(acc: dict, s: dict) -> dict:
@@ -272,7 +312,8 @@ def update(acc: dict, s: dict) -> dict:
     >>> import casadi as ca
     >>> from fl_design.sim import ACCUMULATORS, signals, update
     >>> x = ca.SX.sym("x")
-    >>> sig = signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x, k_tail=x)
+    >>> sig = signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x, k_tail=x,
+    ...               k_mid=x, outside=x)
     >>> len(update({a.name: x for a in ACCUMULATORS}, sig)) == len(ACCUMULATORS)
     True
     """
@@ -334,8 +375,21 @@ METRICS = (
            lambda g, T: np.sqrt(g["est2_sum"] / np.asarray(g["N"])[..., None]), per_estimate=True),
     Metric("tail_error", "output", lambda g, T: g["tail_abs_e_max"]),
     Metric("tail_amplitude", "output", lambda g, T: g["tail_e_max"] - g["tail_e_min"]),
+    Metric("time_to_tolerance", "s", lambda g, T: _time_to_tolerance(g, T)),
 )
-METRIC_NAMES = tuple(m.name for m in METRICS) + ("divergence_time",)
+METRIC_NAMES = tuple(m.name for m in METRICS) + ("divergence_time", "region_exit_time")
+
+
+def _time_to_tolerance(g, T):
+    status = classify(g)
+    settled = np.where(g["k_out"] >= g["N"] - 1, np.nan, (g["k_out"] + 1) * T)
+    spacing = (g["N"] - g["k_mid"]) * T  # distance between the two half-tail windows
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rate = np.log(g["env1_max"] / g["env2_max"]) / spacing
+        more = np.log(g["env2_max"] / g["tol"]) / rate
+    estimate = g["N"] * T + np.maximum(more, 0.0)
+    return np.where(status == Status.CONVERGED, settled,
+                    np.where(status == Status.CONVERGING, estimate, np.nan))
 
 
 def classify(summary: dict) -> np.ndarray:
@@ -344,8 +398,8 @@ def classify(summary: dict) -> np.ndarray:
     Parameters
     ----------
     summary : dict
-        At least ``diverged``, ``tail_abs_e_max``, ``tail_e_max``, ``tail_e_min``, ``tol``;
-        optionally ``solver_failed``.
+        At least ``diverged``, ``tail_abs_e_max``, ``tail_e_max``, ``tail_e_min``, ``tol``,
+        ``env1_max``, ``env2_max``; optionally ``solver_failed``.
 
     Returns
     -------
@@ -355,8 +409,11 @@ def classify(summary: dict) -> np.ndarray:
     --------
     >>> from fl_design.sim import classify
     >>> classify(dict(diverged=0, tail_abs_e_max=0.001, tail_e_max=0.001, tail_e_min=0.0,
-    ...               tol=0.01)).tolist()
-    1
+    ...               tol=0.01, env1_max=0.001, env2_max=0.0005)).tolist()
+    2
+    >>> classify(dict(diverged=0, tail_abs_e_max=0.1, tail_e_max=0.1, tail_e_min=-0.1,
+    ...               tol=0.01, env1_max=0.1, env2_max=0.1)).tolist()  # sustained oscillation
+    0
     """
     div = np.asarray(summary["diverged"]) != 0
     failed = np.asarray(summary.get("solver_failed", 0)) != 0
@@ -364,8 +421,10 @@ def classify(summary: dict) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         converged = (np.asarray(summary["tail_abs_e_max"]) <= tol) & (
             np.asarray(summary["tail_e_max"]) - np.asarray(summary["tail_e_min"]) <= tol)
+        shrinking = np.asarray(summary["env2_max"]) < SHRINK * np.asarray(summary["env1_max"])
     code = np.where(div, int(Status.DIVERGED),
-                    np.where(converged, int(Status.STABLE), int(Status.UNDECIDED)))
+                    np.where(converged, int(Status.CONVERGED),
+                             np.where(shrinking, int(Status.CONVERGING), int(Status.OSCILLATING))))
     return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)
 
 
@@ -393,7 +452,7 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
     >>> s = dict(N=10, k_tail=8, step=1.0, tol=0.02, diverged=0, k_div=-1, e_max=0.1,
     ...          e_min=-1.0, abs_e_sum=2.0, u2_sum=10.0, du_sum=1.0, est2_sum=np.zeros(3),
     ...          tail_abs_e_max=0.01, tail_e_max=0.01, tail_e_min=0.0, tail_e_sum=0.01,
-    ...          k10=1, k90=3, k_out=5)
+    ...          k10=1, k90=3, k_out=5, k_mid=9, env1_max=0.01, env2_max=0.0, k_exit=-1)
     >>> m = metrics_from_summary(s, 0.1)
     >>> [round(float(m[k]), 12) for k in ("overshoot", "rise_time", "settling_time")]
     [10.0, 0.2, 0.6]
@@ -407,6 +466,7 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
             out[metric.name] = np.where(div[..., None] if metric.per_estimate else div,
                                         np.nan, value)
     out["divergence_time"] = np.where(div, g["k_div"] * T, np.nan)
+    out["region_exit_time"] = np.where(g["k_exit"] >= 0, g["k_exit"] * T, np.nan)
     out["status"] = classify(g)
     return out
 
@@ -416,6 +476,7 @@ __all__ = [
     "METRICS",
     "METRIC_NAMES",
     "RUN_CONSTANTS",
+    "SHRINK",
     "STATUS_CODES",
     "STATUS_NAMES",
     "Accumulator",

@@ -10,7 +10,7 @@ Examples
 >>> design = fl.presets.pendulum_design()
 >>> resp = fl.simulate(fl.plants.pendulum(), design, fl.Scenario(0.1, 20.0))
 >>> resp.status, round(resp.settling_time, 2), round(resp.overshoot, 3)
-('stable', 9.08, 0.0)
+('converged', 9.08, 0.0)
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._json import jsonable
-from ._metrics import STATUS_NAMES, metrics_from_summary
+from ._metrics import STATUS_NAMES, Status, metrics_from_summary
 
 
 @dataclass(frozen=True)
@@ -109,8 +109,18 @@ class Response:
     tail_amplitude = property(lambda self: self.metrics["tail_amplitude"],
                               doc="Peak-to-peak of e on the tail.")
     status = property(lambda self: self.metrics["status"],
-                      doc="'stable', 'undecided', 'diverged' or 'solver_failed'.")
-    stable = property(lambda self: self.metrics["status"] == "stable", doc="Classified stable.")
+                      doc="'converged', 'converging', 'oscillating', 'diverged' or "
+                          "'solver_failed' (see fl_design.sim.Status).")
+    bounded = property(lambda self: Status.from_label(self.status).bounded,
+                       doc="Stayed within bounds (oscillating, converging or converged).")
+    converged = property(lambda self: self.status == "converged",
+                         doc="Within tolerance over the whole tail.")
+    stable = property(lambda self: Status.from_label(self.status).convergent,
+                      doc="Converging or converged: bounded with a shrinking error (Theorem 1).")
+    time_to_tolerance = property(lambda self: self.metrics["time_to_tolerance"],
+                                 doc="Estimated time until |e| <= tol (converging runs).")
+    region_exit_time = property(lambda self: self.metrics["region_exit_time"],
+                                doc="First time outside the plant's region (NaN if never).")
     diverged = property(lambda self: self.divergence_index is not None, doc="Run diverged.")
     divergence_time = property(lambda self: self.metrics["divergence_time"],
                                doc="Time of divergence (NaN if none).")
@@ -157,6 +167,39 @@ class Response:
         from ..plotting import plot_response
 
         return plot_response(self, axes=axes, title=title)
+
+    def verdict(self) -> str:
+        """One line saying what the run shows, with the numbers behind it.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> d = fl.presets.pendulum_design()
+        >>> fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 20.0)).verdict()
+        'converged: |e| <= 0.002 after 9.08 s; overshoot 0 %'
+        """
+        m, tol = self.metrics, self.tol
+        over = "" if np.isnan(m["overshoot"]) else f"; overshoot {m['overshoot']:.3g} %"
+        exit_ = ("" if np.isnan(m["region_exit_time"]) else
+                 f"; left the plant's region at t = {m['region_exit_time']:.3g} s")
+        text = {
+            "converged": f"converged: |e| <= {tol:.3g} after {m['settling_time']:.3g} s",
+            "converging": (f"converging: |e| = {m['tail_error']:.3g} > {tol:.3g} at the end, "
+                           f"shrinking; estimated within tolerance at t = "
+                           f"{m['time_to_tolerance']:.3g} s (run longer to confirm)"),
+            "oscillating": (f"oscillating: bounded, but the error envelope does not shrink "
+                            f"(tail |e| up to {m['tail_error']:.3g}, peak-to-peak "
+                            f"{m['tail_amplitude']:.3g}, tolerance {tol:.3g})"),
+            "diverged": f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or "
+                        "became non-finite)",
+            "solver_failed": "solver failed: cvodes gave up on a bounded state (not a verdict "
+                             "on the loop; try fl.RK4 or looser tolerances)",
+        }[self.status]
+        return text + (over if self.status != "diverged" else "") + exit_
 
     def __repr__(self) -> str:
         return (f"Response(N={self.t.size}, T={self.T:g}, status={self.status!r}, "

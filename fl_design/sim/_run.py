@@ -83,6 +83,9 @@ class RunSetup:
         First sample of the tail window.
     bound : numpy.ndarray
         Divergence bound per state.
+    region : numpy.ndarray
+        ``(2, n)`` lower and upper bounds of the plant's declared region (``-inf``/``inf``
+        where none is declared).
 
     Examples
     --------
@@ -107,6 +110,7 @@ class RunSetup:
     q: float
     k_tail: int
     bound: np.ndarray
+    region: np.ndarray
 
     @property
     def T(self) -> float:
@@ -118,10 +122,15 @@ class RunSetup:
         """``(2, N)`` per-sample inputs ``(r_k, w_k)``."""
         return np.vstack([self.r, self.noise])
 
+    @property
+    def k_mid(self) -> int:
+        """First sample of the second half of the tail window."""
+        return self.k_tail + (self.N - self.k_tail) // 2
+
     def constants(self) -> dict:
-        """The run constants of the accumulator (``N k_tail y0 step tol``)."""
-        return {"N": float(self.N), "k_tail": float(self.k_tail), "y0": self.y0,
-                "step": self.step, "tol": self.tol}
+        """The run constants of the accumulator (``N k_tail k_mid y0 step tol``)."""
+        return {"N": float(self.N), "k_tail": float(self.k_tail), "k_mid": float(self.k_mid),
+                "y0": self.y0, "step": self.step, "tol": self.tol}
 
     def initial_accumulator(self, P) -> np.ndarray:
         """``(nacc, m)`` accumulators for the parameter columns ``P`` (``(n_p, m)``).
@@ -142,14 +151,15 @@ class RunSetup:
         >>> d = fl.presets.pendulum_design()
         >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
         >>> run.initial_accumulator(d.parameter_vector()).shape
-        (64, 1)
+        (72, 1)
         """
         P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
         design = self.loop.design
         return self.loop.layout.pack(
             x=self.x0, s=design.initial_state(), u_prev=design.controller.u0, k=0.0,
             diverged=0.0, k_div=-1.0, **initial_values(self.loop.rho), **self.constants(),
-            q=self.q, x_op=self.loop.plant.x_op, bound=self.bound, p=P,
+            q=self.q, x_op=self.loop.plant.x_op, bound=self.bound, region_lo=self.region[0],
+            region_hi=self.region[1], p=P,
         )
 
 
@@ -212,7 +222,14 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     return RunSetup(loop=loop, scenario=scenario, classifier=classifier, N=N, r=r,
                     noise=scenario.noise.samples(N), x0=x0, y0=y0, step=step,
                     tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
-                    k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant))
+                    k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant),
+                    region=_region(plant))
+
+
+def _region(plant) -> np.ndarray:
+    region = plant.region or {}
+    return np.array([[region[s][0] if s in region else -np.inf for s in plant.states],
+                     [region[s][1] if s in region else np.inf for s in plant.states]])
 
 
 __all__ = ["RunSetup", "default_divergence_bound", "prepare_run"]

@@ -15,7 +15,7 @@ Examples
 >>> sc = fl.Scenario(0.1, 20.0, noise=fl.Noise(std=1e-4))
 >>> resp = fl.simulate(fl.plants.pendulum(), design, sc)
 >>> resp.status, bool(abs(resp.y[-1] - 0.1) < 1e-3)
-('stable', True)
+('converged', True)
 """
 
 from __future__ import annotations
@@ -130,11 +130,11 @@ def _metric_step(rho: int) -> ca.Function:
     """``fl_metrics(m, sig, c) -> m_next``: the accumulator update of the table, for replay."""
     lay = metric_layout(rho)
     m = ca.SX.sym("m", lay.size)
-    sig = ca.SX.sym("sig", 5 + rho + 1)  # e, u, u_prev, k, y, est_err
-    c = ca.SX.sym("c", 4)  # y0, step, tol, k_tail
+    sig = ca.SX.sym("sig", 6 + rho + 1)  # e, u, u_prev, k, y, outside, est_err
+    c = ca.SX.sym("c", 5)  # y0, step, tol, k_tail, k_mid
     acc = {name: m[sl] for name, sl in lay.slices.items()}
-    s = signals(e=sig[0], u=sig[1], u_prev=sig[2], k=sig[3], y=sig[4], est_err=sig[5:],
-                y0=c[0], step=c[1], tol=c[2], k_tail=c[3])
+    s = signals(e=sig[0], u=sig[1], u_prev=sig[2], k=sig[3], y=sig[4], outside=sig[5],
+                est_err=sig[6:], y0=c[0], step=c[1], tol=c[2], k_tail=c[3], k_mid=c[4])
     new = update(acc, s)
     return ca.Function("fl_metrics", [m, sig, c], [ca.vertcat(*[new[n] for n, _ in lay.fields])])
 
@@ -153,7 +153,7 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray, opts: Cvodes) -> tuple[np.ndarray
     out = np.full((loop.record_layout.size, run.N), np.nan)
     lay = metric_layout(loop.rho)
     m = lay.pack(**initial_values(loop.rho))[:, 0]
-    c = [run.y0, run.step, run.tol, run.k_tail]
+    c = [run.y0, run.step, run.tol, run.k_tail, run.k_mid]
     step_m = _metric_step(loop.rho)
     status = {"diverged": 0.0, "k_div": -1.0, "solver_failed": 0.0}
     for k in range(run.N):
@@ -173,7 +173,8 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray, opts: Cvodes) -> tuple[np.ndarray
             status.update(diverged=1.0, k_div=float(k + 1))
             break
         est_err = xhat - np.concatenate([coords, sigma])
-        sig = np.concatenate([[y[0] - run.r[k], uk[0], u_prev, k, y[0]], est_err])
+        outside = float(np.any((xk < run.region[0]) | (xk > run.region[1])))
+        sig = np.concatenate([[y[0] - run.r[k], uk[0], u_prev, k, y[0], outside], est_err])
         m = np.asarray(step_m(m, sig, c), dtype=float).ravel()
         xk, sk, u_prev = x_next, s_next, uk[0]
     summary = lay.unpack(m)

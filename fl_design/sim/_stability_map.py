@@ -5,9 +5,9 @@ Examples
 >>> import numpy as np
 >>> from fl_design.sim import StabilityMap
 >>> m = StabilityMap(eps=np.array([0.01, 0.02]), gamma=np.array([1e-3]),
-...                  status=np.array([[1], [-1]]), metrics={}, T=1e-3, duration=1.0, tol=1e-3)
->>> m.eps_star(1e-3)
-0.01
+...                  status=np.array([[2], [-1]]), metrics={}, T=1e-3, duration=1.0, tol=1e-3)
+>>> print(m.eps_star(1e-3))
+0.01 (fails at 0.02)
 """
 
 from __future__ import annotations
@@ -20,7 +20,67 @@ import numpy as np
 from .. import _validate as V
 from .._json import jsonable
 from ..errors import ParameterError
-from ._metrics import STATUS_CODES, Status
+from ._metrics import Status
+
+
+@dataclass(frozen=True)
+class EpsStar:
+    """Where the boundary eps* lies on a grid: ``lower <= eps* < upper``.
+
+    ``lower`` is the largest grid eps such that every grid eps' <= it converges (converging or
+    converged); ``upper`` the first grid eps that does not. No boundary in the scanned range
+    is said as such: ``upper = inf`` ("> eps_max": every eps converged, eps* lies above the
+    range) or ``lower = nan`` ("< eps_min": even the smallest eps failed).
+
+    Parameters
+    ----------
+    lower, upper : float
+        The bracket on the grid.
+
+    Examples
+    --------
+    >>> from fl_design.sim import EpsStar
+    >>> str(EpsStar(1.0, float("inf"))), EpsStar(1.0, float("inf")).value
+    ('> 1', None)
+    >>> str(EpsStar(float("nan"), 0.01)), EpsStar(0.02, 0.04).value
+    ('< 0.01', 0.02)
+    """
+
+    lower: float
+    upper: float
+
+    @property
+    def value(self) -> float | None:
+        """``lower`` when the boundary lies inside the range, else None (it is outside)."""
+        return self.lower if math.isfinite(self.lower) and math.isfinite(self.upper) else None
+
+    @property
+    def above_range(self) -> bool:
+        """Every scanned eps converged: eps* is larger than the range."""
+        return not math.isfinite(self.upper)
+
+    @property
+    def below_range(self) -> bool:
+        """Even the smallest scanned eps failed: eps* is below the range."""
+        return math.isnan(self.lower)
+
+    def __str__(self) -> str:
+        if self.above_range:
+            return f"> {self.lower:g}"
+        if self.below_range:
+            return f"< {self.upper:g}"
+        return f"{self.lower:g} (fails at {self.upper:g})"
+
+    def to_dict(self) -> dict:
+        """Strict JSON: ``lower``, ``upper`` (None when unbounded), ``text``.
+
+        Examples
+        --------
+        >>> from fl_design.sim import EpsStar
+        >>> EpsStar(0.5, float("inf")).to_dict()
+        {'lower': 0.5, 'upper': None, 'text': '> 0.5'}
+        """
+        return jsonable({"lower": self.lower, "upper": self.upper, "text": str(self)})
 
 
 # --- the result ------------------------------------------------------------------------------
@@ -35,8 +95,8 @@ class StabilityMap:
     gamma : numpy.ndarray
         ``(n_g,)`` increasing controller gains.
     status : numpy.ndarray
-        ``(n_e, n_g)`` int codes of :class:`fl_design.sim.Status` (1 stable, 0 undecided, -1
-        diverged).
+        ``(n_e, n_g)`` int codes of :class:`fl_design.sim.Status` (2 converged, 1 converging,
+        0 oscillating, -1 diverged, -2 solver failed).
     metrics : dict
         Name -> ``(n_e, n_g)`` array (``estimation_rms``: ``(n_e, n_g, rho + 1)``), see
         :mod:`fl_design.sim`.
@@ -50,7 +110,7 @@ class StabilityMap:
     >>> m = StabilityMap(eps=np.array([0.01, 0.02, 0.04]), gamma=np.array([1e-3, 1e-2]),
     ...                  status=np.array([[1, 1], [1, 0], [-1, 1]]), metrics={},
     ...                  T=1e-3, duration=1.0, tol=1e-3)
-    >>> m.eps_star(1e-3), m.eps_star(1e-2), m.gamma_bounds(0.02)
+    >>> m.eps_star(1e-3).value, m.eps_star(1e-2).value, m.gamma_bounds(0.02)
     (0.02, 0.01, (0.001, 0.001))
     """
 
@@ -64,7 +124,7 @@ class StabilityMap:
 
     @property
     def labels(self) -> np.ndarray:
-        """``status`` as strings ``'stable'``, ``'undecided'``, ``'diverged'``."""
+        """``status`` as strings (``'converged'``, ``'converging'``, ``'oscillating'``, ...)."""
         labels = np.array([Status(int(c)).label for c in np.ravel(self.status)], dtype=object)
         return labels.reshape(np.shape(self.status)).astype(str)
 
@@ -78,8 +138,11 @@ class StabilityMap:
             )
         return int(hits[0])
 
-    def eps_star(self, gamma: float) -> float:
-        """Empirical eps*: the largest grid eps such that every grid eps' <= eps is stable.
+    def _convergent(self) -> np.ndarray:
+        return np.asarray(self.status) >= int(Status.CONVERGING)
+
+    def eps_star(self, gamma: float) -> EpsStar:
+        """Empirical eps*: the boundary between converging/converged and oscillating/diverged.
 
         Parameters
         ----------
@@ -88,25 +151,29 @@ class StabilityMap:
 
         Returns
         -------
-        float
-            NaN if the smallest eps is not stable; the largest eps if all are (a lower bound).
+        EpsStar
+            ``lower``: the largest grid eps such that every grid eps' <= it converges;
+            ``upper``: the first one that does not (``> eps_max`` / ``< eps_min`` when the
+            boundary lies outside the grid).
 
         Examples
         --------
         >>> import numpy as np
         >>> from fl_design.sim import StabilityMap
-        >>> StabilityMap(np.array([1.0, 2.0]), np.array([0.5]), np.array([[0], [1]]), {},
-        ...              1e-3, 1.0, 0.1).eps_star(0.5)
-        nan
+        >>> m = StabilityMap(np.array([1.0, 2.0]), np.array([0.5, 1.0]),
+        ...                  np.array([[0, 2], [1, 1]]), {}, 1e-3, 1.0, 0.1)
+        >>> str(m.eps_star(0.5)), str(m.eps_star(1.0))
+        ('< 1', '> 2')
         """
-        col = np.asarray(self.status)[:, self._index(self.gamma, gamma, "gamma")]
-        bad = np.flatnonzero(col != STATUS_CODES["stable"])
-        if bad.size and bad[0] == 0:
-            return math.nan
-        return float(self.eps[(bad[0] if bad.size else col.size) - 1])
+        col = self._convergent()[:, self._index(self.gamma, gamma, "gamma")]
+        bad = np.flatnonzero(~col)
+        if not bad.size:
+            return EpsStar(float(self.eps[-1]), math.inf)
+        lower = math.nan if bad[0] == 0 else float(self.eps[bad[0] - 1])
+        return EpsStar(lower, float(self.eps[bad[0]]))
 
     def gamma_bounds(self, eps: float, *, around: float | None = None) -> tuple[float, float]:
-        """``(lowest, highest)`` grid gamma of a contiguous run of stable gammas at ``eps``.
+        """``(lowest, highest)`` grid gamma of a contiguous run of converging gammas at ``eps``.
 
         The run is the one containing ``around`` (e.g. the design's gamma) when given, else the
         longest one (the lowest-gamma one among equally long runs).
@@ -128,11 +195,11 @@ class StabilityMap:
         >>> import numpy as np
         >>> from fl_design.sim import StabilityMap
         >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0, 3.0, 4.0, 5.0]),
-        ...                  np.array([[1, 0, 1, 1, 0]]), {}, 1e-3, 1.0, 0.1)
+        ...                  np.array([[2, 0, 1, 2, -1]]), {}, 1e-3, 1.0, 0.1)
         >>> m.gamma_bounds(0.1), m.gamma_bounds(0.1, around=1.0)
         ((3.0, 4.0), (1.0, 1.0))
         """
-        row = np.asarray(self.status)[self._index(self.eps, eps, "eps")] == STATUS_CODES["stable"]
+        row = self._convergent()[self._index(self.eps, eps, "eps")]
         runs, start = [], None
         for j, ok in enumerate([*row, False]):
             if ok and start is None:
@@ -155,13 +222,14 @@ class StabilityMap:
         --------
         >>> import numpy as np
         >>> from fl_design.sim import StabilityMap
-        >>> m = StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[1]]),
+        >>> m = StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[2]]),
         ...                  {"iae": np.array([[np.nan]])}, 1e-3, 1.0, 0.1)
-        >>> m.to_dict()["metrics"], m.to_dict()["status"]
-        ({'iae': [[None]]}, [['stable']])
+        >>> m.to_dict()["metrics"], m.to_dict()["status"], m.to_dict()["eps_star"]
+        ({'iae': [[None]]}, [['converged']], [{'lower': 0.1, 'upper': None, 'text': '> 0.1'}])
         """
         return jsonable({"eps": self.eps, "gamma": self.gamma, "status": self.labels.tolist(),
                          "T": self.T, "duration": self.duration, "tol": self.tol,
+                         "eps_star": [self.eps_star(g) for g in self.gamma],
                          "metrics": self.metrics})
 
     def plot(self, *, ax=None, curves=None, show_eps_star: bool = True):
@@ -186,7 +254,7 @@ class StabilityMap:
         >>> import numpy as np
         >>> from fl_design.sim import StabilityMap
         >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]),
-        ...                  np.array([[1, 1], [0, -1]]), {}, 1e-3, 1.0, 0.1)
+        ...                  np.array([[2, 1], [0, -1]]), {}, 1e-3, 1.0, 0.1)
         >>> fig = m.plot(curves={"bound": lambda g: 0.15 / g})
         >>> len(fig.axes) >= 1
         True
@@ -203,10 +271,11 @@ class EpsStarEstimate:
     Parameters
     ----------
     eps_star : float
-        Largest eps found stable below the first non-stable one (``bracket[0]``); NaN if the
-        lower end of the range is not stable.
+        Largest eps found converging below the first one that does not (``bracket[0]``); NaN
+        when even the lower end of the range fails (see :attr:`bound`: ``< lo``).
     bracket : (float, float)
-        ``(stable eps, not stable eps)``; ``(hi, inf)`` when the whole range is stable.
+        ``(converging eps, failing eps)``; ``(hi, inf)`` when the whole range converges
+        (``> hi``), ``(nan, lo)`` when none does (``< lo``).
     n_simulations : int
         Closed-loop runs made.
     history : tuple
@@ -217,8 +286,9 @@ class EpsStarEstimate:
     Examples
     --------
     >>> from fl_design.sim import EpsStarEstimate
-    >>> EpsStarEstimate(0.04, (0.04, 0.0405), 9, (), True).to_dict()["bracket"]
-    [0.04, 0.0405]
+    >>> est = EpsStarEstimate(0.04, (0.04, 0.0405), 9, (), True)
+    >>> est.to_dict()["bracket"], str(est)
+    ([0.04, 0.0405], '0.04 (fails at 0.0405)')
     """
 
     eps_star: float
@@ -237,8 +307,18 @@ class EpsStarEstimate:
         [1.0, None]
         """
         return jsonable({"eps_star": self.eps_star, "bracket": self.bracket,
+                         "text": str(self),
                          "n_simulations": self.n_simulations, "converged": self.converged,
                          "history": self.history})
 
 
-__all__ = ["EpsStarEstimate", "StabilityMap"]
+    @property
+    def bound(self) -> EpsStar:
+        """The bracket as an :class:`EpsStar` (says ``> hi`` / ``< lo`` when outside)."""
+        return EpsStar(float(self.bracket[0]), float(self.bracket[1]))
+
+    def __str__(self) -> str:
+        return str(self.bound)
+
+
+__all__ = ["EpsStar", "EpsStarEstimate", "StabilityMap"]

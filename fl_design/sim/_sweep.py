@@ -17,7 +17,7 @@ Examples
 >>> smap = fl.sweep(fl.plants.pendulum(), design, fl.Scenario(0.05, 6.0), eps=[0.02, 0.2],
 ...                 gamma=[0.01], kernel=fl.Kernel(compiled=False), progress=False)
 >>> smap.labels[:, 0].tolist(), round(float(smap.metrics["divergence_time"][1, 0]), 3)
-(['undecided', 'diverged'], 4.06)
+(['converging', 'diverged'], 4.06)
 """
 
 from __future__ import annotations
@@ -137,8 +137,8 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
                       kernel: Kernel | None = None) -> EpsStarEstimate:
     """Empirical eps* by bisection in ``log eps`` between a stable and a non-stable run.
 
-    Each candidate is one closed-loop run classified as in :func:`sweep`; "not stable" means
-    diverged or undecided. A diverging run stops at its divergence (the kernel skips the rest),
+    Each candidate is one closed-loop run classified as in :func:`sweep`; a candidate passes
+    when it converges (converging or converged) and fails when it oscillates or diverges. A diverging run stops at its divergence (the kernel skips the rest),
     so unstable candidates cost little. The lower end must be stable and the upper end not; if
     the upper end is stable the result is ``(hi, inf)``, unconverged.
 
@@ -196,7 +196,7 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
         status, metrics = _assemble(run, acc, (1,))
         history.append((float(e), Status(int(status[0])).label,
                         float(metrics["divergence_time"][0])))
-        return int(status[0]) == Status.STABLE
+        return Status(int(status[0])).convergent
 
     def result(eps_star, bracket, converged):
         return EpsStarEstimate(float(eps_star), tuple(float(b) for b in bracket), len(history),

@@ -144,7 +144,7 @@ def test_metrics_follow_their_definitions(pendulum_design, pendulum):
     assert resp.tail_amplitude == pytest.approx(np.ptp(y[tail]), rel=1e-12)
     est = np.sqrt(np.mean((resp.xhat - resp.coords) ** 2, axis=0))
     np.testing.assert_allclose(resp.estimation_rms[:2], est, rtol=1e-12)
-    assert resp.stable == (resp.tail_error <= resp.tol and resp.tail_amplitude <= resp.tol)
+    assert resp.converged == (resp.tail_error <= resp.tol and resp.tail_amplitude <= resp.tol)
     json.dumps(resp.to_dict())
 
 
@@ -329,7 +329,7 @@ def test_runners_agree_on_diverging_runs_including_skipped_samples(tmp_path):
 @pytest.mark.parametrize("kind", ["interpreted", "compiled", "cvodes"])
 @pytest.mark.parametrize("case", ["stable", "noisy", "diverging"])
 def test_response_metrics_equal_numpy_oracle(pendulum, pendulum_design, tmp_path, kind, case):
-    from tests.oracles import metrics_from_trajectories
+    from tests.oracles import metrics_from_trajectories, region_exit_time, status_from_trajectories
 
     kw = {"compiled": {"kernel": fl.Kernel(compiled=True, cache_dir=tmp_path)},
           "cvodes": {"integrator": fl.Cvodes()}}.get(kind, {})
@@ -340,6 +340,9 @@ def test_response_metrics_equal_numpy_oracle(pendulum, pendulum_design, tmp_path
     }[case]
     resp = fl.simulate(pendulum, design, sc, **kw)
     assert resp.diverged == (case == "diverging")
+    assert resp.status == status_from_trajectories(resp)
+    np.testing.assert_equal(resp.region_exit_time,
+                            region_exit_time(resp, pendulum.region, pendulum.states))
     oracle = metrics_from_trajectories(resp)
     for name, value in oracle.items():
         np.testing.assert_allclose(resp.metrics[name], value, rtol=1e-9, atol=1e-12,
@@ -367,3 +370,22 @@ def test_cvodes_failure_on_a_bounded_state_is_a_solver_failure(pendulum, pendulu
     resp = fl.simulate(pendulum, pendulum_design(), fl.Scenario(0.1, 0.05),
                        integrator=fl.Cvodes(max_num_steps=1))
     assert resp.status == "solver_failed" and not resp.diverged and not resp.stable
+
+
+def test_verdicts_say_what_they_mean(pendulum):
+    """Converging (shrinking, not yet in tolerance), oscillating (limit cycle), region exit."""
+    from tests.oracles import status_from_trajectories
+
+    slow = fl.presets.pendulum_design(gamma=3e-3)         # slow but convergent
+    resp = fl.simulate(pendulum, slow, fl.Scenario(0.1, 6.0))
+    assert resp.status == "converging" == status_from_trajectories(resp)
+    longer = fl.simulate(pendulum, slow, fl.Scenario(0.1, 2 * resp.time_to_tolerance))
+    assert longer.status == "converged"
+    # the envelope's exponential extrapolation predicts the settling time
+    assert longer.settling_time == pytest.approx(resp.time_to_tolerance, rel=0.15)
+    assert "converging" in resp.verdict() and "estimated within tolerance" in resp.verdict()
+    # saturated input + an unstable eps: a bounded limit cycle, not 'diverged'
+    cyc = fl.simulate(pendulum, fl.presets.pendulum_design(eps=0.2, u_limits=(-1.2, 1.2)),
+                      fl.Scenario(0.05, 30.0))
+    assert cyc.status == "oscillating" == status_from_trajectories(cyc) and cyc.bounded
+    assert cyc.tail_amplitude > cyc.tol and "does not shrink" in cyc.verdict()

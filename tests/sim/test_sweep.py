@@ -33,24 +33,23 @@ def cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def small_map(pendulum_design, pendulum, cache):
-    """A 4 x 3 map with noise: stable, undecided and diverged points."""
+    """A 4 x 3 map with noise: converged, converging and diverged points."""
     return fl.sweep(pendulum, pendulum_design(), fl.Scenario(0.05, 8.0, noise=fl.Noise(std=1e-4)), eps=[0.01, 0.03, 0.1, 0.3], gamma=[3e-3, 1e-2, 3e-2], progress=False, classifier=fl.Classifier(tolerance=0.1), kernel=fl.Kernel(cache_dir=cache))
 
 
 def test_each_point_equals_its_own_simulation(pendulum_design, pendulum, small_map):
     """Running sums in the compiled kernel == NumPy metrics of the full trajectory."""
-    codes = {"stable": 1, "undecided": 0, "diverged": -1}
     for i, eps in enumerate(small_map.eps):
         for j, gamma in enumerate(small_map.gamma):
             d = pendulum_design().replace(eps=float(eps), gamma=float(gamma))
             resp = fl.simulate(pendulum, d, fl.Scenario(0.05, 8.0, noise=fl.Noise(std=1e-4)), classifier=fl.Classifier(tolerance=0.1))
-            assert small_map.status[i, j] == codes[resp.status]
+            assert small_map.status[i, j] == fl.sim.Status.from_label(resp.status)
             for name, value in resp.metrics.items():
                 if name == "status":
                     continue
                 np.testing.assert_allclose(small_map.metrics[name][i, j], value, rtol=1e-9,
                                            atol=1e-12, err_msg=f"{name} at ({eps}, {gamma})")
-    assert set(np.unique(small_map.status)) == {-1, 0, 1}
+    assert {-1, 2} <= set(np.unique(small_map.status)) and len(np.unique(small_map.status)) >= 3
 
 
 def test_grid_layout_and_to_dict(small_map):
@@ -58,8 +57,9 @@ def test_grid_layout_and_to_dict(small_map):
     assert small_map.metrics["estimation_rms"].shape == (4, 3, 3)
     assert all(v.shape[:2] == (4, 3) for v in small_map.metrics.values())
     d = json.loads(json.dumps(small_map.to_dict()))
-    assert d["status"][0][0] in ("stable", "undecided", "diverged")
-    assert np.array_equal(small_map.labels == "stable", small_map.status == 1)
+    assert d["status"][0][0] in ("converged", "converging", "oscillating", "diverged")
+    assert np.array_equal(small_map.labels == "converged", small_map.status == 2)
+    assert np.array_equal(small_map.labels == "diverged", small_map.status == -1)
     fig = small_map.plot(curves={"1/gamma law": lambda g: 3e-4 / g,
                                  "points": ([3e-3, 3e-2], [0.05, 0.02])})
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
@@ -67,17 +67,19 @@ def test_grid_layout_and_to_dict(small_map):
 
 
 def test_eps_star_and_gamma_bounds_definitions():
-    status = np.array([[1, 1, 1, 0],
-                       [1, 0, 1, 1],
-                       [1, 1, -1, 1],
-                       [-1, 1, 1, 1]])
+    status = np.array([[2, 1, 2, 0, 2],     # converging (1) counts as convergent
+                       [2, 0, 2, 2, 2],
+                       [1, 2, -1, 2, 2],
+                       [-1, 2, 2, 2, 1]])
     m = StabilityMap(eps=np.array([0.01, 0.02, 0.04, 0.08]),
-                     gamma=np.array([1e-3, 1e-2, 1e-1, 1.0]), status=status, metrics={},
+                     gamma=np.array([1e-3, 1e-2, 1e-1, 1.0, 3.0]), status=status, metrics={},
                      T=T, duration=1.0, tol=1e-3)
-    assert [m.eps_star(g) for g in m.gamma] == [0.04, 0.01, 0.02, pytest.approx(math.nan,
-                                                                                nan_ok=True)]
+    stars = [m.eps_star(g) for g in m.gamma]
+    assert [(b.lower, b.upper) for b in stars[:3]] == [(0.04, 0.08), (0.01, 0.02), (0.02, 0.04)]
+    assert math.isnan(stars[3].lower) and stars[3].upper == 0.01 and str(stars[3]) == "< 0.01"
+    assert stars[4].above_range and str(stars[4]) == "> 0.08" and stars[4].value is None
     assert m.gamma_bounds(0.01) == (1e-3, 1e-1)
-    assert m.gamma_bounds(0.02) == (0.1, 1.0)            # longest run; ties -> lowest gamma
+    assert m.gamma_bounds(0.02) == (0.1, 3.0)            # the longest run
     assert m.gamma_bounds(0.02, around=1e-3) == (1e-3, 1e-3)
     assert m.gamma_bounds(0.04, around=1e-1) == (math.nan, math.nan) or all(
         math.isnan(v) for v in m.gamma_bounds(0.04, around=1e-1))
@@ -94,11 +96,11 @@ def test_empirical_eps_star_agrees_with_linearized(pendulum_design, pendulum, ca
     est = fl.estimate_eps_star(pendulum, design, fl.Scenario(0.05, 20.0), eps_range=(0.005, 1.0), rtol=0.01, kernel=fl.Kernel(cache_dir=cache))
     assert est.converged and est.bracket[1] / est.bracket[0] - 1 <= 0.01
     assert abs(est.eps_star / lin - 1.0) <= 0.10
-    assert est.history[0][1] == "stable" and est.history[1][1] == "diverged"
+    assert est.history[0][1] in ("converged", "converging") and est.history[1][1] == "diverged"
     # the map's eps* on a grid around it brackets the same value
     grid = lin * np.array([0.7, 0.8, 0.9, 0.95, 1.05, 1.1, 1.2])
     smap = fl.sweep(pendulum, design, fl.Scenario(0.05, 20.0), eps=grid, gamma=[1e-2], progress=False, kernel=fl.Kernel(cache_dir=cache))
-    assert smap.eps_star(1e-2) in (lin * 0.9, lin * 0.95)
+    assert smap.eps_star(1e-2).lower in (lin * 0.9, lin * 0.95)
     json.dumps(est.to_dict())
 
 
