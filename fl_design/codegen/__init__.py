@@ -29,7 +29,7 @@ from ._package import CPackage, compiler_or_raise
 from ._sil import SilResult, software_in_the_loop
 
 __all__ = ["CFLAGS", "PRECISIONS", "STRICT_CFLAGS", "CPackage", "CostTable", "SilResult",
-           "StepCost", "build", "compare_costs", "operation_counts", "step_cost",
-           "cache_directory", "check_precision", "check_prefix", "compiler_or_raise",
-           "core_function", "find_compiler", "mark_unused_parameters", "generate_c", "generate_source", "software_in_the_loop",
-           "step_design", "to_single_precision"]
+           "StepCost", "build", "cache_directory", "check_precision", "check_prefix",
+           "compare_costs", "compiler_or_raise", "core_function", "find_compiler",
+           "generate_c", "generate_source", "mark_unused_parameters", "operation_counts",
+           "software_in_the_loop", "step_cost", "step_design", "to_single_precision"]
