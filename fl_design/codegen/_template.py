@@ -144,7 +144,7 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
         "FLOAT_NOTE": (", and `-Wdouble-promotion -Wfloat-conversion` clean: single precision "
                        "only (float literals, `fmaxf`-family calls)" if precision == "float"
                        else ""),
-        "STATE_BYTES": str(size * design.state_size + 16),
+        "STATE_BYTES": str(size * design.state_size),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",
     }
