@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-dev
 
-.PHONY: demo test venv derive bench clean
+.PHONY: demo test venv derive bench clean arm-toolchain
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,15 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) verify/bench_sweep.py
+
+# Cross-compiler for the Cortex-M4F checks of the generated C (tests skip without it).
+arm-toolchain:
+	@if command -v arm-none-eabi-gcc >/dev/null; then echo "arm-none-eabi-gcc present"; \
+	elif command -v apt-get >/dev/null; then \
+	  SUDO=$$( [ "$$(id -u)" -eq 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi; \
+	else echo "no apt-get: install gcc-arm-none-eabi and newlib for your system" >&2; exit 1; fi
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -50,6 +50,8 @@ _LAZY = {
     "estimate_eps_star": "sim",
     "sampled_linearization": "analysis",
     "linearized_eps_star": "analysis",
+    "generate_c": "codegen",
+    "CPackage": "codegen",
     # sub-modules and layers
     "plants": None,
     "presets": None,
@@ -65,6 +67,7 @@ _LAZY = {
 if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
     from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic
     from .analysis import linearized_eps_star, sampled_linearization
+    from .codegen import CPackage, generate_c
     from .design import (
         EHGO,
         Design,

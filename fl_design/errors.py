@@ -46,9 +46,21 @@ class DesignMismatchError(FlDesignError, ValueError):
     """Parts that must agree do not (observer vs controller order, plant vs design relative degree)."""
 
 
+class OutputPathError(FlDesignError, ValueError):
+    """An output folder cannot be created or written (it names the folder and the reason)."""
+
+
 # --- failures while computing (RuntimeError) ---------------------------------------------------
 class ComputationError(FlDesignError, RuntimeError):
     """A computation could not be carried out (solver failure, compiler missing, ...)."""
+
+
+class CompilerNotFoundError(ComputationError):
+    """No C compiler (or cross-compiler) is installed where one is needed."""
+
+
+class CompilationError(ComputationError):
+    """Generated C code failed to compile (the compiler's message is included)."""
 
 
 class MissingDependencyError(FlDesignError, RuntimeError):
@@ -65,13 +77,16 @@ class CompilationWarning(UserWarning):
 
 
 __all__ = [
+    "CompilationError",
     "CompilationWarning",
+    "CompilerNotFoundError",
     "ComputationError",
     "DesignMismatchError",
     "DimensionError",
     "FlDesignError",
     "HurwitzError",
     "MissingDependencyError",
+    "OutputPathError",
     "ParameterError",
     "PlantDefinitionError",
     "RelativeDegreeError",

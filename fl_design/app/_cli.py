@@ -9,6 +9,10 @@ Sub-commands
     The main job on the built-in Twin Rotor (TRMS yaw) example: derive the plant, build the
     paper's EHGO + dynamic controller design, locate the linearized ``eps*``, simulate the
     0.3 rad step and compare against the least-squares baseline; writes a figure.
+``codegen``
+    Write the paper's design (or a least-squares baseline) as a C99 package: sources, header,
+    SIL harness, Makefile and README (``fl.generate_c``); ``--precision float`` for true single
+    precision.
 
 Examples
 --------
@@ -54,8 +58,26 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return run_demo(quick=args.quick, out_dir=args.out, show_progress=not args.no_progress)
 
 
+def _cmd_codegen(args: argparse.Namespace) -> int:
+    from .. import presets
+    from ..codegen import generate_c
+
+    designs = {
+        "ehgo": lambda: presets.paper_design(eps=args.eps, gamma=args.gamma),
+        "ls9": lambda: presets.least_squares_design(9, gamma=args.gamma),
+        "ls26": lambda: presets.least_squares_design(26, gamma=args.gamma),
+    }
+    pkg = generate_c(designs[args.design](), args.out, precision=args.precision,
+                     prefix=args.prefix)
+    print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) "
+          f"to {pkg.out_dir}:")
+    for path in pkg.files:
+        print(f"  {path.name}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of ``fl-design`` (sub-commands ``derive`` and ``demo``).
+    """Return the argument parser of ``fl-design`` (``derive``, ``demo``, ``codegen``).
 
     Returns
     -------
@@ -81,6 +103,15 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="out", help="folder for figures and the JSON summary")
     demo.add_argument("--no-progress", action="store_true", help="no progress bars")
     demo.set_defaults(func=_cmd_demo)
+    code = sub.add_parser("codegen", help="write the loop step as a C99 package")
+    code.add_argument("out", help="output folder (created if needed)")
+    code.add_argument("--precision", default="double", help="double (default) or float")
+    code.add_argument("--prefix", default="fl", help="prefix of the C names (default fl)")
+    code.add_argument("--design", choices=("ehgo", "ls9", "ls26"), default="ehgo",
+                      help="the paper's EHGO design (default) or a least-squares baseline")
+    code.add_argument("--eps", type=float, default=0.05, help="EHGO eps (default 0.05)")
+    code.add_argument("--gamma", type=float, default=3e-4, help="controller gamma (default 3e-4)")
+    code.set_defaults(func=_cmd_codegen)
     return parser
 
 

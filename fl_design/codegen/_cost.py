@@ -1,0 +1,325 @@
+"""The computational cost of a generated step, and the paper's EHGO vs least-squares table.
+
+Per package (:meth:`CPackage.cost`): the operations of one step by kind, read from the
+instruction list of the generated CasADi function (the code that runs, after CasADi's
+simplifications); the stack frame (``-fstack-usage``, the wrapper plus CasADi's function: an
+upper bound along the static call chain, libm excluded); the code and data size of the two
+objects (``size``); the measured time per step of the compiled harness (``--bench``, ``-O2``);
+and, for a single-precision package when ``arm-none-eabi-gcc`` is installed, the same for a
+Cortex-M4F with the double-precision helpers (``__aeabi_d*``) it calls (must be none).
+
+Examples
+--------
+>>> from fl_design import presets
+>>> from fl_design.codegen import operation_counts, core_function
+>>> ops = operation_counts(core_function(presets.paper_design(), "fl"))
+>>> ops["mul"] > 0 and "const" not in ops
+True
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import casadi as ca
+
+from ._package import compiler_or_raise, run_command
+
+_KIND = {"ADD": "add", "SUB": "add", "MUL": "mul", "DIV": "div", "NEG": "neg",
+         "FMIN": "minmax", "FMAX": "minmax", "LT": "compare", "LE": "compare",
+         "EQ": "compare", "NE": "compare", "NOT": "compare", "AND": "compare",
+         "OR": "compare", "IF_ELSE_ZERO": "select"}
+_NOT_FLOPS = {"CONST", "INPUT", "OUTPUT", "PARAMETER", "ASSIGN"}
+#: kinds counted as floating-point operations (all but loads, stores and constants)
+FLOP_KINDS = ("add", "mul", "div", "neg", "minmax", "compare", "select", "math")
+ARM_FLAGS = ("-O2", "-std=c99", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
+             "-mfloat-abi=hard", "-fstack-usage")
+
+
+def operation_counts(function: ca.Function) -> dict[str, int]:
+    """Operations of an SX function's instruction list, by kind (``add`` counts subtractions).
+
+    Parameters
+    ----------
+    function : casadi.Function
+        An SX function.
+
+    Returns
+    -------
+    dict
+        ``{kind: count}`` over :data:`FLOP_KINDS` (``math``: any other elementary function).
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from fl_design.codegen import operation_counts
+    >>> x = ca.SX.sym("x")
+    >>> operation_counts(ca.Function("f", [x], [ca.fmax(2 * x - 1, 0)]))["minmax"]
+    1
+    """
+    names = {getattr(ca, n): n[3:] for n in dir(ca) if n.startswith("OP_")}
+    out = dict.fromkeys(FLOP_KINDS, 0)
+    for k in range(function.n_instructions()):
+        name = names.get(function.instruction_id(k), "?")
+        if name not in _NOT_FLOPS:
+            out[_KIND.get(name, "math")] += 1
+    return out
+
+
+def _stack_usage(files) -> dict[str, int]:
+    out = {}
+    for su in files:
+        for line in Path(su).read_text().splitlines():
+            loc, size, _ = line.split("\t")
+            out[loc.rsplit(":", 1)[-1]] = int(size)
+    return out
+
+
+def _size(objects, size_tool: str) -> tuple[int, int]:
+    text = run_command([size_tool, *map(str, objects)], what="size").splitlines()[1:]
+    cols = [list(map(int, line.split()[:3])) for line in text]
+    return sum(c[0] for c in cols), sum(c[1] + c[2] for c in cols)
+
+
+def _objects(pkg, cc: str, flags, folder: Path) -> tuple[list[Path], dict[str, int]]:
+    folder.mkdir(parents=True, exist_ok=True)
+    objs = []
+    for src in pkg.sources:
+        obj = folder / (src.stem + ".o")
+        run_command([cc, *flags, "-fstack-usage", "-c", str(src), "-o", str(obj)],
+                    what=f"compiling {src.name} with {cc}")
+        objs.append(obj)
+    frames = _stack_usage(folder.glob("*.su"))
+    p = pkg.prefix
+    chain = frames.get(f"{p}_step", 0) + frames.get(f"{p}_step_core", 0)
+    chain += frames.get(f"{p}_core_f0", frames.get("casadi_f0", 0))
+    helpers = [v for k, v in frames.items()  # fmin/fmax helpers etc. of CasADi's file
+               if k.startswith(f"{p}_core_") and k != f"{p}_core_f0"]
+    return objs, {"stack": chain + max(helpers, default=0)}
+
+
+def _arm(pkg) -> tuple[dict | None, str]:
+    arm_cc = shutil.which("arm-none-eabi-gcc")
+    if arm_cc is None:
+        return None, "arm-none-eabi-gcc is not installed (make arm-toolchain installs it)"
+    flags = [*ARM_FLAGS, *pkg.flags(optimize="-O2")[1:]]
+    objs, frames = _objects(pkg, arm_cc, flags, pkg.out_dir / "build" / "cortex-m4")
+    undefined = set()
+    for obj in objs:
+        undefined |= set(run_command(["arm-none-eabi-nm", "-u", str(obj)], what="nm").split())
+    undefined -= {"U"} | {f"{pkg.prefix}_step_core"}
+    code, data = _size(objs, "arm-none-eabi-size")
+    helpers = sorted(u for u in undefined if u.startswith("__aeabi_d"))
+    return {"code_bytes": code, "data_bytes": data, "stack_bytes": frames["stack"],
+            "undefined": sorted(undefined), "double_helpers": helpers}, ""
+
+
+@dataclass(frozen=True)
+class StepCost:
+    """What one call of a generated step costs (see the module docstring).
+
+    Parameters
+    ----------
+    name : str
+        Row name (e.g. ``"EHGO"``, ``"LS(26)"``).
+    precision : str
+        ``"double"`` or ``"float"``.
+    operations : dict
+        ``{kind: count}`` from the instruction list.
+    stack_bytes : int
+        Stack of ``<prefix>_step`` and CasADi's function (host compiler, ``-O2``).
+    code_bytes, data_bytes : int
+        ``text`` and ``data + bss`` of the two objects.
+    ns_per_step : float
+        Measured time per call (host, ``-O2``).
+    state_bytes : int
+        Size of the numbers of the state struct.
+    arm : dict or None
+        Cortex-M4F figures (``code_bytes``, ``data_bytes``, ``stack_bytes``, ``undefined``,
+        ``double_helpers``), None when not built.
+    arm_skipped : str
+        Why ``arm`` is None ("" otherwise).
+
+    Examples
+    --------
+    >>> from fl_design.codegen import StepCost
+    >>> c = StepCost("EHGO", "double", {"add": 3, "mul": 2}, 64, 900, 40, 10.0, 40)
+    >>> c.flops, c.to_dict()["ns_per_step"]
+    (5, 10.0)
+    """
+
+    name: str
+    precision: str
+    operations: dict
+    stack_bytes: int
+    code_bytes: int
+    data_bytes: int
+    ns_per_step: float
+    state_bytes: int
+    arm: dict | None = None
+    arm_skipped: str = field(default="")
+
+    @property
+    def flops(self) -> int:
+        """Floating-point operations per step (every kind of :data:`FLOP_KINDS`)."""
+        return int(sum(self.operations.values()))
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields (``flops`` included).
+
+        Examples
+        --------
+        >>> from fl_design.codegen import StepCost
+        >>> StepCost("x", "float", {}, 0, 0, 0, 1.0, 4).to_dict()["flops"]
+        0
+        """
+        ns = self.ns_per_step if math.isfinite(self.ns_per_step) else None
+        return {"name": self.name, "precision": self.precision, "flops": self.flops,
+                "operations": dict(self.operations), "stack_bytes": self.stack_bytes,
+                "code_bytes": self.code_bytes, "data_bytes": self.data_bytes,
+                "ns_per_step": ns, "state_bytes": self.state_bytes, "arm": self.arm,
+                "arm_skipped": self.arm_skipped}
+
+
+def step_cost(pkg, *, name=None, bench_steps: int = 2_000_000, compiler=None) -> StepCost:
+    """The :class:`StepCost` of a package (what :meth:`CPackage.cost` returns).
+
+    Parameters
+    ----------
+    pkg : CPackage
+        The package.
+    name : str, optional
+        Row name; default ``"EHGO"`` or ``"LS(N)"``.
+    bench_steps : int, optional
+        Steps of the timing run (the best of three runs is kept).
+    compiler : str, optional
+        C compiler.
+
+    Returns
+    -------
+    StepCost
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import generate_c, step_cost
+    >>> step_cost(generate_c(presets.least_squares_design(9), "sc"), bench_steps=10).name
+    'LS(9)'
+    """
+    from .. import design as dsg
+    from ._generate import core_function
+
+    cc = compiler_or_raise(compiler)
+    est = pkg.step_design.estimator
+    if name is None:
+        name = f"LS({est.window})" if isinstance(est, dsg.LeastSquaresEstimator) else "EHGO"
+    ops = operation_counts(core_function(pkg.step_design, pkg.prefix))
+    objs, frames = _objects(pkg, cc, pkg.flags(), pkg.out_dir / "build" / "host")
+    code, data = _size(objs, "size")
+    exe = pkg.build(compiler=cc)
+    times = [float(run_command([str(exe), "--bench", str(int(bench_steps))], what="bench")
+                   .split()[0]) for _ in range(3)]
+    arm, skipped = _arm(pkg) if pkg.precision == "float" else (None, "double build")
+    width = 4 if pkg.precision == "float" else 8
+    return StepCost(name, pkg.precision, ops, frames["stack"], code, data, min(times),
+                    width * pkg.step_design.state_size, arm, skipped)
+
+
+@dataclass(frozen=True)
+class CostTable:
+    """The paper's computational-cost comparison: one :class:`StepCost` per design.
+
+    Parameters
+    ----------
+    rows : tuple of StepCost
+        The rows, in order.
+
+    Examples
+    --------
+    >>> from fl_design.codegen import CostTable, StepCost
+    >>> t = CostTable((StepCost("EHGO", "double", {"add": 1}, 8, 9, 0, 2.0, 40),))
+    >>> print(t.to_markdown().splitlines()[2])
+    | EHGO | double | 1 | 0 | 1 | 0 | 0 | 2 | 8 | 9 | 40 |
+    """
+
+    rows: tuple
+
+    def to_dict(self) -> dict:
+        """``{"rows": [StepCost.to_dict(), ...]}`` (strict JSON).
+
+        Examples
+        --------
+        >>> from fl_design.codegen import CostTable
+        >>> CostTable(()).to_dict()
+        {'rows': []}
+        """
+        return {"rows": [row.to_dict() for row in self.rows]}
+
+    def to_markdown(self) -> str:
+        """A Markdown table: flops by kind, ns per step, stack, code and state bytes.
+
+        Examples
+        --------
+        >>> from fl_design.codegen import CostTable
+        >>> CostTable(()).to_markdown().splitlines()[0].split(" | ")[1]
+        'precision'
+        """
+        head = ("| design | precision | flops | mul | add | min/max, compare, select | other "
+                "| ns/step | stack B | code B | state B |")
+        lines = [head, "|" + " --- |" * 11]
+        for c in self.rows:
+            o = c.operations
+            logic = o.get("minmax", 0) + o.get("compare", 0) + o.get("select", 0)
+            other = o.get("div", 0) + o.get("neg", 0) + o.get("math", 0)
+            lines.append(f"| {c.name} | {c.precision} | {c.flops} | {o.get('mul', 0)} | "
+                         f"{o.get('add', 0)} | {logic} | {other} | {c.ns_per_step:.3g} | "
+                         f"{c.stack_bytes} | {c.code_bytes} | {c.state_bytes} |")
+        return "\n".join(lines)
+
+
+def compare_costs(designs: dict, out_dir, *, precision: str = "double",
+                  bench_steps: int = 2_000_000, compiler=None) -> CostTable:
+    """Generate, build and measure each design: the comparison table.
+
+    Parameters
+    ----------
+    designs : dict
+        ``{row name: Design}``, e.g. the EHGO and the least-squares baselines N = 9, 26.
+    out_dir : path-like
+        One sub-folder per design is written there.
+    precision : str, optional
+        ``"double"`` or ``"float"``.
+    bench_steps : int, optional
+        Steps of each timing run.
+    compiler : str, optional
+        C compiler.
+
+    Returns
+    -------
+    CostTable
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import compare_costs
+    >>> t = compare_costs({"EHGO": presets.paper_design(),
+    ...                    "LS(26)": presets.least_squares_design(26)}, "cmp", bench_steps=10)
+    >>> t.rows[0].flops < t.rows[1].flops
+    True
+    """
+    from ._generate import generate_c
+
+    rows = []
+    for i, (name, design) in enumerate(designs.items()):
+        folder = Path(out_dir) / (re.sub(r"\W+", "_", name).strip("_") or f"design{i}")
+        pkg = generate_c(design, folder, precision=precision)
+        rows.append(pkg.cost(name=name, bench_steps=bench_steps, compiler=compiler))
+    return CostTable(tuple(rows))
+
+
+__all__ = ["ARM_FLAGS", "FLOP_KINDS", "CostTable", "StepCost", "compare_costs",
+           "operation_counts", "step_cost"]

@@ -1,0 +1,312 @@
+"""``CPackage``: a generated C package, its builds, its software-in-the-loop check and its cost.
+
+Builds go to ``<out_dir>/build`` with the system C compiler (:func:`find_compiler`), always
+with the strict flags ``-std=c99 -pedantic -Wall -Wextra -Werror`` (plus
+``-Wdouble-promotion -Wfloat-conversion`` in single precision). :meth:`CPackage.verify` runs
+the compiled step in closed loop with the simulated plant and compares it with
+:attr:`fl_design.Design.step` fed the same measurements (see :mod:`fl_design.codegen._sil`).
+
+Examples
+--------
+>>> from fl_design import presets
+>>> from fl_design.codegen import generate_c
+>>> pkg = generate_c(presets.paper_design(), "pkg_doc")
+>>> u = pkg.run([0.0, 0.0, 0.0], [0.3, 0.3, 0.3])    # the compiled harness
+>>> bool(u[0] > 0.0)
+True
+"""
+
+from __future__ import annotations
+
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CompilationError, CompilerNotFoundError, ParameterError
+from ._build import STRICT_CFLAGS, find_compiler
+
+#: extra warnings of the single-precision build (any double arithmetic is an error)
+FLOAT_WARNINGS = ("-Wdouble-promotion", "-Wfloat-conversion")
+#: sanitizer flags of :meth:`CPackage.build` with ``sanitize=True``
+SANITIZE_FLAGS = ("-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
+                  "-fno-sanitize-recover=all")
+
+
+def compiler_or_raise(compiler: str | None = None) -> str:
+    """The C compiler to use, or CompilerNotFoundError saying how to get one.
+
+    Parameters
+    ----------
+    compiler : str, optional
+        Explicit compiler; default :func:`~fl_design.codegen.find_compiler`.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.codegen import compiler_or_raise
+    >>> compiler_or_raise("cc").endswith("cc")
+    True
+    """
+    cc = compiler or find_compiler()
+    if cc is None:
+        raise CompilerNotFoundError(
+            "no C compiler found: set $CC or install gcc or clang (e.g. apt-get install gcc); "
+            "the generated sources are written, but building, verify() and cost() need one")
+    return cc
+
+
+def run_command(cmd: list[str], *, what: str, stdin: str | None = None, cwd=None,
+                timeout: float = 600) -> str:
+    """Run ``cmd``; its stdout, or CompilationError with the tail of its stderr.
+
+    Parameters
+    ----------
+    cmd : list of str
+        The command.
+    what : str
+        What it does, for the error message.
+    stdin : str, optional
+        Text fed to it.
+    cwd : path-like, optional
+        Working directory.
+    timeout : float, optional
+        Seconds.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.codegen._package import run_command
+    >>> run_command(["echo", "ok"], what="echo").strip()
+    'ok'
+    """
+    try:
+        proc = subprocess.run(cmd, input=stdin, capture_output=True, text=True, cwd=cwd,
+                              timeout=timeout, check=False)
+    except FileNotFoundError as exc:
+        raise CompilerNotFoundError(f"{what}: {cmd[0]!r} not found ({exc})") from None
+    except subprocess.TimeoutExpired:
+        raise CompilationError(f"{what}: {cmd[0]} timed out after {timeout:g} s") from None
+    if proc.returncode != 0:
+        raise CompilationError(
+            f"{what} failed (exit {proc.returncode}): {' '.join(cmd)}\n{proc.stderr[-2000:]}")
+    return proc.stdout
+
+
+@dataclass(frozen=True)
+class CPackage:
+    """The files written by :func:`~fl_design.generate_c`, and what can be done with them.
+
+    Parameters
+    ----------
+    out_dir : pathlib.Path
+        The package folder.
+    design : Design
+        The user's design (the reference of :meth:`verify`).
+    step_design : Design
+        The design whose step was generated (``design`` itself, or for ``"float"`` the same
+        design with its EHGO in the delta realization).
+    precision : str
+        ``"double"`` or ``"float"``.
+    prefix : str
+        C prefix.
+    files : tuple of pathlib.Path
+        Files written.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import generate_c
+    >>> pkg = generate_c(presets.paper_design(), "pkg_cls", prefix="trms")
+    >>> pkg.header.name, pkg.precision
+    ('trms.h', 'double')
+    """
+
+    out_dir: Path
+    design: object
+    step_design: object
+    precision: str
+    prefix: str
+    files: tuple
+
+    @property
+    def header(self) -> Path:
+        """``<prefix>.h``, the API."""
+        return self.out_dir / f"{self.prefix}.h"
+
+    @property
+    def sources(self) -> tuple[Path, Path]:
+        """``<prefix>.c`` and ``<prefix>_core.c``."""
+        return self.out_dir / f"{self.prefix}.c", self.out_dir / f"{self.prefix}_core.c"
+
+    def flags(self, *, sanitize: bool = False, optimize: str = "-O2") -> list[str]:
+        """Compiler flags of the package's builds (strict; float warnings; sanitizers).
+
+        Parameters
+        ----------
+        sanitize : bool, optional
+            Add ASan + UBSan.
+        optimize : str, optional
+            Optimization flag.
+
+        Returns
+        -------
+        list of str
+
+        Examples
+        --------
+        >>> from fl_design import presets
+        >>> from fl_design.codegen import generate_c
+        >>> "-Wdouble-promotion" in generate_c(presets.paper_design(), "pf",
+        ...                                    precision="float").flags()
+        True
+        """
+        out = [optimize, *STRICT_CFLAGS]
+        if self.precision == "float":
+            out += FLOAT_WARNINGS
+        return out + (list(SANITIZE_FLAGS) if sanitize else [])
+
+    def build(self, *, sanitize: bool = False, compiler: str | None = None) -> Path:
+        """Compile the SIL harness ``main.c`` with the package; the executable's path.
+
+        Parameters
+        ----------
+        sanitize : bool, optional
+            Build under AddressSanitizer + UndefinedBehaviorSanitizer (any finding aborts).
+        compiler : str, optional
+            Default :func:`~fl_design.codegen.find_compiler` (e.g. ``"clang"``).
+
+        Returns
+        -------
+        pathlib.Path
+
+        Raises
+        ------
+        CompilerNotFoundError
+            No C compiler.
+        CompilationError
+            The strict compile failed (the message has the compiler's output).
+
+        Examples
+        --------
+        >>> from fl_design import presets
+        >>> from fl_design.codegen import generate_c
+        >>> generate_c(presets.paper_design(), "pb").build().name.startswith("fl_main")
+        True
+        """
+        cc = compiler_or_raise(compiler)
+        build = self.out_dir / "build"
+        build.mkdir(exist_ok=True)
+        exe = build / f"{self.prefix}_main{'_san' if sanitize else ''}_{Path(cc).name}"
+        srcs = [str(self.out_dir / "main.c"), *map(str, self.sources)]
+        run_command([cc, *self.flags(sanitize=sanitize), "-o", str(exe), *srcs, "-lm"],
+                    what=f"compiling the {self.precision} harness with {cc}")
+        return exe
+
+    def run(self, y, r, *, executable: Path | None = None, env=None) -> np.ndarray:
+        """Feed ``y, r`` samples to the compiled harness; the inputs ``u`` it prints.
+
+        Parameters
+        ----------
+        y, r : array_like
+            ``(N,)`` measurements (NaN and inf allowed: see the rejection policy) and
+            references.
+        executable : path-like, optional
+            A harness from :meth:`build` (default: build one).
+        env : dict, optional
+            Environment of the process (e.g. sanitizer options).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)`` inputs.
+
+        Examples
+        --------
+        >>> from fl_design import presets
+        >>> from fl_design.codegen import generate_c
+        >>> generate_c(presets.paper_design(), "pr").run([float("nan")], [0.0])
+        array([0.])
+        """
+        y, r = np.ravel(np.asarray(y, dtype=float)), np.ravel(np.asarray(r, dtype=float))
+        if y.shape != r.shape:
+            raise ParameterError(f"y and r must have the same length, got {y.size} and {r.size}")
+        exe = executable or self.build()
+        lines = "\n".join(f"{a!r} {b!r}" for a, b in zip(y.tolist(), r.tolist())) + "\n"
+        proc = subprocess.run([str(exe)], input=lines, capture_output=True, text=True,
+                              env=env, timeout=600, check=False)
+        if proc.returncode != 0:
+            raise CompilationError(f"the harness {exe} failed (exit {proc.returncode}): "
+                                   f"{proc.stderr[-3000:]}")
+        return np.array(proc.stdout.split(), dtype=float)
+
+    def verify(self, plant, scenario, *, substeps: int | None = None, compiler=None):
+        """Software-in-the-loop: the compiled step drives the simulated plant in closed loop.
+
+        See :func:`fl_design.codegen.software_in_the_loop`.
+
+        Parameters
+        ----------
+        plant : Plant
+            The plant (integrated with RK4, ``ClosedLoop.plant_step``).
+        scenario : Scenario
+            Reference, duration, initial state, noise, quantization.
+        substeps : int, optional
+            RK4 steps per sample (default :func:`fl_design.sim.default_substeps`).
+        compiler : str, optional
+            C compiler.
+
+        Returns
+        -------
+        SilResult
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> from fl_design import presets
+        >>> pkg = fl.generate_c(presets.paper_design(), "pv")
+        >>> res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5))
+        >>> res.passed, res.max_rel_error <= 1e-12
+        (True, True)
+        """
+        from ._sil import software_in_the_loop
+
+        return software_in_the_loop(self, plant, scenario, substeps=substeps, compiler=compiler)
+
+    def cost(self, *, name: str | None = None, bench_steps: int = 2_000_000, compiler=None):
+        """Operations per step, stack, code size and time per step (:class:`StepCost`).
+
+        Parameters
+        ----------
+        name : str, optional
+            Row name (default: the estimator's kind).
+        bench_steps : int, optional
+            Steps of the timing run.
+        compiler : str, optional
+            C compiler.
+
+        Returns
+        -------
+        StepCost
+
+        Examples
+        --------
+        >>> from fl_design import presets
+        >>> from fl_design.codegen import generate_c
+        >>> c = generate_c(presets.paper_design(), "pc").cost(bench_steps=1000)
+        >>> c.flops > 0 and c.stack_bytes > 0
+        True
+        """
+        from ._cost import step_cost
+
+        return step_cost(self, name=name, bench_steps=bench_steps, compiler=compiler)
+
+
+__all__ = ["FLOAT_WARNINGS", "SANITIZE_FLAGS", "CPackage", "compiler_or_raise", "run_command"]

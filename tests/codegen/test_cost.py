@@ -1,0 +1,102 @@
+"""Cost table (operations by kind, stack, size, time), the Cortex-M4F build, CLI, benchmark."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fl_design import presets
+from fl_design.app import main
+from fl_design.codegen import compare_costs, find_compiler, generate_c, operation_counts
+from fl_design.codegen._cost import ARM_FLAGS
+
+ROOT = Path(__file__).resolve().parents[2]
+pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory):
+    designs = {"EHGO": presets.paper_design(), "LS(9)": presets.least_squares_design(9),
+               "LS(26)": presets.least_squares_design(26)}
+    return compare_costs(designs, tmp_path_factory.mktemp("cost"), bench_steps=20_000)
+
+
+def test_operation_counts_follow_the_loop(table):
+    rows = {r.name: r for r in table.rows}
+    n = 3  # EHGO rho = 2: hand count of the normative loop with the direct matrices
+    ehgo = rows["EHGO"].operations
+    assert ehgo["mul"] == (2 * n * n + 2 * n) + (n - 1) + 5  # C xi, D y, A xi, B y; D^-1; law
+    assert ehgo["minmax"] == 4  # clamp of xhat_2 and saturation of u
+    # least squares: M @ buffer has (rho + 1) N products and (rho + 1)(N - 1) sums
+    ls9, ls26 = rows["LS(9)"].operations, rows["LS(26)"].operations
+    assert ls26["mul"] - ls9["mul"] == 3 * (26 - 9)
+    assert ls26["add"] - ls9["add"] == 3 * (26 - 9)
+    assert 2 * rows["EHGO"].flops <= rows["LS(26)"].flops
+
+
+def test_delta_realization_costs_fewer_operations():
+    d = presets.paper_design()
+    from fl_design.codegen import core_function, step_design
+
+    direct = operation_counts(core_function(d, "fl"))
+    delta = operation_counts(core_function(step_design(d, "float"), "fl"))
+    assert sum(delta.values()) < sum(direct.values())
+
+
+def test_table_measures_and_serializes(table):
+    for row in table.rows:
+        assert row.stack_bytes > 0 and row.code_bytes > 0 and row.ns_per_step > 0
+    rows = {r.name: r for r in table.rows}
+    assert rows["LS(26)"].state_bytes == 8 * (26 + 1 + 2)
+    assert rows["EHGO"].code_bytes < rows["LS(26)"].code_bytes
+    data = json.loads(json.dumps(table.to_dict(), allow_nan=False))
+    assert [r["name"] for r in data["rows"]] == ["EHGO", "LS(9)", "LS(26)"]
+    md = table.to_markdown().splitlines()
+    assert len(md) == 5 and md[2].startswith("| EHGO | double | 59 |")
+
+
+@pytest.mark.skipif(shutil.which("arm-none-eabi-gcc") is None,
+                    reason="arm-none-eabi-gcc is not installed (make arm-toolchain)")
+def test_cortex_m4f_float_build_calls_no_double_helper(tmp_path):
+    cost = generate_c(presets.paper_design(), tmp_path / "f", precision="float").cost(
+        bench_steps=10)
+    assert cost.arm is not None and cost.arm["double_helpers"] == []
+    assert set(cost.arm["undefined"]) <= {"fminf", "fmaxf"}
+    assert 0 < cost.arm["code_bytes"] < 4096 and 0 < cost.arm["stack_bytes"] < 1024
+    # control: the double package on the same FPU needs the software double helpers
+    dbl = generate_c(presets.paper_design(), tmp_path / "d")
+    obj = tmp_path / "d.o"
+    subprocess.run(["arm-none-eabi-gcc", *ARM_FLAGS, "-c", str(dbl.sources[1]), "-o", str(obj)],
+                   check=True, cwd=tmp_path)
+    undefined = subprocess.run(["arm-none-eabi-nm", "-u", str(obj)], capture_output=True,
+                               text=True, check=True).stdout
+    assert "__aeabi_d" in undefined
+
+
+def test_cli_codegen_writes_the_package(tmp_path, capsys):
+    out = tmp_path / "c"
+    assert main(["codegen", str(out), "--precision", "float", "--prefix", "trms"]) == 0
+    assert "float trms_step(" in (out / "trms.h").read_text()
+    assert "wrote 7 files (float, prefix 'trms')" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--precision", "half"], "precision='half' is not known; valid: 'double', 'float'"),
+    (["--prefix", "9x"], "prefix='9x' is not a usable C identifier"),
+])
+def test_cli_codegen_bad_input_one_line_exit_2(tmp_path, capsys, args, needle):
+    assert main(["codegen", str(tmp_path / "c"), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert needle in err and len(err.splitlines()) == 1
+
+
+def test_bench_codegen_quick():
+    proc = subprocess.run([sys.executable, str(ROOT / "verify" / "bench_codegen.py"), "--quick"],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "[ok] EHGO flops 59 <= 60" in proc.stdout and "| LS(26) | float |" in proc.stdout

@@ -1,0 +1,140 @@
+"""generate_c: files, API, strict compiles (gcc, clang), true single precision, bad input."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import fl_design as fl
+from fl_design import presets
+from fl_design.codegen import CPackage, find_compiler, generate_c
+from fl_design.errors import CompilerNotFoundError, OutputPathError, ParameterError
+
+pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
+COMPILERS = [c for c in ("gcc", "clang") if shutil.which(c)]
+
+
+@pytest.fixture(scope="module")
+def packages(tmp_path_factory):
+    root = tmp_path_factory.mktemp("pkgs")
+    return {prec: generate_c(presets.paper_design(), root / prec, precision=prec)
+            for prec in ("double", "float")}
+
+
+def test_files_and_api(packages):
+    pkg = packages["double"]
+    assert isinstance(pkg, CPackage)
+    assert {p.name for p in pkg.files} == {"fl.h", "fl.c", "fl_core.c", "fl_core.h", "main.c",
+                                            "Makefile", "README.md"}
+    header = pkg.header.read_text()
+    for decl in ("typedef struct {", "} fl_state_t;", "void fl_init(fl_state_t *s);",
+                 "void fl_reset(fl_state_t *s);",
+                 "double fl_step(fl_state_t *s, double y, double r);"):
+        assert decl in header
+    fheader = packages["float"].header.read_text()
+    assert "float fl_step(fl_state_t *s, float y, float r);" in fheader
+    assert "double" not in fheader.split("#define FL_STATE_SIZE")[1]
+    # the design's numbers are named constants, with the design's values
+    d = presets.paper_design()
+    consts = dict(re.findall(r"#define (FL_\w+)\s+(\S+)", header))
+    assert float(consts["FL_T"]) == d.T and float(consts["FL_EPS"]) == d.estimator.eps
+    assert float(consts["FL_GAMMA"]) == d.controller.gamma
+    assert [float(consts["FL_K1"]), float(consts["FL_K2"])] == list(d.controller.gains)
+    assert (float(consts["FL_U_MIN"]), float(consts["FL_U_MAX"])) == d.controller.u_range
+    assert float(consts["FL_XHAT2_MAX"]) == 0.05
+    assert "1 kHz" in (pkg.out_dir / "README.md").read_text()
+
+
+def test_no_heap_no_mutable_globals(packages):
+    for pkg in packages.values():
+        code = "\n".join(p.read_text() for p in pkg.sources)
+        assert not re.search(r"\b(malloc|calloc|realloc|free)\s*\(", code)
+        for line in code.splitlines():  # file-scope data must be const
+            if re.match(r"^(static\s+)?(const\s+)?\w+\s+\w+\s*\[.*\]\s*=", line):
+                assert "const" in line, line
+
+
+@pytest.mark.parametrize("compiler", COMPILERS)
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_strict_compile_and_only_libm_undefined(packages, precision, compiler):
+    pkg = packages[precision]
+    flags = pkg.flags()
+    assert {"-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror"} <= set(flags)
+    exe = pkg.build(compiler=compiler)
+    objs = []
+    for src in pkg.sources:
+        obj = src.with_suffix(f".{compiler}.o")
+        subprocess.run([compiler, *flags, "-c", str(src), "-o", str(obj)], check=True)
+        objs.append(str(obj))
+    linked = str(pkg.out_dir / f"linked.{compiler}.o")  # the two objects linked together
+    subprocess.run(["ld", "-r", "-o", linked, *objs], check=True)
+    undefined = subprocess.run(["nm", "-u", linked], capture_output=True, text=True,
+                               check=True).stdout.split()
+    names = {u for u in undefined if u != "U"}
+    libm = {"fmin", "fmax", "fminf", "fmaxf"}
+    assert names <= libm, names - libm
+    assert exe.exists()
+
+
+def test_float_code_is_single_precision(packages):
+    core = (packages["float"].out_dir / "fl_core.c").read_text()
+    body = core.split("static int casadi_f0")[1]
+    assert not re.search(r"(?<![\w.])\d+\.\d*(e[+-]?\d+)?(?![\w.f])", body)  # no double literal
+    assert "fmaxf(" in core and not re.search(r"(?<![\w])fmax\(", core)
+    assert "-Wdouble-promotion" in packages["float"].flags()
+
+
+def test_makefile_builds_the_harness(packages, tmp_path):
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    pkg = packages["float"]
+    subprocess.run(["make", "-s", "-C", str(pkg.out_dir)], check=True, capture_output=True)
+    out = subprocess.run([str(pkg.out_dir / "fl_main")], input="0.0 0.3\n", text=True,
+                         capture_output=True, check=True).stdout
+    ref = presets.paper_design().run([0.0], 0.3).u[0]
+    assert float(out) == pytest.approx(ref, rel=1e-6)
+
+
+def test_prefix_names_everything(tmp_path):
+    pkg = generate_c(presets.least_squares_design(9), tmp_path, prefix="ls9")
+    assert "double ls9_step(ls9_state_t *s, double y, double r);" in pkg.header.read_text()
+    assert "#define LS9_WINDOW" in pkg.header.read_text()
+    u = pkg.run(np.zeros(12), np.full(12, 0.3))
+    np.testing.assert_array_equal(u, presets.least_squares_design(9).run(np.zeros(12), 0.3).u)
+
+
+# --- bad input ---------------------------------------------------------------------------------
+def test_unknown_precision(tmp_path):
+    with pytest.raises(ParameterError, match=r"precision='half'.*'double', 'float'"):
+        generate_c(presets.paper_design(), tmp_path, precision="half")
+
+
+@pytest.mark.parametrize("prefix", ["2fl", "my-ctrl", "int", "", "__x", None])
+def test_prefix_not_a_c_identifier(tmp_path, prefix):
+    with pytest.raises(ParameterError, match=r"prefix=.* is not a usable C identifier"):
+        generate_c(presets.paper_design(), tmp_path, prefix=prefix)
+
+
+def test_folder_that_cannot_be_written(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    with pytest.raises(OutputPathError, match="a_file/out.*cannot be used") as info:
+        generate_c(presets.paper_design(), blocker / "out")
+    assert isinstance(info.value, ValueError)
+
+
+def test_no_c_compiler(tmp_path, monkeypatch):
+    pkg = generate_c(presets.paper_design(), tmp_path)  # writing needs no compiler
+    monkeypatch.setattr("fl_design.codegen._package.find_compiler", lambda: None)
+    with pytest.raises(CompilerNotFoundError, match="no C compiler found: set \\$CC") as info:
+        pkg.build()
+    assert isinstance(info.value, RuntimeError)
+
+
+def test_not_a_design(tmp_path):
+    with pytest.raises(ParameterError, match="design must be a fl.Design"):
+        generate_c(fl.EHGO(2, 0.05, 1e-3), tmp_path)

@@ -1,0 +1,122 @@
+"""Software-in-the-loop: the compiled step against Design.step, sanitizers, non-finite input."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import fl_design as fl
+from fl_design import presets
+from fl_design.codegen import find_compiler, generate_c
+from fl_design.codegen._sil import DOUBLE_BOUND, FLOAT_BOUND
+
+pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
+
+
+@pytest.fixture(scope="module")
+def packages(tmp_path_factory):
+    root = tmp_path_factory.mktemp("sil")
+    return {prec: generate_c(presets.paper_design(), root / prec, precision=prec)
+            for prec in ("double", "float")}
+
+
+def _noisy_step_scenario(duration):
+    return fl.Scenario(0.3, duration, noise=fl.Noise(std=1e-3, seed=4), quantization=1e-4)
+
+
+def test_double_closed_loop_matches_design_step(packages):
+    res = packages["double"].verify(fl.plants.trms_yaw(), _noisy_step_scenario(20.0))
+    assert res.u_c.size == 20000 and np.ptp(res.u_ref) > 0.1  # the loop did something
+    assert res.max_rel_error <= DOUBLE_BOUND and res.passed
+    # the plant followed the reference: the compiled step really closed the loop
+    assert abs(np.mean(res.ym[-1000:]) - 0.3) < 0.02
+
+
+def test_least_squares_double_closed_loop(tmp_path):
+    pkg = generate_c(presets.least_squares_design(26), tmp_path)
+    res = pkg.verify(fl.plants.trms_yaw(), _noisy_step_scenario(5.0))
+    assert res.max_rel_error <= DOUBLE_BOUND
+
+
+def test_float_closed_loop_one_million_steps_no_drift(packages):
+    reference = lambda t: 0.3 * np.sign(np.sin(2 * np.pi * t / 40.0))  # noqa: E731
+    sc = fl.Scenario(reference, 1000.0, noise=fl.Noise(std=1e-3, seed=1))
+    res = packages["float"].verify(fl.plants.trms_yaw(), sc)
+    assert res.u_c.size == 1_000_000
+    assert res.max_rel_error <= FLOAT_BOUND and res.tail_rel_error <= FLOAT_BOUND
+    err = np.abs(res.u_c - res.u_ref).reshape(10, -1).max(axis=1)
+    assert err[-1] <= 3 * err[0] + 1e-7, err  # no growth over the run
+    assert res.max_rel_error > 0.0  # it is float: not the double code in disguise
+
+
+def _bad_samples():
+    rng = np.random.default_rng(7)
+    y = 0.3 * (1 - np.exp(-np.arange(400) * 2e-3)) + 1e-3 * rng.standard_normal(400)
+    r = np.full(400, 0.3)
+    bad = {50: np.nan, 51: np.inf, 200: -np.inf}
+    for k, val in bad.items():
+        y[k] = val
+    r[300] = np.nan
+    return y, r, sorted([*bad, 300])
+
+
+def _expected_with_rejection(design, y, r, rejected):
+    keep = np.ones(y.size, bool)
+    keep[rejected] = False
+    u_kept = design.run(y[keep], r[keep]).u
+    out, j, last = np.empty(y.size), 0, design.controller.u0
+    for k in range(y.size):
+        if keep[k]:
+            last = u_kept[j]
+            j += 1
+        out[k] = last
+    return out
+
+
+def test_non_finite_samples_are_rejected_and_the_state_held(packages):
+    y, r, rejected = _bad_samples()
+    pkg = packages["double"]
+    u = pkg.run(y, r)
+    expected = _expected_with_rejection(pkg.design, y, r, rejected)
+    np.testing.assert_allclose(u, expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
+    assert np.all(np.isfinite(u))
+    proc = subprocess.run([str(pkg.build())], input="nan 0\n0 0\n", text=True,
+                          capture_output=True, check=True)
+    assert "steps 2 rejected 1" in proc.stderr
+
+
+def _san_env():
+    env = dict(os.environ)
+    env["ASAN_OPTIONS"] = "detect_leaks=1:abort_on_error=1"
+    env["UBSAN_OPTIONS"] = "print_stacktrace=1:halt_on_error=1"
+    return env
+
+
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_harness_under_address_and_undefined_sanitizers(packages, precision):
+    pkg = packages[precision]
+    try:
+        exe = pkg.build(sanitize=True)
+    except fl.errors.CompilationError as exc:  # e.g. no libasan on this machine
+        pytest.skip(f"the compiler cannot build with -fsanitize=address,undefined: {exc}")
+    y, r = _bad_samples()[:2]
+    y = np.concatenate([y, [1e300, -1e300, 5e-324, 0.3]])
+    r = np.concatenate([r, [0.3, 0.3, 0.3, 0.3]])
+    u_san = pkg.run(y, r, executable=exe, env=_san_env())
+    np.testing.assert_array_equal(u_san, pkg.run(y, r))
+    assert np.all(np.isfinite(u_san))
+
+
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
+def test_harness_under_valgrind(packages):
+    exe = packages["float"].build()
+    y, r = _bad_samples()[:2]
+    lines = "\n".join(f"{a!r} {b!r}" for a, b in zip(y[:100].tolist(), r[:100].tolist())) + "\n"
+    proc = subprocess.run(["valgrind", "--error-exitcode=99", "--leak-check=full", "-q",
+                           str(exe)], input=lines, text=True, capture_output=True, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert len(proc.stdout.split()) == 100
