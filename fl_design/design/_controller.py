@@ -29,6 +29,7 @@ import numpy as np
 from .. import _validate as v
 from ..errors import ComputationError, DimensionError, HurwitzError, ParameterError
 from ._estimator import replace_fields
+from ._poles import checked_poles, monic_coefficients
 
 Interval = tuple[float, float]
 
@@ -313,38 +314,7 @@ def gains_from_poles(poles: Sequence[complex]) -> tuple[float, ...]:
     >>> fl.gains_from_poles([-1 + 1j, -1 - 1j])
     (2.0, 2.0)
     """
-    p = _checked_poles(poles)
-    coeffs = np.array([1.0 + 0.0j])
-    for pole in p:  # multiply by (s - pole)
-        coeffs = np.append(coeffs, 0.0) - pole * np.insert(coeffs, 0, 0.0)
-    return tuple(float(c) for c in coeffs.real[:0:-1])
-
-
-def _checked_poles(poles) -> np.ndarray:
-    try:
-        p = np.atleast_1d(np.asarray(poles, dtype=complex))
-    except (TypeError, ValueError):
-        raise ParameterError(f"poles must be a sequence of numbers, got {poles!r}") from None
-    if p.ndim != 1 or p.size == 0:
-        raise DimensionError(f"poles must be a non-empty 1-D sequence, got {poles!r}")
-    if not np.all(np.isfinite(p)):
-        raise ParameterError(f"poles must be finite, got {p.tolist()}")
-    if np.any(p.real >= 0.0):
-        raise HurwitzError(
-            f"poles must have negative real parts, got {p[p.real >= 0.0].tolist()}"
-        )
-    scale = max(1.0, float(np.max(np.abs(p))))
-    unmatched = list(p[np.abs(p.imag) > 1e-12 * scale])
-    while unmatched:
-        first = unmatched.pop(0)
-        dist = [abs(q - np.conj(first)) for q in unmatched]
-        if not dist or min(dist) > 1e-9 * scale:
-            raise ParameterError(
-                f"complex poles must come in conjugate pairs: {first} has no partner "
-                f"{np.conj(first)} in {p.tolist()}"
-            )
-        unmatched.pop(int(np.argmin(dist)))
-    return p
+    return monic_coefficients(checked_poles(poles))[::-1]
 
 
 def lqr_gains(rho: int, Q=None, R: float = 1.0) -> tuple[float, ...]:

@@ -156,7 +156,7 @@ def test_gains_from_poles_repeated_pole_is_binomial(rho):
 @pytest.mark.parametrize(
     "poles, error, match",
     [
-        ([-1.0, 0.0], errors.HurwitzError, r"negative real parts, got \[0j\]"),
+        ([-1.0, 0.0], errors.HurwitzError, r"negative real parts \(roots in the open left half-plane\), got \[0j\]"),
         ([-1.0, 2.0], errors.HurwitzError, r"negative real parts"),
         ([1j, -1j], errors.HurwitzError, r"negative real parts"),
         ([-1 + 1j, -2.0], errors.ParameterError, r"conjugate pairs: \(-1\+1j\)"),

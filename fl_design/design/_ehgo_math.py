@@ -1,0 +1,234 @@
+"""Numerics of the EHGO: companion form, discretization maps, closed-form coefficients.
+
+Kept apart from :class:`fl_design.EHGO` (the validated object) so each stays one concept:
+the observer polynomial's companion pair ``(F, L)``, the delta matrix ``A_d - I`` computed
+without cancellation, the exact eigenvalue maps of the discretizations, and a blocked linear
+simulation used by :meth:`fl_design.EHGO.filter`.
+
+Examples
+--------
+>>> from fl_design.design import binomial_coeffs
+>>> binomial_coeffs(3)
+(4.0, 6.0, 4.0, 1.0)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+import scipy.linalg
+
+#: user-facing method name -> scipy.signal.cont2discrete method
+METHODS = {
+    "bilinear": "bilinear",
+    "forward_euler": "euler",
+    "backward_euler": "backward_diff",
+    "zoh": "zoh",
+}
+MAX_RHO = 6
+#: realizations of the discrete observer (see :class:`EHGO`)
+REALIZATIONS = ("direct", "delta")
+#: weight of ``G e`` in the output map ``C_d xi + D_d y = xi + theta G (xi - e_1 y)``
+_THETA = {"bilinear": 0.5, "forward_euler": 0.0, "backward_euler": 1.0, "zoh": 0.0}
+#: eigenvalue of A_d as a function of alpha * lam, lam an eigenvalue of F
+_EIG_MAP = {
+    "bilinear": lambda al: (1 + al / 2) / (1 - al / 2),
+    "forward_euler": lambda al: 1 + al,
+    "backward_euler": lambda al: 1 / (1 - al),
+    "zoh": np.exp,
+}
+
+
+class StateSpaceMatrices(NamedTuple):
+    """Matrices ``(A, B, C, D)`` of a state-space model (a tuple: unpack or pass to scipy).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> A, B, C, D = fl.EHGO(rho=1, eps=0.1, T=1e-3).matrices
+    >>> A.shape, D.shape
+    ((2, 2), (2, 1))
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+
+
+def binomial_coeffs(rho: int) -> tuple[float, ...]:
+    """Coefficients ``alpha_i = C(rho+1, i)`` of ``(s + 1)^(rho+1)``: all observer poles at -1.
+
+    Closed form (the pole is repeated: never computed by a pole-placement routine).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree; the polynomial has degree ``rho + 1``.
+
+    Returns
+    -------
+    tuple of float
+        ``(alpha_1, ..., alpha_(rho+1))``.
+
+    Examples
+    --------
+    >>> from fl_design.design import binomial_coeffs
+    >>> binomial_coeffs(2)
+    (3.0, 3.0, 1.0)
+    """
+    return tuple(float(math.comb(rho + 1, i)) for i in range(1, rho + 2))
+
+
+def _companion(coeffs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``F`` (observer companion form) and ``L`` of ``eps q' = F q + L y``."""
+    n = coeffs.size
+    F = np.eye(n, k=1)
+    F[:, 0] = -coeffs
+    return F, coeffs.reshape(n, 1).copy()
+
+
+def _delta_matrix(F: np.ndarray, alpha: float, method: str) -> np.ndarray:
+    """``G = A_d - I`` without subtracting ``I``: ``(I - theta alpha F)^-1 alpha F`` or ZOH."""
+    n = F.shape[0]
+    if method == "zoh":  # G = int_0^1 exp(alpha F s) ds alpha F, from one block exponential
+        block = np.zeros((2 * n, 2 * n))
+        block[:n, :n], block[:n, n:] = alpha * F, np.eye(n)
+        return scipy.linalg.expm(block)[:n, n:] @ (alpha * F)
+    theta = 1.0 if method == "backward_euler" else _THETA[method]
+    return np.linalg.solve(np.eye(n) - theta * alpha * F, alpha * F)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _conjugate_closed(poles: np.ndarray, *, tol: float) -> list[complex]:
+    """Return the poles whose complex conjugate is missing from ``poles`` (empty if closed)."""
+    remaining = list(poles)
+    unpaired = []
+    while remaining:
+        p = remaining.pop(0)
+        if abs(p.imag) <= tol:
+            continue
+        dist = [abs(q - np.conj(p)) for q in remaining]
+        if dist and min(dist) <= tol:
+            remaining.pop(int(np.argmin(dist)))
+        else:
+            unpaired.append(p)
+    return unpaired
+
+
+def _lsim_blocked(A, B, C, D, u, x0, block: int = 128) -> np.ndarray:
+    """Outputs of ``x+ = A x + B u, out = C x + D u`` for scalar input u, vectorized per block.
+
+    Within a block of length L the outputs are a Toeplitz product with the Markov parameters
+    plus the free response of the block's initial state; only the L-step state propagation
+    between blocks is a Python loop (N / L iterations).
+    """
+    N, n, m = u.size, A.shape[0], C.shape[0]
+    if N == 0:
+        return np.zeros((0, m))
+    L = min(block, N)
+    pw = np.empty((L + 1, n, n))
+    pw[0] = np.eye(n)
+    for i in range(1, L + 1):
+        pw[i] = pw[i - 1] @ A
+    h = np.empty((L, m))
+    h[0] = D[:, 0]
+    h[1:] = (C @ pw[: L - 1] @ B)[..., 0]
+    lag = np.arange(L)[:, None] - np.arange(L)[None, :]
+    toeplitz = np.where((lag >= 0)[..., None], h[np.clip(lag, 0, None)], 0.0)  # (L, L, m)
+    free = C @ pw[:L]  # (L, m, n)
+    reach = (pw[L - 1 :: -1] @ B)[..., 0]  # (L, n): A^(L-1-j) B
+    nb = -(-N // L)
+    U = np.zeros(nb * L)
+    U[:N] = u
+    U = U.reshape(nb, L)
+    drive = U @ reach  # (nb, n)
+    X0 = np.empty((nb, n))
+    x = np.asarray(x0, dtype=float)
+    for b in range(nb):
+        X0[b] = x
+        x = pw[L] @ x + drive[b]
+    out = np.einsum("ijm,bj->bim", toeplitz, U) + np.einsum("imn,bn->bim", free, X0)
+    return out.reshape(nb * L, m)[:N]
+
+
+def direct_update(xi, y, p):
+    """``(xhat, xi_next, 1)`` of ``xi+ = A_d xi + B_d y``, ``xhat = D^-1 (C_d xi + D_d y)``.
+
+    ``p = [A_d, B_d, C_d, D_d (row-major), diag(D^-1)]``; CasADi expressions.
+
+    Parameters
+    ----------
+    xi, y, p : casadi.SX or DM
+        State ``(n,)``, measurement, parameters ``(2 n^2 + 3 n,)``.
+
+    Returns
+    -------
+    tuple
+
+    Examples
+    --------
+    >>> import casadi, fl_design as fl
+    >>> from fl_design.design._ehgo_math import direct_update
+    >>> obs = fl.EHGO(1, 0.1, 1e-3)
+    >>> float(direct_update(casadi.DM.zeros(2), 1.0, casadi.DM(obs.parameter_vector()))[2])
+    1.0
+    """
+    import casadi
+
+    from ._estimator import check_length, rows
+
+    n = xi.numel()
+    check_length("p", p, 2 * n * n + 3 * n)
+    A, B = rows(p, 0, n, n), p[n * n : n * n + n]
+    C, D = rows(p, n * n + n, n, n), p[2 * n * n + n : 2 * n * n + 2 * n]
+    xhat = p[2 * n * n + 2 * n :] * (casadi.mtimes(C, xi) + D * y)
+    return xhat, casadi.mtimes(A, xi) + B * y, type(xi)(1.0)
+
+
+def delta_update(xi, y, p, *, theta: float):
+    """``(xhat, xi_next, 1)`` of the delta realization ``xi+ = xi + G e``, ``e = xi - e_1 y``.
+
+    ``xhat = D^-1 (xi + theta G e)``, ``p = [G (row-major), diag(D^-1)]``: a constant ``y``
+    gives exactly zero derivative estimates at rest.
+
+    Parameters
+    ----------
+    xi, y, p : casadi.SX or DM
+        State ``(n,)``, measurement, parameters ``(n^2 + n,)``.
+    theta : float
+        Output weight of the method (bilinear 1/2, backward Euler 1, others 0).
+
+    Returns
+    -------
+    tuple
+
+    Examples
+    --------
+    >>> import casadi, numpy as np, fl_design as fl
+    >>> from fl_design.design._ehgo_math import delta_update
+    >>> obs = fl.EHGO(1, 0.1, 1e-3, realization="delta")
+    >>> xhat, _, _ = delta_update(casadi.DM([1.0, 0.0]), 1.0, casadi.DM(obs.parameter_vector()),
+    ...                           theta=0.5)
+    >>> np.asarray(xhat).ravel().tolist()
+    [1.0, 0.0]
+    """
+    import casadi
+
+    from ._estimator import check_length, rows
+
+    n = xi.numel()
+    check_length("p", p, n * n + n)
+    g = casadi.mtimes(rows(p, 0, n, n), casadi.vertcat(xi[0] - y, xi[1:]))
+    xhat = p[n * n :] * (xi + theta * g if theta else xi)
+    return xhat, xi + g, type(xi)(1.0)
+
+
+__all__ = ["MAX_RHO", "METHODS", "REALIZATIONS", "StateSpaceMatrices", "binomial_coeffs"]
