@@ -51,6 +51,10 @@ class ComputationError(FlDesignError, RuntimeError):
     """A computation could not be carried out (solver failure, compiler missing, ...)."""
 
 
+class CertificationError(ComputationError):
+    """A certificate was asked to hold (``raise_on_failure=True``) and does not."""
+
+
 class MissingDependencyError(FlDesignError, RuntimeError):
     """An optional dependency needed for the requested feature is not installed."""
 
@@ -65,6 +69,7 @@ class CompilationWarning(UserWarning):
 
 
 __all__ = [
+    "CertificationError",
     "CompilationWarning",
     "ComputationError",
     "DesignMismatchError",
