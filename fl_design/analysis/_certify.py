@@ -63,6 +63,7 @@ class _Loop:
         self.max_pieces = V.integer("max_pieces", max_pieces, minimum=1)
         self.loop, self.T, self.design = SurrogateLoop(design), design.T, design
         self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
+        self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
                               else (-self.b_hi, -self.b_lo))
 
@@ -92,6 +93,8 @@ class _Loop:
 
             return ldi_point(self, eps, gamma)
         whole = (self.b_lo, self.b_hi)
+        if not common_only and self.pieces_hint > 1:
+            return self._pieces(eps, gamma, None, self.pieces_hint)
         if not common_only:
             sol = vertex_lmi(self._deltas(eps, gamma, whole), self.T)
             if sol.certified:
@@ -101,9 +104,10 @@ class _Loop:
             return _point(eps, sol, "common", 1, True)
         return self._pieces(eps, gamma, sol)
 
-    def _pieces(self, eps, gamma, last) -> PointCertificate:
+    def _pieces(self, eps, gamma, last, start: int = 1) -> PointCertificate:
         width = (self.b_hi - self.b_lo) / self.max_pieces
-        stack, done, sols = [(self.b_lo, self.b_hi)], 0, []
+        edges = np.linspace(self.b_lo, self.b_hi, start + 1)
+        stack, done, sols = list(zip(edges[-2::-1], edges[:0:-1])), 0, []
         while stack:
             lo, hi = stack.pop()
             sol = vertex_lmi(self._deltas(eps, gamma, (lo, hi)), self.T)
@@ -116,13 +120,22 @@ class _Loop:
                 return PointCertificate(
                     float(eps), False, None, done, False, sol.solver, sol.solver_status,
                     sol.margin, f"no certificate for b in [{lo:.6g}, {hi:.6g}] (pieces of "
-                    f"width >= {width:.3g}): {sol.note}; common P: {last.note}")
+                    f"width >= {width:.3g}): {sol.note}"
+                    + ("" if last is None else f"; common P: {last.note}"))
         margin = min(s.margin for s in sols)
         solvers = sorted({s.solver for s in sols})
         return PointCertificate(
             float(eps), True, "parameter-dependent", done, False, "+".join(solvers),
             sols[-1].solver_status, margin,
             f"parameter-dependent P on {done} sub-intervals of b, each re-checked in NumPy")
+
+
+def _tracked(L, eps, gamma) -> bool:
+    """Certify and remember the number of pieces that worked (a hint for the next gamma)."""
+    pc = L.point(eps, gamma)
+    if pc.certified:
+        L.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
+    return pc.certified
 
 
 def _point(eps, sol, kind, pieces, tv) -> PointCertificate:
@@ -150,8 +163,9 @@ def frozen_eps_star(pred, lo: float, hi: float, n_scan: int, rtol: float) -> flo
     return float(_bisect(pred, grid[bad - 1], grid[bad], rtol))
 
 
-def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9):
-    """Largest certified eps in ``[lo, top]``: try ``hint * top``, step down by halves, bisect.
+def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
+                       step: float = 0.5):
+    """Largest certified eps in ``[lo, top]``: try ``hint * top``, step down by ``step``, bisect.
 
     None when no tried eps is certified.
     """
@@ -159,7 +173,7 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     if pred(x):
         return float(_bisect(pred, x, top, rtol))
     while x > lo:
-        below = max(lo, 0.5 * x)
+        below = max(lo, step * x)
         if pred(below):
             return float(_bisect(pred, below, x, rtol))
         x = below
@@ -429,7 +443,7 @@ def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
             continue
         frozen[i] = f
         if certified:
-            c = certified_eps_star(lambda e: L.point(e, gamma).certified, lo, f, rtol, hint)
+            c = certified_eps_star(lambda e: _tracked(L, e, gamma), lo, f, rtol, hint, 0.95)
             if c is not None:
                 cert[i], hint = c, c / f
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,

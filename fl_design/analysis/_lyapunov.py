@@ -179,11 +179,12 @@ def certify_lyapunov(gains, Q=None, *, T: float | None = None,
     H = T_bound = holds = None
     if T is not None:
         T = V.positive("T", T)
-        S = []
-        for t in np.geomspace(1e-3 * T, T, 200):
+        S, eye = [], np.eye(len(k))
+        for t in np.geomspace(1e-3 * T, T, 200):  # delta form: no cancellation in M^T P M - P
             Phi, Gam = chain_zoh(len(k), t)
-            M = Phi - np.outer(Gam, k)
-            S.append(np.linalg.eigvalsh(M.T @ P @ M - P + lam_q * t * np.eye(len(k)))[-1] / t**2)
+            D = (Phi - eye) / t - np.outer(Gam / t, k)
+            W = (D.T @ P + P @ D + lam_q * eye) / t + D.T @ P @ D
+            S.append(np.linalg.eigvalsh((W + W.T) / 2)[-1])
         H = max(float(max(S)), 0.0)
         T_bound = T if H == 0.0 else min(T, (lam_q - lam_q / 2) / H)
         Phi, Gam = chain_zoh(len(k), T)

@@ -25,6 +25,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -102,8 +103,14 @@ def chain_zoh(rho: int, T: float, a_row=None) -> tuple[np.ndarray, np.ndarray]:
     >>> Phi.tolist(), Gamma.round(6).tolist()
     ([[1.0, 0.1], [0.0, 1.0]], [0.005, 0.1])
     """
-    E = scipy.linalg.expm(T * chain_matrices(rho, a_row))
-    return E[:rho, :rho], E[:rho, rho]
+    key = None if a_row is None else tuple(float(v) for v in np.ravel(a_row))
+    E = _expm_chain(int(rho), float(T), key)
+    return E[:rho, :rho].copy(), E[:rho, rho].copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _expm_chain(rho: int, T: float, a_row) -> np.ndarray:
+    return scipy.linalg.expm(T * chain_matrices(rho, a_row))
 
 
 class SurrogateLoop:
