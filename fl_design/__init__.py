@@ -52,6 +52,16 @@ _LAZY = {
     "linearized_eps_star": "analysis",
     "generate_c": "codegen",
     "CPackage": "codegen",
+    "certify_lyapunov": "analysis",
+    "synthesize_gains": "analysis",
+    "certify_gamma": "analysis",
+    "certify_eps": "analysis",
+    "eps_star_curve": "analysis",
+    "LyapunovCertificate": "analysis",
+    "GainSynthesis": "analysis",
+    "GammaCertificate": "analysis",
+    "EpsCertificate": "analysis",
+    "EpsStarCurve": "analysis",
     # sub-modules and layers
     "plants": None,
     "presets": None,
@@ -66,7 +76,20 @@ _LAZY = {
 
 if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
     from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic
-    from .analysis import linearized_eps_star, sampled_linearization
+    from .analysis import (
+        EpsCertificate,
+        EpsStarCurve,
+        GainSynthesis,
+        GammaCertificate,
+        LyapunovCertificate,
+        certify_eps,
+        certify_gamma,
+        certify_lyapunov,
+        eps_star_curve,
+        linearized_eps_star,
+        sampled_linearization,
+        synthesize_gains,
+    )
     from .codegen import CPackage, generate_c
     from .design import (
         EHGO,

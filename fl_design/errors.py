@@ -63,6 +63,10 @@ class CompilationError(ComputationError):
     """Generated C code failed to compile (the compiler's message is included)."""
 
 
+class CertificationError(ComputationError):
+    """A certificate was asked to hold (``raise_on_failure=True``) and does not."""
+
+
 class MissingDependencyError(FlDesignError, RuntimeError):
     """An optional dependency needed for the requested feature is not installed."""
 
@@ -77,6 +81,7 @@ class CompilationWarning(UserWarning):
 
 
 __all__ = [
+    "CertificationError",
     "CompilationError",
     "CompilationWarning",
     "CompilerNotFoundError",

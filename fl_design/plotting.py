@@ -184,4 +184,44 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     return fig
 
 
-__all__ = ["STATUS_COLORS", "STATUS_LABELS", "plot_response", "plot_stability_map"]
+def plot_eps_star_curve(curve, *, ax=None):
+    """Frozen and certified ``eps*`` against ``gamma`` (an :class:`~fl_design.EpsStarCurve`).
+
+    Parameters
+    ----------
+    curve : EpsStarCurve
+        The result of :func:`fl_design.eps_star_curve`.
+    ax : Axes, optional
+        Where to draw (default a new figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.analysis import EpsStarCurve
+    >>> from fl_design.plotting import plot_eps_star_curve
+    >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
+    ...                  np.array([0.09, np.nan]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
+    >>> [l.get_label() for l in plot_eps_star_curve(c).axes[0].get_lines()]
+    ['eps* frozen b grid', 'eps* certified (LMI)']
+    """
+    if ax is None:
+        fig, (ax,) = _new_axes(1, figsize=(7.0, 5.0))
+    fig = ax.figure
+    ax.plot(curve.gamma, curve.eps_star_frozen, "k-", lw=1.4, label="eps* frozen b grid")
+    ax.plot(curve.gamma, curve.eps_star_certified, "C2o-", ms=3, lw=1.0,
+            label="eps* certified (LMI)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("gamma")
+    ax.set_ylabel("eps")
+    lo, hi = curve.b_bounds
+    ax.set_title(f"linear surrogate, b in [{lo:g}, {hi:g}], T = {curve.T:g} s")
+    ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+__all__ = ["STATUS_COLORS", "STATUS_LABELS", "plot_eps_star_curve", "plot_response", "plot_stability_map"]

@@ -1,14 +1,37 @@
-"""Analysis layer: the sampled loop linearized at its equilibrium, eps* from eigenvalues.
+"""Analysis layer: the sampled loop linearized, eps* from eigenvalues, and certificates.
 
-Modules: ``_linearization`` (:func:`sampled_linearization`, :func:`linearized_eps_star`).
+Modules: ``_linearization`` (:func:`sampled_linearization`, :func:`linearized_eps_star`),
+``_surrogate`` (the linear surrogate loop, affine in ``b``), ``_lmi`` (delta-form vertex LMIs,
+CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_eps`,
+:func:`certify_gamma`, :func:`eps_star_curve`), ``_ldi`` (the linear differential inclusion
+with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
+``_cert_results`` (the result objects).
 
 Examples
 --------
->>> from fl_design.analysis import SampledLinearization
->>> SampledLinearization.__name__
-'SampledLinearization'
+>>> from fl_design.analysis import SampledLinearization, certify_eps
+>>> SampledLinearization.__name__, certify_eps.__name__
+('SampledLinearization', 'certify_eps')
 """
 
+from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
+from ._certify import certify_eps, certify_gamma, eps_star_curve
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
+from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
 
-__all__ = ["SampledLinearization", "linearized_eps_star", "sampled_linearization"]
+__all__ = [
+    "EpsCertificate",
+    "EpsStarCurve",
+    "GainSynthesis",
+    "GammaCertificate",
+    "LyapunovCertificate",
+    "PointCertificate",
+    "SampledLinearization",
+    "certify_eps",
+    "certify_gamma",
+    "certify_lyapunov",
+    "eps_star_curve",
+    "linearized_eps_star",
+    "sampled_linearization",
+    "synthesize_gains",
+]

@@ -5,6 +5,10 @@ Sub-commands
 ``derive``
     Print the derivation report of a library plant: relative degree, ``a``, ``b``, the b-range
     over the plant's region, and the sampled-plant residual orders (plain text, ``--latex`` too).
+``certify``
+    Print the certificates of a design on a library plant (default: the paper's TRMS design,
+    ``eps = 0.05``, ``gamma = 3e-4``): the Lyapunov conditions of the gains, the admissible
+    gamma interval and the certified eps* of the linear surrogate over the plant's b range.
 ``demo``
     The main job on the built-in Twin Rotor (TRMS yaw) example: derive the plant, build the
     paper's EHGO + dynamic controller design, locate the linearized ``eps*``, simulate the
@@ -52,6 +56,26 @@ def _cmd_derive(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_certify(args: argparse.Namespace) -> int:
+    from .. import certify_eps, certify_gamma, certify_lyapunov, presets
+
+    plant = _library_plant(args.plant)
+    if plant.relative_degree() != 2:
+        from ..errors import DesignMismatchError
+
+        raise DesignMismatchError(
+            f"plant {args.plant!r} has relative degree {plant.relative_degree()}; the certify "
+            "command certifies the paper's rho = 2 design: use --plant trms or pendulum"
+        )
+    design = presets.paper_design(eps=args.eps, gamma=args.gamma)
+    b = plant.b_bounds()
+    print(f"Plant: {plant.name}, b in [{b[0]:.6g}, {b[1]:.6g}], T = {design.T:g} s")
+    print(certify_lyapunov(design.controller.gains, T=design.T))
+    print(certify_gamma(design, b))
+    print(certify_eps(design, b))
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from ._demo import run_demo
 
@@ -77,7 +101,7 @@ def _cmd_codegen(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of ``fl-design`` (``derive``, ``demo``, ``codegen``).
+    """Return the argument parser of ``fl-design`` (``derive``, ``certify``, ``demo``, ``codegen``).
 
     Returns
     -------
@@ -98,6 +122,11 @@ def build_parser() -> argparse.ArgumentParser:
     derive.add_argument("--plant", choices=PLANT_CHOICES, default="trms")
     derive.add_argument("--latex", action="store_true", help="also print LaTeX")
     derive.set_defaults(func=_cmd_derive)
+    cert = sub.add_parser("certify", help="certificates of the paper's design on a plant")
+    cert.add_argument("--plant", choices=PLANT_CHOICES, default="trms")
+    cert.add_argument("--eps", type=float, default=0.05, help="observer eps (default 0.05)")
+    cert.add_argument("--gamma", type=float, default=3e-4, help="controller gamma (3e-4)")
+    cert.set_defaults(func=_cmd_certify)
     demo = sub.add_parser("demo", help="the main job on the Twin Rotor (TRMS yaw) example")
     demo.add_argument("--quick", action="store_true", help="short runs (seconds, for tests)")
     demo.add_argument("--out", default="out", help="folder for figures and the JSON summary")

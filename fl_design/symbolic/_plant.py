@@ -535,6 +535,44 @@ class Plant:
             self._cache[key] = b_bounds(self, allow_sign_change=bool(allow_sign_change))
         return self._cache[key]
 
+    def jacobian_bounds(self, *, region=None, margin: float = 0.05,
+                        points: int = 200_000) -> tuple[tuple[float, float], ...]:
+        """Bounds of ``d sigma/d xi_i`` (normal-form coordinates, ``u = u_eq``) over the region.
+
+        The ``a_jacobian_bounds`` of :func:`fl_design.certify_eps`; computed by
+        :func:`fl_design.symbolic._jacobian.jacobian_bounds` (dense grid, widened by ``margin``).
+
+        Parameters
+        ----------
+        region : dict, optional
+            ``{state: (lo, hi)}`` overriding the plant's region (e.g. a smaller one).
+        margin : float, optional
+            Relative widening of each range (default 0.05).
+        points : int, optional
+            Grid size (default 2e5).
+
+        Returns
+        -------
+        tuple of (float, float)
+
+        Raises
+        ------
+        RelativeDegreeError
+            The plant has internal dynamics (``rho < n``).
+        ParameterError
+            A state has no range.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> b = fl.plants.pendulum().jacobian_bounds(region={"theta": (-0.5, 0.5)}, margin=0)
+        >>> [round(v, 2) for v in b[0]]
+        [-9.81, -8.61]
+        """
+        from ._jacobian import jacobian_bounds
+
+        return jacobian_bounds(self, region=region, margin=margin, points=points)
+
 
 def _rebuild(states, input, rhs, output, kw) -> Plant:
     return Plant(states, input, rhs, output, **kw)

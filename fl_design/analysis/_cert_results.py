@@ -1,0 +1,315 @@
+"""Frozen result objects of the certificates (strict-JSON ``to_dict``, readable ``repr``).
+
+Examples
+--------
+>>> from fl_design.analysis._cert_results import json_number
+>>> json_number(float("nan")), json_number(0.5)
+(None, 0.5)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+
+def json_number(value):
+    """A float for finite numbers, None for NaN/inf/None (strict JSON has neither)."""
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _plain(value):
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return json_number(value)
+    if isinstance(value, np.ndarray):
+        return [_plain(v) for v in value.tolist()]
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    return value
+
+
+class _Result:
+    def to_dict(self) -> dict:
+        """Plain numbers, lists and strings; NaN and inf become None (strict JSON).
+
+        Examples
+        --------
+        >>> import json
+        >>> r = PointCertificate(0.05, False, None, 0, False, None, "x", None, "why")
+        >>> json.loads(json.dumps(r.to_dict(), allow_nan=False))["certified"]
+        False
+        """
+        return {f.name: _plain(getattr(self, f.name)) for f in fields(self)}
+
+    def _repr_lines(self) -> list[str]:  # pragma: no cover - overridden
+        return []
+
+    def __repr__(self) -> str:
+        head = type(self).__name__
+        return "\n".join([head] + [f"  {line}" for line in self._repr_lines()])
+
+
+def _fmt(x) -> str:
+    return "None" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.6g}"
+
+
+@dataclass(frozen=True, repr=False)
+class PointCertificate(_Result):
+    """The LMI certificate of the surrogate loop at one ``eps`` (and ``gamma``).
+
+    Parameters
+    ----------
+    eps : float
+        Observer time constant checked.
+    certified : bool
+        True when a certificate passed the NumPy re-check.
+    kind : str or None
+        ``"common"`` (one ``P``: covers ``b`` varying from sample to sample in the interval),
+        ``"parameter-dependent"`` (``P(b)`` affine on each piece of the interval: covers every
+        constant ``b``) or ``"ldi"`` (common ``P`` with Jacobian bounds).
+    pieces : int
+        Sub-intervals of the ``b`` interval with their own vertex certificate.
+    covers_time_varying_b : bool
+        True for a common ``P`` on the whole interval.
+    solver : str or None
+        Solver of the certificate(s).
+    solver_status : str
+        CVXPY status of the last solve.
+    margin : float or None
+        Smallest relative eigenvalue margin of the NumPy re-check.
+    reason : str
+        How it was certified, or why not.
+
+    Examples
+    --------
+    >>> PointCertificate(0.05, True, "common", 1, True, "CLARABEL", "optimal", 1e-6, "ok").kind
+    'common'
+    """
+
+    eps: float
+    certified: bool
+    kind: str | None
+    pieces: int
+    covers_time_varying_b: bool
+    solver: str | None
+    solver_status: str
+    margin: float | None
+    reason: str
+
+    def _repr_lines(self):
+        return [f"eps = {self.eps:.6g}: {'certified' if self.certified else 'not certified'}"
+                f" ({self.kind or '-'}, {self.pieces} piece(s)), {self.reason}"]
+
+
+@dataclass(frozen=True, repr=False)
+class EpsCertificate(_Result):
+    """Result of :func:`fl_design.certify_eps` (see there for what is covered).
+
+    Parameters
+    ----------
+    eps, gamma, T : float
+        The design's numbers (``gamma`` with the sign of ``b``).
+    b_bounds : tuple of float
+        The interval of ``b`` covered.
+    eps_range : tuple of float
+        The eps search interval.
+    eps_star_frozen : float or None
+        Largest eps below which every frozen-b surrogate loop on the ``b`` grid is Schur.
+    eps_star_common : float or None
+        Largest eps found with a common quadratic Lyapunov function.
+    eps_star_certified : float or None
+        Largest eps found with a certificate (common or parameter-dependent).
+    certified : bool
+        The design's own eps is certified.
+    point : PointCertificate
+        The certificate at the design's eps.
+    n_b_grid : int
+        Points of the ``b`` grid of the frozen check.
+    a_jacobian_bounds : tuple or None
+        Bounds on ``da/dx_i`` (linear differential inclusion), or None (``a = 0``).
+    reason : str
+        Summary.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> c = fl.certify_eps(fl.presets.paper_design(), (3.6, 6.8), search=False)
+    >>> c.certified
+    True
+    """
+
+    eps: float
+    gamma: float
+    T: float
+    b_bounds: tuple
+    eps_range: tuple
+    eps_star_frozen: float | None
+    eps_star_common: float | None
+    eps_star_certified: float | None
+    certified: bool
+    point: PointCertificate
+    n_b_grid: int
+    a_jacobian_bounds: tuple | None
+    reason: str
+
+    def to_dict(self) -> dict:  # noqa: D102 - documented on the base class
+        out = super().to_dict()
+        out["point"] = self.point.to_dict()
+        return out
+
+    def _repr_lines(self):
+        return [f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
+                f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}",
+                f"certified: {self.certified} ({self.point.kind or '-'})",
+                f"eps* frozen {_fmt(self.eps_star_frozen)}, common P "
+                f"{_fmt(self.eps_star_common)}, certified {_fmt(self.eps_star_certified)}",
+                self.reason]
+
+
+@dataclass(frozen=True, repr=False)
+class GammaCertificate(_Result):
+    """Result of :func:`fl_design.certify_gamma`.
+
+    Parameters
+    ----------
+    gamma, eps, T : float
+        The design's numbers.
+    b_bounds : tuple of float
+        The interval of ``b``.
+    paper_bound : float
+        ``1/b_max`` (the paper's condition ``gamma < 1/b_max``).
+    convergence_bound : float
+        ``2/b_max`` (convergence of ``e_u`` alone).
+    gamma_min, gamma_max : float or None
+        Admissible interval at the design's eps: every frozen-b surrogate loop on the grid is
+        Schur for ``gamma`` inside.
+    gamma_lower_bound : float or None
+        Smallest ``gamma_min`` over the eps grid ``eps_grid``: below it no eps of the grid works.
+    eps_grid : tuple of float
+        The eps values of ``gamma_lower_bound``.
+    certified : bool
+        The design's gamma lies inside ``(gamma_min, gamma_max)`` and the LMI certificate at
+        ``(eps, gamma)`` holds.
+    point : PointCertificate
+        The LMI certificate at the design's numbers.
+    reason : str
+        Why (not).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> g = fl.certify_gamma(fl.presets.paper_design(), (3.6, 6.8))
+    >>> g.certified, g.paper_bound == 1 / 6.8
+    (True, True)
+    """
+
+    gamma: float
+    eps: float
+    T: float
+    b_bounds: tuple
+    paper_bound: float
+    convergence_bound: float
+    gamma_min: float | None
+    gamma_max: float | None
+    gamma_lower_bound: float | None
+    eps_grid: tuple
+    certified: bool
+    point: PointCertificate
+    reason: str
+
+    def to_dict(self) -> dict:  # noqa: D102
+        out = super().to_dict()
+        out["point"] = self.point.to_dict()
+        return out
+
+    def _repr_lines(self):
+        return [f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified {self.certified}",
+                f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"
+                f" lower bound over eps {_fmt(self.gamma_lower_bound)}",
+                f"paper 1/b_max = {self.paper_bound:.6g}, 2/b_max = {self.convergence_bound:.6g}",
+                self.reason]
+
+
+@dataclass(frozen=True, repr=False)
+class EpsStarCurve(_Result):
+    """``eps*`` against ``gamma`` (result of :func:`fl_design.eps_star_curve`).
+
+    Parameters
+    ----------
+    gamma : numpy.ndarray
+        The gains.
+    eps_star_frozen : numpy.ndarray
+        Frozen-b eps* per gamma (NaN: unstable at the lowest eps).
+    eps_star_certified : numpy.ndarray
+        Certified eps* per gamma (NaN: none).
+    b_bounds : tuple of float
+        The interval of ``b``.
+    T : float
+        Sampling time.
+    eps_range : tuple of float
+        The eps search interval.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> c = EpsStarCurve(np.array([1e-3]), np.array([0.1]), np.array([0.09]), (1.0, 2.0),
+    ...                  1e-3, (1e-3, 1.0))
+    >>> c.ratio.round(2).tolist(), c.to_dict()["eps_star_certified"]
+    ([0.9], [0.09])
+    """
+
+    gamma: np.ndarray
+    eps_star_frozen: np.ndarray
+    eps_star_certified: np.ndarray
+    b_bounds: tuple
+    T: float
+    eps_range: tuple
+
+    @property
+    def ratio(self) -> np.ndarray:
+        """``eps_star_certified / eps_star_frozen`` (NaN where either is missing)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.eps_star_certified / self.eps_star_frozen
+
+    def plot(self, *, ax=None):
+        """Both curves on log axes (see :func:`fl_design.plotting.plot_eps_star_curve`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
+        ...                  np.array([0.09, 0.04]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
+        >>> c.plot().axes[0].get_xlabel()
+        'gamma'
+        """
+        from ..plotting import plot_eps_star_curve
+
+        return plot_eps_star_curve(self, ax=ax)
+
+    def _repr_lines(self):
+        return [f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
+                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}",
+                f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"
+                if np.any(np.isfinite(self.ratio)) else "no certified point"]
+
+
+__all__ = ["EpsCertificate", "EpsStarCurve", "GammaCertificate", "PointCertificate",
+           "json_number"]

@@ -1,0 +1,454 @@
+"""Certified eps* and admissible gamma of the sampled linear surrogate loop.
+
+**What a certificate covers.** The loop is the *linear surrogate* of :mod:`._surrogate`: the
+plant is the chain of ``rho`` integrators with ``sigma = a^T x + b u`` (``a = 0`` unless
+``a_jacobian_bounds`` are given) held over each sample (exact ZOH), closed by the design's own
+step (EHGO, clamps and saturation inactive, dynamic controller, integrator) at the design's
+``T``. A certificate at one ``eps`` is an LMI solution (:mod:`._lmi`, delta form, balanced)
+re-checked in NumPy:
+
+* ``"common"``: one quadratic Lyapunov function for both ends of the ``b`` interval: the loop is
+  exponentially stable for every sequence ``b_k`` in the interval (``b`` may vary from sample to
+  sample);
+* ``"parameter-dependent"``: vertex matrices ``P_v`` with a common slack ``G`` on each of
+  ``pieces`` sub-intervals covering the interval: every *constant* ``b`` of the interval gives a
+  Schur loop (robust stability, not time variation).
+
+``eps_star_certified`` is the largest ``eps`` of a bisection (relative resolution ``rtol``)
+at which a certificate was found, searched below ``eps_star_frozen``; the certificate holds at
+that ``eps`` and at the design's own ``eps`` when ``certified`` says so, **not** at every eps
+in between (each eps is its own LMI). ``eps_star_frozen`` is the largest eps below which every
+frozen loop with ``b`` on an ``n_b``-point grid of the interval (ends included) is Schur, from a
+log-spaced scan and bisection: a frozen grid check, not a certificate. For ``b < 0`` the
+design's ``gamma`` is read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
+:class:`~fl_design.DynamicController` stores ``|gamma|``).
+
+Examples
+--------
+>>> import fl_design as fl
+>>> cert = fl.certify_eps(fl.presets.paper_design(), (3.6, 6.8), search=False)
+>>> cert.certified, cert.point.kind
+(True, 'parameter-dependent')
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import _validate as V
+from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
+from ._lmi import balance, vertex_lmi
+from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
+from ..errors import CertificationError, ParameterError
+
+DEFAULT_EPS_RANGE = (1e-3, 1.0)
+
+
+class _Loop:
+    """The surrogate of one design over one ``b`` interval: frozen checks and certificates."""
+
+    def __init__(self, design, b_bounds, a_jacobian_bounds, n_b: int, max_pieces: int):
+        from ..design import EHGO
+
+        if not isinstance(design.estimator, EHGO):
+            raise ParameterError(
+                f"certification needs an EHGO design (it searches over eps), got a "
+                f"{type(design.estimator).__name__}"
+            )
+        self.b_lo, self.b_hi, self.sign = b_interval(b_bounds)
+        self.box = jacobian_box(a_jacobian_bounds, design.rho)
+        self.n_b = V.integer("n_b", n_b, minimum=2)
+        self.max_pieces = V.integer("max_pieces", max_pieces, minimum=1)
+        self.loop, self.T, self.design = SurrogateLoop(design), design.T, design
+        self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
+        self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
+        self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
+                              else (-self.b_hi, -self.b_lo))
+
+    def frozen_ok(self, eps: float, gamma: float) -> bool:
+        """Every frozen loop on the b grid (and the a-corners) is Schur."""
+        for a_row in self._corners():
+            M0, M1 = self.loop.parts(eps, gamma, a_row)
+            D = delta(M0[None] + self.b_grid[:, None, None] * M1[None], self.T)
+            if np.max(schur_margins(D, self.T)) >= 0.0:
+                return False
+        return True
+
+    def _corners(self):
+        if self.box is None:
+            return [None]
+        grids = np.meshgrid(*self.box, indexing="ij")
+        return np.stack([g.ravel() for g in grids], axis=1)
+
+    def _deltas(self, eps, gamma, b_pair):
+        M0, M1 = self.loop.parts(eps, gamma)
+        return balance([delta(M0 + b * M1, self.T) for b in b_pair])
+
+    def point(self, eps: float, gamma: float, *, common_only: bool = False) -> PointCertificate:
+        """LMI certificate at one eps: PD on the interval, common P, then PD on pieces."""
+        if self.box is not None:
+            from ._ldi import ldi_point
+
+            return ldi_point(self, eps, gamma)
+        whole = (self.b_lo, self.b_hi)
+        if not common_only and self.pieces_hint > 1:
+            return self._pieces(eps, gamma, None, self.pieces_hint)
+        if not common_only:
+            sol = vertex_lmi(self._deltas(eps, gamma, whole), self.T)
+            if sol.certified:
+                return _point(eps, sol, "parameter-dependent", 1, False)
+        sol = vertex_lmi(self._deltas(eps, gamma, whole), self.T, common=True)
+        if sol.certified or common_only:
+            return _point(eps, sol, "common", 1, True)
+        return self._pieces(eps, gamma, sol)
+
+    def _pieces(self, eps, gamma, last, start: int = 1) -> PointCertificate:
+        width = (self.b_hi - self.b_lo) / self.max_pieces
+        edges = np.linspace(self.b_lo, self.b_hi, start + 1)
+        stack, done, sols = list(zip(edges[-2::-1], edges[:0:-1])), 0, []
+        while stack:
+            lo, hi = stack.pop()
+            sol = vertex_lmi(self._deltas(eps, gamma, (lo, hi)), self.T)
+            if sol.certified:
+                done, sols = done + 1, sols + [sol]
+            elif hi - lo > width * (1 + 1e-9) and done + len(stack) < 4 * self.max_pieces:
+                mid = 0.5 * (lo + hi)
+                stack += [(mid, hi), (lo, mid)]
+            else:
+                return PointCertificate(
+                    float(eps), False, None, done, False, sol.solver, sol.solver_status,
+                    sol.margin, f"no certificate for b in [{lo:.6g}, {hi:.6g}] (pieces of "
+                    f"width >= {width:.3g}): {sol.note}"
+                    + ("" if last is None else f"; common P: {last.note}"))
+        margin = min(s.margin for s in sols)
+        solvers = sorted({s.solver for s in sols})
+        return PointCertificate(
+            float(eps), True, "parameter-dependent", done, False, "+".join(solvers),
+            sols[-1].solver_status, margin,
+            f"parameter-dependent P on {done} sub-intervals of b, each re-checked in NumPy")
+
+
+def _tracked(L, eps, gamma) -> bool:
+    """Certify and remember the number of pieces that worked (a hint for the next gamma)."""
+    pc = L.point(eps, gamma)
+    if pc.certified:
+        L.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
+    return pc.certified
+
+
+def _point(eps, sol, kind, pieces, tv) -> PointCertificate:
+    return PointCertificate(float(eps), sol.certified, kind if sol.certified else None,
+                            pieces if sol.certified else 0, tv and sol.certified, sol.solver,
+                            sol.solver_status, sol.margin, sol.note)
+
+
+def _bisect(pred, good: float, bad: float, rtol: float) -> float:
+    """Largest known-good point after log-bisection of ``[good, bad]`` to relative ``rtol``."""
+    while bad / good - 1.0 > rtol:
+        mid = math.sqrt(good * bad)
+        good, bad = (mid, bad) if pred(mid) else (good, mid)
+    return good
+
+
+def frozen_eps_star(pred, lo: float, hi: float, n_scan: int, rtol: float) -> float | None:
+    """Scan ``n_scan`` log points of ``[lo, hi]`` for the first failure, then bisect."""
+    grid = np.geomspace(lo, hi, n_scan)
+    if not pred(grid[0]):
+        return None
+    bad = next((i for i, e in enumerate(grid[1:], 1) if not pred(e)), None)
+    if bad is None:
+        return float(hi)
+    return float(_bisect(pred, grid[bad - 1], grid[bad], rtol))
+
+
+def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
+                       step: float = 0.5):
+    """Largest certified eps in ``[lo, top]``: try ``hint * top``, step down by ``step``, bisect.
+
+    None when no tried eps is certified.
+    """
+    x = max(lo, min(hint, 1.0 - rtol) * top)
+    if pred(x):
+        return float(_bisect(pred, x, top, rtol))
+    while x > lo:
+        below = max(lo, step * x)
+        if pred(below):
+            return float(_bisect(pred, below, x, rtol))
+        x = below
+    return None
+
+
+def _eps_range(eps_range) -> tuple[float, float]:
+    lo, hi = V.interval("eps_range", eps_range, allow_none=False)
+    if lo <= 0.0:
+        raise ParameterError(f"eps_range must satisfy 0 < lo < hi, got ({lo}, {hi})")
+    return lo, hi
+
+
+def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_EPS_RANGE,
+                n_b: int = 41, max_pieces: int = 8, n_scan: int = 32, rtol: float = 1e-2,
+                search: bool = True, raise_on_failure: bool = False) -> EpsCertificate:
+    """Certify the design's ``eps`` and find the frozen and certified ``eps*`` over ``b``.
+
+    See the module docstring of :mod:`fl_design.analysis._certify` for exactly what is covered:
+    the sampled *linear surrogate* (chain of integrators, ``b`` in ``b_bounds``), the design's
+    ``T`` and ``gamma``; certificates at the eps values named, frozen checks on the b grid.
+    With ``a_jacobian_bounds`` the certificate is the linear differential inclusion of
+    :func:`fl_design.analysis._ldi.ldi_point` (what it guarantees for the nonlinear plant is
+    stated there).
+
+    Parameters
+    ----------
+    design : Design
+        An EHGO design.
+    b_bounds : (float, float)
+        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``).
+    a_jacobian_bounds : sequence of (float, float), optional
+        Bounds of ``d sigma/d x_i`` at the equilibrium input, i = 1..rho
+        (``plant.jacobian_bounds()``).
+    eps_range : (float, float), optional
+        Search interval of eps (default ``(1e-3, 1)``).
+    n_b : int, optional
+        Points of the ``b`` grid of the frozen check (default 41).
+    max_pieces : int, optional
+        Finest split of the ``b`` interval for parameter-dependent certificates (default 8).
+    n_scan : int, optional
+        Log-spaced scan points of the frozen search (default 32).
+    rtol : float, optional
+        Relative resolution of the certified bisection (default 1e-2; frozen: rtol/10).
+    search : bool, optional
+        False: certify the design's eps only (no eps* searches).
+    raise_on_failure : bool, optional
+        Raise :class:`~fl_design.errors.CertificationError` instead of returning a result that
+        is not certified.
+
+    Returns
+    -------
+    EpsCertificate
+
+    Raises
+    ------
+    ParameterError
+        Bad ``b_bounds`` (reversed, containing 0, mixed sign, non-finite), a non-EHGO design.
+    DesignMismatchError
+        ``a_jacobian_bounds`` of another relative degree than the design's.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> c = fl.certify_eps(fl.presets.paper_design(gamma=3e-3), (3.6, 6.8))
+    >>> c.certified, c.eps_star_certified <= c.eps_star_frozen
+    (False, True)
+    """
+    lo, hi = _eps_range(eps_range)
+    rtol = V.positive("rtol", rtol)
+    n_scan = V.integer("n_scan", n_scan, minimum=2)
+    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
+    eps, gamma = design.estimator.eps, design.controller.gamma
+    point = L.point(eps, gamma)
+    f = c_common = c_any = None
+    if search:
+        f = frozen_eps_star(lambda e: L.frozen_ok(e, gamma), lo, hi, n_scan, rtol / 10)
+        if f is not None:
+            c_any = certified_eps_star(lambda e: L.point(e, gamma).certified, lo, f, rtol)
+            if L.box is None:
+                c_common = certified_eps_star(
+                    lambda e: L.point(e, gamma, common_only=True).certified, lo, f, rtol)
+    reason = (f"eps = {eps:g} certified ({point.kind}): {point.reason}" if point.certified
+              else f"eps = {eps:g} not certified: {point.reason}")
+    if raise_on_failure and not point.certified:
+        raise CertificationError(reason)
+    return EpsCertificate(
+        eps=float(eps), gamma=L.sign * gamma, T=design.T, b_bounds=L.signed_bounds,
+        eps_range=(lo, hi),
+        eps_star_frozen=f, eps_star_common=c_common, eps_star_certified=c_any,
+        certified=point.certified, point=point, n_b_grid=L.n_b,
+        a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
+        reason=reason)
+
+
+def _gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
+    """Stable run of the gamma scan containing the design's gamma (else the lowest run)."""
+    grid = np.geomspace(lo, hi, n_scan)
+    ok = [pred(g) for g in grid]
+    runs, i = [], 0
+    while i < n_scan:
+        if ok[i]:
+            j = i
+            while j + 1 < n_scan and ok[j + 1]:
+                j += 1
+            runs.append((i, j))
+            i = j + 1
+        else:
+            i += 1
+    if not runs:
+        return None, None
+    run = next((r for r in runs if grid[r[0]] <= design_gamma <= grid[r[1]]), runs[0])
+    i, j = run
+    g_min = grid[0] if i == 0 else 1.0 / _bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                   1.0 / grid[i - 1], rtol)
+    g_max = grid[-1] if j == n_scan - 1 else _bisect(pred, grid[j], grid[j + 1], rtol)
+    return float(g_min), float(g_max)
+
+
+def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, gamma_range=None,
+                  eps_grid=None, n_scan: int = 80, n_b: int = 41, rtol: float = 1e-3,
+                  max_pieces: int = 8, raise_on_failure: bool = False) -> GammaCertificate:
+    """Admissible ``gamma`` interval of the surrogate loop at the design's eps, and a certificate.
+
+    ``gamma_min``, ``gamma_max`` bound the run of a log-spaced gamma scan (refined by bisection
+    to ``rtol``) that contains the design's gamma, on which every frozen-b loop of the ``n_b``
+    grid is Schur (the surrogate of :mod:`fl_design.analysis._certify`, at the design's eps and
+    T). ``gamma_lower_bound`` is the smallest ``gamma_min`` over ``eps_grid``: a gamma below it
+    destabilizes the loop for every eps of the grid (``b gamma / T`` slower than the closed
+    loop). ``certified`` needs the gamma inside the interval *and* the LMI certificate at the
+    design's ``(eps, gamma)``. Gains are magnitudes: for ``b < 0``, ``gamma`` means
+    ``-|gamma|`` and the bounds are on ``|gamma|``.
+
+    Parameters
+    ----------
+    design : Design
+        An EHGO design.
+    b_bounds : (float, float)
+        ``(b_min, b_max)`` of one strict sign.
+    a_jacobian_bounds : sequence of (float, float), optional
+        Bounds of ``d sigma/d x_i`` (see :func:`certify_eps`).
+    gamma_range : (float, float), optional
+        Scan interval (default ``(1e-4 T, 4) / |b|_max``).
+    eps_grid : sequence of float, optional
+        Eps values of ``gamma_lower_bound`` (default 6 log-spaced in ``[1e-3, 1]`` and the
+        design's eps).
+    n_scan : int, optional
+        Scan points (default 80).
+    n_b : int, optional
+        Points of the b grid (default 41).
+    rtol : float, optional
+        Relative resolution of the interval ends (default 1e-3).
+    max_pieces : int, optional
+        As in :func:`certify_eps`.
+    raise_on_failure : bool, optional
+        Raise :class:`~fl_design.errors.CertificationError` when not certified.
+
+    Returns
+    -------
+    GammaCertificate
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> g = fl.certify_gamma(fl.presets.paper_design(gamma=1e-4), (3.6, 6.8))
+    >>> g.certified, g.gamma_lower_bound > 1e-4
+    (False, True)
+    """
+    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
+    n_scan = V.integer("n_scan", n_scan, minimum=3)
+    rtol = V.positive("rtol", rtol)
+    eps, gamma = design.estimator.eps, design.controller.gamma
+    g_lo, g_hi = ((1e-4 * design.T / L.b_hi, 4.0 / L.b_hi) if gamma_range is None
+                  else _eps_range(gamma_range))
+    grid_eps = (np.geomspace(*DEFAULT_EPS_RANGE, 6) if eps_grid is None
+                else V.real_vector("eps_grid", eps_grid))
+    grid_eps = np.unique(np.concatenate([grid_eps, [eps]]))
+    if np.any(grid_eps <= 0):
+        raise ParameterError(f"eps_grid must be > 0, got {grid_eps.tolist()}")
+    g_min, g_max = _gamma_interval(lambda g: L.frozen_ok(eps, g), gamma, g_lo, g_hi, n_scan,
+                                   rtol)
+    mins = [_gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan,
+                            rtol)[0] for e in grid_eps]
+    mins = [m for m in mins if m is not None]
+    lower = min(mins) if mins else None
+    point = L.point(eps, gamma)
+    inside = g_min is not None and g_min < gamma < g_max
+    certified = bool(inside and point.certified)
+    reason = _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside)
+    if raise_on_failure and not certified:
+        raise CertificationError(reason)
+    return GammaCertificate(
+        gamma=float(gamma), eps=float(eps), T=design.T, b_bounds=L.signed_bounds,
+        paper_bound=1.0 / L.b_hi, convergence_bound=2.0 / L.b_hi, gamma_min=g_min,
+        gamma_max=g_max, gamma_lower_bound=lower, eps_grid=tuple(grid_eps.tolist()),
+        certified=certified, point=point, reason=reason)
+
+
+def _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside) -> str:
+    if lower is not None and gamma < lower:
+        return (f"gamma = {gamma:g} is below the lower bound gamma_min = {lower:.6g}: the loop "
+                "is unstable for every eps of the grid (b gamma / T slower than the closed loop)")
+    if g_min is None:
+        return f"no gamma of the scan gives a stable loop at eps = {eps:g}"
+    if not inside:
+        return (f"gamma = {gamma:g} lies outside the admissible interval "
+                f"({g_min:.6g}, {g_max:.6g}) at eps = {eps:g}")
+    if not point.certified:
+        return f"gamma inside ({g_min:.6g}, {g_max:.6g}) but no LMI certificate: {point.reason}"
+    return (f"gamma = {gamma:g} inside ({g_min:.6g}, {g_max:.6g}), LMI certificate "
+            f"({point.kind}) at eps = {eps:g}")
+
+
+def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
+                   eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
+                   rtol: float = 1e-2, max_pieces: int = 8,
+                   certified: bool = True) -> EpsStarCurve:
+    """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
+
+    The certified search at each gamma starts from the ratio found at the previous one.
+
+    Parameters
+    ----------
+    design : Design
+        An EHGO design (its structure; eps and gamma are varied).
+    b_bounds : (float, float)
+        ``(b_min, b_max)`` of one strict sign.
+    gammas : sequence of float
+        Gains (> 0; magnitudes when ``b < 0``).
+    a_jacobian_bounds : sequence of (float, float), optional
+        As in :func:`certify_eps`.
+    eps_range : (float, float), optional
+        Search interval of eps.
+    n_b : int, optional
+        Points of the b grid.
+    n_scan : int, optional
+        Scan points of the frozen search.
+    rtol : float, optional
+        Relative resolution of the certified bisection (frozen: rtol/10).
+    max_pieces : int, optional
+        As in :func:`certify_eps`.
+    certified : bool, optional
+        False: frozen curve only (certified entries NaN).
+
+    Returns
+    -------
+    EpsStarCurve
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> c = fl.eps_star_curve(fl.presets.paper_design(), (3.6, 6.8), [1e-3, 3e-3])
+    >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
+    True
+    """
+    lo, hi = _eps_range(eps_range)
+    rtol = V.positive("rtol", rtol)
+    n_scan = V.integer("n_scan", n_scan, minimum=2)
+    g = V.real_vector("gammas", gammas)
+    if g.size == 0 or np.any(g <= 0):
+        raise ParameterError(f"gammas must be a non-empty sequence of numbers > 0, got {g.tolist()}")
+    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
+    frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
+    for i, gamma in enumerate(g):
+        f = frozen_eps_star(lambda e: L.frozen_ok(e, gamma), lo, hi, n_scan, rtol / 10)
+        if f is None:
+            continue
+        frozen[i] = f
+        if certified:
+            c = certified_eps_star(lambda e: _tracked(L, e, gamma), lo, f, rtol, hint, 0.95)
+            if c is not None:
+                cert[i], hint = c, c / f
+    return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
+                        b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi))
+
+
+__all__ = ["DEFAULT_EPS_RANGE", "certified_eps_star", "certify_eps", "certify_gamma",
+           "eps_star_curve", "frozen_eps_star"]

@@ -1,0 +1,297 @@
+"""The paper's Lyapunov conditions for the linear part: ``P_x``, ``K``, ``lambda_x``, ``H``.
+
+With the chain of integrators ``(A_i, B_i)`` and ``v = K x``, ``K = -(k_1, ..., k_rho)``, the
+paper takes ``P_x`` from ``(A_i + B_i K)^T P_x + P_x (A_i + B_i K) = -Q`` and shows, along the
+approximate model ``F^a`` (the chain under zero-order hold, ``x+ = M_T x``,
+``M_T = exp(T A_i) + Gamma(T) K``)::
+
+    V(F^a x) - V(x) <= -lambda_min(Q) T |x|^2 + H T^2 |x|^2,   lambda_x <= lambda_min(Q)/2
+
+:func:`certify_lyapunov` computes ``P_x`` twice (SciPy's Lyapunov solver and a CVXPY LMI), the
+constant ``H`` over ``(0, T]`` and the sampling time below which the decrease
+``<= -lambda_x T |x|^2`` holds; :func:`synthesize_gains` finds gains for a decay rate by the LMI
+``A Y + Y A^T + B W + W^T B^T + 2 decay Y <= 0`` (``Y = P^-1``, ``W = K Y``).
+
+Examples
+--------
+>>> import fl_design as fl
+>>> c = fl.certify_lyapunov((2, 4), T=1e-3)
+>>> c.lambda_x, c.decrease_holds
+(0.5, True)
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ._cert_results import _Result, json_number
+from ._surrogate import chain_zoh
+from ..design._controller import _checked_gains
+from .. import _validate as V
+from ..errors import CertificationError, DimensionError, ParameterError
+
+
+@dataclass(frozen=True, repr=False)
+class LyapunovCertificate(_Result):
+    """Result of :func:`certify_lyapunov`.
+
+    Parameters
+    ----------
+    gains : tuple of float
+        ``(k_1, ..., k_rho)``.
+    Q : numpy.ndarray
+        The weight.
+    P_x : numpy.ndarray
+        Solution of the continuous Lyapunov equation (SciPy).
+    P_lmi : numpy.ndarray or None
+        Smallest-trace ``P`` of the LMI ``A_c^T P + P A_c + Q <= 0`` (CVXPY), None on failure.
+    lmi_status : str
+        CVXPY status of the LMI.
+    lambda_x : float
+        ``lambda_min(Q) / 2``.
+    T : float or None
+        Sampling time checked.
+    H : float or None
+        ``max_t lambda_max(M_t^T P M_t - P + lambda_min(Q) t I) / t^2`` on a 200-point grid of
+        ``(0, T]``.
+    T_bound : float or None
+        ``min(T, (lambda_min(Q) - lambda_x) / H)``: on the grid of ``(0, T_bound]`` the
+        decrease ``V(F^a x) - V(x) <= -lambda_x t |x|^2`` holds.
+    decrease_holds : bool or None
+        The decrease ``<= -lambda_x T |x|^2`` at ``T`` itself (NumPy eigenvalues).
+    certified : bool
+        ``P_x > 0`` and the Lyapunov residual small (and the decrease at ``T`` if given).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> sorted(fl.certify_lyapunov((1, 2)).to_dict())[:3]
+    ['H', 'P_lmi', 'P_x']
+    """
+
+    gains: tuple
+    Q: np.ndarray
+    P_x: np.ndarray
+    P_lmi: np.ndarray | None
+    lmi_status: str
+    lambda_x: float
+    T: float | None
+    H: float | None
+    T_bound: float | None
+    decrease_holds: bool | None
+    certified: bool
+
+    def _repr_lines(self):
+        return [f"gains {self.gains}: certified {self.certified}, lambda_x = {self.lambda_x:g}",
+                f"P_x = {np.array2string(self.P_x, precision=4)}",
+                f"T = {self.T}, H = {self.H}, decrease below T_bound = {self.T_bound}"]
+
+
+def _checked_Q(Q, rho: int) -> np.ndarray:
+    if Q is None:
+        return np.eye(rho)
+    try:
+        Qa = np.asarray(Q, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"Q must be a real {rho}x{rho} matrix, got {Q!r}") from None
+    if Qa.shape != (rho, rho):
+        raise DimensionError(f"Q must be {rho}x{rho} (rho = {rho}), got shape {Qa.shape}")
+    if not np.all(np.isfinite(Qa)):
+        raise ParameterError(f"Q must be finite, got {Qa.tolist()}")
+    if np.max(np.abs(Qa - Qa.T)) > 1e-12 * max(1.0, np.max(np.abs(Qa))):
+        raise ParameterError(f"Q must be symmetric, got {Qa.tolist()}")
+    lam = np.linalg.eigvalsh(Qa)
+    if lam[0] <= 0.0:
+        raise ParameterError(f"Q must be positive definite; its smallest eigenvalue is "
+                             f"{lam[0]:.6g} (Q = {Qa.tolist()})")
+    return Qa
+
+
+def closed_chain(gains) -> np.ndarray:
+    """``A_i + B_i K`` (companion matrix of ``s^rho + k_rho s^(rho-1) + ... + k_1``)."""
+    k = np.asarray(gains, dtype=float)
+    A = np.eye(k.size, k=1)
+    A[-1] -= k
+    return A
+
+
+def _lmi_P(Ac, Q):
+    import cvxpy as cp
+
+    P = cp.Variable(Q.shape, symmetric=True)
+    prob = cp.Problem(cp.Minimize(cp.trace(P)), [Ac.T @ P + P @ Ac + Q << 0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            prob.solve(solver=cp.CLARABEL)
+        except Exception:  # noqa: BLE001 - a solver failure is a value
+            try:
+                prob.solve(solver=cp.SCS, eps=1e-9)
+            except Exception as err:  # noqa: BLE001
+                return None, f"{type(err).__name__}"
+    return (None if P.value is None else np.array(P.value)), str(prob.status)
+
+
+def certify_lyapunov(gains, Q=None, *, T: float | None = None,
+                     raise_on_failure: bool = False) -> LyapunovCertificate:
+    """``P_x``, ``lambda_x``, and for a given ``T`` the constant ``H`` along ``F^a``.
+
+    Parameters
+    ----------
+    gains : sequence of float
+        ``(k_1, ..., k_rho)`` (Hurwitz, as for :class:`~fl_design.DynamicController`).
+    Q : array_like, optional
+        Symmetric positive definite ``rho x rho`` weight (default identity).
+    T : float, optional
+        Sampling time: compute ``H``, ``T_bound`` and the decrease at ``T``.
+    raise_on_failure : bool, optional
+        Raise :class:`~fl_design.errors.CertificationError` when not certified.
+
+    Returns
+    -------
+    LyapunovCertificate
+
+    Raises
+    ------
+    ParameterError
+        ``Q`` not symmetric positive definite, gains not Hurwitz.
+
+    Examples
+    --------
+    >>> import numpy as np, fl_design as fl
+    >>> c = fl.certify_lyapunov((2, 4), np.diag([2.0, 1.0]), T=0.01)
+    >>> bool(np.allclose(c.P_x, c.P_lmi, atol=1e-6)), c.lambda_x
+    (True, 0.5)
+    """
+    k = _checked_gains(gains)
+    Qa = _checked_Q(Q, len(k))
+    Ac = closed_chain(k)
+    P = scipy.linalg.solve_continuous_lyapunov(Ac.T, -Qa)
+    P = (P + P.T) / 2
+    P_lmi, status = _lmi_P(Ac, Qa)
+    lam_q = float(np.linalg.eigvalsh(Qa)[0])
+    resid = np.max(np.abs(Ac.T @ P + P @ Ac + Qa)) / max(1.0, np.max(np.abs(Qa)))
+    ok = bool(np.linalg.eigvalsh(P)[0] > 0 and resid < 1e-9)
+    H = T_bound = holds = None
+    if T is not None:
+        T = V.positive("T", T)
+        S, eye = [], np.eye(len(k))
+        for t in np.geomspace(1e-3 * T, T, 200):  # delta form: no cancellation in M^T P M - P
+            Phi, Gam = chain_zoh(len(k), t)
+            D = (Phi - eye) / t - np.outer(Gam / t, k)
+            W = (D.T @ P + P @ D + lam_q * eye) / t + D.T @ P @ D
+            S.append(np.linalg.eigvalsh((W + W.T) / 2)[-1])
+        H = max(float(max(S)), 0.0)
+        T_bound = T if H == 0.0 else min(T, (lam_q - lam_q / 2) / H)
+        Phi, Gam = chain_zoh(len(k), T)
+        M = Phi - np.outer(Gam, k)
+        holds = bool(np.linalg.eigvalsh(M.T @ P @ M - P)[-1] <= -lam_q / 2 * T)
+        ok = ok and holds
+    if raise_on_failure and not ok:
+        raise CertificationError(f"gains {k} not certified (decrease at T={T}: {holds})")
+    return LyapunovCertificate(gains=k, Q=Qa, P_x=P, P_lmi=P_lmi, lmi_status=status,
+                               lambda_x=lam_q / 2, T=T, H=json_number(H), T_bound=T_bound,
+                               decrease_holds=holds, certified=ok)
+
+
+@dataclass(frozen=True, repr=False)
+class GainSynthesis(_Result):
+    """Result of :func:`synthesize_gains`.
+
+    Parameters
+    ----------
+    gains : tuple of float or None
+        ``(k_1, ..., k_rho)``, None when the LMI failed.
+    P : numpy.ndarray or None
+        ``Y^-1``.
+    decay : float
+        Asked decay rate.
+    eigenvalues : numpy.ndarray or None
+        Eigenvalues of ``A_i + B_i K`` (NumPy).
+    solver_status : str
+        CVXPY status.
+    certified : bool
+        Every eigenvalue has real part ``<= -decay`` (NumPy).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.synthesize_gains(2, decay=1.0).certified
+    True
+    """
+
+    gains: tuple | None
+    P: np.ndarray | None
+    decay: float
+    eigenvalues: np.ndarray | None
+    solver_status: str
+    certified: bool
+
+    def to_dict(self) -> dict:  # noqa: D102
+        out = super().to_dict()
+        if self.eigenvalues is not None:
+            out["eigenvalues"] = [[float(z.real), float(z.imag)] for z in self.eigenvalues]
+        return out
+
+    def _repr_lines(self):
+        return [f"gains {self.gains} for decay {self.decay:g}: certified {self.certified}"]
+
+
+def synthesize_gains(rho: int, *, decay: float, max_gain: float = 1e4) -> GainSynthesis:
+    """Gains ``K`` with ``A_i + B_i K`` Hurwitz at decay rate ``decay``, by an LMI.
+
+    Solves ``A Y + Y A^T + B W + W^T B^T + 2 decay Y <= 0``, ``I <= Y``, minimizing
+    ``trace(Y)`` with ``|W| <= max_gain``; ``K = W Y^-1``, gains ``k = -K``, checked by NumPy
+    eigenvalues (real parts ``<= -decay``, up to 1e-9 relative).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree (1..6).
+    decay : float
+        Decay rate > 0 asked of every closed-loop mode.
+    max_gain : float, optional
+        Bound on the entries of ``W`` (keeps the gains finite).
+
+    Returns
+    -------
+    GainSynthesis
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> s = fl.synthesize_gains(2, decay=0.5)
+    >>> bool(max(s.eigenvalues.real) <= -0.5 + 1e-9)
+    True
+    """
+    import cvxpy as cp
+
+    rho = V.integer("rho", rho, minimum=1, maximum=6)
+    decay = V.positive("decay", decay)
+    A, B = np.eye(rho, k=1), np.eye(rho)[:, -1:]
+    Y = cp.Variable((rho, rho), symmetric=True)
+    W = cp.Variable((1, rho))
+    L = A @ Y + Y @ A.T + B @ W + W.T @ B.T + 2 * (1.01 * decay) * Y  # 1 % to spare
+    prob = cp.Problem(cp.Minimize(cp.trace(Y)),
+                      [(L + L.T) / 2 << 0, Y >> np.eye(rho), cp.abs(W) <= max_gain])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            prob.solve(solver=cp.CLARABEL)
+        except Exception:  # noqa: BLE001
+            prob.solve(solver=cp.SCS, eps=1e-9)
+    if Y.value is None:
+        return GainSynthesis(None, None, decay, None, str(prob.status), False)
+    K = np.array(W.value) @ np.linalg.inv(Y.value)
+    eig = np.linalg.eigvals(closed_chain(-K.ravel()))
+    ok = bool(np.max(eig.real) <= -decay * (1 - 1e-9))
+    return GainSynthesis(tuple(float(v) for v in -K.ravel()), np.linalg.inv(Y.value), decay,
+                         eig, str(prob.status), ok)
+
+
+__all__ = ["GainSynthesis", "LyapunovCertificate", "certify_lyapunov", "closed_chain",
+           "synthesize_gains"]

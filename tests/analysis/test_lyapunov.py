@@ -1,0 +1,89 @@
+"""certify_lyapunov / synthesize_gains against closed forms and independent linear algebra."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import fl_design as fl
+from fl_design.errors import DimensionError, HurwitzError, ParameterError
+from tests.oracles import chain_zoh_closed_form
+
+
+def _kron_lyapunov(Ac, Q):
+    """P from the Kronecker form (I (x) A^T + A^T (x) I) vec(P) = -vec(Q)."""
+    n = Ac.shape[0]
+    K = np.kron(np.eye(n), Ac.T) + np.kron(Ac.T, np.eye(n))
+    return np.linalg.solve(K, -Q.reshape(-1)).reshape(n, n)
+
+
+@pytest.mark.parametrize("gains,Q", [((2.0, 4.0), None), ((6.0, 11.0, 6.0), np.diag([1, 2, 3.0])),
+                                     ((1.0, 4.0, 6.0, 4.0), None)])
+def test_P_x_solves_the_lyapunov_equation_and_the_lmi(gains, Q):
+    c = fl.certify_lyapunov(gains, Q)
+    rho = len(gains)
+    Ac = np.eye(rho, k=1)
+    Ac[-1] = -np.asarray(gains)
+    Qm = np.eye(rho) if Q is None else Q
+    np.testing.assert_allclose(c.P_x, _kron_lyapunov(Ac, Qm), rtol=1e-10, atol=1e-12)
+    assert np.linalg.eigvalsh(c.P_x)[0] > 0
+    np.testing.assert_allclose(c.P_lmi, c.P_x, rtol=1e-5, atol=1e-6)
+    assert c.lambda_x == np.linalg.eigvalsh(Qm)[0] / 2 and c.certified
+
+
+def test_rho_one_closed_form():
+    c = fl.certify_lyapunov((3.0,), [[2.0]], T=0.01)
+    assert c.P_x[0, 0] == pytest.approx(2.0 / (2 * 3.0), rel=1e-14)
+    # M_T = 1 - 3 T exactly: (M^2 - 1) P = -lambda_min(Q) T + H T^2 with H = 9 P
+    assert c.H == pytest.approx(9.0 * c.P_x[0, 0], rel=1e-9)
+    assert c.T_bound == pytest.approx(min(0.01, 1.0 / c.H), rel=1e-12)
+
+
+def test_decrease_along_the_approximate_model():
+    gains, T = (2.0, 4.0), 0.05
+    c = fl.certify_lyapunov(gains, T=T)
+    lam_q = 2 * c.lambda_x
+    rng = np.random.default_rng(0)
+    for t in (T, T / 3, T / 10):
+        Phi, Gam = chain_zoh_closed_form(2, t)
+        M = Phi - np.outer(Gam, gains)
+        for x in rng.standard_normal((20, 2)):
+            dV = (M @ x) @ c.P_x @ (M @ x) - x @ c.P_x @ x
+            assert dV <= -lam_q * t * (x @ x) + c.H * t * t * (x @ x) + 1e-15
+            if t <= c.T_bound:
+                assert dV <= -c.lambda_x * t * (x @ x)
+    assert c.decrease_holds
+    json.dumps(c.to_dict(), allow_nan=False)
+
+
+def test_large_T_breaks_the_decrease():
+    c = fl.certify_lyapunov((2.0, 4.0), T=2.0)
+    assert c.decrease_holds is False and not c.certified and c.T_bound < 2.0
+
+
+@pytest.mark.parametrize("rho,decay", [(1, 2.0), (2, 1.0), (3, 0.5)])
+def test_synthesized_gains_meet_the_decay(rho, decay):
+    s = fl.synthesize_gains(rho, decay=decay)
+    assert s.certified
+    roots = np.roots(np.concatenate([[1.0], np.asarray(s.gains)[::-1]]))
+    assert np.max(roots.real) <= -decay * (1 - 1e-9)
+    fl.DynamicController(s.gains, 1e-3)  # accepted as Hurwitz gains
+
+
+@pytest.mark.parametrize("Q,err,match", [
+    ([[1.0, 0.5], [0.0, 1.0]], ParameterError, "symmetric"),
+    ([[1.0, 0.0], [0.0, -1.0]], ParameterError, "positive definite"),
+    (np.eye(3), DimensionError, "2x2"),
+    ([[1.0, math.nan], [math.nan, 1.0]], ParameterError, "finite"),
+])
+def test_bad_Q(Q, err, match):
+    with pytest.raises(err, match=match):
+        fl.certify_lyapunov((2.0, 4.0), Q)
+
+
+def test_bad_gains():
+    with pytest.raises(HurwitzError):
+        fl.certify_lyapunov((2.0, -4.0))

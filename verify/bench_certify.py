@@ -1,0 +1,53 @@
+"""Benchmark: the time of a 50-point eps*(gamma) curve of the paper's TRMS design.
+
+For 50 log-spaced gains in ``[2e-4, 5e-3]`` (TRMS static motor, ``b in [3.6, 6.8]``,
+``K = (2, 4)``, ``k_I = 1e-3``, ``alpha = (6, 11, 6)``, ``T = 1 ms``) computes the frozen-b
+``eps*`` and the certified ``eps*`` (LMIs re-checked in NumPy) with
+:func:`fl_design.eps_star_curve`, and prints the wall time and the certified/frozen ratios.
+Target: under 10 s on the development machine (2 cores); exits with status 1 on a miss, or
+when a certified eps* exceeds its frozen one (soundness). ``--quick`` computes 4 points and
+checks soundness only (the tests run it).
+
+    python verify/bench_certify.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+import fl_design as fl
+
+TARGET_S = 10.0
+
+
+def main(argv=None) -> int:
+    """Run the benchmark; return the exit status."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="4 points, no time target")
+    args = parser.parse_args(argv)
+    n = 4 if args.quick else 50
+    gammas = np.geomspace(2e-4, 5e-3, n)
+    design = fl.presets.paper_design()
+    fl.eps_star_curve(design, (3.6, 6.8), gammas[:1])  # warm-up: CasADi and CVXPY compile
+    t0 = time.perf_counter()
+    curve = fl.eps_star_curve(design, (3.6, 6.8), gammas)
+    elapsed = time.perf_counter() - t0
+    ratio = curve.ratio
+    print(f"{n}-point eps*(gamma) curve: {elapsed:.2f} s (target < {TARGET_S:g} s)")
+    print(f"certified/frozen ratio: min {np.nanmin(ratio):.3f}, median "
+          f"{np.nanmedian(ratio):.3f} over {int(np.sum(np.isfinite(ratio)))} certified gains")
+    ok = bool(np.all(~(curve.eps_star_certified > curve.eps_star_frozen)))
+    if not ok:
+        print("FAIL: a certified eps* exceeds the frozen eps* (unsound)")
+    if not args.quick and elapsed >= TARGET_S:
+        print(f"MISS: {elapsed:.2f} s >= {TARGET_S:g} s")
+        ok = False
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
