@@ -106,8 +106,8 @@ class PointCertificate(_Result):
     reason: str
 
     def _repr_lines(self):
-        return [f"eps = {self.eps:.6g}: {'certified' if self.certified else 'not certified'}"
-                f" ({self.kind or '-'}, {self.pieces} piece(s)), {self.reason}"]
+        return [(f"eps = {self.eps:.6g}: {'certified' if self.certified else 'not certified'}"
+                f" ({self.kind or '-'}, {self.pieces} piece(s)), {self.reason}")]
 
 
 @dataclass(frozen=True, repr=False)
@@ -161,17 +161,17 @@ class EpsCertificate(_Result):
     a_jacobian_bounds: tuple | None
     reason: str
 
-    def to_dict(self) -> dict:  # noqa: D102 - documented on the base class
+    def to_dict(self) -> dict:
         out = super().to_dict()
         out["point"] = self.point.to_dict()
         return out
 
     def _repr_lines(self):
-        return [f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
-                f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}",
+        return [(f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
+                f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
                 f"certified: {self.certified} ({self.point.kind or '-'})",
-                f"eps* frozen {_fmt(self.eps_star_frozen)}, common P "
-                f"{_fmt(self.eps_star_common)}, certified {_fmt(self.eps_star_certified)}",
+                (f"eps* frozen {_fmt(self.eps_star_frozen)}, common P "
+                f"{_fmt(self.eps_star_common)}, certified {_fmt(self.eps_star_certified)}"),
                 self.reason]
 
 
@@ -226,15 +226,15 @@ class GammaCertificate(_Result):
     point: PointCertificate
     reason: str
 
-    def to_dict(self) -> dict:  # noqa: D102
+    def to_dict(self) -> dict:
         out = super().to_dict()
         out["point"] = self.point.to_dict()
         return out
 
     def _repr_lines(self):
         return [f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified {self.certified}",
-                f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"
-                f" lower bound over eps {_fmt(self.gamma_lower_bound)}",
+                (f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"
+                f" lower bound over eps {_fmt(self.gamma_lower_bound)}"),
                 f"paper 1/b_max = {self.paper_bound:.6g}, 2/b_max = {self.convergence_bound:.6g}",
                 self.reason]
 
@@ -305,8 +305,8 @@ class EpsStarCurve(_Result):
         return plot_eps_star_curve(self, ax=ax)
 
     def _repr_lines(self):
-        return [f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
-                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}",
+        return [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
+                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
                 f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"
                 if np.any(np.isfinite(self.ratio)) else "no certified point"]
 

@@ -38,10 +38,10 @@ import math
 import numpy as np
 
 from .. import _validate as V
+from ..errors import CertificationError, ParameterError
 from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
 from ._lmi import balance, vertex_lmi
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
-from ..errors import CertificationError, ParameterError
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
 
@@ -250,7 +250,7 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
     point = L.point(eps, gamma)
     f = c_common = c_any = None
     if search:
-        f = frozen_eps_star(lambda e: L.frozen_ok(e, gamma), lo, hi, n_scan, rtol / 10)
+        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_ok(e, g_), lo, hi, n_scan, rtol / 10)
         if f is not None:
             c_any = certified_eps_star(lambda e: L.point(e, gamma).certified, lo, f, rtol)
             if L.box is None:
@@ -438,12 +438,12 @@ def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
     for i, gamma in enumerate(g):
-        f = frozen_eps_star(lambda e: L.frozen_ok(e, gamma), lo, hi, n_scan, rtol / 10)
+        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_ok(e, g_), lo, hi, n_scan, rtol / 10)
         if f is None:
             continue
         frozen[i] = f
         if certified:
-            c = certified_eps_star(lambda e: _tracked(L, e, gamma), lo, f, rtol, hint, 0.95)
+            c = certified_eps_star(lambda e, g_=gamma: _tracked(L, e, g_), lo, f, rtol, hint, 0.95)
             if c is not None:
                 cert[i], hint = c, c / f
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,

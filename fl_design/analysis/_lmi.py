@@ -193,8 +193,8 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0) ->
         if last in ("infeasible", "infeasible_inaccurate") or (
                 eta.value is not None and eta.value <= 0.0):
             return LMISolution(False, solver, last, (), None, None,
-                               "; ".join(notes + [f"{solver}: no strictly feasible point "
-                                                  f"(status {last})"]))
+                               "; ".join(notes + [(f"{solver}: no strictly feasible point "
+                                                  f"(status {last})")]))
         if Ps[0].value is None or eta.value is None:
             notes.append(f"{solver} returned no solution ({last})")
             continue
@@ -205,8 +205,8 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0) ->
             note = "; ".join(notes + [f"{solver}: {last}, re-checked in NumPy"])
             return LMISolution(True, solver, last, P, Gv, margin, note)
         return LMISolution(False, solver, last, (), None, margin, "; ".join(
-            notes + [f"{solver} solution ({last}) failed the NumPy re-check "
-                     f"(margin {margin:.3g} <= {RECHECK_TOL:g})"]))
+            notes + [(f"{solver} solution ({last}) failed the NumPy re-check "
+                     f"(margin {margin:.3g} <= {RECHECK_TOL:g})")]))
     return LMISolution(False, None, last, (), None, None, "; ".join(notes))
 
 
@@ -227,4 +227,4 @@ def balance(deltas) -> list[np.ndarray]:
     return [D * s[None, :] / s[:, None] for D in deltas]
 
 
-__all__ = ["LMISolution", "RECHECK_TOL", "balance", "recheck", "vertex_lmi"]
+__all__ = ["RECHECK_TOL", "LMISolution", "balance", "recheck", "vertex_lmi"]

@@ -28,11 +28,11 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from .. import _validate as V
+from ..design._controller import _checked_gains
+from ..errors import CertificationError, DimensionError, ParameterError
 from ._cert_results import _Result, json_number
 from ._surrogate import chain_zoh
-from ..design._controller import _checked_gains
-from .. import _validate as V
-from ..errors import CertificationError, DimensionError, ParameterError
 
 
 @dataclass(frozen=True, repr=False)
@@ -231,7 +231,7 @@ class GainSynthesis(_Result):
     solver_status: str
     certified: bool
 
-    def to_dict(self) -> dict:  # noqa: D102
+    def to_dict(self) -> dict:
         out = super().to_dict()
         if self.eigenvalues is not None:
             out["eigenvalues"] = [[float(z.real), float(z.imag)] for z in self.eigenvalues]

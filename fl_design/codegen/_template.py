@@ -70,7 +70,7 @@ def c_literal(x: float, precision: str) -> str:
 
 
 def _constants(design: Design, precision: str, P: str) -> list[str]:
-    lit = lambda x: c_literal(x, precision)  # noqa: E731
+    lit = lambda x: c_literal(x, precision)
     ctrl, est = design.controller, design.estimator
     rows = [(f"{P}_T", lit(design.T), "sampling time (s): call the step at this period"),
             (f"{P}_RHO", str(design.rho), "relative degree served"),

@@ -43,7 +43,7 @@ def test_least_squares_double_closed_loop(tmp_path):
 
 
 def test_float_closed_loop_one_million_steps_no_drift(packages):
-    reference = lambda t: 0.3 * np.sign(np.sin(2 * np.pi * t / 40.0))  # noqa: E731
+    reference = lambda t: 0.3 * np.sign(np.sin(2 * np.pi * t / 40.0))
     sc = fl.Scenario(reference, 1000.0, noise=fl.Noise(std=1e-3, seed=1))
     res = packages["float"].verify(fl.plants.trms_yaw(), sc)
     assert res.u_c.size == 1_000_000

@@ -1,0 +1,272 @@
+"""What one run does: :class:`Scenario` (reference, duration, start) and its :class:`Noise`.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> sc = fl.Scenario(0.3, 20.0, noise=fl.Noise(std=1e-3, seed=1))
+>>> sc.n_samples(1e-3), sc.noise.std
+(20000, 0.001)
+"""
+
+from __future__ import annotations
+
+from dataclasses import KW_ONLY, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import DimensionError, ParameterError
+
+
+def _jsonable(value):
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if callable(value):
+        return f"<callable {getattr(value, '__name__', type(value).__name__)}>"
+    return np.asarray(value, dtype=float).tolist()
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Additive white Gaussian measurement noise ``w_k = std * N(0, 1)``, reproducible.
+
+    Parameters
+    ----------
+    std : float, optional
+        Standard deviation (>= 0; default 0: no noise). The paper's "variance 0.001" is
+        ``std = sqrt(1e-3)``.
+    seed : int, optional
+        Seed of ``numpy.random.default_rng`` (>= 0; default 0).
+
+    Raises
+    ------
+    ParameterError
+        Negative or non-finite ``std``, or a ``seed`` that is not a non-negative integer.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.Noise(std=0.1, seed=3).samples(3).round(3)
+    array([ 0.204, -0.256,  0.042])
+    """
+
+    std: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        V.nonnegative("noise std", self.std)
+        V.integer("noise seed", self.seed, minimum=0)
+
+    def samples(self, n: int) -> np.ndarray:
+        """``n`` noise samples (zeros when ``std == 0``).
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+
+        Returns
+        -------
+        numpy.ndarray
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Noise().samples(2)
+        array([0., 0.])
+        """
+        std = float(self.std)
+        if std == 0.0:
+            return np.zeros(n)
+        return std * np.random.default_rng(int(self.seed)).standard_normal(n)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Noise(0.1, 2).to_dict()
+        {'std': 0.1, 'seed': 2}
+        """
+        return {"std": float(self.std), "seed": int(self.seed)}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """What one closed-loop run does: reference, duration, start, measurement imperfections.
+
+    Parameters
+    ----------
+    reference : float, callable or array_like
+        A constant (a step at t = 0 from the initial output), a function ``r(t)`` sampled at
+        ``t = kT``, or ``N = round(duration / T)`` samples.
+    duration : float
+        Length of the run in seconds (> 0; at least one sample of the design's ``T``).
+    x0 : array_like, optional
+        Initial plant state (default: the plant's operating point).
+    noise : Noise, optional
+        Measurement noise (default none).
+    quantization : float, optional
+        Quantization step of the measurement, > 0 (default none): ``q floor(y/q + 1/2)``.
+
+    Raises
+    ------
+    ParameterError
+        Non-positive or non-finite duration, a non-finite constant reference or ``x0``,
+        ``noise`` not a :class:`Noise`, a non-positive quantization.
+    DimensionError
+        A reference array or ``x0`` that is not one-dimensional.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> sc = fl.Scenario(lambda t: 0.3 * (t >= 1.0), 5.0)
+    >>> sc.reference_samples(1.0)
+    array([0. , 0.3, 0.3, 0.3, 0.3])
+    """
+
+    reference: Any
+    duration: float
+    _: KW_ONLY
+    x0: Any = None
+    noise: Noise = field(default_factory=Noise)
+    quantization: float | None = None
+
+    def __post_init__(self) -> None:
+        V.positive("duration", self.duration)
+        ref = self.reference
+        if isinstance(ref, str) or ref is None:
+            raise ParameterError(
+                f"reference must be a number, a callable r(t) or an array of samples, got {ref!r}")
+        if not callable(ref):
+            if np.ndim(ref) == 0:
+                V.real_scalar("reference", ref)
+            else:
+                V.real_vector("reference", ref)
+        if self.x0 is not None:
+            V.real_vector("x0", self.x0)
+        if not isinstance(self.noise, Noise):
+            raise ParameterError(f"noise must be a fl.Noise(std, seed), got {self.noise!r}")
+        if self.quantization is not None:
+            V.positive("quantization", self.quantization)
+
+    def n_samples(self, T: float) -> int:
+        """``N = round(duration / T)``, the number of samples at sampling time ``T``.
+
+        Parameters
+        ----------
+        T : float
+            Sampling time.
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        ParameterError
+            The duration is shorter than one sample.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.0, 1.0).n_samples(1e-3)
+        1000
+        """
+        N = round(float(self.duration) / T)
+        if N < 1:
+            raise ParameterError(
+                f"duration={self.duration!r} is shorter than one sample (T={T!r}); give a "
+                f"duration >= T")
+        return N
+
+    def reference_samples(self, T: float) -> np.ndarray:
+        """The reference at ``t = 0, T, ..., (N-1) T``.
+
+        Parameters
+        ----------
+        T : float
+            Sampling time.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)``.
+
+        Raises
+        ------
+        DimensionError
+            A reference array whose length is not ``N``.
+        ParameterError
+            A callable reference returning non-finite values.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.1, 0.003).reference_samples(1e-3)
+        array([0.1, 0.1, 0.1])
+        """
+        N = self.n_samples(T)
+        ref = self.reference
+        t = np.arange(N) * T
+        if callable(ref):
+            try:
+                values = np.asarray(ref(t), dtype=float)
+            except (TypeError, ValueError, AttributeError):  # scalar-only: point by point
+                values = None
+            if values is None or values.shape != (N,):
+                values = np.array([float(ref(tk)) for tk in t])
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                raise ParameterError(
+                    f"reference(t) returned a non-finite value {values[bad[0]]!r} at sample "
+                    f"{bad[0]} (t = {t[bad[0]]:g} s); it must be finite")
+            return values
+        if np.ndim(ref) == 0:
+            return np.full(N, float(ref))
+        arr = np.asarray(ref, dtype=float)
+        if arr.shape != (N,):
+            raise DimensionError(
+                f"reference must be a scalar, a callable r(t) or an array of N = "
+                f"round(duration/T) = {N} samples (t = 0, T, ..., (N-1)T), got shape {arr.shape}")
+        return arr.copy()
+
+    def replace(self, **changes) -> Scenario:
+        """A copy with fields changed, validated again.
+
+        Parameters
+        ----------
+        **changes
+            New values of ``reference``, ``duration``, ``x0``, ``noise``, ``quantization``.
+
+        Returns
+        -------
+        Scenario
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.3, 20.0).replace(duration=5.0).duration
+        5.0
+        """
+        from ..design import replace_fields
+
+        return replace_fields(self, changes)
+
+    def to_dict(self) -> dict:
+        """Strict-JSON fields (a callable reference by its name).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.Scenario(0.3, 20.0).to_dict()["noise"]
+        {'std': 0.0, 'seed': 0}
+        """
+        return {"reference": _jsonable(self.reference), "duration": float(self.duration),
+                "x0": _jsonable(self.x0), "noise": self.noise.to_dict(),
+                "quantization": _jsonable(self.quantization)}
+
+
+__all__ = ["Noise", "Scenario"]
