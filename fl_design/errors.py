@@ -46,6 +46,10 @@ class DesignMismatchError(FlDesignError, ValueError):
     """Parts that must agree do not (observer vs controller order, plant vs design relative degree)."""
 
 
+class ResourceLimitError(FlDesignError, ValueError):
+    """The requested work or memory exceeds a limit; the message names it and how to lift it."""
+
+
 # --- failures while computing (RuntimeError) ---------------------------------------------------
 class ComputationError(FlDesignError, RuntimeError):
     """A computation could not be carried out (solver failure, compiler missing, ...)."""
@@ -75,5 +79,6 @@ __all__ = [
     "ParameterError",
     "PlantDefinitionError",
     "RelativeDegreeError",
+    "ResourceLimitError",
     "UnstableDiscretizationWarning",
 ]
