@@ -3,21 +3,63 @@
 from __future__ import annotations
 
 import math
+import numbers
+import reprlib
 from collections.abc import Sequence
 
 import numpy as np
 
 from .errors import DimensionError, HurwitzError, ParameterError
 
+_REPR = reprlib.Repr()
+_REPR.maxstring, _REPR.maxother, _REPR.maxlist, _REPR.maxtuple = 40, 40, 6, 6
+
+
+def short(value) -> str:
+    """A repr of ``value`` cut to a few dozen characters (for error messages).
+
+    Examples
+    --------
+    >>> from fl_design._validate import short
+    >>> short(list(range(100)))
+    '[0, 1, 2, 3, 4, 5, ...]'
+    """
+    if isinstance(value, np.ndarray):
+        return f"array of shape {value.shape} and dtype {value.dtype}"
+    if isinstance(value, np.generic):
+        value = value.item()
+    return _REPR.repr(value)
+
+
+def is_real_number(value) -> bool:
+    """True for a real number: int, float, NumPy integer/float scalar or 0-d array, Fraction...;
+    False for bools, strings and everything else (no silent conversion).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design._validate import is_real_number
+    >>> is_real_number(np.float32(0.5)), is_real_number("0.5"), is_real_number(True)
+    (True, False, False)
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, np.ndarray):
+        return value.ndim == 0 and value.dtype.kind in "iuf"
+    return isinstance(value, numbers.Real)
+
 
 def real_scalar(name: str, value) -> float:
     """Return ``value`` as a finite float, or raise ParameterError naming it."""
-    if isinstance(value, bool):
+    if isinstance(value, (bool, np.bool_)):
         raise ParameterError(f"{name} must be a real number, got the bool {value!r}")
+    if not is_real_number(value):
+        raise ParameterError(f"{name} must be a real number, got {short(value)} (a "
+                             f"{type(value).__name__}; give an int or a float)")
     try:
         out = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a real number, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(f"{name} must be a real number, got {short(value)}") from None
     if not math.isfinite(out):
         raise ParameterError(f"{name} must be finite, got {out!r}")
     return out
@@ -59,18 +101,82 @@ def integer(name: str, value, *, minimum: int | None = None, maximum: int | None
 
 
 def real_vector(name: str, value, *, length: int | None = None) -> np.ndarray:
-    """Return a finite 1-D float array, checking its length when given."""
+    """Return a finite 1-D float array, checking its length when given.
+
+    Entries must be real numbers (strings and bools are refused, not converted); messages
+    name the first bad entry and the length, never the whole array.
+    """
+    if isinstance(value, (str, bytes)):
+        raise ParameterError(f"{name} must be a sequence of real numbers, got the string "
+                             f"{short(value)}")
+    if isinstance(value, (list, tuple)):  # NumPy would turn True into 1 and 2.0 into '2.0'
+        for i, x in enumerate(value):
+            if type(x) is float or type(x) is int or isinstance(x, (list, tuple, np.ndarray)):
+                continue  # nested sequences: the shape check below speaks
+            if not is_real_number(x):
+                raise ParameterError(f"{name} must be a sequence of real numbers (int or float)"
+                                     f": entry {i} is {short(x)} ({len(value)} entries)")
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
     except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a sequence of real numbers, got {value!r}") from None
+        raise ParameterError(f"{name} must be a sequence of real numbers, got {short(value)}"
+                             ) from None
+    if raw.dtype.kind not in "iuf":
+        flat = raw.reshape(-1)
+        bad = next((i for i, v in enumerate(flat) if not is_real_number(v)), None)
+        if bad is not None or raw.dtype.kind not in "O":
+            where = "" if bad is None else f": entry {bad} is {short(flat[bad])}"
+            raise ParameterError(f"{name} must be a sequence of real numbers (int or float)"
+                                 f"{where} ({raw.size} entries, dtype {raw.dtype})")
+    try:
+        arr = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(f"{name} must be a sequence of real numbers, got {short(value)}"
+                             ) from None
     if arr.ndim != 1:
         raise DimensionError(f"{name} must be one-dimensional, got shape {arr.shape}")
     if length is not None and arr.shape[0] != length:
         raise DimensionError(f"{name} must have length {length}, got {arr.shape[0]}")
-    if not np.all(np.isfinite(arr)):
-        raise ParameterError(f"{name} must be finite, got {arr.tolist()}")
+    finite = np.isfinite(arr)
+    if not finite.all():
+        first = int(np.argmin(finite))
+        raise ParameterError(f"{name} must be finite: entry {first} is {short(arr[first])} "
+                             f"({int(arr.size - finite.sum())} non-finite of {arr.size} entries)")
     return arr
+
+
+def instance(name: str, value, cls, what: str):
+    """Return ``value`` if it is an instance of ``cls``, else raise ParameterError naming both.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name.
+    value : object
+        What was given.
+    cls : type or tuple of types
+        Accepted classes.
+    what : str
+        What is expected, in words (e.g. ``"a Plant (fl.Plant.from_ode or fl.plants.*)"``).
+
+    Returns
+    -------
+    object
+        ``value``, unchanged.
+
+    Examples
+    --------
+    >>> from fl_design._validate import instance
+    >>> instance("order", 3, int, "an int")
+    3
+    >>> instance("plant", "trms", int, "a Plant")
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.ParameterError: plant must be a Plant, got str 'trms'
+    """
+    if isinstance(value, cls):
+        return value
+    raise ParameterError(f"{name} must be {what}, got {type(value).__name__} {short(value)}")
 
 
 def interval(name: str, value, *, allow_none: bool = True) -> tuple[float, float] | None:

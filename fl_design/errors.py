@@ -50,6 +50,10 @@ class OutputPathError(FlDesignError, ValueError):
     """An output folder cannot be created or written (it names the folder and the reason)."""
 
 
+class ResourceLimitError(FlDesignError, ValueError):
+    """The requested work or memory exceeds a limit; the message names it and how to lift it."""
+
+
 # --- failures while computing (RuntimeError) ---------------------------------------------------
 class ComputationError(FlDesignError, RuntimeError):
     """A computation could not be carried out (solver failure, compiler missing, ...)."""
@@ -95,5 +99,6 @@ __all__ = [
     "ParameterError",
     "PlantDefinitionError",
     "RelativeDegreeError",
+    "ResourceLimitError",
     "UnstableDiscretizationWarning",
 ]

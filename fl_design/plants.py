@@ -93,10 +93,12 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
     >>> p.relative_degree(), p.b_bounds()
     (3, (3.6..., 6.8...))
     """
+    motor_lag = V.boolean("motor_lag", motor_lag)
     vals = _pos(I2=I2, delta=delta, k2=k2, T20=T20, b2=b2)
     vals.update({k: V.nonnegative(k, v) for k, v in {"a2": a2, "B1": B1, "B2": B2}.items()})
+    t21 = V.positive("T21", T21)  # checked even when unused: a typo is never silently ignored
     if motor_lag:
-        vals["T21"] = V.positive("T21", T21)
+        vals["T21"] = t21
     sym = {k: sp.Symbol(k, positive=True) for k in vals}
     phi, w, tau, u = sp.symbols("phi phi_dot tau u", real=True)
     s = sym

@@ -37,8 +37,10 @@ import casadi as ca
 import numpy as np
 
 from .. import _validate as V
+from ..design import Design
 from ..errors import ComputationError, ParameterError
 from ..sim._closed_loop import ClosedLoop, default_substeps
+from ..symbolic import Plant
 
 
 @dataclass(frozen=True)
@@ -153,6 +155,17 @@ class _Linearizer:
         )
 
 
+#: Smallest ``rtol`` of :func:`linearized_eps_star` (4 ulps: float64 resolves no finer).
+MIN_RTOL = 4 * float(np.finfo(float).eps)
+#: Cap on the bisection steps of :func:`linearized_eps_star` (log2(ln(1e616) / MIN_RTOL) < 62).
+MAX_BISECTIONS = 200
+
+
+def _check(plant, design) -> None:
+    V.instance("plant", plant, Plant, "an fl.Plant (fl.Plant.from_ode or fl.plants.*)")
+    V.instance("design", design, Design, "an fl.Design(estimator=..., controller=...)")
+
+
 def _reference(plant, r) -> float:
     if r is None:
         return float(plant.casadi().h(plant.x_op))
@@ -194,6 +207,7 @@ def sampled_linearization(plant, design, *, r: float | None = None,
     >>> lin.matrix.shape, lin.state_names[-2:]
     ((7, 7), ('u', 'z'))
     """
+    _check(plant, design)
     steps = default_substeps(plant, design.T) if substeps is None else substeps
     lin = _Linearizer(ClosedLoop(plant, design, substeps=steps))
     return lin(_reference(plant, r), design.parameter_vector())
@@ -226,13 +240,22 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     n_scan : int, optional
         Scan points (>= 2, default 48).
     rtol : float, optional
-        Relative width of the final bracket (default 1e-6).
+        Relative width of the final bracket (default 1e-6; at least :data:`MIN_RTOL`, about
+        8.9e-16, what float64 resolves).
 
     Returns
     -------
     float
         ``eps*``; NaN if the loop is unstable already at ``lo``; ``hi`` if it is stable on the
         whole scan.
+
+    Raises
+    ------
+    ParameterError
+        A plant or design of the wrong type, a bad ``eps_range``, ``n_scan`` or ``gamma``,
+        ``rtol < MIN_RTOL``.
+    ComputationError
+        No equilibrium found, or the bisection cap :data:`MAX_BISECTIONS` reached.
 
     Examples
     --------
@@ -242,11 +265,15 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     >>> 0.01 < eps_star < 2.0
     True
     """
+    _check(plant, design)
     lo, hi = V.interval("eps_range", eps_range, allow_none=False)
     if lo <= 0:
         raise ParameterError(f"eps_range must satisfy 0 < lo < hi, got ({lo}, {hi})")
     n_scan = V.integer("n_scan", n_scan, minimum=2)
     rtol = V.positive("rtol", rtol)
+    if rtol < MIN_RTOL:
+        raise ParameterError(f"rtol={rtol!r} is below what float64 can resolve: give rtol >= "
+                             f"{MIN_RTOL:.3g} (4 units in the last place)")
     if gamma is not None:
         design = design.replace(gamma=V.positive("gamma", gamma))
     steps = default_substeps(plant, design.T) if substeps is None else substeps
@@ -263,10 +290,13 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     if bad is None:
         return float(hi)
     a, b = grid[bad - 1], grid[bad]
-    while b / a - 1.0 > rtol:
+    for _ in range(MAX_BISECTIONS):
         mid = math.sqrt(a * b)
+        if b / a - 1.0 <= rtol or not a < mid < b:  # narrow enough, or no float in between
+            return float(a)
         a, b = (mid, b) if stable(mid) else (a, mid)
-    return float(a)
+    raise ComputationError(f"linearized_eps_star: no {rtol:g}-narrow bracket after "
+                           f"{MAX_BISECTIONS} bisections (last [{a!r}, {b!r}])")
 
 
 __all__ = ["SampledLinearization", "linearized_eps_star", "sampled_linearization"]

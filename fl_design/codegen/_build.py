@@ -1,19 +1,30 @@
-"""C compiler discovery, flag sets and the content-hash cache of compiled libraries.
+"""C compiler discovery, flag sets and the self-verifying content-hash cache of compiled code.
 
 Every compiled artefact of fl_design (the closed-loop sweep kernel of :mod:`fl_design.sim`, the
 exported step of :func:`fl_design.generate_c`) goes through :func:`build`: the source is
 compiled once with the system C compiler and cached under a name made from the SHA-256 hash
-of the source, the compiler, its flags and the CasADi version, so an unchanged kernel is
-never compiled twice (across processes and sessions). The file is written atomically
-(temporary name, then ``os.replace``) so that workers sharing the cache never load a
-half-written library.
+of the source, the compiler command, its flags and the CasADi version, so an unchanged kernel
+is never compiled twice (across processes and sessions).
+
+The cache heals itself. Each file is written atomically (temporary name, then
+``os.replace``), then a sidecar ``<file>.json`` records its size and SHA-256, also written
+atomically. A cached file is used only when it matches its sidecar (:func:`verified`); a
+truncated, empty or overwritten library, a missing or disagreeing sidecar, is rebuilt. Never
+is an unverified file loaded (:mod:`fl_design.sim._runners` checks again before ``dlopen``).
+
+Cache location, in order: the ``cache_dir`` argument, the environment variable
+``$FL_DESIGN_CACHE``, ``$XDG_CACHE_HOME/fl_design``, ``~/.cache/fl_design``. When that
+directory cannot be used (read-only, unwritable, a regular file, full disk...), the build
+falls back to a private temporary directory (removed at exit), and when that fails too, to
+CasADi's interpreter: each fallback says so once with a :class:`~fl_design.errors.CompilationWarning`
+(same results, only slower); set ``FL_DESIGN_CACHE`` to a writable directory to keep kernels.
+
+Compiler: ``$CC`` if set, split like a shell word list (``CC='gcc -m64'`` is the compiler
+``gcc`` with the flag ``-m64``), else ``cc``, ``gcc`` or ``clang`` on the ``PATH``.
 
 Flag sets: :data:`CFLAGS` (fast, portable: ``-O3``, no ``-march=native``, no
 ``-ffast-math``, which would break the NaN tests of the divergence detection) and
 :data:`STRICT_CFLAGS` (``-std=c99 -pedantic -Wall -Wextra -Werror``, for exported code).
-
-Cache directory, in order: the ``cache_dir`` argument, ``$FL_DESIGN_CACHE``,
-``$XDG_CACHE_HOME/fl_design``, ``~/.cache/fl_design``.
 
 Examples
 --------
@@ -24,23 +35,30 @@ Examples
 
 from __future__ import annotations
 
+import atexit
 import hashlib
+import json
 import os
+import shlex
 import shutil
 import subprocess
 import tempfile
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 
 import casadi as ca
 
-from ..errors import CompilationWarning
+from ..errors import CompilationWarning, ComputationError
 
 #: Compiler flags of the kernels (``-fno-math-errno`` only lets ``sqrt`` inline; IEEE kept).
 CFLAGS = ("-O3", "-std=c99", "-fno-math-errno", "-fPIC")
 #: Strict warning set for exported C (CasADi's generated code and our wrappers compile clean).
 STRICT_CFLAGS = ("-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror")
+#: Suffix of the sidecar recording a cached file's size and SHA-256.
+SIDECAR_SUFFIX = ".json"
 
+_FALLBACK: dict[str, Path] = {}  # the process's private temporary cache, made on first need
 
 
 def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
@@ -56,6 +74,12 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
     -------
     pathlib.Path
 
+    Raises
+    ------
+    ComputationError
+        The directory cannot be created (a regular file in the way, no permission, read-only
+        file system...); the message names it and ``FL_DESIGN_CACHE``.
+
     Examples
     --------
     >>> from fl_design.codegen import cache_directory
@@ -67,25 +91,67 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
             os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
             "fl_design")
     path = Path(cache_dir)
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ComputationError(f"cannot use {str(path)!r} as the compiled-kernel cache ({exc}); "
+                               "give a writable directory as cache_dir or in $FL_DESIGN_CACHE"
+                               ) from exc
     return path
 
 
+def _compiler() -> tuple[list[str] | None, str]:
+    """The compiler command (executable path + flags from ``$CC``) or None and the reason."""
+    env = os.environ.get("CC", "").strip()
+    if not env:
+        for name in ("cc", "gcc", "clang"):
+            path = shutil.which(name)
+            if path:
+                return [path], ""
+        return None, "no C compiler found (set $CC or install gcc/clang)"
+    try:
+        words = shlex.split(env)
+    except ValueError as exc:
+        return None, f"no C compiler found: $CC={env!r} is not a valid command line ({exc})"
+    path = shutil.which(words[0])
+    if path is None:
+        return None, (f"no C compiler found: $CC={env!r} names {words[0]!r}, which is not an "
+                      "executable file or on the PATH; set $CC to an installed compiler "
+                      "(flags may follow, e.g. 'gcc -m64') or unset it")
+    return [path, *words[1:]], ""
+
+
 def find_compiler() -> str | None:
-    """Path of the C compiler: ``$CC`` if set, else ``cc``, ``gcc`` or ``clang``, else None.
+    """Path of the C compiler: the first word of ``$CC`` if set, else ``cc``, ``gcc`` or
+    ``clang``, else None (flags following the compiler in ``$CC`` are in
+    :func:`compiler_command`).
 
     Examples
     --------
+    >>> import os
     >>> from fl_design.codegen import find_compiler
     >>> find_compiler() is None or os.path.isabs(find_compiler())
     True
     """
-    env = os.environ.get("CC")
-    for name in [env] if env else ["cc", "gcc", "clang"]:
-        path = shutil.which(name)
-        if path:
-            return path
-    return None
+    cmd, _ = _compiler()
+    return None if cmd is None else cmd[0]
+
+
+def compiler_command() -> list[str] | None:
+    """The compiler as a command: its path then the flags given in ``$CC``, or None.
+
+    ``$CC`` is split like a shell command line: ``CC='gcc -m64'`` gives
+    ``['/usr/bin/gcc', '-m64']``.
+
+    Examples
+    --------
+    >>> import os
+    >>> from fl_design.codegen._build import compiler_command
+    >>> cmd = compiler_command()
+    >>> cmd is None or os.path.isabs(cmd[0])
+    True
+    """
+    return _compiler()[0]
 
 
 def generate_source(*functions: ca.Function) -> str:
@@ -114,12 +180,92 @@ def generate_source(*functions: ca.Function) -> str:
     return cg.dump()
 
 
+def _digest(path: Path) -> dict:
+    h = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+            size += len(block)
+    return {"size": size, "sha256": h.hexdigest()}
+
+
+def verified(path: str | os.PathLike) -> bool:
+    """True when ``path`` exists and matches the size and SHA-256 recorded by :func:`build`.
+
+    A missing, unreadable or malformed sidecar, or any difference, gives False (never raises).
+
+    Examples
+    --------
+    >>> from fl_design.codegen._build import verified
+    >>> verified("no-such-library.so")
+    False
+    """
+    path = Path(path)
+    try:
+        record = json.loads(Path(str(path) + SIDECAR_SUFFIX).read_text())
+        if not isinstance(record, dict) or os.stat(path).st_size != record.get("size"):
+            return False
+        return _digest(path) == {"size": record["size"], "sha256": record.get("sha256")}
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
+
+
+def _replace_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _fallback_directory() -> Path:
+    if "dir" not in _FALLBACK or not _FALLBACK["dir"].is_dir():
+        path = Path(tempfile.mkdtemp(prefix="fl_design-cache-"))
+        atexit.register(shutil.rmtree, path, ignore_errors=True)
+        _FALLBACK["dir"] = path
+    return _FALLBACK["dir"]
+
+
+class _CompileFailed(Exception):
+    pass
+
+
+def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: list[str]) -> Path:
+    """Compile into ``directory / out_name`` (atomically) and record the sidecar."""
+    out = directory / out_name
+    if verified(out):
+        return out
+    with tempfile.TemporaryDirectory(dir=directory) as tmp:
+        (Path(tmp) / f"{name}.c").write_text(source)
+        try:  # relative names in a fixed folder: the same source gives the same bytes
+            proc = subprocess.run([*cmd, f"{name}.c", "-o", out_name, "-lm"], cwd=tmp,
+                                  capture_output=True, text=True, timeout=900, check=False)
+            error = None if proc.returncode == 0 else (proc.stderr.strip()[-400:] or "failed")
+        except subprocess.TimeoutExpired as exc:
+            error = str(exc)
+        except OSError as exc:
+            if not os.path.isdir(tmp):
+                raise
+            error = str(exc)
+        if error is not None:
+            raise _CompileFailed(error)
+        record = json.dumps(_digest(Path(tmp) / out_name))
+        os.replace(Path(tmp) / out_name, out)
+    _replace_text(Path(str(out) + SIDECAR_SUFFIX), record)
+    return out
+
+
 def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
-          compiler: str | None = None) -> Path | None:
-    """Compile ``source`` once (cached by hash); the library/executable path, or None.
+          compiler: str | Sequence[str] | None = None) -> Path | None:
+    """Compile ``source`` once (cached by hash, verified); the library/executable path, or None.
 
     Returns None, with a :class:`~fl_design.errors.CompilationWarning`, when no compiler is
-    found or compilation fails.
+    found, compilation fails, or neither the cache nor a temporary directory can be written.
+    A cached file that does not match its recorded size and SHA-256 is rebuilt.
 
     Parameters
     ----------
@@ -130,9 +276,10 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
     shared : bool, optional
         Build a shared library (default) or an executable.
     cache_dir : path-like, optional
-        See :func:`cache_directory`.
-    compiler : str, optional
-        Default :func:`find_compiler`.
+        See :func:`cache_directory`; falls back to a private temporary directory, with one
+        warning, when it cannot be written.
+    compiler : str or sequence of str, optional
+        Compiler executable, or command with flags; default :func:`compiler_command`.
 
     Examples
     --------
@@ -140,36 +287,41 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
     >>> build("int one(void) { return 1; }", "one", cache_dir=".").suffix
     '.so'
     """
-    cc = compiler or find_compiler()
-    if cc is None:
-        warnings.warn(f"no C compiler found (set $CC or install gcc/clang): {name} runs in "
-                      "CasADi's interpreter, with the same results but 3-20x slower",
-                      CompilationWarning, stacklevel=3)
+    if compiler is None:
+        cmd, why = _compiler()
+    else:
+        cmd, why = ([compiler] if isinstance(compiler, str) else list(compiler)), ""
+    if cmd is None:
+        warnings.warn(f"{why}: {name} runs in CasADi's interpreter, with the same results but "
+                      "3-20x slower", CompilationWarning, stacklevel=3)
         return None
     flags = [*CFLAGS, "-shared"] if shared else list(CFLAGS)
-    key = hashlib.sha256("\n".join([source, cc, *flags, ca.__version__]).encode()).hexdigest()
-    out = cache_directory(cache_dir) / f"{name}_{key[:24]}{'.so' if shared else '.bin'}"
-    if out.exists():
-        return out
-    with tempfile.TemporaryDirectory(dir=out.parent) as tmp:
-        c_file, tmp_out = Path(tmp) / f"{name}.c", Path(tmp) / out.name
-        c_file.write_text(source)
+    key = hashlib.sha256("\n".join([source, *cmd, *flags, ca.__version__]).encode()).hexdigest()
+    out_name = f"{name}_{key[:24]}{'.so' if shared else '.bin'}"
+    problems = []
+    for where in (lambda: cache_directory(cache_dir), _fallback_directory):
         try:
-            proc = subprocess.run([cc, *flags, str(c_file), "-o", str(tmp_out), "-lm"],
-                                  capture_output=True, text=True, timeout=900, check=False)
-            error = None if proc.returncode == 0 else (proc.stderr.strip()[-400:] or "failed")
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            error = str(exc)
-        if error is not None:
-            warnings.warn(f"compiling {name} with {cc} failed ({error}); it runs in CasADi's "
-                          "interpreter, with the same results but slower",
+            out = _compile_into(where(), out_name, source, name, [*cmd, *flags])
+        except _CompileFailed as exc:
+            warnings.warn(f"compiling {name} with {shlex.join(cmd)} failed ({exc}); it runs in "
+                          "CasADi's interpreter, with the same results but slower",
                           CompilationWarning, stacklevel=3)
             return None
-        os.replace(tmp_out, out)
-    return out
+        except (OSError, ComputationError) as exc:
+            problems.append(str(exc.__cause__ or exc))
+            continue
+        if problems:
+            warnings.warn(f"the compiled-kernel cache is unusable ({problems[0]}): {name} is "
+                          f"built in the private temporary directory {out.parent} (removed at "
+                          "exit); set $FL_DESIGN_CACHE to a writable directory to keep it",
+                          CompilationWarning, stacklevel=3)
+        return out
+    warnings.warn(f"neither the compiled-kernel cache ({problems[0]}) nor a temporary directory "
+                  f"({problems[-1]}) can be written: {name} runs in CasADi's interpreter, with "
+                  "the same results but slower; set $FL_DESIGN_CACHE to a writable directory",
+                  CompilationWarning, stacklevel=3)
+    return None
 
 
-
-
-__all__ = ["CFLAGS", "STRICT_CFLAGS", "build", "cache_directory", "find_compiler",
-           "generate_source"]
+__all__ = ["CFLAGS", "SIDECAR_SUFFIX", "STRICT_CFLAGS", "build", "cache_directory",
+           "compiler_command", "find_compiler", "generate_source", "verified"]

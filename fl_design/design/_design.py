@@ -232,7 +232,8 @@ class Design:
         return {k: val for k, val in self.__dict__.items() if k != "_functions"}
 
     # --- derived designs and runs ----------------------------------------------------------
-    def replace(self, *, eps: float | None = None, gamma: float | None = None) -> Design:
+    def replace(self, *, eps: float | None = None, gamma: float | None = None,
+                **unknown) -> Design:
         """A new design with the estimator's ``eps`` and/or the controller's ``gamma`` changed.
 
         Parameters
@@ -241,11 +242,15 @@ class Design:
             New estimator time constant (only for estimators that have one, e.g. the EHGO).
         gamma : float, optional
             New controller gain.
+        **unknown
+            Refused: any other name raises ParameterError (change the estimator or the
+            controller with their own ``replace`` and build a new Design).
 
         Raises
         ------
         ParameterError
-            ``eps`` is given but the estimator has no ``eps`` (least-squares baseline).
+            ``eps`` is given but the estimator has no ``eps`` (least-squares baseline), or an
+            unknown keyword.
 
         Examples
         --------
@@ -256,6 +261,11 @@ class Design:
         >>> d2.estimator.eps, d2.controller.gamma
         (0.01, 0.001)
         """
+        if unknown:
+            raise ParameterError(
+                f"Design.replace takes eps and gamma only, got {sorted(unknown)}; change other "
+                "numbers with design.estimator.replace(...) / design.controller.replace(...) "
+                "and build a new fl.Design")
         estimator, controller = self.estimator, self.controller
         if eps is not None:
             if not estimator.has_time_constant:

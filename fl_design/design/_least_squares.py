@@ -19,14 +19,39 @@ array([1.039083, 2.114   , 6.      ])
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
 
 from .. import _validate as v
-from ..errors import DimensionError, ParameterError
+from ..errors import DimensionError, ParameterError, ResourceLimitError
 from ._estimator import Estimator, as_casadi, check_length, rows
+
+#: Environment variable lifting the default cap :data:`MAX_WINDOW` on ``window``.
+MAX_WINDOW_ENV = "FL_DESIGN_MAX_WINDOW"
+#: Default largest window (the fit's ``window x window`` solve then needs about 0.4 GB).
+MAX_WINDOW = 5000
+
+
+def max_window() -> int:
+    """Largest accepted ``window``: ``$FL_DESIGN_MAX_WINDOW`` if set, else :data:`MAX_WINDOW`.
+
+    Examples
+    --------
+    >>> from fl_design.design._least_squares import max_window
+    >>> max_window() >= 26
+    True
+    """
+    text = os.environ.get(MAX_WINDOW_ENV, "").strip()
+    if not text:
+        return MAX_WINDOW
+    try:
+        return int(text)
+    except ValueError:
+        raise ParameterError(f"${MAX_WINDOW_ENV}={text!r} must be an integer number of samples"
+                             ) from None
 
 
 def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarray:
@@ -96,6 +121,8 @@ class LeastSquaresEstimator(Estimator):
     ------
     ParameterError
         ``rho`` not in 1..6, ``T`` not finite and > 0, ``degree < rho``, bad ``window``.
+    ResourceLimitError
+        ``window`` above :func:`max_window` (5000 samples unless ``$FL_DESIGN_MAX_WINDOW``).
     DimensionError
         ``window < degree + 1`` (the fit would be underdetermined).
 
@@ -130,6 +157,14 @@ class LeastSquaresEstimator(Estimator):
                 f"{rho}-th derivative to estimate sigma"
             )
         window = v.integer("window", self.window, minimum=1)
+        limit = max_window()
+        if window > limit:
+            raise ResourceLimitError(
+                f"window={window} exceeds the limit of {limit} samples: the fit needs about "
+                f"{16 * window**2 / 2**30:.3g} GiB (a window x window least-squares solve) and "
+                f"the step keeps window + 1 states; set the environment variable "
+                f"{MAX_WINDOW_ENV}={window} to lift the limit"
+            )
         if window < degree + 1:
             raise DimensionError(
                 f"window={window} samples cannot determine a polynomial of degree {degree}: "

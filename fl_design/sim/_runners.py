@@ -36,6 +36,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import math
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 
@@ -43,11 +44,20 @@ import casadi as ca
 import numpy as np
 
 from ..codegen import build, generate_source
-from ..errors import ComputationError
+from ..codegen._build import verified
+from ..errors import CompilationWarning, ComputationError
+
+
+class _UnverifiedLibrary(ComputationError):
+    """The library on disk no longer matches the size and SHA-256 recorded when it was built."""
+
 
 
 @functools.lru_cache(maxsize=32)
 def _load(path: str) -> ctypes.CDLL:
+    if not verified(path):  # never dlopen a file that is not the one built (SIGBUS, bad ELF)
+        raise _UnverifiedLibrary(f"the compiled kernel {path} does not match its recorded size "
+                                 "and SHA-256")
     lib = ctypes.CDLL(path)
     dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     lib.fl_run.argtypes = [dbl, ctypes.c_long, dbl, ctypes.c_long]
@@ -285,9 +295,18 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
     True
     """
     if compiled:
-        lib = build(runner_source(accumulate, record, indices), "fl_loop", cache_dir=cache_dir)
-        if lib is not None:
-            return NativeRunner(accumulate, record, indices, lib)
+        source = runner_source(accumulate, record, indices)
+        for _ in range(3):  # a library changed between build and load is rebuilt
+            lib = build(source, "fl_loop", cache_dir=cache_dir)
+            if lib is None:
+                break
+            try:
+                return NativeRunner(accumulate, record, indices, lib)
+            except _UnverifiedLibrary as exc:
+                problem = exc
+        else:
+            warnings.warn(f"{problem} after 3 rebuilds: the loop runs in CasADi's interpreter, "
+                          "with the same results but slower", CompilationWarning, stacklevel=2)
     return InterpretedRunner(accumulate, record, indices)
 
 

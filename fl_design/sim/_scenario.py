@@ -10,13 +10,41 @@ Examples
 
 from __future__ import annotations
 
+import os
 from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .. import _validate as V
-from ..errors import DimensionError, ParameterError
+from ..errors import DimensionError, ParameterError, ResourceLimitError
+
+#: Environment variable lifting the default limit :data:`MAX_SAMPLES` on a run's length.
+MAX_SAMPLES_ENV = "FL_DESIGN_MAX_SAMPLES"
+#: Default largest number of samples of one run (10^8: 1.6 GB of inputs, ~28 h at 1 kHz).
+MAX_SAMPLES = 10**8
+
+
+def max_samples() -> int:
+    """Largest accepted run length: ``$FL_DESIGN_MAX_SAMPLES`` if set, else :data:`MAX_SAMPLES`.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from fl_design.sim._scenario import max_samples
+    >>> max_samples() >= 10**6
+    True
+    """
+    text = os.environ.get(MAX_SAMPLES_ENV, "").strip()
+    if not text:
+        return MAX_SAMPLES
+    try:
+        return int(float(text))
+    except ValueError:
+        raise ParameterError(f"${MAX_SAMPLES_ENV}={text!r} must be a number of samples") from None
 
 
 def _jsonable(value):
@@ -176,10 +204,17 @@ class Scenario:
         1000
         """
         N = round(float(self.duration) / T)
-        if N < 1:
+        if float(self.duration) < T * (1.0 - 1e-9) or N < 1:
             raise ParameterError(
                 f"duration={self.duration!r} is shorter than one sample (T={T!r}); give a "
                 f"duration >= T")
+        limit = max_samples()
+        if N > limit:
+            raise ResourceLimitError(
+                f"duration={self.duration!r} at T={T!r} is N = {N:.3g} samples, above the "
+                f"limit of {limit:.3g} samples per run (its inputs alone would take "
+                f"{16 * N / 2**30:.3g} GiB); shorten the run or raise the limit with "
+                f"${MAX_SAMPLES_ENV}")
         return N
 
     def reference_samples(self, T: float) -> np.ndarray:

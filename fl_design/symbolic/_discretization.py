@@ -42,7 +42,7 @@ import numpy as np
 import sympy as sp
 
 from .._validate import integer, positive, real_scalar, real_vector
-from ..errors import DimensionError, ParameterError
+from ..errors import DimensionError, ParameterError, ResourceLimitError
 
 #: Sampling time, the observer's time constant and their ratio ``T = alpha * eps``.
 T_SYMBOL = sp.Symbol("T", positive=True)
@@ -540,7 +540,12 @@ def _is_plant(obj) -> bool:
     return all(hasattr(obj, a) for a in ("states", "input", "rhs", "normal_form"))
 
 
-def taylor_discretization(plant, order: int) -> Discretization:
+#: Default cap on ``order`` for a plant (the Lie series swells: order 10 of the pendulum ~10 s)
+#: and for a canonical chain; ``max_order=`` lifts it.
+MAX_ORDER = {"plant": 8, "chain": 40}
+
+
+def taylor_discretization(plant, order: int, *, max_order: int | None = None) -> Discretization:
     """Zero-order-hold discretization: exact Taylor (Lie) series ``F^e``, ``F^a``, residuals.
 
     With the input held over each sample, ``x(k+1) = sum_{j=0}^{N} T^j/j! L_F^j x + R_N`` at
@@ -558,6 +563,9 @@ def taylor_discretization(plant, order: int) -> Discretization:
         symbolic lumped term ``sigma`` and its derivatives ``sigma_dot``, ``sigma_ddot``, ...
     order : int
         Truncation order ``N >= 1`` of the series.
+    max_order : int, optional
+        Largest ``order`` accepted (default 8 for a plant, whose symbolic series grows about
+        tenfold per two orders, 40 for a chain); raise it knowingly.
 
     Returns
     -------
@@ -568,6 +576,8 @@ def taylor_discretization(plant, order: int) -> Discretization:
     ParameterError
         If ``order`` (or ``rho``) is not an integer ``>= 1``, or ``plant`` is neither a Plant nor
         an integer.
+    ResourceLimitError
+        ``order > max_order``.
 
     Examples
     --------
@@ -579,7 +589,15 @@ def taylor_discretization(plant, order: int) -> Discretization:
     T**4*sigma_dot/24 + T**3*sigma/6 + T**2*x3/2 + T*x2 + x1
     """
     order = integer("order", order, minimum=1)
-    if isinstance(plant, (int, np.integer)) and not isinstance(plant, bool):
+    chain = isinstance(plant, (int, np.integer)) and not isinstance(plant, bool)
+    cap = MAX_ORDER["chain" if chain else "plant"] if max_order is None else integer(
+        "max_order", max_order, minimum=1)
+    if order > cap:
+        raise ResourceLimitError(
+            f"order={order} exceeds max_order={cap}: the symbolic Taylor series grows about "
+            "tenfold in time per two orders (minutes to hours beyond); pass "
+            f"max_order={order} to taylor_discretization to compute it anyway")
+    if chain:
         rho = integer("rho", plant, minimum=1)
         xs, exact, remainder, extended = _chain_series(rho, order)
         return Discretization(rho=rho, order=order, states=xs, input=None, exact=exact,

@@ -32,6 +32,7 @@ import sympy as sp
 from .. import _validate as V
 from ..errors import PlantDefinitionError
 from ._bridge import to_casadi
+from ._constructs import check_expression, mismatched_assumptions, non_finite_at
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
 
 
@@ -89,7 +90,7 @@ def _sympify(what: str, value) -> sp.Expr:
         raise PlantDefinitionError(f"{what} must be a sympy expression, got {value!r}") from err
     if not isinstance(out, sp.Expr):
         raise PlantDefinitionError(f"{what} must be a scalar sympy expression, got {out!r}")
-    return out
+    return check_expression(what, out)
 
 
 def _key(kind: str, key, by_name: Mapping[str, sp.Symbol]) -> sp.Symbol:
@@ -197,6 +198,7 @@ class Plant:
         set_(self, "_x_op", self._operating_point(operating_point, by_name))
         set_(self, "_u_eq", self._equilibrium_input())
         set_(self, "_cache", {})
+        _ = self._fh  # every function has a CasADi translation, or a PlantDefinitionError now
 
     @classmethod
     def from_ode(cls, states, input, rhs, output, *, params=None, name=None, input_range=None,
@@ -265,6 +267,9 @@ class Plant:
         known = set(sts) | {u} | set(pars)
         unknown = sorted(str(s) for s in (f.free_symbols | h.free_symbols) - known)
         if unknown:
+            twin = mismatched_assumptions((f.free_symbols | h.free_symbols) - known, known)
+            if twin:
+                raise PlantDefinitionError(twin)
             raise PlantDefinitionError(
                 f"unknown symbol(s) {unknown}: each must be a state {[str(s) for s in sts]}, the "
                 f"input {u} or a parameter with a value in params"
@@ -299,12 +304,21 @@ class Plant:
         return x
 
     def _equilibrium_input(self) -> float:
-        fn = sp.lambdify([self._input], list(self._rhs.subs(self._params_map).subs(
-            dict(zip(self._states, self._x_op.tolist())))), modules="numpy")
+        at_op = list(self._rhs.subs(self._params_map).subs(
+            dict(zip(self._states, self._x_op.tolist()))))
+        where = ", ".join(f"{s}={v:g}" for s, v in zip(self._states, self._x_op))
+        non_finite_at(at_op, where)
+        fn = sp.lambdify([self._input], at_op, modules="numpy")
 
         def resid(u):
             with np.errstate(all="ignore"):
-                return np.asarray(fn(float(np.ravel(u)[0])), dtype=float)
+                out = np.asarray(fn(float(np.ravel(u)[0])), dtype=complex)
+            if np.any(out.imag != 0):  # e.g. sqrt of a negative number
+                raise PlantDefinitionError(
+                    f"f(x_op, u) takes the complex values {out.tolist()} at the operating point "
+                    f"({where}) and u={float(np.ravel(u)[0]):g}: the plant must be real there; "
+                    "choose an operating_point inside the domain of f")
+            return out.real
 
         scale = max([1.0] + [float(np.nanmax(np.abs(resid(v)))) for v in (0.0, -1.0, 1.0)])
         tol = 1e-9 * scale

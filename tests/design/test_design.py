@@ -299,3 +299,8 @@ def test_pickles_and_describes():
     text = design.describe()
     assert "rho = 3" in text and "DynamicController(gains=(1, 3, 3)" in text
     assert repr(design).startswith("Design(estimator=")
+
+
+def test_design_replace_refuses_unknown_names():
+    with pytest.raises(errors.ParameterError, match=r"takes eps and gamma only, got \['foo'\]"):
+        _ehgo_design(2).replace(foo=1)

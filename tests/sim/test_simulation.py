@@ -18,7 +18,13 @@ import scipy.integrate
 import sympy as sp
 
 import fl_design as fl
-from fl_design.errors import CompilationWarning, DesignMismatchError, DimensionError, ParameterError
+from fl_design.errors import (
+    CompilationWarning,
+    DesignMismatchError,
+    DimensionError,
+    ParameterError,
+    ResourceLimitError,
+)
 from fl_design.sim import ClosedLoop, default_divergence_bound, default_substeps, prepare_run
 
 T = 1e-3
@@ -240,6 +246,8 @@ def test_compiled_kernel_is_cached(pendulum_design, pendulum, tmp_path):
     (lambda: fl.Scenario(0.1, -1.0), ParameterError, "duration must be > 0"),
     (lambda: fl.Scenario(0.1, 0.0), ParameterError, "duration must be > 0"),
     (lambda: fl.Scenario(0.1, 1e-4), ParameterError, "shorter than one sample"),
+    (lambda: fl.Scenario(0.1, 6e-4), ParameterError, "shorter than one sample"),
+    (lambda: fl.Scenario(0.1, 1e9), ResourceLimitError, "FL_DESIGN_MAX_SAMPLES"),
     (lambda: fl.Scenario(np.zeros(7), 0.1), DimensionError,
      "N = round\\(duration/T\\) = 100 samples"),
     (lambda: fl.Scenario(np.zeros((100, 2)), 0.1), DimensionError, "one-dimensional"),
