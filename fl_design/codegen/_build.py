@@ -24,6 +24,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import shutil
@@ -40,6 +41,12 @@ from ..errors import CompilationWarning
 CFLAGS = ("-O3", "-std=c99", "-fno-math-errno", "-fPIC")
 #: Strict warning set for exported C (CasADi's generated code and our wrappers compile clean).
 STRICT_CFLAGS = ("-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror")
+#: Extra flags of kernels built for this machine only (the lanes kernel of the sweeps): its
+#: vector instruction set, ``omp simd`` loops without the OpenMP runtime, no floating-point
+#: contraction (every operation rounds as in CasADi's interpreter) and no trapping math (lets
+#: ``floor`` vectorise; values and NaN propagation unchanged). Still no ``-ffast-math``. The
+#: cache key then includes the compiler's view of this CPU (:func:`native_macros`).
+NATIVE_CFLAGS = ("-march=native", "-fopenmp-simd", "-ffp-contract=off", "-fno-trapping-math")
 
 
 
@@ -88,6 +95,32 @@ def find_compiler() -> str | None:
     return None
 
 
+@functools.lru_cache(maxsize=4)
+def native_macros(compiler: str | None = None) -> frozenset:
+    """Macros the compiler predefines with ``-march=native`` (e.g. ``__AVX512F__``).
+
+    Empty when there is no compiler or it does not understand the flag.
+
+    Examples
+    --------
+    >>> from fl_design.codegen._build import native_macros
+    >>> isinstance(native_macros(), frozenset)
+    True
+    """
+    cc = compiler or find_compiler()
+    if cc is None:
+        return frozenset()
+    try:
+        proc = subprocess.run([cc, "-march=native", "-dM", "-E", "-x", "c", os.devnull],
+                              capture_output=True, text=True, timeout=60, check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return frozenset()
+    if proc.returncode != 0:
+        return frozenset()
+    return frozenset(line.split()[1] for line in proc.stdout.splitlines()
+                     if line.startswith("#define ") and len(line.split()) > 1)
+
+
 def generate_source(*functions: ca.Function) -> str:
     """The C source CasADi generates for ``functions`` (no header, no main).
 
@@ -106,7 +139,7 @@ def generate_source(*functions: ca.Function) -> str:
 
 
 def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
-          compiler: str | None = None) -> Path | None:
+          compiler: str | None = None, extra_flags: tuple = (), libs: tuple = ()) -> Path | None:
     """Compile ``source`` once (cached by hash); the library/executable path, or None.
 
     Returns None, with a :class:`~fl_design.errors.CompilationWarning`, when no compiler is
@@ -124,6 +157,9 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
         See :func:`cache_directory`.
     compiler : str, optional
         Default :func:`find_compiler`.
+    extra_flags, libs : tuple of str, optional
+        More compiler flags (e.g. :data:`NATIVE_CFLAGS`) and libraries (``"-lmvec"``); with
+        ``-march=native`` the key also holds :func:`native_macros`.
 
     Examples
     --------
@@ -138,7 +174,13 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
                       CompilationWarning, stacklevel=3)
         return None
     flags = [*CFLAGS, "-shared"] if shared else list(CFLAGS)
-    key = hashlib.sha256("\n".join([source, cc, *flags, ca.__version__]).encode()).hexdigest()
+    parts = [source, cc, *flags, ca.__version__]
+    if extra_flags or libs:
+        parts += [*extra_flags, *libs]
+        if "-march=native" in extra_flags:
+            parts += sorted(native_macros(cc))
+        flags += list(extra_flags)
+    key = hashlib.sha256("\n".join(parts).encode()).hexdigest()
     out = cache_directory(cache_dir) / f"{name}_{key[:24]}{'.so' if shared else '.bin'}"
     if out.exists():
         return out
@@ -146,7 +188,7 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
         c_file, tmp_out = Path(tmp) / f"{name}.c", Path(tmp) / out.name
         c_file.write_text(source)
         try:
-            proc = subprocess.run([cc, *flags, str(c_file), "-o", str(tmp_out), "-lm"],
+            proc = subprocess.run([cc, *flags, str(c_file), "-o", str(tmp_out), *libs, "-lm"],
                                   capture_output=True, text=True, timeout=900, check=False)
             error = None if proc.returncode == 0 else (proc.stderr.strip()[-400:] or "failed")
         except (OSError, subprocess.TimeoutExpired) as exc:
@@ -162,5 +204,5 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
 
 
 
-__all__ = ["CFLAGS", "STRICT_CFLAGS", "build", "cache_directory", "find_compiler",
+__all__ = ["CFLAGS", "NATIVE_CFLAGS", "STRICT_CFLAGS", "native_macros", "build", "cache_directory", "find_compiler",
            "generate_source"]

@@ -228,19 +228,34 @@ class ClosedLoop:
 
     # --- the functions --------------------------------------------------------------------------
     @functools.cached_property
-    def plant_step(self) -> ca.Function:
-        """``fl_rk4(x, u) -> x_next`` (classical RK4, ``substeps`` steps, u held)."""
+    def rk4_step(self) -> ca.Function:
+        """``fl_rk4_step(x, u) -> x_next``: ONE classical RK4 step of ``h = T / substeps``."""
         f = self.plant.casadi().f
         x, u = ca.SX.sym("x", self.n), ca.SX.sym("u")
         h = self.T / self.substeps
-        xk = x
-        for _ in range(self.substeps):
-            k1 = f(xk, u)
-            k2 = f(xk + (h / 2) * k1, u)
-            k3 = f(xk + (h / 2) * k2, u)
-            k4 = f(xk + h * k3, u)
-            xk = xk + (h / 6) * (k1 + 2 * k2 + 2 * k3 + k4)
-        return ca.Function("fl_rk4", [x, u], [xk], ["x", "u"], ["x_next"])
+        k1 = f(x, u)
+        k2 = f(x + (h / 2) * k1, u)
+        k3 = f(x + (h / 2) * k2, u)
+        k4 = f(x + h * k3, u)
+        x_next = x + (h / 6) * (k1 + 2 * k2 + 2 * k3 + k4)
+        return ca.Function("fl_rk4_step", [x, u], [x_next], ["x", "u"], ["x_next"])
+
+    @functools.cached_property
+    def plant_step(self) -> ca.Function:
+        """``fl_rk4(x, u) -> x_next`` (classical RK4, ``substeps`` steps, u held).
+
+        One substep is inlined into the graphs that call it; more are a ``fold`` of
+        :attr:`rk4_step` that callers keep as one call (``never_inline``): generated C loops
+        over the substeps, so its size does not grow with them.
+        """
+        x, u = ca.SX.sym("x", self.n), ca.SX.sym("u")
+        if self.substeps == 1:
+            return ca.Function("fl_rk4", [x, u], [self.rk4_step(x, u)], ["x", "u"],
+                               ["x_next"])
+        X, U = ca.MX.sym("x", self.n), ca.MX.sym("u")
+        x_next = self.rk4_step.fold(self.substeps)(X, ca.repmat(U, 1, self.substeps))
+        return ca.Function("fl_rk4", [X, U], [x_next], ["x", "u"], ["x_next"],
+                           {"never_inline": True})
 
     @functools.cached_property
     def coordinates(self) -> ca.Function:

@@ -33,13 +33,14 @@ from __future__ import annotations
 import ctypes
 import functools
 import math
+import os
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 
 import casadi as ca
 import numpy as np
 
-from ..codegen import build, generate_source
+from ..codegen import build, find_compiler, generate_source
 from ..errors import ComputationError
 
 
@@ -258,8 +259,12 @@ def fill_template(text: str, values: dict) -> str:
 
 
 def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
-                compiled: bool = True, cache_dir=None):
-    """A :class:`NativeRunner` (compiled, cached) or an :class:`InterpretedRunner`.
+                compiled: bool = True, cache_dir=None, lanes: bool = True,
+                vector_math: bool | None = None):
+    """A :class:`~fl_design.sim._lanes.LanesRunner`, a :class:`NativeRunner` or an interpreter.
+
+    Compiled runners are built (and cached) on first use by the lanes runner: the lanes
+    kernel for grids, the scalar :class:`NativeRunner` for recorded runs.
 
     With ``compiled=True`` and no working compiler, the interpreted runner is returned with a
     :class:`~fl_design.errors.CompilationWarning`.
@@ -274,6 +279,12 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
         Compile to C (default) or interpret.
     cache_dir : path-like, optional
         See :func:`fl_design.codegen.cache_directory`.
+    lanes : bool, optional
+        With ``compiled``: the lanes kernel for grids (default) or the scalar one only.
+    vector_math : bool, optional
+        Lanes kernel with libmvec's vector math or glibc's scalar functions (bitwise the
+        results of the scalar kernel and of the interpreter; slower). Default: vector math
+        unless the environment variable ``FL_DESIGN_VECTOR_MATH`` is ``0``.
 
     Examples
     --------
@@ -281,6 +292,15 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
     >>> callable(make_runner)
     True
     """
+    if compiled and lanes and find_compiler() is not None:
+        from ._lanes import LanesRunner
+
+        scalar = functools.partial(make_runner, accumulate, record, indices, compiled=True,
+                                   cache_dir=cache_dir, lanes=False)
+        if vector_math is None:
+            vector_math = os.environ.get("FL_DESIGN_VECTOR_MATH", "1").strip() != "0"
+        return LanesRunner(accumulate, record, indices, cache_dir=cache_dir, scalar=scalar,
+                           vector_math=vector_math)
     if compiled:
         lib = build(runner_source(accumulate, record, indices), "fl_loop", cache_dir=cache_dir)
         if lib is not None:
