@@ -37,6 +37,15 @@ from ._lanes_emit import MATH, LanesUnsupported, lanes_source
 def lane_width(compiler: str | None = None) -> int:
     """Doubles per vector register of this machine as the compiler sees it (8, 4 or 2).
 
+    Parameters
+    ----------
+    compiler : str, optional
+        Default :func:`fl_design.codegen.find_compiler`.
+
+    Returns
+    -------
+    int
+
     Examples
     --------
     >>> from fl_design.sim._lanes import lane_width
@@ -85,6 +94,21 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, cache_dir=None,
     Raises :class:`~fl_design.sim._lanes_emit.LanesUnsupported` for a step it cannot
     translate. With ``vector_math_ok=False`` math functions are glibc's scalar ones (bitwise
     the results of the scalar kernel and of the interpreter, 4x slower on the TRMS loop).
+
+    Parameters
+    ----------
+    accumulate : casadi.Function
+        ``fl_acc(acc, d) -> acc_next``.
+    indices : dict
+        Accumulator positions ``k``, ``div``, ``N``.
+    cache_dir : path-like, optional
+        Cache of compiled kernels.
+    vector_math_ok : bool, optional
+        Use libmvec's vector math (default).
+
+    Returns
+    -------
+    pathlib.Path or None
 
     Examples
     --------
@@ -164,6 +188,20 @@ class LanesRunner:
     def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (2, nsteps).
 
+        Parameters
+        ----------
+        acc : numpy.ndarray
+            ``(nacc, ncols)`` accumulators (not modified).
+        D : numpy.ndarray
+            ``(2, nsteps)`` samples ``(r_k, w_k)``.
+        threads : int, optional
+            Threads sharing the columns (default 1).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nacc, ncols)`` final accumulators.
+
         Examples
         --------
         >>> from fl_design.sim._lanes import LanesRunner
@@ -193,6 +231,18 @@ class LanesRunner:
 
     def record(self, acc: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One column with its trajectory, by the scalar compiled kernel (built on first use).
+
+        Parameters
+        ----------
+        acc : numpy.ndarray
+            ``(nacc,)`` accumulator (not modified).
+        D : numpy.ndarray
+            ``(2, nsteps)`` samples.
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            Final accumulator and ``(nout, nsteps)`` recorded rows.
 
         Examples
         --------

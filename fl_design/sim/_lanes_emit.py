@@ -169,6 +169,20 @@ def rk4_fold(accumulate: ca.Function) -> tuple[ca.Function | None, int]:
 
     ``(None, 1)`` when the step calls nothing (one substep, inlined).
 
+    Parameters
+    ----------
+    accumulate : casadi.Function
+        The accumulating step ``fl_acc``.
+
+    Returns
+    -------
+    (casadi.Function or None, int)
+
+    Raises
+    ------
+    LanesUnsupported
+        The step calls something else.
+
     Examples
     --------
     >>> import casadi as ca

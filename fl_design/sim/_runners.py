@@ -124,7 +124,7 @@ class NativeRunner:
         >>> callable(NativeRunner.record)
         True
         """
-        a = np.ascontiguousarray(np.asarray(acc, dtype=float).ravel())
+        a = np.array(acc, dtype=float).ravel()  # a copy: the caller's acc is not changed
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
         out = np.empty((d.shape[0], self.nout))
         if self._lib.fl_record(a, d, d.shape[0], out):
