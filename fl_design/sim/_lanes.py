@@ -161,6 +161,21 @@ class LanesRunner:
         self.vector_math = bool(vector_math)
         self._scalar_factory, self._scalar, self._lanes = scalar, None, None
         self._lock = threading.Lock()
+        self._threads = None
+
+    def _pool(self, n: int) -> ThreadPoolExecutor:
+        """Threads kept for the runner's life (a sweep calls :meth:`run` once per chunk)."""
+        with self._lock:
+            if self._threads is None or self._threads[0] < n:
+                if self._threads is not None:
+                    self._threads[1].shutdown(wait=False)
+                self._threads = (n, ThreadPoolExecutor(n, thread_name_prefix="fl_lanes"))
+            return self._threads[1]
+
+    def __del__(self):
+        threads = getattr(self, "_threads", None)
+        if threads is not None:
+            threads[1].shutdown(wait=False)
 
     @property
     def scalar(self):
@@ -223,8 +238,7 @@ class LanesRunner:
                 raise ComputationError("the compiled lanes kernel reported an error")
 
         if n_thr > 1:
-            with ThreadPoolExecutor(n_thr) as pool:
-                list(pool.map(work, range(n_thr)))
+            list(self._pool(n_thr).map(work, range(n_thr)))
         else:
             work(0)
         return cols.T.copy()

@@ -3,7 +3,8 @@
 :func:`lanes_source` walks the instructions of ``fl_acc`` (and, when the plant step is a call
 to ``fold(fl_rk4_step)``, those of the single RK4 step) and writes each one as a C statement
 on one lane ``l`` of a ``#pragma omp simd`` loop over ``W`` lanes: the accumulators are stored
-structure-of-arrays (``A[i * W + l]``), every instruction result is a fresh local (the compiler
+structure-of-arrays (``A[i * W + l]``, updated in place: an accumulator entry the step
+only copies is not touched), every instruction result is a fresh local (the compiler
 keeps them in vector registers), and math calls are vectorised by glibc's libmvec where it has
 them. The RK4 substeps are a C loop around the single step, so the source does not grow with
 their number. Nothing is written by hand: an operation the table below does not know raises
@@ -122,9 +123,22 @@ def _acc_load(arg: int, nz: int) -> str:
     return f"A[{nz} * FL_W + l]" if arg == 0 else f"Dl[{nz} * FL_W + l]"
 
 
+def _in_place(ops: list, call: int | None) -> tuple[list, int | None]:
+    """Outputs that only copy their own input are dropped (the step updates ``A`` in place);
+    with a call, every output moves after it (no input is overwritten before it is read)."""
+    loads = {name: data for kind, data, name in ops if kind == "in"}
+    kept = [op for op in ops if op[0] != "out" or loads.get(op[2]) != (0, op[1][1])]
+    if call is None:
+        return kept, None
+    call = next(i for i, op in enumerate(kept) if op[0] == "call")
+    before = [op for op in kept[:call] if op[0] != "out"]
+    outs = [op for op in kept[:call] if op[0] == "out"]
+    return before + [kept[call]] + kept[call + 1:] + outs, len(before)
+
+
 def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int) -> str:
-    ops, call = _program(acc)
-    store = lambda res, nz: f"B[{nz} * FL_W + l]"
+    ops, call = _in_place(*_program(acc))
+    store = lambda res, nz: f"A[{nz} * FL_W + l]"
     if call is None:
         return "  long l;\n" + _segment(_body(ops, _acc_load, store, str))
     if rk4 is None:
