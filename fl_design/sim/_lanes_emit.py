@@ -69,11 +69,30 @@ def _const(value: float) -> str:
     return f"({float(value)!r})"
 
 
+def _select(node: dict, x: str, y: str) -> str | None:
+    """``if_else(c, a, b)`` as CasADi builds it, ``(c ? a : 0) + (!c ? b : 0)``, as one select.
+
+    Exact: the sum is ``a + 0.0`` when ``c != 0`` (NaN included) and ``0.0 + b`` otherwise,
+    and so is the select (the additions keep the sign of zero as the sum does).
+    """
+    nx, ny = node.get(x), node.get(y)
+    if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
+        return None
+    (_, cx, ax), (_, cy, by) = nx, ny
+    if node.get(cy) == (ca.OP_NOT, cx):
+        return f"({cx}!=0 ? ({ax}+0.0) : (0.0+{by}))"
+    if node.get(cx) == (ca.OP_NOT, cy):
+        return f"({cy}!=0 ? (0.0+{by}) : ({ax}+0.0))"
+    return None
+
+
 def _program(f: ca.Function):
     """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index."""
-    cur, ops, call = {}, [], None
+    cur, ops, call, node = {}, [], None, {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
+        if op in (ca.OP_IF_ELSE_ZERO, ca.OP_NOT):
+            node[f"v{k}"] = (op, *(cur[i] for i in ins))
         if op == ca.OP_INPUT:
             ops.append(("in", (ins[0], ins[1]), f"v{k}"))
         elif op == ca.OP_OUTPUT:
@@ -89,6 +108,8 @@ def _program(f: ca.Function):
             for j, o in enumerate(outs):
                 cur[o] = f"c{j}"
             continue
+        elif op == ca.OP_ADD and _select(node, cur[ins[0]], cur[ins[1]]):
+            ops.append(("let", _select(node, cur[ins[0]], cur[ins[1]]), f"v{k}"))
         elif op in _BIN:
             ops.append(("let", _BIN[op].format(cur[ins[0]], cur[ins[1]]), f"v{k}"))
         elif op in _UN:

@@ -126,3 +126,15 @@ def test_ten_thousand_substeps_compile_and_match_the_interpreter(tmp_path):
     acc0 = run.initial_accumulator(parameter_columns(d, [0.02, 0.05], [1e-2, 3e-2, 0.1]))
     np.testing.assert_array_equal(runners["exact"].run(acc0, run.D),
                                   runners["interp"].run(acc0, run.D))
+
+
+def test_serial_blas_gives_the_same_columns():
+    from fl_design.sim._lanes_blas import _openblas_libraries, serial_blas
+
+    d = fl.presets.paper_design()
+    ref = parameter_columns(d, [1e-3, 0.05, 1.0], [1e-4])
+    with serial_blas() as n:
+        inside = parameter_columns(d, [1e-3, 0.05, 1.0], [1e-4])
+        assert all(fn(1) == 1 for fn in _openblas_libraries())  # one thread inside
+    np.testing.assert_array_equal(inside, ref)
+    assert n == len(_openblas_libraries())
