@@ -5,7 +5,9 @@ The accumulating step ``fl_acc(acc, d) -> acc_next`` and the recording step ``fl
 evaluate them over ``nsteps`` samples and many accumulator columns (one per grid point), with
 the same interface and the same results:
 
-* :class:`NativeRunner` (default): CasADi generates the C code of both steps; the driver
+* :class:`~fl_design.sim._lanes.LanesRunner` (default, :func:`make_runner`): grids run on W grid
+  points per SIMD vector (:mod:`fl_design.sim._lanes`); a recorded run goes to
+* :class:`NativeRunner`: CasADi generates the C code of both steps; the driver
   template ``templates/kernel_driver.c.in`` appended to it loops over columns and samples
   (double-buffered accumulators, no copies) and stops a column as soon as it has diverged
   (the remaining samples of a frozen run only advance its counter ``k``, which the driver adds
