@@ -117,7 +117,7 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, cache_dir=None,
     True
     """
     cc = find_compiler()
-    if cc is None:
+    if cc is None or not native_macros(cc):  # no compiler, or no -march=native: scalar kernel
         return None
     maths = vector_math() if vector_math_ok else ()
     source = lanes_source(accumulate, indices, width=lane_width(cc), vector_math=maths)
@@ -161,21 +161,22 @@ class LanesRunner:
         self.vector_math = bool(vector_math)
         self._scalar_factory, self._scalar, self._lanes = scalar, None, None
         self._lock = threading.Lock()
-        self._threads = None
+        self._pools: list[tuple[int, ThreadPoolExecutor]] = []
 
     def _pool(self, n: int) -> ThreadPoolExecutor:
-        """Threads kept for the runner's life (a sweep calls :meth:`run` once per chunk)."""
+        """Threads kept for the runner's life (a sweep calls :meth:`run` once per chunk).
+
+        A larger request adds a larger pool; pools are only shut down with the runner, so a
+        concurrent :meth:`run` never meets a closed one.
+        """
         with self._lock:
-            if self._threads is None or self._threads[0] < n:
-                if self._threads is not None:
-                    self._threads[1].shutdown(wait=False)
-                self._threads = (n, ThreadPoolExecutor(n, thread_name_prefix="fl_lanes"))
-            return self._threads[1]
+            if not self._pools or self._pools[-1][0] < n:
+                self._pools.append((n, ThreadPoolExecutor(n, thread_name_prefix="fl_lanes")))
+            return self._pools[-1][1]
 
     def __del__(self):
-        threads = getattr(self, "_threads", None)
-        if threads is not None:
-            threads[1].shutdown(wait=False)
+        for _, pool in getattr(self, "_pools", ()):
+            pool.shutdown(wait=False)
 
     @property
     def scalar(self):
