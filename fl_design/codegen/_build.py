@@ -36,6 +36,7 @@ Examples
 from __future__ import annotations
 
 import atexit
+import functools
 import hashlib
 import json
 import os
@@ -57,6 +58,12 @@ CFLAGS = ("-O3", "-std=c99", "-fno-math-errno", "-fPIC")
 STRICT_CFLAGS = ("-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror")
 #: Suffix of the sidecar recording a cached file's size and SHA-256.
 SIDECAR_SUFFIX = ".json"
+#: Extra flags of kernels built for this machine only (the lanes kernel of the sweeps): its
+#: vector instruction set, ``omp simd`` loops without the OpenMP runtime, no floating-point
+#: contraction (every operation rounds as in CasADi's interpreter) and no trapping math (lets
+#: ``floor`` vectorise; values and NaN propagation unchanged). Still no ``-ffast-math``. The
+#: cache key then includes the compiler's view of this CPU (:func:`native_macros`).
+NATIVE_CFLAGS = ("-march=native", "-fopenmp-simd", "-ffp-contract=off", "-fno-trapping-math")
 
 _FALLBACK: dict[str, Path] = {}  # the process's private temporary cache, made on first need
 
@@ -234,7 +241,43 @@ class _CompileFailed(Exception):
     pass
 
 
-def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: list[str]) -> Path:
+@functools.lru_cache(maxsize=4)
+def native_macros(compiler: str | None = None) -> frozenset:
+    """Macros the compiler predefines with ``-march=native`` (e.g. ``__AVX512F__``).
+
+    Empty when there is no compiler or it does not understand the flag.
+
+    Parameters
+    ----------
+    compiler : str, optional
+        Compiler executable (default :func:`find_compiler`).
+
+    Returns
+    -------
+    frozenset of str
+
+    Examples
+    --------
+    >>> from fl_design.codegen._build import native_macros
+    >>> isinstance(native_macros(), frozenset)
+    True
+    """
+    cc = compiler or find_compiler()
+    if cc is None:
+        return frozenset()
+    try:
+        proc = subprocess.run([cc, "-march=native", "-dM", "-E", "-x", "c", os.devnull],
+                              capture_output=True, text=True, timeout=60, check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return frozenset()
+    if proc.returncode != 0:
+        return frozenset()
+    return frozenset(line.split()[1] for line in proc.stdout.splitlines()
+                     if line.startswith("#define ") and len(line.split()) > 1)
+
+
+def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: list[str],
+                  libs: tuple = ()) -> Path:
     """Compile into ``directory / out_name`` (atomically) and record the sidecar."""
     out = directory / out_name
     if verified(out):
@@ -242,7 +285,7 @@ def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: l
     with tempfile.TemporaryDirectory(dir=directory) as tmp:
         (Path(tmp) / f"{name}.c").write_text(source)
         try:  # relative names in a fixed folder: the same source gives the same bytes
-            proc = subprocess.run([*cmd, f"{name}.c", "-o", out_name, "-lm"], cwd=tmp,
+            proc = subprocess.run([*cmd, f"{name}.c", "-o", out_name, *libs, "-lm"], cwd=tmp,
                                   capture_output=True, text=True, timeout=900, check=False)
             error = None if proc.returncode == 0 else (proc.stderr.strip()[-400:] or "failed")
         except subprocess.TimeoutExpired as exc:
@@ -260,7 +303,8 @@ def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: l
 
 
 def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
-          compiler: str | Sequence[str] | None = None) -> Path | None:
+          compiler: str | Sequence[str] | None = None, extra_flags: tuple = (),
+          libs: tuple = ()) -> Path | None:
     """Compile ``source`` once (cached by hash, verified); the library/executable path, or None.
 
     Returns None, with a :class:`~fl_design.errors.CompilationWarning`, when no compiler is
@@ -280,6 +324,9 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
         warning, when it cannot be written.
     compiler : str or sequence of str, optional
         Compiler executable, or command with flags; default :func:`compiler_command`.
+    extra_flags, libs : tuple of str, optional
+        More compiler flags (e.g. :data:`NATIVE_CFLAGS`) and libraries (``"-lmvec"``); with
+        ``-march=native`` the cache key also holds :func:`native_macros`.
 
     Examples
     --------
@@ -296,12 +343,18 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
                       "3-20x slower", CompilationWarning, stacklevel=3)
         return None
     flags = [*CFLAGS, "-shared"] if shared else list(CFLAGS)
-    key = hashlib.sha256("\n".join([source, *cmd, *flags, ca.__version__]).encode()).hexdigest()
+    parts = [source, *cmd, *flags, ca.__version__]
+    if extra_flags or libs:
+        parts += [*extra_flags, *libs]
+        if "-march=native" in extra_flags:
+            parts += sorted(native_macros(cmd[0]))
+        flags += list(extra_flags)
+    key = hashlib.sha256("\n".join(parts).encode()).hexdigest()
     out_name = f"{name}_{key[:24]}{'.so' if shared else '.bin'}"
     problems = []
     for where in (lambda: cache_directory(cache_dir), _fallback_directory):
         try:
-            out = _compile_into(where(), out_name, source, name, [*cmd, *flags])
+            out = _compile_into(where(), out_name, source, name, [*cmd, *flags], tuple(libs))
         except _CompileFailed as exc:
             warnings.warn(f"compiling {name} with {shlex.join(cmd)} failed ({exc}); it runs in "
                           "CasADi's interpreter, with the same results but slower",
@@ -323,5 +376,6 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
     return None
 
 
-__all__ = ["CFLAGS", "SIDECAR_SUFFIX", "STRICT_CFLAGS", "build", "cache_directory",
-           "compiler_command", "find_compiler", "generate_source", "verified"]
+__all__ = ["CFLAGS", "NATIVE_CFLAGS", "SIDECAR_SUFFIX", "STRICT_CFLAGS", "build",
+           "cache_directory", "compiler_command", "find_compiler", "generate_source",
+           "native_macros", "verified"]

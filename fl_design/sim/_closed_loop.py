@@ -227,19 +227,34 @@ class ClosedLoop:
 
     # --- the functions --------------------------------------------------------------------------
     @functools.cached_property
-    def plant_step(self) -> ca.Function:
-        """``fl_rk4(x, u) -> x_next`` (classical RK4, ``substeps`` steps, u held)."""
+    def rk4_step(self) -> ca.Function:
+        """``fl_rk4_step(x, u) -> x_next``: ONE classical RK4 step of ``h = T / substeps``."""
         f = self.plant.casadi().f
         x, u = ca.SX.sym("x", self.n), ca.SX.sym("u")
         h = self.T / self.substeps
-        xk = x
-        for _ in range(self.substeps):
-            k1 = f(xk, u)
-            k2 = f(xk + (h / 2) * k1, u)
-            k3 = f(xk + (h / 2) * k2, u)
-            k4 = f(xk + h * k3, u)
-            xk = xk + (h / 6) * (k1 + 2 * k2 + 2 * k3 + k4)
-        return ca.Function("fl_rk4", [x, u], [xk], ["x", "u"], ["x_next"])
+        k1 = f(x, u)
+        k2 = f(x + (h / 2) * k1, u)
+        k3 = f(x + (h / 2) * k2, u)
+        k4 = f(x + h * k3, u)
+        x_next = x + (h / 6) * (k1 + 2 * k2 + 2 * k3 + k4)
+        return ca.Function("fl_rk4_step", [x, u], [x_next], ["x", "u"], ["x_next"])
+
+    @functools.cached_property
+    def plant_step(self) -> ca.Function:
+        """``fl_rk4(x, u) -> x_next`` (classical RK4, ``substeps`` steps, u held).
+
+        One substep is inlined into the graphs that call it; more are a ``fold`` of
+        :attr:`rk4_step` that callers keep as one call (``never_inline``): generated C loops
+        over the substeps, so its size does not grow with them.
+        """
+        x, u = ca.SX.sym("x", self.n), ca.SX.sym("u")
+        if self.substeps == 1:
+            return ca.Function("fl_rk4", [x, u], [self.rk4_step(x, u)], ["x", "u"],
+                               ["x_next"])
+        X, U = ca.MX.sym("x", self.n), ca.MX.sym("u")
+        x_next = self.rk4_step.fold(self.substeps)(X, ca.repmat(U, 1, self.substeps))
+        return ca.Function("fl_rk4", [X, U], [x_next], ["x", "u"], ["x_next"],
+                           {"never_inline": True})
 
     @functools.cached_property
     def coordinates(self) -> ca.Function:
@@ -346,7 +361,7 @@ class ClosedLoop:
         return ca.Function("fl_rec", [acc, d], [acc_next, out], ["acc", "d"],
                            ["acc_next", "out"])
 
-    def runner(self, *, compiled: bool = True, cache_dir=None):
+    def runner(self, *, compiled: bool = True, cache_dir=None, kernel=None):
         """The runner of :attr:`accumulate` / :attr:`record` (see :mod:`fl_design.sim._runners`).
 
         Parameters
@@ -355,10 +370,13 @@ class ClosedLoop:
             Generated C + driver, compiled and cached (default), or CasADi's interpreter.
         cache_dir : path-like, optional
             Cache of compiled kernels (default ``$FL_DESIGN_CACHE`` or ``~/.cache/fl_design``).
+        kernel : Kernel, optional
+            All kernel options at once (overrides ``compiled`` and ``cache_dir``; also
+            ``lanes`` and ``vector_math``).
 
         Returns
         -------
-        NativeRunner or InterpretedRunner
+        LanesRunner, NativeRunner or InterpretedRunner
 
         Examples
         --------
@@ -372,6 +390,10 @@ class ClosedLoop:
 
         sl = self.layout.slices
         indices = {"k": sl["k"].start, "div": sl["diverged"].start, "N": sl["N"].start}
+        if kernel is not None:
+            return make_runner(self.accumulate, self.record, indices, compiled=kernel.compiled,
+                               cache_dir=kernel.cache_dir, lanes=kernel.lanes,
+                               vector_math=kernel.vector_math)
         return make_runner(self.accumulate, self.record, indices, compiled=compiled,
                            cache_dir=cache_dir)
 

@@ -35,27 +35,26 @@ _RUNNERS: OrderedDict = OrderedDict()  # per-process memo: loop structure -> run
 _RUNNERS_LOCK = threading.Lock()
 
 
-def _runner(run: RunSetup, compiled: bool, cache_dir):
+def _runner(run: RunSetup, kernel: Kernel):
     """The runner of ``run.loop``, memoised per process (tasks of one sweep share it)."""
     try:
-        key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps, compiled,
-                            None if cache_dir is None else str(cache_dir)))
+        key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps, kernel))
     except (pickle.PicklingError, TypeError, AttributeError):  # unpicklable: no memo
-        return run.loop.runner(compiled=compiled, cache_dir=cache_dir)
+        return run.loop.runner(kernel=kernel)
     with _RUNNERS_LOCK:
         if key in _RUNNERS:
             _RUNNERS.move_to_end(key)
             return _RUNNERS[key]
-        runner = run.loop.runner(compiled=compiled, cache_dir=cache_dir)
+        runner = run.loop.runner(kernel=kernel)
         _RUNNERS[key] = runner
         while len(_RUNNERS) > 8:
             _RUNNERS.popitem(last=False)
         return runner
 
 
-def _run_chunk(run: RunSetup, P: np.ndarray, compiled: bool, cache_dir, threads: int):
+def _run_chunk(run: RunSetup, P: np.ndarray, kernel: Kernel, threads: int):
     """One task: the final accumulators of the parameter columns ``P`` (module level: picklable)."""
-    runner = _runner(run, compiled, cache_dir)
+    runner = _runner(run, kernel)
     return runner.run(run.initial_accumulator(P), run.D, threads=threads)
 
 
@@ -170,7 +169,7 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
     kernel = Kernel() if kernel is None else kernel
     if not isinstance(kernel, Kernel):
         raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
-    compiled, cache_dir, threads = kernel.compiled, kernel.cache_dir, kernel.threads
+    threads = kernel.threads
     n_runs = P.shape[1]
     chunk = kernel.chunk_size if kernel.chunk_size is not None else 64
     pieces = [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
@@ -180,13 +179,13 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
         if executor is None:
             n_thr = threads if threads is not None else _cores()
             for a, b in pieces:
-                out[:, a:b] = _run_chunk(run, P[:, a:b], compiled, cache_dir, n_thr)
+                out[:, a:b] = _run_chunk(run, P[:, a:b], kernel, n_thr)
                 bar.update(b - a)
         else:
             if not isinstance(executor, Executor):
                 raise ParameterError(f"executor must be a concurrent.futures.Executor (e.g. "
                                      f"a Dask client.get_executor()), got {executor!r}")
-            futures = {executor.submit(_run_chunk, run, P[:, a:b], compiled, cache_dir,
+            futures = {executor.submit(_run_chunk, run, P[:, a:b], kernel,
                                        threads or 1): (a, b) for a, b in pieces}
             for fut in as_completed(futures):
                 a, b = futures[fut]

@@ -243,6 +243,15 @@ class Kernel:
         executor).
     chunk_size : int, optional
         Grid points per chunk/task of a sweep (default 64).
+    lanes : bool, optional
+        Sweeps run several grid points per SIMD vector (the lanes kernel, default True) or
+        one at a time (the scalar kernel).
+    vector_math : bool, optional
+        Lanes kernel with libmvec's vector ``tanh``/``sin``/``exp`` (fast; last-bit
+        differences from the scalar functions, so results agree to about 1e-9 relative and in
+        every classification) or glibc's scalar functions (bitwise the results of the scalar
+        kernel and the interpreter, slower). Default: vector math unless
+        ``$FL_DESIGN_VECTOR_MATH=0``.
 
     Raises
     ------
@@ -260,9 +269,14 @@ class Kernel:
     cache_dir: Any = None
     threads: int | None = None
     chunk_size: int | None = None
+    lanes: bool = True
+    vector_math: bool | None = None
 
     def __post_init__(self) -> None:
         V.boolean("compiled", self.compiled)
+        V.boolean("lanes", self.lanes)
+        if self.vector_math is not None:
+            V.boolean("vector_math", self.vector_math)
         if self.threads is not None:
             V.integer("threads", self.threads, minimum=1)
         if self.chunk_size is not None:
@@ -279,7 +293,8 @@ class Kernel:
         """
         return {"compiled": bool(self.compiled),
                 "cache_dir": None if self.cache_dir is None else str(self.cache_dir),
-                "threads": self.threads, "chunk_size": self.chunk_size}
+                "threads": self.threads, "chunk_size": self.chunk_size, "lanes": self.lanes,
+                "vector_math": self.vector_math}
 
 
 __all__ = ["RK4", "Classifier", "Cvodes", "Kernel", "Noise", "Scenario"]

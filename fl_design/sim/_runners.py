@@ -5,7 +5,9 @@ The accumulating step ``fl_acc(acc, d) -> acc_next`` and the recording step ``fl
 evaluate them over ``nsteps`` samples and many accumulator columns (one per grid point), with
 the same interface and the same results:
 
-* :class:`NativeRunner` (default): CasADi generates the C code of both steps; the driver
+* :class:`~fl_design.sim._lanes.LanesRunner` (default, :func:`make_runner`): grids run on W grid
+  points per SIMD vector (:mod:`fl_design.sim._lanes`); a recorded run goes to
+* :class:`NativeRunner`: CasADi generates the C code of both steps; the driver
   template ``templates/kernel_driver.c.in`` appended to it loops over columns and samples
   (double-buffered accumulators, no copies) and stops a column as soon as it has diverged
   (the remaining samples of a frozen run only advance its counter ``k``, which the driver adds
@@ -36,6 +38,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import math
+import os
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
@@ -43,7 +46,7 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from ..codegen import build, generate_source
+from ..codegen import build, find_compiler, generate_source
 from ..codegen._build import verified
 from ..errors import CompilationWarning, ComputationError
 
@@ -136,7 +139,7 @@ class NativeRunner:
         >>> callable(NativeRunner.record)
         True
         """
-        a = np.ascontiguousarray(np.asarray(acc, dtype=float).ravel())
+        a = np.array(acc, dtype=float).ravel()  # a copy: the caller's acc is not changed
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
         out = np.empty((d.shape[0], self.nout))
         if self._lib.fl_record(a, d, d.shape[0], out):
@@ -271,8 +274,12 @@ def fill_template(text: str, values: dict) -> str:
 
 
 def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
-                compiled: bool = True, cache_dir=None):
-    """A :class:`NativeRunner` (compiled, cached) or an :class:`InterpretedRunner`.
+                compiled: bool = True, cache_dir=None, lanes: bool = True,
+                vector_math: bool | None = None):
+    """A :class:`~fl_design.sim._lanes.LanesRunner`, a :class:`NativeRunner` or an interpreter.
+
+    Compiled runners are built (and cached) on first use by the lanes runner: the lanes
+    kernel for grids, the scalar :class:`NativeRunner` for recorded runs.
 
     With ``compiled=True`` and no working compiler, the interpreted runner is returned with a
     :class:`~fl_design.errors.CompilationWarning`.
@@ -287,6 +294,12 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
         Compile to C (default) or interpret.
     cache_dir : path-like, optional
         See :func:`fl_design.codegen.cache_directory`.
+    lanes : bool, optional
+        With ``compiled``: the lanes kernel for grids (default) or the scalar one only.
+    vector_math : bool, optional
+        Lanes kernel with libmvec's vector math or glibc's scalar functions (bitwise the
+        results of the scalar kernel and of the interpreter; slower). Default: vector math
+        unless the environment variable ``FL_DESIGN_VECTOR_MATH`` is ``0``.
 
     Examples
     --------
@@ -294,6 +307,15 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
     >>> callable(make_runner)
     True
     """
+    if compiled and lanes and find_compiler() is not None:
+        from ._lanes import LanesRunner
+
+        scalar = functools.partial(make_runner, accumulate, record, indices, compiled=True,
+                                   cache_dir=cache_dir, lanes=False)
+        if vector_math is None:
+            vector_math = os.environ.get("FL_DESIGN_VECTOR_MATH", "1").strip() != "0"
+        return LanesRunner(accumulate, record, indices, cache_dir=cache_dir, scalar=scalar,
+                           vector_math=vector_math)
     if compiled:
         source = runner_source(accumulate, record, indices)
         for _ in range(3):  # a library changed between build and load is rebuilt

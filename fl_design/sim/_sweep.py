@@ -187,7 +187,7 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     if not isinstance(kernel, Kernel):
         raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier)
-    runner = run.loop.runner(compiled=kernel.compiled, cache_dir=kernel.cache_dir)
+    runner = run.loop.runner(kernel=kernel)
     history = []
 
     def stable(e: float) -> bool:

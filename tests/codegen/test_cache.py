@@ -36,7 +36,7 @@ def bench():
 
 def _record(bench, cache_dir):
     run, _, acc0 = bench
-    runner = run.loop.runner(compiled=True, cache_dir=cache_dir)
+    runner = run.loop.runner(kernel=fl.Kernel(cache_dir=cache_dir, lanes=False))
     assert isinstance(runner, NativeRunner)
     return runner.record(acc0.copy(), run.D)  # the native runner writes into its input
 
@@ -101,7 +101,7 @@ def test_a_library_changed_after_each_build_ends_in_the_interpreter(bench, tmp_p
     run = bench[0]
     monkeypatch.setattr(_runners, "verified", lambda path: False)
     with pytest.warns(CompilationWarning, match="after 3 rebuilds") as caught:
-        runner = run.loop.runner(compiled=True, cache_dir=tmp_path)
+        runner = run.loop.runner(kernel=fl.Kernel(cache_dir=tmp_path, lanes=False))
     assert isinstance(runner, InterpretedRunner) and len(caught) == 1
 
 
@@ -168,7 +168,7 @@ def test_when_no_directory_can_be_written_the_interpreter_runs_with_one_warning(
         OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))))
     run, _, acc0 = bench
     with pytest.warns(CompilationWarning, match="interpreter") as caught:
-        runner = run.loop.runner(compiled=True, cache_dir=_regular_file(tmp_path))
+        runner = run.loop.runner(kernel=fl.Kernel(cache_dir=_regular_file(tmp_path), lanes=False))
     assert len(caught) == 1 and "temporary directory" in str(caught[0].message)
     assert isinstance(runner, InterpretedRunner)
     np.testing.assert_allclose(runner.record(acc0.copy(), run.D)[1], clean[1], rtol=1e-12, atol=1e-14)
