@@ -6,6 +6,13 @@ chunks of columns run in the compiled kernel (or the interpreter) in this proces
 pools, a Dask cluster's ``client.get_executor()``); results do not depend on how the grid is
 cut.
 
+Bounded work, interruptible: a chunk advances its runs in blocks of samples sized to take
+about :data:`BLOCK_SECONDS` each, so Ctrl-C (``KeyboardInterrupt``) reaches Python within a
+fraction of a second; pending tasks of an executor are then cancelled and the interrupt is
+re-raised (compiled kernels are only read, so the cache stays sound). Parameter columns are
+built chunk by chunk (the first results and progress come at once, whatever the grid size),
+and a grid whose results would not fit in :func:`max_memory` is refused up front.
+
 Examples
 --------
 >>> import fl_design as fl
@@ -26,7 +33,7 @@ from concurrent.futures import Executor, as_completed
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, ResourceLimitError
 from ._options import Kernel
 from ._run import RunSetup
 
@@ -52,10 +59,101 @@ def _runner(run: RunSetup, kernel: Kernel):
         return runner
 
 
+#: Target duration of one kernel call; Ctrl-C waits at most about this long.
+BLOCK_SECONDS = 0.2
+#: Pessimistic cost of one closed-loop step of one run (the scalar kernel under load).
+_STEP_SECONDS = 400e-9
+#: Environment variable lifting the default memory limit of a grid's results.
+MAX_MEMORY_ENV = "FL_DESIGN_MAX_MEMORY_GB"
+
+
+def max_memory() -> float:
+    """Bytes a grid's results may take: ``$FL_DESIGN_MAX_MEMORY_GB`` GiB, default 4 GiB.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from fl_design.sim._grid import max_memory
+    >>> max_memory() >= 2**30
+    True
+    """
+    text = os.environ.get(MAX_MEMORY_ENV, "").strip()
+    try:
+        return float(text) * 2**30 if text else 4.0 * 2**30
+    except ValueError:
+        raise ParameterError(f"${MAX_MEMORY_ENV}={text!r} must be a number of GiB") from None
+
+
+def block_length(ncols: int, threads: int, compiled: bool) -> int:
+    """Samples per kernel call so that one call takes about :data:`BLOCK_SECONDS`.
+
+    Parameters
+    ----------
+    ncols : int
+        Runs advanced together.
+    threads : int
+        Threads sharing them.
+    compiled : bool
+        Compiled kernel (else the interpreter, about 20x slower per step).
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from fl_design.sim._grid import block_length
+    >>> block_length(64, 2, True) > block_length(64, 2, False)
+    True
+    """
+    per_sample = _STEP_SECONDS * (1 if compiled else 20) * max(1, ncols) / max(1, threads)
+    return max(64, int(BLOCK_SECONDS / per_sample))
+
+
 def _run_chunk(run: RunSetup, P: np.ndarray, kernel: Kernel, threads: int):
-    """One task: the final accumulators of the parameter columns ``P`` (module level: picklable)."""
+    """One task: the final accumulators of the parameter columns ``P`` (module level: picklable).
+
+    The samples are run in blocks (:func:`block_length`): a kernel call returns within about
+    :data:`BLOCK_SECONDS`, so an interrupt is handled between blocks.
+    """
     runner = _runner(run, kernel)
-    return runner.run(run.initial_accumulator(P), run.D, threads=threads)
+    acc, D = run.initial_accumulator(P), run.D
+    block = block_length(acc.shape[1], threads, kernel.compiled)
+    for a in range(0, D.shape[1], block):
+        acc = runner.run(acc, D[:, a:a + block], threads=threads)
+    return acc
+
+
+class _Columns:
+    """Parameter columns of an (eps, gamma) grid, built chunk by chunk (eps-major)."""
+
+    def __init__(self, design, eps, gamma):
+        self.design, self.lay = design, design.parameter_layout
+        self.eps = np.atleast_1d(eps).astype(float)
+        self.gamma = np.atleast_1d(gamma).astype(float)
+        self.n = self.eps.size * self.gamma.size
+        self._estimator: dict[int, np.ndarray] = {}
+
+    def _est(self, i: int) -> np.ndarray:
+        if i not in self._estimator:
+            from ._lanes_blas import serial_blas
+
+            with serial_blas():
+                est = self.design.estimator.replace(eps=float(self.eps[i]))
+                self._estimator[i] = est.parameter_vector()
+        return self._estimator[i]
+
+    def __call__(self, a: int, b: int) -> np.ndarray:
+        idx = np.arange(a, b)
+        rows, cols = idx // self.gamma.size, idx % self.gamma.size
+        P = np.empty((self.lay.size, b - a))
+        for i in np.unique(rows):
+            P[self.lay["estimator"], rows == i] = self._est(int(i))[:, None]
+        P[self.lay["gamma"]] = self.gamma[cols]
+        return P
 
 
 class _Progress:
@@ -112,14 +210,8 @@ def parameter_columns(design, eps, gamma) -> np.ndarray:
     >>> parameter_columns(d, [0.1], [1e-3, 2e-3])[-1].tolist()
     [0.001, 0.002]
     """
-    lay = design.parameter_layout
-    eps, gamma = np.atleast_1d(eps).astype(float), np.atleast_1d(gamma).astype(float)
-    P = np.empty((lay.size, eps.size * gamma.size))
-    for i, e in enumerate(eps):
-        cols = slice(i * gamma.size, (i + 1) * gamma.size)
-        P[lay["estimator"], cols] = design.estimator.replace(eps=float(e)).parameter_vector()[:, None]
-        P[lay["gamma"], cols] = gamma
-    return P
+    columns = _Columns(design, eps, gamma)
+    return columns(0, columns.n)
 
 
 def _cores() -> int:
@@ -129,7 +221,7 @@ def _cores() -> int:
     return os.cpu_count() or 1
 
 
-def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
+def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
              executor: Executor | None = None, progress: bool = True,
              desc: str = "sweep") -> np.ndarray:
     """Final accumulators of the runs with parameter columns ``P``, chunked.
@@ -138,8 +230,9 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
     ----------
     run : RunSetup
         Loop, samples and constants shared by every run.
-    P : numpy.ndarray
-        ``(n_p, n_runs)`` design parameter vectors.
+    P : numpy.ndarray or callable
+        ``(n_p, n_runs)`` design parameter vectors, or a column source ``P(a, b) ->
+        (n_p, b - a)`` with attribute ``n`` (the number of runs), built chunk by chunk.
     kernel : Kernel, optional
         Compiled or interpreted, cache, threads per process and chunk size (default
         ``fl.Kernel()``).
@@ -169,8 +262,13 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
     kernel = Kernel() if kernel is None else kernel
     if not isinstance(kernel, Kernel):
         raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
+    if executor is not None and not isinstance(executor, Executor):
+        raise ParameterError(f"executor must be a concurrent.futures.Executor (e.g. "
+                             f"a Dask client.get_executor()), got {executor!r}")
+    columns = P if callable(P) else (lambda a, b: P[:, a:b])
+    n_runs = int(P.n) if callable(P) else int(np.shape(P)[1])
+    _check_memory(run, n_runs)
     threads = kernel.threads
-    n_runs = P.shape[1]
     chunk = kernel.chunk_size if kernel.chunk_size is not None else 64
     pieces = [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
     out = np.empty((run.loop.layout.size, n_runs))
@@ -179,21 +277,39 @@ def run_grid(run: RunSetup, P: np.ndarray, *, kernel: Kernel | None = None,
         if executor is None:
             n_thr = threads if threads is not None else _cores()
             for a, b in pieces:
-                out[:, a:b] = _run_chunk(run, P[:, a:b], kernel, n_thr)
+                out[:, a:b] = _run_chunk(run, columns(a, b), kernel, n_thr)
                 bar.update(b - a)
         else:
-            if not isinstance(executor, Executor):
-                raise ParameterError(f"executor must be a concurrent.futures.Executor (e.g. "
-                                     f"a Dask client.get_executor()), got {executor!r}")
-            futures = {executor.submit(_run_chunk, run, P[:, a:b], kernel,
-                                       threads or 1): (a, b) for a, b in pieces}
-            for fut in as_completed(futures):
-                a, b = futures[fut]
-                out[:, a:b] = fut.result()
-                bar.update(b - a)
+            _run_tasks(executor, run, columns, pieces, kernel, threads or 1, out, bar)
     finally:
         bar.close()
     return out
+
+
+def _check_memory(run: RunSetup, n_runs: int) -> None:
+    need = 8.0 * n_runs * (run.loop.layout.size + 2 * (run.loop.rho + 16))
+    limit = max_memory()
+    if need > limit:
+        raise ResourceLimitError(
+            f"a grid of {n_runs:.3g} runs needs about {need / 2**30:.3g} GiB for its results, "
+            f"above the limit of {limit / 2**30:.3g} GiB; use a coarser grid, or raise the "
+            f"limit with ${MAX_MEMORY_ENV}")
+
+
+def _run_tasks(executor, run, columns, pieces, kernel, threads, out, bar) -> None:
+    """Submit the chunks as tasks; on an interrupt cancel the pending ones and re-raise."""
+    futures = {}
+    try:
+        for a, b in pieces:
+            futures[executor.submit(_run_chunk, run, columns(a, b), kernel, threads)] = (a, b)
+        for fut in as_completed(futures):
+            a, b = futures[fut]
+            out[:, a:b] = fut.result()
+            bar.update(b - a)
+    except BaseException:
+        for fut in futures:
+            fut.cancel()
+        raise
 
 
 __all__ = ["parameter_columns", "run_grid"]

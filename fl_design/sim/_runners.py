@@ -177,17 +177,28 @@ class InterpretedRunner:
         self.nacc = int(accumulate.size1_in(0))
         self.nout = int(record.size1_out(1))
         self.block = int(block)
-        self._fold = accumulate.fold(self.block)
-        self._mapaccum = record.mapaccum("fl_rec_acc", self.block)
+        self._accumulate, self._record = accumulate, record
+        self._folds: dict[int, ca.Function] = {}
+        self._mapaccums: dict[int, ca.Function] = {}
+
+    def _fold(self, n: int) -> ca.Function:
+        if n not in self._folds:
+            self._folds[n] = self._accumulate.fold(n)
+        return self._folds[n]
+
+    def _mapaccum(self, n: int) -> ca.Function:
+        if n not in self._mapaccums:
+            self._mapaccums[n] = self._record.mapaccum("fl_rec_acc", n)
+        return self._mapaccums[n]
 
     def _blocks(self, D: np.ndarray):
+        """Consecutive segments of ``D``; the last one exactly as long as what is left (no
+        padding: samples past the given ones must not be run, the run may continue later)."""
         D = np.asarray(D, dtype=float)
         nsteps = D.shape[1]
         for start in range(0, nsteps, self.block):
             seg = D[:, start:start + self.block]
-            if seg.shape[1] < self.block:
-                seg = np.hstack([seg, np.zeros((2, self.block - seg.shape[1]))])
-            yield start, min(self.block, nsteps - start), seg
+            yield start, seg.shape[1], seg
 
     def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """As :meth:`NativeRunner.run` (``threads`` is ignored).
@@ -199,10 +210,10 @@ class InterpretedRunner:
         True
         """
         acc = np.asarray(acc, dtype=float).reshape(self.nacc, -1)
-        mapped = self._fold.map("fl_fold_map", "serial", acc.shape[1], [1], [])
         i_k, i_div, i_n = self.indices["k"], self.indices["div"], self.indices["N"]
         nsteps = np.shape(D)[1]
         for start, used, seg in self._blocks(D):
+            mapped = self._fold(used).map("fl_fold_map", "serial", acc.shape[1], [1], [])
             acc = np.asarray(mapped(acc, seg), dtype=float).reshape(self.nacc, -1)
             if np.all(acc[i_div] != 0):  # all frozen: the remaining samples only advance k
                 acc[i_k] = np.minimum(acc[i_n], acc[i_k] + (nsteps - start - used))
@@ -221,7 +232,7 @@ class InterpretedRunner:
         a = np.asarray(acc, dtype=float).ravel()
         outs = []
         for _, used, seg in self._blocks(D):
-            accs, out = self._mapaccum(a, seg)
+            accs, out = self._mapaccum(used)(a, seg)
             a = np.asarray(accs, dtype=float)[:, -1]
             outs.append(np.asarray(out, dtype=float)[:, :used])
         return a, np.hstack(outs)

@@ -30,7 +30,7 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import ParameterError
-from ._grid import parameter_columns, run_grid
+from ._grid import _Columns, run_grid
 from ._metrics import Status, metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario
 from ._run import RunSetup, prepare_run
@@ -124,8 +124,8 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
     _require_eps(design)
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier)
-    P = parameter_columns(design, eps_grid, gamma_grid)
-    acc = run_grid(run, P, kernel=kernel, executor=executor, progress=progress)
+    acc = run_grid(run, _Columns(design, eps_grid, gamma_grid), kernel=kernel,
+                   executor=executor, progress=progress)
     status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
                         T=run.T, duration=run.N * run.T, tol=run.tol)
