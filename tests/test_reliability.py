@@ -91,7 +91,7 @@ def test_a_huge_least_squares_window_is_refused_up_front(monkeypatch):
     with pytest.raises(ResourceLimitError, match="limit of 20 samples"):
         fl.LeastSquaresEstimator(2, 1e-3, window=21)
     monkeypatch.setenv("FL_DESIGN_MAX_WINDOW", "many")
-    with pytest.raises(ParameterError, match=r"\$FL_DESIGN_MAX_WINDOW='many' must be an integer"):
+    with pytest.raises(ParameterError, match=r"\$FL_DESIGN_MAX_WINDOW='many' must be a positive number"):
         fl.LeastSquaresEstimator(2, 1e-3, window=21)
 
 

@@ -19,13 +19,13 @@ array([1.039083, 2.114   , 6.      ])
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
 
 from .. import _validate as v
+from .._limits import env_limit
 from ..errors import DimensionError, ParameterError, ResourceLimitError
 from ._estimator import Estimator, as_casadi, check_length, rows
 
@@ -44,14 +44,7 @@ def max_window() -> int:
     >>> max_window() >= 26
     True
     """
-    text = os.environ.get(MAX_WINDOW_ENV, "").strip()
-    if not text:
-        return MAX_WINDOW
-    try:
-        return int(text)
-    except ValueError:
-        raise ParameterError(f"${MAX_WINDOW_ENV}={text!r} must be an integer number of samples"
-                             ) from None
+    return env_limit(MAX_WINDOW_ENV, MAX_WINDOW, unit="samples")
 
 
 def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarray:

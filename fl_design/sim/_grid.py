@@ -33,6 +33,7 @@ from concurrent.futures import Executor, as_completed
 
 import numpy as np
 
+from .._limits import env_limit
 from ..errors import ParameterError, ResourceLimitError
 from ._options import Kernel
 from ._run import RunSetup
@@ -80,11 +81,7 @@ def max_memory() -> float:
     >>> max_memory() >= 2**30
     True
     """
-    text = os.environ.get(MAX_MEMORY_ENV, "").strip()
-    try:
-        return float(text) * 2**30 if text else 4.0 * 2**30
-    except ValueError:
-        raise ParameterError(f"${MAX_MEMORY_ENV}={text!r} must be a number of GiB") from None
+    return env_limit(MAX_MEMORY_ENV, 4.0 * 2**30, unit="GiB", scale=2**30, integer=False)
 
 
 def block_length(ncols: int, threads: int, compiled: bool) -> int:

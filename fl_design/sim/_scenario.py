@@ -10,13 +10,13 @@ Examples
 
 from __future__ import annotations
 
-import os
 from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .. import _validate as V
+from .._limits import env_limit
 from ..errors import DimensionError, ParameterError, ResourceLimitError
 
 #: Environment variable lifting the default limit :data:`MAX_SAMPLES` on a run's length.
@@ -38,13 +38,7 @@ def max_samples() -> int:
     >>> max_samples() >= 10**6
     True
     """
-    text = os.environ.get(MAX_SAMPLES_ENV, "").strip()
-    if not text:
-        return MAX_SAMPLES
-    try:
-        return int(float(text))
-    except ValueError:
-        raise ParameterError(f"${MAX_SAMPLES_ENV}={text!r} must be a number of samples") from None
+    return env_limit(MAX_SAMPLES_ENV, MAX_SAMPLES, unit="samples")
 
 
 def _jsonable(value):
