@@ -187,7 +187,8 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     Raises
     ------
     ParameterError
-        A duration shorter than one sample, or an option object of the wrong type.
+        A duration shorter than one sample, a plant, design or option object of the wrong
+        type.
     DimensionError
         A reference array or ``x0`` or bound of the wrong length.
     DesignMismatchError
@@ -202,6 +203,11 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     >>> prepare_run(fl.plants.pendulum(), d, sc).r[[0, -1]]
     array([0. , 0.1])
     """
+    from ..design import Design
+    from ..symbolic import Plant
+
+    V.instance("plant", plant, Plant, "a fl.Plant (fl.Plant.from_ode or fl.plants.*)")
+    V.instance("design", design, Design, "a fl.Design(estimator=..., controller=...)")
     integrator = RK4() if integrator is None else integrator
     classifier = Classifier() if classifier is None else classifier
     for name, value, cls in (("scenario", scenario, Scenario), ("integrator", integrator, RK4),

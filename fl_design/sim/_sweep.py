@@ -63,6 +63,9 @@ def _assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray,
 
 
 def _require_eps(design) -> None:
+    from ..design import Design
+
+    V.instance("design", design, Design, "a fl.Design(estimator=..., controller=...)")
     if not design.estimator.has_time_constant:
         raise ParameterError(
             f"a sweep over eps needs an estimator with an observer time constant eps (fl.EHGO); "

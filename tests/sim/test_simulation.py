@@ -398,3 +398,11 @@ def test_verdicts_say_what_they_mean(pendulum):
                       fl.Scenario(0.05, 30.0))
     assert cyc.status == "oscillating" == status_from_trajectories(cyc) and cyc.bounded
     assert cyc.tail_amplitude > cyc.tol and "does not shrink" in cyc.verdict()
+
+
+def test_wrong_typed_plant_or_design_is_a_clear_error(pendulum, pendulum_design):
+    with pytest.raises(ParameterError, match="plant must be a fl.Plant.*got str 'x'"):
+        fl.simulate("x", pendulum_design(), fl.Scenario(0.1, 0.1))
+    with pytest.raises(ParameterError, match="design must be a fl.Design"):
+        fl.sweep(pendulum, fl.EHGO(2, 0.05, 1e-3), fl.Scenario(0.1, 0.1), eps=[0.1],
+                 gamma=[1e-2], progress=False)
