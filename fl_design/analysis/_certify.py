@@ -4,23 +4,34 @@
 plant is the chain of ``rho`` integrators with ``sigma = a^T x + b u`` (``a = 0`` unless
 ``a_jacobian_bounds`` are given) held over each sample (exact ZOH), closed by the design's own
 step (EHGO, clamps and saturation inactive, dynamic controller, integrator) at the design's
-``T``. A certificate at one ``eps`` is an LMI solution (:mod:`._lmi`, delta form, balanced)
-re-checked in NumPy:
+``T``. A certificate at one ``eps`` is a Lyapunov matrix, found in closed form
+(:mod:`._analytic`) or by an LMI (:mod:`._lmi`, delta form, balanced), re-checked in NumPy:
 
 * ``"common"``: one quadratic Lyapunov function for both ends of the ``b`` interval: the loop is
   exponentially stable for every sequence ``b_k`` in the interval (``b`` may vary from sample to
   sample);
-* ``"parameter-dependent"``: vertex matrices ``P_v`` with a common slack ``G`` on each of
-  ``pieces`` sub-intervals covering the interval: every *constant* ``b`` of the interval gives a
-  Schur loop (robust stability, not time variation).
+* ``"parameter-dependent"``: ``P(b)`` on each of ``pieces`` sub-intervals covering the
+  interval, either one closed-form modal ``P`` per piece (:mod:`._analytic`) or vertex matrices
+  ``P_v`` with a common slack ``G`` (LMI): every *constant* ``b`` of the interval gives a Schur
+  loop (robust stability, not time variation across pieces).
+
+**How a point is certified** (cheapest first): the frozen loops on the ``b`` grid must be
+Schur (else no Lyapunov function exists and nothing is solved); then closed-form modal
+Lyapunov candidates on adaptively halved pieces (down to ``max_pieces * MODAL_SPLIT`` pieces),
+each accepted only when the NumPy re-check of :func:`._lmi.recheck` passes at both ends of its
+piece (the vertex matrix is affine in ``Delta(b)``, so the ends cover the piece); then the
+LMIs (parameter-dependent on the whole interval, common ``P``, parameter-dependent on pieces).
+A search (eps*) that already found a closed-form certificate at this gamma skips the LMIs at
+larger eps: a point left uncertified is never unsound. The certificate's ``b_pieces`` and
+``lyapunov`` (``P`` per piece, the loop's coordinates) let anyone re-check it.
 
 ``eps_star_certified`` is the largest ``eps`` of a bisection (relative resolution ``rtol``)
 at which a certificate was found, searched below ``eps_star_frozen``; the certificate holds at
 that ``eps`` and at the design's own ``eps`` when ``certified`` says so, **not** at every eps
 in between (each eps is its own LMI). ``eps_star_frozen`` is the largest eps below which every
 frozen loop with ``b`` on an ``n_b``-point grid of the interval (ends included) is Schur, from a
-log-spaced scan and bisection: a frozen grid check, not a certificate. For ``b < 0`` the
-design's ``gamma`` is read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
+log-spaced scan refined to ``rtol / 10`` (secant steps, bracket kept): a frozen grid check, not
+a certificate. For ``b < 0`` the design's ``gamma`` is read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
 :class:`~fl_design.DynamicController` stores ``|gamma|``).
 
 Examples
@@ -420,7 +431,8 @@ def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
                    certified: bool = True) -> EpsStarCurve:
     """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
 
-    The certified search at each gamma starts from the ratio found at the previous one.
+    Continuation along the curve: the certified search at each gamma starts from the ratio
+    found at the previous one (tries ``hint * eps*_frozen``, then steps down by 0.95).
 
     Parameters
     ----------
