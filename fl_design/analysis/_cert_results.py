@@ -88,6 +88,14 @@ class PointCertificate(_Result):
         Smallest relative eigenvalue margin of the NumPy re-check.
     reason : str
         How it was certified, or why not.
+    b_pieces : tuple of (float, float)
+        The sub-intervals of ``|b|`` certified, in increasing order (empty when not certified;
+        for ``b < 0`` the loop is evaluated with ``|b|`` and ``gamma`` of the sign of ``b``).
+    lyapunov : tuple of (numpy.ndarray, numpy.ndarray)
+        Per piece, ``(P_lo, P_hi)`` in the loop's coordinates (``SurrogateLoop.names``, the
+        kept states): on the piece ``P(b)`` is the linear interpolation, and
+        ``M(b)^T P(b) M(b) < P(b)`` at every ``b`` of it (``P_lo = P_hi``: a common ``P``).
+        Not in :meth:`to_dict`.
 
     Examples
     --------
@@ -104,6 +112,13 @@ class PointCertificate(_Result):
     solver_status: str
     margin: float | None
     reason: str
+    b_pieces: tuple = ()
+    lyapunov: tuple = ()
+
+    def to_dict(self) -> dict:
+        out = super().to_dict()
+        del out["lyapunov"]
+        return out
 
     def _repr_lines(self):
         return [(f"eps = {self.eps:.6g}: {'certified' if self.certified else 'not certified'}"

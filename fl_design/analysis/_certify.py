@@ -4,23 +4,34 @@
 plant is the chain of ``rho`` integrators with ``sigma = a^T x + b u`` (``a = 0`` unless
 ``a_jacobian_bounds`` are given) held over each sample (exact ZOH), closed by the design's own
 step (EHGO, clamps and saturation inactive, dynamic controller, integrator) at the design's
-``T``. A certificate at one ``eps`` is an LMI solution (:mod:`._lmi`, delta form, balanced)
-re-checked in NumPy:
+``T``. A certificate at one ``eps`` is a Lyapunov matrix, found in closed form
+(:mod:`._analytic`) or by an LMI (:mod:`._lmi`, delta form, balanced), re-checked in NumPy:
 
 * ``"common"``: one quadratic Lyapunov function for both ends of the ``b`` interval: the loop is
   exponentially stable for every sequence ``b_k`` in the interval (``b`` may vary from sample to
   sample);
-* ``"parameter-dependent"``: vertex matrices ``P_v`` with a common slack ``G`` on each of
-  ``pieces`` sub-intervals covering the interval: every *constant* ``b`` of the interval gives a
-  Schur loop (robust stability, not time variation).
+* ``"parameter-dependent"``: ``P(b)`` on each of ``pieces`` sub-intervals covering the
+  interval, either one closed-form modal ``P`` per piece (:mod:`._analytic`) or vertex matrices
+  ``P_v`` with a common slack ``G`` (LMI): every *constant* ``b`` of the interval gives a Schur
+  loop (robust stability, not time variation across pieces).
+
+**How a point is certified** (cheapest first): the frozen loops on the ``b`` grid must be
+Schur (else no Lyapunov function exists and nothing is solved); then closed-form modal
+Lyapunov candidates on adaptively halved pieces (down to ``max_pieces * MODAL_SPLIT`` pieces),
+each accepted only when the NumPy re-check of :func:`._lmi.recheck` passes at both ends of its
+piece (the vertex matrix is affine in ``Delta(b)``, so the ends cover the piece); then the
+LMIs (parameter-dependent on the whole interval, common ``P``, parameter-dependent on pieces).
+A search (eps*) that already found a closed-form certificate at this gamma skips the LMIs at
+larger eps: a point left uncertified is never unsound. The certificate's ``b_pieces`` and
+``lyapunov`` (``P`` per piece, the loop's coordinates) let anyone re-check it.
 
 ``eps_star_certified`` is the largest ``eps`` of a bisection (relative resolution ``rtol``)
 at which a certificate was found, searched below ``eps_star_frozen``; the certificate holds at
 that ``eps`` and at the design's own ``eps`` when ``certified`` says so, **not** at every eps
 in between (each eps is its own LMI). ``eps_star_frozen`` is the largest eps below which every
 frozen loop with ``b`` on an ``n_b``-point grid of the interval (ends included) is Schur, from a
-log-spaced scan and bisection: a frozen grid check, not a certificate. For ``b < 0`` the
-design's ``gamma`` is read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
+log-spaced scan refined to ``rtol / 10`` (secant steps, bracket kept): a frozen grid check, not
+a certificate. For ``b < 0`` the design's ``gamma`` is read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
 :class:`~fl_design.DynamicController` stores ``|gamma|``).
 
 Examples
@@ -33,17 +44,41 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from .. import _validate as V
 from ..errors import CertificationError, ParameterError
+from ..sim._lanes_blas import serial_blas
+from ._analytic import piecewise_modal
 from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
-from ._lmi import balance, vertex_lmi
+from ._lmi import balance_scaling, vertex_lmi
+from ._search import certified_eps_star, frozen_eps_star, gamma_interval
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
+
+
+#: Finest modal piece: the interval split in ``MODAL_SPLIT * max_pieces`` pieces at most.
+MODAL_SPLIT = 8
+#: ``solver`` of a closed-form (modal Lyapunov) certificate.
+MODAL = "modal (NumPy)"
+
+
+def _serial(func):
+    """Run ``func`` with one OpenBLAS thread for the caller (:func:`serial_blas`).
+
+    The work is thousands of tiny dense problems (observer discretizations, 7 x 7 eigenvalue
+    problems): on a loaded machine each wake-up of the BLAS thread pool waits for a time slice
+    (a 4 x 4 ``scipy.linalg.solve`` measured 9 ms with the default threads, 40 us with one).
+    """
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        with serial_blas():
+            return func(*args, **kwargs)
+    return wrapper
 
 
 class _Loop:
@@ -64,17 +99,23 @@ class _Loop:
         self.loop, self.T, self.design = SurrogateLoop(design), design.T, design
         self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
+        self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
                               else (-self.b_hi, -self.b_lo))
 
-    def frozen_ok(self, eps: float, gamma: float) -> bool:
-        """Every frozen loop on the b grid (and the a-corners) is Schur."""
+    def frozen_margin(self, eps: float, gamma: float) -> float:
+        """Largest :func:`schur_margins` over the b grid (and the a-corners): < 0 iff Schur."""
+        worst = -math.inf
         for a_row in self._corners():
             M0, M1 = self.loop.parts(eps, gamma, a_row)
             D = delta(M0[None] + self.b_grid[:, None, None] * M1[None], self.T)
-            if np.max(schur_margins(D, self.T)) >= 0.0:
-                return False
-        return True
+            m = float(np.max(schur_margins(D, self.T)))
+            worst = max(worst, m if math.isfinite(m) else math.inf)
+        return worst
+
+    def frozen_ok(self, eps: float, gamma: float) -> bool:
+        """Every frozen loop on the b grid (and the a-corners) is Schur."""
+        return self.frozen_margin(eps, gamma) < 0.0
 
     def _corners(self):
         if self.box is None:
@@ -83,101 +124,119 @@ class _Loop:
         return np.stack([g.ravel() for g in grids], axis=1)
 
     def _deltas(self, eps, gamma, b_pair):
+        """Balanced vertex deltas of ``b_pair`` and the scaling ``s``."""
         M0, M1 = self.loop.parts(eps, gamma)
-        return balance([delta(M0 + b * M1, self.T) for b in b_pair])
+        D = [delta(M0 + b * M1, self.T) for b in b_pair]
+        s = balance_scaling(D)
+        return [x * s[None, :] / s[:, None] for x in D], s
 
-    def point(self, eps: float, gamma: float, *, common_only: bool = False) -> PointCertificate:
-        """LMI certificate at one eps: PD on the interval, common P, then PD on pieces."""
+    def point(self, eps: float, gamma: float, *, common_only: bool = False,
+              lmi: bool = True) -> PointCertificate:
+        """Certificate at one eps: frozen pre-screen, modal P on pieces, then the LMIs.
+
+        ``lmi=False`` stops after the closed-form candidates (a search that already has one).
+        """
         if self.box is not None:
             from ._ldi import ldi_point
 
             return ldi_point(self, eps, gamma)
+        margin = self.frozen_margin(eps, gamma)
+        if not margin < 0.0:
+            return PointCertificate(
+                float(eps), False, None, 0, False, None, "not solved", None,
+                f"a frozen loop of the {self.n_b}-point b grid is not Schur (margin "
+                f"{margin:.3g} >= 0): no Lyapunov function exists, no LMI solved")
+        if not common_only:
+            pc = self._modal(eps, gamma)
+            if pc.certified or not lmi:
+                return pc
         whole = (self.b_lo, self.b_hi)
         if not common_only and self.pieces_hint > 1:
             return self._pieces(eps, gamma, None, self.pieces_hint)
         if not common_only:
-            sol = vertex_lmi(self._deltas(eps, gamma, whole), self.T)
+            sol, s = self._vertex(eps, gamma, whole, common=False)
             if sol.certified:
-                return _point(eps, sol, "parameter-dependent", 1, False)
-        sol = vertex_lmi(self._deltas(eps, gamma, whole), self.T, common=True)
+                return _point(eps, sol, "parameter-dependent", [(whole, sol, s)], False)
+        sol, s = self._vertex(eps, gamma, whole, common=True)
         if sol.certified or common_only:
-            return _point(eps, sol, "common", 1, True)
+            return _point(eps, sol, "common", [(whole, sol, s)], True)
         return self._pieces(eps, gamma, sol)
+
+    def _vertex(self, eps, gamma, b_pair, common):
+        D, s = self._deltas(eps, gamma, b_pair)
+        return vertex_lmi(D, self.T, common=common), s
+
+    def _modal(self, eps, gamma) -> PointCertificate:
+        """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`)."""
+        (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
+        width = (self.b_hi - self.b_lo) / (MODAL_SPLIT * self.max_pieces)
+        span = self.b_hi - self.b_lo or 1.0
+        done, margin, bad = piecewise_modal(
+            lambda b: Dlo + (b - self.b_lo) / span * (Dhi - Dlo), self.b_lo, self.b_hi,
+            self.T, width)
+        if bad is not None:
+            return PointCertificate(
+                float(eps), False, None, 0, False, MODAL, "closed form", None,
+                f"modal P: no certificate for b in [{bad[0]:.6g}, {bad[1]:.6g}] (pieces of "
+                f"width >= {width:.3g})")
+        done.sort(key=lambda p: p[0])
+        S = 1.0 / np.outer(s, s)
+        one = len(done) == 1
+        return PointCertificate(
+            float(eps), True, "common" if one else "parameter-dependent", len(done), one,
+            MODAL, "closed form", margin,
+            f"modal Lyapunov P on {len(done)} sub-interval(s) of b, each re-checked in NumPy",
+            tuple((a, b) for a, b, _, _ in done),
+            tuple((P * S, P * S) for _, _, P, _ in done))
 
     def _pieces(self, eps, gamma, last, start: int = 1) -> PointCertificate:
         width = (self.b_hi - self.b_lo) / self.max_pieces
         edges = np.linspace(self.b_lo, self.b_hi, start + 1)
-        stack, done, sols = list(zip(edges[-2::-1], edges[:0:-1])), 0, []
+        stack, done = list(zip(edges[-2::-1], edges[:0:-1])), []
         while stack:
             lo, hi = stack.pop()
-            sol = vertex_lmi(self._deltas(eps, gamma, (lo, hi)), self.T)
+            sol, s = self._vertex(eps, gamma, (lo, hi), common=False)
             if sol.certified:
-                done, sols = done + 1, sols + [sol]
-            elif hi - lo > width * (1 + 1e-9) and done + len(stack) < 4 * self.max_pieces:
+                done.append(((lo, hi), sol, s))
+            elif hi - lo > width * (1 + 1e-9) and len(done) + len(stack) < 4 * self.max_pieces:
                 mid = 0.5 * (lo + hi)
                 stack += [(mid, hi), (lo, mid)]
             else:
                 return PointCertificate(
-                    float(eps), False, None, done, False, sol.solver, sol.solver_status,
+                    float(eps), False, None, len(done), False, sol.solver, sol.solver_status,
                     sol.margin, f"no certificate for b in [{lo:.6g}, {hi:.6g}] (pieces of "
                     f"width >= {width:.3g}): {sol.note}"
                     + ("" if last is None else f"; common P: {last.note}"))
-        margin = min(s.margin for s in sols)
-        solvers = sorted({s.solver for s in sols})
-        return PointCertificate(
-            float(eps), True, "parameter-dependent", done, False, "+".join(solvers),
-            sols[-1].solver_status, margin,
-            f"parameter-dependent P on {done} sub-intervals of b, each re-checked in NumPy")
+        return _point(eps, None, "parameter-dependent", done, False)
+
+    def search_ok(self, eps: float, gamma: float) -> bool:
+        """Certified at eps? Remembers what worked (modal, or the LMI split) for the next."""
+        pc = self.point(eps, gamma, lmi=not self.modal_hit)
+        if pc.certified and pc.solver == MODAL:
+            self.modal_hit = True
+        elif pc.certified:
+            self.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
+        return pc.certified
 
 
-def _tracked(L, eps, gamma) -> bool:
-    """Certify and remember the number of pieces that worked (a hint for the next gamma)."""
-    pc = L.point(eps, gamma)
-    if pc.certified:
-        L.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
-    return pc.certified
-
-
-def _point(eps, sol, kind, pieces, tv) -> PointCertificate:
-    return PointCertificate(float(eps), sol.certified, kind if sol.certified else None,
-                            pieces if sol.certified else 0, tv and sol.certified, sol.solver,
-                            sol.solver_status, sol.margin, sol.note)
-
-
-def _bisect(pred, good: float, bad: float, rtol: float) -> float:
-    """Largest known-good point after log-bisection of ``[good, bad]`` to relative ``rtol``."""
-    while bad / good - 1.0 > rtol:
-        mid = math.sqrt(good * bad)
-        good, bad = (mid, bad) if pred(mid) else (good, mid)
-    return good
-
-
-def frozen_eps_star(pred, lo: float, hi: float, n_scan: int, rtol: float) -> float | None:
-    """Scan ``n_scan`` log points of ``[lo, hi]`` for the first failure, then bisect."""
-    grid = np.geomspace(lo, hi, n_scan)
-    if not pred(grid[0]):
-        return None
-    bad = next((i for i, e in enumerate(grid[1:], 1) if not pred(e)), None)
-    if bad is None:
-        return float(hi)
-    return float(_bisect(pred, grid[bad - 1], grid[bad], rtol))
-
-
-def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
-                       step: float = 0.5):
-    """Largest certified eps in ``[lo, top]``: try ``hint * top``, step down by ``step``, bisect.
-
-    None when no tried eps is certified.
-    """
-    x = max(lo, min(hint, 1.0 - rtol) * top)
-    if pred(x):
-        return float(_bisect(pred, x, top, rtol))
-    while x > lo:
-        below = max(lo, step * x)
-        if pred(below):
-            return float(_bisect(pred, below, x, rtol))
-        x = below
-    return None
+def _point(eps, sol, kind, parts, tv) -> PointCertificate:
+    """A PointCertificate from one solution ``sol`` (or None: all ``parts`` certified)."""
+    if sol is not None and not sol.certified:
+        return PointCertificate(float(eps), False, None, 0, False, sol.solver,
+                                sol.solver_status, sol.margin, sol.note)
+    parts = sorted(parts, key=lambda p: p[0][0])
+    sols = [p[1] for p in parts]
+    lyap = []
+    for _, sl, s in parts:
+        S = 1.0 / np.outer(s, s)
+        Ps = [P * S for P in sl.P]
+        lyap.append((Ps[0], Ps[-1]))
+    note = (sol.note if sol is not None else
+            f"parameter-dependent P on {len(parts)} sub-intervals of b, each re-checked in NumPy")
+    return PointCertificate(
+        float(eps), True, kind, len(parts), tv, "+".join(sorted({x.solver for x in sols})),
+        sols[-1].solver_status, min(x.margin for x in sols), note,
+        tuple(p[0] for p in parts), tuple(lyap))
 
 
 def _eps_range(eps_range) -> tuple[float, float]:
@@ -187,6 +246,7 @@ def _eps_range(eps_range) -> tuple[float, float]:
     return lo, hi
 
 
+@_serial
 def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_EPS_RANGE,
                 n_b: int = 41, max_pieces: int = 8, n_scan: int = 32, rtol: float = 1e-2,
                 search: bool = True, raise_on_failure: bool = False) -> EpsCertificate:
@@ -250,9 +310,9 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
     point = L.point(eps, gamma)
     f = c_common = c_any = None
     if search:
-        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_ok(e, g_), lo, hi, n_scan, rtol / 10)
+        f = frozen_eps_star(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10)
         if f is not None:
-            c_any = certified_eps_star(lambda e: L.point(e, gamma).certified, lo, f, rtol)
+            c_any = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
             if L.box is None:
                 c_common = certified_eps_star(
                     lambda e: L.point(e, gamma, common_only=True).certified, lo, f, rtol)
@@ -269,30 +329,7 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
         reason=reason)
 
 
-def _gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
-    """Stable run of the gamma scan containing the design's gamma (else the lowest run)."""
-    grid = np.geomspace(lo, hi, n_scan)
-    ok = [pred(g) for g in grid]
-    runs, i = [], 0
-    while i < n_scan:
-        if ok[i]:
-            j = i
-            while j + 1 < n_scan and ok[j + 1]:
-                j += 1
-            runs.append((i, j))
-            i = j + 1
-        else:
-            i += 1
-    if not runs:
-        return None, None
-    run = next((r for r in runs if grid[r[0]] <= design_gamma <= grid[r[1]]), runs[0])
-    i, j = run
-    g_min = grid[0] if i == 0 else 1.0 / _bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
-                                                   1.0 / grid[i - 1], rtol)
-    g_max = grid[-1] if j == n_scan - 1 else _bisect(pred, grid[j], grid[j + 1], rtol)
-    return float(g_min), float(g_max)
-
-
+@_serial
 def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, gamma_range=None,
                   eps_grid=None, n_scan: int = 80, n_b: int = 41, rtol: float = 1e-3,
                   max_pieces: int = 8, raise_on_failure: bool = False) -> GammaCertificate:
@@ -353,9 +390,9 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, gamma_range=None,
     grid_eps = np.unique(np.concatenate([grid_eps, [eps]]))
     if np.any(grid_eps <= 0):
         raise ParameterError(f"eps_grid must be > 0, got {grid_eps.tolist()}")
-    g_min, g_max = _gamma_interval(lambda g: L.frozen_ok(eps, g), gamma, g_lo, g_hi, n_scan,
+    g_min, g_max = gamma_interval(lambda g: L.frozen_ok(eps, g), gamma, g_lo, g_hi, n_scan,
                                    rtol)
-    mins = [_gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan,
+    mins = [gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan,
                             rtol)[0] for e in grid_eps]
     mins = [m for m in mins if m is not None]
     lower = min(mins) if mins else None
@@ -387,13 +424,15 @@ def _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside) -> str:
             f"({point.kind}) at eps = {eps:g}")
 
 
+@_serial
 def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
                    eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
                    rtol: float = 1e-2, max_pieces: int = 8,
                    certified: bool = True) -> EpsStarCurve:
     """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
 
-    The certified search at each gamma starts from the ratio found at the previous one.
+    Continuation along the curve: the certified search at each gamma starts from the ratio
+    found at the previous one (tries ``hint * eps*_frozen``, then steps down by 0.95).
 
     Parameters
     ----------
@@ -438,12 +477,15 @@ def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
     for i, gamma in enumerate(g):
-        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_ok(e, g_), lo, hi, n_scan, rtol / 10)
+        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_margin(e, g_), lo, hi, n_scan,
+                            rtol / 10)
         if f is None:
             continue
         frozen[i] = f
         if certified:
-            c = certified_eps_star(lambda e, g_=gamma: _tracked(L, e, g_), lo, f, rtol, hint, 0.95)
+            L.modal_hit = False
+            c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f, rtol, hint,
+                                   0.95)
             if c is not None:
                 cert[i], hint = c, c / f
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,

@@ -210,6 +210,25 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0) ->
     return LMISolution(False, None, last, (), None, None, "; ".join(notes))
 
 
+def balance_scaling(deltas) -> np.ndarray:
+    """Scaling ``s`` (powers of 2) of :func:`balance`: ``Delta_v -> diag(1/s) Delta_v diag(s)``.
+
+    A ``P_b`` certified for the balanced matrices is ``diag(1/s) P_b diag(1/s)`` in the
+    original coordinates (a congruence: the same certificate).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> balance_scaling([np.array([[0.0, 1e6], [1e-6, 0.0]])]).tolist()
+    [1048576.0, 1.0]
+    """
+    import scipy.linalg
+
+    total = sum(np.abs(D) for D in deltas)
+    _, (s, _) = scipy.linalg.matrix_balance(total, permute=False, separate=True)
+    return s
+
+
 def balance(deltas) -> list[np.ndarray]:
     """Diagonal similarity scaling (powers of 2, exact) of the ``Delta_v``, all alike.
 
@@ -220,11 +239,8 @@ def balance(deltas) -> list[np.ndarray]:
     >>> bool(B.max() < 2.0)
     True
     """
-    import scipy.linalg
-
-    total = sum(np.abs(D) for D in deltas)
-    _, (s, _) = scipy.linalg.matrix_balance(total, permute=False, separate=True)
+    s = balance_scaling(deltas)
     return [D * s[None, :] / s[:, None] for D in deltas]
 
 
-__all__ = ["RECHECK_TOL", "LMISolution", "balance", "recheck", "vertex_lmi"]
+__all__ = ["RECHECK_TOL", "LMISolution", "balance", "balance_scaling", "recheck", "vertex_lmi"]

@@ -136,6 +136,7 @@ class SurrogateLoop:
         self.design, self.rho, self.T = design, design.rho, design.T
         self._p_est = design.parameter_vector()[:-1]
         self._cache: dict[float, np.ndarray] = {}
+        self._last: tuple = (None, None)
         lay = design.state_layout
         s = ca.SX.sym("s", design.state_size)
         y = ca.SX.sym("y")
@@ -210,9 +211,14 @@ class SurrogateLoop:
         return self.assemble(Phi, Gam, self.input_row(eps, gamma), eps, gamma)
 
     def _jacobians(self, eps, gamma):
+        """The design's Jacobians at ``(eps, gamma)`` (the last point is remembered)."""
         g = self.design.controller.gamma if gamma is None else float(gamma)
-        p = np.concatenate([self.estimator_vector(eps), [g]])
-        return [np.array(m.full(), dtype=float) for m in self._jac(self._s0, 0.0, p)]
+        key = (None if eps is None else float(eps), g)
+        if self._last[0] != key:
+            p = np.concatenate([self.estimator_vector(eps), [g]])
+            self._last = (key, [np.array(m.full(), dtype=float)
+                                for m in self._jac(self._s0, 0.0, p)])
+        return self._last[1]
 
     def input_row(self, eps: float | None = None, gamma: float | None = None) -> np.ndarray:
         """The row ``u_k = row @ X_k`` of the design's input (all states, none removed)."""

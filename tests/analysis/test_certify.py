@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
@@ -207,3 +208,57 @@ def test_bench_certify_quick_runs():
                           capture_output=True, text=True, timeout=300, cwd=root, check=False)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "4-point eps*(gamma) curve" in proc.stdout
+    ratios = proc.stdout.split("certified/frozen at gamma ")[1].splitlines()[0]
+    assert [float(r.split(": ")[1]) >= 0.8 for r in ratios.split(", ")] == [True] * 3
+
+
+def _stored_certificate_holds(point, gamma, eps):
+    """Re-check a certificate's stored ``P(b)`` with the oracle's loop matrices (NumPy only).
+
+    At both ends of every piece and on a fine grid of b: ``P(b) > 0`` and the delta-form
+    decrease ``Delta^T P + P Delta + T Delta^T P Delta < 0`` (i.e. ``M^T P M < P``), with
+    ``P(b)`` interpolated linearly on its piece. A Jacobi congruence (``diag(P)^(-1/2)``,
+    independent of the certifier's balancing) puts the matrices on one scale.
+    """
+    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+    pieces, lyap = point.b_pieces, point.lyapunov
+    assert point.certified and len(pieces) == len(lyap) == point.pieces >= 1
+    assert pieces[0][0] == B_TRMS[0] and pieces[-1][1] == B_TRMS[1]
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(pieces))  # no gap
+    grid = np.concatenate([np.linspace(*B_TRMS, 201), np.ravel(pieces)])
+    for b in grid:
+        k = next(i for i, (lo, hi) in enumerate(pieces) if lo <= b <= hi)
+        (lo, hi), (P_lo, P_hi) = pieces[k], lyap[k]
+        th = 0.0 if hi == lo else (b - lo) / (hi - lo)
+        P = (1 - th) * P_lo + th * P_hi
+        Db = (surrogate_loop_matrix(ehgo, GAINS, gamma, KI, b) - np.eye(7)) / T
+        J = np.diag(1.0 / np.sqrt(np.diag(P)))
+        W = J @ (Db.T @ P + P @ Db + T * Db.T @ P @ Db) @ J
+        assert np.linalg.eigvalsh(J @ P @ J)[0] > 0.0
+        assert np.linalg.eigvalsh((W + W.T) / 2)[-1] < 0.0, (eps, gamma, b)
+
+
+@pytest.mark.parametrize("gamma", GAMMAS)
+def test_every_certificate_stores_a_lyapunov_function_that_rechecks(certs, gamma):
+    """The design's eps, and eps* itself (the hardest certified point), re-checked."""
+    c = certs[gamma]
+    if c.certified:
+        _stored_certificate_holds(c.point, gamma, c.eps)
+    design = fl.presets.paper_design(eps=c.eps_star_certified, gamma=gamma)
+    top = fl.certify_eps(design, B_TRMS, search=False)
+    assert top.certified and top.point.pieces > 1
+    _stored_certificate_holds(top.point, gamma, c.eps_star_certified)
+
+
+def test_lmi_certificates_store_a_lyapunov_function_that_rechecks():
+    """The LMI paths (common P, vertex P_v on pieces) also store P, checked by the oracle."""
+    from fl_design.analysis._certify import _Loop
+
+    L = _Loop(fl.presets.paper_design(gamma=1e-3), B_TRMS, None, 41, 8)
+    common = L.point(0.05, 1e-3, common_only=True)
+    assert common.kind == "common" and common.covers_time_varying_b
+    _stored_certificate_holds(common, 1e-3, 0.05)
+    pd = L._pieces(0.08, 1e-3, None, 2)
+    assert pd.kind == "parameter-dependent" and pd.solver == "CLARABEL"
+    assert any(np.abs(a - b).max() > 0 for a, b in pd.lyapunov)  # P varies with b
+    _stored_certificate_holds(pd, 1e-3, 0.08)

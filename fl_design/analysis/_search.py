@@ -1,0 +1,167 @@
+"""One-dimensional searches of eps*: frozen (scan + safeguarded secant) and certified.
+
+Examples
+--------
+>>> from fl_design.analysis._search import frozen_eps_star
+>>> round(frozen_eps_star(lambda e: e - 0.3, 1e-3, 1.0, 8, 1e-4), 3)
+0.3
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def bisect(pred, good: float, bad: float, rtol: float) -> float:
+    """Largest known-good point after log-bisection of ``[good, bad]`` to relative ``rtol``.
+
+    Examples
+    --------
+    >>> round(bisect(lambda x: x < 2.0, 1.0, 4.0, 1e-3), 2)
+    2.0
+    """
+    while bad / good - 1.0 > rtol:
+        mid = math.sqrt(good * bad)
+        good, bad = (mid, bad) if pred(mid) else (good, mid)
+    return good
+
+
+def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: float):
+    """Shrink ``[good, bad]`` (``margin < 0`` good) to ``bad / good - 1 <= rtol``.
+
+    Secant root of the margin in ``log eps``, evaluated a third of the tolerance on the good
+    side, then on the bad side: two evaluations close the bracket when the root estimate is
+    good; after eight tries it falls back to bisection. Every step keeps a valid bracket.
+    """
+    tol = math.log1p(rtol)
+    lg, lb = math.log(good), math.log(bad)
+    tries = 0
+    while lb - lg > tol:
+        tries += 1
+        if tries > 8:
+            x = 0.5 * (lg + lb)
+        else:
+            x = lg + (lb - lg) * m_good / (m_good - m_bad)
+            x += tol / 3 if tries % 2 == 0 else -tol / 3
+            x = min(max(x, lg + 0.02 * (lb - lg)), lb - 0.02 * (lb - lg))
+        m = margin(math.exp(x))
+        if m < 0.0:
+            lg, m_good = x, m
+        else:
+            lb, m_bad = x, m
+    return math.exp(lg)
+
+
+def frozen_eps_star(margin, lo: float, hi: float, n_scan: int, rtol: float) -> float | None:
+    """Scan ``n_scan`` log points of ``[lo, hi]`` for the first failure, then refine.
+
+    Parameters
+    ----------
+    margin : callable
+        ``eps -> float``, negative exactly when every frozen loop is Schur at ``eps``.
+    lo, hi : float
+        The eps interval.
+    n_scan : int
+        Log-spaced scan points.
+    rtol : float
+        Relative width of the final bracket ``[good, bad]``; the good end is returned.
+
+    Returns
+    -------
+    float or None
+        None when ``lo`` already fails; ``hi`` when no scan point fails.
+
+    Examples
+    --------
+    >>> frozen_eps_star(lambda e: 1.0, 1e-3, 1.0, 8, 1e-3) is None
+    True
+    """
+    grid = np.geomspace(lo, hi, n_scan)
+    m_prev = margin(grid[0])
+    if not m_prev < 0.0:
+        return None
+    for i in range(1, n_scan):
+        m = margin(grid[i])
+        if not m < 0.0:
+            if not np.isfinite(m) or not np.isfinite(m_prev):
+                return float(bisect(lambda e: margin(e) < 0.0, grid[i - 1], grid[i], rtol))
+            return float(_refine(margin, grid[i - 1], m_prev, grid[i], m, rtol))
+        m_prev = m
+    return float(hi)
+
+
+def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
+                       step: float = 0.5):
+    """Largest certified eps in ``[lo, top]``: try ``hint * top``, step down by ``step``, bisect.
+
+    Parameters
+    ----------
+    pred : callable
+        ``eps -> bool``, True when certified.
+    lo, top : float
+        Search interval (``top`` is the frozen eps*, an upper bound).
+    rtol : float
+        Relative resolution of the bisection.
+    hint : float, optional
+        First ratio tried (continuation: the ratio found at the previous gamma).
+    step : float, optional
+        Factor of the downward steps when the hint fails.
+
+    Returns
+    -------
+    float or None
+        None when no tried eps is certified.
+
+    Examples
+    --------
+    >>> round(certified_eps_star(lambda e: e <= 0.5, 1e-3, 1.0, 1e-3), 3)
+    0.5
+    """
+    x = max(lo, min(hint, 1.0 - rtol) * top)
+    if pred(x):
+        return float(bisect(pred, x, top, rtol))
+    while x > lo:
+        below = max(lo, step * x)
+        if pred(below):
+            return float(bisect(pred, below, x, rtol))
+        x = below
+    return None
+
+
+def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
+    """Stable run of a log gamma scan containing ``design_gamma`` (else the lowest run).
+
+    Returns ``(gamma_min, gamma_max)`` refined by bisection to ``rtol`` (an end of the scan
+    when the run reaches it), or ``(None, None)`` when no scan point is stable.
+
+    Examples
+    --------
+    >>> lo, hi = gamma_interval(lambda g: 0.1 < g < 0.5, 0.2, 0.01, 1.0, 20, 1e-4)
+    >>> round(lo, 3), round(hi, 3)
+    (0.1, 0.5)
+    """
+    grid = np.geomspace(lo, hi, n_scan)
+    ok = [pred(g) for g in grid]
+    runs, i = [], 0
+    while i < n_scan:
+        if ok[i]:
+            j = i
+            while j + 1 < n_scan and ok[j + 1]:
+                j += 1
+            runs.append((i, j))
+            i = j + 1
+        else:
+            i += 1
+    if not runs:
+        return None, None
+    run = next((r for r in runs if grid[r[0]] <= design_gamma <= grid[r[1]]), runs[0])
+    i, j = run
+    g_min = grid[0] if i == 0 else 1.0 / bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                  1.0 / grid[i - 1], rtol)
+    g_max = grid[-1] if j == n_scan - 1 else bisect(pred, grid[j], grid[j + 1], rtol)
+    return float(g_min), float(g_max)
+
+
+__all__ = ["bisect", "certified_eps_star", "frozen_eps_star", "gamma_interval"]
