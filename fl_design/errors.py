@@ -84,6 +84,10 @@ class CompilationWarning(UserWarning):
     """No C compiler (or compilation failed): a kernel runs in CasADi's interpreter instead."""
 
 
+class UnmodeledDynamicsWarning(UserWarning):
+    """A design of lower relative degree than the plant's runs on it (opted in on purpose)."""
+
+
 __all__ = [
     "CertificationError",
     "CompilationError",
@@ -95,6 +99,7 @@ __all__ = [
     "FlDesignError",
     "HurwitzError",
     "MissingDependencyError",
+    "UnmodeledDynamicsWarning",
     "OutputPathError",
     "ParameterError",
     "PlantDefinitionError",
