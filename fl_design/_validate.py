@@ -80,6 +80,14 @@ def positive(name: str, value) -> float:
     return out
 
 
+def nonzero(name: str, value) -> float:
+    """Return ``value`` as a finite float != 0, or raise ParameterError naming it."""
+    out = real_scalar(name, value)
+    if out == 0.0:
+        raise ParameterError(f"{name} must be nonzero (its sign is that of b), got {out!r}")
+    return out
+
+
 def nonnegative(name: str, value) -> float:
     """Return ``value`` as a finite float >= 0, or raise ParameterError naming it."""
     out = real_scalar(name, value)

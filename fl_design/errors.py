@@ -84,6 +84,10 @@ class CompilationWarning(UserWarning):
     """No C compiler (or compilation failed): a kernel runs in CasADi's interpreter instead."""
 
 
+class UnmodeledDynamicsWarning(UserWarning):
+    """A design of lower relative degree than the plant's runs on it (opted in on purpose)."""
+
+
 __all__ = [
     "CertificationError",
     "CompilationError",
@@ -100,5 +104,6 @@ __all__ = [
     "PlantDefinitionError",
     "RelativeDegreeError",
     "ResourceLimitError",
+    "UnmodeledDynamicsWarning",
     "UnstableDiscretizationWarning",
 ]

@@ -55,7 +55,9 @@ class DynamicController:
         ``s^rho + k_rho s^(rho-1) + ... + k_2 s + k_1`` Hurwitz (checked). The length sets
         ``rho``. See :func:`gains_from_poles` and :func:`lqr_gains`.
     gamma : float
-        The paper's controller gain ``gamma`` > 0. The paper asks ``gamma < 1/b_max``
+        The paper's controller gain ``gamma``, nonzero, of the sign of ``b`` (negative for a
+        plant with ``b < 0``; :func:`fl_design.simulate` and :func:`fl_design.sweep` refuse a
+        sign opposite to ``b``'s over the region). For ``b > 0`` the paper asks ``gamma < 1/b_max``
         (``b_max`` the upper bound of ``b(w, x)``) for a monotone decay of the error
         ``e_u = v - sigma``; ``gamma < 2/b_max`` suffices for its convergence. A too small
         ``gamma`` also destabilizes the loop: when ``b gamma / T`` is slower than the closed
@@ -73,7 +75,8 @@ class DynamicController:
         normative loop clamps only ``xhat_2 .. xhat_rho``. None (default): no limits.
     u0 : float, optional
         Initial input ``u(-1)``, the controller state before the first sample (inside
-        ``u_limits``). Default 0.
+        ``u_limits``). Default None: the plant's equilibrium input ``u_eq`` at its operating
+        point when a run knows the plant (a bumpless start), else 0 (:attr:`u_start`).
 
     Attributes
     ----------
@@ -84,6 +87,8 @@ class DynamicController:
         ``(-c, c)`` here).
     estimate_ranges : tuple
         ``rho`` entries, each None or ``(lo, hi)``: the estimate limits in use.
+    u_start : float
+        ``u0``, or 0 when ``u0`` is None (no plant context).
 
     Raises
     ------
@@ -111,7 +116,7 @@ class DynamicController:
     ki: float = 0.0
     u_limits: Interval | None = None
     estimate_limits: tuple[Interval | None, ...] | None = None
-    u0: float = 0.0
+    u0: float | None = None
     u_range: Interval | None = field(init=False, repr=False, compare=False)
     estimate_ranges: tuple[Interval | None, ...] = field(init=False, repr=False, compare=False)
 
@@ -119,12 +124,12 @@ class DynamicController:
         gains = _checked_gains(self.gains)
         rho = len(gains)
         u_limits = v.interval("u_limits", self.u_limits)
-        u0 = v.real_scalar("u0", self.u0)
-        if u_limits is not None and not u_limits[0] <= u0 <= u_limits[1]:
+        u0 = None if self.u0 is None else v.real_scalar("u0", self.u0)
+        if u0 is not None and u_limits is not None and not u_limits[0] <= u0 <= u_limits[1]:
             raise ParameterError(f"u0={u0!r} must lie inside u_limits={u_limits}")
         fields = {
             "gains": gains,
-            "gamma": v.positive("gamma", self.gamma),
+            "gamma": v.nonzero("gamma", self.gamma),
             "ki": v.nonnegative("ki", self.ki),
             "u_range": u_limits,
             "estimate_ranges": _checked_estimate_limits(self.estimate_limits, rho),
@@ -132,6 +137,11 @@ class DynamicController:
         }
         for name, value in fields.items():
             object.__setattr__(self, name, value)
+
+    @property
+    def u_start(self) -> float:
+        """The initial input without plant context: ``u0``, or 0 when ``u0`` is None."""
+        return 0.0 if self.u0 is None else float(self.u0)
 
     @property
     def rho(self) -> int:
@@ -222,7 +232,7 @@ class DynamicController:
                 for lim in self.estimate_ranges
             )
             opts.append(f"estimate_limits=({shown})")
-        if self.u0:
+        if self.u0 is not None:
             opts.append(f"u0={self.u0:g}")
         gains = ", ".join(f"{k:g}" for k in self.gains)
         head = [f"gains=({gains})", f"gamma={self.gamma:g}"]

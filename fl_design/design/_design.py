@@ -165,19 +165,40 @@ class Design:
         n = int(np.asarray(self.estimator.parameter_vector()).size)
         return Layout((("estimator", n), ("gamma", 1)))
 
-    def initial_state(self) -> np.ndarray:
-        """Initial design state ``[estimator initial state, u0, 0]``.
+    def initial_state(self, *, y0: float | None = None, estimate=None, u0: float | None = None,
+                      params=None) -> np.ndarray:
+        """Initial design state ``[estimator state, u0, 0]``: a bumpless start.
+
+        Parameters
+        ----------
+        y0 : float, optional
+            First measurement: the estimator starts at rest there (default 0).
+        estimate : array_like, optional
+            ``(rho + 1,)`` first estimates ``(y, y', ..., sigma)`` instead.
+        u0 : float, optional
+            Initial input ``u(-1)`` (default :attr:`DynamicController.u_start`; a run resolves
+            ``u0=None`` to the plant's ``u_eq``).
+        params : array_like, optional
+            A :meth:`parameter_vector` (another ``eps``) the estimator's state is solved for.
+
+        Returns
+        -------
+        numpy.ndarray
 
         Examples
         --------
         >>> import fl_design as fl
         >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.05, T=1e-3),
         ...               controller=fl.DynamicController((2, 4), 3e-4, u0=0.5))
-        >>> d.initial_state()[d.state_layout["u"]]
-        array([0.5])
+        >>> d.initial_state()[d.state_layout["u"]], d.initial_state(y0=0.1)[:3]
+        (array([0.5]), array([0.1, 0. , 0. ]))
         """
-        xi0 = np.asarray(self.estimator.initial_state(), dtype=float).ravel()
-        return np.concatenate([xi0, [self.controller.u0, 0.0]])
+        if params is not None:
+            params = np.asarray(params, dtype=float).ravel()[: self.parameter_layout.size - 1]
+        xi0 = np.asarray(self.estimator.initial_state(y0=y0, estimate=estimate, params=params),
+                         dtype=float).ravel()
+        u0 = self.controller.u_start if u0 is None else float(u0)
+        return np.concatenate([xi0, [u0, 0.0]])
 
     def parameter_vector(self) -> np.ndarray:
         """Numbers a sweep may change: ``estimator.parameter_vector()`` then ``gamma``.

@@ -53,8 +53,9 @@ from ._ehgo_math import (
     binomial_coeffs,
     delta_update,
     direct_update,
+    start_state,
 )
-from ._estimator import Estimator, as_casadi, check_length
+from ._estimator import Estimator, as_casadi, check_length, checked_estimate
 from ._poles import checked_poles, monic_coefficients
 
 
@@ -132,7 +133,8 @@ class EHGO(Estimator):
 
     Notes
     -----
-    :meth:`initial_state` is ``xi = 0``: the first estimate is ``xhat_0 = D^-1 D_d y_0``.
+    :meth:`initial_state` is the observer at rest at the first measurement, ``xi = e_1 y_0``:
+    the first estimate is ``(y_0, 0, ..., 0)``, not a peak of size ``eps^-rho``.
 
     Examples
     --------
@@ -435,16 +437,37 @@ class EHGO(Estimator):
         return control.StateSpace(self._mats.A, self._mats.B, C, D, dt=self.T)
 
     # --- estimator protocol ------------------------------------------------------------------
-    def initial_state(self) -> np.ndarray:
-        """``xi_0 = 0`` (length rho+1); then ``xhat_0 = D^-1 D_d y_0``.
+    def initial_state(self, *, y0: float | None = None, estimate=None,
+                      params=None) -> np.ndarray:
+        """The observer at rest at the first measurement ``y0``, or at a given estimate.
+
+        Parameters
+        ----------
+        y0 : float, optional
+            First measurement (default 0): ``xi_0 = e_1 y0``, the rest state of every method
+            and realization, whose first estimate is ``(y0, 0, ..., 0)`` (no peaking).
+        estimate : array_like, optional
+            ``(rho + 1,)`` first estimates ``(xhat_1, ..., sigmahat)`` to start from instead.
+        params : array_like, optional
+            A :meth:`parameter_vector` of this family (another ``eps``; default this one's).
+
+        Returns
+        -------
+        numpy.ndarray
 
         Examples
         --------
         >>> import fl_design as fl
-        >>> fl.EHGO(1, 0.1, 1e-3).initial_state()
-        array([0., 0.])
+        >>> obs = fl.EHGO(1, 0.1, 1e-3)
+        >>> obs.initial_state(), obs.initial_state(y0=-0.05)
+        (array([0., 0.]), array([-0.05,  0.  ]))
         """
-        return np.zeros(self.state_size)
+        y0 = 0.0 if y0 is None else v.real_scalar("y0", y0)
+        if estimate is not None:
+            estimate = checked_estimate(estimate, self.rho)
+        p = self.parameter_vector() if params is None else params
+        theta = _THETA[self.method] if self.realization == "delta" else None
+        return start_state(p, self.state_size, theta=theta, y0=y0, estimate=estimate)
 
     def parameter_vector(self) -> np.ndarray:
         """``[A_d, B_d, C_d, D_d, diag(D^-1)]`` flattened row-major, length ``2 n^2 + 3 n``.

@@ -231,4 +231,51 @@ def delta_update(xi, y, p, *, theta: float):
     return xhat, xi + g, type(xi)(1.0)
 
 
+def start_state(p, n: int, *, theta: float | None, y0: float, estimate=None) -> np.ndarray:
+    """Observer state whose estimate is ``estimate`` at the measurement ``y0`` (from ``p``).
+
+    Without ``estimate`` the observer at rest at ``y0``: ``xi = e_1 y0`` solves
+    ``xi = A_d xi + B_d y0`` for every method and both realizations (``(I - A_d)^-1 B_d =
+    -F^-1 L = e_1``: ``F e_1 = -L``), whatever ``eps``; its estimate is ``(y0, 0, ..., 0)``.
+    With ``estimate`` the state solving ``D^-1 (C_d xi + D_d y0) = estimate`` (direct,
+    ``theta=None``) or ``D^-1 (xi + theta G (xi - e_1 y0)) = estimate`` (delta).
+
+    Parameters
+    ----------
+    p : array_like
+        A parameter vector of the realization (see :meth:`fl_design.EHGO.parameter_vector`).
+    n : int
+        ``rho + 1``.
+    theta : float or None
+        The delta realization's output weight; None for the direct realization.
+    y0 : float
+        First measurement.
+    estimate : array_like, optional
+        ``(rho + 1,)`` estimates ``xhat_1, ..., sigmahat`` at the first sample.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.design._ehgo_math import start_state
+    >>> obs = fl.EHGO(1, 0.1, 1e-3)
+    >>> start_state(obs.parameter_vector(), 2, theta=None, y0=0.5).tolist()
+    [0.5, 0.0]
+    """
+    p = np.asarray(p, dtype=float).ravel()
+    e1 = np.zeros(n)
+    e1[0] = 1.0
+    if estimate is None:
+        return e1 * float(y0) + 0.0  # + 0.0: no negative zeros
+    scaled = np.asarray(estimate, dtype=float) / p[-n:]  # D xhat
+    if theta is None:
+        C, D = p[n * n + n : 2 * n * n + n].reshape(n, n), p[2 * n * n + n : 2 * n * n + 2 * n]
+        return np.linalg.solve(C, scaled - D * y0)
+    G = p[: n * n].reshape(n, n)
+    return np.linalg.solve(np.eye(n) + theta * G, scaled + theta * G @ e1 * y0)
+
+
 __all__ = ["MAX_RHO", "METHODS", "REALIZATIONS", "StateSpaceMatrices", "binomial_coeffs"]

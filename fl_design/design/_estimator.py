@@ -99,8 +99,12 @@ class Estimator(abc.ABC):
         """Multiply-adds per sample."""
 
     @abc.abstractmethod
-    def initial_state(self) -> np.ndarray:
-        """The estimator state before the first sample."""
+    def initial_state(self, *, y0: float | None = None, estimate=None, params=None) -> np.ndarray:
+        """The estimator state before the first sample (bumpless: at rest at ``y0``).
+
+        ``estimate`` (length ``rho + 1``: ``y, y', ..., sigma``) overrides the start;
+        ``params`` is a parameter vector of this estimator's family (default its own).
+        """
 
     @abc.abstractmethod
     def parameter_vector(self) -> np.ndarray:
@@ -150,6 +154,35 @@ def check_length(name: str, x, n: int) -> None:
         raise DimensionError(f"{name} must be a vector of length {n}, got shape {x.shape}")
 
 
+def checked_estimate(estimate, rho: int) -> np.ndarray:
+    """``estimate`` as a vector of ``rho + 1`` finite floats, or a named DimensionError.
+
+    Parameters
+    ----------
+    estimate : array_like
+        ``(xhat_1, ..., xhat_rho, sigmahat)``.
+    rho : int
+        Relative degree.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Examples
+    --------
+    >>> from fl_design.design._estimator import checked_estimate
+    >>> checked_estimate([0.1, 0.0, 0.0], 2).tolist()
+    [0.1, 0.0, 0.0]
+    """
+    from .. import _validate as v
+
+    if np.ndim(estimate) != 1 or np.size(estimate) != rho + 1:
+        raise DimensionError(
+            f"initial_estimate must have rho + 1 = {rho + 1} entries (y, y', ..., "
+            f"y^({rho - 1}), sigma), got {np.shape(estimate)} ({np.ravel(estimate).tolist()})")
+    return v.real_vector("initial_estimate", estimate, length=rho + 1)
+
+
 def rows(p, start: int, nrows: int, ncols: int):
     """Matrix stored row-major in ``p[start : start + nrows*ncols]`` (CasADi is column-major)."""
     import casadi
@@ -157,4 +190,4 @@ def rows(p, start: int, nrows: int, ncols: int):
     return casadi.reshape(p[start : start + nrows * ncols], ncols, nrows).T
 
 
-__all__ = ["Estimator", "as_casadi", "check_length", "replace_fields", "rows"]
+__all__ = ["Estimator", "as_casadi", "check_length", "checked_estimate", "replace_fields", "rows"]

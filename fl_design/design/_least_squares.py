@@ -27,7 +27,7 @@ import scipy.linalg
 from .. import _validate as v
 from .._limits import env_limit
 from ..errors import DimensionError, ParameterError, ResourceLimitError
-from ._estimator import Estimator, as_casadi, check_length, rows
+from ._estimator import Estimator, as_casadi, check_length, checked_estimate, rows
 
 #: Environment variable lifting the default cap :data:`MAX_WINDOW` on ``window``.
 MAX_WINDOW_ENV = "FL_DESIGN_MAX_WINDOW"
@@ -207,16 +207,49 @@ class LeastSquaresEstimator(Estimator):
         """Multiply-adds per sample of ``M @ buffer``: ``(rho + 1) * window``."""
         return (self.rho + 1) * self.window
 
-    def initial_state(self) -> np.ndarray:
-        """Empty buffer and zero count: ``zeros(window + 1)``.
+    def initial_state(self, *, y0: float | None = None, estimate=None,
+                      params=None) -> np.ndarray:
+        """A full window: as if the output had been ``y0`` (or followed ``estimate``) before.
+
+        Without ``y0`` and ``estimate``: the empty buffer (``zeros(window + 1)``), not ready
+        until ``window`` samples have been shifted in.
+
+        The buffer holds the past samples ``y(-(window-1) T), ..., y(-T)`` of the constant
+        ``y0`` (default 0), or of the polynomial ``sum_i estimate[i] t^i / i!`` (the given
+        ``y, y', ..., sigma``), and the count says full: the first sample is already a fit
+        (``ready = 1``) and a constant output gives zero derivative estimates.
+
+        Parameters
+        ----------
+        y0 : float, optional
+            First measurement (default: none, the empty buffer).
+        estimate : array_like, optional
+            ``(rho + 1,)`` derivatives of the output before the start (with ``y0``: the
+            polynomial wins).
+        params : array_like, optional
+            Unused (the window has no time constant to sweep); accepted for the interface.
+
+        Returns
+        -------
+        numpy.ndarray
 
         Examples
         --------
         >>> import fl_design as fl
-        >>> fl.LeastSquaresEstimator(1, 1e-3, 3).initial_state()
-        array([0., 0., 0., 0.])
+        >>> est = fl.LeastSquaresEstimator(1, 1e-3, 3)
+        >>> est.initial_state(), est.initial_state(y0=0.5)
+        (array([0., 0., 0., 0.]), array([0.5, 0.5, 0.5, 3. ]))
         """
-        return np.zeros(self.state_size)
+        N = self.window
+        t = (np.arange(N) - N) * self.T
+        if y0 is None and estimate is None:
+            return np.zeros(N + 1)
+        if estimate is None:
+            buffer = np.full(N, v.real_scalar("y0", y0))
+        else:
+            c = checked_estimate(estimate, self.rho)
+            buffer = sum(c[i] * t**i / math.factorial(i) for i in range(self.rho + 1))
+        return np.concatenate([buffer, [float(N)]])
 
     def parameter_vector(self) -> np.ndarray:
         """``M`` flattened row-major (length ``(rho+1) * window``).

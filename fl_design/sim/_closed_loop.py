@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,7 +55,7 @@ import numpy as np
 
 from .. import _validate as V
 from ..design import Layout
-from ..errors import DesignMismatchError
+from ..errors import DesignMismatchError, UnmodeledDynamicsWarning
 from ._metrics import RUN_CONSTANTS, metric_layout, signals, update
 
 #: Any design-state or input magnitude beyond this counts as non-finite (divergence).
@@ -138,6 +139,12 @@ class ClosedLoop:
         Estimator + controller.
     substeps : int
         RK4 steps per sample (>= 1).
+    allow_unmodeled : bool, optional
+        Accept a design of relative degree ``rho_d`` lower than the plant's ``rho_p`` (an
+        unmodeled fast actuator, the paper's hardware situation), with an
+        :class:`~fl_design.errors.UnmodeledDynamicsWarning`. The design's "true" coordinates
+        are then the plant's ``y, ..., y^(rho_d - 1)`` and its ``sigma`` is ``y^(rho_d) =
+        L_f^rho_d h`` (no input term). Default False: a mismatch is refused.
 
     Attributes
     ----------
@@ -158,7 +165,8 @@ class ClosedLoop:
     Raises
     ------
     DesignMismatchError
-        The plant's relative degree differs from the design's.
+        The plant's relative degree differs from the design's (lower, or higher without
+        ``allow_unmodeled``).
 
     Examples
     --------
@@ -174,19 +182,31 @@ class ClosedLoop:
     plant: Any
     design: Any
     substeps: int
+    allow_unmodeled: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "substeps", V.integer("substeps", self.substeps, minimum=1))
-        rho_p = self.plant.relative_degree()
-        if rho_p != self.design.rho:
-            raise DesignMismatchError(
-                f"the plant {self.plant.name!r} has relative degree {rho_p} but the design "
-                f"serves rho={self.design.rho}; build the design with rho={rho_p} (gains of "
-                f"length {rho_p}, EHGO(rho={rho_p}, ...))"
-            )
+        V.boolean("allow_unmodeled", self.allow_unmodeled)
+        rho_p, rho_d = self.plant.relative_degree(), self.design.rho
+        if rho_p == rho_d:
+            return
+        if rho_d < rho_p and self.allow_unmodeled:
+            warnings.warn(
+                f"the design (rho={rho_d}) runs on plant {self.plant.name!r} of relative degree "
+                f"{rho_p}: {rho_p - rho_d} order(s) of unmodeled dynamics, outside the theory's "
+                "guarantees (allow_unmodeled=True)", UnmodeledDynamicsWarning, stacklevel=3)
+            return
+        hint = (" or pass allow_unmodeled=True to run it on purpose (unmodeled dynamics)"
+                if rho_d < rho_p else " (a design of higher relative degree is not supported)")
+        raise DesignMismatchError(
+            f"the plant {self.plant.name!r} has relative degree {rho_p} but the design "
+            f"serves rho={rho_d}; build the design with rho={rho_p} (gains of "
+            f"length {rho_p}, EHGO(rho={rho_p}, ...)){hint}"
+        )
 
     def __getstate__(self):  # CasADi graphs are rebuilt after unpickling
-        return {k: v for k, v in self.__dict__.items() if k in ("plant", "design", "substeps")}
+        keep = ("plant", "design", "substeps", "allow_unmodeled")
+        return {k: v for k, v in self.__dict__.items() if k in keep}
 
     # --- sizes ----------------------------------------------------------------------------------
     @property
@@ -258,12 +278,31 @@ class ClosedLoop:
 
     @functools.cached_property
     def coordinates(self) -> ca.Function:
-        """``fl_coords(x) -> [y, y', ..., y^(rho-1)]`` (true normal-form coordinates)."""
+        """``fl_coords(x) -> [y, y', ..., y^(rho-1)]`` (true normal-form coordinates).
+
+        ``rho`` is the design's: with unmodeled dynamics the plant's first ``rho`` output
+        derivatives (Lie derivatives of ``h`` along ``f``).
+        """
         from ..symbolic._bridge import to_casadi
 
-        nf = self.plant.normal_form()
-        return to_casadi(list(nf.coordinates), [list(self.plant.states)], "fl_coords",
+        if self.plant.relative_degree() == self.rho:
+            coords = list(self.plant.normal_form().coordinates)
+        else:
+            coords = list(self.plant.output_derivatives(self.rho - 1))
+        return to_casadi(coords, [list(self.plant.states)], "fl_coords",
                          subs=self.plant.params, input_names=["x"], output_name="coords")
+
+    @functools.cached_property
+    def true_sigma(self) -> ca.Function:
+        """``fl_sigma(x, u) -> y^(rho)`` with the design's ``rho`` (the plant's ``sigma`` when
+        the relative degrees agree, ``L_f^rho h`` without an input term otherwise)."""
+        if self.plant.relative_degree() == self.rho:
+            return self.plant.casadi().sigma
+        from ..symbolic._bridge import to_casadi
+
+        expr = self.plant.output_derivatives(self.rho)[-1]
+        return to_casadi(expr, [list(self.plant.states), [self.plant.input]], "sigma",
+                         subs=self.plant.params, input_names=["x", "u"], output_name="sigma")
 
     @functools.cached_property
     def control(self) -> ca.Function:
@@ -275,7 +314,7 @@ class ClosedLoop:
         q_safe = ca.if_else(q > 0, q, 1.0)
         ym = ca.if_else(q > 0, q_safe * ca.floor((y + w) / q_safe + 0.5), y + w)
         s_next, u, xhat = self.design.parametric_step(s, ym, r, p)
-        sigma = fns.sigma(x, u)
+        sigma = self.true_sigma(x, u)
         return ca.Function(
             "fl_control", [x, s, r, w, q, p],
             [s_next, u, y, ym, xhat, sigma, ca.vec(self.coordinates(x))],

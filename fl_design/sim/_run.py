@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _validate as V
-from ..errors import ParameterError
+from ..errors import DimensionError, ParameterError, RelativeDegreeError
 from ._closed_loop import ClosedLoop, default_substeps
 from ._metrics import initial_values
 from ._options import RK4, Classifier, Scenario
@@ -77,6 +77,10 @@ class RunSetup:
         ``(N,)`` reference and measurement noise.
     x0 : numpy.ndarray
         Initial plant state.
+    s0 : numpy.ndarray
+        Initial design state: the estimator at rest at the first measurement (or at the
+        scenario's ``initial_estimate``), ``u0`` (the plant's ``u_eq`` unless the controller
+        sets it), ``z = 0``.
     y0, step, tol, q : float
         Initial output, ``r[-1] - y0``, absolute tolerance, quantization step (0: none).
     k_tail : int
@@ -104,6 +108,7 @@ class RunSetup:
     r: np.ndarray
     noise: np.ndarray
     x0: np.ndarray
+    s0: np.ndarray
     y0: float
     step: float
     tol: float
@@ -132,6 +137,27 @@ class RunSetup:
         return {"N": float(self.N), "k_tail": float(self.k_tail), "k_mid": float(self.k_mid),
                 "y0": self.y0, "step": self.step, "tol": self.tol}
 
+    @property
+    def u0(self) -> float:
+        """The input before the first sample, ``u(-1)``."""
+        return float(self.s0[self.loop.design.state_layout["u"]][0])
+
+    def _design_states(self, P: np.ndarray) -> np.ndarray:
+        """``s0``, or per column when an initial estimate depends on each column's ``eps``."""
+        if self.scenario.initial_estimate is None:
+            return self.s0
+        design, n_est = self.loop.design, self.loop.n_p - 1
+        cols, inverse = np.unique(P[:n_est], axis=1, return_inverse=True)
+        states = np.column_stack([
+            design.initial_state(y0=self.ym0, estimate=self.scenario.initial_estimate,
+                                 u0=self.u0, params=c) for c in cols.T])
+        return states[:, np.ravel(inverse)]
+
+    @property
+    def ym0(self) -> float:
+        """The first measurement (noise and quantization included): the estimator's start."""
+        return _measured(self.y0 + float(self.noise[0]), self.q)
+
     def initial_accumulator(self, P) -> np.ndarray:
         """``(nacc, m)`` accumulators for the parameter columns ``P`` (``(n_p, m)``).
 
@@ -154,9 +180,8 @@ class RunSetup:
         (72, 1)
         """
         P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
-        design = self.loop.design
         return self.loop.layout.pack(
-            x=self.x0, s=design.initial_state(), u_prev=design.controller.u0, k=0.0,
+            x=self.x0, s=self._design_states(P), u_prev=self.u0, k=0.0,
             diverged=0.0, k_div=-1.0, **initial_values(self.loop.rho), **self.constants(),
             q=self.q, x_op=self.loop.plant.x_op, bound=self.bound, region_lo=self.region[0],
             region_hi=self.region[1], p=P,
@@ -164,21 +189,29 @@ class RunSetup:
 
 
 def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = None,
-                classifier: Classifier | None = None) -> RunSetup:
+                classifier: Classifier | None = None, gammas=None,
+                allow_unmodeled: bool = False) -> RunSetup:
     """Validate a run of ``design`` on ``plant`` under ``scenario`` and lay out its samples.
 
     Parameters
     ----------
     plant : Plant
-        The plant; its relative degree must equal ``design.rho``.
+        The plant; its relative degree must equal ``design.rho`` (or exceed it, with
+        ``allow_unmodeled``).
     design : Design
         Estimator + dynamic controller (its ``T`` is the loop's).
     scenario : Scenario
-        Reference, duration, initial state, noise, quantization.
+        Reference, duration, initial state and estimate, noise, quantization.
     integrator : RK4, optional
         Substeps of the fixed-step integrator (default :class:`~fl_design.RK4`).
     classifier : Classifier, optional
         Tolerance, tail window and divergence bound (default :class:`~fl_design.Classifier`).
+    gammas : array_like, optional
+        The controller gains the run(s) will use (default the design's): each must have the
+        sign of ``b`` (:func:`check_gamma_sign`).
+    allow_unmodeled : bool, optional
+        Accept a design of lower relative degree than the plant's (see
+        :class:`~fl_design.sim.ClosedLoop`); default False.
 
     Returns
     -------
@@ -188,11 +221,11 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     ------
     ParameterError
         A duration shorter than one sample, a plant, design or option object of the wrong
-        type.
+        type, a ``gamma`` whose sign is not that of ``b``.
     DimensionError
-        A reference array or ``x0`` or bound of the wrong length.
+        A reference array or ``x0``, ``initial_estimate`` or bound of the wrong length.
     DesignMismatchError
-        Relative degrees of plant and design differ.
+        Relative degrees of plant and design differ (without ``allow_unmodeled``).
 
     Examples
     --------
@@ -217,7 +250,9 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     T = design.T
     N = scenario.n_samples(T)
     steps = default_substeps(plant, T) if integrator.substeps is None else integrator.substeps
-    loop = ClosedLoop(plant, design, substeps=steps)
+    loop = ClosedLoop(plant, design, substeps=steps,
+                      allow_unmodeled=V.boolean("allow_unmodeled", allow_unmodeled))
+    check_gamma_sign(plant, design.controller.gamma if gammas is None else gammas)
     r = scenario.reference_samples(T)
     x0 = (plant.x_op.copy() if scenario.x0 is None
           else V.real_vector("x0", scenario.x0, length=plant.n))
@@ -225,11 +260,102 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     step = float(r[-1] - y0)
     scale = max(abs(step), float(np.ptp(r)))
     q = 0.0 if scenario.quantization is None else float(scenario.quantization)
-    return RunSetup(loop=loop, scenario=scenario, classifier=classifier, N=N, r=r,
-                    noise=scenario.noise.samples(N), x0=x0, y0=y0, step=step,
+    noise = scenario.noise.samples(N)
+    s0 = _start_state(_measured(y0 + float(noise[0]), q), plant, design, scenario)
+    return RunSetup(loop=loop, scenario=scenario, classifier=classifier, N=N, r=r, noise=noise,
+                    x0=x0, s0=s0, y0=y0, step=step,
                     tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
                     k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant),
                     region=_region(plant))
+
+
+def _measured(y: float, q: float) -> float:
+    """The quantized measurement ``q floor(y / q + 1/2)`` (``q = 0``: ``y``), as in the loop."""
+    return float(q * np.floor(y / q + 0.5)) if q > 0 else float(y)
+
+
+def _start_state(ym0: float, plant, design, scenario: Scenario) -> np.ndarray:
+    ctrl = design.controller
+    u0 = plant.u_eq if ctrl.u0 is None else ctrl.u0
+    if ctrl.u_range is not None:
+        u0 = float(np.clip(u0, *ctrl.u_range))
+    estimate = scenario.initial_estimate
+    if estimate is not None and np.size(estimate) != design.rho + 1:
+        raise DimensionError(
+            f"initial_estimate={np.ravel(estimate).tolist()} has {np.size(estimate)} entries; "
+            f"the design (rho={design.rho}) needs rho + 1 = {design.rho + 1}: y, y', ..., "
+            f"y^({design.rho - 1}), sigma")
+    return design.initial_state(y0=ym0, estimate=estimate, u0=u0)
+
+
+def b_sign(plant) -> int:
+    """The sign of ``b = d y^(rho)/du`` over the plant's region (+1 or -1; 0 if unknown).
+
+    From :meth:`Plant.b_bounds` when the region bounds ``b``; else the sign at the operating
+    point ``(x_op, u_eq)`` (a region that does not cover ``b``'s variables, or on which ``b``
+    changes sign: there the method has no known sign, and the operating point's is used).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._run import b_sign
+    >>> b_sign(fl.plants.pendulum())
+    1
+    """
+    try:
+        lo, _ = plant.b_bounds()
+        return 1 if lo > 0 else -1
+    except (ParameterError, RelativeDegreeError):
+        b = float(plant.casadi().b(plant.x_op, plant.u_eq))
+        return int(np.sign(b)) if np.isfinite(b) else 0
+
+
+def check_gamma_sign(plant, gamma) -> None:
+    """Refuse a ``gamma`` (or any of several) whose sign is not that of ``b`` on ``plant``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    gamma : float or array_like
+        The controller gain(s).
+
+    Raises
+    ------
+    ParameterError
+        Naming the gamma, the plant's ``b`` range and the valid sign.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._run import check_gamma_sign
+    >>> check_gamma_sign(fl.plants.pendulum(), 1e-2)
+    >>> check_gamma_sign(fl.plants.pendulum(), -1e-2)
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.ParameterError: gamma=-0.01 has the sign opposite to b ...
+    """
+    sign = b_sign(plant)
+    g = np.atleast_1d(np.asarray(gamma, dtype=float))
+    bad = g[np.sign(g) != sign] if sign else g[:0]
+    if bad.size:
+        try:
+            where = "b in [{:.4g}, {:.4g}] over the region".format(*plant.b_bounds())
+        except (ParameterError, RelativeDegreeError):
+            where = "b at the operating point"
+        word = "> 0" if sign > 0 else "< 0"
+        raise ParameterError(
+            f"gamma={bad[0]:g} has the sign opposite to b on plant {plant.name!r} ({where}): "
+            f"gamma takes the sign of b; give gamma {word} (e.g. gamma={-bad[0]:g})")
 
 
 def _region(plant) -> np.ndarray:
@@ -238,4 +364,4 @@ def _region(plant) -> np.ndarray:
                      [region[s][1] if s in region else np.inf for s in plant.states]])
 
 
-__all__ = ["RunSetup", "default_divergence_bound", "prepare_run"]
+__all__ = ["RunSetup", "b_sign", "check_gamma_sign", "default_divergence_bound", "prepare_run"]

@@ -132,6 +132,10 @@ class Scenario:
         Measurement noise (default none).
     quantization : float, optional
         Quantization step of the measurement, > 0 (default none): ``q floor(y/q + 1/2)``.
+    initial_estimate : array_like, optional
+        The estimator's first estimates ``(y, y', ..., y^(rho-1), sigma)``, ``rho + 1``
+        values (checked against the design by the run). Default: a bumpless start at rest at
+        the first measurement, ``(y_0, 0, ..., 0)``.
 
     Raises
     ------
@@ -139,7 +143,7 @@ class Scenario:
         Non-positive or non-finite duration, a non-finite constant reference or ``x0``,
         ``noise`` not a :class:`Noise`, a non-positive quantization.
     DimensionError
-        A reference array or ``x0`` that is not one-dimensional.
+        A reference array, ``x0`` or ``initial_estimate`` that is not one-dimensional.
 
     Examples
     --------
@@ -155,6 +159,7 @@ class Scenario:
     x0: Any = None
     noise: Noise = field(default_factory=Noise)
     quantization: float | None = None
+    initial_estimate: Any = None
 
     def __post_init__(self) -> None:
         V.positive("duration", self.duration)
@@ -173,6 +178,8 @@ class Scenario:
             raise ParameterError(f"noise must be a fl.Noise(std, seed), got {self.noise!r}")
         if self.quantization is not None:
             V.positive("quantization", self.quantization)
+        if self.initial_estimate is not None:
+            V.real_vector("initial_estimate", self.initial_estimate)
 
     def n_samples(self, T: float) -> int:
         """``N = round(duration / T)``, the number of samples at sampling time ``T``.
@@ -268,7 +275,8 @@ class Scenario:
         Parameters
         ----------
         **changes
-            New values of ``reference``, ``duration``, ``x0``, ``noise``, ``quantization``.
+            New values of ``reference``, ``duration``, ``x0``, ``noise``, ``quantization``,
+            ``initial_estimate``.
 
         Returns
         -------
@@ -295,7 +303,8 @@ class Scenario:
         """
         return {"reference": _jsonable(self.reference), "duration": float(self.duration),
                 "x0": _jsonable(self.x0), "noise": self.noise.to_dict(),
-                "quantization": _jsonable(self.quantization)}
+                "quantization": _jsonable(self.quantization),
+                "initial_estimate": _jsonable(self.initial_estimate)}
 
 
 __all__ = ["Noise", "Scenario"]

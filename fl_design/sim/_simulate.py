@@ -36,7 +36,8 @@ ESCAPE_GROWTH = 10.0
 
 
 def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | None = None,
-             classifier: Classifier | None = None, kernel: Kernel | None = None) -> Response:
+             classifier: Classifier | None = None, kernel: Kernel | None = None,
+             allow_unmodeled: bool = False) -> Response:
     """Simulate the sampled closed loop of ``plant`` and ``design`` under ``scenario``.
 
     Parameters
@@ -56,6 +57,10 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
         Compiled C or CasADi's interpreter (default ``fl.Kernel()``: the step compiled once
         and cached, 8-15x faster than the interpreter from the second run on; without a
         working compiler, the interpreter with a ``CompilationWarning``; same results).
+    allow_unmodeled : bool, optional
+        Run a design of lower relative degree than the plant's on purpose (unmodeled
+        dynamics: an :class:`~fl_design.errors.UnmodeledDynamicsWarning`, and the design's
+        "true" ``sigma`` is ``L_f^rho h``); default False (a ``DesignMismatchError``).
 
     Returns
     -------
@@ -65,11 +70,12 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     Raises
     ------
     ParameterError
-        An option object of the wrong type, a duration shorter than one sample.
+        An option object of the wrong type, a duration shorter than one sample, a ``gamma``
+        whose sign differs from ``b``'s.
     DimensionError
-        A reference array, ``x0`` or bound of the wrong length.
+        A reference array, ``x0``, ``initial_estimate`` or bound of the wrong length.
     DesignMismatchError
-        The plant's relative degree differs from the design's.
+        The plant's relative degree differs from the design's (see ``allow_unmodeled``).
 
     Examples
     --------
@@ -87,7 +93,8 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     if not isinstance(kernel, Kernel):
         raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
     rk4 = integrator if isinstance(integrator, RK4) else RK4(substeps=1)
-    run = prepare_run(plant, design, scenario, integrator=rk4, classifier=classifier)
+    run = prepare_run(plant, design, scenario, integrator=rk4, classifier=classifier,
+                      allow_unmodeled=allow_unmodeled)
     p = design.parameter_vector()
     if isinstance(integrator, RK4):
         runner = run.loop.runner(kernel=kernel)
@@ -150,7 +157,7 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray, opts: Cvodes) -> tuple[np.ndarray
     """
     loop = run.loop
     integ = functools.partial(_integrator, loop, opts)
-    xk, sk, u_prev = run.x0.copy(), loop.design.initial_state(), loop.design.controller.u0
+    xk, sk, u_prev = run.x0.copy(), run.s0.copy(), run.u0
     out = np.full((loop.record_layout.size, run.N), np.nan)
     lay = metric_layout(loop.rho)
     m = lay.pack(**initial_values(loop.rho))[:, 0]

@@ -33,19 +33,22 @@ from ..errors import ParameterError
 from ._grid import _Columns, run_grid
 from ._metrics import Status, metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario
-from ._run import RunSetup, prepare_run
+from ._run import RunSetup, b_sign, prepare_run
 from ._stability_map import EpsStarEstimate, StabilityMap
 
 
-def _grid(name: str, values) -> np.ndarray:
+def _grid(name: str, values, *, signed: bool = False) -> np.ndarray:
     arr = np.atleast_1d(V.real_scalar(name, values)) if np.ndim(values) == 0 else \
         V.real_vector(name, values)
     if arr.size == 0:
         raise ParameterError(f"{name} must contain at least one value, got an empty grid")
+    if signed and np.all(arr < 0):
+        return -_grid(name, -arr)[::-1]
     if np.any(arr <= 0):
         bad = arr[arr <= 0]
-        raise ParameterError(f"{name} values must be finite and > 0, got {bad.tolist()} in "
-                             f"{name}={arr.tolist()}")
+        also = " (or all < 0, of the sign of b)" if signed else ""
+        raise ParameterError(f"{name} values must be finite and > 0{also}, got {bad.tolist()} "
+                             f"in {name}={arr.tolist()}")
     arr = np.sort(arr)
     if np.any(np.diff(arr) == 0):
         raise ParameterError(f"{name} has repeated values: {arr.tolist()}")
@@ -72,9 +75,18 @@ def _require_eps(design) -> None:
             f"{type(design.estimator).__name__} has no eps")
 
 
+def _signed_gammas(plant, grid: np.ndarray) -> np.ndarray:
+    """Positive grid values are magnitudes taking the sign of ``b``; signed ones are kept."""
+    sign = b_sign(plant)
+    if np.all(grid < 0) or sign == 0:
+        return grid
+    return sign * grid
+
+
 def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | None = None,
           classifier: Classifier | None = None, kernel: Kernel | None = None,
-          executor: Executor | None = None, progress: bool = True) -> StabilityMap:
+          executor: Executor | None = None, progress: bool = True,
+          allow_unmodeled: bool = False) -> StabilityMap:
     """Run and classify the closed loop on every (eps, gamma) pair of a grid.
 
     Parameters
@@ -87,7 +99,10 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
     scenario : Scenario
         The same reference, duration, start and noise sequence for every run.
     eps, gamma : array_like or float
-        Grid values, finite and > 0 (sorted increasingly; no repeats).
+        Grid values, finite and > 0 (sorted increasingly; no repeats). Positive ``gamma``
+        values are magnitudes: each run uses ``sign(b) * gamma`` (negative on a plant with
+        ``b < 0``); all-negative values are taken as given and must match ``b < 0``. The map
+        keeps the values as given.
     integrator : RK4, optional
         RK4 substeps (default from the plant's fastest mode).
     classifier : Classifier, optional
@@ -100,6 +115,9 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
         ``client.get_executor()``); results are identical to the local run.
     progress : bool, optional
         Show a progress bar (tqdm if installed, else a counter on stderr); default True.
+    allow_unmodeled : bool, optional
+        Run a design of lower relative degree than the plant's (unmodeled dynamics, with a
+        warning); default False.
 
     Returns
     -------
@@ -109,7 +127,7 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
     ------
     ParameterError
         A grid value <= 0 or not finite, an empty grid, bad options, an estimator
-        without ``eps``.
+        without ``eps``, negative gammas on a plant with ``b > 0``.
     DimensionError
         Reference of the wrong length.
     DesignMismatchError
@@ -125,9 +143,11 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
     ((2, 2), (2, 2))
     """
     _require_eps(design)
-    eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma)
-    run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier)
-    acc = run_grid(run, _Columns(design, eps_grid, gamma_grid), kernel=kernel,
+    eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
+    gammas = _signed_gammas(plant, gamma_grid)
+    run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
+                      gammas=gammas, allow_unmodeled=allow_unmodeled)
+    acc = run_grid(run, _Columns(design, eps_grid, gammas), kernel=kernel,
                    executor=executor, progress=progress)
     status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
@@ -137,7 +157,8 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
 def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
                       gamma: float | None = None, rtol: float = 0.01, max_simulations: int = 40,
                       integrator: RK4 | None = None, classifier: Classifier | None = None,
-                      kernel: Kernel | None = None) -> EpsStarEstimate:
+                      kernel: Kernel | None = None,
+                      allow_unmodeled: bool = False) -> EpsStarEstimate:
     """Empirical eps* by bisection in ``log eps`` between a stable and a non-stable run.
 
     Each candidate is one closed-loop run classified as in :func:`sweep`; a candidate passes
@@ -156,12 +177,15 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     eps_range : (float, float), optional
         Initial bracket ``0 < lo < hi`` (default ``(T, 1)``).
     gamma : float, optional
-        Controller gain (default the design's).
+        Controller gain (default the design's); a positive value is a magnitude taking the
+        sign of ``b``, as in :func:`sweep`.
     rtol : float, optional
         Stop when ``hi / lo - 1 <= rtol`` (default 0.01).
     max_simulations : int, optional
         Budget of runs (default 40).
     integrator, classifier, kernel : optional
+        As for :func:`sweep`.
+    allow_unmodeled : bool, optional
         As for :func:`sweep`.
 
     Returns
@@ -179,7 +203,8 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     """
     _require_eps(design)
     if gamma is not None:
-        design = design.replace(gamma=V.positive("gamma", gamma))
+        g = V.nonzero("gamma", gamma)
+        design = design.replace(gamma=float(_signed_gammas(plant, np.array([g]))[0]))
     lo, hi = V.interval("eps_range", eps_range if eps_range is not None else (design.T, 1.0),
                         allow_none=False)
     if lo <= 0:
@@ -189,7 +214,8 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     kernel = Kernel() if kernel is None else kernel
     if not isinstance(kernel, Kernel):
         raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
-    run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier)
+    run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
+                      allow_unmodeled=allow_unmodeled)
     runner = run.loop.runner(kernel=kernel)
     history = []
 

@@ -20,11 +20,13 @@ from ._discretization import (
     sigma_symbol,
     taylor_discretization,
 )
+from ._equilibrium import Equilibrium
 from ._normal_form import InternalDynamics, NormalForm
 from ._plant import Plant, PlantFunctions
 
 __all__ = [
     "Discretization",
+    "Equilibrium",
     "InternalDynamics",
     "NormalForm",
     "Plant",

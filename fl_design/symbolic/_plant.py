@@ -33,7 +33,11 @@ from .. import _validate as V
 from ..errors import PlantDefinitionError
 from ._bridge import to_casadi
 from ._constructs import check_expression, mismatched_assumptions, non_finite_at
+from ._equilibrium import Equilibrium, solve_equilibrium
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
+
+#: Keys of ``operating_point`` naming the output value (unless a state has that name).
+OUTPUT_KEYS = ("y", "output")
 
 
 @dataclass(frozen=True)
@@ -130,9 +134,10 @@ class Plant:
     region : dict, optional
         ``{state Symbol or name: (lo, hi)}`` region of interest (some states may be left out).
     operating_point : dict, optional
-        ``{state Symbol or name: value}`` (missing states are 0; default: the origin). It must
-        be an equilibrium for some input ``u_eq`` (solved numerically), inside the region and,
-        with ``u_eq``, inside the input range.
+        ``{state Symbol or name: value}`` and/or ``{"y": value}`` (the output). Default: the
+        origin (with ``u_eq`` solved). Given states (and the output) are held; the other states
+        and ``u_eq`` are solved (:meth:`equilibrium`), the unique equilibrium inside the region
+        and input range. Every state given: it must be an equilibrium for some ``u_eq``.
 
     Attributes
     ----------
@@ -195,8 +200,9 @@ class Plant:
             reg = {_key("region", k, by_name): V.interval(f"region[{k}]", v, allow_none=False)
                    for k, v in region.items()}
         set_(self, "_region", reg)
-        set_(self, "_x_op", self._operating_point(operating_point, by_name))
-        set_(self, "_u_eq", self._equilibrium_input())
+        x_op, u_eq = self._operating_point(operating_point, by_name)
+        set_(self, "_x_op", x_op)
+        set_(self, "_u_eq", self._equilibrium_input() if u_eq is None else u_eq)
         set_(self, "_cache", {})
         _ = self._fh  # every function has a CasADi translation, or a PlantDefinitionError now
 
@@ -224,7 +230,7 @@ class Plant:
         region : dict, optional
             ``{state or name: (lo, hi)}``.
         operating_point : dict, optional
-            ``{state or name: value}`` (default: the origin).
+            ``{state or name: value}`` and/or ``{"y": value}`` (default: the origin).
 
         Returns
         -------
@@ -237,6 +243,9 @@ class Plant:
         >>> x1, x2, u = sp.symbols("x1 x2 u")
         >>> fl.Plant.from_ode([x1, x2], u, [x2, x1 * u + 1], x1, operating_point={x1: 1.0}).u_eq
         -1.0
+        >>> p = fl.Plant.from_ode([x1, x2], u, [x2, -x1 + u], x1, operating_point={"y": 0.01})
+        >>> p.x_op.tolist(), p.u_eq
+        ([0.01, 0.0], 0.01)
         """
         return cls(states, input, rhs, output, params=params, name=name, input_range=input_range,
                    region=region, operating_point=operating_point)
@@ -286,22 +295,71 @@ class Plant:
                 f"the output {h} is not a function of the states {[str(s) for s in sts]}"
             )
 
-    def _operating_point(self, point, by_name) -> np.ndarray:
+    def _operating_point(self, point, by_name) -> tuple[np.ndarray, float | None]:
+        """``(x_op, u_eq)``; ``u_eq`` None when every state is given (solved afterwards)."""
         x = np.zeros(len(self._states))
+        fixed, y = {}, None
         if point is not None:
             if not isinstance(point, Mapping):
-                raise PlantDefinitionError(f"operating_point must be a dict {{state: value}}, got {point!r}")
+                raise PlantDefinitionError(
+                    f"operating_point must be a dict {{state or 'y': value}}, got {point!r}")
             for k, v in point.items():
+                if k in OUTPUT_KEYS and k not in by_name:
+                    y = V.real_scalar(f"operating_point[{k}]", v)
+                    continue
                 sym = _key("operating_point", k, by_name)
-                x[self._states.index(sym)] = V.real_scalar(f"operating_point[{k}]", v)
+                fixed[sym] = V.real_scalar(f"operating_point[{k}]", v)
+                x[self._states.index(sym)] = fixed[sym]
+        legacy = y is None and (point is None or len(fixed) == len(self._states))
         for s, (lo, hi) in (self._region or {}).items():
             xi = x[self._states.index(s)]
-            if not lo <= xi <= hi:
+            if (s in fixed or legacy) and not lo <= xi <= hi:
                 raise PlantDefinitionError(
-                    f"the operating point {s}={xi:g} lies outside the region [{lo:g}, {hi:g}]"
+                    f"the operating point {s}={xi:g} lies outside the region "
+                    f"[{lo:g}, {hi:g}] of {s}; choose a value inside it or widen the region"
                 )
-        x.setflags(write=False)
-        return x
+        if legacy:
+            x.setflags(write=False)
+            return x, None
+        eq = self._solve(fixed, y)
+        return eq.x, eq.u
+
+    def _solve(self, fixed: dict, y: float | None) -> Equilibrium:
+        return solve_equilibrium(
+            states=self._states, input=self._input, rhs=list(self._rhs), output=self._output,
+            params=self._params_map, region=self._region, input_range=self._input_range,
+            fixed=fixed, y=y, name=self._name)
+
+    def equilibrium(self, *, y: float | None = None, **states: float) -> Equilibrium:
+        """The equilibrium holding the output at ``y`` (and/or given states) in the region.
+
+        Parameters
+        ----------
+        y : float, optional
+            The output value held.
+        **states : float
+            ``name=value`` of states held (the others and the input are solved).
+
+        Returns
+        -------
+        Equilibrium
+            States ``x``, input ``u``, output ``y``.
+
+        Raises
+        ------
+        PlantDefinitionError
+            No equilibrium, or more than one, inside the region and input range.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> eq = fl.plants.trms_yaw().equilibrium(y=0.2)
+        >>> eq.x.tolist(), eq.u
+        ([0.2, 0.0], 0.0)
+        """
+        by_name = {s.name: s for s in self._states}
+        fixed = {_key("equilibrium", k, by_name): V.real_scalar(k, v) for k, v in states.items()}
+        return self._solve(fixed, None if y is None else V.real_scalar("y", y))
 
     def _equilibrium_input(self) -> float:
         at_op = list(self._rhs.subs(self._params_map).subs(
@@ -428,6 +486,28 @@ class Plant:
         4
         """
         return self._lie_chain().rho
+
+    def output_derivatives(self, order: int) -> tuple:
+        """``(y, y', ..., y^(order))`` as SymPy expressions (Lie derivatives along ``f``).
+
+        Parameters
+        ----------
+        order : int
+            Highest derivative, ``0 <= order <= rho``; below ``rho`` none depends on the input.
+
+        Returns
+        -------
+        tuple of sympy.Expr
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.plants.pendulum().output_derivatives(1)
+        (theta, theta_dot)
+        """
+        chain = self._lie_chain()
+        order = V.integer("order", order, minimum=0, maximum=chain.rho)
+        return tuple(chain.derivatives[: order + 1])
 
     def normal_form(self) -> NormalForm:
         """The normal form: rho, ``sigma = y^(rho)``, ``a``, ``b``, coordinates, zero dynamics.

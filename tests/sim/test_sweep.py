@@ -242,7 +242,7 @@ def test_sweep_refuses_mismatched_or_eps_less_designs(pendulum):
     ({"eps_range": (0.1, 0.01)}, "lo < hi"),
     ({"rtol": -1.0}, "rtol must be > 0"),
     ({"max_simulations": 1}, "max_simulations must be >= 2"),
-    ({"gamma": 0.0}, "gamma must be > 0"),
+    ({"gamma": 0.0}, "gamma must be nonzero"),
 ])
 def test_estimate_eps_star_bad_input(pendulum_design, pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):
