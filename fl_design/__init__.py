@@ -27,6 +27,7 @@ __version__ = "0.1.0"
 # public name -> module that defines it (None: the sub-module or sub-package itself)
 _LAZY = {
     "Plant": "symbolic",
+    "Equilibrium": "symbolic",
     "NormalForm": "symbolic",
     "Discretization": "symbolic",
     "taylor_discretization": "symbolic",
@@ -114,6 +115,7 @@ if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on 
     )
     from .symbolic import (
         Discretization,
+        Equilibrium,
         NormalForm,
         Plant,
         approximate_extended_model,

@@ -43,6 +43,7 @@ import sympy as sp
 
 from .._validate import integer, positive, real_scalar, real_vector
 from ..errors import DimensionError, ParameterError, ResourceLimitError
+from ._lie import lie_derivative
 
 #: Sampling time, the observer's time constant and their ratio ``T = alpha * eps``.
 T_SYMBOL = sp.Symbol("T", positive=True)
@@ -168,7 +169,7 @@ def lie_series_terms(states, rhs, count: int) -> list[sp.ImmutableMatrix]:
     terms = [sp.ImmutableMatrix(states)]
     for _ in range(count - 1):
         prev = terms[-1]
-        terms.append(sp.ImmutableMatrix(prev.jacobian(states) * field))
+        terms.append(lie_derivative(prev, states, field))
     return terms
 
 
@@ -449,7 +450,7 @@ class Discretization:
         for j in range(top + 1):
             mapping[sigma_symbol(j)] = sigma[0]
             if j < top:  # L_F sigma with the input held
-                sigma = sigma.jacobian(plant.states) * sp.Matrix(plant.rhs)
+                sigma = lie_derivative(sigma, plant.states, plant.rhs)
         return mapping
 
     def exact_function(self):
