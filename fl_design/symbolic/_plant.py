@@ -21,90 +21,27 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from functools import cached_property
 
 import casadi as ca
 import numpy as np
-import scipy.optimize
 import sympy as sp
 
 from .. import _validate as V
 from ..errors import PlantDefinitionError
 from ._bridge import to_casadi
-from ._constructs import check_expression, mismatched_assumptions, non_finite_at
+from ._definition import (
+    _key,
+    _symbols,
+    _sympify,
+    check_params,
+    check_symbols,
+    equilibrium_input,
+    parse_operating_point,
+)
 from ._equilibrium import Equilibrium, solve_equilibrium
+from ._functions import PlantFunctions
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
-
-#: Keys of ``operating_point`` naming the output value (unless a state has that name).
-OUTPUT_KEYS = ("y", "output")
-
-
-@dataclass(frozen=True)
-class PlantFunctions:
-    """CasADi SX functions of a plant, numeric parameters substituted.
-
-    Parameters
-    ----------
-    f : casadi.Function
-        ``f(x[n], u) -> xdot[n]``.
-    h : casadi.Function
-        ``h(x[n]) -> y``.
-    sigma : casadi.Function
-        ``sigma(x[n], u) -> y^(rho)``, the true lumped term ``a + b u`` (also for a non-affine input).
-    b : casadi.Function
-        ``b(x[n], u) -> d y^(rho)/du``.
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> fns = fl.plants.pendulum().casadi()
-    >>> float(fns.b([0.3, 0.0], 0.0))
-    1.0
-    """
-
-    f: ca.Function
-    h: ca.Function
-    sigma: ca.Function
-    b: ca.Function
-
-
-def _symbols(name: str, value) -> tuple:
-    if isinstance(value, (sp.MatrixBase, np.ndarray)):
-        value = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
-    if isinstance(value, sp.Symbol) or not isinstance(value, Sequence) or isinstance(value, str):
-        raise PlantDefinitionError(f"{name} must be a sequence of sympy Symbols, got {value!r}")
-    out = tuple(value)
-    if not out:
-        raise PlantDefinitionError(f"{name} must contain at least one state, got an empty sequence")
-    bad = [s for s in out if not isinstance(s, sp.Symbol)]
-    if bad:
-        raise PlantDefinitionError(f"{name} must be sympy Symbols, got {bad!r}")
-    names = [s.name for s in out]
-    dup = sorted({nm for nm in names if names.count(nm) > 1})
-    if dup:
-        raise PlantDefinitionError(f"{name} contains duplicate state(s) {dup}; each state once")
-    return out
-
-
-def _sympify(what: str, value) -> sp.Expr:
-    try:
-        out = sp.sympify(value)
-    except (sp.SympifyError, TypeError) as err:
-        raise PlantDefinitionError(f"{what} must be a sympy expression, got {value!r}") from err
-    if not isinstance(out, sp.Expr):
-        raise PlantDefinitionError(f"{what} must be a scalar sympy expression, got {out!r}")
-    return check_expression(what, out)
-
-
-def _key(kind: str, key, by_name: Mapping[str, sp.Symbol]) -> sp.Symbol:
-    name = key.name if isinstance(key, sp.Symbol) else key
-    if not isinstance(name, str) or name not in by_name or (
-            isinstance(key, sp.Symbol) and by_name[name] != key):
-        raise PlantDefinitionError(
-            f"{kind} key {key!r} is not one of the allowed symbols {sorted(by_name)}"
-        )
-    return by_name[name]
 
 
 class Plant:
@@ -180,8 +117,8 @@ class Plant:
             )
         f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e) for i, e in enumerate(rows)])
         h = _sympify("output", output)
-        pars = self._params(params, f, h, sts, input)
-        self._check_symbols(f, h, sts, input, pars)
+        pars = check_params(params, f, h, sts, input)
+        check_symbols(f, h, sts, input, pars)
         set_ = object.__setattr__
         set_(self, "_states", sts)
         set_(self, "_input", input)
@@ -250,79 +187,9 @@ class Plant:
         return cls(states, input, rhs, output, params=params, name=name, input_range=input_range,
                    region=region, operating_point=operating_point)
 
-    # --- validation helpers ----------------------------------------------------------------------
-    @staticmethod
-    def _params(params, f, h, sts, u) -> dict:
-        if params is None:
-            return {}
-        if not isinstance(params, Mapping):
-            raise PlantDefinitionError(f"params must be a dict {{symbol or name: value}}, got {params!r}")
-        free = f.free_symbols | h.free_symbols
-        taken = {s.name for s in sts} | {u.name}
-        by_name = {s.name: s for s in free if s.name not in taken}
-        out = {}
-        for k, v in params.items():
-            nm = k.name if isinstance(k, sp.Symbol) else k
-            if nm in taken:
-                raise PlantDefinitionError(f"params key {k!r} is a state or the input, not a parameter")
-            sym = _key("params", k, by_name) if by_name else None
-            if sym is None:
-                raise PlantDefinitionError(f"params key {k!r} does not appear in rhs or output")
-            out[sym] = V.real_scalar(f"params[{nm}]", v)
-        return out
-
-    @staticmethod
-    def _check_symbols(f, h, sts, u, pars) -> None:
-        known = set(sts) | {u} | set(pars)
-        unknown = sorted(str(s) for s in (f.free_symbols | h.free_symbols) - known)
-        if unknown:
-            twin = mismatched_assumptions((f.free_symbols | h.free_symbols) - known, known)
-            if twin:
-                raise PlantDefinitionError(twin)
-            raise PlantDefinitionError(
-                f"unknown symbol(s) {unknown}: each must be a state {[str(s) for s in sts]}, the "
-                f"input {u} or a parameter with a value in params"
-            )
-        if u not in f.free_symbols:
-            raise PlantDefinitionError(f"the input {u} does not appear in rhs: the plant is not actuated")
-        if u in h.free_symbols:
-            raise PlantDefinitionError(
-                f"the output {h} depends on the input {u} (relative degree 0); the output must be "
-                "a function of the states only"
-            )
-        if not h.free_symbols & set(sts):
-            raise PlantDefinitionError(
-                f"the output {h} is not a function of the states {[str(s) for s in sts]}"
-            )
-
     def _operating_point(self, point, by_name) -> tuple[np.ndarray, float | None]:
         """``(x_op, u_eq)``; ``u_eq`` None when every state is given (solved afterwards)."""
-        x = np.zeros(len(self._states))
-        fixed, y = {}, None
-        if point is not None:
-            if not isinstance(point, Mapping):
-                raise PlantDefinitionError(
-                    f"operating_point must be a dict {{state or 'y': value}}, got {point!r}")
-            for k, v in point.items():
-                if k in OUTPUT_KEYS and k not in by_name:
-                    y = V.real_scalar(f"operating_point[{k}]", v)
-                    continue
-                sym = _key("operating_point", k, by_name)
-                fixed[sym] = V.real_scalar(f"operating_point[{k}]", v)
-                x[self._states.index(sym)] = fixed[sym]
-        legacy = y is None and (point is None or len(fixed) == len(self._states))
-        for s, (lo, hi) in (self._region or {}).items():
-            xi = x[self._states.index(s)]
-            if (s in fixed or legacy) and not lo <= xi <= hi:
-                raise PlantDefinitionError(
-                    f"the operating point {s}={xi:g} lies outside the region "
-                    f"[{lo:g}, {hi:g}] of {s}; choose a value inside it or widen the region"
-                )
-        if legacy:
-            x.setflags(write=False)
-            return x, None
-        eq = self._solve(fixed, y)
-        return eq.x, eq.u
+        return parse_operating_point(point, by_name, self._states, self._region, self._solve)
 
     def _solve(self, fixed: dict, y: float | None) -> Equilibrium:
         return solve_equilibrium(
@@ -362,46 +229,8 @@ class Plant:
         return self._solve(fixed, None if y is None else V.real_scalar("y", y))
 
     def _equilibrium_input(self) -> float:
-        at_op = list(self._rhs.subs(self._params_map).subs(
-            dict(zip(self._states, self._x_op.tolist()))))
-        where = ", ".join(f"{s}={v:g}" for s, v in zip(self._states, self._x_op))
-        non_finite_at(at_op, where)
-        fn = sp.lambdify([self._input], at_op, modules="numpy")
-
-        def resid(u):
-            with np.errstate(all="ignore"):
-                out = np.asarray(fn(float(np.ravel(u)[0])), dtype=complex)
-            if np.any(out.imag != 0):  # e.g. sqrt of a negative number
-                raise PlantDefinitionError(
-                    f"f(x_op, u) takes the complex values {out.tolist()} at the operating point "
-                    f"({where}) and u={float(np.ravel(u)[0]):g}: the plant must be real there; "
-                    "choose an operating_point inside the domain of f")
-            return out.real
-
-        scale = max([1.0] + [float(np.nanmax(np.abs(resid(v)))) for v in (0.0, -1.0, 1.0)])
-        tol = 1e-9 * scale
-        best_u, best_r = 0.0, float(np.max(np.abs(resid(0.0))))
-        for u0 in (0.0, 1.0, -1.0, *(self._input_range or ())):
-            if best_r <= tol:
-                break
-            sol = scipy.optimize.least_squares(resid, [u0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
-            r = float(np.max(np.abs(resid(sol.x[0]))))
-            if r < best_r:
-                best_u, best_r = float(sol.x[0]), r
-        where = ", ".join(f"{s}={v:g}" for s, v in zip(self._states, self._x_op))
-        if not best_r <= tol:
-            raise PlantDefinitionError(
-                f"the operating point ({where}) is not an equilibrium for any input: the smallest "
-                f"residual max|f(x_op, u)| is {best_r:.3g} (at u={best_u:.6g}); choose a point where "
-                "f(x_op, u_eq) = 0 for some u_eq"
-            )
-        best_u = 0.0 if abs(best_u) < 1e-12 else best_u
-        if self._input_range and not self._input_range[0] <= best_u <= self._input_range[1]:
-            raise PlantDefinitionError(
-                f"the operating point ({where}) needs the input u_eq={best_u:.6g}, outside the "
-                f"input range {self._input_range}"
-            )
-        return best_u
+        return equilibrium_input(self._rhs.subs(self._params_map), self._states, self._input,
+                                 self._x_op, self._input_range)
 
     # --- read-only attributes --------------------------------------------------------------------
     def __setattr__(self, key, value):
