@@ -225,8 +225,9 @@ def overshoot_text(resp) -> str:
     """
     if resp.status == "diverged":
         return "n/a (diverged)"
-    if abs(resp.y[-1] - resp.r[-1]) > 0.5 * abs(resp.step) and resp.overshoot < 1.0:
-        return f"{resp.overshoot:.3g} (does not track: final |e| {abs(resp.y[-1] - resp.r[-1]):.3g})"
+    reach = np.nanmax(np.abs(resp.y - resp.y0)) / max(abs(resp.step), 1e-300)
+    if reach < 0.9:
+        return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
     return f"{resp.overshoot:.3g}"
 
 
