@@ -21,7 +21,7 @@ def test_there_is_a_script_per_claim():
 def test_claim_script_quick(script):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.run([sys.executable, str(script), "--quick"], capture_output=True,
-                          text=True, env=env, timeout=180)
+                          text=True, env=env, timeout=180, check=False)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     out = proc.stdout
     assert "holds" in out or out.startswith("skipped: needs allow_unmodeled")

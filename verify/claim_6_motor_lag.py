@@ -26,7 +26,7 @@ def main(argv=None) -> int:
     static = fl.simulate(fl.plants.trms_yaw(), design, scenario)
     lag = fl.simulate(fl.plants.trms_yaw(motor_lag=True), design, scenario,
                       allow_unmodeled=True)
-    print(f"paper (hardware, motor lag present): overshoot 36 %")
+    print("paper (hardware, motor lag present): overshoot 36 %")
     print(f"static motor model: {static.verdict()}")
     print(f"motor-lag model:    {lag.verdict()}")
     ok = lag.bounded

@@ -14,7 +14,7 @@ Examples
 
 from ._build import build_classifier, build_design, build_plant, build_scenario
 from ._cli import build_parser, check_out_dir, main
-from ._config import DEFAULT_TOML, Config, ConfigError, load_config, parse_config
+from ._config import DEFAULT_TOML, Config, ConfigError, load_config, parse_config  # noqa: F401
 from ._console import (
     print_certificates,
     print_codegen,
@@ -36,10 +36,44 @@ from ._report_figures import (
 from ._report_sections import bounded_up_to, fmt, overshoot_text, sections
 from ._report_write import render_html, render_markdown, summary, write_report
 
-__all__ = ["DEFAULT_TOML", "QUICK", "STAGES", "Config", "Job", "build_classifier",
-           "bounded_up_to", "build_design", "build_parser", "build_plant", "build_scenario", "check_out_dir",
-           "derivation_report", "design_label", "eps_star_figure", "fmt", "load_config", "main",
-           "main_response_figure", "noise_levels", "note", "overshoot_text", "parse_config", "prepare",
-           "print_certificates", "print_codegen", "print_derive", "print_job", "print_simulate",
-           "print_sweep", "render_html", "render_markdown", "run_job", "sections",
-           "stability_map_figure", "step_figure", "summary", "tradeoff_figure", "write_report"]
+__all__ = [
+    "DEFAULT_TOML",
+    "QUICK",
+    "STAGES",
+    "Config",
+    "Job",
+    "bounded_up_to",
+    "build_classifier",
+    "build_design",
+    "build_parser",
+    "build_plant",
+    "build_scenario",
+    "check_out_dir",
+    "derivation_report",
+    "design_label",
+    "eps_star_figure",
+    "fmt",
+    "load_config",
+    "main",
+    "main_response_figure",
+    "noise_levels",
+    "note",
+    "overshoot_text",
+    "parse_config",
+    "prepare",
+    "print_certificates",
+    "print_codegen",
+    "print_derive",
+    "print_job",
+    "print_simulate",
+    "print_sweep",
+    "render_html",
+    "render_markdown",
+    "run_job",
+    "sections",
+    "stability_map_figure",
+    "step_figure",
+    "summary",
+    "tradeoff_figure",
+    "write_report",
+]

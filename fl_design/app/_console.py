@@ -88,7 +88,7 @@ def print_sweep(job) -> None:
           f"s runs: {counts}")
     print(f"  {'gamma':<10} {'empirical eps* (s)':<30} every run bounded up to eps (s)")
     for g in smap.gamma:
-        print(f"  {g:<10.3g} {str(smap.eps_star(g)):<30} {bounded_up_to(smap, g)}")
+        print(f"  {g:<10.3g} {smap.eps_star(g)!s:<30} {bounded_up_to(smap, g)}")
 
 
 def print_simulate(job) -> None:

@@ -106,8 +106,13 @@ def _derive(job: Job) -> None:
 
 
 def _certify(job: Job, quick: bool) -> None:
-    from ..analysis import certify_eps, certify_gamma, certify_lyapunov, eps_star_curve
-    from ..analysis import linearized_eps_star
+    from ..analysis import (
+        certify_eps,
+        certify_gamma,
+        certify_lyapunov,
+        eps_star_curve,
+        linearized_eps_star,
+    )
 
     cfg, design, plant = job.config.certify, job.design, job.plant
     b = job.derivation["b_bounds"]

@@ -87,7 +87,7 @@ def stability_map_figure(job):
         where = "" if 1.0 / b[1] <= smap.gamma[-1] * 1.5 else ", right of this map"
         ax.axvline(1.0 / b[1], color="k", ls=":", lw=1.2,
                    label=f"paper's gamma < 1/b_max = {1 / b[1]:.3g}{where}")
-    handles, labels = ax.get_legend_handles_labels()
+    handles, _labels = ax.get_legend_handles_labels()
     old = ax.get_legend()
     keep = list(old.legend_handles) if old is not None else []
     ax.legend(handles=keep + handles[-2:], loc="lower left", fontsize="x-small")

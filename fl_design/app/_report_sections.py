@@ -43,12 +43,12 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
 
 def _derivation(job) -> list:
     d = job.derivation
-    blocks = [("p", f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with "
-                    f"a = {d['a']}, b = {d['b']}.")]
+    blocks = [("p", (f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with "
+                    f"a = {d['a']}, b = {d['b']}."))]
     if d["b_bounds"]:
         lo, hi = d["b_bounds"]
-        blocks.append(("p", f"b over the plant's region and input range: [{lo:.4g}, {hi:.4g}]; "
-                            f"the paper asks gamma < 1/b_max = {1 / hi:.4g}."))
+        blocks.append(("p", (f"b over the plant's region and input range: [{lo:.4g}, {hi:.4g}]; "
+                            f"the paper asks gamma < 1/b_max = {1 / hi:.4g}.")))
     zd = ("no zero dynamics (n = rho)" if d["n"] == d["rho"] else
           f"zero dynamics eigenvalues {', '.join(d['zero_dynamics_eigenvalues'])}: "
           f"{'minimum phase' if d['minimum_phase'] else 'NOT minimum phase'}")
@@ -57,9 +57,9 @@ def _derivation(job) -> list:
 
 
 def _lyapunov_blocks(lyap) -> list:
-    return [("p", f"Gains K = {tuple(float(k) for k in lyap.gains)}: P_x from "
+    return [("p", (f"Gains K = {tuple(float(k) for k in lyap.gains)}: P_x from "
                   f"(A + B K)^T P_x + P_x (A + B K) = -Q, lambda_x = {lyap.lambda_x:g}, decrease "
-                  f"along F^a at T: {lyap.decrease_holds}; certified: {lyap.certified}."),
+                  f"along F^a at T: {lyap.decrease_holds}; certified: {lyap.certified}.")),
             ("pre", "P_x =\n" + np.array2string(np.asarray(lyap.P_x), precision=5))]
 
 
@@ -81,9 +81,9 @@ def _certificates(job) -> list:
             ["eps* certified (s)", fmt(e.eps_star_certified, "not certified in range")],
             ["this eps certified", f"{e.certified}: {e.reason}"],
         ]))
-        blocks.append(("p", "What is certified: the sampled linear surrogate loop (chain of "
+        blocks.append(("p", ("What is certified: the sampled linear surrogate loop (chain of "
                             "integrators, sigma = b u, b anywhere in its interval) closed by "
-                            "this design's own step; not the nonlinear plant."))
+                            "this design's own step; not the nonlinear plant.")))
     elif "skipped" in cert:
         blocks.append(("p", f"Certificates of gamma and eps* skipped: {cert['skipped']}."))
     lin = cert["linearized"]
@@ -91,8 +91,8 @@ def _certificates(job) -> list:
     value = cert["linearized_design"]
     text = (f">= {top:g} (stable on the whole range; no boundary found)"
             if math.isclose(value, top) else fmt(value, "unstable at the smallest eps"))
-    blocks.append(("p", f"Linearized nonlinear loop at the equilibrium, this gamma: eps* = "
-                        f"{text} s."))
+    blocks.append(("p", (f"Linearized nonlinear loop at the equilibrium, this gamma: eps* = "
+                        f"{text} s.")))
     return blocks
 
 
@@ -141,24 +141,24 @@ def _sweep(job, figures) -> list:
                        if np.any(labels == s))
     cert = job.results.get("certify", {})
     rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
-    blocks = [("p", f"{smap.eps.size} x {smap.gamma.size} runs of {smap.duration:g} s "
+    blocks = [("p", (f"{smap.eps.size} x {smap.gamma.size} runs of {smap.duration:g} s "
                     f"(noise-free): {counts}. Empirical eps* at each gamma: the largest grid eps "
                     f"below which every run converges (converging or converged); '> x' means "
                     f"no boundary inside the scanned range, '< x' that even the smallest eps "
-                    f"failed.")]
+                    f"failed."))]
     if "stability_map.png" in figures:
-        blocks.append(("fig", "stability_map.png", f"Stability map, {job.plant.name}; the star "
-                       "is this design, the dotted line the paper's gamma < 1/b_max"))
+        blocks.append(("fig", "stability_map.png", (f"Stability map, {job.plant.name}; the star "
+                       "is this design, the dotted line the paper's gamma < 1/b_max")))
     blocks.append(("table", ["gamma", "empirical eps* (s)", "every run bounded up to eps (s)"],
                    rows))
     if np.mean(labels == "oscillating") > 0.3:
-        blocks.append(("p", "Most runs are 'oscillating': bounded, but their error does not "
+        blocks.append(("p", ("Most runs are 'oscillating': bounded, but their error does not "
                             "settle inside the band (on the TRMS, a slow limit cycle against the "
                             "Coulomb friction). Those runs count as failures for eps*; the last "
-                            "column counts them as bounded, the practical stability of Theorem 1."))
+                            "column counts them as bounded, the practical stability of Theorem 1.")))
     if "eps_star.png" in figures:
-        blocks.append(("fig", "eps_star.png", "eps*(gamma): certified, frozen, linearized and "
-                       "empirical"))
+        blocks.append(("fig", "eps_star.png", ("eps*(gamma): certified, frozen, linearized and "
+                       "empirical")))
     if "curve" in cert:
         c = cert["curve"]
         blocks.append(("table", ["gamma", "eps* frozen (s)", "eps* certified (s)"],
@@ -187,8 +187,8 @@ def _simulations(job, figures) -> list:
     blocks.append(("table", ["design", "noise std", "verdict", "overshoot %", "tail max |e|",
                              "u noise", "in words"], rows))
     if "steps.png" in figures:
-        blocks.append(("fig", "steps.png", "Step responses, EHGO and least squares, with and "
-                                           "without sensor noise"))
+        blocks.append(("fig", "steps.png", ("Step responses, EHGO and least squares, with and "
+                                           "without sensor noise")))
     if sim["tradeoff"]:
         blocks.append(("table", ["eps (s)", "sigmahat noise", "u noise", "verdict",
                                  "overshoot %"],
@@ -198,8 +198,8 @@ def _simulations(job, figures) -> list:
                         for r in sim["tradeoff"]]))
     if "noise_tradeoff.png" in figures:
         blocks.append(("fig", "noise_tradeoff.png", "Noise of sigmahat and u against eps"))
-    blocks.append(("p", f"Settling band: |e| <= {tol:.3g} (the [scenario] tolerance times the "
-                        "step)."))
+    blocks.append(("p", (f"Settling band: |e| <= {tol:.3g} (the [scenario] tolerance times the "
+                        "step).")))
     return blocks
 
 
@@ -252,13 +252,13 @@ def _codegen(job) -> list:
     lines = cg["costs"].to_markdown().splitlines()
     head = [h.strip() for h in lines[0].strip("|").split("|")]
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in lines[2:]]
-    return [("p", f"C99 package ({pkg.precision}, prefix {pkg.prefix!r}) in {pkg.out_dir}: "
-                  f"{', '.join(p.name for p in pkg.files)}."),
+    return [("p", (f"C99 package ({pkg.precision}, prefix {pkg.prefix!r}) in {pkg.out_dir}: "
+                  f"{', '.join(p.name for p in pkg.files)}.")),
             ("table", head, rows),
-            ("p", f"Software in the loop ({cg['sil_duration']:g} s, noise std "
+            ("p", (f"Software in the loop ({cg['sil_duration']:g} s, noise std "
                   f"{cg['sil_noise_std']:g}): compiled step versus Design.step, max relative "
                   f"error {sil.max_rel_error:.3g} (bound {sil.bound:g}), last tenth "
-                  f"{sil.tail_rel_error:.3g}: {'PASSED' if sil.passed else 'FAILED'}.")]
+                  f"{sil.tail_rel_error:.3g}: {'PASSED' if sil.passed else 'FAILED'}."))]
 
 
 def sections(job, figures) -> list:

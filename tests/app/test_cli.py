@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def _cli(*args, cwd=None, timeout=120):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.run([sys.executable, "-m", "fl_design", *args], capture_output=True,
-                          text=True, cwd=cwd, env=env, timeout=timeout)
+                          text=True, cwd=cwd, env=env, timeout=timeout, check=False)
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +101,7 @@ def test_closed_pipe_is_one_line(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.run(f"{sys.executable} -m fl_design derive --plant flexible-joint --latex"
                           " | head -1", shell=True, capture_output=True, text=True, env=env,
-                          timeout=60)
+                          timeout=60, check=False)
     assert "Traceback" not in proc.stderr
     assert proc.stdout.startswith("Plant: flexible_joint")
 
