@@ -2,21 +2,14 @@
 
 Sub-commands
 ------------
-``derive``
-    Print the derivation report of a library plant: relative degree, ``a``, ``b``, the b-range
-    over the plant's region, and the sampled-plant residual orders (plain text, ``--latex`` too).
-``certify``
-    Print the certificates of a design on a library plant (default: the paper's TRMS design,
-    ``eps = 0.05``, ``gamma = 3e-4``): the Lyapunov conditions of the gains, the admissible
-    gamma interval and the certified eps* of the linear surrogate over the plant's b range.
-``demo``
-    The main job on the built-in Twin Rotor (TRMS yaw) example: derive the plant, build the
-    paper's EHGO + dynamic controller design, locate the linearized ``eps*``, simulate the
-    0.3 rad step and compare against the least-squares baseline; writes a figure.
-``codegen``
-    Write the paper's design (or a least-squares baseline) as a C99 package: sources, header,
-    SIL harness, Makefile and README (``fl.generate_c``); ``--precision float`` for true single
-    precision.
+``run [CONFIG.toml] [--out DIR] [--quick]``
+    The main job: derive, certify, sweep, simulate the paper's comparison, generate and verify
+    the C step, write ``report.html``, ``report.md``, the figures and ``summary.json``.
+``derive``, ``certify``, ``simulate``, ``sweep``, ``codegen``
+    Each stage alone, on the same configuration (default: the paper's TRMS design).
+
+Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
+checked before the work starts; a closed pipe (``| head``) too.
 
 Examples
 --------
@@ -29,79 +22,187 @@ Plant: pendulum...
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 
-from ..errors import FlDesignError
+from .. import __version__
+from ..errors import FlDesignError, OutputPathError, ParameterError
+from ._config import load_config, parse_config
 
 PLANT_CHOICES = ("trms", "trms-lag", "pendulum", "flexible-joint")
 
 
-def _library_plant(key: str):
-    from .. import plants
+def check_out_dir(path) -> Path:
+    """Create ``path`` if needed and prove it writable, before any work (else OutputPathError).
 
-    factories = {
-        "trms": lambda: plants.trms_yaw(),
-        "trms-lag": lambda: plants.trms_yaw(motor_lag=True),
-        "pendulum": plants.pendulum,
-        "flexible-joint": plants.flexible_joint,
-    }
-    return factories[key]()
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The output folder.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    OutputPathError
+        Empty, not a folder, or not writable.
+
+    Examples
+    --------
+    >>> from fl_design.app import check_out_dir
+    >>> check_out_dir("out_ok").is_dir()
+    True
+    >>> check_out_dir("")
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.OutputPathError: --out is empty: give a folder, e.g. --out out
+    """
+    if not str(path).strip():
+        raise OutputPathError("--out is empty: give a folder, e.g. --out out")
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise OutputPathError(f"--out {str(path)!r} exists and is not a folder")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=p, prefix=".fl-design-probe"):
+            pass
+    except OSError as err:
+        raise OutputPathError(f"cannot write to --out {str(path)!r}: "
+                              f"{err.strerror or type(err).__name__}") from None
+    return p
 
 
-def _cmd_derive(args: argparse.Namespace) -> int:
+def _executor(address: str | None):
+    if address is None:
+        return None
+    try:
+        from distributed import Client
+    except ImportError:
+        from ..errors import MissingDependencyError
+
+        raise MissingDependencyError("--scheduler needs dask.distributed: pip install "
+                                     "'fl_design[dask]'") from None
+    try:
+        return Client(address, timeout="10s").get_executor()
+    except (OSError, TimeoutError, ValueError) as err:
+        raise ParameterError(f"cannot connect to the Dask scheduler {address!r}: "
+                             f"{str(err).splitlines()[0] if str(err) else type(err).__name__}") \
+            from None
+
+
+def _config(args):
+    if getattr(args, "plant", None):
+        return parse_config(f'[plant]\nlibrary = "{args.plant}"', source=f"--plant {args.plant}")
+    return load_config(getattr(args, "config", None))
+
+
+def _cmd_run(args) -> int:
+    from ._console import print_job
+    from ._job import prepare, run_job
+    from ._report_write import write_report
+
+    cfg = load_config(args.config)
+    out = check_out_dir(args.out)
+    prepare(cfg)  # plant and design fit: fail before any work
+    executor = _executor(args.scheduler)
+    job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
+                  progress=not args.no_progress)
+    paths = write_report(job, out)
+    print_job(job)
+    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']} and "
+          f"{len(paths['figures'])} figures")
+    return 0
+
+
+def _cmd_derive(args) -> int:
+    from ._build import build_plant
     from ._report import derivation_report
 
-    print(derivation_report(_library_plant(args.plant), latex=args.latex))
+    print(derivation_report(build_plant(_config(args)), latex=args.latex))
     return 0
 
 
-def _cmd_certify(args: argparse.Namespace) -> int:
-    from .. import certify_eps, certify_gamma, certify_lyapunov, presets
+def _cmd_certify(args) -> int:
+    from ._console import print_certificates
+    from ._job import run_job
 
-    plant = _library_plant(args.plant)
-    if plant.relative_degree() != 2:
-        from ..errors import DesignMismatchError
-
-        raise DesignMismatchError(
-            f"plant {args.plant!r} has relative degree {plant.relative_degree()}; the certify "
-            "command certifies the paper's rho = 2 design: use --plant trms or pendulum"
-        )
-    design = presets.paper_design(eps=args.eps, gamma=args.gamma)
-    b = plant.b_bounds()
-    print(f"Plant: {plant.name}, b in [{b[0]:.6g}, {b[1]:.6g}], T = {design.T:g} s")
-    print(certify_lyapunov(design.controller.gains, T=design.T))
-    print(certify_gamma(design, b))
-    print(certify_eps(design, b))
+    cfg = _config(args)
+    if args.eps is not None or args.gamma is not None:
+        d = dict(cfg.design, eps=cfg.design["eps"] if args.eps is None else args.eps,
+                 gamma=cfg.design["gamma"] if args.gamma is None else args.gamma)
+        cfg = type(cfg)(**{**cfg.__dict__, "design": d})
+    job = run_job(cfg, quick=args.quick, stages=("certify",), progress=not args.no_progress)
+    print_certificates(job)
     return 0
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from ._demo import run_demo
+def _cmd_stage(stage: str):
+    def command(args) -> int:
+        from . import _console
+        from ._job import prepare, run_job
 
-    return run_demo(quick=args.quick, out_dir=args.out, show_progress=not args.no_progress)
+        cfg = _config(args)
+        out = check_out_dir(args.out) if getattr(args, "out", None) else Path(".")
+        prepare(cfg)
+        executor = _executor(getattr(args, "scheduler", None))
+        job = run_job(cfg, quick=args.quick, stages=(stage,), out_dir=out, executor=executor,
+                      progress=not args.no_progress)
+        getattr(_console, f"print_{stage}")(job)
+        return 0
+    return command
 
 
-def _cmd_codegen(args: argparse.Namespace) -> int:
-    from .. import presets
+def _cmd_codegen(args) -> int:
     from ..codegen import generate_c
+    from ._build import build_design
+    from ._job import prepare, run_job
 
-    designs = {
-        "ehgo": lambda: presets.paper_design(eps=args.eps, gamma=args.gamma),
-        "ls9": lambda: presets.least_squares_design(9, gamma=args.gamma),
-        "ls26": lambda: presets.least_squares_design(26, gamma=args.gamma),
-    }
-    pkg = generate_c(designs[args.design](), args.out, precision=args.precision,
-                     prefix=args.prefix)
-    print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) "
-          f"to {pkg.out_dir}:")
+    cfg = load_config(args.config)
+    cg = dict(cfg.codegen)
+    cg["precision"] = args.precision or cg["precision"]
+    cg["prefix"] = args.prefix or cg["prefix"]
+    cfg = type(cfg)(**{**cfg.__dict__, "codegen": cg})
+    out = check_out_dir(args.out)
+    if args.verify:
+        from ._console import print_codegen
+
+        job = run_job(cfg, quick=args.quick, stages=("codegen",), out_dir=out,
+                      progress=not args.no_progress)
+        print_codegen(job)
+        return 0
+    job = prepare(cfg)
+    design = job.design if args.design == "config" else build_design(
+        cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
+    pkg = generate_c(design, out, precision=cg["precision"], prefix=cg["prefix"])
+    print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) to "
+          f"{pkg.out_dir}:")
     for path in pkg.files:
         print(f"  {path.name}")
     return 0
 
 
+def _common(p, *, config=True, out=False, scheduler=False) -> None:
+    if config:
+        p.add_argument("config", nargs="?", default=None,
+                       help="TOML configuration (default: the paper's TRMS experiment)")
+        p.add_argument("--plant", choices=PLANT_CHOICES, default=None,
+                       help="a library plant with the default design instead of a config")
+    p.add_argument("--quick", action="store_true", help="short runs, small grids (tests)")
+    p.add_argument("--no-progress", action="store_true", help="no progress on stderr")
+    if out:
+        p.add_argument("--out", default="out", help="output folder (default out)")
+    if scheduler:
+        p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                       help="run sweeps on a Dask cluster (e.g. tcp://host:8786)")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """Return the argument parser of ``fl-design`` (``derive``, ``certify``, ``demo``, ``codegen``).
+    """Return the argument parser of ``fl-design``.
 
     Returns
     -------
@@ -110,38 +211,53 @@ def build_parser() -> argparse.ArgumentParser:
     Examples
     --------
     >>> from fl_design.app import build_parser
-    >>> build_parser().parse_args(["derive", "--plant", "pendulum"]).plant
-    'pendulum'
+    >>> build_parser().parse_args(["run", "--quick"]).out
+    'out'
     """
     parser = argparse.ArgumentParser(
-        prog="fl-design",
-        description="Model-free control of feedback-linearizable SISO plants (EHGO + dynamic controller).",
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
-    derive = sub.add_parser("derive", help="print the derivation report of a library plant")
-    derive.add_argument("--plant", choices=PLANT_CHOICES, default="trms")
+        prog="fl-design", description="Model-free control of feedback-linearizable SISO plants "
+        "(EHGO + dynamic controller): derive, certify, sweep, simulate, generate C, report.")
+    parser.add_argument("--version", action="version", version=f"fl-design {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    run = sub.add_parser("run", help="the main job: every stage and the report")
+    run.add_argument("config", nargs="?", default=None, help="TOML configuration "
+                     "(default: the paper's TRMS experiment)")
+    _common(run, config=False, out=True, scheduler=True)
+    run.set_defaults(func=_cmd_run)
+    derive = sub.add_parser("derive", help="relative degree, a, b, b-range, F^a, residuals")
+    _common(derive)
     derive.add_argument("--latex", action="store_true", help="also print LaTeX")
     derive.set_defaults(func=_cmd_derive)
-    cert = sub.add_parser("certify", help="certificates of the paper's design on a plant")
-    cert.add_argument("--plant", choices=PLANT_CHOICES, default="trms")
-    cert.add_argument("--eps", type=float, default=0.05, help="observer eps (default 0.05)")
-    cert.add_argument("--gamma", type=float, default=3e-4, help="controller gamma (3e-4)")
+    cert = sub.add_parser("certify", help="P_x, lambda_x, gamma interval, eps* certificates")
+    _common(cert)
+    cert.add_argument("--eps", type=float, default=None, help="override [design] eps")
+    cert.add_argument("--gamma", type=float, default=None, help="override [design] gamma")
     cert.set_defaults(func=_cmd_certify)
-    demo = sub.add_parser("demo", help="the main job on the Twin Rotor (TRMS yaw) example")
-    demo.add_argument("--quick", action="store_true", help="short runs (seconds, for tests)")
-    demo.add_argument("--out", default="out", help="folder for figures and the JSON summary")
-    demo.add_argument("--no-progress", action="store_true", help="no progress bars")
-    demo.set_defaults(func=_cmd_demo)
-    code = sub.add_parser("codegen", help="write the loop step as a C99 package")
+    simulate = sub.add_parser("simulate", help="the design and the least-squares baselines")
+    _common(simulate)
+    simulate.set_defaults(func=_cmd_stage("simulate"))
+    sweep = sub.add_parser("sweep", help="the empirical (eps, gamma) stability map")
+    _common(sweep, scheduler=True)
+    sweep.set_defaults(func=_cmd_stage("sweep"))
+    code = sub.add_parser("codegen", help="the loop step as a C99 package (SIL, cost)")
     code.add_argument("out", help="output folder (created if needed)")
-    code.add_argument("--precision", default="double", help="double (default) or float")
-    code.add_argument("--prefix", default="fl", help="prefix of the C names (default fl)")
-    code.add_argument("--design", choices=("ehgo", "ls9", "ls26"), default="ehgo",
-                      help="the paper's EHGO design (default) or a least-squares baseline")
-    code.add_argument("--eps", type=float, default=0.05, help="EHGO eps (default 0.05)")
-    code.add_argument("--gamma", type=float, default=3e-4, help="controller gamma (default 3e-4)")
+    code.add_argument("--config", default=None, help="TOML configuration (default: the paper's)")
+    code.add_argument("--precision", default=None, help="double or float ([codegen] precision)")
+    code.add_argument("--prefix", default=None, help="prefix of the C names ([codegen] prefix)")
+    code.add_argument("--design", choices=("config", "ls9", "ls26"), default="config",
+                      help="the configured design (default) or a least-squares baseline")
+    code.add_argument("--verify", action="store_true",
+                      help="also run software in the loop and measure the cost table")
+    _common(code, config=False)
     code.set_defaults(func=_cmd_codegen)
     return parser
+
+
+def _closed_pipe() -> int:
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    print("fl-design: error: the output pipe was closed", file=sys.stderr)
+    return 2
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -155,7 +271,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        0 on success, 2 on a bad input (the message on stderr, no traceback).
+        0 on success; 2 on a bad input or a closed pipe (one line on stderr, no traceback);
+        130 on Ctrl-C.
 
     Examples
     --------
@@ -166,10 +283,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()
+        return code
     except FlDesignError as err:
-        print(f"fl-design: error: {err}", file=sys.stderr)
+        print(f"fl-design: error: {str(err).splitlines()[0]}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        return _closed_pipe()
+    except KeyboardInterrupt:
+        print("fl-design: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,19 +1,116 @@
-"""The command line and the main job (``make demo``) in quick mode, and the examples."""
+"""The command line: the main job in quick mode, each sub-command, and its one-line errors."""
 
 from __future__ import annotations
 
 import json
-import runpy
+import os
 import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from fl_design.app import main
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def _cli(*args, cwd=None, timeout=120):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "fl_design", *args], capture_output=True,
+                          text=True, cwd=cwd, env=env, timeout=timeout, check=False)
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    proc = _cli("run", "--quick", "--out", str(out), timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return out, proc
+
+
+def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
+    out, _ = quick_run
+    html = (out / "report.html").read_text()
+    md = (out / "report.md").read_text()
+    for section in ("Derivation", "Certificates", "Stability map and eps*",
+                    "Simulations: the paper&#x27;s comparison", "C code"):
+        assert f"<h2>{section}</h2>" in html
+    for name in ("stability_map.png", "eps_star.png", "steps.png", "noise_tradeoff.png",
+                 "response.png"):
+        assert (out / name).stat().st_size > 10_000
+        assert f"]({name})" in md
+    assert html.count('src="data:image/png;base64,') == 5
+    assert "<img" in html and 'src="stability_map.png"' not in html  # self-contained
+    assert "P_x =" in md and "eps* certified (s)" in md and "Software in the loop" in md
+
+
+def test_summary_is_strict_json_with_verdicts(quick_run):
+    out, _ = quick_run
+    text = (out / "summary.json").read_text()
+    data = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON {c}"))
+    assert data["derivation"]["rho"] == 2
+    assert data["derivation"]["b_bounds"] == pytest.approx([3.6, 6.8])
+    runs = data["simulate"]["runs"]
+    assert {r["design"] for r in runs} == {"EHGO eps=0.05", "LS(9)", "LS(26)"}
+    assert all(r["status"] in ("converged", "converging", "oscillating", "diverged")
+               for r in runs)
+    assert data["codegen"]["sil"]["passed"] is True
+    assert data["certify"]["eps"]["certified"] is True
+
+
+def test_progress_goes_to_stderr_only(quick_run):
+    _, proc = quick_run
+    assert "[fl-design]" in proc.stderr and "[fl-design]" not in proc.stdout
+    assert "This design (EHGO eps = 0.05 s" in proc.stdout
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("[design]\nepsilon = 0.1\n", "unknown key 'epsilon' in [design]"),
+    ("[design]\neps = 'small'\n", "[design] eps must be a number"),
+    ("[plantt]\n", "unknown table [plantt]"),
+    ("[design]\neps = \n", "not valid TOML"),
+    ("[plant]\nstates = ['x']\n", "needs 'input'"),
+    ("[sweep]\npoints = 1\n", "[sweep] points must be >= 2"),
+    ("[design]\ngains = [1, 2, 3]\n", "relative degree 2"),
+])
+def test_bad_config_is_one_line_exit_2_before_work(tmp_path, text, needle):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(text)
+    proc = _cli("run", str(cfg), "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0] and "Traceback" not in proc.stderr
+    assert not (tmp_path / "o" / "report.html").exists()
+
+
+@pytest.mark.parametrize("out", ["/dev/null/x", ""])
+def test_unwritable_or_empty_out_exits_2_before_work(out):
+    proc = _cli("run", "--out", out, timeout=60)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and "--out" in proc.stderr
+    assert "[fl-design] 1/5" not in proc.stderr  # no stage started
+
+
+def test_missing_config_file(tmp_path):
+    proc = _cli("run", str(tmp_path / "nope.toml"))
+    assert proc.returncode == 2 and "cannot read config" in proc.stderr
+
+
+def test_closed_pipe_is_one_line(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run(f"{sys.executable} -m fl_design derive --plant flexible-joint --latex"
+                          " | head -1", shell=True, capture_output=True, text=True, env=env,
+                          timeout=60, check=False)
+    assert "Traceback" not in proc.stderr
+    assert proc.stdout.startswith("Plant: flexible_joint")
+
+
+def test_version_and_help():
+    assert _cli("--version").stdout.startswith("fl-design 0.1.0")
+    for sub in ("run", "derive", "certify", "simulate", "sweep", "codegen"):
+        proc = _cli(sub, "--help")
+        assert proc.returncode == 0 and "--quick" in proc.stdout
 
 
 def test_derive_prints_relative_degree_and_b_range(capsys):
@@ -37,31 +134,27 @@ def test_unknown_plant_is_a_usage_error(capsys):
     assert "invalid choice: 'cartpole'" in capsys.readouterr().err
 
 
-def test_demo_quick_writes_summary_and_figures(tmp_path, capsys):
-    assert main(["demo", "--quick", "--out", str(tmp_path), "--no-progress"]) == 0
+def test_simulate_and_sweep_subcommands_alone(capsys):
+    assert main(["simulate", "--quick", "--no-progress"]) == 0
     out = capsys.readouterr().out
-    assert "Sampled linearized loop at eps = 0.05" in out
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["b_bounds"] == pytest.approx([3.6, 6.8], rel=1e-9)
-    assert summary["spectral_radius"] < 1.0
-    rows = summary["noise-free"]
-    assert [r["design"] for r in rows] == ["EHGO eps=0.05", "LS window=9", "LS window=26"]
-    # the computational cost per sample: EHGO 2n^2+2n = 24 (n = 3); LS (rho+1)*window
-    assert [r["flops_per_step"] for r in rows] == [24, 27, 78]
-    status = np.array(summary["stability_map"]["status"])
-    assert status.shape == (5, 5)
-    assert (tmp_path / "response.png").stat().st_size > 10_000
-    assert (tmp_path / "stability_map.png").stat().st_size > 10_000
+    assert out.count("EHGO eps=0.05") == 3 and "LS(26)" in out
+    assert main(["sweep", "--quick", "--no-progress", "--plant", "pendulum"]) == 0
+    assert "Stability map 5 x 5" in capsys.readouterr().out
+
+
+def test_pendulum_example_config_runs_derive_and_certify(capsys):
+    assert main(["certify", str(ROOT / "examples" / "pendulum.toml"), "--quick",
+                 "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "GammaCertificate" in out and "pendulum" in out
+
+
+def test_bad_scheduler_address_is_one_line():
+    proc = _cli("sweep", "--quick", "--scheduler", "tcp://127.0.0.1:9", timeout=120)
+    assert proc.returncode == 2 and "Dask scheduler" in proc.stderr
+    assert "Traceback" not in proc.stderr
 
 
 def test_python_dash_m_entry_point(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "fl_design", "derive", "--plant", "pendulum"],
-                          capture_output=True, text=True, check=True, cwd=tmp_path)
-    assert "Plant: pendulum" in proc.stdout
-
-
-def test_paper_comparison_example_quick(capsys):
-    module = runpy.run_path(str(ROOT / "examples" / "paper_comparison.py"))
-    assert module["main"](["--quick"]) == 0
-    out = capsys.readouterr().out
-    assert out.count("EHGO eps=0.05") == 2 and out.count("LS N=26") == 2
+    proc = _cli("derive", "--plant", "pendulum", cwd=tmp_path)
+    assert proc.returncode == 0 and "Plant: pendulum" in proc.stdout

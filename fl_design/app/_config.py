@@ -1,0 +1,312 @@
+"""The main job's configuration: a TOML file, one table per option object, validated.
+
+Tables: ``[plant]`` (a library name, or SymPy expressions as strings), ``[design]``,
+``[scenario]``, ``[compare]`` (the paper's estimator comparison), ``[sweep]``, ``[certify]``
+and ``[codegen]``. Every key has a default (the paper's TRMS design: :data:`DEFAULT_TOML`); an
+unknown table or key, a wrong type or a missing value raises :class:`ConfigError` naming the
+table and the key.
+
+Examples
+--------
+>>> from fl_design.app import load_config
+>>> cfg = load_config(None)
+>>> cfg.plant["library"], cfg.design["eps"], cfg.scenario["reference"]
+('trms', 0.05, 0.3)
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import ParameterError
+
+
+class ConfigError(ParameterError):
+    """A configuration file that cannot be used (names the table and key).
+
+    Examples
+    --------
+    >>> from fl_design.app import ConfigError, parse_config
+    >>> try:
+    ...     parse_config('[sweep]\\npoints = "many"')
+    ... except ConfigError as err:
+    ...     print(err)
+    <string>: [sweep] points must be an integer, got 'many'
+    """
+
+
+#: The embedded default: the paper's TRMS yaw experiment (Shenoy et al.).
+DEFAULT_TOML = """\
+# The paper's TRMS yaw experiment (Shenoy, Saradagi, Pasumarthy, Chellaboina).
+[plant]
+library = "trms"          # trms | trms-lag | pendulum | flexible-joint
+output_unit = "rad"       # axis labels of the report
+input_unit = "V"
+
+[design]
+estimator = "ehgo"        # ehgo | least_squares
+eps = 0.05                # observer time constant (s)
+T = 0.001                 # sampling time (s)
+coeffs = [6.0, 11.0, 6.0] # s^3 + 6 s^2 + 11 s + 6
+gains = [2.0, 4.0]
+gamma = 0.0003
+ki = 0.001
+u_limits = [-2.5, 2.5]
+estimate_limits = ["none", 0.05]   # |xhat_2| <= 0.05 rad/s
+
+[scenario]
+reference = 0.3           # rad
+duration = 30.0           # s: covers the loop's slow time constant
+tolerance = 0.02          # relative to the step (settling band 2 %)
+noise_std = 0.0           # sensor noise of the main run (rad)
+seed = 1
+
+[compare]
+windows = [9, 26]                      # least-squares baselines
+noise_std = [0.001, 0.0316227766]      # std 1e-3 and the paper's variance 1e-3
+eps_tradeoff = [0.02, 0.05, 0.1, 0.2, 0.5]
+seed = 1
+
+[sweep]
+eps = [0.005, 1.0]        # log-spaced range (s)
+gamma = [3e-5, 0.03]
+points = 16               # per axis
+duration = 20.0           # s
+
+[certify]
+enabled = true
+gamma = [1.5e-4, 3e-3]
+points = 8
+
+[codegen]
+enabled = true
+precision = "double"
+prefix = "fl"
+sil_duration = 10.0       # s of software in the loop
+"""
+
+_NUM = (int, float)
+# table -> key -> (types, description)
+_SCHEMA: dict[str, dict[str, tuple]] = {
+    "plant": {"library": (str,), "motor_lag": (bool,), "name": (str,), "states": (list,),
+              "input": (str,), "rhs": (list,), "output": (str,), "params": (dict,),
+              "region": (dict,), "input_range": (list,), "operating_point": (dict,),
+              "output_unit": (str,), "input_unit": (str,)},
+    "design": {"estimator": (str,), "eps": _NUM, "T": _NUM, "coeffs": (list,),
+               "window": (int,), "gains": (list,), "gamma": _NUM, "ki": _NUM,
+               "u_limits": (list,), "estimate_limits": (list,)},
+    "scenario": {"reference": _NUM, "duration": _NUM, "tolerance": _NUM, "noise_std": _NUM,
+                 "seed": (int,)},
+    "compare": {"windows": (list,), "noise_std": (list,), "eps_tradeoff": (list,),
+                "seed": (int,)},
+    "sweep": {"eps": (list,), "gamma": (list,), "points": (int,), "duration": _NUM},
+    "certify": {"enabled": (bool,), "gamma": (list,), "points": (int,)},
+    "codegen": {"enabled": (bool,), "precision": (str,), "prefix": (str,),
+                "sil_duration": _NUM},
+}
+_LIBRARY = ("trms", "trms-lag", "pendulum", "flexible-joint")
+
+
+@dataclass(frozen=True)
+class Config:
+    """A validated configuration: one dict per table (defaults filled in).
+
+    Parameters
+    ----------
+    plant, design, scenario, compare, sweep, certify, codegen : dict
+        The tables.
+    source : str
+        Where it came from (a path or ``"<default>"``).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> load_config(None).sweep["points"]
+    16
+    """
+
+    plant: dict
+    design: dict
+    scenario: dict
+    compare: dict
+    sweep: dict
+    certify: dict
+    codegen: dict
+    source: str = "<default>"
+
+    def to_dict(self) -> dict:
+        """The tables as a dict (strict JSON).
+
+        Examples
+        --------
+        >>> from fl_design.app import load_config
+        >>> sorted(load_config(None).to_dict())[:3]
+        ['certify', 'codegen', 'compare']
+        """
+        return {name: dict(getattr(self, name)) for name in _SCHEMA} | {"source": self.source}
+
+
+def _type_name(types: tuple) -> str:
+    return {str: "a string", bool: "true or false", int: "an integer", list: "an array",
+            dict: "a table"}.get(types[0], "a number") if len(types) == 1 else "a number"
+
+
+def _check_value(table: str, key: str, value, types: tuple) -> None:
+    ok = isinstance(value, types) and not (isinstance(value, bool) and bool not in types)
+    if not ok:
+        raise ConfigError(f"[{table}] {key} must be {_type_name(types)}, got {value!r}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"[{table}] {key} must be finite, got {value!r}")
+
+
+def _check_tables(data: dict, where: str) -> None:
+    for table, body in data.items():
+        if table not in _SCHEMA:
+            raise ConfigError(f"{where}: unknown table [{table}]; valid tables: "
+                              f"{', '.join(f'[{t}]' for t in _SCHEMA)}")
+        if not isinstance(body, dict):
+            raise ConfigError(f"{where}: {table} must be a table [{table}], got {body!r}")
+        for key, value in body.items():
+            if key not in _SCHEMA[table]:
+                raise ConfigError(f"{where}: unknown key {key!r} in [{table}]; valid keys: "
+                                  f"{', '.join(_SCHEMA[table])}")
+            try:
+                _check_value(table, key, value, _SCHEMA[table][key])
+            except ConfigError as err:
+                raise ConfigError(f"{where}: {err}") from None
+
+
+def _numbers(table: str, key: str, value, n: int | None = None, *, positive=False) -> list:
+    if not isinstance(value, list) or (n is not None and len(value) != n) or not value:
+        size = f"{n} numbers" if n else "a non-empty array of numbers"
+        raise ConfigError(f"[{table}] {key} must be {size}, got {value!r}")
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, _NUM) or not math.isfinite(v) or \
+                (positive and v <= 0):
+            kind = "positive numbers" if positive else "finite numbers"
+            raise ConfigError(f"[{table}] {key} must hold {kind}, got {v!r} in {value!r}")
+    return [float(v) for v in value]
+
+
+def _check_semantics(t: dict) -> None:
+    p, d = t["plant"], t["design"]
+    custom = {"states", "rhs", "output", "input"} & set(p)
+    if custom:
+        missing = [k for k in ("states", "input", "rhs", "output") if k not in p]
+        if missing:
+            raise ConfigError(f"[plant] a plant from expressions needs {missing[0]!r} (states, "
+                              "input, rhs and output as strings)")
+        p.pop("library", None)
+    elif p.get("library") not in _LIBRARY:
+        raise ConfigError(f"[plant] library must be one of {', '.join(_LIBRARY)}, got "
+                          f"{p.get('library')!r} (or give states, input, rhs and output)")
+    if d["estimator"] not in ("ehgo", "least_squares"):
+        raise ConfigError(f"[design] estimator must be 'ehgo' or 'least_squares', got "
+                          f"{d['estimator']!r}")
+    for key in ("eps", "T", "gamma"):
+        if d[key] <= 0:
+            raise ConfigError(f"[design] {key} must be > 0, got {d[key]!r}")
+    _numbers("design", "gains", d["gains"], positive=True)
+    for table, key, n in (("sweep", "eps", 2), ("sweep", "gamma", 2), ("certify", "gamma", 2)):
+        _numbers(table, key, t[table][key], n, positive=True)
+    _numbers("compare", "eps_tradeoff", t["compare"]["eps_tradeoff"], positive=True)
+    for table, key in (("scenario", "duration"), ("sweep", "duration"),
+                       ("codegen", "sil_duration")):
+        if t[table][key] <= 0:
+            raise ConfigError(f"[{table}] {key} must be > 0 s, got {t[table][key]!r}")
+    for table in ("sweep", "certify"):
+        if t[table]["points"] < 2:
+            raise ConfigError(f"[{table}] points must be >= 2, got {t[table]['points']!r}")
+    if t["codegen"]["precision"] not in ("double", "float"):
+        raise ConfigError(f"[codegen] precision must be 'double' or 'float', got "
+                          f"{t['codegen']['precision']!r}")
+
+
+def _defaults() -> dict:
+    return tomllib.loads(DEFAULT_TOML)
+
+
+def parse_config(text: str, *, source: str = "<string>") -> Config:
+    """Validate TOML text against the schema and fill in the defaults.
+
+    Parameters
+    ----------
+    text : str
+        TOML source.
+    source : str, optional
+        Name used in messages.
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        Invalid TOML, an unknown table or key, a wrong type or value.
+
+    Examples
+    --------
+    >>> from fl_design.app import parse_config
+    >>> parse_config('[design]\\neps = 0.1').design["eps"]
+    0.1
+    >>> parse_config('[design]\\nepsilon = 0.1')
+    Traceback (most recent call last):
+    ...
+    fl_design.app._config.ConfigError: <string>: unknown key 'epsilon' in [design]; ...
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"{source}: not valid TOML: {err}") from None
+    _check_tables(data, source)
+    tables = _defaults()
+    if "plant" in data and "library" not in data["plant"]:
+        tables["plant"] = {"output_unit": "output units", "input_unit": "input units"}
+    for name, body in data.items():
+        tables[name].update(body)
+    try:
+        _check_semantics(tables)
+    except ConfigError as err:
+        raise ConfigError(f"{source}: {err}") from None
+    return Config(**tables, source=source)
+
+
+def load_config(path: str | Path | None) -> Config:
+    """Read and validate a TOML configuration; None gives the embedded default.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path or None
+        The file (None: :data:`DEFAULT_TOML`, the paper's TRMS experiment).
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        The file is missing or unreadable, or its content is invalid.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> load_config(None).design["gamma"]
+    0.0003
+    """
+    if path is None:
+        return parse_config(DEFAULT_TOML, source="<default>")
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = getattr(err, "strerror", None) or type(err).__name__
+        raise ConfigError(f"cannot read config {str(path)!r}: {reason}") from None
+    return parse_config(text, source=str(path))
+
+
+__all__ = ["DEFAULT_TOML", "Config", "ConfigError", "load_config", "parse_config"]

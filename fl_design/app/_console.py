@@ -1,0 +1,178 @@
+"""What the CLI prints on stdout: short tables of each stage (progress goes to stderr).
+
+Examples
+--------
+>>> from fl_design.app import load_config, print_derive, run_job
+>>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
+>>> print_derive(job)  # doctest: +ELLIPSIS
+Plant: trms_yaw...
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._report_figures import design_label
+from ._report_sections import bounded_up_to, fmt
+
+
+def print_derive(job) -> None:
+    """Print the derivation report of the job's plant.
+
+    Parameters
+    ----------
+    job : Job
+        After the derive stage.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, print_derive, run_job
+    >>> print_derive(run_job(load_config(None), stages=("derive",), progress=False))  # doctest: +ELLIPSIS
+    Plant: trms_yaw...
+    """
+    print(job.derivation["text"])
+
+
+def print_certificates(job) -> None:
+    """Print the certificates: Lyapunov, gamma interval, eps*, linearized eps*.
+
+    Parameters
+    ----------
+    job : Job
+        After the certify stage.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, print_certificates, run_job
+    >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
+    >>> print_certificates(job)  # doctest: +ELLIPSIS
+    Design: EHGO eps = 0.05 s...
+    """
+    cert = job.results["certify"]
+    print(f"Design: {design_label(job.design)} on {job.plant.name}")
+    for key in ("lyapunov", "gamma", "eps"):
+        if key in cert:
+            print(cert[key])
+    if "skipped" in cert:
+        print(f"gamma/eps certificates skipped: {cert['skipped']}")
+    top = cert["linearized"]["eps_range"][1]
+    lin = cert["linearized_design"]
+    text = (f">= {top:g} (no boundary in the range)" if math.isclose(lin, top)
+            else fmt(lin, "unstable at the smallest eps"))
+    print(f"linearized eps* at this gamma: {text}")
+
+
+print_certify = print_certificates
+
+
+def print_sweep(job) -> None:
+    """Print the stability map's counts and its empirical eps* per gamma.
+
+    Parameters
+    ----------
+    job : Job
+        After the sweep stage.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, print_sweep, run_job
+    >>> print_sweep(run_job(load_config(None), quick=True, stages=("sweep",), progress=False))
+    ... # doctest: +ELLIPSIS
+    Stability map 5 x 5...
+    """
+    smap = job.results["sweep"]
+    labels = smap.labels
+    counts = ", ".join(f"{int((labels == s).sum())} {s}" for s in
+                       ("converged", "converging", "oscillating", "diverged") if (labels == s).any())
+    print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
+          f"s runs: {counts}")
+    print(f"  {'gamma':<10} {'empirical eps* (s)':<30} every run bounded up to eps (s)")
+    for g in smap.gamma:
+        print(f"  {g:<10.3g} {smap.eps_star(g)!s:<30} {bounded_up_to(smap, g)}")
+
+
+def print_simulate(job) -> None:
+    """Print every run's verdict and overshoot (the paper's comparison).
+
+    Parameters
+    ----------
+    job : Job
+        After the simulate stage.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, print_simulate, run_job
+    >>> print_simulate(run_job(load_config(None), quick=True, stages=("simulate",),
+    ...                        progress=False))  # doctest: +ELLIPSIS
+    This design (EHGO eps = 0.05 s...
+    """
+    from ._report_sections import overshoot_text
+
+    sim = job.results["simulate"]
+    main = sim["main"]
+    print(f"This design ({design_label(job.design)}), {sim['duration']:g} s: {main.verdict()}")
+    print(f"\n  {'design':<16}{'noise std':>10}  {'verdict':<12}{'overshoot %':>14}  "
+          f"{'tail |e|':>9}")
+    for (name, std), r in sim["runs"].items():
+        print(f"  {name:<16}{std:>10.3g}  {r.status:<12}{overshoot_text(r):>14}  "
+              f"{r.tail_error:>9.3g}")
+    if sim["tradeoff"]:
+        print(f"\n  noise std {sim['tradeoff'][0]['noise_std']:.3g}: eps -> sigmahat noise, "
+              "u noise")
+        for r in sim["tradeoff"]:
+            print(f"  {r['eps']:<8g} {fmt(r['sigmahat_noise'], 'n/a'):>10} "
+                  f"{fmt(r['u_noise'], 'n/a'):>10}")
+
+
+def print_codegen(job) -> None:
+    """Print the C package, its SIL result and the cost table.
+
+    Parameters
+    ----------
+    job : Job
+        After the codegen stage.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, print_codegen, run_job
+    >>> print_codegen(run_job(load_config(None), quick=True, stages=("codegen",),
+    ...                       progress=False))  # doctest: +ELLIPSIS
+    C package...
+    """
+    cg = job.results["codegen"]
+    if "skipped" in cg:
+        print(f"C package skipped: {cg['skipped']}")
+        return
+    pkg, sil = cg["package"], cg["sil"]
+    print(f"C package ({pkg.precision}) in {pkg.out_dir}: {len(pkg.files)} files")
+    print(f"SIL {cg['sil_duration']:g} s: max relative error {sil.max_rel_error:.3g} "
+          f"(bound {sil.bound:g}): {'passed' if sil.passed else 'FAILED'}")
+    print(cg["costs"].to_markdown())
+
+
+def print_job(job) -> None:
+    """Print every stage's summary (what ``fl-design run`` shows).
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, print_job, run_job
+    >>> print_job(run_job(load_config(None), quick=True, stages=("derive",), progress=False))
+    ... # doctest: +ELLIPSIS
+    Plant: trms_yaw...
+    """
+    printers = (("derive", print_derive), ("certify", print_certificates),
+                ("sweep", print_sweep), ("simulate", print_simulate),
+                ("codegen", print_codegen))
+    for stage, printer in printers:
+        if stage == "derive" and job.derivation or stage in job.results:
+            printer(job)
+            print()
+
+
+__all__ = ["print_certificates", "print_certify", "print_codegen", "print_derive", "print_job",
+           "print_simulate", "print_sweep"]

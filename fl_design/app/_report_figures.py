@@ -1,0 +1,271 @@
+"""The report's figures: each names its design, every axis has its unit; figures are returned.
+
+Examples
+--------
+>>> from fl_design.app import design_label
+>>> import fl_design as fl
+>>> design_label(fl.presets.paper_design())
+'EHGO eps = 0.05 s, gamma = 0.0003, K = (2, 4), k_I = 0.001, T = 0.001 s'
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._report_sections import overshoot_text
+
+
+def design_label(design) -> str:
+    """One line naming a design's numbers (used in every figure title).
+
+    Parameters
+    ----------
+    design : fl_design.Design
+        The design.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.app import design_label
+    >>> design_label(fl.presets.least_squares_design(9))[:5]
+    'LS(9)'
+    """
+    est, ctrl = design.estimator, design.controller
+    head = f"EHGO eps = {est.eps:g} s" if est.has_time_constant else f"LS({est.window})"
+    gains = ", ".join(f"{k:g}" for k in ctrl.gains)
+    return (f"{head}, gamma = {ctrl.gamma:g}, K = ({gains}), k_I = {ctrl.ki:g}, "
+            f"T = {design.T:g} s")
+
+
+def _gamma_unit(job) -> str:
+    rho = job.plant.relative_degree()
+    return f"{job.config.plant.get('input_unit', 'u')} s^{rho}/{_y(job)}"
+
+
+def _y(job) -> str:
+    return job.config.plant.get("output_unit", "output units")
+
+
+def stability_map_figure(job):
+    """The empirical stability map with the curves, the design point and ``1/b_max``.
+
+    Parameters
+    ----------
+    job : Job
+        After the sweep (and the certification, when run).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job, stability_map_figure
+    >>> job = run_job(load_config(None), quick=True, stages=("sweep",), progress=False)
+    >>> stability_map_figure(job).axes[0].get_xscale()
+    'log'
+    """
+    smap = job.results["sweep"]
+    curves = {}
+    cert = job.results.get("certify", {})
+    if "curve" in cert:
+        curves["certified eps* (LMI)"] = (cert["curve"].gamma, cert["curve"].eps_star_certified)
+    if "linearized" in cert:
+        lin = cert["linearized"]
+        curves["linearized eps*"] = (lin["gamma"], lin["eps_star"])
+    fig = smap.plot(curves=curves)
+    ax = fig.axes[0]
+    d = job.design
+    ax.plot([d.controller.gamma], [d.estimator.eps], marker="*", ms=16, color="k",
+            mfc="yellow", ls="none", label="this design")
+    b = job.derivation.get("b_bounds")
+    if b is not None:
+        where = "" if 1.0 / b[1] <= smap.gamma[-1] * 1.5 else ", right of this map"
+        ax.axvline(1.0 / b[1], color="k", ls=":", lw=1.2,
+                   label=f"paper's gamma < 1/b_max = {1 / b[1]:.3g}{where}")
+    handles, _labels = ax.get_legend_handles_labels()
+    old = ax.get_legend()
+    keep = list(old.legend_handles) if old is not None else []
+    ax.legend(handles=keep + handles[-2:], loc="lower left", fontsize="x-small")
+    ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
+    ax.set_ylabel("observer time constant eps (s)")
+    ax.set_title(f"{job.plant.name}: {smap.duration:g} s noise-free runs, step "
+                 f"{job.config.scenario['reference']:g} {_y(job)}\n{design_label(d)}",
+                 fontsize="small")
+    return fig
+
+
+def eps_star_figure(job):
+    """Certified, frozen, linearized and empirical ``eps*(gamma)`` with ``gamma < 1/b_max``.
+
+    Parameters
+    ----------
+    job : Job
+        After the certification and the sweep.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from fl_design.app import eps_star_figure, load_config, run_job
+    >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
+    >>> eps_star_figure(job).axes[0].get_ylabel()
+    'eps* (s)'
+    """
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.0, 4.6))
+    cert = job.results.get("certify", {})
+    if "curve" in cert:
+        c = cert["curve"]
+        ax.plot(c.gamma, c.eps_star_frozen, "k-", lw=1.4, label="frozen b grid (surrogate)")
+        ax.plot(c.gamma, c.eps_star_certified, "C2o-", ms=4, label="certified (LMI)")
+    if "linearized" in cert:
+        lin = cert["linearized"]
+        ax.plot(lin["gamma"], lin["eps_star"], "C0s--", ms=4,
+                label="linearized nonlinear loop (top = range edge)")
+    smap = job.results.get("sweep")
+    if smap is not None:
+        stars = [(g, smap.eps_star(g)) for g in smap.gamma]
+        pts = [(g, s.lower) for g, s in stars if not s.below_range]
+        if pts:
+            g, e = zip(*pts)
+            ax.plot(g, e, "C3^", ms=6, label="empirical (sweep; grid lower bound)")
+    b = job.derivation.get("b_bounds")
+    if b is not None:
+        ax.axvline(1.0 / b[1], color="k", ls=":", label=f"gamma < 1/b_max = {1 / b[1]:.3g}")
+    d = job.design
+    ax.plot([d.controller.gamma], [d.estimator.eps], "k*", ms=12, mfc="yellow",
+            label="this design")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
+    ax.set_ylabel("eps* (s)")
+    ax.set_title(f"{job.plant.name}: eps*(gamma), {design_label(d)}", fontsize="small")
+    ax.legend(loc="best", fontsize="x-small")
+    fig.tight_layout()
+    return fig
+
+
+def step_figure(job):
+    """Step responses of every compared design, one panel per noise level.
+
+    Parameters
+    ----------
+    job : Job
+        After the simulations.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job, step_figure
+    >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
+    >>> len(step_figure(job).axes)
+    3
+    """
+    import matplotlib.pyplot as plt
+
+    sim = job.results["simulate"]
+    stds = sim["stds"]
+    fig, axes = plt.subplots(len(stds), 1, sharex=True, figsize=(7.5, 2.6 * len(stds)),
+                             squeeze=False)
+    for ax, std in zip(axes[:, 0], stds):
+        for i, name in enumerate(sim["designs"]):
+            r = sim["runs"][(name, std)]
+            ax.plot(r.t, r.y, color=f"C{i}", lw=1.1,
+                    label=f"{name}: {r.status}, overshoot {overshoot_text(r)} %")
+        ax.plot(r.t, r.r, "k--", lw=0.9, label="reference")
+        ax.set_ylabel(f"y ({_y(job)})")
+        ax.set_title(f"sensor noise std {std:.3g} {_y(job)}" if std else "noise-free",
+                     fontsize="small")
+        ax.legend(loc="best", fontsize="x-small")
+    axes[-1, 0].set_xlabel("time (s)")
+    ctrl = job.design.controller
+    fig.suptitle(f"{job.plant.name}: EHGO vs least squares under one controller "
+                 f"(gamma = {ctrl.gamma:g}, K = {tuple(float(k) for k in ctrl.gains)})",
+                 fontsize="small")
+    fig.tight_layout()
+    return fig
+
+
+def tradeoff_figure(job):
+    """Noise of ``sigmahat`` and ``u`` against eps (the EHGO's noise trade-off).
+
+    Parameters
+    ----------
+    job : Job
+        After the simulations (EHGO designs only).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job, tradeoff_figure
+    >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
+    >>> tradeoff_figure(job).axes[1].get_xlabel()
+    'observer time constant eps (s)'
+    """
+    import matplotlib.pyplot as plt
+
+    rows = job.results["simulate"]["tradeoff"]
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.8))
+    eps = np.array([r["eps"] for r in rows])
+    axes[0].plot(eps, [r["sigmahat_noise"] for r in rows], "C1o-")
+    axes[0].set_ylabel(f"sigmahat noise ({_y(job)}/s^{job.plant.relative_degree()})")
+    axes[1].plot(eps, [r["u_noise"] for r in rows], "C2o-")
+    axes[1].set_ylabel(f"u noise ({job.config.plant.get('input_unit', 'input units')})")
+    axes[1].set_xlabel("observer time constant eps (s)")
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+    std = rows[0]["noise_std"] if rows else 0.0
+    ctrl = job.design.controller
+    fig.suptitle(f"{job.plant.name}: EHGO (gamma = {ctrl.gamma:g}), sensor noise std "
+                 f"{std:.3g} {_y(job)}; noise = std(diff)/sqrt(2) over the tail",
+                 fontsize="small")
+    fig.tight_layout()
+    return fig
+
+
+def main_response_figure(job):
+    """The configured design's own run: output, input and ``sigma`` with its estimate.
+
+    Parameters
+    ----------
+    job : Job
+        After the simulations.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, main_response_figure, run_job
+    >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
+    >>> main_response_figure(job).axes[2].get_xlabel()
+    'time (s)'
+    """
+    resp = job.results["simulate"]["main"]
+    fig = resp.plot(title=f"{job.plant.name}: {design_label(job.design)}\n{resp.verdict()}")
+    fig.axes[0].title.set_fontsize("x-small")
+    fig.axes[0].set_ylabel(f"output y ({_y(job)})")
+    fig.axes[1].set_ylabel(f"input u ({job.config.plant.get('input_unit', 'input units')})")
+    fig.axes[2].set_ylabel(f"sigma ({_y(job)}/s^{job.plant.relative_degree()})")
+    fig.tight_layout()
+    return fig
+
+
+__all__ = ["design_label", "eps_star_figure", "main_response_figure", "stability_map_figure",
+           "step_figure", "tradeoff_figure"]

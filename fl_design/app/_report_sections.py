@@ -1,0 +1,294 @@
+"""The report's sections: what a control engineer reads, in order, with honest verdicts.
+
+Examples
+--------
+>>> from fl_design.app import fmt
+>>> fmt(float("nan"), "no boundary"), fmt(0.123456)
+('no boundary', '0.1235')
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def fmt(value, missing: str = "-", digits: int = 4) -> str:
+    """A number with ``digits`` significant digits, or ``missing`` (with its reason) for None/NaN.
+
+    Parameters
+    ----------
+    value : float or None
+        The number.
+    missing : str, optional
+        What to print instead of None or NaN (say why).
+    digits : int, optional
+        Significant digits.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.app import fmt
+    >>> fmt(None, "not certified")
+    'not certified'
+    """
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return missing
+    return f"{value:.{digits}g}"
+
+
+def _derivation(job) -> list:
+    d = job.derivation
+    blocks = [("p", (f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with "
+                    f"a = {d['a']}, b = {d['b']}."))]
+    if d["b_bounds"]:
+        lo, hi = d["b_bounds"]
+        blocks.append(("p", (f"b over the plant's region and input range: [{lo:.4g}, {hi:.4g}]; "
+                            f"the paper asks gamma < 1/b_max = {1 / hi:.4g}.")))
+    zd = ("no zero dynamics (n = rho)" if d["n"] == d["rho"] else
+          f"zero dynamics eigenvalues {', '.join(d['zero_dynamics_eigenvalues'])}: "
+          f"{'minimum phase' if d['minimum_phase'] else 'NOT minimum phase'}")
+    blocks += [("p", zd), ("pre", d["text"])]
+    return blocks
+
+
+def _lyapunov_blocks(lyap) -> list:
+    return [("p", (f"Gains K = {tuple(float(k) for k in lyap.gains)}: P_x from "
+                  f"(A + B K)^T P_x + P_x (A + B K) = -Q, lambda_x = {lyap.lambda_x:g}, decrease "
+                  f"along F^a at T: {lyap.decrease_holds}; certified: {lyap.certified}.")),
+            ("pre", "P_x =\n" + np.array2string(np.asarray(lyap.P_x), precision=5))]
+
+
+def _certificates(job) -> list:
+    cert = job.results.get("certify")
+    if not cert:
+        return [("p", "Not run.")]
+    blocks = _lyapunov_blocks(cert["lyapunov"])
+    if "gamma" in cert:
+        g, e = cert["gamma"], cert["eps"]
+        blocks.append(("table", ["quantity", "value"], [
+            ["admissible gamma interval (frozen b grid, at this eps)",
+             f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')})"],
+            ["gamma below which no eps works", fmt(g.gamma_lower_bound, "none found")],
+            ["paper's bound 1/b_max", fmt(g.paper_bound)],
+            ["gamma certified (LMI at this eps)", str(g.certified)],
+            ["eps* frozen b grid (s)", fmt(e.eps_star_frozen, "none in range")],
+            ["eps* common P (time-varying b) (s)", fmt(e.eps_star_common, "none in range")],
+            ["eps* certified (s)", fmt(e.eps_star_certified, "not certified in range")],
+            ["this eps certified", f"{e.certified}: {e.reason}"],
+        ]))
+        blocks.append(("p", ("What is certified: the sampled linear surrogate loop (chain of "
+                            "integrators, sigma = b u, b anywhere in its interval) closed by "
+                            "this design's own step; not the nonlinear plant.")))
+    elif "skipped" in cert:
+        blocks.append(("p", f"Certificates of gamma and eps* skipped: {cert['skipped']}."))
+    lin = cert["linearized"]
+    top = lin["eps_range"][1]
+    value = cert["linearized_design"]
+    text = (f">= {top:g} (stable on the whole range; no boundary found)"
+            if math.isclose(value, top) else fmt(value, "unstable at the smallest eps"))
+    blocks.append(("p", (f"Linearized nonlinear loop at the equilibrium, this gamma: eps* = "
+                        f"{text} s.")))
+    return blocks
+
+
+def bounded_up_to(smap, gamma: float) -> str:
+    """Largest grid eps below which every run at ``gamma`` stays bounded (not diverged).
+
+    Parameters
+    ----------
+    smap : fl_design.StabilityMap
+        A sweep.
+    gamma : float
+        A grid gamma.
+
+    Returns
+    -------
+    str
+        ``"> eps_max"`` when no run diverged, ``"< eps_min"`` when the first did.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim import StabilityMap
+    >>> from fl_design.app import bounded_up_to
+    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
+    ...                  1e-3, 1.0, 0.1)
+    >>> bounded_up_to(m, 1.0)
+    '0.1 (diverges at 0.2)'
+    """
+    j = int(np.argmin(np.abs(np.log(smap.gamma / gamma))))
+    ok = np.asarray(smap.status)[:, j] >= 0
+    if ok.all():
+        return f"> {smap.eps[-1]:g}"
+    first = int(np.argmin(ok))
+    if first == 0:
+        return f"< {smap.eps[0]:g}"
+    return f"{smap.eps[first - 1]:g} (diverges at {smap.eps[first]:g})"
+
+
+def _sweep(job, figures) -> list:
+    smap = job.results.get("sweep")
+    if smap is None:
+        return [("p", "Not run.")]
+    labels = smap.labels
+    counts = ", ".join(f"{int(np.sum(labels == s))} {s}" for s in
+                       ("converged", "converging", "oscillating", "diverged", "solver_failed")
+                       if np.any(labels == s))
+    cert = job.results.get("certify", {})
+    rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
+    blocks = [("p", (f"{smap.eps.size} x {smap.gamma.size} runs of {smap.duration:g} s "
+                    f"(noise-free): {counts}. Empirical eps* at each gamma: the largest grid eps "
+                    f"below which every run converges (converging or converged); '> x' means "
+                    f"no boundary inside the scanned range, '< x' that even the smallest eps "
+                    f"failed."))]
+    if "stability_map.png" in figures:
+        blocks.append(("fig", "stability_map.png", (f"Stability map, {job.plant.name}; the star "
+                       "is this design, the dotted line the paper's gamma < 1/b_max")))
+    blocks.append(("table", ["gamma", "empirical eps* (s)", "every run bounded up to eps (s)"],
+                   rows))
+    if np.mean(labels == "oscillating") > 0.3:
+        blocks.append(("p", ("Most runs are 'oscillating': bounded, but their error does not "
+                            "settle inside the band (on the TRMS, a slow limit cycle against the "
+                            "Coulomb friction). Those runs count as failures for eps*; the last "
+                            "column counts them as bounded, the practical stability of Theorem 1.")))
+    if "eps_star.png" in figures:
+        blocks.append(("fig", "eps_star.png", ("eps*(gamma): certified, frozen, linearized and "
+                       "empirical")))
+    if "curve" in cert:
+        c = cert["curve"]
+        blocks.append(("table", ["gamma", "eps* frozen (s)", "eps* certified (s)"],
+                       [[f"{g:.3g}", fmt(f, "none"), fmt(x, "not certified")]
+                        for g, f, x in zip(c.gamma, c.eps_star_frozen, c.eps_star_certified)]))
+    return blocks
+
+
+def _simulations(job, figures) -> list:
+    from ._job import noise_levels
+
+    sim = job.results.get("simulate")
+    if not sim:
+        return [("p", "Not run.")]
+    main = sim["main"]
+    tol = main.tol
+    blocks = [("p", f"This design, {sim['duration']:g} s step: {main.verdict()}."),
+              ("p", _tolerance_note(main))]
+    if "response.png" in figures:
+        blocks.append(("fig", "response.png", "This design's run: output, input, sigma"))
+    rows = []
+    for (name, std), r in sim["runs"].items():
+        lv = noise_levels(r)
+        rows.append([name, f"{std:.3g}", r.status, overshoot_text(r), fmt(r.tail_error),
+                     fmt(lv["u_noise"], "n/a"), r.verdict()])
+    blocks.append(("table", ["design", "noise std", "verdict", "overshoot %", "tail max |e|",
+                             "u noise", "in words"], rows))
+    if "steps.png" in figures:
+        blocks.append(("fig", "steps.png", ("Step responses, EHGO and least squares, with and "
+                                           "without sensor noise")))
+    if sim["tradeoff"]:
+        blocks.append(("table", ["eps (s)", "sigmahat noise", "u noise", "verdict",
+                                 "overshoot %"],
+                       [[f"{r['eps']:g}", fmt(r["sigmahat_noise"], "n/a"),
+                         fmt(r["u_noise"], "n/a"), r["status"], fmt(r["overshoot_%"], "n/a",
+                                                                    3)]
+                        for r in sim["tradeoff"]]))
+    if "noise_tradeoff.png" in figures:
+        blocks.append(("fig", "noise_tradeoff.png", "Noise of sigmahat and u against eps"))
+    blocks.append(("p", (f"Settling band: |e| <= {tol:.3g} (the [scenario] tolerance times the "
+                        "step).")))
+    return blocks
+
+
+def overshoot_text(resp) -> str:
+    """Overshoot in %, or why it is not one (diverged; does not track).
+
+    Parameters
+    ----------
+    resp : fl_design.Response
+        A run.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.app import overshoot_text
+    >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
+    >>> overshoot_text(r)
+    '0'
+    """
+    if resp.status == "diverged":
+        return "n/a (diverged)"
+    reach = np.nanmax(np.abs(resp.y - resp.y0)) / max(abs(resp.step), 1e-300)
+    if reach < 0.9:
+        return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
+    return f"{resp.overshoot:.3g}"
+
+
+def _tolerance_note(resp) -> str:
+    if resp.status in ("converged", "diverged", "solver_failed"):
+        return f"Overshoot {resp.overshoot:.3g} %."
+    scale = max(abs(resp.step), 1e-12)
+    met = resp.tail_error / scale * 100
+    return (f"Overshoot {resp.overshoot:.3g} %. The error does not settle inside the 2 % band "
+            f"(tail max |e| {resp.tail_error:.3g}); it stays within {met:.2g} % of the step, "
+            f"peak-to-peak {resp.tail_amplitude:.3g} over the last part of the run: a bounded "
+            "slow oscillation (on the TRMS, hunting against the Coulomb friction tanh term).")
+
+
+def _codegen(job) -> list:
+    cg = job.results.get("codegen")
+    if not cg:
+        return [("p", "Not run.")]
+    if "skipped" in cg:
+        return [("p", f"Skipped: {cg['skipped']}.")]
+    sil, pkg = cg["sil"], cg["package"]
+    lines = cg["costs"].to_markdown().splitlines()
+    head = [h.strip() for h in lines[0].strip("|").split("|")]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in lines[2:]]
+    return [("p", (f"C99 package ({pkg.precision}, prefix {pkg.prefix!r}) in {pkg.out_dir}: "
+                  f"{', '.join(p.name for p in pkg.files)}.")),
+            ("table", head, rows),
+            ("p", (f"Software in the loop ({cg['sil_duration']:g} s, noise std "
+                  f"{cg['sil_noise_std']:g}): compiled step versus Design.step, max relative "
+                  f"error {sil.max_rel_error:.3g} (bound {sil.bound:g}), last tenth "
+                  f"{sil.tail_rel_error:.3g}: {'PASSED' if sil.passed else 'FAILED'}."))]
+
+
+def sections(job, figures) -> list:
+    """The report's sections from a finished job (see :mod:`fl_design.app._report_write`).
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+    figures : sequence of str
+        The figure files written (sections refer only to those).
+
+    Returns
+    -------
+    list of (str, list)
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job, sections
+    >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
+    >>> [title for title, _ in sections(job, [])][:2]
+    ['Derivation', 'Certificates']
+    """
+    timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
+    mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
+    return [("Derivation", _derivation(job)), ("Certificates", _certificates(job)),
+            ("Stability map and eps*", _sweep(job, figures)),
+            ("Simulations: the paper's comparison", _simulations(job, figures)),
+            ("C code", _codegen(job)),
+            ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}.")])]
+
+
+__all__ = ["bounded_up_to", "fmt", "overshoot_text", "sections"]

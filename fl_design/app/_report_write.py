@@ -1,0 +1,234 @@
+"""Write the main job's report: ``report.html`` (self-contained), ``report.md`` + PNGs, JSON.
+
+One list of sections, two renderers: a block is ``("p", text)``, ``("pre", text)``,
+``("table", header, rows)`` or ``("fig", file name, caption)``.
+
+Examples
+--------
+>>> from fl_design.app import render_markdown
+>>> print(render_markdown([("Title", [("p", "text"), ("table", ["a"], [[1]])])]))
+## Title
+<BLANKLINE>
+text
+<BLANKLINE>
+| a |
+| --- |
+| 1 |
+<BLANKLINE>
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+
+from .._json import dumps, jsonable
+from ._report_figures import (
+    design_label,
+    eps_star_figure,
+    main_response_figure,
+    stability_map_figure,
+    step_figure,
+    tradeoff_figure,
+)
+from ._report_sections import sections
+
+FIGURES = {"stability_map.png": stability_map_figure, "eps_star.png": eps_star_figure,
+           "steps.png": step_figure, "noise_tradeoff.png": tradeoff_figure,
+           "response.png": main_response_figure}
+
+
+def render_markdown(secs) -> str:
+    """Render sections as Markdown (figures as linked PNG files).
+
+    Parameters
+    ----------
+    secs : list of (str, list)
+        Sections: a title and its blocks.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.app import render_markdown
+    >>> render_markdown([("A", [("pre", "x")])]).splitlines()[2]
+    '```'
+    """
+    out = []
+    for title, blocks in secs:
+        out += [f"## {title}", ""]
+        for block in blocks:
+            kind = block[0]
+            if kind == "p":
+                out += [block[1], ""]
+            elif kind == "pre":
+                out += ["```", block[1], "```", ""]
+            elif kind == "table":
+                out.append("| " + " | ".join(map(str, block[1])) + " |")
+                out.append("|" + " --- |" * len(block[1]))
+                out += ["| " + " | ".join(map(str, row)) + " |" for row in block[2]]
+                out.append("")
+            elif kind == "fig":
+                out += [f"![{block[2]}]({block[1]})", "", f"*{block[2]}*", ""]
+    return "\n".join(out)
+
+
+def render_html(secs, folder: Path, *, title: str) -> str:
+    """Render sections as one self-contained HTML page (PNG figures embedded as base64).
+
+    Parameters
+    ----------
+    secs : list of (str, list)
+        Sections.
+    folder : pathlib.Path
+        Where the figures' PNG files are.
+    title : str
+        Page title.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from fl_design.app import render_html
+    >>> "<h2>A</h2>" in render_html([("A", [("p", "x < y")])], Path("."), title="t")
+    True
+    """
+    e = html.escape
+    body = [f"<h1>{e(title)}</h1>"]
+    for name, blocks in secs:
+        body.append(f"<h2>{e(name)}</h2>")
+        for block in blocks:
+            kind = block[0]
+            if kind == "p":
+                body.append(f"<p>{e(block[1])}</p>")
+            elif kind == "pre":
+                body.append(f"<pre>{e(block[1])}</pre>")
+            elif kind == "table":
+                head = "".join(f"<th>{e(str(h))}</th>" for h in block[1])
+                rows = "".join("<tr>" + "".join(f"<td>{e(str(c))}</td>" for c in row) + "</tr>"
+                               for row in block[2])
+                body.append(f"<table><tr>{head}</tr>{rows}</table>")
+            elif kind == "fig":
+                data = base64.b64encode((folder / block[1]).read_bytes()).decode("ascii")
+                body.append(f'<figure><img alt="{e(block[2])}" src="data:image/png;base64,'
+                            f'{data}"><figcaption>{e(block[2])}</figcaption></figure>')
+    style = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
+             "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:2px 6px;"
+             "text-align:right}pre{background:#f4f4f4;padding:.5em;overflow-x:auto}"
+             "img{max-width:100%}")
+    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{e(title)}</title>"
+            f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+def _figures(job, folder: Path) -> list[str]:
+    import matplotlib.pyplot as plt
+
+    written = []
+    for name, make in FIGURES.items():
+        if name == "stability_map.png" and "sweep" not in job.results:
+            continue
+        if name in ("steps.png", "response.png") and "simulate" not in job.results:
+            continue
+        if name == "noise_tradeoff.png" and not job.results.get("simulate", {}).get("tradeoff"):
+            continue
+        if name == "eps_star.png" and "certify" not in job.results:
+            continue
+        fig = make(job)
+        fig.savefig(folder / name, dpi=100)
+        plt.close(fig)
+        written.append(name)
+    return written
+
+
+def summary(job) -> dict:
+    """The job's numbers as a strict-JSON-ready dict (what ``summary.json`` holds).
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job, summary
+    >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
+    >>> summary(job)["derivation"]["rho"]
+    2
+    """
+    res = job.results
+    out = {"config": job.config.to_dict(), "quick": job.quick, "design": design_label(job.design),
+           "derivation": {k: v for k, v in job.derivation.items() if k != "text"},
+           "timings_s": dict(job.timings)}
+    cert = res.get("certify")
+    if cert:
+        out["certify"] = {k: (v.to_dict() if hasattr(v, "to_dict") else v)
+                          for k, v in cert.items()}
+    if "sweep" in res:
+        smap = res["sweep"]
+        out["sweep"] = smap.to_dict() | {"eps_star": [
+            {"gamma": float(g), **smap.eps_star(g).to_dict()} for g in smap.gamma]}
+    sim = res.get("simulate")
+    if sim:
+        from ._job import noise_levels
+
+        out["simulate"] = {"duration_s": sim["duration"], "main": _run_row(sim["main"]),
+                           "runs": [{"design": n, "noise_std": s, **_run_row(r),
+                                     **noise_levels(r)} for (n, s), r in sim["runs"].items()],
+                           "noise_tradeoff": sim["tradeoff"]}
+    cg = res.get("codegen")
+    if cg and "package" in cg:
+        out["codegen"] = {"out_dir": str(cg["package"].out_dir), "sil": cg["sil"].to_dict(),
+                          "costs": cg["costs"].to_dict()}
+    return jsonable(out)
+
+
+def _run_row(resp) -> dict:
+    m = {k: v for k, v in resp.metrics.items() if k != "estimation_rms"}
+    return {"status": resp.status, "verdict": resp.verdict(), "metrics": m}
+
+
+def write_report(job, out_dir) -> dict:
+    """Write ``report.html``, ``report.md``, the PNG figures and ``summary.json``.
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+    out_dir : str or pathlib.Path
+        The output folder (must exist and be writable).
+
+    Returns
+    -------
+    dict
+        ``{"html": path, "markdown": path, "summary": path, "figures": [names]}``.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job, write_report
+    >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
+    >>> sorted(write_report(job, "."))
+    ['figures', 'html', 'markdown', 'summary']
+    """
+    folder = Path(out_dir)
+    figures = _figures(job, folder)
+    secs = sections(job, figures)
+    title = f"fl_design report: {job.plant.name}, {design_label(job.design)}"
+    paths = {"html": folder / "report.html", "markdown": folder / "report.md",
+             "summary": folder / "summary.json"}
+    paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
+    paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
+    paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
+    return {**{k: str(v) for k, v in paths.items()}, "figures": figures}
+
+
+__all__ = ["FIGURES", "render_html", "render_markdown", "summary", "write_report"]
