@@ -20,6 +20,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from functools import cached_property
 
@@ -232,7 +233,6 @@ class Plant:
         return equilibrium_input(self._rhs.subs(self._params_map), self._states, self._input,
                                  self._x_op, self._input_range)
 
-    # --- read-only attributes --------------------------------------------------------------------
     def __setattr__(self, key, value):
         raise AttributeError(f"Plant is immutable; cannot set {key!r} (build a new plant)")
 
@@ -256,7 +256,8 @@ class Plant:
     def __reduce__(self):
         kw = {"params": self._params_map, "name": self._name, "input_range": self._input_range,
                   "region": self._region, "operating_point": dict(zip(self._states, self._x_op.tolist()))}
-        return (_rebuild, (self._states, self._input, list(self._rhs), self._output, kw))
+        return (functools.partial(Plant, **kw),
+                (self._states, self._input, list(self._rhs), self._output))
 
     def with_params(self, **values: float) -> Plant:
         """A new plant with some parameter values replaced (by name).
@@ -286,7 +287,6 @@ class Plant:
                      name=self._name, input_range=self._input_range, region=self._region,
                      operating_point=dict(zip(self._states, self._x_op.tolist())))
 
-    # --- derived quantities ----------------------------------------------------------------------
     def _lie_chain(self) -> LieChain:
         if "chain" not in self._cache:
             self._cache["chain"] = lie_chain(self)
@@ -495,10 +495,6 @@ class Plant:
         from ._jacobian import jacobian_bounds
 
         return jacobian_bounds(self, region=region, margin=margin, points=points)
-
-
-def _rebuild(states, input, rhs, output, kw) -> Plant:
-    return Plant(states, input, rhs, output, **kw)
 
 
 __all__ = ["Plant", "PlantFunctions"]
