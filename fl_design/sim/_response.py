@@ -201,9 +201,26 @@ class Response:
         }[self.status]
         return text + (over if self.status != "diverged" else "") + exit_
 
+    def _repr_html_(self) -> str:
+        """A short HTML table for Jupyter: status, verdict, overshoot, settling time."""
+        return _html_table([("status", self.status), ("verdict", self.verdict()),
+                            ("overshoot", f"{self.overshoot:.3g} %"),
+                            ("settling time", f"{self.settling_time:.3g} s"),
+                            ("run", f"{self.t.size} samples, T = {self.T:g} s")])
+
     def __repr__(self) -> str:
         return (f"Response(N={self.t.size}, T={self.T:g}, status={self.status!r}, "
                 f"overshoot={self.overshoot:.3g}%, settling_time={self.settling_time:.3g} s)")
+
+
+def _html_table(rows) -> str:
+    """``[(name, value), ...]`` as a two-column HTML table, escaped."""
+    import html
+
+    cells = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th>"
+                    f"<td style='text-align:left'>{html.escape(str(v))}</td></tr>"
+                    for k, v in rows)
+    return f"<table>{cells}</table>"
 
 
 __all__ = ["Response"]

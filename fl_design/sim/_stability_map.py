@@ -232,6 +232,17 @@ class StabilityMap:
                          "eps_star": [self.eps_star(g) for g in self.gamma],
                          "metrics": self.metrics})
 
+    def _repr_html_(self) -> str:
+        """A short HTML table for Jupyter: the grid and the number of runs per status."""
+        from ._response import _html_table
+
+        names, counts = np.unique(self.labels, return_counts=True)
+        grid = (f"{self.eps.size} eps in [{self.eps.min():.3g}, {self.eps.max():.3g}] x "
+                f"{self.gamma.size} gamma in [{self.gamma.min():.3g}, {self.gamma.max():.3g}]")
+        rows = [("grid", grid),
+                ("runs", f"{self.duration:g} s each, T = {self.T:g} s, tolerance {self.tol:g}")]
+        return _html_table(rows + [(f"{n}", f"{c} runs") for n, c in zip(names, counts)])
+
     def plot(self, *, ax=None, curves=None, show_eps_star: bool = True):
         """Heat map of the classification over (gamma, eps), log axes, with eps*(gamma) curves.
 
