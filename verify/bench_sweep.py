@@ -172,7 +172,7 @@ def throughput(quick: bool, n_rounds: int, cache: str, mods) -> bool:
     t_k = statistics.median(times["kernel"])
     ns = t_k / steps * 1e9
     counts = {s: int(np.sum(w.status(ref) == c)) for s, c in
-              (("stable", 1), ("undecided", 0), ("diverged", -1))}
+              (("converged", 1), ("not converged", 0), ("diverged", -1))}
     print(f"{w.P.shape[1]} runs x {duration:g} s ({steps:,} steps computed; {counts}), one "
           f"thread each, median of {n_rounds} interleaved rounds:")
     good = ns <= 40.0
@@ -216,7 +216,8 @@ import numpy as np, fl_design as fl
 smap = fl.sweep(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario({ref}, {dur}),
                 eps=np.geomspace({e0}, {e1}, {n}), gamma=np.geomspace({g0}, {g1}, {n}),
                 progress=False)
-print(*[int(np.sum(smap.status == c)) for c in (1, 0, -1)])
+print(", ".join(f"{{int(np.sum(smap.labels == s))}} {{s}}" for s in
+                ("converged", "converging", "oscillating", "diverged")))
 """
 
 
@@ -241,8 +242,7 @@ def map_walls(quick: bool) -> bool:
         warm = min(fresh_map(n, duration, cache)[0] for _ in range(1 if quick else 3))
     ok = cold <= 4.0 and warm <= 2.5
     steps = n * n * round(duration * 1e3)
-    print(f"{n} x {n} TRMS map of {duration:g} s runs ({steps:,} steps; stable/undecided/"
-          f"diverged {counts}) as a fresh process, {os.cpu_count()} cores: {cold:.2f} s wall "
+    print(f"{n} x {n} TRMS map of {duration:g} s runs ({steps:,} steps; {counts}) as a fresh process, {os.cpu_count()} cores: {cold:.2f} s wall "
           f"from an empty cache (target <= 4 s), {warm:.2f} s warm (best of "
           f"{1 if quick else 3}; target <= 2.5 s)  {'PASS' if ok else 'FAIL'}")
     return ok

@@ -30,8 +30,6 @@ import warnings
 from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
-import scipy.linalg
-import scipy.signal
 
 from .. import _validate as v
 from ..errors import (
@@ -51,6 +49,7 @@ from ._ehgo_math import (
     binomial_coeffs,
     delta_update,
     direct_update,
+    discretize,
     start_state,
 )
 from ._ehgo_views import EHGOViews
@@ -77,7 +76,7 @@ class EHGO(Estimator, EHGOViews):
         the binomial coefficients ``C(rho+1, i)``. See :meth:`from_poles`.
     method : {"bilinear", "forward_euler", "backward_euler", "zoh"}, optional
         Discretization of the scaled observer with step ``alpha = T / eps`` (done by
-        ``scipy.signal.cont2discrete``). ``"bilinear"`` (default, the paper's) and the two
+        ``scipy.signal.cont2discrete``'s formulas). ``"bilinear"`` (default, the paper's) and the two
         others but ``"forward_euler"`` are Schur for every ``alpha > 0``; forward Euler only for
         ``alpha < alpha_max`` (see :attr:`alpha_max`).
     allow_unstable : bool, optional
@@ -188,9 +187,8 @@ class EHGO(Estimator, EHGOViews):
             self._check_euler_limit()
         F, L = _companion(coeffs)
         n = rho + 1
-        Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete(
-            (F, L, np.eye(n), np.zeros((n, 1))), self.alpha, method=METHODS[self.method]
-        )
+        Ad, Bd, Cd, Dd = discretize(F, L, np.eye(n), np.zeros((n, 1)), self.alpha,
+                                    METHODS[self.method])
         object.__setattr__(self, "_mats", StateSpaceMatrices(*map(_frozen, (Ad, Bd, Cd, Dd))))
         if self.realization not in REALIZATIONS:
             raise ParameterError(

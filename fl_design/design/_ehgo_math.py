@@ -278,4 +278,51 @@ def start_state(p, n: int, *, theta: float | None, y0: float, estimate=None) -> 
     return np.linalg.solve(np.eye(n) + theta * G, scaled + theta * G @ e1 * y0)
 
 
+#: gbt weight of each method (scipy.signal.cont2discrete's generalized bilinear transform).
+_GBT = {"bilinear": 0.5, "euler": 0.0, "backward_diff": 1.0}
+
+
+def discretize(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: float,
+               method: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``scipy.signal.cont2discrete`` (gbt and zoh), the same formulas with ``scipy.linalg`` only.
+
+    Importing ``scipy.signal`` costs about 1 s (it pulls in ``scipy.stats``); every observer
+    built would pay it. The operations are those of SciPy 1.17's ``cont2discrete`` (the tests
+    compare with it), so the matrices are the same.
+
+    Parameters
+    ----------
+    A, B, C, D : numpy.ndarray
+        Continuous state-space matrices.
+    dt : float
+        Step.
+    method : {"bilinear", "euler", "backward_diff", "zoh"}
+        SciPy's method name.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(A_d, B_d, C_d, D_d)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.design._ehgo_math import discretize
+    >>> discretize(np.array([[-1.0]]), np.ones((1, 1)), np.ones((1, 1)), np.zeros((1, 1)),
+    ...            0.1, "zoh")[0].round(6)
+    array([[0.904837]])
+    """
+    if method == "zoh":
+        n, m = A.shape[0], B.shape[1]
+        em = np.vstack((np.hstack((A, B)), np.zeros((m, n + m))))
+        ms = scipy.linalg.expm(dt * em)[:n, :]
+        return ms[:, :n], ms[:, n:], C, D
+    alpha = _GBT[method]
+    ima = np.eye(A.shape[0]) - alpha * dt * A
+    ad = scipy.linalg.solve(ima, np.eye(A.shape[0]) + (1.0 - alpha) * dt * A)
+    bd = scipy.linalg.solve(ima, dt * B)
+    cd = scipy.linalg.solve(ima.transpose(), C.transpose()).transpose()
+    return ad, bd, cd, D + alpha * np.dot(C, bd)
+
+
 __all__ = ["MAX_RHO", "METHODS", "REALIZATIONS", "StateSpaceMatrices", "binomial_coeffs"]

@@ -25,16 +25,21 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import re
 
 
-def _openblas_libraries() -> list:
-    """Loaded OpenBLAS libraries with a thread-local thread count (Linux: /proc/self/maps)."""
+@functools.lru_cache(maxsize=1)
+def _openblas_libraries() -> tuple:
+    """Loaded OpenBLAS libraries with a thread-local thread count (Linux: /proc/self/maps).
+
+    Read once per process (NumPy and SciPy load their BLAS at import, before any sweep).
+    """
     try:
         with open("/proc/self/maps") as maps:
             paths = sorted(set(re.findall(r"(/\S*openblas\S*\.so\S*)", maps.read())))
     except OSError:
-        return []
+        return ()
     libs = []
     for path in paths:
         try:
@@ -44,7 +49,7 @@ def _openblas_libraries() -> list:
             continue
         fn.argtypes, fn.restype = [ctypes.c_int], ctypes.c_int
         libs.append(fn)
-    return libs
+    return tuple(libs)
 
 
 @contextlib.contextmanager
