@@ -35,7 +35,7 @@ import numpy as np
 
 from .._limits import env_limit
 from ..errors import ParameterError, ResourceLimitError
-from ._options import Kernel
+from ._options import Kernel, option
 from ._run import RunSetup
 
 # --- running grids ---------------------------------------------------------------------------
@@ -256,9 +256,7 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     >>> acc.shape, run.loop.layout.unpack(acc)["k"].tolist()
     ((72, 2), [500.0, 500.0])
     """
-    kernel = Kernel() if kernel is None else kernel
-    if not isinstance(kernel, Kernel):
-        raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
+    kernel = option("kernel", kernel, Kernel)
     if executor is not None and not isinstance(executor, Executor):
         raise ParameterError(f"executor must be a concurrent.futures.Executor (e.g. "
                              f"a Dask client.get_executor()), got {executor!r}")

@@ -297,4 +297,39 @@ class Kernel:
                 "vector_math": self.vector_math}
 
 
+def option(name: str, value, cls, *, default=None, what: str | None = None):
+    """An option object as given, its default when None, else a clear ParameterError.
+
+    The one check behind every ``integrator=``, ``classifier=``, ``kernel=`` and ``scenario``
+    argument of :func:`fl_design.simulate`, :func:`fl_design.sweep` and their helpers.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name.
+    value : object
+        What was given (None: the default).
+    cls : type or tuple of types
+        Accepted classes.
+    default : callable, optional
+        Builds the default (default ``cls()``; None with no default means required).
+    what : str, optional
+        What is expected, in words (default ``"a fl.<cls>"``).
+
+    Returns
+    -------
+    object
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._options import option
+    >>> option("kernel", None, fl.Kernel).compiled
+    True
+    """
+    if value is None:
+        value = (default or cls)()
+    return V.instance(name, value, cls, what or f"a fl.{cls.__name__}")
+
+
 __all__ = ["RK4", "Classifier", "Cvodes", "Kernel", "Noise", "Scenario"]

@@ -26,7 +26,7 @@ from .. import _validate as V
 from ..errors import DimensionError, ParameterError, RelativeDegreeError
 from ._closed_loop import ClosedLoop, default_substeps
 from ._metrics import initial_values
-from ._options import RK4, Classifier, Scenario
+from ._options import RK4, Classifier, Scenario, option
 
 
 def default_divergence_bound(plant) -> np.ndarray:
@@ -241,12 +241,9 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
 
     V.instance("plant", plant, Plant, "a fl.Plant (fl.Plant.from_ode or fl.plants.*)")
     V.instance("design", design, Design, "a fl.Design(estimator=..., controller=...)")
-    integrator = RK4() if integrator is None else integrator
-    classifier = Classifier() if classifier is None else classifier
-    for name, value, cls in (("scenario", scenario, Scenario), ("integrator", integrator, RK4),
-                             ("classifier", classifier, Classifier)):
-        if not isinstance(value, cls):
-            raise ParameterError(f"{name} must be a fl.{cls.__name__}, got {value!r}")
+    scenario = V.instance("scenario", scenario, Scenario, "a fl.Scenario")
+    integrator = option("integrator", integrator, RK4)
+    classifier = option("classifier", classifier, Classifier)
     T = design.T
     N = scenario.n_samples(T)
     steps = default_substeps(plant, T) if integrator.substeps is None else integrator.substeps

@@ -25,9 +25,8 @@ import functools
 import casadi as ca
 import numpy as np
 
-from ..errors import ParameterError
 from ._metrics import ACCUMULATORS, initial_values, metric_layout, signals, update
-from ._options import RK4, Classifier, Cvodes, Kernel, Scenario
+from ._options import RK4, Classifier, Cvodes, Kernel, Scenario, option
 from ._response import Response
 from ._run import RunSetup, prepare_run
 
@@ -85,13 +84,9 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     >>> resp.stable, round(float(resp.y[-1]), 3)
     (True, 0.2)
     """
-    integrator = RK4() if integrator is None else integrator
-    kernel = Kernel() if kernel is None else kernel
-    if not isinstance(integrator, (RK4, Cvodes)):
-        raise ParameterError(f"integrator must be fl.RK4(...) or fl.Cvodes(...), got "
-                             f"{integrator!r}")
-    if not isinstance(kernel, Kernel):
-        raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
+    integrator = option("integrator", integrator, (RK4, Cvodes), default=RK4,
+                        what="fl.RK4(...) or fl.Cvodes(...)")
+    kernel = option("kernel", kernel, Kernel)
     rk4 = integrator if isinstance(integrator, RK4) else RK4(substeps=1)
     run = prepare_run(plant, design, scenario, integrator=rk4, classifier=classifier,
                       allow_unmodeled=allow_unmodeled)

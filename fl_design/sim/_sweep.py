@@ -32,7 +32,7 @@ from .._numerics import bisect_log
 from ..errors import ParameterError
 from ._grid import _Columns, run_grid
 from ._metrics import Status, metrics_from_summary
-from ._options import RK4, Classifier, Kernel, Scenario
+from ._options import RK4, Classifier, Kernel, Scenario, option
 from ._run import RunSetup, b_sign, prepare_run
 from ._stability_map import EpsStarEstimate, StabilityMap
 
@@ -211,9 +211,7 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
         raise ParameterError(f"eps_range must satisfy 0 < lo < hi, got ({lo}, {hi})")
     rtol = V.positive("rtol", rtol)
     budget = V.integer("max_simulations", max_simulations, minimum=2)
-    kernel = Kernel() if kernel is None else kernel
-    if not isinstance(kernel, Kernel):
-        raise ParameterError(f"kernel must be a fl.Kernel, got {kernel!r}")
+    kernel = option("kernel", kernel, Kernel)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       allow_unmodeled=allow_unmodeled)
     runner = run.loop.runner(kernel=kernel)
