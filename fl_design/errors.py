@@ -88,6 +88,14 @@ class UnmodeledDynamicsWarning(UserWarning):
     """A design of lower relative degree than the plant's runs on it (opted in on purpose)."""
 
 
+class NonMinimumPhaseWarning(UserWarning):
+    """A loop is built on a plant whose zero dynamics are not asymptotically stable.
+
+    The method assumes a minimum-phase plant: on one that is not, the output may still settle
+    while the internal states leave the region, and no guarantee holds.
+    """
+
+
 __all__ = [
     "CertificationError",
     "CompilationError",
@@ -99,6 +107,7 @@ __all__ = [
     "FlDesignError",
     "HurwitzError",
     "MissingDependencyError",
+    "NonMinimumPhaseWarning",
     "OutputPathError",
     "ParameterError",
     "PlantDefinitionError",

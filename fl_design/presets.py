@@ -6,7 +6,9 @@ Shenoy, Saradagi, Pasumarthy and Chellaboina control the yaw of a Twin Rotor MIM
 the velocity estimate clamped to ``|xhat_2| <= 0.05`` and the input to ``[-2.5, 2.5]``; they
 compare against the least-squares estimator of Fraile, Marchi and Tabuada with windows of 9
 and 26 samples under the same controller. The demo, the tests, ``verify/`` and ``examples/``
-all take the designs from here.
+all take the designs from here, and so do the bench designs of the other library plants
+(:mod:`fl_design.plants`): one per plant, each converging from its operating point after a
+small step at ``T = 1 ms`` (``tests/symbolic/test_library_loops.py``).
 
 Examples
 --------
@@ -20,7 +22,7 @@ Examples
 
 from __future__ import annotations
 
-from .design import EHGO, Design, DynamicController, LeastSquaresEstimator
+from .design import EHGO, Design, DynamicController, LeastSquaresEstimator, gains_from_poles
 
 #: Sampling time of the paper's experiments (s).
 T_PAPER = 1e-3
@@ -143,5 +145,144 @@ def pendulum_design(eps: float = 0.02, gamma: float = 1e-2, **controller) -> Des
                   controller=DynamicController((2.0, 4.0), gamma, **controller))
 
 
-__all__ = ["PAPER_COEFFS", "PAPER_STEP", "PAPER_WINDOWS", "T_PAPER", "least_squares_design",
-           "paper_controller", "paper_design", "pendulum_design"]
+def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Design:
+    """A relative-degree-3 bench design for the TRMS yaw with its motor lag (``trms_yaw(True)``).
+
+    EHGO of order 4 with all poles at ``-1/eps``, ``T = 1 ms``; gains placing the closed loop at
+    ``-1, -2, -3`` (``K = (6, 11, 6)``), input limited to the TRMS range ``[-2.5, 2.5]``.
+    ``gamma = 3e-3`` (10x the paper's): at rest the loop's slowest linear time constant is
+    about ``0.06 / gamma`` s (188 s at the paper's 3e-4, 19 s here), because the smoothed
+    Coulomb friction makes the plant near rest a heavily damped one. Measured: a 0.05 rad step
+    converges (2 % band) after 19.3 s, overshoot 3.9 %; empirical eps* 0.088.
+
+    Parameters
+    ----------
+    eps : float, optional
+        Observer time constant (default 0.05).
+    gamma : float, optional
+        Controller gain (default 3e-3; ``b`` in ``[3.6, 6.8]``).
+    **controller
+        More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
+
+    Returns
+    -------
+    Design
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> d = fl.presets.trms_lag_design()
+    >>> d.rho, d.controller.gains
+    (3, (6.0, 11.0, 6.0))
+    """
+    controller.setdefault("u_limits", _DEFAULT_U_LIMITS)
+    return Design(estimator=EHGO(rho=3, eps=eps, T=T_PAPER),
+                  controller=DynamicController(gains_from_poles([-1, -2, -3]), gamma, **controller))
+
+
+def flexible_joint_design(eps: float = 5e-3, gamma: float = 3e-5, **controller) -> Design:
+    """A relative-degree-4 bench design for the flexible-joint robot (``flexible_joint()``).
+
+    EHGO of order 5 with all poles at ``-1/eps``, ``T = 1 ms``; closed loop ``(s + 5)^4``
+    (``K = (625, 500, 150, 20)``); input limited to ``[-10, 10]``. ``b = 418.5``, so ``gamma``
+    must stay far below ``1 / b = 2.4e-3``: ``3e-5`` gives ``gamma b = 0.013`` per sample.
+    Measured: a 0.05 rad step converges after 2.7 s without overshoot; eps* 0.0131 (empirical)
+    and 0.0127 (linearized).
+
+    Parameters
+    ----------
+    eps : float, optional
+        Observer time constant (default 5e-3).
+    gamma : float, optional
+        Controller gain (default 3e-5).
+    **controller
+        More :class:`~fl_design.DynamicController` options.
+
+    Returns
+    -------
+    Design
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.presets.flexible_joint_design().controller.gains
+    (625.0, 500.0, 150.0, 20.0)
+    """
+    controller.setdefault("u_limits", (-10.0, 10.0))
+    return Design(estimator=EHGO(rho=4, eps=eps, T=T_PAPER),
+                  controller=DynamicController(gains_from_poles([-5] * 4), gamma, **controller))
+
+
+def cart_pendulum_design(eps: float = 5e-3, gamma: float = 0.05, **controller) -> Design:
+    """A relative-degree-2 bench design for the gantry crane (``cart_pendulum()``, output the cart).
+
+    EHGO of order 3 with all poles at ``-1/eps``, ``T = 1 ms``; closed loop ``(s + 2)^2``
+    (``K = (4, 4)``) on the cart position; the force limited to ``[-10, 10]`` N. The sway (zero
+    dynamics, decaying as ``exp(-2.08 t)``) is not controlled, only excited. Measured: a 5 cm
+    step converges after 2.9 s with negligible overshoot; eps* 0.0153 (empirical) and 0.0152
+    (linearized).
+
+    Parameters
+    ----------
+    eps : float, optional
+        Observer time constant (default 5e-3).
+    gamma : float, optional
+        Controller gain (default 0.05; ``b`` in ``[0.91, 0.95]`` 1/kg).
+    **controller
+        More :class:`~fl_design.DynamicController` options.
+
+    Returns
+    -------
+    Design
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> fl.presets.cart_pendulum_design().controller.gains
+    (4.0, 4.0)
+    """
+    controller.setdefault("u_limits", (-10.0, 10.0))
+    return Design(estimator=EHGO(rho=2, eps=eps, T=T_PAPER),
+                  controller=DynamicController(gains_from_poles([-2, -2]), gamma, **controller))
+
+
+def maglev_design(eps: float = 2e-3, gamma: float = -1e-3, **controller) -> Design:
+    """A relative-degree-3 bench design for the magnetic levitation (``maglev()``), ``gamma < 0``.
+
+    ``b < 0`` on the maglev's region, so ``gamma`` is negative (the opposite sign is refused).
+    EHGO of order 4 with all poles at ``-1/eps``, ``T = 1 ms``; closed loop ``(s + 40)^3``
+    (``K = (64000, 4800, 120)``); coil voltage limited to ``[0, 24]`` V. The plant is fast for
+    1 ms sampling (open-loop pole ``+57`` rad/s): the loop needs ``gamma b`` large enough to
+    beat it (``|gamma| <= 5e-4`` fails at every eps) and a small ``eps``; eps* is only about
+    3.1e-3 (alpha = T / eps* = 0.32). Measured: a 0.2 mm step from the 6 mm gap converges
+    after 0.51 s, overshoot 22 %.
+
+    Parameters
+    ----------
+    eps : float, optional
+        Observer time constant (default 2e-3).
+    gamma : float, optional
+        Controller gain (default -1e-3; ``b`` in ``[-174.6, -18.2]``).
+    **controller
+        More :class:`~fl_design.DynamicController` options.
+
+    Returns
+    -------
+    Design
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> d = fl.presets.maglev_design()
+    >>> resp = fl.simulate(fl.plants.maglev(), d, fl.Scenario(6.2e-3, 2.0))
+    >>> resp.status
+    'converged'
+    """
+    controller.setdefault("u_limits", (0.0, 24.0))
+    return Design(estimator=EHGO(rho=3, eps=eps, T=T_PAPER),
+                  controller=DynamicController(gains_from_poles([-40] * 3), gamma, **controller))
+
+
+__all__ = ["PAPER_COEFFS", "PAPER_STEP", "PAPER_WINDOWS", "T_PAPER", "cart_pendulum_design",
+           "flexible_joint_design", "least_squares_design", "maglev_design", "paper_controller",
+           "paper_design", "pendulum_design", "trms_lag_design"]

@@ -55,7 +55,7 @@ import numpy as np
 
 from .. import _validate as V
 from ..design import Layout
-from ..errors import DesignMismatchError, UnmodeledDynamicsWarning
+from ..errors import DesignMismatchError, NonMinimumPhaseWarning, UnmodeledDynamicsWarning
 from ._metrics import RUN_CONSTANTS, metric_layout, signals, update
 
 #: Any design-state or input magnitude beyond this counts as non-finite (divergence).
@@ -127,6 +127,22 @@ def default_substeps(plant, T: float) -> int:
     return max(1, math.ceil(T * lam - 1e-12))
 
 
+def _warn_if_not_minimum_phase(plant) -> None:
+    """A :class:`~fl_design.errors.NonMinimumPhaseWarning` naming the unstable zero dynamics."""
+    nf = plant.normal_form()
+    if nf.minimum_phase:
+        return
+    eig = nf.zero_dynamics_eigenvalues
+    listed = ", ".join(f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j"
+                       for z in eig)
+    warnings.warn(
+        f"plant {plant.name!r} is not minimum phase: the eigenvalues of its zero dynamics "
+        f"(linearized at the operating point) are [{listed}], largest real part "
+        f"{float(np.max(eig.real)):.4g} (not < 0); the method's guarantees do not hold: the "
+        "output may settle while the internal states "
+        "leave the region (see Response.region_exit_time)", NonMinimumPhaseWarning, stacklevel=4)
+
+
 @dataclass(frozen=True)
 class ClosedLoop:
     """Plant and design joined into the sampled closed loop (CasADi functions, built lazily).
@@ -168,6 +184,15 @@ class ClosedLoop:
         The plant's relative degree differs from the design's (lower, or higher without
         ``allow_unmodeled``).
 
+    Warns
+    -----
+    NonMinimumPhaseWarning
+        The plant has zero dynamics (``n > rho``) that are not asymptotically stable at the
+        operating point (:attr:`fl_design.NormalForm.minimum_phase` False); the message names
+        their eigenvalues. A warning, not an error: simulating such a plant is how one sees
+        the internal states run away (the run's ``region_exit_time``), but no verdict on the
+        output alone means the loop works.
+
     Examples
     --------
     >>> import fl_design as fl
@@ -188,6 +213,8 @@ class ClosedLoop:
         object.__setattr__(self, "substeps", V.integer("substeps", self.substeps, minimum=1))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
         rho_p, rho_d = self.plant.relative_degree(), self.design.rho
+        if self.plant.n > rho_p:
+            _warn_if_not_minimum_phase(self.plant)
         if rho_p == rho_d:
             return
         if rho_d < rho_p and self.allow_unmodeled:

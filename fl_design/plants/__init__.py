@@ -1,0 +1,32 @@
+"""A small library of benchmark plants, each a validated :class:`fl_design.Plant`.
+
+========================== === === ============= ======================= =============================
+plant                      n   rho input range   b range (region)        zero dynamics
+========================== === === ============= ======================= =============================
+trms_yaw()                 2   2   [-2.5, 2.5]   [3.6, 6.8]              none
+trms_yaw(motor_lag=True)   3   3   [-2.5, 2.5]   [3.6, 6.8]              none
+pendulum()                 2   2   [-20, 20]     [1, 1]                  none
+flexible_joint()           4   4   [-10, 10]     [418.48, 418.48]        none
+cart_pendulum()            4   2   [-10, 10]     [0.8467, 0.8658]        damped sway, minimum phase
+cart_pendulum(True)        4   2   [-10, 10]     [0.8467, 0.8658]        NOT minimum phase
+maglev()                   3   3   [0, 24]       [-180.1, -25.03]        none (b < 0)
+========================== === === ============= ======================= =============================
+
+Parameters are keyword overrides, validated; symbols are real (states) and positive
+(parameters), so that the derived expressions stay readable. One module per plant family.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> [fl.plants.trms_yaw().relative_degree(), fl.plants.flexible_joint().relative_degree()]
+[2, 4]
+"""
+
+from __future__ import annotations
+
+from ._flexible_joint import flexible_joint
+from ._maglev import maglev
+from ._pendulums import cart_pendulum, pendulum
+from ._rotor import trms_yaw
+
+__all__ = ["cart_pendulum", "flexible_joint", "maglev", "pendulum", "trms_yaw"]
