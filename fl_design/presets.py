@@ -151,9 +151,11 @@ def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Des
     EHGO of order 4 with all poles at ``-1/eps``, ``T = 1 ms``; gains placing the closed loop at
     ``-1, -2, -3`` (``K = (6, 11, 6)``), input limited to the TRMS range ``[-2.5, 2.5]``.
     ``gamma = 3e-3`` (10x the paper's): at rest the loop's slowest linear time constant is
-    about ``0.06 / gamma`` s (188 s at the paper's 3e-4, 19 s here), because the smoothed
-    Coulomb friction makes the plant near rest a heavily damped one. Measured: a 0.05 rad step
-    converges (2 % band) after 19.3 s, overshoot 3.9 %; empirical eps* 0.088.
+    about ``0.057 / gamma`` (188 s at the paper's 3e-4, 19 s here; sampled linearization),
+    because the smoothed Coulomb friction makes the plant near rest a heavily damped one.
+    Measured: a 0.05 rad step converges (2 % band) after 19.3 s, overshoot 3.9 %; empirical
+    eps* 0.088, while the linearized loop is stable up to eps = 1 (see
+    :func:`fl_design.plants.trms_yaw` for why).
 
     Parameters
     ----------
@@ -253,9 +255,10 @@ def maglev_design(eps: float = 2e-3, gamma: float = -1e-3, **controller) -> Desi
     EHGO of order 4 with all poles at ``-1/eps``, ``T = 1 ms``; closed loop ``(s + 40)^3``
     (``K = (64000, 4800, 120)``); coil voltage limited to ``[0, 24]`` V. The plant is fast for
     1 ms sampling (open-loop pole ``+57`` rad/s): the loop needs ``gamma b`` large enough to
-    beat it (``|gamma| <= 5e-4`` fails at every eps) and a small ``eps``; eps* is only about
-    3.1e-3 (alpha = T / eps* = 0.32). Measured: a 0.2 mm step from the 6 mm gap converges
-    after 0.51 s, overshoot 22 %.
+    beat it (``|gamma| <= 5e-4`` fails at every eps) and a small ``eps``; eps* is only
+    3.1e-3 (linearized; 3.4e-3 empirical with the voltage limits), so ``alpha = T / eps*``
+    is about 0.3. Measured: a 0.2 mm step from the 6 mm gap converges (to 4 um) after 0.51 s,
+    overshoot 22 %.
 
     Parameters
     ----------

@@ -46,9 +46,7 @@ def _public_objects():
     seen = set()
     spaces = [("fl", fl, fl.__all__)]
     spaces += [(f"fl.{layer}", getattr(fl, layer), getattr(fl, layer).__all__) for layer in LAYERS]
-    spaces += [("fl.plants", fl.plants, [n for n, o in vars(fl.plants).items()
-                                         if inspect.isfunction(o) and not n.startswith("_")
-                                         and o.__module__ == "fl_design.plants"])]
+    spaces += [("fl.plants", fl.plants, fl.plants.__all__)]
     spaces += [("fl.presets", fl.presets, fl.presets.__all__)]
     for prefix, space, names in spaces:
         for name in names:

@@ -7,9 +7,9 @@ trms_yaw()                 2   2   [-2.5, 2.5]   [3.6, 6.8]              none
 trms_yaw(motor_lag=True)   3   3   [-2.5, 2.5]   [3.6, 6.8]              none
 pendulum()                 2   2   [-20, 20]     [1, 1]                  none
 flexible_joint()           4   4   [-10, 10]     [418.48, 418.48]        none
-cart_pendulum()            4   2   [-10, 10]     [0.8467, 0.8658]        damped sway, minimum phase
-cart_pendulum(True)        4   2   [-10, 10]     [0.8467, 0.8658]        NOT minimum phase
-maglev()                   3   3   [0, 24]       [-180.1, -25.03]        none (b < 0)
+cart_pendulum()            4   2   [-10, 10]     [0.9109, 0.9524]        damped sway, minimum phase
+cart_pendulum(True)        4   2   [-10, 10]     [0.9109, 0.9524]        NOT minimum phase
+maglev()                   3   3   [0, 24]       [-174.6, -18.19]        none (b < 0)
 ========================== === === ============= ======================= =============================
 
 Parameters are keyword overrides, validated; symbols are real (states) and positive

@@ -25,9 +25,9 @@ def maglev(*, m: float = 0.068, C: float = 3.2654e-5, L: float = 0.4125, R: floa
       ``[0, 24]``; output ``y``: relative degree 3 = n (no zero dynamics);
     * input coefficient ``b = -2 C i / (m L y^2) < 0`` on the region (``i > 0``, ``y > 0``):
       pulling harder (more current) reduces the gap, so ``gamma`` must be negative. Default
-      values: ``b in [-180.1, -25.03]`` over the region, ``-54.88`` at the operating point;
+      values: ``b in [-174.6, -18.19]`` over the region, ``-55.46`` at the operating point;
     * operating point: the ball held at ``y0`` (default 6 mm, Quanser's nominal gap): ``v = 0``,
-      ``i0 = y0 sqrt(m g / C) = 0.8576`` A, ``u_eq = R i0 = 9.434`` V. Open loop it is unstable:
+      ``i0 = y0 sqrt(m g / C) = 0.8576`` A, ``u_eq = R i0 = 9.433`` V. Open loop it is unstable:
       linearized poles ``+-sqrt(2 g / y0) = +-57.2`` rad/s and the coil's ``-R / L = -26.7``;
     * region: ``y in [4, 8]`` mm, ``v in [-0.5, 0.5]`` m/s, ``i in [0.5, 1.2]`` A.
 
@@ -69,10 +69,10 @@ def maglev(*, m: float = 0.068, C: float = 3.2654e-5, L: float = 0.4125, R: floa
     --------
     >>> import fl_design as fl
     >>> p = fl.plants.maglev()
-    >>> p.relative_degree(), [round(v, 4) for v in p.x_op], round(p.u_eq, 3)
-    (3, [0.006, 0.0, 0.8576], 9.434)
+    >>> p.relative_degree(), p.x_op.round(4).tolist(), round(p.u_eq, 3)
+    (3, [0.006, 0.0, 0.8576], 9.433)
     >>> [round(v, 2) for v in p.b_bounds()]
-    [-180.09, -25.03]
+    [-174.62, -18.19]
     """
     vals = positive_params(m=m, C=C, L=L, R=R, g=g)
     y_op = V.positive("y0", y0)

@@ -83,13 +83,13 @@ def cart_pendulum(inverted: bool = False, *, M: float = 1.0, m: float = 0.2, l: 
       ``[-10, 10]``; output ``y = p`` (cart position, m): relative degree 2, ``n - rho = 2``;
     * input coefficient, from the 2 x 2 mass matrix: ``b(theta) = J_t / ((M + m) J_t - m^2 l^2
       cos^2 theta)`` with ``J_t = J + m l^2``; largest at ``theta = 0``, smallest at the
-      region's largest ``|theta|``. Default values: ``b in [0.8467, 0.8658]`` 1/kg
+      region's largest ``|theta|``. Default values: ``b in [0.9109, 0.9524]`` 1/kg
       (``|theta| <= 0.6``); it does not depend on ``s``;
     * zero dynamics (cart held, ``p = p' = p'' = 0``): the pendulum alone, ``J_t theta'' +
       gamma_p theta' - s m g l sin(theta) = 0``, linearized ``J_t lambda^2 + gamma_p lambda -
       s m g l = 0``. Hanging: a damped pendulum, minimum phase (default: ``lambda = -2.08 +-
-      7.05j``, the sway decays as ``exp(-2.08 t)``: to 2 % in 1.9 s); inverted: one real
-      positive zero-dynamics eigenvalue (``+5.38`` by default), **not minimum phase**: the
+      4.49j``, the sway decays as ``exp(-2.08 t)``: to 2 % in 1.9 s); inverted: one real
+      positive zero-dynamics eigenvalue (``+3.29`` by default, with ``-7.46``), **not minimum phase**: the
       method does not apply (:func:`fl_design.simulate` warns, naming the eigenvalue);
     * region: ``p in [-0.5, 0.5]`` m, ``p_dot in [-2, 2]`` m/s, ``theta in [-0.6, 0.6]`` rad,
       ``theta_dot in [-5, 5]`` rad/s.
@@ -131,7 +131,7 @@ def cart_pendulum(inverted: bool = False, *, M: float = 1.0, m: float = 0.2, l: 
     >>> crane = fl.plants.cart_pendulum()
     >>> nf = crane.normal_form()
     >>> crane.relative_degree(), nf.minimum_phase, nf.zero_dynamics_eigenvalues.round(2).tolist()
-    (2, True, [(-2.08-7.05j), (-2.08+7.05j)])
+    (2, True, [(-2.08-4.49j), (-2.08+4.49j)])
     >>> fl.plants.cart_pendulum(inverted=True).normal_form().minimum_phase
     False
     """

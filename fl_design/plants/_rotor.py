@@ -37,6 +37,19 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
       ``b = (2 a2 |tau| + b2) k2 / (T21 I2)`` (motor lag); with the default values both range over
       ``[3.6, 6.8]`` (``|tau| in [0, 2]``).
 
+    **The linearization is optimistic here.** At rest (``phi' = 0``) the smoothed Coulomb term
+    has slope ``B2 / delta = 10`` N m s/rad, 100 times the viscous ``B1``: the linearized plant
+    is heavily damped (a pole at ``-(B1 + B2/delta) / I2 = -505`` 1/s), and the linearized
+    sampled loop stays stable for every eps (:func:`fl_design.linearized_eps_star` returns the
+    top of its range, 1). That slope holds only for ``|phi'| << delta = 1 mrad/s``: any real
+    motion saturates the friction to a nearly constant ``+-B2``, a relay the observer has to
+    follow, and the nonlinear loop falls into a limit cycle for much smaller eps. Measured
+    (``tests/sim/test_library_loops.py``, 0.05 rad step, T = 1 ms): empirical eps* 0.148 with
+    ``presets.paper_design(gamma=1e-2)`` and 0.088 with ``presets.trms_lag_design()`` (motor
+    lag), against a linearized eps* >= 1 for both. The same friction slope makes the loop slow
+    near rest: its slowest linear time constant is about ``0.07 / gamma`` (234 s at the paper's
+    ``gamma = 3e-4``, 7.5 s at ``1e-2``).
+
     Parameters
     ----------
     motor_lag : bool, optional

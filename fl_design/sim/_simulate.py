@@ -76,6 +76,14 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     DesignMismatchError
         The plant's relative degree differs from the design's (see ``allow_unmodeled``).
 
+    Warns
+    -----
+    NonMinimumPhaseWarning
+        The plant's zero dynamics are not asymptotically stable at the operating point (e.g.
+        ``fl.plants.cart_pendulum(inverted=True)``): the run goes ahead (it shows the internal
+        states leaving the region, ``Response.region_exit_time``), but the method does not apply
+        and an output that settles proves nothing.
+
     Examples
     --------
     >>> import fl_design as fl

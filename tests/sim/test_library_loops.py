@@ -12,6 +12,7 @@ issue expects: its smoothed Coulomb friction makes the linearization optimistic 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -19,6 +20,7 @@ import numpy as np
 import pytest
 
 import fl_design as fl
+from fl_design.errors import NonMinimumPhaseWarning
 
 
 @dataclass(frozen=True)
@@ -68,7 +70,9 @@ def bench(request, cache):
 def test_small_step_from_the_operating_point_converges(bench):
     name, _, plant, design, scenario, kernel = bench
     assert design.rho == plant.relative_degree()
-    resp = fl.simulate(plant, design, scenario, kernel=kernel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NonMinimumPhaseWarning)  # every bench plant is min. phase
+        resp = fl.simulate(plant, design, scenario, kernel=kernel)
     assert resp.status in ("converged", "converging"), f"{name}: {resp.verdict()}"
     if resp.status == "converging":
         assert math.isfinite(resp.metrics["time_to_tolerance"])
