@@ -24,5 +24,5 @@ def test_claim_script_quick(script):
                           text=True, env=env, timeout=180, check=False)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     out = proc.stdout
-    assert "holds" in out or out.startswith("skipped: needs allow_unmodeled")
+    assert "holds" in out
     assert "FAILS" not in out and "nan" not in out.lower().replace("nanos", "")
