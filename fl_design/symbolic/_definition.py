@@ -127,14 +127,14 @@ def equilibrium_input(rhs, states, input, x_op, input_range) -> float:
                 "choose an operating_point inside the domain of f")
         return out.real
 
-    import scipy.optimize  # lazy: 0.3-0.8 s to import, needed only when solving
-
     scale = max([1.0] + [float(np.nanmax(np.abs(resid(v)))) for v in (0.0, -1.0, 1.0)])
     tol = 1e-9 * scale
     best_u, best_r = 0.0, float(np.max(np.abs(resid(0.0))))
     for u0 in (0.0, 1.0, -1.0, *(input_range or ())):
         if best_r <= tol:
             break
+        import scipy.optimize  # lazy: 0.3-0.8 s to import, needed only when solving
+
         sol = scipy.optimize.least_squares(resid, [u0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
         r = float(np.max(np.abs(resid(sol.x[0]))))
         if r < best_r:
