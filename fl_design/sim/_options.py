@@ -250,8 +250,8 @@ class Kernel:
         Lanes kernel with glibc libmvec's vector ``tanh``/``sin``/``exp`` (default, unless
         ``$FL_DESIGN_VECTOR_MATH=0``) or glibc's scalar functions (False). Scalar math gives
         bit for bit the results of the scalar kernel and of CasADi's interpreter (tested on
-        every test grid), but a scalar call per lane costs 3-4x on the TRMS loop (35 -> 159 ns
-        per step, one thread, load 4.4). libmvec's functions differ from glibc's scalar ones
+        every test grid), but a scalar call per lane costs 4.35x on the TRMS loop (31 -> 133 ns
+        per step, one thread, ``verify/bench_sweep.py`` at load 1.1). libmvec's functions differ from glibc's scalar ones
         by 1-3 ulp on 27-34 % of ``tanh`` arguments in [-5, 5] and 60 % of ``sin`` arguments;
         the closed loop carries these last bits along, so the default is not bitwise. Measured
         against the interpreter (and ``vector_math=False``): every run of the test grids and

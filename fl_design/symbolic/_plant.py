@@ -49,7 +49,8 @@ class Plant:
     """A SISO plant ``x' = f(x, u)``, ``y = h(x)`` defined by SymPy expressions.
 
     Validated on construction and immutable; derived results (relative degree, normal form,
-    CasADi functions, bounds) are computed on first use and cached. Build it with
+    CasADi functions, bounds) are computed on first use and cached, in memory and on disk by
+    content (:mod:`fl_design.symbolic._stored`, beside the compiled kernels). Build it with
     :meth:`Plant.from_ode` (same arguments) or take one from :mod:`fl_design.plants`.
 
     Parameters
