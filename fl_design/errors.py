@@ -84,6 +84,10 @@ class CompilationWarning(UserWarning):
     """No C compiler (or compilation failed): a kernel runs in CasADi's interpreter instead."""
 
 
+class CacheWarning(UserWarning):
+    """A cached plant derivation was corrupted: it was recomputed and rewritten."""
+
+
 class UnmodeledDynamicsWarning(UserWarning):
     """A design of lower relative degree than the plant's runs on it (opted in on purpose)."""
 
@@ -97,6 +101,7 @@ class NonMinimumPhaseWarning(UserWarning):
 
 
 __all__ = [
+    "CacheWarning",
     "CertificationError",
     "CompilationError",
     "CompilationWarning",

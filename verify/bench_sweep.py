@@ -18,7 +18,9 @@ one substep):
    imports, plant build and compilation included) on all cores, from an empty kernel cache and
    from a warm one;
 4. the compile time of a plant needing 10,000 RK4 substeps (empty cache);
-5. for reference only: the per-sample ``solve_ivp`` loop; and the peak memory of sweeps.
+5. for reference only: the kernel with glibc's scalar math (``fl.Kernel(vector_math=False)``,
+   bitwise the interpreter's results) against the default libmvec kernel on the workload of 1;
+   the per-sample ``solve_ivp`` loop; and the peak memory of sweeps.
 
 Targets (exit status 1 when one is missed; ``--quick`` runs a reduced version and checks none):
 kernel <= 40 ns per closed-loop step per grid point per core; >= 3x faster than NumPy, >= 2x
@@ -194,6 +196,25 @@ def throughput(quick: bool, n_rounds: int, cache: str, mods) -> bool:
     return ok
 
 
+def exact_math(quick: bool, n_rounds: int, cache: str) -> None:
+    """Reference: the lanes kernel with glibc's scalar math (``vector_math=False``), whose
+    results are bitwise the interpreter's, against the default (libmvec's vector ``tanh``)."""
+    n_grid, duration = (8, 0.5) if quick else (32, 5.0)
+    w = Workload(n_grid, duration, 1, cache)
+    loop = w.run.loop
+    exact = make_runner(loop.accumulate, loop.record, w.idx, cache_dir=cache, vector_math=False)
+    ref = w.summary(exact.run(w.acc0, w.run.D, threads=1))
+    same = compare(w, "default", w.summary(w.kernel()), ref)
+    times, ratios, _ = rounds(w, {"exact": lambda *a: exact.run(w.acc0, w.run.D, threads=1)},
+                              n_rounds)
+    steps = w.steps(ref)
+    print(f"  glibc's scalar math (vector_math=False, bitwise the interpreter's): "
+          f"{statistics.median(times['exact']) / steps * 1e9:.1f} ns per step; the default "
+          f"kernel is {statistics.median(ratios['exact']):.2f}x faster (rounds "
+          f"{min(ratios['exact']):.2f}-{max(ratios['exact']):.2f}); same classifications: "
+          f"{'yes' if same else 'NO'}  (reference)")
+
+
 def substeps_vs_c(quick: bool, n_rounds: int, cache: str) -> bool:
     n_grid, duration = (4, 0.2) if quick else (16, 5.0)
     w = Workload(n_grid, duration, 10, cache)
@@ -315,6 +336,7 @@ def main(argv=None) -> int:
     mods = _peers_module()
     with tempfile.TemporaryDirectory() as cache:
         ok = throughput(quick, n_rounds, cache, mods)
+        exact_math(quick, max(2, n_rounds // 2), cache)
         ok &= substeps_vs_c(quick, max(2, n_rounds // 2), cache)
         ok &= reference_and_memory(quick, cache)
     ok &= many_substeps_compile()

@@ -11,6 +11,8 @@ The cache heals itself. Each file is written atomically (temporary name, then
 atomically. A cached file is used only when it matches its sidecar (:func:`verified`); a
 truncated, empty or overwritten library, a missing or disagreeing sidecar, is rebuilt. Never
 is an unverified file loaded (:mod:`fl_design.sim._runners` checks again before ``dlopen``).
+The directory, sidecars and atomic writes are those of :mod:`fl_design._cache`, shared with the
+cache of plant derivations (:mod:`fl_design.symbolic._stored`).
 
 Cache location, in order: the ``cache_dir`` argument, the environment variable
 ``$FL_DESIGN_CACHE``, ``$XDG_CACHE_HOME/fl_design``, ``~/.cache/fl_design``. When that
@@ -50,14 +52,14 @@ from pathlib import Path
 
 import casadi as ca
 
+from .._cache import SIDECAR_SUFFIX, cache_directory, replace_text, verified
+from .._cache import digest as _digest
 from ..errors import CompilationWarning, ComputationError
 
 #: Compiler flags of the kernels (``-fno-math-errno`` only lets ``sqrt`` inline; IEEE kept).
 CFLAGS = ("-O3", "-std=c99", "-fno-math-errno", "-fPIC")
 #: Strict warning set for exported C (CasADi's generated code and our wrappers compile clean).
 STRICT_CFLAGS = ("-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror")
-#: Suffix of the sidecar recording a cached file's size and SHA-256.
-SIDECAR_SUFFIX = ".json"
 #: Extra flags of kernels built for this machine only (the lanes kernel of the sweeps): its
 #: vector instruction set, ``omp simd`` loops without the OpenMP runtime, no floating-point
 #: contraction (every operation rounds as in CasADi's interpreter) and no trapping math (lets
@@ -66,45 +68,6 @@ SIDECAR_SUFFIX = ".json"
 NATIVE_CFLAGS = ("-march=native", "-fopenmp-simd", "-ffp-contract=off", "-fno-trapping-math")
 
 _FALLBACK: dict[str, Path] = {}  # the process's private temporary cache, made on first need
-
-
-def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
-    """The directory holding compiled kernels (created if needed).
-
-    Parameters
-    ----------
-    cache_dir : path-like, optional
-        Explicit directory; default ``$FL_DESIGN_CACHE``, else ``$XDG_CACHE_HOME/fl_design``,
-        else ``~/.cache/fl_design``.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    ComputationError
-        The directory cannot be created (a regular file in the way, no permission, read-only
-        file system...); the message names it and ``FL_DESIGN_CACHE``.
-
-    Examples
-    --------
-    >>> from fl_design.codegen import cache_directory
-    >>> cache_directory("kernels").is_dir()
-    True
-    """
-    if cache_dir is None:
-        cache_dir = os.environ.get("FL_DESIGN_CACHE") or os.path.join(
-            os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
-            "fl_design")
-    path = Path(cache_dir)
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ComputationError(f"cannot use {str(path)!r} as the compiled-kernel cache ({exc}); "
-                               "give a writable directory as cache_dir or in $FL_DESIGN_CACHE"
-                               ) from exc
-    return path
 
 
 def _compiler() -> tuple[list[str] | None, str]:
@@ -187,48 +150,6 @@ def generate_source(*functions: ca.Function) -> str:
     return cg.dump()
 
 
-def _digest(path: Path) -> dict:
-    h = hashlib.sha256()
-    size = 0
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-            size += len(block)
-    return {"size": size, "sha256": h.hexdigest()}
-
-
-def verified(path: str | os.PathLike) -> bool:
-    """True when ``path`` exists and matches the size and SHA-256 recorded by :func:`build`.
-
-    A missing, unreadable or malformed sidecar, or any difference, gives False (never raises).
-
-    Examples
-    --------
-    >>> from fl_design.codegen._build import verified
-    >>> verified("no-such-library.so")
-    False
-    """
-    path = Path(path)
-    try:
-        record = json.loads(Path(str(path) + SIDECAR_SUFFIX).read_text())
-        if not isinstance(record, dict) or os.stat(path).st_size != record.get("size"):
-            return False
-        return _digest(path) == {"size": record["size"], "sha256": record.get("sha256")}
-    except (OSError, ValueError, UnicodeDecodeError):
-        return False
-
-
-def _replace_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
 def _fallback_directory() -> Path:
     if "dir" not in _FALLBACK or not _FALLBACK["dir"].is_dir():
         path = Path(tempfile.mkdtemp(prefix="fl_design-cache-"))
@@ -241,7 +162,6 @@ class _CompileFailed(Exception):
     pass
 
 
-@functools.lru_cache(maxsize=4)
 def native_macros(compiler: str | None = None) -> frozenset:
     """Macros the compiler predefines with ``-march=native`` (e.g. ``__AVX512F__``).
 
@@ -263,8 +183,12 @@ def native_macros(compiler: str | None = None) -> frozenset:
     True
     """
     cc = compiler or find_compiler()
-    if cc is None:
-        return frozenset()
+    return frozenset() if cc is None else _native_macros(cc)
+
+
+@functools.lru_cache(maxsize=4)
+def _native_macros(cc: str) -> frozenset:
+    """:func:`native_macros` of the compiler ``cc`` (one preprocessor run per process)."""
     try:
         proc = subprocess.run([cc, "-march=native", "-dM", "-E", "-x", "c", os.devnull],
                               capture_output=True, text=True, timeout=60, check=False)
@@ -298,7 +222,7 @@ def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: l
             raise _CompileFailed(error)
         record = json.dumps(_digest(Path(tmp) / out_name))
         os.replace(Path(tmp) / out_name, out)
-    _replace_text(Path(str(out) + SIDECAR_SUFFIX), record)
+    replace_text(Path(str(out) + SIDECAR_SUFFIX), record)
     return out
 
 

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
 from .. import _validate as v
 from .._limits import env_limit
@@ -78,6 +77,8 @@ def derivative_matrix(window: int, degree: int, rho: int, T: float) -> np.ndarra
     array([[ 0.,  1.],
            [-2.,  2.]])
     """
+    import scipy.linalg  # lazy: 0.2-0.4 s to import, only for this estimator
+
     tau = T * window
     s = -(window - 1 - np.arange(window)) / window
     V = np.vander(s, degree + 1, increasing=True)

@@ -7,8 +7,10 @@ width, libmvec's vector ``tanh``/``sin``/``exp``) and runs the columns of a grid
 diverged or ended, the columns shared by the threads through one atomic counter (dynamic load
 balance: diverged runs cost nothing, the order of the grid does not matter). One run with its
 trajectory (:meth:`LanesRunner.record`, used by :func:`fl_design.simulate`) goes to the scalar
-:class:`~fl_design.sim.NativeRunner`, built on first use. Results equal the scalar kernel's
-and the interpreter's (tests).
+:class:`~fl_design.sim.NativeRunner`, built on first use. With glibc's scalar math
+(``vector_math=False``) results equal the scalar kernel's and the interpreter's bit for bit;
+with libmvec's (the default) every classification is the same and metrics agree to the last
+bits of ``tanh``/``sin`` carried through the loop (numbers in :class:`fl_design.Kernel`).
 
 W is the compiler's: 8 doubles with AVX-512, 4 with AVX, else 2.
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-import scipy.optimize
 import sympy as sp
 
 from .. import _validate as V
@@ -134,6 +133,8 @@ def equilibrium_input(rhs, states, input, x_op, input_range) -> float:
     for u0 in (0.0, 1.0, -1.0, *(input_range or ())):
         if best_r <= tol:
             break
+        import scipy.optimize  # lazy: 0.3-0.8 s to import, needed only when solving
+
         sol = scipy.optimize.least_squares(resid, [u0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
         r = float(np.max(np.abs(resid(sol.x[0]))))
         if r < best_r:
@@ -187,4 +188,18 @@ def parse_operating_point(point, by_name, states, region, solve) -> tuple[np.nda
     return eq.x, eq.u
 
 
-__all__ = ["check_params", "check_symbols", "equilibrium_input", "parse_operating_point"]
+def operating_point_and_input(point, by_name, rhs, input, region, input_range,
+                              solve) -> tuple[np.ndarray, float]:
+    """``(x_op, u_eq)``: :func:`parse_operating_point`, then :func:`equilibrium_input` if needed.
+
+    ``rhs`` has numeric parameters; ``by_name`` maps state names to the states, in order.
+    """
+    states = tuple(by_name.values())
+    x_op, u_eq = parse_operating_point(point, by_name, states, region, solve)
+    if u_eq is None:
+        u_eq = equilibrium_input(rhs, states, input, x_op, input_range)
+    return x_op, u_eq
+
+
+__all__ = ["check_params", "check_symbols", "equilibrium_input", "operating_point_and_input",
+           "parse_operating_point"]

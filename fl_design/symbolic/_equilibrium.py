@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 import sympy as sp
 
 from ..errors import PlantDefinitionError
@@ -146,6 +145,8 @@ def solve_equilibrium(*, states, input, rhs, output, params, region, input_range
 
 def _solve_from(res, der, start, bounds) -> tuple[np.ndarray, float]:
     """Bounded least squares, then Newton steps to round-off: ``(z, max|residual|)``."""
+    import scipy.optimize  # lazy: 0.3-0.8 s to import, needed only when solving
+
     with np.errstate(all="ignore"):
         z = scipy.optimize.least_squares(res, start, jac=der, bounds=bounds, xtol=1e-15,
                                          ftol=1e-15, gtol=1e-15).x

@@ -39,8 +39,6 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 import sympy as sp
 
 from ..errors import ComputationError, ParameterError, RelativeDegreeError
@@ -214,6 +212,8 @@ def b_bounds(plant, *, allow_sign_change: bool = False) -> tuple[float, float]:
 
 def _refine(fn, pts, vals, box, sign: float) -> float:
     """min of sign*b (sign=+1 minimum, -1 maximum) from the grid, polished by L-BFGS-B."""
+    import scipy.optimize  # lazy: 0.3-0.8 s to import, needed only when bounds are computed
+
     best = float(np.min(sign * vals))
     order = np.argsort(sign * vals)[:4]
 
@@ -242,6 +242,8 @@ def zero_dynamics_matrix(A: np.ndarray, B: np.ndarray, C: np.ndarray, rho: int) 
     obs = np.vstack(rows[:rho])
     beta = float((rows[rho - 1] @ B.reshape(n, 1)).item())
     a_cl = A - B.reshape(n, 1) @ rows[rho] / beta
+    import scipy.linalg  # lazy, as above
+
     null = scipy.linalg.null_space(obs)
     return null.T @ a_cl @ null
 

@@ -37,19 +37,20 @@ from ._definition import (
     _sympify,
     check_params,
     check_symbols,
-    equilibrium_input,
-    parse_operating_point,
+    operating_point_and_input,
 )
 from ._equilibrium import Equilibrium, solve_equilibrium
 from ._functions import PlantFunctions
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
+from ._stored import PlantStore, plant_key
 
 
 class Plant:
     """A SISO plant ``x' = f(x, u)``, ``y = h(x)`` defined by SymPy expressions.
 
     Validated on construction and immutable; derived results (relative degree, normal form,
-    CasADi functions, bounds) are computed on first use and cached. Build it with
+    CasADi functions, bounds) are computed on first use and cached, in memory and on disk by
+    content (:mod:`fl_design.symbolic._stored`, beside the compiled kernels). Build it with
     :meth:`Plant.from_ode` (same arguments) or take one from :mod:`fl_design.plants`.
 
     Parameters
@@ -138,9 +139,15 @@ class Plant:
             reg = {_key("region", k, by_name): V.interval(f"region[{k}]", v, allow_none=False)
                    for k, v in region.items()}
         set_(self, "_region", reg)
-        x_op, u_eq = self._operating_point(operating_point, by_name)
+        set_(self, "_store", PlantStore(plant_key(sts, input, f, h, pars, self._name,
+                                                  self._input_range, reg, operating_point)))
+        x_op, u_eq = self._store.get("op", lambda: operating_point_and_input(
+            operating_point, by_name, self._rhs.subs(pars), self._input, self._region,
+            self._input_range, self._solve), check=tuple)
+        x_op = np.array(x_op, dtype=float)
+        x_op.setflags(write=False)
         set_(self, "_x_op", x_op)
-        set_(self, "_u_eq", self._equilibrium_input() if u_eq is None else u_eq)
+        set_(self, "_u_eq", float(u_eq))
         set_(self, "_cache", {})
         _ = self._fh  # every function has a CasADi translation, or a PlantDefinitionError now
 
@@ -151,22 +158,11 @@ class Plant:
 
         Parameters
         ----------
-        states : sequence of sympy.Symbol
-            The n states.
-        input : sympy.Symbol
-            The input.
-        rhs : sequence of n sympy expressions or sympy.Matrix
-            ``f(x, u)``.
-        output : sympy expression
+        states, input, rhs, output
+            The n states (sympy Symbols), the input Symbol, ``f(x, u)`` (n expressions),
             ``h(x)``.
-        params : dict, optional
-            ``{Symbol or name: value}``.
-        name : str, optional
-            A label (default ``"plant"``).
-        input_range : (lo, hi) or float, optional
-            Admissible inputs.
-        region : dict, optional
-            ``{state or name: (lo, hi)}``.
+        params, name, input_range, region : optional
+            ``{Symbol or name: value}``, a label, ``(lo, hi)``, ``{state or name: (lo, hi)}``.
         operating_point : dict, optional
             ``{state or name: value}`` and/or ``{"y": value}`` (default: the origin).
 
@@ -187,10 +183,6 @@ class Plant:
         """
         return cls(states, input, rhs, output, params=params, name=name, input_range=input_range,
                    region=region, operating_point=operating_point)
-
-    def _operating_point(self, point, by_name) -> tuple[np.ndarray, float | None]:
-        """``(x_op, u_eq)``; ``u_eq`` None when every state is given (solved afterwards)."""
-        return parse_operating_point(point, by_name, self._states, self._region, self._solve)
 
     def _solve(self, fixed: dict, y: float | None) -> Equilibrium:
         return solve_equilibrium(
@@ -228,10 +220,6 @@ class Plant:
         by_name = {s.name: s for s in self._states}
         fixed = {_key("equilibrium", k, by_name): V.real_scalar(k, v) for k, v in states.items()}
         return self._solve(fixed, None if y is None else V.real_scalar("y", y))
-
-    def _equilibrium_input(self) -> float:
-        return equilibrium_input(self._rhs.subs(self._params_map), self._states, self._input,
-                                 self._x_op, self._input_range)
 
     def __setattr__(self, key, value):
         raise AttributeError(f"Plant is immutable; cannot set {key!r} (build a new plant)")
@@ -287,10 +275,14 @@ class Plant:
                      name=self._name, input_range=self._input_range, region=self._region,
                      operating_point=dict(zip(self._states, self._x_op.tolist())))
 
+    def _derived(self, what: str, compute, check=None):
+        """``what``, computed once per process and cached on disk by content (:mod:`._stored`)."""
+        if what not in self._cache:
+            self._cache[what] = self._store.get(what, compute, check)
+        return self._cache[what]
+
     def _lie_chain(self) -> LieChain:
-        if "chain" not in self._cache:
-            self._cache["chain"] = lie_chain(self)
-        return self._cache["chain"]
+        return self._derived("chain", lambda: lie_chain(self), LieChain)
 
     def relative_degree(self) -> int:
         """The relative degree rho, by Lie derivatives along ``f(x, u)`` with u held constant.
@@ -352,12 +344,13 @@ class Plant:
         >>> nf.rho, nf.minimum_phase
         (2, True)
         """
-        if "nf" not in self._cache:
-            self._cache["nf"] = derive_normal_form(self)
-        return self._cache["nf"]
+        return self._derived("nf", lambda: derive_normal_form(self), NormalForm)
 
     @cached_property
     def _fh(self) -> tuple[ca.Function, ca.Function]:
+        return self._store.get("fh", self._translate_fh, tuple)
+
+    def _translate_fh(self) -> tuple[ca.Function, ca.Function]:
         args = [list(self._states), [self._input]]
         f = to_casadi(self._rhs, args, "f", subs=self._params_map, input_names=["x", "u"],
                       output_name="xdot")
@@ -409,13 +402,16 @@ class Plant:
         >>> fns.f
         Function(f:(x[2],u)->(xdot[2]) SXFunction)
         """
-        if "casadi" not in self._cache:
-            f, h = self._fh
+        def translate():
             chain = self._lie_chain()
             args = [list(self._states), [self._input]]
             kw = {"subs": self._params_map, "input_names": ["x", "u"]}
             sigma = to_casadi(chain.derivatives[chain.rho], args, "sigma", output_name="sigma", **kw)
-            b = to_casadi(chain.b, args, "b", output_name="b", **kw)
+            return sigma, to_casadi(chain.b, args, "b", output_name="b", **kw)
+
+        if "casadi" not in self._cache:
+            sigma, b = self._derived("sigma_b", translate, tuple)
+            f, h = self._fh
             self._cache["casadi"] = PlantFunctions(f=f, h=h, sigma=sigma, b=b)
         return self._cache["casadi"]
 
@@ -453,10 +449,9 @@ class Plant:
         >>> fl.plants.trms_yaw().b_bounds()
         (3.6..., 6.8...)
         """
-        key = ("bounds", bool(allow_sign_change))
-        if key not in self._cache:
-            self._cache[key] = b_bounds(self, allow_sign_change=bool(allow_sign_change))
-        return self._cache[key]
+        flag = bool(allow_sign_change)
+        return self._derived(f"bounds{int(flag)}", lambda: b_bounds(self, allow_sign_change=flag),
+                             tuple)
 
     def jacobian_bounds(self, *, region=None, margin: float = 0.05,
                         points: int = 200_000) -> tuple[tuple[float, float], ...]:

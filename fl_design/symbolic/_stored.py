@@ -1,0 +1,215 @@
+"""A plant's derivations cached on disk by content, across processes.
+
+What a :class:`fl_design.Plant` derives (its operating point and equilibrium input, relative
+degree and Lie chain, normal form, the bounds of ``b``, the CasADi functions ``f, h, sigma,
+b``) depends only on its definition and on the code deriving it. Each quantity is stored
+(pickled; CasADi functions pickle through their own serialization) in the cache directory of
+the compiled kernels (:func:`fl_design._cache.cache_directory`, ``$FL_DESIGN_CACHE``), under a
+name made from the SHA-256 of
+
+* the definition: ``srepr`` of the states, input, right-hand side and output (symbol
+  assumptions included), every parameter value (``float.hex``), name, input range, region and
+  operating point as given;
+* the code: the SHA-256 of the sources of :mod:`fl_design.symbolic` and of fl_design's private
+  top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy;
+
+with the size/SHA-256 sidecar of :mod:`fl_design._cache`. A quantity read from the cache is
+identical to a fresh derivation (tests compare every one). A file that does not match its
+sidecar, or does not unpickle to the expected type, is recomputed and rewritten, with one
+:class:`~fl_design.errors.CacheWarning` per process; a cache that cannot be read or written
+is silently bypassed (the plant computes, as without a cache). Errors are never cached.
+
+The files are trusted like the compiled kernels beside them (which are ``dlopen``-ed): keep the
+cache directory private to its user.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> from fl_design.symbolic._stored import code_version
+>>> len(code_version())
+64
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import pickle
+import sys
+import warnings
+from pathlib import Path
+
+from .._cache import cache_directory, read_verified, write_verified
+from ..errors import CacheWarning, ComputationError
+
+#: Bumped when the layout of the stored quantities changes.
+FORMAT = "fl_design plant derivations 1"
+_WARNED: set = set()  # the process has warned about a bad entry
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """SHA-256 of the deriving code (sources, library versions): part of every plant key.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+
+    Examples
+    --------
+    >>> from fl_design.symbolic._stored import code_version
+    >>> code_version() == code_version()
+    True
+    """
+    import casadi
+    import numpy
+    import scipy
+    import sympy
+
+    from .. import __version__
+
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for part in (FORMAT, __version__, sys.version, sympy.__version__, casadi.__version__,
+                 numpy.__version__, scipy.__version__):
+        h.update(f"{part}\n".encode())
+    for path in sorted([*here.glob("*.py"), *here.parent.glob("_*.py")]):
+        h.update(f"{path.parent.name}/{path.name}\n".encode())
+        try:
+            h.update(path.read_bytes())
+        except OSError:  # a source we cannot read: still a key, only less specific
+            h.update(b"?")
+    return h.hexdigest()
+
+
+def plant_key(states, input, rhs, output, params, name, input_range, region,
+              operating_point) -> str | None:
+    """SHA-256 of a plant definition and :func:`code_version`; None if not representable.
+
+    Parameters
+    ----------
+    states, input, rhs, output
+        SymPy symbols and expressions (validated).
+    params : dict
+        ``{Symbol: float}``.
+    name : str
+    input_range : (float, float) or None
+    region : dict or None
+        ``{Symbol: (lo, hi)}``.
+    operating_point : dict or None
+        As given to :class:`fl_design.Plant` (keys symbols or names, values numbers).
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from fl_design.symbolic._stored import plant_key
+    >>> x, u = sp.symbols("x u")
+    >>> k = plant_key((x,), u, sp.Matrix([u - x]), x, {}, "p", None, None, None)
+    >>> k == plant_key((x,), u, sp.Matrix([u - x]), x, {}, "p", None, None, {x: 0.5})
+    False
+    """
+    import sympy as sp
+
+    def num(v) -> str:
+        return float(v).hex() if isinstance(v, (int, float)) or hasattr(v, "__float__") \
+            else repr(v)
+
+    def sym(k) -> str:
+        return sp.srepr(k) if isinstance(k, sp.Basic) else repr(k)
+
+    try:
+        parts = [code_version(), repr(name), sp.srepr(tuple(states)), sp.srepr(input),
+                 sp.srepr(tuple(rhs)), sp.srepr(output),
+                 repr(sorted((sym(k), num(v)) for k, v in params.items())),
+                 repr(None if input_range is None else tuple(num(v) for v in input_range)),
+                 repr(None if region is None else sorted(
+                     (sym(k), tuple(num(v) for v in lohi)) for k, lohi in region.items())),
+                 repr(None if operating_point is None else sorted(
+                     (sym(k), num(v)) for k, v in dict(operating_point).items()))]
+    except (TypeError, ValueError, AttributeError, OverflowError):
+        return None
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _warn_once(message: str) -> None:
+    if not _WARNED:
+        _WARNED.add(True)
+        warnings.warn(message, CacheWarning, stacklevel=4)
+
+
+class PlantStore:
+    """Disk cache of one plant's derived quantities (see the module docstring).
+
+    Parameters
+    ----------
+    key : str or None
+        :func:`plant_key` of the plant; None disables the store (every quantity is computed).
+
+    Examples
+    --------
+    >>> from fl_design.symbolic._stored import PlantStore
+    >>> PlantStore(None).get("rho", lambda: 2)
+    2
+    """
+
+    def __init__(self, key: str | None):
+        self.key = key
+
+    def _name(self, what: str) -> str:
+        return f"plant_{self.key[:32]}_{what}.pkl"
+
+    def get(self, what: str, compute, check=None):
+        """The quantity ``what``: from the cache, else ``compute()`` (then stored).
+
+        Parameters
+        ----------
+        what : str
+            Name of the quantity (part of the file name).
+        compute : callable
+            Computes it (exceptions propagate and nothing is stored).
+        check : type or tuple of types, optional
+            A loaded value must be an instance of it, else the entry counts as corrupted.
+
+        Returns
+        -------
+        object
+        """
+        if self.key is None:
+            return compute()
+        try:
+            path = cache_directory() / self._name(what)
+        except ComputationError:
+            return compute()
+        if path.exists():
+            value, ok = self._load(path, check)
+            if ok:
+                return value
+            _warn_once(f"the cached plant derivation {path} is corrupted (it does not match its "
+                       "recorded size and SHA-256, or does not load); recomputed and rewritten")
+        value = compute()
+        try:
+            data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+            write_verified(path.name, data, cache_dir=path.parent)
+        except (OSError, ComputationError, pickle.PicklingError, TypeError, AttributeError,
+                RecursionError, RuntimeError):
+            pass  # unwritable cache or unpicklable value: computed each time, as without a cache
+        return value
+
+    @staticmethod
+    def _load(path: Path, check) -> tuple[object, bool]:
+        data = read_verified(path)
+        if data is None:
+            return None, False
+        try:
+            value = pickle.loads(data)
+        except Exception:  # noqa: BLE001 (any failure to unpickle is a bad entry)
+            return None, False
+        return value, check is None or isinstance(value, check)
+
+
+__all__ = ["FORMAT", "PlantStore", "code_version", "plant_key"]
