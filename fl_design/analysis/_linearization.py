@@ -39,7 +39,9 @@ import numpy as np
 from .. import _validate as V
 from ..design import Design
 from ..errors import ComputationError, ParameterError
+from ..sim import EpsStar
 from ..sim._closed_loop import ClosedLoop, default_substeps
+from ..sim._run import b_sign, check_gamma_sign
 from ..symbolic import Plant
 
 
@@ -215,13 +217,17 @@ def sampled_linearization(plant, design, *, r: float | None = None,
 
 def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | None = None,
                         r: float | None = None, substeps: int | None = None, n_scan: int = 48,
-                        rtol: float = 1e-6) -> float:
+                        rtol: float = 1e-6) -> EpsStar:
     """Largest ``eps`` up to which the linearized sampled loop is stable (spectral radius < 1).
 
     ``eps*`` is the supremum of the ``eps`` in ``eps_range`` such that every ``eps'`` in
     ``[eps_range[0], eps]`` gives a spectral radius < 1: a scan on ``n_scan`` log-spaced points
     finds the first unstable one, then bisection in ``log eps`` narrows the crossing to
     relative width ``rtol``. (A stable window beyond a first unstable ``eps`` is ignored.)
+    The result is the final bracket, an :class:`~fl_design.sim.EpsStar` ``lower <= eps* <
+    upper`` with the loop stable at ``lower`` and unstable at ``upper``; a boundary outside
+    the range is said as such, never as a number: ``> hi`` (``(hi, inf)``, stable on the
+    whole scan) or ``< lo`` (``(nan, lo)``, unstable already at ``lo``).
 
     Parameters
     ----------
@@ -232,7 +238,8 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     eps_range : (float, float), optional
         Search interval, ``0 < lo < hi`` (default ``(1e-3, 1)``).
     gamma : float, optional
-        Controller gain (default the design's).
+        Controller gain (default the design's); a positive value is a magnitude taking the
+        sign of ``b``, as in :func:`fl_design.estimate_eps_star`.
     r : float, optional
         Reference of the equilibrium (default the operating point's output).
     substeps : int, optional
@@ -245,15 +252,16 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
 
     Returns
     -------
-    float
-        ``eps*``; NaN if the loop is unstable already at ``lo``; ``hi`` if it is stable on the
-        whole scan.
+    EpsStar
+        ``(a, b)``: spectral radius < 1 at ``a``, >= 1 at ``b``, ``b / a - 1 <= rtol`` (or no
+        float in between); ``.value`` is ``a``. ``(hi, inf)`` (prints ``> hi``, ``.value`` None)
+        when stable on the whole scan; ``(nan, lo)`` (prints ``< lo``) when unstable at ``lo``.
 
     Raises
     ------
     ParameterError
-        A plant or design of the wrong type, a bad ``eps_range``, ``n_scan`` or ``gamma``,
-        ``rtol < MIN_RTOL``.
+        A plant or design of the wrong type, a bad ``eps_range``, ``n_scan`` or ``gamma``
+        (zero, or of the sign opposite to ``b``), ``rtol < MIN_RTOL``.
     ComputationError
         No equilibrium found, or the bisection cap :data:`MAX_BISECTIONS` reached.
 
@@ -262,8 +270,10 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     >>> import fl_design as fl
     >>> d = fl.presets.pendulum_design()
     >>> eps_star = fl.linearized_eps_star(fl.plants.pendulum(), d, eps_range=(0.01, 2.0))
-    >>> 0.01 < eps_star < 2.0
+    >>> 0.01 < eps_star.lower < eps_star.upper <= eps_star.lower * (1 + 1e-6)
     True
+    >>> print(fl.linearized_eps_star(fl.plants.pendulum(), d, eps_range=(0.001, 0.01)))
+    > 0.01
     """
     _check(plant, design)
     lo, hi = V.interval("eps_range", eps_range, allow_none=False)
@@ -275,7 +285,9 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
         raise ParameterError(f"rtol={rtol!r} is below what float64 can resolve: give rtol >= "
                              f"{MIN_RTOL:.3g} (4 units in the last place)")
     if gamma is not None:
-        design = design.replace(gamma=V.positive("gamma", gamma))
+        g = V.nonzero("gamma", gamma)
+        design = design.replace(gamma=g * b_sign(plant) if g > 0 and b_sign(plant) else g)
+    check_gamma_sign(plant, design.controller.gamma)
     steps = default_substeps(plant, design.T) if substeps is None else substeps
     lin = _Linearizer(ClosedLoop(plant, design, substeps=steps))
     r = _reference(plant, r)
@@ -285,15 +297,15 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
 
     grid = np.geomspace(lo, hi, n_scan)
     if not stable(grid[0]):
-        return math.nan
+        return EpsStar(math.nan, float(lo))
     bad = next((i for i, e in enumerate(grid[1:], 1) if not stable(e)), None)
     if bad is None:
-        return float(hi)
-    a, b = grid[bad - 1], grid[bad]
+        return EpsStar(float(hi), math.inf)
+    a, b = float(grid[bad - 1]), float(grid[bad])
     for _ in range(MAX_BISECTIONS):
         mid = math.sqrt(a * b)
         if b / a - 1.0 <= rtol or not a < mid < b:  # narrow enough, or no float in between
-            return float(a)
+            return EpsStar(a, b)
         a, b = (mid, b) if stable(mid) else (a, mid)
     raise ComputationError(f"linearized_eps_star: no {rtol:g}-narrow bracket after "
                            f"{MAX_BISECTIONS} bisections (last [{a!r}, {b!r}])")

@@ -10,10 +10,8 @@ Plant: trms_yaw...
 
 from __future__ import annotations
 
-import math
-
 from ._report_figures import design_label
-from ._report_sections import bounded_up_to, fmt
+from ._report_sections import bounded_up_to, fmt, linearized_text
 
 
 def print_derive(job) -> None:
@@ -55,11 +53,7 @@ def print_certificates(job) -> None:
             print(cert[key])
     if "skipped" in cert:
         print(f"gamma/eps certificates skipped: {cert['skipped']}")
-    top = cert["linearized"]["eps_range"][1]
-    lin = cert["linearized_design"]
-    text = (f">= {top:g} (no boundary in the range)" if math.isclose(lin, top)
-            else fmt(lin, "unstable at the smallest eps"))
-    print(f"linearized eps* at this gamma: {text}")
+    print(f"linearized eps* at this gamma: {linearized_text(cert['linearized_design'])}")
 
 
 print_certify = print_certificates

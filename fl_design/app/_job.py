@@ -126,9 +126,9 @@ def _certify(job: Job, quick: bool) -> None:
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     eps_range = tuple(job.config.sweep["eps"])
-    out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": np.array(
-        [linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
-         for g in gammas])}
+    out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
+        linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
+        for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
     out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
     job.results["certify"] = out
 

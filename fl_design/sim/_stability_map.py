@@ -44,6 +44,8 @@ class EpsStar:
     ('> 1', None)
     >>> str(EpsStar(float("nan"), 0.01)), EpsStar(0.02, 0.04).value
     ('< 0.01', 0.02)
+    >>> str(EpsStar(0.0417487, 0.04174874))  # a narrow bracket keeps the digits it needs
+    '0.0417487 (fails at 0.04174874)'
     """
 
     lower: float
@@ -69,7 +71,9 @@ class EpsStar:
             return f"> {self.lower:g}"
         if self.below_range:
             return f"< {self.upper:g}"
-        return f"{self.lower:g} (fails at {self.upper:g})"
+        digits = next((n for n in range(6, 18) if f"{self.lower:.{n}g}" != f"{self.upper:.{n}g}"),
+                      17)  # enough digits to tell a narrow bisection bracket's ends apart
+        return f"{self.lower:.{digits}g} (fails at {self.upper:.{digits}g})"
 
     def to_dict(self) -> dict:
         """Strict JSON: ``lower``, ``upper`` (None when unbounded), ``text``.
