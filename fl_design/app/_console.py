@@ -80,6 +80,8 @@ def print_sweep(job) -> None:
                        ("converged", "converging", "oscillating", "diverged") if (labels == s).any())
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
+    if smap.duration_reason != "given":
+        print(f"  run length chosen from the loop: {smap.duration_reason}")
     print(f"  {'gamma':<10} {'empirical eps* (s)':<30} every run bounded up to eps (s)")
     for g in smap.gamma:
         print(f"  {g:<10.3g} {smap.eps_star(g)!s:<30} {bounded_up_to(smap, g)}")

@@ -174,7 +174,9 @@ def _simulate(job: Job, quick: bool) -> None:
             resp = _simulate_one(job, job.design.replace(eps=float(e)), duration, std)
             tradeoff.append({"eps": float(e), "noise_std": std, **noise_levels(resp),
                              "status": resp.status, "overshoot_%": resp.overshoot})
-    job.results["simulate"] = {"main": main, "runs": runs, "stds": stds, "duration": duration,
+    job.results["simulate"] = {"main": main, "runs": runs, "stds": stds,
+                               "duration": main.duration,
+                               "duration_reason": main.duration_reason,
                                "designs": list(designs), "tradeoff": tradeoff}
 
 

@@ -171,6 +171,8 @@ def _sweep(job, figures) -> list:
                     f"below which every run converges (converging or converged); '> x' means "
                     f"no boundary inside the scanned range, '< x' that even the smallest eps "
                     f"failed."))]
+    if smap.duration_reason != "given":
+        blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
     if "stability_map.png" in figures:
         blocks.append(("fig", "stability_map.png", (f"Stability map, {job.plant.name}; the star "
                        "is this design, the dotted line the paper's gamma < 1/b_max")))

@@ -106,6 +106,9 @@ class StabilityMap:
         :mod:`fl_design.sim`.
     T, duration, tol : float
         Sampling time, run length, absolute tolerance of the classification.
+    duration_reason : str, optional
+        ``"given"``, or how the sweep chose its run length (once, at the design's own
+        ``(eps, gamma)``: :mod:`fl_design.sim._duration`).
 
     Examples
     --------
@@ -125,6 +128,7 @@ class StabilityMap:
     T: float
     duration: float
     tol: float
+    duration_reason: str = "given"
 
     @property
     def labels(self) -> np.ndarray:
@@ -232,7 +236,8 @@ class StabilityMap:
         ({'iae': [[None]]}, [['converged']], [{'lower': 0.1, 'upper': None, 'text': '> 0.1'}])
         """
         return jsonable({"eps": self.eps, "gamma": self.gamma, "status": self.labels.tolist(),
-                         "T": self.T, "duration": self.duration, "tol": self.tol,
+                         "T": self.T, "duration": self.duration,
+                         "duration_reason": self.duration_reason, "tol": self.tol,
                          "eps_star": [self.eps_star(g) for g in self.gamma],
                          "metrics": self.metrics})
 
@@ -244,7 +249,8 @@ class StabilityMap:
         grid = (f"{self.eps.size} eps in [{self.eps.min():.3g}, {self.eps.max():.3g}] x "
                 f"{self.gamma.size} gamma in [{self.gamma.min():.3g}, {self.gamma.max():.3g}]")
         rows = [("grid", grid),
-                ("runs", f"{self.duration:g} s each, T = {self.T:g} s, tolerance {self.tol:g}")]
+                ("runs", f"{self.duration:g} s each, T = {self.T:g} s, tolerance {self.tol:g}"),
+                ("run length", self.duration_reason)]
         return _html_table(rows + [(f"{n}", f"{c} runs") for n, c in zip(names, counts)])
 
     def plot(self, *, ax=None, curves=None, show_eps_star: bool = True):
@@ -297,6 +303,10 @@ class EpsStarEstimate:
         ``(eps, status, divergence_time)`` of every run, in order.
     converged : bool
         The bracket is narrower than ``rtol``.
+    duration : float, optional
+        Length of every run (s; NaN when not recorded).
+    duration_reason : str, optional
+        ``"given"``, or how it was chosen (once, at the design's own ``eps``).
 
     Examples
     --------
@@ -311,6 +321,8 @@ class EpsStarEstimate:
     n_simulations: int
     history: tuple
     converged: bool
+    duration: float = math.nan
+    duration_reason: str = "given"
 
     def to_dict(self) -> dict:
         """Plain numbers, ready for JSON (inf and NaN as None).
@@ -324,8 +336,8 @@ class EpsStarEstimate:
         return jsonable({"eps_star": self.eps_star, "bracket": self.bracket,
                          "text": str(self),
                          "n_simulations": self.n_simulations, "converged": self.converged,
+                         "duration": self.duration, "duration_reason": self.duration_reason,
                          "history": self.history})
-
 
     @property
     def bound(self) -> EpsStar:
