@@ -72,11 +72,14 @@ display(smap)
 # %%
 curve_gammas = np.geomspace(gamma_grid[0], gamma_grid[-1], N_CURVE)
 curve = fl.eps_star_curve(design, plant.b_bounds(), curve_gammas)
-linearized = np.array([fl.linearized_eps_star(plant, design, gamma=g) for g in curve_gammas])
+# `linearized_eps_star` returns a bracket (`fl.EpsStar`): stable at `lower`, unstable at
+# `upper`; it prints "> 1" when the loop is stable on the whole range scanned (1e-3 to 1 s).
+linearized = [fl.linearized_eps_star(plant, design, gamma=g) for g in curve_gammas]
 print(f"{'gamma':>10}{'certified eps*':>16}{'frozen eps*':>13}{'linearized eps*':>17}")
 for g, ec, ef, el in zip(curve_gammas, curve.eps_star_certified, curve.eps_star_frozen,
                          linearized):
-    print(f"{g:>10.3g}{ec:>16.4g}{ef:>13.4g}{el:>17.4g}")
+    text = f"{el.value:.4g}" if el.value is not None else str(el)
+    print(f"{g:>10.3g}{ec:>16.4g}{ef:>13.4g}{text:>17}")
 
 # %%
 fig = smap.plot(curves={"certified eps* (LMI)": (curve_gammas, curve.eps_star_certified),

@@ -117,6 +117,80 @@ def _curve_points(curve, gamma: np.ndarray):
     return g, e
 
 
+def _holds_eps_stars(curve) -> bool:
+    """A pair ``(gamma_values, [EpsStar, ...])``."""
+    from .sim import EpsStar
+
+    return (isinstance(curve, (tuple, list)) and len(curve) == 2
+            and not callable(curve) and np.ndim(curve[1]) == 1 and len(curve[1]) > 0
+            and all(isinstance(s, EpsStar) for s in curve[1]))
+
+
+def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = "-",
+                  marker: str = "s") -> list:
+    """Draw ``eps*(gamma)`` brackets: values as a line, boundaries outside the range as such.
+
+    A :class:`~fl_design.sim.EpsStar` inside its range is drawn at its ``lower`` end (the
+    largest eps found stable/converging); one above the range (``> eps_max``) as an upward
+    open triangle at the range's top, one below it (``< eps_min``) as a downward open triangle
+    at the range's bottom, each with its own legend entry: never as a value.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        Where to draw.
+    gamma : array_like
+        ``(n,)`` controller gains.
+    stars : sequence of EpsStar
+        ``n`` brackets (:func:`fl_design.linearized_eps_star`,
+        :meth:`fl_design.StabilityMap.eps_star`).
+    label : str
+        Legend text of the curve.
+    color, ls, marker : str, optional
+        Line colour, line style (``"none"``: markers only) and marker of the values.
+
+    Returns
+    -------
+    list
+        The legend handles drawn.
+
+    Raises
+    ------
+    ParameterError
+        ``gamma`` and ``stars`` of different lengths.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from fl_design.sim import EpsStar
+    >>> from fl_design.plotting import plot_eps_star
+    >>> fig, ax = plt.subplots()
+    >>> hs = plot_eps_star(ax, [1e-3, 1e-2], [EpsStar(1.0, float("inf")), EpsStar(0.1, 0.2)],
+    ...                    label="linearized")
+    >>> [h.get_label() for h in hs]
+    ['linearized', 'linearized: eps* above the range (> top)']
+    """
+    g = np.asarray(gamma, dtype=float).ravel()
+    stars = list(stars)
+    if len(stars) != g.size:
+        raise ParameterError(f"gamma has {g.size} values but {len(stars)} eps* brackets were "
+                             "given; give one bracket per gamma")
+    value = np.array([s.lower if s.value is not None else np.nan for s in stars])
+    handles = []
+    if np.any(np.isfinite(value)):
+        (h,) = ax.plot(g, value, color=color, ls=ls, marker=marker, ms=4, label=label)
+        handles.append(h)
+    outside = ((lambda s: s.above_range, "lower", "^", "above the range (> top)"),
+               (lambda s: s.below_range, "upper", "v", "below the range (< bottom)"))
+    for pick, edge, mark, words in outside:
+        pts = [(gi, getattr(s, edge)) for gi, s in zip(g, stars) if pick(s)]
+        if pts:
+            (h,) = ax.plot(*zip(*pts), ls="none", marker=mark, ms=8, color=color, mfc="none",
+                           mew=1.5, label=f"{label}: eps* {words}")
+            handles.append(h)
+    return handles
+
+
 def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True):
     """Heat map of a :class:`~fl_design.sim.StabilityMap` over (gamma, eps), log axes.
 
@@ -127,7 +201,9 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     ax : Axes, optional
         Where to draw (default a new figure).
     curves : dict, optional
-        ``{label: callable gamma -> eps, or (gamma_values, eps_values)}`` overlaid as lines.
+        ``{label: callable gamma -> eps, or (gamma_values, eps_values)}`` overlaid as lines;
+        ``eps_values`` may be :class:`~fl_design.sim.EpsStar` brackets (drawn by
+        :func:`plot_eps_star`: outside-the-range ones as triangles at the edge).
     show_eps_star : bool, optional
         Draw the map's empirical ``eps_star(gamma)`` (white markers).
 
@@ -174,6 +250,9 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
                            label="eps* > largest eps scanned")
             handles.append(h)
     for i, (label, curve) in enumerate((curves or {}).items()):
+        if _holds_eps_stars(curve):
+            handles += plot_eps_star(ax, *curve, label=str(label), color=f"C{i % 10}")
+            continue
         g, e = _curve_points(curve, np.asarray(smap.gamma))
         (h,) = ax.plot(g, e, color=f"C{i % 10}", lw=1.8, label=str(label))
         handles.append(h)
@@ -224,4 +303,5 @@ def plot_eps_star_curve(curve, *, ax=None):
     return fig
 
 
-__all__ = ["STATUS_COLORS", "STATUS_LABELS", "plot_eps_star_curve", "plot_response", "plot_stability_map"]
+__all__ = ["STATUS_COLORS", "STATUS_LABELS", "plot_eps_star", "plot_eps_star_curve", "plot_response",
+           "plot_stability_map"]

@@ -115,7 +115,10 @@ def test_linearized_eps_star_refuses_an_unresolvable_rtol_and_ends_at_the_float_
     finest = fl.linearized_eps_star(plant, design, eps_range=(0.01, 2.0), n_scan=4,
                                     rtol=_linearization.MIN_RTOL)
     coarse = fl.linearized_eps_star(plant, design, eps_range=(0.01, 2.0), n_scan=4)
-    assert math.isclose(finest, coarse, rel_tol=1e-6)
+    assert math.isclose(finest.lower, coarse.lower, rel_tol=1e-6)
+    # the finest bracket: adjacent floats, or rtol-narrow (no float strictly between the ends)
+    assert finest.upper / finest.lower - 1 <= _linearization.MIN_RTOL or \
+        math.sqrt(finest.lower * finest.upper) in (finest.lower, finest.upper)
     monkeypatch.setattr(_linearization, "MAX_BISECTIONS", 3)
     with pytest.raises(fl.errors.ComputationError, match="after 3 bisections"):
         fl.linearized_eps_star(plant, design, eps_range=(0.01, 2.0), n_scan=4)

@@ -202,6 +202,8 @@ def _inputs() -> list[Case]:
         # options objects
         c("Scenario duration='1.0'", "fl.Scenario(0.3, '1.0')"),
         c("Scenario duration=-1", "fl.Scenario(0.3, -1.0)"),
+        c("Scenario duration=nan", "fl.Scenario(0.3, float('nan'))"),
+        c("Scenario array reference, no duration", "fl.Scenario(np.zeros(10))"),
         c("Scenario reference with NaN in 10^6",
           "r = np.zeros(10**6); r[-5] = np.nan; fl.Scenario(r, 1000.0)", True),
         c("Scenario reference='abc'", "fl.Scenario('abc', 1.0)"),

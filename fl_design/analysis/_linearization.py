@@ -2,158 +2,40 @@
 
 :func:`sampled_linearization` differentiates the *same* CasADi sample function that
 :func:`fl_design.simulate` and :func:`fl_design.sweep` run
-(:attr:`fl_design.sim.ClosedLoop.sample`: measurement, design step, RK4 of the plant
-under zero-order hold) with respect to the loop state ``X = (x_plant, design_state)``::
+(:attr:`fl_design.sim.ClosedLoop.sample`: measurement, design step, RK4 of the plant under
+zero-order hold) with respect to the loop state ``X = (x_plant, design_state)``::
 
     X_(k+1) = F(X_k),   M = dF/dX at the equilibrium X_eq = F(X_eq)
 
-The equilibrium is found by Newton's method on ``F(X) - X = 0`` (least-squares steps, so that
-directions in which every point is an equilibrium are left alone), started at the plant's
-operating point with ``u = u_eq``; the reference is the operating point's output unless given.
-
-**Decoupled modes.** With ``ki = 0`` the controller's integrator ``z_k = z_(k-1) + T e_k`` is
-still a state of the design, but nothing depends on it: its column of ``M`` is the unit vector,
-i.e. an eigenvalue exactly 1 that says nothing about stability. Such states (column of ``M``
-equal to the unit vector) are reported in ``decoupled`` and removed before the spectral radius
-is computed; the remaining eigenvalues are those of the loop. (The dynamic law ``u_k = u_(k-1) +
-gamma (v_k - sigmahat_k)`` also *looks* like an integrator, but ``sigmahat`` feeds ``u`` back:
-that mode is coupled and stays in the spectrum.)
+The core (the equilibrium, its tolerance scaled to the state, the simulation fallback, the
+decoupled integrator modes) lives in the simulation layer, :mod:`fl_design.sim._linearize`,
+which the adaptive run length of :class:`fl_design.Scenario` also uses; this module adds the
+public functions and the scan for a linearized eps*. The reference is the operating point's
+output unless given.
 
 Examples
 --------
 >>> import fl_design as fl
 >>> design = fl.presets.pendulum_design()
 >>> lin = fl.sampled_linearization(fl.plants.pendulum(), design)
->>> lin.decoupled, lin.spectral_radius < 1
-(('z',), True)
+>>> lin.decoupled, lin.spectral_radius < 1, lin.equilibrium_source
+(('z',), True, 'newton')
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
 from .. import _validate as V
 from ..design import Design
 from ..errors import ComputationError, ParameterError
+from ..sim import EpsStar
 from ..sim._closed_loop import ClosedLoop, default_substeps
+from ..sim._linearize import LoopLinearizer, SampledLinearization
+from ..sim._run import b_sign, check_gamma_sign
 from ..symbolic import Plant
-
-
-@dataclass(frozen=True)
-class SampledLinearization:
-    """The sampled closed loop linearized at an equilibrium.
-
-    Parameters
-    ----------
-    matrix : numpy.ndarray
-        ``M = dF/dX`` (``(n + m, n + m)``), loop state ``X = (x_plant, design_state)``.
-    state_names : tuple of str
-        Names of the entries of ``X`` (plant states, ``xi_i``, ``u``, ``z``).
-    x_eq, s_eq : numpy.ndarray
-        Equilibrium plant and design states.
-    r : float
-        Reference of the equilibrium.
-    decoupled : tuple of str
-        States removed as decoupled accumulators (eigenvalue exactly 1, see module docstring).
-    eigenvalues : numpy.ndarray
-        Eigenvalues of ``M`` without the decoupled states, by decreasing modulus.
-    spectral_radius : float
-        Largest modulus of ``eigenvalues``.
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> d = fl.Design(estimator=fl.EHGO(rho=2, eps=0.02, T=1e-3),
-    ...               controller=fl.DynamicController((2, 4), 1e-2, ki=0.5))
-    >>> lin = fl.sampled_linearization(fl.plants.pendulum(), d)
-    >>> lin.decoupled, lin.eigenvalues.size
-    ((), 7)
-    """
-
-    matrix: np.ndarray
-    state_names: tuple
-    x_eq: np.ndarray
-    s_eq: np.ndarray
-    r: float
-    decoupled: tuple
-    eigenvalues: np.ndarray
-    spectral_radius: float
-
-    @property
-    def stable(self) -> bool:
-        """True when the spectral radius (decoupled modes removed) is < 1."""
-        return bool(self.spectral_radius < 1.0)
-
-    def to_dict(self) -> dict:
-        """Plain numbers and lists (eigenvalues as ``[re, im]`` pairs), ready for JSON.
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> d = fl.presets.pendulum_design()
-        >>> sorted(fl.sampled_linearization(fl.plants.pendulum(), d).to_dict())[:3]
-        ['decoupled', 'eigenvalues', 'matrix']
-        """
-        return {
-            "matrix": self.matrix.tolist(), "state_names": list(self.state_names),
-            "x_eq": self.x_eq.tolist(), "s_eq": self.s_eq.tolist(), "r": self.r,
-            "decoupled": list(self.decoupled),
-            "eigenvalues": [[float(z.real), float(z.imag)] for z in self.eigenvalues],
-            "spectral_radius": self.spectral_radius,
-        }
-
-
-class _Linearizer:
-    """Jacobian and equilibrium of one loop structure; ``p`` (eps, gamma) varies."""
-
-    def __init__(self, loop: ClosedLoop):
-        self.loop = loop
-        x, s = ca.SX.sym("x", loop.n), ca.SX.sym("s", loop.m)
-        r, p = ca.SX.sym("r"), ca.SX.sym("p", loop.n_p)
-        x_next, s_next = loop.sample(x, s, r, 0.0, 0.0, p)[:2]
-        X, F = ca.vertcat(x, s), ca.vertcat(x_next, s_next)
-        self.F = ca.Function("fl_lin_F", [X, r, p], [F, ca.jacobian(F, X)])
-        lay = loop.design.state_layout
-        names = [str(sym) for sym in loop.plant.states]
-        names += [f"xi_{i}" for i in range(lay["estimator"].stop)] + ["u", "z"]
-        self.names = tuple(names)
-
-    def equilibrium(self, r: float, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        loop = self.loop
-        s0 = loop.design.initial_state()
-        s0[loop.design.state_layout["u"]] = loop.plant.u_eq
-        X = np.concatenate([loop.plant.x_op, s0])
-        scale = 1.0 + np.max(np.abs(X))
-        for _ in range(50):
-            F, J = (np.asarray(v, dtype=float) for v in self.F(X, r, p))
-            G = F.ravel() - X
-            if np.max(np.abs(G)) <= 1e-13 * scale:
-                return X, J
-            X = X + np.linalg.lstsq(J - np.eye(X.size), -G, rcond=1e-12)[0]
-        raise ComputationError(
-            f"no closed-loop equilibrium found for r={r!r}: Newton's method stopped with "
-            f"max|F(X) - X| = {np.max(np.abs(G)):.3g}; use a reference the plant can hold "
-            "(default: the output at its operating point)"
-        )
-
-    def __call__(self, r: float, p: np.ndarray) -> SampledLinearization:
-        X, M = self.equilibrium(r, p)
-        n = X.size
-        eye = np.eye(n)
-        dec = [j for j in range(n) if np.max(np.abs(M[:, j] - eye[:, j])) == 0.0]
-        keep = [j for j in range(n) if j not in dec]
-        eig = np.linalg.eigvals(M[np.ix_(keep, keep)]) if keep else np.zeros(0, complex)
-        eig = eig[np.argsort(-np.abs(eig), kind="stable")]
-        return SampledLinearization(
-            matrix=M, state_names=self.names, x_eq=X[: self.loop.n],
-            s_eq=X[self.loop.n:], r=float(r), decoupled=tuple(self.names[j] for j in dec),
-            eigenvalues=eig, spectral_radius=float(np.max(np.abs(eig))) if eig.size else 0.0,
-        )
-
 
 #: Smallest ``rtol`` of :func:`linearized_eps_star` (4 ulps: float64 resolves no finer).
 MIN_RTOL = 4 * float(np.finfo(float).eps)
@@ -176,6 +58,12 @@ def sampled_linearization(plant, design, *, r: float | None = None,
                           substeps: int | None = None) -> SampledLinearization:
     """Jacobian of the closed-loop sample map at its equilibrium, with its eigenvalues.
 
+    The equilibrium ``F(X) = X`` is found by Newton's method from the operating point, to a
+    per-component tolerance of a few ulps of the state's scale times the evaluation's
+    condition; when Newton does not converge, from the state a simulation at ``r`` settles
+    to, polished by Newton (:mod:`fl_design.sim._linearize`).
+    :attr:`SampledLinearization.equilibrium_source` says which, ``residual`` what is left.
+
     Parameters
     ----------
     plant : Plant
@@ -194,10 +82,14 @@ def sampled_linearization(plant, design, *, r: float | None = None,
 
     Raises
     ------
+    ParameterError
+        A plant or design of the wrong type, a non-finite ``r``, a ``gamma`` of the sign
+        opposite to ``b``.
     DesignMismatchError
         Relative degrees differ.
     ComputationError
-        No equilibrium found.
+        Neither Newton's method nor a simulation from the operating point gives an equilibrium
+        holding the output at ``r`` (the message names ``r``, the residuals and what to try).
 
     Examples
     --------
@@ -209,19 +101,24 @@ def sampled_linearization(plant, design, *, r: float | None = None,
     """
     _check(plant, design)
     steps = default_substeps(plant, design.T) if substeps is None else substeps
-    lin = _Linearizer(ClosedLoop(plant, design, substeps=steps))
+    check_gamma_sign(plant, design.controller.gamma)
+    lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     return lin(_reference(plant, r), design.parameter_vector())
 
 
 def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | None = None,
                         r: float | None = None, substeps: int | None = None, n_scan: int = 48,
-                        rtol: float = 1e-6) -> float:
+                        rtol: float = 1e-6) -> EpsStar:
     """Largest ``eps`` up to which the linearized sampled loop is stable (spectral radius < 1).
 
     ``eps*`` is the supremum of the ``eps`` in ``eps_range`` such that every ``eps'`` in
     ``[eps_range[0], eps]`` gives a spectral radius < 1: a scan on ``n_scan`` log-spaced points
     finds the first unstable one, then bisection in ``log eps`` narrows the crossing to
     relative width ``rtol``. (A stable window beyond a first unstable ``eps`` is ignored.)
+    The result is the final bracket, an :class:`~fl_design.sim.EpsStar` ``lower <= eps* <
+    upper`` with the loop stable at ``lower`` and unstable at ``upper``; a boundary outside
+    the range is said as such, never as a number: ``> hi`` (``(hi, inf)``, stable on the
+    whole scan) or ``< lo`` (``(nan, lo)``, unstable already at ``lo``).
 
     Parameters
     ----------
@@ -232,7 +129,8 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     eps_range : (float, float), optional
         Search interval, ``0 < lo < hi`` (default ``(1e-3, 1)``).
     gamma : float, optional
-        Controller gain (default the design's).
+        Controller gain (default the design's); a positive value is a magnitude taking the
+        sign of ``b``, as in :func:`fl_design.estimate_eps_star`.
     r : float, optional
         Reference of the equilibrium (default the operating point's output).
     substeps : int, optional
@@ -245,15 +143,16 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
 
     Returns
     -------
-    float
-        ``eps*``; NaN if the loop is unstable already at ``lo``; ``hi`` if it is stable on the
-        whole scan.
+    EpsStar
+        ``(a, b)``: spectral radius < 1 at ``a``, >= 1 at ``b``, ``b / a - 1 <= rtol`` (or no
+        float in between); ``.value`` is ``a``. ``(hi, inf)`` (prints ``> hi``, ``.value`` None)
+        when stable on the whole scan; ``(nan, lo)`` (prints ``< lo``) when unstable at ``lo``.
 
     Raises
     ------
     ParameterError
-        A plant or design of the wrong type, a bad ``eps_range``, ``n_scan`` or ``gamma``,
-        ``rtol < MIN_RTOL``.
+        A plant or design of the wrong type, a bad ``eps_range``, ``n_scan`` or ``gamma``
+        (zero, or of the sign opposite to ``b``), ``rtol < MIN_RTOL``.
     ComputationError
         No equilibrium found, or the bisection cap :data:`MAX_BISECTIONS` reached.
 
@@ -262,8 +161,10 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
     >>> import fl_design as fl
     >>> d = fl.presets.pendulum_design()
     >>> eps_star = fl.linearized_eps_star(fl.plants.pendulum(), d, eps_range=(0.01, 2.0))
-    >>> 0.01 < eps_star < 2.0
+    >>> 0.01 < eps_star.lower < eps_star.upper <= eps_star.lower * (1 + 1e-6)
     True
+    >>> print(fl.linearized_eps_star(fl.plants.pendulum(), d, eps_range=(0.001, 0.01)))
+    > 0.01
     """
     _check(plant, design)
     lo, hi = V.interval("eps_range", eps_range, allow_none=False)
@@ -275,9 +176,11 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
         raise ParameterError(f"rtol={rtol!r} is below what float64 can resolve: give rtol >= "
                              f"{MIN_RTOL:.3g} (4 units in the last place)")
     if gamma is not None:
-        design = design.replace(gamma=V.positive("gamma", gamma))
+        g = V.nonzero("gamma", gamma)
+        design = design.replace(gamma=g * b_sign(plant) if g > 0 and b_sign(plant) else g)
+    check_gamma_sign(plant, design.controller.gamma)
     steps = default_substeps(plant, design.T) if substeps is None else substeps
-    lin = _Linearizer(ClosedLoop(plant, design, substeps=steps))
+    lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     r = _reference(plant, r)
 
     def stable(eps: float) -> bool:
@@ -285,15 +188,15 @@ def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | 
 
     grid = np.geomspace(lo, hi, n_scan)
     if not stable(grid[0]):
-        return math.nan
+        return EpsStar(math.nan, float(lo))
     bad = next((i for i, e in enumerate(grid[1:], 1) if not stable(e)), None)
     if bad is None:
-        return float(hi)
-    a, b = grid[bad - 1], grid[bad]
+        return EpsStar(float(hi), math.inf)
+    a, b = float(grid[bad - 1]), float(grid[bad])
     for _ in range(MAX_BISECTIONS):
         mid = math.sqrt(a * b)
         if b / a - 1.0 <= rtol or not a < mid < b:  # narrow enough, or no float in between
-            return float(a)
+            return EpsStar(a, b)
         a, b = (mid, b) if stable(mid) else (a, mid)
     raise ComputationError(f"linearized_eps_star: no {rtol:g}-narrow bracket after "
                            f"{MAX_BISECTIONS} bisections (last [{a!r}, {b!r}])")

@@ -33,7 +33,7 @@ from ._report_figures import (
     step_figure,
     tradeoff_figure,
 )
-from ._report_sections import bounded_up_to, fmt, overshoot_text, sections
+from ._report_sections import bounded_up_to, fmt, linearized_text, overshoot_text, sections
 from ._report_write import render_html, render_markdown, summary, write_report
 
 __all__ = [
@@ -53,6 +53,7 @@ __all__ = [
     "design_label",
     "eps_star_figure",
     "fmt",
+    "linearized_text",
     "load_config",
     "main",
     "main_response_figure",

@@ -153,7 +153,8 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     cfg : Config
         A validated configuration.
     duration, noise_std : float, optional
-        Overrides.
+        Overrides (``duration="adaptive"``: a scenario without a duration, the run chooses
+        it from the loop).
     seed : int, optional
         Noise seed override.
 
@@ -171,7 +172,8 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
 
     s = cfg.scenario
     std = float(s["noise_std"] if noise_std is None else noise_std)
-    return Scenario(float(s["reference"]), float(s["duration"] if duration is None else duration),
+    length = s["duration"] if duration is None else duration
+    return Scenario(float(s["reference"]), None if length == "adaptive" else float(length),
                     noise=Noise(std, seed=int(s["seed"] if seed is None else seed)))
 
 

@@ -59,7 +59,7 @@ estimate_limits = ["none", 0.05]   # |xhat_2| <= 0.05 rad/s
 
 [scenario]
 reference = 0.3           # rad
-duration = 30.0           # s: covers the loop's slow time constant
+duration = 30.0           # s, or "adaptive": from the loop's slowest time constant
 tolerance = 0.02          # relative to the step (settling band 2 %)
 noise_std = 0.0           # sensor noise of the main run (rad)
 seed = 1
@@ -89,6 +89,7 @@ sil_duration = 10.0       # s of software in the loop
 """
 
 _NUM = (int, float)
+_DURATION = (int, float, str)  # seconds, or "adaptive" (fl.Scenario without a duration)
 # table -> key -> (types, description)
 _SCHEMA: dict[str, dict[str, tuple]] = {
     "plant": {"library": (str,), "motor_lag": (bool,), "name": (str,), "states": (list,),
@@ -98,11 +99,11 @@ _SCHEMA: dict[str, dict[str, tuple]] = {
     "design": {"estimator": (str,), "eps": _NUM, "T": _NUM, "coeffs": (list,),
                "window": (int,), "gains": (list,), "gamma": _NUM, "ki": _NUM,
                "u_limits": (list,), "estimate_limits": (list,)},
-    "scenario": {"reference": _NUM, "duration": _NUM, "tolerance": _NUM, "noise_std": _NUM,
+    "scenario": {"reference": _NUM, "duration": _DURATION, "tolerance": _NUM, "noise_std": _NUM,
                  "seed": (int,)},
     "compare": {"windows": (list,), "noise_std": (list,), "eps_tradeoff": (list,),
                 "seed": (int,)},
-    "sweep": {"eps": (list,), "gamma": (list,), "points": (int,), "duration": _NUM},
+    "sweep": {"eps": (list,), "gamma": (list,), "points": (int,), "duration": _DURATION},
     "certify": {"enabled": (bool,), "gamma": (list,), "points": (int,)},
     "codegen": {"enabled": (bool,), "precision": (str,), "prefix": (str,),
                 "sil_duration": _NUM},
@@ -150,6 +151,8 @@ class Config:
 
 
 def _type_name(types: tuple) -> str:
+    if types == _DURATION:
+        return 'a number of seconds or "adaptive"'
     return {str: "a string", bool: "true or false", int: "an integer", list: "an array",
             dict: "a table"}.get(types[0], "a number") if len(types) == 1 else "a number"
 
@@ -215,6 +218,12 @@ def _check_semantics(t: dict) -> None:
     _numbers("compare", "eps_tradeoff", t["compare"]["eps_tradeoff"], positive=True)
     for table, key in (("scenario", "duration"), ("sweep", "duration"),
                        ("codegen", "sil_duration")):
+        if isinstance(t[table][key], str):
+            if t[table][key] != "adaptive":
+                raise ConfigError(f'[{table}] {key} must be a number of seconds or "adaptive" '
+                                  f"(chosen from the loop's slowest time constant), got "
+                                  f"{t[table][key]!r}")
+            continue
         if t[table][key] <= 0:
             raise ConfigError(f"[{table}] {key} must be > 0 s, got {t[table][key]!r}")
     for table in ("sweep", "certify"):

@@ -10,10 +10,8 @@ Plant: trms_yaw...
 
 from __future__ import annotations
 
-import math
-
 from ._report_figures import design_label
-from ._report_sections import bounded_up_to, fmt
+from ._report_sections import bounded_up_to, fmt, linearized_text
 
 
 def print_derive(job) -> None:
@@ -55,11 +53,7 @@ def print_certificates(job) -> None:
             print(cert[key])
     if "skipped" in cert:
         print(f"gamma/eps certificates skipped: {cert['skipped']}")
-    top = cert["linearized"]["eps_range"][1]
-    lin = cert["linearized_design"]
-    text = (f">= {top:g} (no boundary in the range)" if math.isclose(lin, top)
-            else fmt(lin, "unstable at the smallest eps"))
-    print(f"linearized eps* at this gamma: {text}")
+    print(f"linearized eps* at this gamma: {linearized_text(cert['linearized_design'])}")
 
 
 print_certify = print_certificates
@@ -86,6 +80,8 @@ def print_sweep(job) -> None:
                        ("converged", "converging", "oscillating", "diverged") if (labels == s).any())
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
+    if smap.duration_reason != "given":
+        print(f"  run length chosen from the loop: {smap.duration_reason}")
     print(f"  {'gamma':<10} {'empirical eps* (s)':<30} every run bounded up to eps (s)")
     for g in smap.gamma:
         print(f"  {g:<10.3g} {smap.eps_star(g)!s:<30} {bounded_up_to(smap, g)}")

@@ -126,9 +126,9 @@ def _certify(job: Job, quick: bool) -> None:
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     eps_range = tuple(job.config.sweep["eps"])
-    out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": np.array(
-        [linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
-         for g in gammas])}
+    out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
+        linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
+        for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
     out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
     job.results["certify"] = out
 
@@ -174,7 +174,9 @@ def _simulate(job: Job, quick: bool) -> None:
             resp = _simulate_one(job, job.design.replace(eps=float(e)), duration, std)
             tradeoff.append({"eps": float(e), "noise_std": std, **noise_levels(resp),
                              "status": resp.status, "overshoot_%": resp.overshoot})
-    job.results["simulate"] = {"main": main, "runs": runs, "stds": stds, "duration": duration,
+    job.results["simulate"] = {"main": main, "runs": runs, "stds": stds,
+                               "duration": main.duration,
+                               "duration_reason": main.duration_reason,
                                "designs": list(designs), "tradeoff": tradeoff}
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..plotting import plot_eps_star
 from ._report_sections import overshoot_text
 
 
@@ -128,15 +129,13 @@ def eps_star_figure(job):
         ax.plot(c.gamma, c.eps_star_certified, "C2o-", ms=4, label="certified (LMI)")
     if "linearized" in cert:
         lin = cert["linearized"]
-        ax.plot(lin["gamma"], lin["eps_star"], "C0s--", ms=4,
-                label="linearized nonlinear loop (top = range edge)")
+        plot_eps_star(ax, lin["gamma"], lin["eps_star"], label="linearized nonlinear loop",
+                      color="C0", ls="--")
     smap = job.results.get("sweep")
     if smap is not None:
-        stars = [(g, smap.eps_star(g)) for g in smap.gamma]
-        pts = [(g, s.lower) for g, s in stars if not s.below_range]
-        if pts:
-            g, e = zip(*pts)
-            ax.plot(g, e, "C3^", ms=6, label="empirical (sweep; grid lower bound)")
+        plot_eps_star(ax, smap.gamma, [smap.eps_star(g) for g in smap.gamma],
+                      label="empirical (sweep; grid lower bound)", color="C3", ls="none",
+                      marker="o")
     b = job.derivation.get("b_bounds")
     if b is not None:
         ax.axvline(1.0 / b[1], color="k", ls=":", label=f"gamma < 1/b_max = {1 / b[1]:.3g}")

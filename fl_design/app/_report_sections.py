@@ -86,14 +86,39 @@ def _certificates(job) -> list:
                             "this design's own step; not the nonlinear plant.")))
     elif "skipped" in cert:
         blocks.append(("p", f"Certificates of gamma and eps* skipped: {cert['skipped']}."))
-    lin = cert["linearized"]
-    top = lin["eps_range"][1]
-    value = cert["linearized_design"]
-    text = (f">= {top:g} (stable on the whole range; no boundary found)"
-            if math.isclose(value, top) else fmt(value, "unstable at the smallest eps"))
     blocks.append(("p", (f"Linearized nonlinear loop at the equilibrium, this gamma: eps* = "
-                        f"{text} s.")))
+                        f"{linearized_text(cert['linearized_design'])}.")))
     return blocks
+
+
+def linearized_text(star) -> str:
+    """A linearized eps* bracket in words, saying when the boundary lies outside the range.
+
+    Parameters
+    ----------
+    star : fl_design.sim.EpsStar
+        The result of :func:`fl_design.linearized_eps_star`.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.sim import EpsStar
+    >>> from fl_design.app import linearized_text
+    >>> linearized_text(EpsStar(1.0, float("inf")))
+    '> 1 s (stable on the whole scanned range: no boundary found up to 1 s)'
+    >>> linearized_text(EpsStar(0.0417, 0.0418))
+    '0.0417 s (unstable at 0.0418 s)'
+    """
+    if star.above_range:
+        return (f"> {star.lower:g} s (stable on the whole scanned range: no boundary found up "
+                f"to {star.lower:g} s)")
+    if star.below_range:
+        return f"< {star.upper:g} s (unstable already at the smallest eps scanned)"
+    lower, upper = str(star).removesuffix(")").split(" (fails at ")  # the digits it needs
+    return f"{lower} s (unstable at {upper} s)"
 
 
 def bounded_up_to(smap, gamma: float) -> str:
@@ -146,6 +171,8 @@ def _sweep(job, figures) -> list:
                     f"below which every run converges (converging or converged); '> x' means "
                     f"no boundary inside the scanned range, '< x' that even the smallest eps "
                     f"failed."))]
+    if smap.duration_reason != "given":
+        blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
     if "stability_map.png" in figures:
         blocks.append(("fig", "stability_map.png", (f"Stability map, {job.plant.name}; the star "
                        "is this design, the dotted line the paper's gamma < 1/b_max")))

@@ -181,7 +181,9 @@ def summary(job) -> dict:
     if sim:
         from ._job import noise_levels
 
-        out["simulate"] = {"duration_s": sim["duration"], "main": _run_row(sim["main"]),
+        out["simulate"] = {"duration_s": sim["duration"],
+                           "duration_reason": sim.get("duration_reason", "given"),
+                           "main": _run_row(sim["main"]),
                            "runs": [{"design": n, "noise_std": s, **_run_row(r),
                                      **noise_levels(r)} for (n, s), r in sim["runs"].items()],
                            "noise_tradeoff": sim["tradeoff"]}
@@ -194,7 +196,8 @@ def summary(job) -> dict:
 
 def _run_row(resp) -> dict:
     m = {k: v for k, v in resp.metrics.items() if k != "estimation_rms"}
-    return {"status": resp.status, "verdict": resp.verdict(), "metrics": m}
+    return {"status": resp.status, "verdict": resp.verdict(), "duration_s": resp.duration,
+            "duration_reason": resp.duration_reason, "metrics": m}
 
 
 def write_report(job, out_dir) -> dict:

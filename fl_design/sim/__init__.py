@@ -6,7 +6,9 @@ accumulators and metrics, :class:`Status`), ``_closed_loop`` (plant + design as 
 functions, the accumulating step), ``_runners`` (compiled C driver or CasADi interpreter),
 ``_run`` (:func:`prepare_run`), ``_simulate`` (:func:`simulate`), ``_response``
 (:class:`Response`), ``_grid`` (chunks over threads/executors), ``_sweep`` (:func:`sweep`,
-:func:`estimate_eps_star`), ``_stability_map`` (:class:`StabilityMap`).
+:func:`estimate_eps_star`), ``_stability_map`` (:class:`StabilityMap`), ``_linearize`` (the
+loop's equilibrium and Jacobian, :class:`LoopLinearizer`, :class:`SampledLinearization`; the
+public :func:`fl_design.sampled_linearization` is in ``analysis``).
 
 Examples
 --------
@@ -17,6 +19,7 @@ Examples
 
 from ._closed_loop import HUGE, ClosedLoop, accumulator_layout, default_substeps
 from ._grid import parameter_columns, run_grid
+from ._linearize import LoopLinearizer, SampledLinearization
 from ._metrics import (
     ACCUMULATORS,
     METRIC_NAMES,
@@ -57,10 +60,12 @@ __all__ = [
     "EpsStar",
     "EpsStarEstimate",
     "Kernel",
+    "LoopLinearizer",
     "Metric",
     "Noise",
     "Response",
     "RunSetup",
+    "SampledLinearization",
     "Scenario",
     "StabilityMap",
     "Status",

@@ -57,6 +57,10 @@ class Response:
     summary : dict
         The run's final accumulators and constants (:mod:`fl_design.sim._metrics`), from
         which :attr:`metrics` is derived.
+    duration_reason : str, optional
+        ``"given"`` (the scenario's ``duration``), or how the run chose its length
+        (:mod:`fl_design.sim._duration`): the multiple of the loop's slowest time constant,
+        clamped, or a fixed fallback, with the reason.
 
     Examples
     --------
@@ -85,6 +89,17 @@ class Response:
     divergence_index: int | None = None
     method: str = "rk4"
     summary: dict = field(default_factory=dict, repr=False, compare=False)
+    duration_reason: str = "given"
+
+    @property
+    def duration(self) -> float:
+        """Run length ``N T`` in seconds (as given, or chosen: see :attr:`duration_reason`)."""
+        return self.t.size * self.T
+
+    @property
+    def adaptive_duration(self) -> bool:
+        """The run chose its own length (the scenario gave no ``duration``)."""
+        return self.duration_reason != "given"
 
     @functools.cached_property
     def metrics(self) -> dict:
@@ -132,13 +147,15 @@ class Response:
         --------
         >>> import fl_design as fl
         >>> d = fl.presets.pendulum_design()
-        >>> sorted(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.05)).to_dict())[:4]
-        ['T', 'coords', 'divergence_index', 'k_tail']
+        >>> data = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.05)).to_dict()
+        >>> sorted(data)[:4], data["duration"], data["duration_reason"]
+        (['T', 'coords', 'divergence_index', 'duration'], 0.05, 'given')
         """
         data = {name: getattr(self, name)
                 for name in ("t", "r", "y", "ym", "u", "xhat", "sigmahat", "sigma", "coords", "x")}
         data.update(T=self.T, tol=self.tol, k_tail=self.k_tail, y0=self.y0, step=self.step,
                     divergence_index=self.divergence_index, method=self.method,
+                    duration=self.duration, duration_reason=self.duration_reason,
                     metrics=self.metrics)
         return jsonable(data)
 
@@ -171,6 +188,9 @@ class Response:
     def verdict(self) -> str:
         """One line saying what the run shows, with the numbers behind it.
 
+        A run that chose its own length (no ``duration`` given) also says how long it ran and
+        why.
+
         Returns
         -------
         str
@@ -199,18 +219,24 @@ class Response:
             "solver_failed": "solver failed: cvodes gave up on a bounded state (not a verdict "
                              "on the loop; try fl.RK4 or looser tolerances)",
         }[self.status]
-        return text + (over if self.status != "diverged" else "") + exit_
+        run = (f"; run of {self.duration:.4g} s chosen by the loop: {self.duration_reason}"
+               if self.adaptive_duration else "")
+        return text + (over if self.status != "diverged" else "") + exit_ + run
 
     def _repr_html_(self) -> str:
         """A short HTML table for Jupyter: status, verdict, overshoot, settling time."""
         return _html_table([("status", self.status), ("verdict", self.verdict()),
                             ("overshoot", f"{self.overshoot:.3g} %"),
                             ("settling time", f"{self.settling_time:.3g} s"),
-                            ("run", f"{self.t.size} samples, T = {self.T:g} s")])
+                            ("run", f"{self.t.size} samples, T = {self.T:g} s"),
+                            ("run length", f"{self.duration:.4g} s ({self.duration_reason})")])
 
     def __repr__(self) -> str:
+        chosen = (f", adaptive duration={self.duration:.4g} s" if self.adaptive_duration
+                  else "")  # a given duration: N and T say it, as before
         return (f"Response(N={self.t.size}, T={self.T:g}, status={self.status!r}, "
-                f"overshoot={self.overshoot:.3g}%, settling_time={self.settling_time:.3g} s)")
+                f"overshoot={self.overshoot:.3g}%, settling_time={self.settling_time:.3g} s"
+                f"{chosen})")
 
 
 def _html_table(rows) -> str:

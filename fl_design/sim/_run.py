@@ -25,6 +25,7 @@ import numpy as np
 from .. import _validate as V
 from ..errors import DimensionError, ParameterError, RelativeDegreeError
 from ._closed_loop import ClosedLoop, default_substeps
+from ._duration import resolve_duration
 from ._metrics import initial_values
 from ._options import RK4, Classifier, Scenario, option
 
@@ -68,7 +69,7 @@ class RunSetup:
     loop : ClosedLoop
         Plant, design and integrator.
     scenario : Scenario
-        The scenario as given.
+        The scenario, its duration resolved (as given, or chosen from the loop).
     classifier : Classifier
         The classifier as given.
     N : int
@@ -90,6 +91,8 @@ class RunSetup:
     region : numpy.ndarray
         ``(2, n)`` lower and upper bounds of the plant's declared region (``-inf``/``inf``
         where none is declared).
+    duration_reason : str, optional
+        ``"given"``, or how the adaptive run length was chosen (:mod:`fl_design.sim._duration`).
 
     Examples
     --------
@@ -116,11 +119,17 @@ class RunSetup:
     k_tail: int
     bound: np.ndarray
     region: np.ndarray
+    duration_reason: str = "given"
 
     @property
     def T(self) -> float:
         """Sampling time."""
         return self.loop.T
+
+    @property
+    def duration(self) -> float:
+        """Run length ``N T`` in seconds."""
+        return self.N * self.loop.T
 
     @property
     def D(self) -> np.ndarray:
@@ -201,7 +210,10 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     design : Design
         Estimator + dynamic controller (its ``T`` is the loop's).
     scenario : Scenario
-        Reference, duration, initial state and estimate, noise, quantization.
+        Reference, duration, initial state and estimate, noise, quantization. Without a
+        duration the run length is chosen here from the loop linearized at the design's own
+        ``(eps, gamma)`` and the reference (:mod:`fl_design.sim._duration`), once for every
+        run of a sweep.
     integrator : RK4, optional
         Substeps of the fixed-step integrator (default :class:`~fl_design.RK4`).
     classifier : Classifier, optional
@@ -245,11 +257,16 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     integrator = option("integrator", integrator, RK4)
     classifier = option("classifier", classifier, Classifier)
     T = design.T
-    N = scenario.n_samples(T)
+    if scenario.duration is not None:
+        scenario.n_samples(T)  # a bad length is refused before the loop is built
     steps = default_substeps(plant, T) if integrator.substeps is None else integrator.substeps
     loop = ClosedLoop(plant, design, substeps=steps,
                       allow_unmodeled=V.boolean("allow_unmodeled", allow_unmodeled))
     check_gamma_sign(plant, design.controller.gamma if gammas is None else gammas)
+    length = resolve_duration(loop, scenario, classifier)
+    if length.adaptive:
+        scenario = scenario.replace(duration=length.duration)
+    N = scenario.n_samples(T)
     r = scenario.reference_samples(T)
     x0 = (plant.x_op.copy() if scenario.x0 is None
           else V.real_vector("x0", scenario.x0, length=plant.n))
@@ -263,7 +280,7 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
                     x0=x0, s0=s0, y0=y0, step=step,
                     tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
                     k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant),
-                    region=_region(plant))
+                    region=_region(plant), duration_reason=length.reason)
 
 
 def _measured(y: float, q: float) -> float:

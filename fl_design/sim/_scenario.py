@@ -124,8 +124,13 @@ class Scenario:
     reference : float, callable or array_like
         A constant (a step at t = 0 from the initial output), a function ``r(t)`` sampled at
         ``t = kT``, or ``N = round(duration / T)`` samples.
-    duration : float
+    duration : float, optional
         Length of the run in seconds (> 0; at least one sample of the design's ``T``).
+        Omitted (None): chosen by the run from the loop's slowest time constant at the
+        design point and the reference (:mod:`fl_design.sim._duration`: 7.8 time constants
+        with the default classifier, clamped, a fixed 20 s when the linearized loop is
+        unstable); :attr:`fl_design.Response.duration_reason` says what was chosen and why.
+        An array reference fixes the length and needs ``duration``.
     x0 : array_like, optional
         Initial plant state (default: the plant's operating point).
     noise : Noise, optional
@@ -140,7 +145,8 @@ class Scenario:
     Raises
     ------
     ParameterError
-        Non-positive or non-finite duration, a non-finite constant reference or ``x0``,
+        Non-positive or non-finite duration, an array reference without a duration, a
+        non-finite constant reference or ``x0``,
         ``noise`` not a :class:`Noise`, a non-positive quantization.
     DimensionError
         A reference array, ``x0`` or ``initial_estimate`` that is not one-dimensional.
@@ -151,10 +157,12 @@ class Scenario:
     >>> sc = fl.Scenario(lambda t: 0.3 * (t >= 1.0), 5.0)
     >>> sc.reference_samples(1.0)
     array([0. , 0.3, 0.3, 0.3, 0.3])
+    >>> fl.Scenario(0.3).duration is None  # adaptive: the run chooses its length
+    True
     """
 
     reference: Any
-    duration: float
+    duration: float | None = None
     _: KW_ONLY
     x0: Any = None
     noise: Noise = field(default_factory=Noise)
@@ -162,7 +170,8 @@ class Scenario:
     initial_estimate: Any = None
 
     def __post_init__(self) -> None:
-        V.positive("duration", self.duration)
+        if self.duration is not None:
+            V.positive("duration", self.duration)
         ref = self.reference
         if isinstance(ref, str) or ref is None:
             raise ParameterError(
@@ -172,6 +181,11 @@ class Scenario:
                 V.real_scalar("reference", ref)
             else:
                 V.real_vector("reference", ref)
+                if self.duration is None:
+                    raise ParameterError(
+                        f"an array reference ({np.size(ref)} samples) fixes the run's length: "
+                        "give duration = len(reference) * T (the adaptive duration needs a "
+                        "constant or callable reference)")
         if self.x0 is not None:
             V.real_vector("x0", self.x0)
         if not isinstance(self.noise, Noise):
@@ -196,7 +210,8 @@ class Scenario:
         Raises
         ------
         ParameterError
-            The duration is shorter than one sample.
+            The duration is shorter than one sample, or not set (adaptive: resolved by
+            :func:`fl_design.sim.prepare_run`).
 
         Examples
         --------
@@ -204,6 +219,11 @@ class Scenario:
         >>> fl.Scenario(0.0, 1.0).n_samples(1e-3)
         1000
         """
+        if self.duration is None:
+            raise ParameterError(
+                "this Scenario has no duration (adaptive: fl.simulate, fl.sweep and "
+                "fl.estimate_eps_star choose it from the loop); give Scenario(..., "
+                "duration=...) to count its samples here")
         N = round(float(self.duration) / T)
         if float(self.duration) < T * (1.0 - 1e-9) or N < 1:
             raise ParameterError(
@@ -293,7 +313,7 @@ class Scenario:
         return replace_fields(self, changes)
 
     def to_dict(self) -> dict:
-        """Strict-JSON fields (a callable reference by its name).
+        """Strict-JSON fields (a callable reference by its name; ``duration`` None: adaptive).
 
         Examples
         --------
@@ -301,7 +321,8 @@ class Scenario:
         >>> fl.Scenario(0.3, 20.0).to_dict()["noise"]
         {'std': 0.0, 'seed': 0}
         """
-        return {"reference": _jsonable(self.reference), "duration": float(self.duration),
+        return {"reference": _jsonable(self.reference),
+                "duration": None if self.duration is None else float(self.duration),
                 "x0": _jsonable(self.x0), "noise": self.noise.to_dict(),
                 "quantization": _jsonable(self.quantization),
                 "initial_estimate": _jsonable(self.initial_estimate)}

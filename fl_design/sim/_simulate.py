@@ -46,7 +46,9 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     design : Design
         Estimator + dynamic controller (its sampling time ``T`` is the loop's).
     scenario : Scenario
-        Reference, duration, initial state, noise and quantization.
+        Reference, duration, initial state, noise and quantization. Without a duration the
+        run chooses its length from the loop's slowest time constant
+        (:attr:`Response.duration_reason` says what and why).
     integrator : RK4 or Cvodes, optional
         Fixed-step RK4 in the kernel (default ``fl.RK4()``, substeps from the plant's fastest
         mode), or CasADi's adaptive ``cvodes`` sample by sample (slow; a reference).
@@ -132,7 +134,7 @@ def _response(run: RunSetup, out: np.ndarray, summary: dict, method: str) -> Res
         sigma=rows["sigma"], coords=np.atleast_2d(rows["coords"]).reshape(rho, -1).T.copy(),
         x=np.atleast_2d(rows["x"]).reshape(run.loop.n, -1).T.copy(), T=run.T, tol=run.tol,
         k_tail=run.k_tail, y0=run.y0, step=run.step, divergence_index=k_div, method=method,
-        summary=_summary_fields(run, summary),
+        summary=_summary_fields(run, summary), duration_reason=run.duration_reason,
     )
 
 

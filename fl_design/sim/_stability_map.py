@@ -44,6 +44,8 @@ class EpsStar:
     ('> 1', None)
     >>> str(EpsStar(float("nan"), 0.01)), EpsStar(0.02, 0.04).value
     ('< 0.01', 0.02)
+    >>> str(EpsStar(0.0417487, 0.04174874))  # a narrow bracket keeps the digits it needs
+    '0.0417487 (fails at 0.04174874)'
     """
 
     lower: float
@@ -69,7 +71,9 @@ class EpsStar:
             return f"> {self.lower:g}"
         if self.below_range:
             return f"< {self.upper:g}"
-        return f"{self.lower:g} (fails at {self.upper:g})"
+        digits = next((n for n in range(6, 18) if f"{self.lower:.{n}g}" != f"{self.upper:.{n}g}"),
+                      17)  # enough digits to tell a narrow bisection bracket's ends apart
+        return f"{self.lower:.{digits}g} (fails at {self.upper:.{digits}g})"
 
     def to_dict(self) -> dict:
         """Strict JSON: ``lower``, ``upper`` (None when unbounded), ``text``.
@@ -102,6 +106,9 @@ class StabilityMap:
         :mod:`fl_design.sim`.
     T, duration, tol : float
         Sampling time, run length, absolute tolerance of the classification.
+    duration_reason : str, optional
+        ``"given"``, or how the sweep chose its run length (once, at the design's own
+        ``(eps, gamma)``: :mod:`fl_design.sim._duration`).
 
     Examples
     --------
@@ -121,6 +128,7 @@ class StabilityMap:
     T: float
     duration: float
     tol: float
+    duration_reason: str = "given"
 
     @property
     def labels(self) -> np.ndarray:
@@ -228,7 +236,8 @@ class StabilityMap:
         ({'iae': [[None]]}, [['converged']], [{'lower': 0.1, 'upper': None, 'text': '> 0.1'}])
         """
         return jsonable({"eps": self.eps, "gamma": self.gamma, "status": self.labels.tolist(),
-                         "T": self.T, "duration": self.duration, "tol": self.tol,
+                         "T": self.T, "duration": self.duration,
+                         "duration_reason": self.duration_reason, "tol": self.tol,
                          "eps_star": [self.eps_star(g) for g in self.gamma],
                          "metrics": self.metrics})
 
@@ -240,7 +249,8 @@ class StabilityMap:
         grid = (f"{self.eps.size} eps in [{self.eps.min():.3g}, {self.eps.max():.3g}] x "
                 f"{self.gamma.size} gamma in [{self.gamma.min():.3g}, {self.gamma.max():.3g}]")
         rows = [("grid", grid),
-                ("runs", f"{self.duration:g} s each, T = {self.T:g} s, tolerance {self.tol:g}")]
+                ("runs", f"{self.duration:g} s each, T = {self.T:g} s, tolerance {self.tol:g}"),
+                ("run length", self.duration_reason)]
         return _html_table(rows + [(f"{n}", f"{c} runs") for n, c in zip(names, counts)])
 
     def plot(self, *, ax=None, curves=None, show_eps_star: bool = True):
@@ -293,6 +303,10 @@ class EpsStarEstimate:
         ``(eps, status, divergence_time)`` of every run, in order.
     converged : bool
         The bracket is narrower than ``rtol``.
+    duration : float, optional
+        Length of every run (s; NaN when not recorded).
+    duration_reason : str, optional
+        ``"given"``, or how it was chosen (once, at the design's own ``eps``).
 
     Examples
     --------
@@ -307,6 +321,8 @@ class EpsStarEstimate:
     n_simulations: int
     history: tuple
     converged: bool
+    duration: float = math.nan
+    duration_reason: str = "given"
 
     def to_dict(self) -> dict:
         """Plain numbers, ready for JSON (inf and NaN as None).
@@ -320,8 +336,8 @@ class EpsStarEstimate:
         return jsonable({"eps_star": self.eps_star, "bracket": self.bracket,
                          "text": str(self),
                          "n_simulations": self.n_simulations, "converged": self.converged,
+                         "duration": self.duration, "duration_reason": self.duration_reason,
                          "history": self.history})
-
 
     @property
     def bound(self) -> EpsStar:

@@ -97,7 +97,10 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
         The design; its estimator must have an ``eps`` (EHGO). Each run uses
         ``design.replace(eps=e, gamma=g)``; everything else is kept.
     scenario : Scenario
-        The same reference, duration, start and noise sequence for every run.
+        The same reference, duration, start and noise sequence for every run. Without a
+        duration the length is chosen once, from the loop linearized at the design's own
+        ``(eps, gamma)``, and used for every grid point
+        (:attr:`StabilityMap.duration_reason`).
     eps, gamma : array_like or float
         Grid values, finite and > 0 (sorted increasingly; no repeats). Positive ``gamma``
         values are magnitudes: each run uses ``sign(b) * gamma`` (negative on a plant with
@@ -151,7 +154,8 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
                    executor=executor, progress=progress)
     status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
-                        T=run.T, duration=run.N * run.T, tol=run.tol)
+                        T=run.T, duration=run.N * run.T, tol=run.tol,
+                        duration_reason=run.duration_reason)
 
 
 def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
@@ -173,7 +177,8 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     design : Design
         The design (EHGO estimator); ``eps`` is varied, ``gamma`` kept unless given.
     scenario : Scenario
-        Reference, duration, start and noise of every run.
+        Reference, duration, start and noise of every run. Without a duration the length is
+        chosen once, at the design's own ``eps`` (and ``gamma``), and used for every candidate.
     eps_range : (float, float), optional
         Initial bracket ``0 < lo < hi`` (default ``(T, 1)``).
     gamma : float, optional
@@ -227,7 +232,8 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
 
     def result(eps_star, bracket, converged):
         return EpsStarEstimate(float(eps_star), tuple(float(b) for b in bracket), len(history),
-                               tuple(history), bool(converged))
+                               tuple(history), bool(converged), run.duration,
+                               run.duration_reason)
 
     if not stable(lo):
         return result(math.nan, (math.nan, lo), False)

@@ -11,7 +11,7 @@ import scipy.signal
 import sympy as sp
 
 import fl_design as fl
-from fl_design.errors import ComputationError, DesignMismatchError, ParameterError
+from fl_design.errors import DesignMismatchError, ParameterError
 
 T = 1e-3
 
@@ -94,29 +94,69 @@ def test_equilibrium_at_another_reference(pendulum_design, pendulum):
                                atol=1e-10)
 
 
-def test_unreachable_reference_has_no_equilibrium(pendulum_design, pendulum):
-    design = pendulum_design(u_limits=(-1.0, 1.0))
-    with pytest.raises(ComputationError, match="no closed-loop equilibrium found for r=0.5"):
-        fl.sampled_linearization(pendulum, design, r=0.5)
-
-
-def test_linearized_eps_star_is_the_stability_crossing(pendulum_design, pendulum):
+def test_linearized_eps_star_brackets_the_spectral_radius_crossing(pendulum_design, pendulum):
+    """The returned bracket (a, b): eigenvalues of the loop inside the unit circle at a and
+    just below it, outside at b and just above it; the bracket is rtol-narrow."""
     design = pendulum_design()
-    eps_star = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0), rtol=1e-7)
-    below = fl.sampled_linearization(pendulum, design.replace(eps=eps_star * (1 - 1e-5)))
-    above = fl.sampled_linearization(pendulum, design.replace(eps=eps_star * (1 + 1e-5)))
-    assert below.spectral_radius < 1.0 < above.spectral_radius
-    # every scanned eps below eps* is stable
-    for eps in np.geomspace(0.005, eps_star, 12)[:-1]:
-        assert fl.sampled_linearization(pendulum, design.replace(eps=eps)).stable
+    star = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0), rtol=1e-7)
+    assert isinstance(star, fl.EpsStar) and star.value == star.lower
+    a, b = star.lower, star.upper
+    assert 0.005 < a < b < 1.0 and b / a - 1.0 <= 1e-7
+
+    def radius(eps):  # numpy eigenvalues of the Jacobian, decoupled z removed by hand
+        lin = fl.sampled_linearization(pendulum, design.replace(eps=eps))
+        keep = [i for i, n in enumerate(lin.state_names) if n != "z"]
+        return np.max(np.abs(np.linalg.eigvals(lin.matrix[np.ix_(keep, keep)])))
+
+    assert radius(a) < 1.0 <= radius(b)
+    assert radius(a * (1 - 1e-5)) < 1.0 < radius(b * (1 + 1e-5))
+    # every eps below the bracket is stable (eps* is the first crossing)
+    for eps in np.geomspace(0.005, a, 12)[:-1]:
+        assert radius(eps) < 1.0
     # a larger gamma shrinks eps* (the paper's trade-off)
-    assert fl.linearized_eps_star(pendulum, design, gamma=3e-2, eps_range=(0.005, 1.0)) < eps_star
+    assert fl.linearized_eps_star(pendulum, design, gamma=3e-2,
+                                  eps_range=(0.005, 1.0)).upper < a
+    json.dumps(star.to_dict(), allow_nan=False)
 
 
 def test_linearized_eps_star_range_ends(pendulum_design, pendulum):
+    """Outside the range the result says so: '< lo' (unstable at lo), '> hi' (stable at hi)."""
     design = pendulum_design()
-    assert math.isnan(fl.linearized_eps_star(pendulum, design, eps_range=(0.05, 1.0)))
-    assert fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 0.02)) == 0.02
+    below = fl.linearized_eps_star(pendulum, design, eps_range=(0.05, 1.0))
+    assert below.below_range and below.value is None and str(below) == "< 0.05"
+    assert math.isnan(below.lower) and below.upper == 0.05
+    assert not fl.sampled_linearization(pendulum, design.replace(eps=0.05)).stable
+    above = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 0.02))
+    assert above.above_range and above.value is None and str(above) == "> 0.02"
+    assert above.lower == 0.02 and above.upper == math.inf
+    assert all(fl.sampled_linearization(pendulum, design.replace(eps=e)).stable
+               for e in (0.005, 0.01, 0.02))
+    assert json.loads(json.dumps(above.to_dict(), allow_nan=False)) == {
+        "lower": 0.02, "upper": None, "text": "> 0.02"}
+
+
+def test_eps_star_plot_marks_brackets_outside_the_range_at_the_edge():
+    """Inside-range brackets are a line at their lower end; '> top' an upward triangle at the
+    top and '< bottom' a downward one at the bottom, with their own legend text."""
+    import matplotlib.pyplot as plt
+
+    from fl_design.plotting import plot_eps_star, plot_stability_map
+
+    stars = [fl.EpsStar(1.0, math.inf), fl.EpsStar(0.1, 0.2), fl.EpsStar(math.nan, 0.005)]
+    fig, ax = plt.subplots()
+    line, up, down = plot_eps_star(ax, [1e-3, 1e-2, 1e-1], stars, label="lin")
+    np.testing.assert_array_equal(line.get_ydata(), [np.nan, 0.1, np.nan])
+    assert (up.get_marker(), list(up.get_xdata()), list(up.get_ydata())) == ("^", [1e-3], [1.0])
+    assert (down.get_marker(), list(down.get_ydata())) == ("v", [0.005])
+    assert "above the range" in up.get_label() and "below the range" in down.get_label()
+    with pytest.raises(ParameterError, match="gamma has 2 values but 3 eps"):
+        plot_eps_star(ax, [1e-3, 1e-2], stars, label="lin")
+    smap = fl.StabilityMap(np.array([0.005, 1.0]), np.array([1e-3, 1e-2, 1e-1]),
+                           np.full((2, 3), 2), {}, T, 1.0, 0.1)
+    fig = plot_stability_map(smap, curves={"lin": ([1e-3, 1e-2, 1e-1], stars)})
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "lin: eps* above the range (> top)" in labels
+    plt.close("all")
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -124,7 +164,8 @@ def test_linearized_eps_star_range_ends(pendulum_design, pendulum):
     ({"eps_range": (1.0, 0.1)}, "lo < hi"),
     ({"n_scan": 1}, "n_scan must be >= 2"),
     ({"rtol": 0.0}, "rtol must be > 0"),
-    ({"gamma": -1.0}, "gamma must be > 0"),
+    ({"gamma": -1.0}, r"gamma=-1 has the sign opposite to b .* give gamma > 0"),
+    ({"gamma": 0.0}, "gamma must be nonzero"),
 ])
 def test_linearized_eps_star_bad_input(pendulum_design, pendulum, kwargs, match):
     with pytest.raises(ParameterError, match=match):

@@ -57,6 +57,15 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
                for r in runs)
     assert data["codegen"]["sil"]["passed"] is True
     assert data["certify"]["eps"]["certified"] is True
+    # linearized eps*: a bracket per gamma, "> top" when stable on the whole range, never NaN
+    lin = data["certify"]["linearized"]
+    top = lin["eps_range"][1]
+    for star in [*lin["eps_star"], data["certify"]["linearized_design"]]:
+        assert set(star) == {"lower", "upper", "text"}
+        if star["upper"] is None:
+            assert star["lower"] == top and star["text"] == f"> {top:g}"
+        else:
+            assert star["lower"] < star["upper"]
 
 
 def test_progress_goes_to_stderr_only(quick_run):

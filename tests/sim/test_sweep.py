@@ -92,7 +92,7 @@ def test_eps_star_and_gamma_bounds_definitions():
 def test_empirical_eps_star_agrees_with_linearized(pendulum_design, pendulum, cache):
     """Pendulum, K = (2, 4), gamma = 0.01, ki = 0, small step: within 10 % (issue criterion)."""
     design = pendulum_design()
-    lin = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0))
+    lin = fl.linearized_eps_star(pendulum, design, eps_range=(0.005, 1.0)).value
     est = fl.estimate_eps_star(pendulum, design, fl.Scenario(0.05, 20.0), eps_range=(0.005, 1.0), rtol=0.01, kernel=fl.Kernel(cache_dir=cache))
     assert est.converged and est.bracket[1] / est.bracket[0] - 1 <= 0.01
     assert abs(est.eps_star / lin - 1.0) <= 0.10
