@@ -34,7 +34,7 @@ def _fd_tau(plant, design, r):
 
     def F(Z):
         x_next, s_next = loop.sample(Z[:n], Z[n:], r, 0.0, 0.0, p)[:2]
-        return np.concatenate([np.ravel(x_next), np.ravel(s_next)])
+        return np.concatenate([np.asarray(x_next, float).ravel(), np.asarray(s_next, float).ravel()])
 
     cols = []
     for j in range(X.size):

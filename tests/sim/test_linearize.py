@@ -21,7 +21,7 @@ def _one_sample(plant, design, lin):
     loop = ClosedLoop(plant, design, substeps=default_substeps(plant, design.T))
     x_next, s_next = loop.sample(lin.x_eq, lin.s_eq, lin.r, 0.0, 0.0,
                                  design.parameter_vector())[:2]
-    return loop, np.concatenate([np.ravel(x_next), np.ravel(s_next)])
+    return loop, np.concatenate([np.asarray(x_next, float).ravel(), np.asarray(s_next, float).ravel()])
 
 
 def _fd_jacobian(loop, X, r, p):
@@ -31,7 +31,7 @@ def _fd_jacobian(loop, X, r, p):
 
     def F(Z):
         x_next, s_next = loop.sample(Z[:n], Z[n:], r, 0.0, 0.0, p)[:2]
-        return np.concatenate([np.ravel(x_next), np.ravel(s_next)])
+        return np.concatenate([np.asarray(x_next, float).ravel(), np.asarray(s_next, float).ravel()])
 
     cols = []
     for j in range(X.size):
