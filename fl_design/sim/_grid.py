@@ -110,6 +110,12 @@ def block_length(ncols: int, threads: int, compiled: bool) -> int:
     return max(64, int(BLOCK_SECONDS / per_sample))
 
 
+#: Default grid points per chunk of a sweep run in this process (see :class:`Kernel`).
+CHUNK_IN_PROCESS = 256
+#: Default grid points per task of a sweep run by an executor.
+CHUNK_PER_TASK = 64
+
+
 def _run_chunk(run: RunSetup, P: np.ndarray, kernel: Kernel, threads: int):
     """One task: the final accumulators of the parameter columns ``P`` (module level: picklable).
 
@@ -264,7 +270,9 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     n_runs = int(P.n) if callable(P) else int(np.shape(P)[1])
     _check_memory(run, n_runs)
     threads = kernel.threads
-    chunk = kernel.chunk_size if kernel.chunk_size is not None else 64
+    chunk = kernel.chunk_size
+    if chunk is None:
+        chunk = CHUNK_IN_PROCESS if executor is None else CHUNK_PER_TASK
     pieces = [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
     out = np.empty((run.loop.layout.size, n_runs))
     bar = _Progress(n_runs, bool(progress), desc)

@@ -242,7 +242,12 @@ class Kernel:
         Threads per process of a sweep (default: the cores available; 1 per task with an
         executor).
     chunk_size : int, optional
-        Grid points per chunk/task of a sweep (default 64).
+        Grid points per chunk/task of a sweep (default :data:`fl_design.sim.CHUNK_IN_PROCESS`
+        = 256 in this process, :data:`fl_design.sim.CHUNK_PER_TASK` = 64 per task of an
+        executor). In this process a chunk only sets how often the progress bar moves; each
+        chunk costs a few milliseconds of Python and a thread rendezvous, so chunks of 256
+        made a 64 x 64 TRMS map 0.3 s faster than chunks of 64 (1.24-1.32 s instead of
+        1.59-1.68 s). Tasks stay smaller so that workers share the grid evenly.
     lanes : bool, optional
         Sweeps run several grid points per SIMD vector (the lanes kernel, default True) or
         one at a time (the scalar kernel).
