@@ -59,7 +59,7 @@ estimate_limits = ["none", 0.05]   # |xhat_2| <= 0.05 rad/s
 
 [scenario]
 reference = 0.3           # rad
-duration = 30.0           # s, or "adaptive": from the loop's slowest time constant
+duration = "adaptive"     # from the loop's slowest time constant, or seconds
 tolerance = 0.02          # relative to the step (settling band 2 %)
 noise_std = 0.0           # sensor noise of the main run (rad)
 seed = 1
@@ -69,12 +69,13 @@ windows = [9, 26]                      # least-squares baselines
 noise_std = [0.001, 0.0316227766]      # std 1e-3 and the paper's variance 1e-3
 eps_tradeoff = [0.02, 0.05, 0.1, 0.2, 0.5]
 seed = 1
+duration = 30.0           # s: the transient (overshoot, noise) of every compared run
 
 [sweep]
 eps = [0.005, 1.0]        # log-spaced range (s)
 gamma = [3e-5, 0.03]
 points = 16               # per axis
-duration = 20.0           # s
+duration = "adaptive"     # one length for the map, from the design point's slowest mode
 
 [certify]
 enabled = true
@@ -102,7 +103,7 @@ _SCHEMA: dict[str, dict[str, tuple]] = {
     "scenario": {"reference": _NUM, "duration": _DURATION, "tolerance": _NUM, "noise_std": _NUM,
                  "seed": (int,)},
     "compare": {"windows": (list,), "noise_std": (list,), "eps_tradeoff": (list,),
-                "seed": (int,)},
+                "seed": (int,), "duration": _DURATION},
     "sweep": {"eps": (list,), "gamma": (list,), "points": (int,), "duration": _DURATION},
     "certify": {"enabled": (bool,), "gamma": (list,), "points": (int,)},
     "codegen": {"enabled": (bool,), "precision": (str,), "prefix": (str,),
@@ -216,7 +217,7 @@ def _check_semantics(t: dict) -> None:
     for table, key, n in (("sweep", "eps", 2), ("sweep", "gamma", 2), ("certify", "gamma", 2)):
         _numbers(table, key, t[table][key], n, positive=True)
     _numbers("compare", "eps_tradeoff", t["compare"]["eps_tradeoff"], positive=True)
-    for table, key in (("scenario", "duration"), ("sweep", "duration"),
+    for table, key in (("scenario", "duration"), ("compare", "duration"), ("sweep", "duration"),
                        ("codegen", "sil_duration")):
         if isinstance(t[table][key], str):
             if t[table][key] != "adaptive":

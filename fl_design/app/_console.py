@@ -107,7 +107,8 @@ def print_simulate(job) -> None:
     sim = job.results["simulate"]
     main = sim["main"]
     print(f"This design ({design_label(job.design)}), {sim['duration']:g} s: {main.verdict()}")
-    print(f"\n  {'design':<16}{'noise std':>10}  {'verdict':<12}{'overshoot %':>14}  "
+    print(f"\n  compared runs, {sim['compare_duration']:g} s each:")
+    print(f"  {'design':<16}{'noise std':>10}  {'verdict':<12}{'overshoot %':>14}  "
           f"{'tail |e|':>9}")
     for (name, std), r in sim["runs"].items():
         print(f"  {name:<16}{std:>10.3g}  {r.status:<12}{overshoot_text(r):>14}  "

@@ -157,25 +157,29 @@ def _simulate_one(job: Job, design, duration: float, std: float):
 
 def _simulate(job: Job, quick: bool) -> None:
     cfg = job.config
+    # the main run's length (default adaptive: long enough for its verdict); the compared runs
+    # are about the transient (overshoot, noise) and share one fixed length
     duration = QUICK["duration"] if quick else cfg.scenario["duration"]
+    compare = QUICK["duration"] if quick else cfg.compare["duration"]
     rho = job.plant.relative_degree()
     designs = {_label(job.design): job.design}
     if job.design.estimator.has_time_constant:
         designs |= {f"LS({w})": build_design(cfg, window=int(w), rho=rho)
                     for w in cfg.compare["windows"]}
     stds = [0.0] + [float(s) for s in cfg.compare["noise_std"]]
-    runs = {(name, std): _simulate_one(job, d, duration, std)
+    runs = {(name, std): _simulate_one(job, d, compare, std)
             for std in stds for name, d in designs.items()}
     main = _simulate_one(job, job.design, duration, float(cfg.scenario["noise_std"]))
     tradeoff = []
     if job.design.estimator.has_time_constant:
         std = stds[-1]
         for e in cfg.compare["eps_tradeoff"]:
-            resp = _simulate_one(job, job.design.replace(eps=float(e)), duration, std)
+            resp = _simulate_one(job, job.design.replace(eps=float(e)), compare, std)
             tradeoff.append({"eps": float(e), "noise_std": std, **noise_levels(resp),
                              "status": resp.status, "overshoot_%": resp.overshoot})
     job.results["simulate"] = {"main": main, "runs": runs, "stds": stds,
                                "duration": main.duration,
+                               "compare_duration": float(next(iter(runs.values())).duration),
                                "duration_reason": main.duration_reason,
                                "designs": list(designs), "tradeoff": tradeoff}
 

@@ -211,6 +211,8 @@ def _simulations(job, figures) -> list:
         lv = noise_levels(r)
         rows.append([name, f"{std:.3g}", r.status, overshoot_text(r), fmt(r.tail_error),
                      fmt(lv["u_noise"], "n/a"), r.verdict()])
+    blocks.append(("p", (f"The compared runs, {sim['compare_duration']:g} s each "
+                         "(the transient: overshoot and noise):")))
     blocks.append(("table", ["design", "noise std", "verdict", "overshoot %", "tail max |e|",
                              "u noise", "in words"], rows))
     if "steps.png" in figures:
