@@ -10,6 +10,8 @@ Examples
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 
 from ..plotting import plot_eps_star
@@ -257,7 +259,8 @@ def main_response_figure(job):
     'time (s)'
     """
     resp = job.results["simulate"]["main"]
-    fig = resp.plot(title=f"{job.plant.name}: {design_label(job.design)}\n{resp.verdict()}")
+    verdict = textwrap.fill(resp.verdict(), 120)  # the whole verdict, wrapped to the figure
+    fig = resp.plot(title=f"{job.plant.name}: {design_label(job.design)}\n{verdict}")
     fig.axes[0].title.set_fontsize("x-small")
     fig.axes[0].set_ylabel(f"output y ({_y(job)})")
     fig.axes[1].set_ylabel(f"input u ({job.config.plant.get('input_unit', 'input units')})")
