@@ -23,6 +23,7 @@ import numpy as np
 from .._json import jsonable
 from ._metrics import STATUS_NAMES, Status, metrics_from_summary
 
+
 @dataclass(frozen=True)
 class Response:
     """One closed-loop run: trajectories, settings and metrics (module table).

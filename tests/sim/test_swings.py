@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import math
 
-import casadi as ca
 import numpy as np
 import pytest
 
@@ -33,8 +32,8 @@ def _run_table(e: np.ndarray, k_tail: int) -> dict:
     m = np.asarray(_metric_step(1).mapaccum(n)(m0, sig, c), dtype=float)[:, -1]
     out = {name: np.asarray(v).ravel() for name, v in lay.unpack(m).items()}
     out = {name: (v if name == "est2_sum" else float(v[0])) for name, v in out.items()}
-    return out | dict(N=n, k_tail=k_tail, k_mid=k_tail + (n - k_tail) // 2, y0=0.0, step=1.0,
-                      tol=TOL, diverged=0, k_div=-1)
+    return out | {"N": n, "k_tail": k_tail, "k_mid": k_tail + (n - k_tail) // 2, "y0": 0.0, "step": 1.0,
+                      "tol": TOL, "diverged": 0, "k_div": -1}
 
 
 def _signals() -> dict:
@@ -68,15 +67,15 @@ def test_reversal_counter_equals_a_numpy_zigzag_on_synthetic_errors(name):
 
 
 def test_classify_gives_every_status_from_accumulators():
-    base = dict(diverged=0, tol=TOL, tail_abs_e_max=0.1, tail_e_max=0.1, tail_e_min=-0.1,
-                env1_max=0.1, env2_max=0.1, tail_reversals=0)
+    base = {"diverged": 0, "tol": TOL, "tail_abs_e_max": 0.1, "tail_e_max": 0.1, "tail_e_min": -0.1,
+                "env1_max": 0.1, "env2_max": 0.1, "tail_reversals": 0}
     cases = {
-        "converged": dict(tail_abs_e_max=0.005, tail_e_max=0.005, tail_e_min=0.0),
-        "converging": dict(env2_max=0.05),
-        "oscillating": dict(tail_reversals=2),
-        "undecided": dict(tail_reversals=1),
-        "diverged": dict(diverged=1, tail_reversals=5),
-        "solver_failed": dict(solver_failed=1),
+        "converged": {"tail_abs_e_max": 0.005, "tail_e_max": 0.005, "tail_e_min": 0.0},
+        "converging": {"env2_max": 0.05},
+        "oscillating": {"tail_reversals": 2},
+        "undecided": {"tail_reversals": 1},
+        "diverged": {"diverged": 1, "tail_reversals": 5},
+        "solver_failed": {"solver_failed": 1},
     }
     for label, change in cases.items():
         assert Status(int(classify(base | change))) == Status.from_label(label), label
