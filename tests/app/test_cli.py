@@ -61,7 +61,8 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
     lin = data["certify"]["linearized"]
     top = lin["eps_range"][1]
     for star in [*lin["eps_star"], data["certify"]["linearized_design"]]:
-        assert set(star) == {"lower", "upper", "text"}
+        assert set(star) == {"lower", "upper", "upper_status", "text"}
+        assert star["upper_status"] is None  # a linearization has no run status
         if star["upper"] is None:
             assert star["lower"] == top and star["text"] == f"> {top:g}"
         else:
