@@ -251,8 +251,8 @@ class StabilityMap:
         >>> from fl_design.sim import StabilityMap
         >>> m = StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[2]]),
         ...                  {"iae": np.array([[np.nan]])}, 1e-3, 1.0, 0.1)
-        >>> m.to_dict()["metrics"], m.to_dict()["status"], m.to_dict()["eps_star"]
-        ({'iae': [[None]]}, [['converged']], [{'lower': 0.1, 'upper': None, 'text': '> 0.1'}])
+        >>> m.to_dict()["metrics"], m.to_dict()["status"], m.to_dict()["eps_star"][0]["text"]
+        ({'iae': [[None]]}, [['converged']], '> 0.1')
         """
         return jsonable({"eps": self.eps, "gamma": self.gamma, "status": self.labels.tolist(),
                          "T": self.T, "duration": self.duration,
