@@ -55,7 +55,7 @@ display(cert)
 # ## The empirical map
 #
 # One closed-loop simulation of a 0.1 rad step per grid point, classified converged,
-# converging, oscillating or diverged.
+# converging, oscillating, undecided or diverged.
 
 # %%
 eps_grid = np.geomspace(2e-3, 0.5, N_GRID)

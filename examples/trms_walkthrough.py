@@ -62,7 +62,8 @@ for name, design in designs.items():
 # ## Step responses, 0.3 rad step
 #
 # Every design without noise and with a sensor noise of standard deviation 1e-3 rad. The verdict
-# says what each run shows (converged, converging, oscillating or diverged) with its numbers.
+# says what each run shows (converged, converging, oscillating, undecided or diverged) with its
+# numbers.
 
 # %%
 responses = {}

@@ -48,6 +48,7 @@ def summary_from_trajectories(*, r, y, u, xhat, sigmahat, sigma, coords, y0: flo
         "tail_e_min": tail.min(initial=np.inf), "tail_e_sum": tail.sum(),
         "k10": first(prog >= 0.1 * abs(step)), "k90": first(prog >= 0.9 * abs(step)),
         "k_out": float(outside[-1]) if outside.size else -1.0,
+        "tail_reversals": float(count_reversals(tail, tol / 2)) if tail.size else 0.0,
     }
 
 
@@ -61,7 +62,8 @@ def metrics_from_trajectories(resp) -> dict:
     if s["diverged"]:
         nan = float("nan")
         out = {k: nan for k in ("overshoot", "rise_time", "settling_time", "steady_state_error",
-                                "iae", "input_rms", "input_tv", "tail_error", "tail_amplitude")}
+                                "iae", "input_rms", "input_tv", "tail_error", "tail_amplitude",
+                                "tail_reversals")}
         out["estimation_rms"] = np.full(np.shape(s["est2_sum"]), np.nan)
         out["divergence_time"] = s["k_div"] * T
         return out
@@ -78,12 +80,41 @@ def metrics_from_trajectories(resp) -> dict:
         "estimation_rms": np.sqrt(s["est2_sum"] / N),
         "tail_error": s["tail_abs_e_max"],
         "tail_amplitude": s["tail_e_max"] - s["tail_e_min"],
+        "tail_reversals": s["tail_reversals"],
         "divergence_time": float("nan"),
     }
 
 
+def count_reversals(e, h: float) -> int:
+    """Direction reversals of ``e`` with hysteresis ``h``: turning points of its zigzag.
+
+    A zigzag leg starts once ``e`` has left the range of the samples so far by more than ``h``
+    (upwards or downwards); each later move back by more than ``h`` from the leg's extreme ends
+    the leg at a turning point (a reversal) and starts the next one.
+    """
+    values = [float(v) for v in e]
+    legs, top, bottom, trend = 0, values[0], values[0], 0
+    for v in values[1:]:
+        if trend == 0:
+            top, bottom = max(top, v), min(bottom, v)
+            if v < top - h:
+                trend, bottom = -1, v
+            elif v > bottom + h:
+                trend, top = 1, v
+        elif trend > 0:
+            if v < top - h:
+                legs, trend, bottom = legs + 1, -1, v
+            top = max(top, v)
+        else:
+            if v > bottom + h:
+                legs, trend, top = legs + 1, 1, v
+            bottom = min(bottom, v)
+    return legs
+
+
 def status_from_trajectories(resp, shrink: float = 0.95) -> str:
-    """The classification from whole trajectories: converged / converging / oscillating."""
+    """The classification from whole trajectories: converged / converging / oscillating /
+    undecided (the reversals counted by :func:`count_reversals` with ``h = tol / 2``)."""
     if resp.divergence_index is not None:
         return "diverged"
     e = resp.y - resp.r
@@ -92,7 +123,9 @@ def status_from_trajectories(resp, shrink: float = 0.95) -> str:
         return "converged"
     half = (e.size - resp.k_tail) // 2
     first, second = np.abs(tail[:half]).max(), np.abs(tail[half:]).max()
-    return "converging" if second < shrink * first else "oscillating"
+    if second < shrink * first:
+        return "converging"
+    return "oscillating" if count_reversals(tail, resp.tol / 2) >= 2 else "undecided"
 
 
 def region_exit_time(resp, region: dict, states) -> float:

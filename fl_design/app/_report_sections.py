@@ -162,7 +162,8 @@ def _sweep(job, figures) -> list:
         return [("p", "Not run.")]
     labels = smap.labels
     counts = ", ".join(f"{int(np.sum(labels == s))} {s}" for s in
-                       ("converged", "converging", "oscillating", "diverged", "solver_failed")
+                       ("converged", "converging", "oscillating", "undecided", "diverged",
+                        "solver_failed")
                        if np.any(labels == s))
     cert = job.results.get("certify", {})
     rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
@@ -183,6 +184,12 @@ def _sweep(job, figures) -> list:
                             "settle inside the band (on the TRMS, a slow limit cycle against the "
                             "Coulomb friction). Those runs count as failures for eps*; the last "
                             "column counts them as bounded, the practical stability of Theorem 1.")))
+    if np.any(labels == "undecided"):
+        blocks.append(("p", ("'undecided' runs are bounded, outside the band, and neither "
+                            "shrinking nor swinging over their tail: a mode slower than the run "
+                            "or a persistent offset. They count as not converging for eps* "
+                            "(the bracket then says 'undecided at', not 'fails at'); longer "
+                            "runs decide them.")))
     if "eps_star.png" in figures:
         blocks.append(("fig", "eps_star.png", ("eps*(gamma): certified, frozen, linearized and "
                        "empirical")))

@@ -2,8 +2,8 @@
 
 Modules: ``_options`` (run options: :class:`Scenario`, :class:`Noise`, :class:`Classifier`,
 :class:`RK4`, :class:`Cvodes`, :class:`Kernel`), ``_metrics`` (the one table of a run's
-accumulators and metrics, :class:`Status`), ``_closed_loop`` (plant + design as CasADi
-functions, the accumulating step), ``_runners`` (compiled C driver or CasADi interpreter),
+accumulators and metrics), ``_status`` (:class:`Status` and :func:`classify`: how a run is
+classified), ``_closed_loop`` (plant + design as CasADi functions, the accumulating step), ``_runners`` (compiled C driver or CasADi interpreter),
 ``_run`` (:func:`prepare_run`), ``_simulate`` (:func:`simulate`), ``_response``
 (:class:`Response`), ``_grid`` (chunks over threads/executors), ``_sweep`` (:func:`sweep`,
 :func:`estimate_eps_star`), ``_stability_map`` (:class:`StabilityMap`), ``_linearize`` (the
@@ -14,7 +14,7 @@ Examples
 --------
 >>> from fl_design.sim import STATUS_CODES
 >>> sorted(STATUS_CODES)
-['converged', 'converging', 'diverged', 'oscillating', 'solver_failed']
+['converged', 'converging', 'diverged', 'oscillating', 'solver_failed', 'undecided']
 """
 
 from ._closed_loop import HUGE, ClosedLoop, accumulator_layout, default_substeps

@@ -26,6 +26,9 @@ peak-to-peak of r)``, or 1 output unit when both vanish):
 ``tail_error``               ``max |e|`` over the tail
 ``tail_amplitude``           ``max e - min e`` over the tail (= peak-to-peak of ``y`` for a
                              constant reference there)
+``tail_reversals``            direction reversals of ``e`` over the tail, each counted when
+                             ``e`` moves back by more than ``tol / 2`` from its running
+                             extremum (:data:`~fl_design.sim._status.REVERSAL_HYSTERESIS`)
 ``divergence_time``          time of the first sample out of bounds / non-finite (NaN if none)
 
 ``time_to_tolerance``        converging runs: estimated time from the start until ``|e| <= tol``,
@@ -37,20 +40,10 @@ peak-to-peak of r)``, or 1 output unit when both vanish):
                              the loop may still converge
 ============================ ==================================================================
 
-Status (:class:`Status`, the same for :func:`fl_design.simulate` and :func:`fl_design.sweep`),
-the questions of Theorem 1 (bounded? converging?) answered from the run:
-
-* ``diverged``: at some sample the plant state left ``|x - x_op| <= divergence_bound`` or a
-  state or the input became non-finite (NaN, inf, finite escape); the run is stopped there;
-* ``converged``: not diverged, ``tail_error <= tol`` and ``tail_amplitude <= tol``;
-* ``converging``: bounded, not yet within tolerance, and the error envelope shrinks: the
-  largest ``|e|`` over the second half of the tail is below :data:`SHRINK` times that over
-  the first half (``time_to_tolerance`` estimates when it gets there);
-* ``oscillating``: bounded, but the envelope does not shrink: a sustained oscillation or limit
-  cycle (how an unstable loop usually looks behind input saturation) or a persistent offset;
-* ``solver_failed``: the reference integrator (``cvodes``) gave up on a sample although the
-  state was within bounds: a failure of the tool, not of the loop.
-
+Status (:class:`Status`, the same for :func:`fl_design.simulate` and :func:`fl_design.sweep`):
+``diverged``, ``converged``, ``converging`` (the envelope shrinks), ``oscillating`` (it does
+not, and the error swings: ``tail_reversals >= 2``), ``undecided`` (neither shrinking nor
+swinging: run longer) or ``solver_failed``; the rules are in :mod:`fl_design.sim._status`.
 All other metrics of a diverged run are NaN.
 
 Examples
@@ -62,71 +55,20 @@ Examples
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..design import Layout
-
-
-class Status(enum.IntEnum):
-    """Classification of a run (integer codes are what a :class:`StabilityMap` stores).
-
-    Examples
-    --------
-    >>> from fl_design.sim import Status
-    >>> Status(2).label, Status.from_label("diverged").value, Status.CONVERGING.bounded
-    ('converged', -1, True)
-    """
-
-    SOLVER_FAILED = -2
-    DIVERGED = -1
-    OSCILLATING = 0
-    CONVERGING = 1
-    CONVERGED = 2
-
-    @property
-    def bounded(self) -> bool:
-        """The run stayed within bounds (oscillating, converging or converged)."""
-        return self.value >= 0
-
-    @property
-    def convergent(self) -> bool:
-        """The error converges (converging or converged): Theorem 1's conclusion observed."""
-        return self.value >= 1
-
-    @property
-    def label(self) -> str:
-        """Lower-case name, e.g. ``"converged"``."""
-        return self.name.lower()
-
-    @classmethod
-    def from_label(cls, label: str) -> Status:
-        """The status named ``label`` (``"converged"``, ``"oscillating"``, ...).
-
-        Parameters
-        ----------
-        label : str
-            A lower-case status name.
-
-        Returns
-        -------
-        Status
-
-        Examples
-        --------
-        >>> from fl_design.sim import Status
-        >>> Status.from_label("converging")
-        <Status.CONVERGING: 1>
-        """
-        return cls[label.upper()]
-
-
-#: Integer codes of the classification by label (``StabilityMap.status`` holds these).
-STATUS_CODES = {s.label: int(s) for s in Status}
-STATUS_NAMES = {code: name for name, code in STATUS_CODES.items()}
+from ._status import (
+    REVERSAL_HYSTERESIS,
+    SHRINK,
+    STATUS_CODES,
+    STATUS_NAMES,
+    Status,
+    classify,
+)
 
 
 @dataclass(frozen=True)
@@ -141,7 +83,8 @@ class Accumulator:
         Value before the first sample.
     update : callable
         ``update(prev, s) -> new`` on CasADi expressions, ``s`` the per-sample signals
-        (:func:`signals`).
+        (:func:`signals`) and ``s["prev"]``, the previous values of every accumulator (for
+        running values that depend on each other, such as the swing counter).
     per_estimate : bool, optional
         One entry per estimate ``rho + 1`` instead of a scalar.
 
@@ -180,8 +123,27 @@ def _fmin(a, b):
     return ca.fmin(a, b)
 
 
-#: Envelope ratio (second half of the tail / first half) below which a run is converging.
-SHRINK = 0.95
+def _swing(s):
+    """``(direction, extremum, reversed)`` of the tail's swing counter after this sample.
+
+    ``rev_dir`` is 0 until ``e`` has left the range of the tail so far
+    (``tail_e_min .. tail_e_max``) by more than the hysteresis ``h``, then +1 (rising) or -1
+    (falling); ``rev_ext`` is the running extremum of ``rev_dir * e`` (the largest ``e`` while
+    rising, minus the smallest while falling). Moving back by more than ``h`` from it is a
+    reversal: the direction flips and the extremum restarts at ``e``. Before the tail the
+    tail's extremes are still -inf / inf, so nothing starts: no gating needed, which keeps the
+    kernel's step short.
+    """
+    if "_swing" not in s:  # once per sample, shared by the three accumulators
+        p, e = s["prev"], s["e"]
+        h = REVERSAL_HYSTERESIS * s["tol"]
+        d, ext = p["rev_dir"], p["rev_ext"]
+        idle = d == 0
+        back = (1 - idle) * (d * e < ext - h)
+        down, up = idle * (e < p["tail_e_max"] - h), idle * (e > p["tail_e_min"] + h)
+        d_new = d * (1 - 2 * back) + up - down  # down and up never both hold
+        s["_swing"] = (d_new, _if(back + down + up, d_new * e, _fmax(ext, d * e)), back)
+    return s["_swing"]
 
 
 def _half(which):
@@ -211,6 +173,9 @@ ACCUMULATORS = (
     Accumulator("env1_max", 0.0, _half(1)),
     Accumulator("env2_max", 0.0, _half(2)),
     Accumulator("k_exit", -1.0, lambda p, s: _if((p < 0) * s["outside"], s["k"], p)),
+    Accumulator("rev_dir", 0.0, lambda p, s: _swing(s)[0]),
+    Accumulator("rev_ext", 0.0, lambda p, s: _swing(s)[1]),
+    Accumulator("tail_reversals", 0.0, lambda p, s: p + _swing(s)[2]),
 )
 
 #: Constants of a run stored with its accumulators (inputs of the finalization).
@@ -317,6 +282,7 @@ def update(acc: dict, s: dict) -> dict:
     >>> len(update({a.name: x for a in ACCUMULATORS}, sig)) == len(ACCUMULATORS)
     True
     """
+    s = {**s, "prev": acc}
     return {a.name: a.update(acc[a.name], s) for a in ACCUMULATORS}
 
 
@@ -376,6 +342,7 @@ METRICS = (
     Metric("tail_error", "output", lambda g, T: g["tail_abs_e_max"]),
     Metric("tail_amplitude", "output", lambda g, T: g["tail_e_max"] - g["tail_e_min"]),
     Metric("time_to_tolerance", "s", lambda g, T: _time_to_tolerance(g, T)),
+    Metric("tail_reversals", "count", lambda g, T: g["tail_reversals"]),
 )
 METRIC_NAMES = tuple(m.name for m in METRICS) + ("divergence_time", "region_exit_time")
 
@@ -390,42 +357,6 @@ def _time_to_tolerance(g, T):
     estimate = g["N"] * T + np.maximum(more, 0.0)
     return np.where(status == Status.CONVERGED, settled,
                     np.where(status == Status.CONVERGING, estimate, np.nan))
-
-
-def classify(summary: dict) -> np.ndarray:
-    """Status codes (:class:`Status`) from the accumulators (arrays broadcast).
-
-    Parameters
-    ----------
-    summary : dict
-        At least ``diverged``, ``tail_abs_e_max``, ``tail_e_max``, ``tail_e_min``, ``tol``,
-        ``env1_max``, ``env2_max``; optionally ``solver_failed``.
-
-    Returns
-    -------
-    numpy.ndarray of int
-
-    Examples
-    --------
-    >>> from fl_design.sim import classify
-    >>> classify(dict(diverged=0, tail_abs_e_max=0.001, tail_e_max=0.001, tail_e_min=0.0,
-    ...               tol=0.01, env1_max=0.001, env2_max=0.0005)).tolist()
-    2
-    >>> classify(dict(diverged=0, tail_abs_e_max=0.1, tail_e_max=0.1, tail_e_min=-0.1,
-    ...               tol=0.01, env1_max=0.1, env2_max=0.1)).tolist()  # sustained oscillation
-    0
-    """
-    div = np.asarray(summary["diverged"]) != 0
-    failed = np.asarray(summary.get("solver_failed", 0)) != 0
-    tol = np.asarray(summary["tol"])
-    with np.errstate(invalid="ignore"):
-        converged = (np.asarray(summary["tail_abs_e_max"]) <= tol) & (
-            np.asarray(summary["tail_e_max"]) - np.asarray(summary["tail_e_min"]) <= tol)
-        shrinking = np.asarray(summary["env2_max"]) < SHRINK * np.asarray(summary["env1_max"])
-    code = np.where(div, int(Status.DIVERGED),
-                    np.where(converged, int(Status.CONVERGED),
-                             np.where(shrinking, int(Status.CONVERGING), int(Status.OSCILLATING))))
-    return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)
 
 
 def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
@@ -452,7 +383,8 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
     >>> s = dict(N=10, k_tail=8, step=1.0, tol=0.02, diverged=0, k_div=-1, e_max=0.1,
     ...          e_min=-1.0, abs_e_sum=2.0, u2_sum=10.0, du_sum=1.0, est2_sum=np.zeros(3),
     ...          tail_abs_e_max=0.01, tail_e_max=0.01, tail_e_min=0.0, tail_e_sum=0.01,
-    ...          k10=1, k90=3, k_out=5, k_mid=9, env1_max=0.01, env2_max=0.0, k_exit=-1)
+    ...          k10=1, k90=3, k_out=5, k_mid=9, env1_max=0.01, env2_max=0.0, k_exit=-1,
+    ...          tail_reversals=0)
     >>> m = metrics_from_summary(s, 0.1)
     >>> [round(float(m[k]), 12) for k in ("overshoot", "rise_time", "settling_time")]
     [10.0, 0.2, 0.6]

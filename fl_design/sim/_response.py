@@ -23,10 +23,6 @@ import numpy as np
 from .._json import jsonable
 from ._metrics import STATUS_NAMES, Status, metrics_from_summary
 
-#: An ``oscillating`` run whose tail peak-to-peak is below this fraction of its largest ``|e|``
-#: did not swing: :meth:`Response.verdict` calls it an offset, not an oscillation.
-OFFSET_SWING = 0.5
-
 
 @dataclass(frozen=True)
 class Response:
@@ -128,10 +124,10 @@ class Response:
     tail_amplitude = property(lambda self: self.metrics["tail_amplitude"],
                               doc="Peak-to-peak of e on the tail.")
     status = property(lambda self: self.metrics["status"],
-                      doc="'converged', 'converging', 'oscillating', 'diverged' or "
+                      doc="'converged', 'converging', 'oscillating', 'undecided', 'diverged' or "
                           "'solver_failed' (see fl_design.sim.Status).")
     bounded = property(lambda self: Status.from_label(self.status).bounded,
-                       doc="Stayed within bounds (oscillating, converging or converged).")
+                       doc="Stayed within bounds (oscillating, converging, converged, undecided).")
     converged = property(lambda self: self.status == "converged",
                          doc="Within tolerance over the whole tail.")
     stable = property(lambda self: Status.from_label(self.status).convergent,
@@ -207,6 +203,7 @@ class Response:
         'converged: |e| <= 0.002 after 9.08 s; overshoot 0 %'
         """
         m, tol = self.metrics, self.tol
+        tail = (self.t.size - self.k_tail) * self.T
         over = "" if np.isnan(m["overshoot"]) else f"; overshoot {m['overshoot']:.3g} %"
         exit_ = ("" if np.isnan(m["region_exit_time"]) else
                  f"; left the plant's region at t = {m['region_exit_time']:.3g} s")
@@ -215,7 +212,17 @@ class Response:
             "converging": (f"converging: |e| = {m['tail_error']:.3g} > {tol:.3g} at the end, "
                            f"shrinking; estimated within tolerance at t = "
                            f"{m['time_to_tolerance']:.3g} s (run longer to confirm)"),
-            "oscillating": self._not_shrinking(tol),
+            "oscillating": (f"oscillating: bounded, the error swings and its envelope does not "
+                            f"shrink "
+                            f"({m['tail_reversals']:.0f} reversals over the last {tail:.3g} s; "
+                            f"tail |e| up to {m['tail_error']:.3g}, peak-to-peak "
+                            f"{m['tail_amplitude']:.3g}, tolerance {tol:.3g})"),
+            "undecided": (f"undecided: bounded, |e| = {m['tail_error']:.3g} > {tol:.3g} at the "
+                          f"end, neither shrinking nor swinging over the last {tail:.3g} s: a "
+                          f"mode slower than this run or a persistent offset; run longer "
+                          + ("(give a duration longer than this run's)" if self.adaptive_duration
+                             else "(omit the duration for one chosen from the loop's slowest "
+                                  "mode)")),
             "diverged": f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or "
                         "became non-finite)",
             "solver_failed": "solver failed: cvodes gave up on a bounded state (not a verdict "
@@ -224,24 +231,6 @@ class Response:
         run = (f"; run of {self.duration:.4g} s chosen by the loop: {self.duration_reason}"
                if self.adaptive_duration else "")
         return text + (over if self.status != "diverged" else "") + exit_ + run
-
-    def _not_shrinking(self, tol: float) -> str:
-        """Verdict text of an ``oscillating`` run: a swing, or an offset that does not move.
-
-        The status says the tail's envelope did not shrink. When the tail moves by less than
-        half its largest ``|e|`` (:data:`OFFSET_SWING`), the run did not swing at all: it sits
-        at an offset, either persistent (stiction, saturation) or decaying on a time scale
-        longer than the run; the text says so instead of calling it an oscillation.
-        """
-        m = self.metrics
-        numbers = (f"tail |e| up to {m['tail_error']:.3g}, peak-to-peak "
-                   f"{m['tail_amplitude']:.3g}, tolerance {tol:.3g}")
-        if m["tail_amplitude"] < OFFSET_SWING * m["tail_error"]:
-            return (f"oscillating: bounded, but the error does not shrink; it sits at an offset "
-                    f"rather than swinging ({numbers}): a persistent offset, or a mode slower "
-                    f"than this {self.duration:.4g} s run; a longer run tells them apart (omit "
-                    f"the duration for one chosen from the loop's slowest mode)")
-        return f"oscillating: bounded, but the error envelope does not shrink ({numbers})"
 
     def _repr_html_(self) -> str:
         """A short HTML table for Jupyter: status, verdict, overshoot, settling time."""

@@ -20,7 +20,7 @@ import numpy as np
 from .. import _validate as V
 from .._json import jsonable
 from ..errors import ParameterError
-from ._metrics import Status
+from ._status import CONVERGENT_CODES, Status
 
 
 @dataclass(frozen=True)
@@ -30,12 +30,17 @@ class EpsStar:
     ``lower`` is the largest grid eps such that every grid eps' <= it converges (converging or
     converged); ``upper`` the first grid eps that does not. No boundary in the scanned range
     is said as such: ``upper = inf`` ("> eps_max": every eps converged, eps* lies above the
-    range) or ``lower = nan`` ("< eps_min": even the smallest eps failed).
+    range) or ``lower = nan`` ("< eps_min": even the smallest eps failed). When the run at
+    ``upper`` is ``undecided`` (bounded, neither converging nor swinging: too short to tell),
+    the text says so instead of "fails at": the bracket is then a lower bound that a longer run
+    may raise.
 
     Parameters
     ----------
     lower, upper : float
         The bracket on the grid.
+    upper_status : str, optional
+        Status label of the run at ``upper`` (None when unknown or ``upper`` is infinite).
 
     Examples
     --------
@@ -46,10 +51,18 @@ class EpsStar:
     ('< 0.01', 0.02)
     >>> str(EpsStar(0.0417487, 0.04174874))  # a narrow bracket keeps the digits it needs
     '0.0417487 (fails at 0.04174874)'
+    >>> str(EpsStar(0.35, 0.49, "undecided")), str(EpsStar(float("nan"), 0.005, "undecided"))
+    ('0.35 (undecided at 0.49: run longer)', '< 0.005 (undecided at 0.005: run longer)')
     """
 
     lower: float
     upper: float
+    upper_status: str | None = None
+
+    @property
+    def undecided(self) -> bool:
+        """The first eps that does not converge is ``undecided``, not a failure."""
+        return self.upper_status == Status.UNDECIDED.label
 
     @property
     def value(self) -> float | None:
@@ -70,21 +83,25 @@ class EpsStar:
         if self.above_range:
             return f"> {self.lower:g}"
         if self.below_range:
-            return f"< {self.upper:g}"
+            return f"< {self.upper:g}" + (
+                f" (undecided at {self.upper:g}: run longer)" if self.undecided else "")
         digits = next((n for n in range(6, 18) if f"{self.lower:.{n}g}" != f"{self.upper:.{n}g}"),
                       17)  # enough digits to tell a narrow bisection bracket's ends apart
+        if self.undecided:
+            return f"{self.lower:.{digits}g} (undecided at {self.upper:.{digits}g}: run longer)"
         return f"{self.lower:.{digits}g} (fails at {self.upper:.{digits}g})"
 
     def to_dict(self) -> dict:
-        """Strict JSON: ``lower``, ``upper`` (None when unbounded), ``text``.
+        """Strict JSON: ``lower``, ``upper`` (None when unbounded), ``upper_status``, ``text``.
 
         Examples
         --------
         >>> from fl_design.sim import EpsStar
         >>> EpsStar(0.5, float("inf")).to_dict()
-        {'lower': 0.5, 'upper': None, 'text': '> 0.5'}
+        {'lower': 0.5, 'upper': None, 'upper_status': None, 'text': '> 0.5'}
         """
-        return jsonable({"lower": self.lower, "upper": self.upper, "text": str(self)})
+        return jsonable({"lower": self.lower, "upper": self.upper,
+                         "upper_status": self.upper_status, "text": str(self)})
 
 
 # --- the result ------------------------------------------------------------------------------
@@ -100,7 +117,7 @@ class StabilityMap:
         ``(n_g,)`` increasing controller gains.
     status : numpy.ndarray
         ``(n_e, n_g)`` int codes of :class:`fl_design.sim.Status` (2 converged, 1 converging,
-        0 oscillating, -1 diverged, -2 solver failed).
+        0 oscillating, 3 undecided, -1 diverged, -2 solver failed).
     metrics : dict
         Name -> ``(n_e, n_g)`` array (``estimation_rms``: ``(n_e, n_g, rho + 1)``), see
         :mod:`fl_design.sim`.
@@ -147,10 +164,10 @@ class StabilityMap:
         return int(hits[0])
 
     def _convergent(self) -> np.ndarray:
-        return np.asarray(self.status) >= int(Status.CONVERGING)
+        return np.isin(np.asarray(self.status), CONVERGENT_CODES)
 
     def eps_star(self, gamma: float) -> EpsStar:
-        """Empirical eps*: the boundary between converging/converged and oscillating/diverged.
+        """Empirical eps*: the boundary between converging/converged and the rest.
 
         Parameters
         ----------
@@ -162,7 +179,8 @@ class StabilityMap:
         EpsStar
             ``lower``: the largest grid eps such that every grid eps' <= it converges;
             ``upper``: the first one that does not (``> eps_max`` / ``< eps_min`` when the
-            boundary lies outside the grid).
+            boundary lies outside the grid), ``upper_status`` its status (``undecided``: the
+            run there was too short to tell, not a failure).
 
         Examples
         --------
@@ -178,7 +196,8 @@ class StabilityMap:
         if not bad.size:
             return EpsStar(float(self.eps[-1]), math.inf)
         lower = math.nan if bad[0] == 0 else float(self.eps[bad[0] - 1])
-        return EpsStar(lower, float(self.eps[bad[0]]))
+        code = int(np.asarray(self.status)[bad[0], self._index(self.gamma, gamma, "gamma")])
+        return EpsStar(lower, float(self.eps[bad[0]]), Status(code).label)
 
     def gamma_bounds(self, eps: float, *, around: float | None = None) -> tuple[float, float]:
         """``(lowest, highest)`` grid gamma of a contiguous run of converging gammas at ``eps``.
@@ -232,8 +251,8 @@ class StabilityMap:
         >>> from fl_design.sim import StabilityMap
         >>> m = StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[2]]),
         ...                  {"iae": np.array([[np.nan]])}, 1e-3, 1.0, 0.1)
-        >>> m.to_dict()["metrics"], m.to_dict()["status"], m.to_dict()["eps_star"]
-        ({'iae': [[None]]}, [['converged']], [{'lower': 0.1, 'upper': None, 'text': '> 0.1'}])
+        >>> m.to_dict()["metrics"], m.to_dict()["status"], m.to_dict()["eps_star"][0]["text"]
+        ({'iae': [[None]]}, [['converged']], '> 0.1')
         """
         return jsonable({"eps": self.eps, "gamma": self.gamma, "status": self.labels.tolist(),
                          "T": self.T, "duration": self.duration,
@@ -296,7 +315,8 @@ class EpsStarEstimate:
         when even the lower end of the range fails (see :attr:`bound`: ``< lo``).
     bracket : (float, float)
         ``(converging eps, failing eps)``; ``(hi, inf)`` when the whole range converges
-        (``> hi``), ``(nan, lo)`` when none does (``< lo``).
+        (``> hi``), ``(nan, lo)`` when none does (``< lo``). The failing end may be
+        ``undecided`` (see :attr:`bound`).
     n_simulations : int
         Closed-loop runs made.
     history : tuple
@@ -334,15 +354,27 @@ class EpsStarEstimate:
         [1.0, None]
         """
         return jsonable({"eps_star": self.eps_star, "bracket": self.bracket,
-                         "text": str(self),
+                         "upper_status": self.bound.upper_status, "text": str(self),
                          "n_simulations": self.n_simulations, "converged": self.converged,
                          "duration": self.duration, "duration_reason": self.duration_reason,
                          "history": self.history})
 
     @property
     def bound(self) -> EpsStar:
-        """The bracket as an :class:`EpsStar` (says ``> hi`` / ``< lo`` when outside)."""
-        return EpsStar(float(self.bracket[0]), float(self.bracket[1]))
+        """The bracket as an :class:`EpsStar` (says ``> hi`` / ``< lo`` when outside, and
+        ``undecided at`` when the run at the upper end was, from :attr:`history`).
+
+        Examples
+        --------
+        >>> from fl_design.sim import EpsStarEstimate
+        >>> str(EpsStarEstimate(0.04, (0.04, 0.05), 2, ((0.04, "converged", float("nan")),
+        ...     (0.05, "undecided", float("nan"))), False))
+        '0.04 (undecided at 0.05: run longer)'
+        """
+        upper = float(self.bracket[1])
+        status = next((h[1] for h in self.history if math.isfinite(upper) and h[0] == upper),
+                      None)
+        return EpsStar(float(self.bracket[0]), upper, status)
 
     def __str__(self) -> str:
         return str(self.bound)

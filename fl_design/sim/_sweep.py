@@ -166,8 +166,10 @@ def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
     """Empirical eps* by bisection in ``log eps`` between a stable and a non-stable run.
 
     Each candidate is one closed-loop run classified as in :func:`sweep`; a candidate passes
-    when it converges (converging or converged) and fails when it oscillates or diverges. A diverging run stops at its divergence (the kernel skips the rest),
-    so unstable candidates cost little. The lower end must be stable and the upper end not; if
+    when it converges (converging or converged) and fails otherwise (oscillating, diverged,
+    or undecided: the bracket's text then says ``undecided at``, see
+    :attr:`EpsStarEstimate.bound`). A diverging run stops at its divergence (the kernel skips
+    the rest), so unstable candidates cost little. The lower end must be stable and the upper end not; if
     the upper end is stable the result is ``(hi, inf)``, unconverged.
 
     Parameters

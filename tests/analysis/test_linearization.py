@@ -132,7 +132,7 @@ def test_linearized_eps_star_range_ends(pendulum_design, pendulum):
     assert all(fl.sampled_linearization(pendulum, design.replace(eps=e)).stable
                for e in (0.005, 0.01, 0.02))
     assert json.loads(json.dumps(above.to_dict(), allow_nan=False)) == {
-        "lower": 0.02, "upper": None, "text": "> 0.02"}
+        "lower": 0.02, "upper": None, "upper_status": None, "text": "> 0.02"}
 
 
 def test_eps_star_plot_marks_brackets_outside_the_range_at_the_edge():

@@ -53,7 +53,7 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
     assert data["derivation"]["b_bounds"] == pytest.approx([3.6, 6.8])
     runs = data["simulate"]["runs"]
     assert {r["design"] for r in runs} == {"EHGO eps=0.05", "LS(9)", "LS(26)"}
-    assert all(r["status"] in ("converged", "converging", "oscillating", "diverged")
+    assert all(r["status"] in ("converged", "converging", "oscillating", "undecided", "diverged")
                for r in runs)
     assert data["codegen"]["sil"]["passed"] is True
     assert data["certify"]["eps"]["certified"] is True
@@ -61,7 +61,8 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
     lin = data["certify"]["linearized"]
     top = lin["eps_range"][1]
     for star in [*lin["eps_star"], data["certify"]["linearized_design"]]:
-        assert set(star) == {"lower", "upper", "text"}
+        assert set(star) == {"lower", "upper", "upper_status", "text"}
+        assert star["upper_status"] is None  # a linearization has no run status
         if star["upper"] is None:
             assert star["lower"] == top and star["text"] == f"> {top:g}"
         else:
