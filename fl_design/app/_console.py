@@ -83,9 +83,11 @@ def print_sweep(job) -> None:
           f"s runs: {counts}")
     if smap.duration_reason != "given":
         print(f"  run length chosen from the loop: {smap.duration_reason}")
-    print(f"  {'gamma':<10} {'empirical eps* (s)':<30} every run bounded up to eps (s)")
-    for g in smap.gamma:
-        print(f"  {g:<10.3g} {smap.eps_star(g)!s:<30} {bounded_up_to(smap, g)}")
+    brackets = [str(smap.eps_star(g)) for g in smap.gamma]
+    width = max([18, *map(len, brackets)])
+    print(f"  {'gamma':<10} {'empirical eps* (s)':<{width}} every run bounded up to eps (s)")
+    for g, text in zip(smap.gamma, brackets):
+        print(f"  {g:<10.3g} {text:<{width}} {bounded_up_to(smap, g)}")
 
 
 def print_simulate(job) -> None:
