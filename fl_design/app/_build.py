@@ -20,7 +20,8 @@ def _library(key: str, motor_lag: bool):
 
     factories = {"trms": lambda: plants.trms_yaw(motor_lag=motor_lag),
                  "trms-lag": lambda: plants.trms_yaw(motor_lag=True),
-                 "pendulum": plants.pendulum, "flexible-joint": plants.flexible_joint}
+                 "pendulum": plants.pendulum, "flexible-joint": plants.flexible_joint,
+                 "cart-pendulum": plants.cart_pendulum, "maglev": plants.maglev}
     return factories[key]()
 
 

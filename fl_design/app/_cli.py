@@ -30,9 +30,10 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import FlDesignError, OutputPathError, ParameterError
-from ._config import load_config, parse_config
+from ._config import LIBRARY, load_config, parse_config
 
-PLANT_CHOICES = ("trms", "trms-lag", "pendulum", "flexible-joint")
+#: ``--plant`` choices: the library plants of the config.
+PLANT_CHOICES = LIBRARY
 
 
 def check_out_dir(path) -> Path:

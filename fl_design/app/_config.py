@@ -109,7 +109,8 @@ _SCHEMA: dict[str, dict[str, tuple]] = {
     "codegen": {"enabled": (bool,), "precision": (str,), "prefix": (str,),
                 "sil_duration": _NUM},
 }
-_LIBRARY = ("trms", "trms-lag", "pendulum", "flexible-joint")
+#: Library plants by config name (``[plant] library``, ``--plant``).
+LIBRARY = ("trms", "trms-lag", "pendulum", "flexible-joint", "cart-pendulum", "maglev")
 
 
 @dataclass(frozen=True)
@@ -204,8 +205,8 @@ def _check_semantics(t: dict) -> None:
             raise ConfigError(f"[plant] a plant from expressions needs {missing[0]!r} (states, "
                               "input, rhs and output as strings)")
         p.pop("library", None)
-    elif p.get("library") not in _LIBRARY:
-        raise ConfigError(f"[plant] library must be one of {', '.join(_LIBRARY)}, got "
+    elif p.get("library") not in LIBRARY:
+        raise ConfigError(f"[plant] library must be one of {', '.join(LIBRARY)}, got "
                           f"{p.get('library')!r} (or give states, input, rhs and output)")
     if d["estimator"] not in ("ehgo", "least_squares"):
         raise ConfigError(f"[design] estimator must be 'ehgo' or 'least_squares', got "

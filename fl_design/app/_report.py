@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ._report_sections import paper_gamma_bound
+
 
 def _fmt(expr, latex: bool) -> str:
     return sp.latex(expr) if latex else sp.sstr(expr)
@@ -57,7 +59,7 @@ def derivation_report(plant, *, latex: bool = False) -> str:
     if plant.region is not None and plant.input_range is not None:
         b_min, b_max = plant.b_bounds()
         lines.append(f"  b-range over the region: [{b_min:.6g}, {b_max:.6g}]"
-                     f"  -> paper's gamma < 1/b_max = {1.0 / b_max:.4g}")
+                     f"  -> paper's {paper_gamma_bound((b_min, b_max))[1]}")
     if plant.n > nf.rho:
         eig = ", ".join(f"{z:.4g}" for z in nf.zero_dynamics_eigenvalues)
         verdict = "minimum phase" if nf.minimum_phase else "NOT minimum phase"

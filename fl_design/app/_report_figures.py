@@ -10,12 +10,13 @@ Examples
 
 from __future__ import annotations
 
+import math
 import textwrap
 
 import numpy as np
 
 from ..plotting import plot_eps_star
-from ._report_sections import overshoot_text
+from ._report_sections import overshoot_text, paper_gamma_bound
 
 
 def design_label(design) -> str:
@@ -87,9 +88,10 @@ def stability_map_figure(job):
             mfc="yellow", ls="none", label="this design")
     b = job.derivation.get("b_bounds")
     if b is not None:
-        where = "" if 1.0 / b[1] <= smap.gamma[-1] * 1.5 else ", right of this map"
-        ax.axvline(1.0 / b[1], color="k", ls=":", lw=1.2,
-                   label=f"paper's gamma < 1/b_max = {1 / b[1]:.3g}{where}")
+        bound, text = paper_gamma_bound(b)
+        if math.isfinite(bound):
+            where = "" if bound <= abs(smap.gamma[-1]) * 1.5 else ", right of this map"
+            ax.axvline(bound, color="k", ls=":", lw=1.2, label=f"paper's {text}{where}")
     handles, _labels = ax.get_legend_handles_labels()
     old = ax.get_legend()
     keep = list(old.legend_handles) if old is not None else []
@@ -140,7 +142,9 @@ def eps_star_figure(job):
                       marker="o")
     b = job.derivation.get("b_bounds")
     if b is not None:
-        ax.axvline(1.0 / b[1], color="k", ls=":", label=f"gamma < 1/b_max = {1 / b[1]:.3g}")
+        bound, text = paper_gamma_bound(b)
+        if math.isfinite(bound):
+            ax.axvline(bound, color="k", ls=":", label=text)
     d = job.design
     ax.plot([d.controller.gamma], [d.estimator.eps], "k*", ms=12, mfc="yellow",
             label="this design")

@@ -14,6 +14,35 @@ import math
 import numpy as np
 
 
+def paper_gamma_bound(b_bounds) -> tuple[float, str]:
+    """The paper's gain condition ``gamma < 1/b_max`` for a ``b`` range of either sign.
+
+    ``gamma`` takes the sign of ``b``, so the bound is on ``|gamma|``: ``1 / max|b|``.
+
+    Parameters
+    ----------
+    b_bounds : (float, float)
+        ``b`` over the plant's region.
+
+    Returns
+    -------
+    (float, str)
+        The bound on ``|gamma|`` (NaN when ``b`` changes sign) and the condition in words.
+
+    Examples
+    --------
+    >>> from fl_design.app._report_sections import paper_gamma_bound
+    >>> paper_gamma_bound((3.6, 6.8))[1], paper_gamma_bound((-174.6, -18.19))[1]
+    ('gamma < 1/b_max = 0.1471', '|gamma| < 1/max|b| = 0.005727 (gamma < 0, as b)')
+    """
+    lo, hi = (float(v) for v in b_bounds)
+    if lo > 0:
+        return 1.0 / hi, f"gamma < 1/b_max = {1.0 / hi:.4g}"
+    if hi < 0:
+        return 1.0 / abs(lo), f"|gamma| < 1/max|b| = {1.0 / abs(lo):.4g} (gamma < 0, as b)"
+    return math.nan, "b changes sign over the region: the paper's gamma bound does not apply"
+
+
 def fmt(value, missing: str = "-", digits: int = 4) -> str:
     """A number with ``digits`` significant digits, or ``missing`` (with its reason) for None/NaN.
 
@@ -48,7 +77,7 @@ def _derivation(job) -> list:
     if d["b_bounds"]:
         lo, hi = d["b_bounds"]
         blocks.append(("p", (f"b over the plant's region and input range: [{lo:.4g}, {hi:.4g}]; "
-                            f"the paper asks gamma < 1/b_max = {1 / hi:.4g}.")))
+                            f"the paper asks {paper_gamma_bound((lo, hi))[1]}.")))
     zd = ("no zero dynamics (n = rho)" if d["n"] == d["rho"] else
           f"zero dynamics eigenvalues {', '.join(d['zero_dynamics_eigenvalues'])}: "
           f"{'minimum phase' if d['minimum_phase'] else 'NOT minimum phase'}")

@@ -168,3 +168,20 @@ def test_bad_scheduler_address_is_one_line():
 def test_python_dash_m_entry_point(tmp_path):
     proc = _cli("derive", "--plant", "pendulum", cwd=tmp_path)
     assert proc.returncode == 0 and "Plant: pendulum" in proc.stdout
+
+
+@pytest.mark.parametrize("name", ["cart-pendulum", "maglev"])
+def test_every_library_plant_is_a_config_and_cli_name(name, capsys):
+    """The plants added to the library are reachable from the command line; for the maglev
+    (b < 0) the paper's gain bound is on |gamma|, 1/max|b| from its b-range."""
+    import fl_design as fl
+
+    assert main(["derive", "--plant", name]) == 0
+    out = capsys.readouterr().out
+    plant = {"cart-pendulum": fl.plants.cart_pendulum, "maglev": fl.plants.maglev}[name]()
+    lo, hi = plant.b_bounds()
+    assert f"relative degree rho = {plant.relative_degree()}" in out
+    if hi < 0:
+        assert f"|gamma| < 1/max|b| = {1 / abs(lo):.4g} (gamma < 0, as b)" in out
+    else:
+        assert f"gamma < 1/b_max = {1 / hi:.4g}" in out
