@@ -150,10 +150,15 @@ def replace_text(path: Path, text: str) -> None:
     >>> (Path("kernels") / "note.txt").read_text()
     'hi'
     """
+    _replace_bytes(path, text.encode())
+
+
+def _replace_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically: a temporary name in the same folder, renamed."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with open(tmp, "w") as fh:
-            fh.write(text)
+        with open(tmp, "wb") as fh:
+            fh.write(data)
         os.replace(tmp, path)
     finally:
         if tmp.exists():
@@ -188,14 +193,7 @@ def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
     True
     """
     out = cache_directory(cache_dir) / name
-    tmp = out.with_name(f".{name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, out)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    _replace_bytes(out, data)
     replace_text(Path(str(out) + SIDECAR_SUFFIX),
                  json.dumps({"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}))
     return out
