@@ -176,3 +176,28 @@ def spectral_radius_over_b(ehgo, gains, gamma, ki, b_values) -> float:
     """Largest eigenvalue modulus (``numpy.linalg.eigvals``) over the given ``b`` values."""
     return max(float(np.max(np.abs(np.linalg.eigvals(
         surrogate_loop_matrix(ehgo, gains, gamma, ki, b))))) for b in b_values)
+
+
+def sample_map(loop, r: float, p):
+    """``X -> F(X)``: one sample of the loop's own CasADi sample function, ``X = (x, s)``."""
+    n = loop.n
+
+    def F(Z):
+        x_next, s_next = loop.sample(Z[:n], Z[n:], r, 0.0, 0.0, p)[:2]
+        return np.concatenate([np.asarray(x_next, float).ravel(),
+                               np.asarray(s_next, float).ravel()])
+    return F
+
+
+def fd_jacobian(loop, X, r: float, p) -> np.ndarray:
+    """Central differences of the sample map at ``X``, step 1e-7 of each component's scale (the
+    TRMS friction tanh(w / 1e-3) has a third derivative ~1e9: at 1e-6 its truncation error is
+    0.2 %)."""
+    F = sample_map(loop, r, p)
+    cols = []
+    for j in range(X.size):
+        h = 1e-7 * max(1.0, abs(X[j]))
+        e = np.zeros(X.size)
+        e[j] = h
+        cols.append((F(X + e) - F(X - e)) / (2 * h))
+    return np.column_stack(cols)

@@ -15,6 +15,7 @@ from fl_design.app import ConfigError, build_scenario, parse_config
 from fl_design.errors import ParameterError
 from fl_design.sim import ClosedLoop, default_substeps, prepare_run
 from fl_design.sim import _duration as D
+from tests.oracles import fd_jacobian
 
 T = 1e-3
 
@@ -30,18 +31,8 @@ def _fd_tau(plant, design, r):
     (located by sampled_linearization; its F(X) = X is tested in test_linearize.py)."""
     lin = fl.sampled_linearization(plant, design, r=r)
     loop = ClosedLoop(plant, design, substeps=default_substeps(plant, design.T))
-    X, n, p = np.concatenate([lin.x_eq, lin.s_eq]), loop.n, design.parameter_vector()
-
-    def F(Z):
-        x_next, s_next = loop.sample(Z[:n], Z[n:], r, 0.0, 0.0, p)[:2]
-        return np.concatenate([np.asarray(x_next, float).ravel(), np.asarray(s_next, float).ravel()])
-
-    cols = []
-    for j in range(X.size):
-        h = 1e-7 * max(1.0, abs(X[j]))
-        e = np.eye(X.size)[j] * h
-        cols.append((F(X + e) - F(X - e)) / (2 * h))
-    M = np.column_stack(cols)
+    X = np.concatenate([lin.x_eq, lin.s_eq])
+    M = fd_jacobian(loop, X, r, design.parameter_vector())
     unit = [j for j in range(X.size) if np.allclose(M[:, j], np.eye(X.size)[:, j], atol=1e-12)]
     keep = [j for j in range(X.size) if j not in unit]  # the decoupled integrator of ki = 0
     radius = np.max(np.abs(np.linalg.eigvals(M[np.ix_(keep, keep)])))

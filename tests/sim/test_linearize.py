@@ -12,6 +12,7 @@ import fl_design as fl
 from fl_design.errors import ComputationError
 from fl_design.sim import ClosedLoop, default_substeps
 from fl_design.sim import _linearize as L
+from tests.oracles import fd_jacobian, sample_map
 
 UNIT = np.finfo(float).eps
 
@@ -19,27 +20,8 @@ UNIT = np.finfo(float).eps
 def _one_sample(plant, design, lin):
     """``F(X_eq)`` by one call of the loop's own sample function (not the linearizer's)."""
     loop = ClosedLoop(plant, design, substeps=default_substeps(plant, design.T))
-    x_next, s_next = loop.sample(lin.x_eq, lin.s_eq, lin.r, 0.0, 0.0,
-                                 design.parameter_vector())[:2]
-    return loop, np.concatenate([np.asarray(x_next, float).ravel(), np.asarray(s_next, float).ravel()])
-
-
-def _fd_jacobian(loop, X, r, p):
-    """Central differences of the sample map, step 1e-7 of each component's scale (the TRMS
-    friction tanh(w / 1e-3) has a third derivative ~1e9: at 1e-6 its truncation error is 0.2 %)."""
-    n = loop.n
-
-    def F(Z):
-        x_next, s_next = loop.sample(Z[:n], Z[n:], r, 0.0, 0.0, p)[:2]
-        return np.concatenate([np.asarray(x_next, float).ravel(), np.asarray(s_next, float).ravel()])
-
-    cols = []
-    for j in range(X.size):
-        h = 1e-7 * max(1.0, abs(X[j]))
-        e = np.zeros(X.size)
-        e[j] = h
-        cols.append((F(X + e) - F(X - e)) / (2 * h))
-    return np.column_stack(cols)
+    F = sample_map(loop, lin.r, design.parameter_vector())
+    return loop, F(np.concatenate([lin.x_eq, lin.s_eq]))
 
 
 def _rho3_design():
@@ -75,7 +57,7 @@ def test_equilibrium_is_a_fixed_point_and_eigenvalues_match_finite_differences(
     assert lin.residual == pytest.approx(np.max(np.abs(FX - X)), abs=2 * UNIT * X.size)
     assert plant.casadi().h(lin.x_eq) == pytest.approx(r, abs=1e-9)
     # the Jacobian and the loop's eigenvalues against central differences of the sample map
-    M = _fd_jacobian(loop, X, r, design.parameter_vector())
+    M = fd_jacobian(loop, X, r, design.parameter_vector())
     np.testing.assert_allclose(lin.matrix, M, rtol=0, atol=1e-6 * np.abs(M).max())
     keep = [i for i, s in enumerate(lin.state_names) if s not in lin.decoupled]
     fd_radius = np.max(np.abs(np.linalg.eigvals(M[np.ix_(keep, keep)])))
