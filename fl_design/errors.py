@@ -71,6 +71,23 @@ class CertificationError(ComputationError):
     """A certificate was asked to hold (``raise_on_failure=True``) and does not."""
 
 
+class WorkerLostError(ComputationError):
+    """A worker process of an executor died while it ran part of a grid.
+
+    Attributes
+    ----------
+    lost : list of int
+        Grid indices (eps-major) whose results were lost.
+    partial : numpy.ndarray or None
+        The grid's final accumulators with the lost columns NaN (the finished chunks kept).
+    """
+
+    def __init__(self, message: str, *, lost=(), partial=None):
+        super().__init__(message)
+        self.lost = list(lost)
+        self.partial = partial
+
+
 class MissingDependencyError(FlDesignError, RuntimeError):
     """An optional dependency needed for the requested feature is not installed."""
 
@@ -120,4 +137,5 @@ __all__ = [
     "ResourceLimitError",
     "UnmodeledDynamicsWarning",
     "UnstableDiscretizationWarning",
+    "WorkerLostError",
 ]

@@ -9,6 +9,18 @@ import fl_design as fl
 T_BENCH = 1e-3
 
 
+def pytest_report_header(config):
+    """The machine and instruction set the compiled kernels of this run use (first lines)."""
+    try:
+        info = fl.Kernel().describe()
+    except Exception as exc:  # noqa: BLE001 - e.g. a bad $FL_DESIGN_ISA: say it, tests say more
+        return [f"fl_design kernel: cannot resolve ({exc})"]
+    line = (f"fl_design kernel: {info['cpu']} ({info['machine']}), isa {info['isa']} "
+            f"({info['lanes']} lanes, {info['isa_source']}); available: "
+            f"{', '.join(info['available'])}; compiler {info['compiler']}")
+    return [line]
+
+
 @pytest.fixture(scope="session")
 def pendulum():
     """The library's damped pendulum (relative degree 2)."""

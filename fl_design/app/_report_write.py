@@ -169,6 +169,10 @@ def summary(job) -> dict:
     out = {"config": job.config.to_dict(), "quick": job.quick, "design": design_label(job.design),
            "derivation": {k: v for k, v in job.derivation.items() if k != "text"},
            "timings_s": dict(job.timings)}
+    if "sweep" in res:  # the machine and instruction set the sweep's kernel ran on
+        from ..sim import Kernel
+
+        out["kernel"] = Kernel().describe()
     cert = res.get("certify")
     if cert:
         out["certify"] = {k: (v.to_dict() if hasattr(v, "to_dict") else v)

@@ -18,7 +18,7 @@ Examples
 """
 
 from ._closed_loop import HUGE, ClosedLoop, accumulator_layout, default_substeps
-from ._grid import CHUNK_IN_PROCESS, CHUNK_PER_TASK, parameter_columns, run_grid
+from ._grid import CHUNK_IN_PROCESS, parameter_columns, run_grid
 from ._linearize import LoopLinearizer, SampledLinearization
 from ._metrics import (
     ACCUMULATORS,
@@ -47,7 +47,6 @@ from ._sweep import estimate_eps_star, sweep
 __all__ = [
     "ACCUMULATORS",
     "CHUNK_IN_PROCESS",
-    "CHUNK_PER_TASK",
     "HUGE",
     "METRICS",
     "METRIC_NAMES",

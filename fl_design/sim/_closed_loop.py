@@ -438,7 +438,7 @@ class ClosedLoop:
             Cache of compiled kernels (default ``$FL_DESIGN_CACHE`` or ``~/.cache/fl_design``).
         kernel : Kernel, optional
             All kernel options at once (overrides ``compiled`` and ``cache_dir``; also
-            ``lanes`` and ``vector_math``).
+            ``lanes``, ``vector_math`` and ``isa``).
 
         Returns
         -------
@@ -459,7 +459,7 @@ class ClosedLoop:
         if kernel is not None:
             return make_runner(self.accumulate, self.record, indices, compiled=kernel.compiled,
                                cache_dir=kernel.cache_dir, lanes=kernel.lanes,
-                               vector_math=kernel.vector_math)
+                               vector_math=kernel.vector_math, isa=kernel.isa)
         return make_runner(self.accumulate, self.record, indices, compiled=compiled,
                            cache_dir=cache_dir)
 

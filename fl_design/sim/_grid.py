@@ -29,7 +29,7 @@ import pickle
 import sys
 import threading
 from collections import OrderedDict
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor
 
 import numpy as np
 
@@ -41,6 +41,17 @@ from ._run import RunSetup
 # --- running grids ---------------------------------------------------------------------------
 _RUNNERS: OrderedDict = OrderedDict()  # per-process memo: loop structure -> runner
 _RUNNERS_LOCK = threading.Lock()
+
+
+def _after_fork_in_child() -> None:
+    """A forked child gets a fresh memo lock (the parent's may have been held by a thread that
+    does not exist in the child); the runners reset their own threads (:mod:`._lanes`)."""
+    global _RUNNERS_LOCK
+    _RUNNERS_LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 def _runner(run: RunSetup, kernel: Kernel):
@@ -112,8 +123,6 @@ def block_length(ncols: int, threads: int, compiled: bool) -> int:
 
 #: Default grid points per chunk of a sweep run in this process (see :class:`Kernel`).
 CHUNK_IN_PROCESS = 256
-#: Default grid points per task of a sweep run by an executor.
-CHUNK_PER_TASK = 64
 
 
 def _run_chunk(run: RunSetup, P: np.ndarray, kernel: Kernel, threads: int):
@@ -150,9 +159,13 @@ class _Columns:
         return self._estimator[i]
 
     def __call__(self, a: int, b: int) -> np.ndarray:
-        idx = np.arange(a, b)
+        return self.take(np.arange(a, b))
+
+    def take(self, idx: np.ndarray) -> np.ndarray:
+        """Columns of the grid indices ``idx`` (any order)."""
+        idx = np.asarray(idx)
         rows, cols = idx // self.gamma.size, idx % self.gamma.size
-        P = np.empty((self.lay.size, b - a))
+        P = np.empty((self.lay.size, idx.size))
         for i in np.unique(rows):
             P[self.lay["estimator"], rows == i] = self._est(int(i))[:, None]
         P[self.lay["gamma"]] = self.gamma[cols]
@@ -270,23 +283,37 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     n_runs = int(P.n) if callable(P) else int(np.shape(P)[1])
     _check_memory(run, n_runs)
     threads = kernel.threads
-    chunk = kernel.chunk_size
-    if chunk is None:
-        chunk = CHUNK_IN_PROCESS if executor is None else CHUNK_PER_TASK
-    pieces = [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
     out = np.empty((run.loop.layout.size, n_runs))
     bar = _Progress(n_runs, bool(progress), desc)
     try:
         if executor is None:
+            chunk = kernel.chunk_size or CHUNK_IN_PROCESS
             n_thr = threads if threads is not None else _cores()
-            for a, b in pieces:
+            for a in range(0, n_runs, chunk):
+                b = min(a + chunk, n_runs)
                 out[:, a:b] = _run_chunk(run, columns(a, b), kernel, n_thr)
                 bar.update(b - a)
         else:
-            _run_tasks(executor, run, columns, pieces, kernel, threads or 1, out, bar)
+            _run_on(executor, run, P, columns, n_runs, kernel, threads or 1, out, bar)
     finally:
         bar.close()
     return out
+
+
+def _run_on(executor, run, P, columns, n_runs, kernel, threads, out, bar) -> None:
+    """The grid as tasks of ``executor`` (:mod:`fl_design.sim._executor`)."""
+    from ._executor import KernelTask, executor_workers, run_tasks, task_columns
+
+    groups = task_columns(n_runs, executor_workers(executor), kernel.chunk_size)
+    per_task = max(g.size for g in groups)
+    task = KernelTask.of(run.loop, kernel, run.D, block_length(per_task, threads,
+                                                                kernel.compiled))
+    take = getattr(P, "take", None)
+    if take is None:
+        take = (lambda idx: P[:, idx]) if not callable(P) else (
+            lambda idx: np.concatenate([columns(int(i), int(i) + 1) for i in idx], axis=1))
+    run_tasks(executor, task, lambda idx: run.initial_accumulator(take(idx)), groups,
+              threads, out, bar)
 
 
 def _check_memory(run: RunSetup, n_runs: int) -> None:
@@ -297,22 +324,6 @@ def _check_memory(run: RunSetup, n_runs: int) -> None:
             f"a grid of {n_runs:.3g} runs needs about {need / 2**30:.3g} GiB for its results, "
             f"above the limit of {limit / 2**30:.3g} GiB; use a coarser grid, or raise the "
             f"limit with ${MAX_MEMORY_ENV}")
-
-
-def _run_tasks(executor, run, columns, pieces, kernel, threads, out, bar) -> None:
-    """Submit the chunks as tasks; on an interrupt cancel the pending ones and re-raise."""
-    futures = {}
-    try:
-        for a, b in pieces:
-            futures[executor.submit(_run_chunk, run, columns(a, b), kernel, threads)] = (a, b)
-        for fut in as_completed(futures):
-            a, b = futures[fut]
-            out[:, a:b] = fut.result()
-            bar.update(b - a)
-    except BaseException:
-        for fut in futures:
-            fut.cancel()
-        raise
 
 
 __all__ = ["parameter_columns", "run_grid"]

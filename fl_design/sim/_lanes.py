@@ -1,66 +1,78 @@
 """The lanes runner: the sweep kernel on W grid points per SIMD vector (the default).
 
 :class:`LanesRunner` compiles :func:`fl_design.sim._lanes_emit.lanes_source` of the
-accumulating step for this machine (:data:`fl_design.codegen._build.NATIVE_CFLAGS`: its vector
-width, libmvec's vector ``tanh``/``sin``/``exp``) and runs the columns of a grid through it:
-``W`` lanes per thread, each lane refilled with the next column as soon as its run has
-diverged or ended, the columns shared by the threads through one atomic counter (dynamic load
-balance: diverged runs cost nothing, the order of the grid does not matter). One run with its
-trajectory (:meth:`LanesRunner.record`, used by :func:`fl_design.simulate`) goes to the scalar
-:class:`~fl_design.sim.NativeRunner`, built on first use. With glibc's scalar math
-(``vector_math=False``) results equal the scalar kernel's and the interpreter's bit for bit;
-with libmvec's (the default) every classification is the same and metrics agree to the last
-bits of ``tanh``/``sin`` carried through the loop (numbers in :class:`fl_design.Kernel`).
+accumulating step for one instruction-set level (:mod:`fl_design._isa`: the widest this CPU
+has, or the one ``fl.Kernel(isa=...)`` / ``$FL_DESIGN_ISA`` asks for; its lane width ``W``
+and libmvec's vector ``tanh``/``sin``/``exp`` of that width) and runs the columns of a grid
+through it: ``W`` lanes per thread, each lane refilled with the next column as soon as its run
+has diverged or ended, the columns shared by the threads through one atomic counter (dynamic
+load balance: diverged runs cost nothing, the order of the grid does not matter). One run with
+its trajectory (:meth:`LanesRunner.record`, used by :func:`fl_design.simulate`) goes to the
+scalar :class:`~fl_design.sim.NativeRunner`, built on first use; so does a whole grid at the
+``scalar`` level. With glibc's scalar math (``vector_math=False``) results equal the scalar
+kernel's and the interpreter's bit for bit at every level; with libmvec's (the default) every
+classification is the same and metrics agree to the last bits of ``tanh``/``sin`` carried
+through the loop (numbers in :class:`fl_design.Kernel`).
 
-W is the compiler's: 8 doubles with AVX-512, 4 with AVX, else 2.
+Fork safety (the rule): a runner's threads are created lazily, kept for its life, and belong to
+the process that created them. A process forked from this one (``ProcessPoolExecutor`` with the
+``fork`` start method, ``multiprocessing``, a notebook's ``os.fork``) inherits the pool object
+but not its threads: the runner notices (``os.register_at_fork`` hook, and the owner's pid as a
+second check) and starts fresh threads in the child instead of waiting forever on the
+parent's. The same holds for its lock and the per-process memo of runners in
+:mod:`fl_design.sim._grid`.
 
 Examples
 --------
 >>> from fl_design.sim._lanes import lane_width
->>> lane_width() in (2, 4, 8)
-True
+>>> lane_width("scalar")
+1
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import os
 import threading
+import warnings
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 
 import casadi as ca
 import numpy as np
 
-from ..codegen._build import NATIVE_CFLAGS, build, find_compiler, native_macros, verified
-from ..errors import ComputationError
+from .._isa import Isa, mvec_functions, resolve_isa
+from .._toolchain import LANES_CFLAGS, build, discard, find_compiler, verified
+from ..errors import CompilationWarning, ComputationError
 from ._lanes_emit import MATH, LanesUnsupported, lanes_source
 
 
-def lane_width(compiler: str | None = None) -> int:
-    """Doubles per vector register of this machine as the compiler sees it (8, 4 or 2).
+def lane_width(isa: str | None = None) -> int:
+    """Doubles per vector of the lanes kernel at level ``isa`` (default: as resolved).
 
     Parameters
     ----------
-    compiler : str, optional
-        Default :func:`fl_design.codegen.find_compiler`.
+    isa : str, optional
+        An instruction-set level (:data:`fl_design._isa.LEVELS`); default ``$FL_DESIGN_ISA``,
+        else the widest this machine has.
 
     Returns
     -------
     int
+        8 (AVX-512), 4 (AVX2), 2 (SSE2, NEON, portable) or 1 (scalar kernel).
 
     Examples
     --------
     >>> from fl_design.sim._lanes import lane_width
-    >>> lane_width() >= 2
+    >>> lane_width() >= 1
     True
     """
-    macros = native_macros(compiler)
-    return 8 if "__AVX512F__" in macros else 4 if "__AVX__" in macros else 2
+    return resolve_isa(isa).width
 
 
-@functools.lru_cache(maxsize=1)
-def vector_math() -> tuple[str, ...]:
-    """Math functions with a vector version in glibc's libmvec on this machine.
+def vector_math(isa: Isa | None = None) -> tuple[str, ...]:
+    """Math functions with a libmvec vector version at level ``isa`` on this machine.
 
     Examples
     --------
@@ -68,18 +80,13 @@ def vector_math() -> tuple[str, ...]:
     >>> isinstance(vector_math(), tuple)
     True
     """
-    try:
-        lib = ctypes.CDLL("libmvec.so.1")
-    except OSError:
-        return ()
-    width = lane_width()
-    isa = {8: "e", 4: "d", 2: "b"}[width]
-    return tuple(sorted(name for name in set(MATH.values())
-                        if hasattr(lib, f"_ZGV{isa}N{width}v_{name}")))
+    return mvec_functions(isa or resolve_isa(), tuple(sorted(set(MATH.values()))))
 
 
 @functools.lru_cache(maxsize=32)
 def _load(path: str) -> ctypes.CDLL:
+    if not verified(path):  # never dlopen a file that is not the one built
+        raise OSError(f"{path} does not match its recorded size and SHA-256")
     lib = ctypes.CDLL(path)
     dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     lng = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
@@ -89,13 +96,14 @@ def _load(path: str) -> ctypes.CDLL:
     return lib
 
 
-def build_lanes(accumulate: ca.Function, indices: dict, *, cache_dir=None,
-                vector_math_ok: bool = True):
-    """Compile (cached) the lanes kernel of ``accumulate``; the library path or None.
+def build_lanes(accumulate: ca.Function, indices: dict, *, isa: Isa | None = None,
+                cache_dir=None, vector_math_ok: bool = True):
+    """Compile (cached) the lanes kernel of ``accumulate`` for level ``isa``; path or None.
 
     Raises :class:`~fl_design.sim._lanes_emit.LanesUnsupported` for a step it cannot
     translate. With ``vector_math_ok=False`` math functions are glibc's scalar ones (bitwise
     the results of the scalar kernel and of the interpreter, 4x slower on the TRMS loop).
+    None for the ``scalar`` level or without a compiler.
 
     Parameters
     ----------
@@ -103,6 +111,8 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, cache_dir=None,
         ``fl_acc(acc, d) -> acc_next``.
     indices : dict
         Accumulator positions ``k``, ``div``, ``N``.
+    isa : Isa, optional
+        Instruction-set level (default :func:`fl_design._isa.resolve_isa`).
     cache_dir : path-like, optional
         Cache of compiled kernels.
     vector_math_ok : bool, optional
@@ -118,13 +128,25 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, cache_dir=None,
     >>> callable(build_lanes)
     True
     """
-    cc = find_compiler()
-    if cc is None or not native_macros(cc):  # no compiler, or no -march=native: scalar kernel
+    isa = isa or resolve_isa()
+    if find_compiler() is None or not isa.lanes:
         return None
-    maths = vector_math() if vector_math_ok else ()
-    source = lanes_source(accumulate, indices, width=lane_width(cc), vector_math=maths)
-    return build(source, "fl_lanes", cache_dir=cache_dir, extra_flags=NATIVE_CFLAGS,
-                 libs=("-lmvec",) if maths else ())
+    maths = vector_math(isa) if vector_math_ok else ()
+    source = lanes_source(accumulate, indices, width=isa.width, vector_math=maths)
+    return build(source, f"fl_lanes_{isa.name}", cache_dir=cache_dir,
+                 extra_flags=(*isa.flags, *LANES_CFLAGS), libs=("-lmvec",) if maths else ())
+
+
+_LIVE: weakref.WeakSet = weakref.WeakSet()  # runners of this process (reset in a forked child)
+
+
+def _after_fork_in_child() -> None:
+    for runner in list(_LIVE):
+        runner._forget_threads()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 class LanesRunner:
@@ -145,6 +167,8 @@ class LanesRunner:
         libmvec's vector ``tanh``, ``sin``, ... (default; they may differ from glibc's scalar
         functions in the last bit, which the high-gain loop amplifies to about 1e-9 relative
         in the metrics) or the scalar functions (bitwise the scalar kernel's results).
+    isa : Isa, optional
+        Instruction-set level (default :func:`fl_design._isa.resolve_isa`).
 
     Examples
     --------
@@ -156,29 +180,41 @@ class LanesRunner:
     compiled = True
 
     def __init__(self, accumulate: ca.Function, record: ca.Function, indices: dict, *,
-                 cache_dir=None, scalar, vector_math: bool = True):
+                 cache_dir=None, scalar, vector_math: bool = True, isa: Isa | None = None):
         self.nacc = int(accumulate.size1_in(0))
         self.nout = int(record.size1_out(1))
         self._accumulate, self._indices, self._cache_dir = accumulate, dict(indices), cache_dir
         self.vector_math = bool(vector_math)
+        self.isa = isa or resolve_isa()
         self._scalar_factory, self._scalar, self._lanes = scalar, None, None
+        self._forget_threads()
+        _LIVE.add(self)
+
+    def _forget_threads(self) -> None:
+        """A fresh lock and no pool (at creation, and in a child forked from this process:
+        the inherited pool's threads do not exist there, waiting on them would hang)."""
         self._lock = threading.Lock()
         self._pools: list[tuple[int, ThreadPoolExecutor]] = []
+        self._owner = os.getpid()
 
     def _pool(self, n: int) -> ThreadPoolExecutor:
         """Threads kept for the runner's life (a sweep calls :meth:`run` once per chunk).
 
         A larger request adds a larger pool; pools are only shut down with the runner, so a
-        concurrent :meth:`run` never meets a closed one.
+        concurrent :meth:`run` never meets a closed one. Pools belong to the process that made
+        them (see the module docstring).
         """
+        if self._owner != os.getpid():  # forked without the at-fork hook (e.g. no os support)
+            self._forget_threads()
         with self._lock:
             if not self._pools or self._pools[-1][0] < n:
                 self._pools.append((n, ThreadPoolExecutor(n, thread_name_prefix="fl_lanes")))
             return self._pools[-1][1]
 
     def __del__(self):
-        for _, pool in getattr(self, "_pools", ()):
-            pool.shutdown(wait=False)
+        if getattr(self, "_owner", None) == os.getpid():
+            for _, pool in getattr(self, "_pools", ()):
+                pool.shutdown(wait=False)
 
     @property
     def scalar(self):
@@ -190,20 +226,42 @@ class LanesRunner:
 
     @property
     def library(self) -> ctypes.CDLL | None:
-        """The loaded lanes kernel (built on first use); None if the step has no translation
-        or nothing compiles (the scalar runner then runs the grid)."""
+        """The loaded lanes kernel (built on first use); None at the ``scalar`` level, if the
+        step has no translation or nothing compiles (the scalar runner then runs the grid).
+
+        A library that does not load (damaged after its check, a foreign file, a missing
+        symbol) is removed from the cache and rebuilt once; if that fails too, the scalar
+        kernel runs the grid, with a :class:`~fl_design.errors.CompilationWarning`.
+        """
         with self._lock:
             if self._lanes is None:
-                try:
-                    path = build_lanes(self._accumulate, self._indices,
-                                       cache_dir=self._cache_dir,
-                                       vector_math_ok=self.vector_math)
-                except LanesUnsupported:
-                    path = None
-                if path is not None and not verified(path):  # changed since it was built
-                    path = None
-                self._lanes = False if path is None else _load(str(path))
+                self._lanes = self._build_and_load() or False
             return self._lanes or None
+
+    def _build_and_load(self) -> ctypes.CDLL | None:
+        problem = None
+        for _ in range(2):
+            try:
+                path = build_lanes(self._accumulate, self._indices, isa=self.isa,
+                                   cache_dir=self._cache_dir, vector_math_ok=self.vector_math)
+            except LanesUnsupported:
+                return None
+            if path is None:
+                return None
+            try:
+                lib = _load(str(path))
+                if lib.fl_lanes_width() != self.isa.width:
+                    raise OSError(f"{path} runs {lib.fl_lanes_width()} lanes, not "
+                                  f"{self.isa.width}")
+                return lib
+            except (OSError, AttributeError) as exc:
+                problem = f"{type(exc).__name__}: {exc}"
+                _load.cache_clear()
+                discard(path)
+        warnings.warn(f"the compiled lanes kernel could not be loaded even after a rebuild "
+                      f"({problem}); the scalar compiled kernel runs the grid (same results, "
+                      "slower)", CompilationWarning, stacklevel=4)
+        return None
 
     def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (2, nsteps).

@@ -25,6 +25,7 @@ Examples
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -242,12 +243,13 @@ class Kernel:
         Threads per process of a sweep (default: the cores available; 1 per task with an
         executor).
     chunk_size : int, optional
-        Grid points per chunk/task of a sweep (default :data:`fl_design.sim.CHUNK_IN_PROCESS`
-        = 256 in this process, :data:`fl_design.sim.CHUNK_PER_TASK` = 64 per task of an
-        executor). In this process a chunk only sets how often the progress bar moves; each
-        chunk costs a few milliseconds of Python and a thread rendezvous, so chunks of 256
-        made a 64 x 64 TRMS map 0.3 s faster than chunks of 64 (1.24-1.32 s instead of
-        1.59-1.68 s). Tasks stay smaller so that workers share the grid evenly.
+        Grid points per chunk/task of a sweep. In this process (default
+        :data:`fl_design.sim.CHUNK_IN_PROCESS` = 256) a chunk only sets how often the progress
+        bar moves; each chunk costs a few milliseconds of Python and a thread rendezvous, so
+        chunks of 256 made a 64 x 64 TRMS map 0.3 s faster than chunks of 64. With an
+        executor the default deals the grid out strided to 4 tasks per worker (at least 16
+        runs each; :mod:`fl_design.sim._executor`), so every worker gets a fair mix of cheap
+        diverging and full-length runs and one payload covers many runs.
     lanes : bool, optional
         Sweeps run several grid points per SIMD vector (the lanes kernel, default True) or
         one at a time (the scalar kernel).
@@ -266,11 +268,18 @@ class Kernel:
         median value (2e-12 rad absolute on the error metrics; relative differences reach
         1.6e-5 only on steady-state errors of 3e-8 rad). Choose False when results must
         be reproducible bit for bit.
+    isa : str, optional
+        Instruction-set level of the lanes kernel: ``"avx512"`` (8 lanes), ``"avx2"`` (4),
+        ``"sse2"`` or ``"neon"`` (2), ``"portable"`` (2, no ISA flags), ``"scalar"`` (the
+        scalar compiled kernel, one run at a time) or ``"native"``. Default
+        ``$FL_DESIGN_ISA``, else the widest level this CPU has (read at run time, never
+        assumed; :meth:`describe` says which). A level the CPU lacks is refused.
 
     Raises
     ------
     ParameterError
-        ``compiled`` not a bool, ``threads`` or ``chunk_size`` not a positive integer.
+        ``compiled`` not a bool, ``threads`` or ``chunk_size`` not a positive integer, ``isa``
+        unknown or not available on this machine.
 
     Examples
     --------
@@ -285,6 +294,7 @@ class Kernel:
     chunk_size: int | None = None
     lanes: bool = True
     vector_math: bool | None = None
+    isa: str | None = None
 
     def __post_init__(self) -> None:
         V.boolean("compiled", self.compiled)
@@ -295,6 +305,51 @@ class Kernel:
             V.integer("threads", self.threads, minimum=1)
         if self.chunk_size is not None:
             V.integer("chunk_size", self.chunk_size, minimum=1)
+        if self.isa is not None:
+            from .._isa import resolve_isa
+
+            resolve_isa(self.isa)  # unknown or unavailable: a clear ParameterError now
+
+    def describe(self) -> dict:
+        """What this kernel runs on: the machine, the chosen instruction set and why.
+
+        Returns
+        -------
+        dict
+            Strict JSON: ``cpu``, ``machine``, ``compiler``, ``isa`` (the level sweeps use),
+            ``lanes`` (grid points per vector; 1 for the scalar kernel, 0 interpreted),
+            ``isa_source`` (``fl.Kernel(isa=...)``, ``$FL_DESIGN_ISA`` or widest available),
+            ``available`` (levels this machine can run), ``vector_math`` (libmvec functions
+            used, empty with ``vector_math=False``) and ``compiled``.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> info = fl.Kernel(isa="scalar").describe()
+        >>> info["isa"], info["lanes"]
+        ('scalar', 1)
+        """
+        import platform
+
+        from .._isa import ISA_ENV, available_isas, cpu_model, resolve_isa
+        from .._toolchain import find_compiler
+        from ._lanes import vector_math
+
+        isa = resolve_isa(self.isa if self.lanes else "scalar")
+        compiled = bool(self.compiled) and find_compiler() is not None
+        use_mvec = self.vector_math
+        if use_mvec is None:
+            use_mvec = os.environ.get("FL_DESIGN_VECTOR_MATH", "1").strip() != "0"
+        source = ("fl.Kernel(isa=...)" if self.isa is not None
+                  else f"${ISA_ENV}" if os.environ.get(ISA_ENV, "").strip()
+                  else "widest available")
+        return {"cpu": cpu_model(), "machine": platform.machine(),
+                "compiler": find_compiler(), "compiled": compiled,
+                "isa": isa.name if compiled else "interpreted",
+                "lanes": isa.width if compiled else 0,
+                "isa_source": source if self.lanes else "fl.Kernel(lanes=False)",
+                "available": list(available_isas()),
+                "vector_math": list(vector_math(isa)) if compiled and use_mvec else []}
 
     def to_dict(self) -> dict:
         """Strict-JSON fields.
@@ -308,7 +363,7 @@ class Kernel:
         return {"compiled": bool(self.compiled),
                 "cache_dir": None if self.cache_dir is None else str(self.cache_dir),
                 "threads": self.threads, "chunk_size": self.chunk_size, "lanes": self.lanes,
-                "vector_math": self.vector_math}
+                "vector_math": self.vector_math, "isa": self.isa}
 
 
 def option(name: str, value, cls, *, default=None, what: str | None = None):

@@ -11,7 +11,7 @@ the same interface and the same results:
   template ``templates/kernel_driver.c.in`` appended to it loops over columns and samples
   (double-buffered accumulators, no copies) and stops a column as soon as it has diverged
   (the remaining samples of a frozen run only advance its counter ``k``, which the driver adds
-  at once). The source is compiled and cached by :func:`fl_design.codegen.build` and called
+  at once). The source is compiled and cached by :func:`fl_design._toolchain.build` and called
   through ``ctypes``, which releases the GIL: columns are split over threads.
 * :class:`InterpretedRunner`: the same steps folded with CasADi (``fold``/``mapaccum`` over
   blocks of samples, padded samples are no-ops) in CasADi's virtual machine. Used, with a
@@ -46,8 +46,7 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from ..codegen import build, find_compiler, generate_source
-from ..codegen._build import verified
+from .._toolchain import build, discard, find_compiler, generate_source, verified
 from ..errors import CompilationWarning, ComputationError
 
 
@@ -286,7 +285,7 @@ def fill_template(text: str, values: dict) -> str:
 
 def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
                 compiled: bool = True, cache_dir=None, lanes: bool = True,
-                vector_math: bool | None = None):
+                vector_math: bool | None = None, isa: str | None = None):
     """A :class:`~fl_design.sim._lanes.LanesRunner`, a :class:`NativeRunner` or an interpreter.
 
     Compiled runners are built (and cached) on first use by the lanes runner: the lanes
@@ -311,6 +310,9 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
         Lanes kernel with libmvec's vector math or glibc's scalar functions (bitwise the
         results of the scalar kernel and of the interpreter; slower). Default: vector math
         unless the environment variable ``FL_DESIGN_VECTOR_MATH`` is ``0``.
+    isa : str, optional
+        Instruction-set level of the lanes kernel (:func:`fl_design._isa.resolve_isa`:
+        default ``$FL_DESIGN_ISA``, else the widest available; ``"scalar"``: no lanes).
 
     Examples
     --------
@@ -319,6 +321,7 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
     True
     """
     if compiled and lanes and find_compiler() is not None:
+        from .._isa import resolve_isa
         from ._lanes import LanesRunner
 
         scalar = functools.partial(make_runner, accumulate, record, indices, compiled=True,
@@ -326,17 +329,19 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
         if vector_math is None:
             vector_math = os.environ.get("FL_DESIGN_VECTOR_MATH", "1").strip() != "0"
         return LanesRunner(accumulate, record, indices, cache_dir=cache_dir, scalar=scalar,
-                           vector_math=vector_math)
+                           vector_math=vector_math, isa=resolve_isa(isa))
     if compiled:
         source = runner_source(accumulate, record, indices)
-        for _ in range(3):  # a library changed between build and load is rebuilt
+        for _ in range(3):  # a library changed or damaged between build and load is rebuilt
             lib = build(source, "fl_loop", cache_dir=cache_dir)
             if lib is None:
                 break
             try:
                 return NativeRunner(accumulate, record, indices, lib)
-            except _UnverifiedLibrary as exc:
-                problem = exc
+            except (_UnverifiedLibrary, OSError, AttributeError) as exc:
+                problem = f"{type(exc).__name__}: {exc}"
+                _load.cache_clear()
+                discard(lib)
         else:
             warnings.warn(f"{problem} after 3 rebuilds: the loop runs in CasADi's interpreter, "
                           "with the same results but slower", CompilationWarning, stacklevel=2)

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import fl_design as fl
-from fl_design.codegen import _build, build, cache_directory, find_compiler
+from fl_design import _toolchain as _build
+from fl_design.codegen import build, cache_directory, find_compiler
 from fl_design.errors import CompilationWarning, ComputationError
 from fl_design.sim import _runners, prepare_run
 from fl_design.sim._runners import InterpretedRunner, NativeRunner, runner_source

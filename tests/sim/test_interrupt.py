@@ -85,14 +85,32 @@ _CHILD = textwrap.dedent("""
 """)
 
 
+def _readline(stream, timeout: float) -> str | None:
+    """One line from ``stream`` within ``timeout`` seconds, else None (never blocks longer)."""
+    import queue
+    import threading
+
+    box: queue.Queue = queue.Queue()
+    threading.Thread(target=lambda: box.put(stream.readline()), daemon=True).start()
+    try:
+        return box.get(timeout=timeout)
+    except queue.Empty:
+        return None
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 @pytest.mark.parametrize("kind", ["threads", "process"])
 def test_sigint_stops_a_sweep_within_two_seconds(tmp_path, kind):
     proc = subprocess.Popen([sys.executable, "-c", _CHILD, kind, str(tmp_path)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
     try:
-        line = proc.stdout.readline()
-        assert line.strip() == "ready", line + proc.stderr.read()
+        line = _readline(proc.stdout, 180.0)
+        if line is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            pytest.fail(f"{kind}: the child printed nothing within 180 s (hung before the "
+                        f"interrupted sweep): {proc.communicate()[1][-2000:]}")
+        assert line.strip() == "ready", line + proc.communicate(timeout=30)[1]
         time.sleep(1.0)  # well inside the 256 runs x 400 s sweep (minutes of work)
         sent = time.perf_counter()
         os.kill(proc.pid, signal.SIGINT)
@@ -100,6 +118,7 @@ def test_sigint_stops_a_sweep_within_two_seconds(tmp_path, kind):
         elapsed = time.perf_counter() - sent
     finally:
         if proc.poll() is None:
-            proc.kill()
+            os.killpg(proc.pid, signal.SIGKILL)  # the child and its pool workers
+            proc.communicate()
     assert "interrupted" in rest and proc.returncode == 130
     assert elapsed <= 2.0, f"{kind}: the process ended {elapsed:.2f} s after SIGINT"

@@ -3,8 +3,11 @@
 With glibc's scalar math (``vector_math=False``) the lanes kernel computes bit for bit what the
 scalar compiled kernel and CasADi's interpreter compute; with libmvec's vector math (the
 default) every run is classified the same and the metrics agree to the loop's amplification of
-a last-bit difference in ``tanh``/``sin``. Grids include diverging runs and sizes that the lane
-width does not divide, with one and with many RK4 substeps.
+a last-bit difference in ``tanh``/``sin``. Every instruction-set level this machine can run is
+tested (``fl.Kernel(isa=...)``: AVX-512, AVX2, SSE2 on x86-64; NEON or the portable path
+elsewhere); the expected lane width comes from the level, and the grids have a partial last
+block (and a grid smaller than one block) for every width, diverging runs, one and many RK4
+substeps.
 """
 
 from __future__ import annotations
@@ -13,9 +16,10 @@ import numpy as np
 import pytest
 
 import fl_design as fl
+from fl_design._isa import LEVELS, available_isas
 from fl_design.codegen import find_compiler
 from fl_design.sim import parameter_columns, prepare_run
-from fl_design.sim._lanes import LanesRunner, lane_width
+from fl_design.sim._lanes import LanesRunner
 from fl_design.sim._lanes_emit import lanes_source, rk4_fold
 from fl_design.sim._runners import make_runner
 
@@ -27,23 +31,29 @@ def _pendulum_design():
                      controller=fl.DynamicController((2, 4), 1e-2))
 
 
+#: The lanes levels of this machine (the scalar level is the "native" runner below).
+ISAS = [name for name in available_isas() if LEVELS[name].lanes]
+
 CASES = {
-    # plant, design, duration, eps grid, gamma grid: 5 x 4 = 20 runs (W = 8 or 4 does not
-    # divide 20 - 8k... and 3 x 7 = 21 runs), each grid with diverging runs
+    # plant, design, duration, eps grid, gamma grid: 5 x 3 = 15 and 3 x 7 = 21 runs, which no
+    # lane width (2, 4, 8) divides, each grid with diverging runs
     "pendulum": (fl.plants.pendulum, _pendulum_design, 1.2, np.geomspace(0.01, 1, 5),
-                 np.geomspace(1e-3, 1, 4)),
+                 np.geomspace(1e-3, 1, 3)),
     "trms": (fl.plants.trms_yaw, lambda: fl.presets.paper_design(u_limits=None), 0.6,
              np.geomspace(1e-3, 1, 3), np.geomspace(1e-4, 1.0, 7)),
 }
 
 
-def _runners(run, cache):
+def _runners(run, cache, isa=None):
     loop = run.loop
     sl = loop.layout.slices
     idx = {"k": sl["k"].start, "div": sl["diverged"].start, "N": sl["N"].start}
     mk = lambda **kw: make_runner(loop.accumulate, loop.record, idx, cache_dir=cache, **kw)
-    return idx, {"exact": mk(vector_math=False), "vector": mk(vector_math=True),
-                 "native": mk(lanes=False), "interp": mk(compiled=False)}
+    runners = {"native": mk(lanes=False), "interp": mk(compiled=False)}
+    for name in ISAS if isa is None else [isa]:
+        runners["exact", name] = mk(vector_math=False, isa=name)
+        runners["vector", name] = mk(vector_math=True, isa=name)
+    return idx, runners
 
 
 @pytest.fixture(scope="module")
@@ -62,20 +72,41 @@ def results(tmp_path_factory):
     return out
 
 
-@pytest.mark.parametrize("case", [(n, s) for n in CASES for s in (1, 4)])
+CASE_IDS = [(n, s, isa) for n in CASES for s in (1, 4) for isa in ISAS]
+
+
+@pytest.mark.parametrize("case", CASE_IDS, ids=lambda c: f"{c[0]}-rk{c[1]}-{c[2]}")
 def test_exact_lanes_equal_scalar_kernel_and_interpreter_bitwise(results, case):
-    _run, idx, runners, accs = results[case]
-    assert isinstance(runners["exact"], LanesRunner) and runners["exact"].library is not None
-    assert accs["exact"].shape[1] % lane_width() != 0
-    assert 0 < np.sum(accs["exact"][idx["div"]]) < accs["exact"].shape[1]  # some diverge
+    name, substeps, isa = case
+    _run, idx, runners, accs = results[name, substeps]
+    runner = runners["exact", isa]
+    assert isinstance(runner, LanesRunner) and runner.library is not None
+    assert runner.library.fl_lanes_width() == LEVELS[isa].width  # the level asked for
+    exact = accs["exact", isa]
+    assert exact.shape[1] % LEVELS[isa].width != 0  # a partial last block
+    assert 0 < np.sum(exact[idx["div"]]) < exact.shape[1]  # some diverge
     np.testing.assert_array_equal(accs["native"], accs["interp"])
-    np.testing.assert_array_equal(accs["exact"], accs["native"])
+    np.testing.assert_array_equal(exact, accs["native"])
 
 
-@pytest.mark.parametrize("case", [(n, s) for n in CASES for s in (1, 4)])
+@pytest.mark.parametrize("isa", ISAS)
+@pytest.mark.parametrize("n_runs", [1, 3])
+def test_a_grid_smaller_than_one_block(tmp_path, isa, n_runs):
+    """Fewer runs than lanes: the unused lanes never write a result (bitwise the scalar)."""
+    d = _pendulum_design()
+    run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.3))
+    _idx, runners = _runners(run, tmp_path, isa)
+    acc0 = run.initial_accumulator(parameter_columns(d, [0.02, 0.3, 1.0][:n_runs], [1e-2]))
+    np.testing.assert_array_equal(runners["exact", isa].run(acc0, run.D),
+                                  runners["native"].run(acc0, run.D))
+
+
+@pytest.mark.parametrize("case", CASE_IDS, ids=lambda c: f"{c[0]}-rk{c[1]}-{c[2]}")
 def test_vector_math_lanes_classify_the_same(results, case):
-    run, _idx, _, accs = results[case]
-    fast, ref = run.loop.layout.unpack(accs["vector"]), run.loop.layout.unpack(accs["interp"])
+    name, substeps, isa = case
+    run, _idx, _, accs = results[name, substeps]
+    fast = run.loop.layout.unpack(accs["vector", isa])
+    ref = run.loop.layout.unpack(accs["interp"])
     for name in ("diverged", "k_div", "k"):
         np.testing.assert_array_equal(fast[name], ref[name])
     ok = ref["diverged"] == 0
@@ -96,7 +127,7 @@ def test_sweep_default_kernel_is_lanes_and_classifies_like_interpreter(tmp_path)
 def test_record_goes_to_the_scalar_kernel(results):
     run, _, runners, _ = results["pendulum", 1]
     acc0 = run.initial_accumulator(run.loop.design.parameter_vector())[:, 0]
-    a, out = runners["exact"].record(acc0, run.D)
+    a, out = runners["exact", ISAS[0]].record(acc0, run.D)
     b, ref = runners["interp"].record(acc0, run.D)
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(out, ref)
@@ -124,8 +155,9 @@ def test_ten_thousand_substeps_compile_and_match_the_interpreter(tmp_path):
                       integrator=fl.RK4(substeps=10_000))
     _idx, runners = _runners(run, tmp_path)
     acc0 = run.initial_accumulator(parameter_columns(d, [0.02, 0.05], [1e-2, 3e-2, 0.1]))
-    np.testing.assert_array_equal(runners["exact"].run(acc0, run.D),
-                                  runners["interp"].run(acc0, run.D))
+    for isa in ISAS:
+        np.testing.assert_array_equal(runners["exact", isa].run(acc0, run.D),
+                                      runners["interp"].run(acc0, run.D))
 
 
 def test_serial_blas_gives_the_same_columns():

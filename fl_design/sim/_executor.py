@@ -1,0 +1,244 @@
+"""Grids run as tasks of a ``concurrent.futures.Executor``: what a worker gets, and how much.
+
+A worker gets what the compiled kernel needs and nothing else: a :class:`KernelTask` (the
+accumulating and recording steps as CasADi's serialized text, the accumulator indices, the
+kernel options and the samples ``D``) and the initial accumulators of its columns, computed
+here. No plant, no design, no SymPy: a worker imports only CasADi and fl_design's simulation
+layer, and the first task it runs builds (or loads from the kernel cache, when the worker
+shares this machine's disk) the same kernel this process uses, memoised by the task's key
+for the worker's life.
+
+Tasks are sized from the executor's workers (``_max_workers`` of a process or thread pool,
+the threads of a Dask cluster behind ``client.get_executor()``): :data:`TASKS_PER_WORKER`
+tasks per worker, so that one pickled payload and one kernel call cover hundreds of runs,
+and the columns are dealt out strided (task ``i`` gets columns ``i, i + n, i + 2n, ...``) so
+that cheap diverging runs and full-length converging ones are spread over every task.
+
+A worker that dies (killed, out of memory, a crash in native code) breaks a process pool:
+every chunk it had not returned is lost. :func:`run_tasks` keeps the finished ones and raises
+:class:`~fl_design.errors.WorkerLostError`, which names the lost grid points and carries the
+partial result; never a raw ``BrokenProcessPool``.
+
+Examples
+--------
+>>> from concurrent.futures import ThreadPoolExecutor
+>>> from fl_design.sim._executor import executor_workers
+>>> with ThreadPoolExecutor(3) as ex:
+...     executor_workers(ex)
+3
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import threading
+from collections import OrderedDict
+from concurrent.futures import BrokenExecutor, Executor, as_completed
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import WorkerLostError
+from ._options import Kernel
+
+#: Tasks per worker of an executor (balance against per-task pickling and kernel calls).
+TASKS_PER_WORKER = 4
+#: Fewest runs per task (below this a task costs more to ship than to run).
+MIN_TASK_RUNS = 16
+
+_MEMO: OrderedDict = OrderedDict()  # per worker process: task key -> runner
+_MEMO_LOCK = threading.Lock()
+
+
+def _after_fork_in_child() -> None:
+    global _MEMO_LOCK
+    _MEMO_LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+@dataclass(frozen=True, eq=False)
+class KernelTask:
+    """What a worker needs to run columns of one grid (picklable, no SymPy inside).
+
+    Parameters
+    ----------
+    key : str
+        SHA-256 of everything below but ``D`` (the worker's memo key of the runner).
+    accumulate, record : str
+        ``fl_acc`` and ``fl_rec`` as ``casadi.Function.serialize()`` text.
+    indices : dict
+        Accumulator positions ``k``, ``div``, ``N``.
+    kernel : Kernel
+        Kernel options (compiled, cache, lanes, vector math, ISA).
+    D : numpy.ndarray
+        ``(2, N)`` samples.
+    block : int
+        Samples per kernel call.
+
+    Examples
+    --------
+    >>> from fl_design.sim._executor import KernelTask
+    >>> KernelTask.__name__
+    'KernelTask'
+    """
+
+    key: str
+    accumulate: str
+    record: str
+    indices: dict
+    kernel: Kernel
+    D: np.ndarray
+    block: int
+
+    @classmethod
+    def of(cls, loop, kernel: Kernel, D: np.ndarray, block: int) -> KernelTask:
+        """The task of ``loop`` (a :class:`~fl_design.sim.ClosedLoop`) with these samples."""
+        sl = loop.layout.slices
+        indices = {"k": sl["k"].start, "div": sl["diverged"].start, "N": sl["N"].start}
+        acc, rec = loop.accumulate.serialize(), loop.record.serialize()
+        key = hashlib.sha256("\n".join([acc, rec, repr(sorted(indices.items())),
+                                        repr(kernel)]).encode()).hexdigest()
+        return cls(key, acc, rec, indices, kernel, np.ascontiguousarray(D), int(block))
+
+    def runner(self):
+        """The runner of this task in this process (built once per key, then memoised)."""
+        with _MEMO_LOCK:
+            if self.key in _MEMO:
+                _MEMO.move_to_end(self.key)
+                return _MEMO[self.key]
+        import casadi as ca
+
+        from ._runners import make_runner
+
+        k = self.kernel
+        runner = make_runner(ca.Function.deserialize(self.accumulate),
+                             ca.Function.deserialize(self.record), self.indices,
+                             compiled=k.compiled, cache_dir=k.cache_dir, lanes=k.lanes,
+                             vector_math=k.vector_math, isa=k.isa)
+        with _MEMO_LOCK:
+            _MEMO[self.key] = runner
+            while len(_MEMO) > 8:
+                _MEMO.popitem(last=False)
+        return runner
+
+
+def run_task(task: KernelTask, acc: np.ndarray, threads: int) -> np.ndarray:
+    """One task in a worker: advance the accumulators ``acc`` over ``task.D`` in blocks.
+
+    Examples
+    --------
+    >>> from fl_design.sim._executor import run_task
+    >>> callable(run_task)
+    True
+    """
+    runner = task.runner()
+    D = task.D
+    for a in range(0, D.shape[1], task.block):
+        acc = runner.run(acc, D[:, a:a + task.block], threads=threads)
+    return acc
+
+
+def executor_workers(executor: Executor) -> int:
+    """Workers (processes or threads) of ``executor``; the cores here when it does not say.
+
+    Examples
+    --------
+    >>> from concurrent.futures import ProcessPoolExecutor
+    >>> from fl_design.sim._executor import executor_workers
+    >>> executor_workers(ProcessPoolExecutor(2))
+    2
+    """
+    n = getattr(executor, "_max_workers", None)
+    if isinstance(n, int) and n > 0:
+        return n
+    client = getattr(executor, "_client", None)  # dask.distributed's ClientExecutor
+    if client is not None:
+        try:
+            return max(1, int(sum(client.nthreads().values())))
+        except Exception:  # noqa: BLE001 - a cluster that cannot say: the cores here
+            return os.cpu_count() or 1
+    return os.cpu_count() or 1
+
+
+def task_columns(n_runs: int, workers: int, chunk_size: int | None) -> list[np.ndarray]:
+    """Grid indices of each task: strided over :data:`TASKS_PER_WORKER` tasks per worker.
+
+    ``chunk_size`` (from :class:`~fl_design.Kernel`) fixes the runs per task instead.
+
+    Examples
+    --------
+    >>> from fl_design.sim._executor import task_columns
+    >>> [c.tolist() for c in task_columns(5, 1, 2)]
+    [[0, 3], [1, 4], [2]]
+    """
+    if chunk_size is None:
+        n_tasks = max(1, min(TASKS_PER_WORKER * workers, math.ceil(n_runs / MIN_TASK_RUNS)))
+    else:
+        n_tasks = math.ceil(n_runs / chunk_size)
+    n_tasks = max(1, min(n_tasks, n_runs))
+    return [np.arange(i, n_runs, n_tasks) for i in range(n_tasks)]
+
+
+def _ranges(idx: np.ndarray) -> str:
+    """``0-3, 7, 9-12`` for sorted grid indices (what was lost, readable)."""
+    idx = np.sort(idx)
+    parts, start = [], 0
+    for i in range(1, idx.size + 1):
+        if i == idx.size or idx[i] != idx[i - 1] + 1:
+            a, b = idx[start], idx[i - 1]
+            parts.append(f"{a}" if a == b else f"{a}-{b}")
+            start = i
+    return ", ".join(parts[:12]) + (", ..." if len(parts) > 12 else "")
+
+
+def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: int,
+              out: np.ndarray, bar) -> None:
+    """Submit one task per group of grid indices; fill ``out``; interrupt- and death-safe.
+
+    On an interrupt the pending tasks are cancelled and the interrupt re-raised. When the
+    executor breaks (a worker died) the finished tasks are kept and
+    :class:`~fl_design.errors.WorkerLostError` names the lost grid points.
+
+    Examples
+    --------
+    >>> from fl_design.sim._executor import run_tasks
+    >>> callable(run_tasks)
+    True
+    """
+    futures, lost, broken = {}, [], None
+    try:
+        for idx in groups:
+            futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
+        for fut in as_completed(futures):
+            idx = futures[fut]
+            try:
+                out[:, idx] = fut.result()
+            except BrokenExecutor as exc:
+                lost.append(idx)
+                broken = exc
+                continue
+            bar.update(idx.size)
+    except BaseException:
+        for fut in futures:
+            fut.cancel()
+        raise
+    if lost:
+        where = np.concatenate(lost)
+        out[:, where] = np.nan
+        done = len(groups) - len(lost)
+        raise WorkerLostError(
+            f"a worker of the executor died ({type(broken).__name__}: {broken}) and the "
+            f"results of {where.size} of {out.shape[1]} runs were lost (grid indices "
+            f"{_ranges(where)}; eps-major); {done} of {len(groups)} tasks finished and are kept "
+            "in this exception's .partial. Usual causes: memory exhausted (the OS killed it), "
+            "a crash in native code, or a script that starts a 'spawn'/'forkserver' pool "
+            "without `if __name__ == \"__main__\":`. Run the sweep again with a new executor",
+            lost=sorted(int(i) for i in where), partial=out.copy())
+
+
+__all__ = ["KernelTask", "executor_workers", "run_task", "run_tasks", "task_columns"]
