@@ -1,6 +1,6 @@
 """Which vector instruction set the compiled sweep kernel uses on this machine, and why.
 
-The lanes kernel of the sweeps (:mod:`fl_design.sim._lanes`) runs ``W`` grid points per SIMD
+The lanes kernel of the sweeps (:mod:`fl_design.sim.kernel._lanes`) runs ``W`` grid points per SIMD
 register. Nothing about the machine is assumed: the levels this CPU supports are read at run
 time from the C compiler's view of it (the macros ``-march=native`` predefines: the compiler
 asks the CPU with ``cpuid`` on x86-64), and one level is chosen:

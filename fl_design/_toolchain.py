@@ -10,7 +10,7 @@ The cache heals itself. Each file is written atomically (temporary name, then
 ``os.replace``), then a sidecar ``<file>.json`` records its size and SHA-256, also written
 atomically. A cached file is used only when it matches its sidecar (:func:`verified`); a
 truncated, empty or overwritten library, a missing or disagreeing sidecar, is rebuilt. Never
-is an unverified file loaded (:mod:`fl_design.sim._runners` checks again before ``dlopen``).
+is an unverified file loaded (:mod:`fl_design.sim.kernel._runners` checks again before ``dlopen``).
 The directory, sidecars and atomic writes are those of :mod:`fl_design._cache`, shared with the
 cache of plant derivations (:mod:`fl_design.symbolic._stored`).
 

@@ -47,8 +47,9 @@ import numpy as np
 
 import fl_design as fl
 from fl_design.codegen import build
-from fl_design.sim import parameter_columns, prepare_run
-from fl_design.sim._runners import make_runner
+from fl_design.sim._grid import parameter_columns
+from fl_design.sim._run import prepare_run
+from fl_design.sim.kernel._runners import make_runner
 
 HERE = Path(__file__).resolve().parent
 REFERENCE = 0.3

@@ -58,7 +58,7 @@ def sweep(*args, **kw):
     return fl.sweep(*args, **kw)
 def kernel(cache_dir=None):
     """Compiled record of the pendulum loop; also checked against a clean build."""
-    from fl_design.sim import prepare_run
+    from fl_design.sim._run import prepare_run
     try:
         run = prepare_run(fl.plants.pendulum(), design(), fl.Scenario(0.1, 0.3))
     except TypeError as exc:
@@ -76,7 +76,7 @@ def prebuilt(cache):
     """Build the pendulum kernel into ``cache`` without loading it; its path."""
     from fl_design.codegen import build
     from fl_design.sim import ClosedLoop
-    from fl_design.sim._runners import runner_source
+    from fl_design.sim.kernel._runners import runner_source
     loop = ClosedLoop(fl.plants.pendulum(), design(), substeps=1)
     sl = loop.layout.slices
     idx = {"k": sl["k"].start, "div": sl["diverged"].start, "N": sl["N"].start}

@@ -50,8 +50,8 @@ import math
 import numpy as np
 
 from .. import _validate as V
+from .._blas import serial_blas
 from ..errors import CertificationError, ParameterError
-from ..sim._lanes_blas import serial_blas
 from ._analytic import piecewise_modal
 from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
 from ._lmi import balance_scaling, vertex_lmi

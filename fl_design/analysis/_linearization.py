@@ -8,7 +8,7 @@ zero-order hold) with respect to the loop state ``X = (x_plant, design_state)``:
     X_(k+1) = F(X_k),   M = dF/dX at the equilibrium X_eq = F(X_eq)
 
 The core (the equilibrium, its tolerance scaled to the state, the simulation fallback, the
-decoupled integrator modes) lives in the simulation layer, :mod:`fl_design.sim._linearize`,
+decoupled integrator modes) lives in the simulation layer, :mod:`fl_design.sim._loop_jacobian`,
 which the adaptive run length of :class:`fl_design.Scenario` also uses; this module adds the
 public functions and the scan for a linearized eps*. The reference is the operating point's
 output unless given.
@@ -32,9 +32,9 @@ from .. import _validate as V
 from ..design import Design
 from ..errors import ComputationError, ParameterError
 from ..sim import EpsStar
-from ..sim._closed_loop import ClosedLoop, default_substeps
-from ..sim._linearize import LoopLinearizer, SampledLinearization
+from ..sim._loop_jacobian import LoopLinearizer, SampledLinearization
 from ..sim._run import b_sign, check_gamma_sign
+from ..sim.kernel._loop import ClosedLoop, default_substeps
 from ..symbolic import Plant
 
 #: Smallest ``rtol`` of :func:`linearized_eps_star` (4 ulps: float64 resolves no finer).
@@ -61,7 +61,7 @@ def sampled_linearization(plant, design, *, r: float | None = None,
     The equilibrium ``F(X) = X`` is found by Newton's method from the operating point, to a
     per-component tolerance of a few ulps of the state's scale times the evaluation's
     condition; when Newton does not converge, from the state a simulation at ``r`` settles
-    to, polished by Newton (:mod:`fl_design.sim._linearize`).
+    to, polished by Newton (:mod:`fl_design.sim._loop_jacobian`).
     :attr:`SampledLinearization.equilibrium_source` says which, ``residual`` what is left.
 
     Parameters

@@ -28,7 +28,8 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from ..sim import ClosedLoop, default_substeps
+from ..sim import ClosedLoop
+from ..sim.kernel._loop import default_substeps
 from ._package import compiler_or_raise, run_command
 from ._template import render
 

@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ComputationError
-from ._linearize import LoopLinearizer
+from ._loop_jacobian import LoopLinearizer
 from ._scenario import max_samples
 
 #: Largest initial amplitude, relative to the step, the slowest mode is allowed to start with.

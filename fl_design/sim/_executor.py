@@ -113,7 +113,7 @@ class KernelTask:
                 return _MEMO[self.key]
         import casadi as ca
 
-        from ._runners import make_runner
+        from .kernel._runners import make_runner
 
         k = self.kernel
         runner = make_runner(ca.Function.deserialize(self.accumulate),

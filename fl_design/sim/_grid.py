@@ -16,7 +16,7 @@ and a grid whose results would not fit in :func:`max_memory` is refused up front
 Examples
 --------
 >>> import fl_design as fl
->>> from fl_design.sim import parameter_columns
+>>> from fl_design.sim._grid import parameter_columns
 >>> d = fl.presets.pendulum_design()
 >>> parameter_columns(d, [0.01, 0.02], [1e-3, 1e-2, 0.1]).shape
 (28, 6)
@@ -151,7 +151,7 @@ class _Columns:
 
     def _est(self, i: int) -> np.ndarray:
         if i not in self._estimator:
-            from ._lanes_blas import serial_blas
+            from .._blas import serial_blas
 
             with serial_blas():
                 est = self.design.estimator.replace(eps=float(self.eps[i]))
@@ -220,7 +220,7 @@ def parameter_columns(design, eps, gamma) -> np.ndarray:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import parameter_columns
+    >>> from fl_design.sim._grid import parameter_columns
     >>> d = fl.Design(estimator=fl.EHGO(rho=1, eps=0.1, T=1e-3),
     ...               controller=fl.DynamicController((1.0,), 1e-2))
     >>> parameter_columns(d, [0.1], [1e-3, 2e-3])[-1].tolist()
@@ -267,7 +267,8 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import parameter_columns, prepare_run, run_grid
+    >>> from fl_design.sim._grid import parameter_columns, run_grid
+    >>> from fl_design.sim._run import prepare_run
     >>> d = fl.presets.pendulum_design()
     >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.5))
     >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.05], [1e-2]),

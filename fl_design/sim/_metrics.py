@@ -48,7 +48,8 @@ All other metrics of a diverged run are NaN.
 
 Examples
 --------
->>> from fl_design.sim import METRICS, Status
+>>> from fl_design.sim import Status
+>>> from fl_design.sim._metrics import METRICS
 >>> [m.name for m in METRICS][:3], Status.CONVERGED.label
 (['overshoot', 'rise_time', 'settling_time'], 'converged')
 """
@@ -90,7 +91,7 @@ class Accumulator:
 
     Examples
     --------
-    >>> from fl_design.sim import ACCUMULATORS
+    >>> from fl_design.sim._metrics import ACCUMULATORS
     >>> next(a for a in ACCUMULATORS if a.name == "e_max").initial
     -inf
     """
@@ -196,7 +197,7 @@ def metric_layout(rho: int) -> Layout:
 
     Examples
     --------
-    >>> from fl_design.sim import metric_layout
+    >>> from fl_design.sim._metrics import metric_layout
     >>> metric_layout(2)["est2_sum"]
     slice(5, 8, None)
     """
@@ -217,7 +218,7 @@ def initial_values(rho: int) -> dict[str, np.ndarray]:
 
     Examples
     --------
-    >>> from fl_design.sim import initial_values
+    >>> from fl_design.sim._metrics import initial_values
     >>> initial_values(1)["est2_sum"].tolist()
     [0.0, 0.0]
     """
@@ -245,7 +246,7 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outsid
     Examples
     --------
     >>> import casadi as ca
-    >>> from fl_design.sim import signals
+    >>> from fl_design.sim._metrics import signals
     >>> x = ca.SX.sym("x")
     >>> sorted(signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x,
     ...                k_tail=x, k_mid=x, outside=x))[:3]
@@ -275,7 +276,7 @@ def update(acc: dict, s: dict) -> dict:
     Examples
     --------
     >>> import casadi as ca
-    >>> from fl_design.sim import ACCUMULATORS, signals, update
+    >>> from fl_design.sim._metrics import ACCUMULATORS, signals, update
     >>> x = ca.SX.sym("x")
     >>> sig = signals(e=x, u=x, u_prev=x, k=x, est_err=x, y=x, y0=x, step=x, tol=x, k_tail=x,
     ...               k_mid=x, outside=x)
@@ -304,7 +305,7 @@ class Metric:
 
     Examples
     --------
-    >>> from fl_design.sim import METRICS
+    >>> from fl_design.sim._metrics import METRICS
     >>> next(m for m in METRICS if m.name == "overshoot").unit
     '%'
     """
@@ -379,7 +380,7 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.sim import metrics_from_summary
+    >>> from fl_design.sim._metrics import metrics_from_summary
     >>> s = dict(N=10, k_tail=8, step=1.0, tol=0.02, diverged=0, k_div=-1, e_max=0.1,
     ...          e_min=-1.0, abs_e_sum=2.0, u2_sum=10.0, du_sum=1.0, est2_sum=np.zeros(3),
     ...          tail_abs_e_max=0.01, tail_e_max=0.01, tail_e_min=0.0, tail_e_sum=0.01,

@@ -333,7 +333,7 @@ class Kernel:
 
         from .._isa import ISA_ENV, available_isas, cpu_model, resolve_isa
         from .._toolchain import find_compiler
-        from ._lanes import vector_math
+        from .kernel._lanes import vector_math
 
         isa = resolve_isa(self.isa if self.lanes else "scalar")
         compiled = bool(self.compiled) and find_compiler() is not None

@@ -9,7 +9,7 @@ design's sampling time; :meth:`RunSetup.initial_accumulator` lays out one accumu
 Examples
 --------
 >>> import fl_design as fl
->>> from fl_design.sim import prepare_run
+>>> from fl_design.sim._run import prepare_run
 >>> d = fl.presets.pendulum_design()
 >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
 >>> run.N, run.k_tail, run.step
@@ -24,10 +24,10 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import DimensionError, ParameterError, RelativeDegreeError
-from ._closed_loop import ClosedLoop, default_substeps
 from ._duration import resolve_duration
 from ._metrics import initial_values
 from ._options import RK4, Classifier, Scenario, option
+from .kernel._loop import ClosedLoop, default_substeps
 
 
 def default_divergence_bound(plant) -> np.ndarray:
@@ -50,7 +50,7 @@ def default_divergence_bound(plant) -> np.ndarray:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import default_divergence_bound
+    >>> from fl_design.sim._run import default_divergence_bound
     >>> default_divergence_bound(fl.plants.pendulum()).round(2).tolist()
     [62.83, 200.0]
     """
@@ -97,7 +97,7 @@ class RunSetup:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import prepare_run
+    >>> from fl_design.sim._run import prepare_run
     >>> d = fl.presets.pendulum_design()
     >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
     >>> run.D.shape, run.tol
@@ -182,7 +182,7 @@ class RunSetup:
         Examples
         --------
         >>> import fl_design as fl
-        >>> from fl_design.sim import prepare_run
+        >>> from fl_design.sim._run import prepare_run
         >>> d = fl.presets.pendulum_design()
         >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
         >>> run.initial_accumulator(d.parameter_vector()).shape
@@ -242,7 +242,7 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import prepare_run
+    >>> from fl_design.sim._run import prepare_run
     >>> d = fl.presets.pendulum_design()
     >>> sc = fl.Scenario(lambda t: 0.1 * (t > 0.5), 1.0)
     >>> prepare_run(fl.plants.pendulum(), d, sc).r[[0, -1]]

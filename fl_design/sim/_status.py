@@ -132,7 +132,7 @@ def classify(summary: dict) -> np.ndarray:
 
     Examples
     --------
-    >>> from fl_design.sim import classify
+    >>> from fl_design.sim._status import classify
     >>> base = dict(diverged=0, tol=0.01, tail_reversals=0)
     >>> classify(dict(base, tail_abs_e_max=0.001, tail_e_max=0.001, tail_e_min=0.0,
     ...               env1_max=0.001, env2_max=0.0005)).tolist()

@@ -17,8 +17,9 @@ import fl_design as fl
 from fl_design import _toolchain as _build
 from fl_design.codegen import build, cache_directory, find_compiler
 from fl_design.errors import CompilationWarning, ComputationError
-from fl_design.sim import _runners, prepare_run
-from fl_design.sim._runners import InterpretedRunner, NativeRunner, runner_source
+from fl_design.sim._run import prepare_run
+from fl_design.sim.kernel import _runners
+from fl_design.sim.kernel._runners import InterpretedRunner, NativeRunner, runner_source
 
 needs_cc = pytest.mark.skipif(find_compiler() is None, reason="no C compiler")
 

@@ -85,7 +85,8 @@ def test_initial_estimate_overrides_the_start_and_is_checked():
 
 def test_initial_estimate_in_a_sweep_follows_each_eps():
     plant, d = fl.plants.pendulum(), fl.presets.pendulum_design()
-    from fl_design.sim import parameter_columns, prepare_run
+    from fl_design.sim._grid import parameter_columns
+    from fl_design.sim._run import prepare_run
 
     run = prepare_run(plant, d, fl.Scenario(0.0, 0.01, initial_estimate=[0.0, 0.1, 2.0]))
     P = parameter_columns(d, [0.01, 0.05], [1e-2, 2e-2])

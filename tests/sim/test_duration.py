@@ -13,8 +13,10 @@ import pytest
 import fl_design as fl
 from fl_design.app import ConfigError, build_scenario, parse_config
 from fl_design.errors import ParameterError
-from fl_design.sim import ClosedLoop, default_substeps, prepare_run
+from fl_design.sim import ClosedLoop
 from fl_design.sim import _duration as D
+from fl_design.sim._run import prepare_run
+from fl_design.sim.kernel._loop import default_substeps
 from tests.oracles import fd_jacobian
 
 T = 1e-3

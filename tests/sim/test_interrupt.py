@@ -14,8 +14,8 @@ import pytest
 
 import fl_design as fl
 from fl_design.errors import ResourceLimitError
-from fl_design.sim import parameter_columns, prepare_run
-from fl_design.sim._grid import block_length
+from fl_design.sim._grid import block_length, parameter_columns
+from fl_design.sim._run import prepare_run
 
 
 @pytest.mark.parametrize("kernel", [fl.Kernel(compiled=False), fl.Kernel(lanes=False),

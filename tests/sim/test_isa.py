@@ -15,8 +15,8 @@ import fl_design as fl
 from fl_design._isa import ISA_ENV, LEVELS, available_isas, resolve_isa
 from fl_design.codegen import find_compiler
 from fl_design.errors import ParameterError
-from fl_design.sim import prepare_run
-from fl_design.sim._lanes import build_lanes
+from fl_design.sim._run import prepare_run
+from fl_design.sim.kernel._lanes import build_lanes
 
 needs_cc = pytest.mark.skipif(find_compiler() is None, reason="needs a C compiler")
 
@@ -109,7 +109,7 @@ def test_every_level_gives_the_sweep_the_same_classifications(tmp_path, isa):
 
 @needs_cc
 def test_the_override_reaches_a_fresh_process(tmp_path):
-    code = ("import fl_design as fl; from fl_design.sim._lanes import LanesRunner\n"
+    code = ("import fl_design as fl; from fl_design.sim.kernel._lanes import LanesRunner\n"
             "d = fl.presets.pendulum_design()\n"
             "r = fl.sim.ClosedLoop(fl.plants.pendulum(), d, substeps=1).runner()\n"
             "print(r.isa.name, r.library.fl_lanes_width() if r.library else 1)")

@@ -18,10 +18,11 @@ import pytest
 import fl_design as fl
 from fl_design._isa import LEVELS, available_isas
 from fl_design.codegen import find_compiler
-from fl_design.sim import parameter_columns, prepare_run
-from fl_design.sim._lanes import LanesRunner
-from fl_design.sim._lanes_emit import lanes_source, rk4_fold
-from fl_design.sim._runners import make_runner
+from fl_design.sim._grid import parameter_columns
+from fl_design.sim._run import prepare_run
+from fl_design.sim.kernel._emit import lanes_source, rk4_fold
+from fl_design.sim.kernel._lanes import LanesRunner
+from fl_design.sim.kernel._runners import make_runner
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="needs a C compiler")
 
@@ -161,7 +162,7 @@ def test_ten_thousand_substeps_compile_and_match_the_interpreter(tmp_path):
 
 
 def test_serial_blas_gives_the_same_columns():
-    from fl_design.sim._lanes_blas import _openblas_libraries, serial_blas
+    from fl_design._blas import _openblas_libraries, serial_blas
 
     d = fl.presets.paper_design()
     ref = parameter_columns(d, [1e-3, 0.05, 1.0], [1e-4])

@@ -10,8 +10,9 @@ import pytest
 
 import fl_design as fl
 from fl_design.errors import ComputationError
-from fl_design.sim import ClosedLoop, default_substeps
-from fl_design.sim import _linearize as L
+from fl_design.sim import ClosedLoop
+from fl_design.sim import _loop_jacobian as L
+from fl_design.sim.kernel._loop import default_substeps
 from tests.oracles import fd_jacobian, sample_map
 
 UNIT = np.finfo(float).eps

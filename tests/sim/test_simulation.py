@@ -25,7 +25,9 @@ from fl_design.errors import (
     ParameterError,
     ResourceLimitError,
 )
-from fl_design.sim import ClosedLoop, default_divergence_bound, default_substeps, prepare_run
+from fl_design.sim import ClosedLoop
+from fl_design.sim._run import default_divergence_bound, prepare_run
+from fl_design.sim.kernel._loop import default_substeps
 
 T = 1e-3
 

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 import fl_design as fl
-from fl_design.sim import EpsStar, EpsStarEstimate, StabilityMap, Status, classify
+from fl_design.sim import EpsStar, EpsStarEstimate, StabilityMap, Status
 from fl_design.sim._metrics import initial_values, metric_layout, metrics_from_summary
 from fl_design.sim._simulate import _metric_step
+from fl_design.sim._status import classify
 from tests.oracles import count_reversals
 
 TOL = 0.01

@@ -37,7 +37,7 @@ def test_partial_state_operating_point_and_the_run_starts_there():
     plant = fl.Plant.from_ode(*_beam_like()[:3], _beam_like()[3], operating_point={"x1": 0.2},
                               region={"x1": (-1, 1), "x2": (-1, 1), "x3": (-2, 2)})
     np.testing.assert_allclose(plant.x_op, [0.2, 0.0, np.sin(0.2)], atol=1e-12)
-    from fl_design.sim import prepare_run
+    from fl_design.sim._run import prepare_run
 
     d = fl.Design(estimator=fl.EHGO(3, 0.05, 1e-3), controller=fl.DynamicController((1, 3, 3), 0.1))
     run = prepare_run(plant, d, fl.Scenario(0.2, 0.01))

@@ -50,7 +50,8 @@ that mode is coupled and stays in the spectrum.)
 Examples
 --------
 >>> import fl_design as fl
->>> from fl_design.sim import ClosedLoop, LoopLinearizer
+>>> from fl_design.sim import ClosedLoop
+>>> from fl_design.sim._loop_jacobian import LoopLinearizer
 >>> d = fl.presets.pendulum_design()
 >>> lin = LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4))
 >>> res = lin(0.0, d.parameter_vector())
@@ -67,7 +68,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ComputationError
-from ._closed_loop import ClosedLoop
+from .kernel._loop import ClosedLoop
 
 #: Unit roundoff of float64.
 UNIT = float(np.finfo(float).eps)
@@ -102,7 +103,7 @@ class SampledLinearization:
         Reference of the equilibrium.
     decoupled : tuple of str
         States removed as decoupled accumulators (eigenvalue exactly 1, see
-        :mod:`fl_design.sim._linearize`).
+        :mod:`fl_design.sim._loop_jacobian`).
     eigenvalues : numpy.ndarray
         Eigenvalues of ``M`` without the decoupled states, by decreasing modulus.
     spectral_radius : float
@@ -194,12 +195,12 @@ def fixed_point_tolerance(X: np.ndarray, J: np.ndarray) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        ``(N,)``; see :mod:`fl_design.sim._linearize` for why.
+        ``(N,)``; see :mod:`fl_design.sim._loop_jacobian` for why.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.sim._linearize import fixed_point_tolerance
+    >>> from fl_design.sim._loop_jacobian import fixed_point_tolerance
     >>> fixed_point_tolerance(np.array([0.0, 1e3]), np.eye(2)) / 2.220446049250313e-16
     array([   32., 32000.])
     """
@@ -218,7 +219,8 @@ class LoopLinearizer:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import ClosedLoop, LoopLinearizer
+    >>> from fl_design.sim import ClosedLoop
+    >>> from fl_design.sim._loop_jacobian import LoopLinearizer
     >>> d = fl.presets.pendulum_design()
     >>> lin = LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4))
     >>> lin.names
@@ -258,7 +260,8 @@ class LoopLinearizer:
         Examples
         --------
         >>> import fl_design as fl
-        >>> from fl_design.sim import ClosedLoop, LoopLinearizer
+        >>> from fl_design.sim import ClosedLoop
+        >>> from fl_design.sim._loop_jacobian import LoopLinearizer
         >>> d = fl.presets.pendulum_design()
         >>> LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4)).start().tolist()
         [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
@@ -399,7 +402,8 @@ class LoopLinearizer:
         Examples
         --------
         >>> import fl_design as fl
-        >>> from fl_design.sim import ClosedLoop, LoopLinearizer
+        >>> from fl_design.sim import ClosedLoop
+        >>> from fl_design.sim._loop_jacobian import LoopLinearizer
         >>> d = fl.presets.pendulum_design()
         >>> lin = LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4))
         >>> round(float(lin(0.2, d.parameter_vector()).x_eq[0]), 12)

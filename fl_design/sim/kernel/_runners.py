@@ -5,8 +5,8 @@ The accumulating step ``fl_acc(acc, d) -> acc_next`` and the recording step ``fl
 evaluate them over ``nsteps`` samples and many accumulator columns (one per grid point), with
 the same interface and the same results:
 
-* :class:`~fl_design.sim._lanes.LanesRunner` (default, :func:`make_runner`): grids run on W grid
-  points per SIMD vector (:mod:`fl_design.sim._lanes`); a recorded run goes to
+* :class:`~fl_design.sim.kernel._lanes.LanesRunner` (default, :func:`make_runner`): grids run on W grid
+  points per SIMD vector (:mod:`fl_design.sim.kernel._lanes`); a recorded run goes to
 * :class:`NativeRunner`: CasADi generates the C code of both steps; the driver
   template ``templates/kernel_driver.c.in`` appended to it loops over columns and samples
   (double-buffered accumulators, no copies) and stops a column as soon as it has diverged
@@ -46,8 +46,8 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from .._toolchain import build, discard, find_compiler, generate_source, verified
-from ..errors import CompilationWarning, ComputationError
+from ..._toolchain import build, discard, find_compiler, generate_source, verified
+from ...errors import CompilationWarning, ComputationError
 
 
 class _UnverifiedLibrary(ComputationError):
@@ -88,7 +88,7 @@ class NativeRunner:
 
     Examples
     --------
-    >>> from fl_design.sim._runners import NativeRunner
+    >>> from fl_design.sim.kernel._runners import NativeRunner
     >>> NativeRunner.__name__
     'NativeRunner'
     """
@@ -105,7 +105,7 @@ class NativeRunner:
 
         Examples
         --------
-        >>> from fl_design.sim._runners import NativeRunner
+        >>> from fl_design.sim.kernel._runners import NativeRunner
         >>> callable(NativeRunner.run)
         True
         """
@@ -134,7 +134,7 @@ class NativeRunner:
 
         Examples
         --------
-        >>> from fl_design.sim._runners import NativeRunner
+        >>> from fl_design.sim.kernel._runners import NativeRunner
         >>> callable(NativeRunner.record)
         True
         """
@@ -163,7 +163,7 @@ class InterpretedRunner:
 
     Examples
     --------
-    >>> from fl_design.sim._runners import InterpretedRunner
+    >>> from fl_design.sim.kernel._runners import InterpretedRunner
     >>> InterpretedRunner.compiled
     False
     """
@@ -204,7 +204,7 @@ class InterpretedRunner:
 
         Examples
         --------
-        >>> from fl_design.sim._runners import InterpretedRunner
+        >>> from fl_design.sim.kernel._runners import InterpretedRunner
         >>> callable(InterpretedRunner.run)
         True
         """
@@ -224,7 +224,7 @@ class InterpretedRunner:
 
         Examples
         --------
-        >>> from fl_design.sim._runners import InterpretedRunner
+        >>> from fl_design.sim.kernel._runners import InterpretedRunner
         >>> callable(InterpretedRunner.record)
         True
         """
@@ -242,7 +242,7 @@ def runner_source(accumulate: ca.Function, record: ca.Function, indices: dict) -
 
     Examples
     --------
-    >>> from fl_design.sim._runners import runner_source
+    >>> from fl_design.sim.kernel._runners import runner_source
     >>> callable(runner_source)
     True
     """
@@ -268,7 +268,7 @@ def fill_template(text: str, values: dict) -> str:
 
     Examples
     --------
-    >>> from fl_design.sim._runners import fill_template
+    >>> from fl_design.sim.kernel._runners import fill_template
     >>> fill_template("int n = @N@;", {"N": 3})
     'int n = 3;'
     """
@@ -286,7 +286,7 @@ def fill_template(text: str, values: dict) -> str:
 def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
                 compiled: bool = True, cache_dir=None, lanes: bool = True,
                 vector_math: bool | None = None, isa: str | None = None):
-    """A :class:`~fl_design.sim._lanes.LanesRunner`, a :class:`NativeRunner` or an interpreter.
+    """A :class:`~fl_design.sim.kernel._lanes.LanesRunner`, a :class:`NativeRunner` or an interpreter.
 
     Compiled runners are built (and cached) on first use by the lanes runner: the lanes
     kernel for grids, the scalar :class:`NativeRunner` for recorded runs.
@@ -316,12 +316,12 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
 
     Examples
     --------
-    >>> from fl_design.sim._runners import make_runner
+    >>> from fl_design.sim.kernel._runners import make_runner
     >>> callable(make_runner)
     True
     """
     if compiled and lanes and find_compiler() is not None:
-        from .._isa import resolve_isa
+        from ..._isa import resolve_isa
         from ._lanes import LanesRunner
 
         scalar = functools.partial(make_runner, accumulate, record, indices, compiled=True,

@@ -1,6 +1,6 @@
 """The lanes runner: the sweep kernel on W grid points per SIMD vector (the default).
 
-:class:`LanesRunner` compiles :func:`fl_design.sim._lanes_emit.lanes_source` of the
+:class:`LanesRunner` compiles :func:`fl_design.sim.kernel._emit.lanes_source` of the
 accumulating step for one instruction-set level (:mod:`fl_design._isa`: the widest this CPU
 has, or the one ``fl.Kernel(isa=...)`` / ``$FL_DESIGN_ISA`` asks for; its lane width ``W``
 and libmvec's vector ``tanh``/``sin``/``exp`` of that width) and runs the columns of a grid
@@ -24,7 +24,7 @@ parent's. The same holds for its lock and the per-process memo of runners in
 
 Examples
 --------
->>> from fl_design.sim._lanes import lane_width
+>>> from fl_design.sim.kernel._lanes import lane_width
 >>> lane_width("scalar")
 1
 """
@@ -42,10 +42,10 @@ from concurrent.futures import ThreadPoolExecutor
 import casadi as ca
 import numpy as np
 
-from .._isa import Isa, mvec_functions, resolve_isa
-from .._toolchain import LANES_CFLAGS, build, discard, find_compiler, verified
-from ..errors import CompilationWarning, ComputationError
-from ._lanes_emit import MATH, LanesUnsupported, lanes_source
+from ..._isa import Isa, mvec_functions, resolve_isa
+from ..._toolchain import LANES_CFLAGS, build, discard, find_compiler, verified
+from ...errors import CompilationWarning, ComputationError
+from ._emit import MATH, LanesUnsupported, lanes_source
 
 
 def lane_width(isa: str | None = None) -> int:
@@ -64,7 +64,7 @@ def lane_width(isa: str | None = None) -> int:
 
     Examples
     --------
-    >>> from fl_design.sim._lanes import lane_width
+    >>> from fl_design.sim.kernel._lanes import lane_width
     >>> lane_width() >= 1
     True
     """
@@ -76,7 +76,7 @@ def vector_math(isa: Isa | None = None) -> tuple[str, ...]:
 
     Examples
     --------
-    >>> from fl_design.sim._lanes import vector_math
+    >>> from fl_design.sim.kernel._lanes import vector_math
     >>> isinstance(vector_math(), tuple)
     True
     """
@@ -100,7 +100,7 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, isa: Isa | None = Non
                 cache_dir=None, vector_math_ok: bool = True):
     """Compile (cached) the lanes kernel of ``accumulate`` for level ``isa``; path or None.
 
-    Raises :class:`~fl_design.sim._lanes_emit.LanesUnsupported` for a step it cannot
+    Raises :class:`~fl_design.sim.kernel._emit.LanesUnsupported` for a step it cannot
     translate. With ``vector_math_ok=False`` math functions are glibc's scalar ones (bitwise
     the results of the scalar kernel and of the interpreter, 4x slower on the TRMS loop).
     None for the ``scalar`` level or without a compiler.
@@ -124,7 +124,7 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, isa: Isa | None = Non
 
     Examples
     --------
-    >>> from fl_design.sim._lanes import build_lanes
+    >>> from fl_design.sim.kernel._lanes import build_lanes
     >>> callable(build_lanes)
     True
     """
@@ -172,7 +172,7 @@ class LanesRunner:
 
     Examples
     --------
-    >>> from fl_design.sim._lanes import LanesRunner
+    >>> from fl_design.sim.kernel._lanes import LanesRunner
     >>> LanesRunner.compiled
     True
     """
@@ -282,7 +282,7 @@ class LanesRunner:
 
         Examples
         --------
-        >>> from fl_design.sim._lanes import LanesRunner
+        >>> from fl_design.sim.kernel._lanes import LanesRunner
         >>> callable(LanesRunner.run)
         True
         """
@@ -323,7 +323,7 @@ class LanesRunner:
 
         Examples
         --------
-        >>> from fl_design.sim._lanes import LanesRunner
+        >>> from fl_design.sim.kernel._lanes import LanesRunner
         >>> callable(LanesRunner.record)
         True
         """

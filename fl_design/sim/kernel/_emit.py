@@ -19,7 +19,7 @@ kernel and the interpreter compute (up to the last bits of libmvec's vector ``ta
 Examples
 --------
 >>> import casadi as ca
->>> from fl_design.sim._lanes_emit import lanes_source
+>>> from fl_design.sim.kernel._emit import lanes_source
 >>> x = ca.SX.sym("x", 2)
 >>> f = ca.Function("fl_acc", [x, ca.SX.sym("d", 2)], [ca.vertcat(x[0] + x[1], ca.tanh(x[1]))])
 >>> "tanh(" in lanes_source(f, {"k": 0, "div": 1, "N": 1}, width=4)
@@ -222,7 +222,7 @@ def rk4_fold(accumulate: ca.Function) -> tuple[ca.Function | None, int]:
     Examples
     --------
     >>> import casadi as ca
-    >>> from fl_design.sim._lanes_emit import rk4_fold
+    >>> from fl_design.sim.kernel._emit import rk4_fold
     >>> x = ca.SX.sym("x")
     >>> rk4_fold(ca.Function("f", [x], [2 * x]))
     (None, 1)
@@ -268,7 +268,7 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     Examples
     --------
     >>> import casadi as ca
-    >>> from fl_design.sim._lanes_emit import lanes_source
+    >>> from fl_design.sim.kernel._emit import lanes_source
     >>> x = ca.SX.sym("x", 3)
     >>> src = lanes_source(ca.Function("fl_acc", [x, ca.SX.sym("d", 2)], [x]),
     ...                    {"k": 0, "div": 1, "N": 2}, width=8)

@@ -14,7 +14,7 @@ the whole process). Without OpenBLAS (other BLAS, other OS) it does nothing.
 Examples
 --------
 >>> import numpy as np
->>> from fl_design.sim._lanes_blas import serial_blas
+>>> from fl_design._blas import serial_blas
 >>> with serial_blas():
 ...     x = np.linalg.solve(np.eye(3), np.ones(3))
 >>> x.tolist()
@@ -63,7 +63,7 @@ def serial_blas():
 
     Examples
     --------
-    >>> from fl_design.sim._lanes_blas import serial_blas
+    >>> from fl_design._blas import serial_blas
     >>> with serial_blas() as n:
     ...     n >= 0
     True

@@ -29,7 +29,7 @@ state ``acc`` holds the plant and design states, running metrics, the run's cons
   :data:`fl_design.sim.ACCUMULATORS` (defined once, in :mod:`fl_design.sim._metrics`).
 
 The step is run over the samples and over the grid's parameter columns by a compiled C driver
-(or, without a compiler, by CasADi's ``fold`` in its interpreter): see :mod:`fl_design.sim._runners`.
+(or, without a compiler, by CasADi's ``fold`` in its interpreter): see :mod:`fl_design.sim.kernel._runners`.
 Memory is one accumulator per grid point, whatever the number of samples.
 
 Examples
@@ -53,10 +53,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .. import _validate as V
-from ..design import Layout
-from ..errors import DesignMismatchError, NonMinimumPhaseWarning, UnmodeledDynamicsWarning
-from ._metrics import RUN_CONSTANTS, metric_layout, signals, update
+from ... import _validate as V
+from ...design import Layout
+from ...errors import DesignMismatchError, NonMinimumPhaseWarning, UnmodeledDynamicsWarning
+from .._metrics import RUN_CONSTANTS, metric_layout, signals, update
 
 #: Any design-state or input magnitude beyond this counts as non-finite (divergence).
 HUGE = 1e300
@@ -81,7 +81,7 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
 
     Examples
     --------
-    >>> from fl_design.sim import accumulator_layout
+    >>> from fl_design.sim.kernel._loop import accumulator_layout
     >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
     >>> lay["x"], "est2_sum" in lay, lay.size
     (slice(0, 2, None), True, 75)
@@ -118,7 +118,7 @@ def default_substeps(plant, T: float) -> int:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.sim import default_substeps
+    >>> from fl_design.sim.kernel._loop import default_substeps
     >>> default_substeps(fl.plants.pendulum(), 1e-3)
     1
     """
@@ -310,7 +310,7 @@ class ClosedLoop:
         ``rho`` is the design's: with unmodeled dynamics the plant's first ``rho`` output
         derivatives (Lie derivatives of ``h`` along ``f``).
         """
-        from ..symbolic._bridge import to_casadi
+        from ...symbolic._bridge import to_casadi
 
         if self.plant.relative_degree() == self.rho:
             coords = list(self.plant.normal_form().coordinates)
@@ -325,7 +325,7 @@ class ClosedLoop:
         the relative degrees agree, ``L_f^rho h`` without an input term otherwise)."""
         if self.plant.relative_degree() == self.rho:
             return self.plant.casadi().sigma
-        from ..symbolic._bridge import to_casadi
+        from ...symbolic._bridge import to_casadi
 
         expr = self.plant.output_derivatives(self.rho)[-1]
         return to_casadi(expr, [list(self.plant.states), [self.plant.input]], "sigma",
@@ -428,7 +428,7 @@ class ClosedLoop:
                            ["acc_next", "out"])
 
     def runner(self, *, compiled: bool = True, cache_dir=None, kernel=None):
-        """The runner of :attr:`accumulate` / :attr:`record` (see :mod:`fl_design.sim._runners`).
+        """The runner of :attr:`accumulate` / :attr:`record` (see :mod:`fl_design.sim.kernel._runners`).
 
         Parameters
         ----------
