@@ -1,7 +1,8 @@
 """Simulation layer: the sampled closed loop, ``simulate`` and ``sweep``.
 
 Public API (re-exported at ``fl_design``): run options :class:`Scenario`, :class:`Noise`,
-:class:`Classifier`, :class:`RK4`, :class:`Cvodes`, :class:`Kernel`; :func:`simulate` ->
+:class:`Classifier`, :class:`RK4`, :class:`Cvodes`, :class:`Kernel`, :class:`Disturbance`
+(:class:`Step`, :class:`Sine`); :func:`simulate` ->
 :class:`Response`; :func:`sweep` -> :class:`StabilityMap`; :func:`estimate_eps_star` ->
 :class:`EpsStarEstimate`; :class:`EpsStar` brackets; :class:`Status` and its codes; the
 :class:`ClosedLoop` for advanced use.
@@ -21,6 +22,7 @@ Examples
 ['converged', 'converging', 'diverged', 'oscillating', 'solver_failed', 'undecided']
 """
 
+from ._disturbance import Disturbance, Sine, Step
 from ._metrics import STATUS_CODES, Status
 from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
 from ._response import Response
@@ -35,14 +37,17 @@ __all__ = [
     "Classifier",
     "ClosedLoop",
     "Cvodes",
+    "Disturbance",
     "EpsStar",
     "EpsStarEstimate",
     "Kernel",
     "Noise",
     "Response",
     "Scenario",
+    "Sine",
     "StabilityMap",
     "Status",
+    "Step",
     "estimate_eps_star",
     "simulate",
     "sweep",

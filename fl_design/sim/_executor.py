@@ -76,7 +76,7 @@ class KernelTask:
     kernel : Kernel
         Kernel options (compiled, cache, lanes, vector math, ISA).
     D : numpy.ndarray
-        ``(2, N)`` samples.
+        ``(n_d, N)`` per-sample inputs (:attr:`fl_design.sim._run.RunSetup.D`).
     block : int
         Samples per kernel call.
 
@@ -103,7 +103,7 @@ class KernelTask:
         acc, rec = loop.accumulate.serialize(), loop.record.serialize()
         key = hashlib.sha256("\n".join([acc, rec, repr(sorted(indices.items())),
                                         repr(kernel)]).encode()).hexdigest()
-        return cls(key, acc, rec, indices, kernel, np.ascontiguousarray(D), int(block))
+        return cls(key, acc, rec, indices, kernel, D, int(block))  # D sample-major: no copies
 
     def runner(self):
         """The runner of this task in this process (built once per key, then memoised)."""

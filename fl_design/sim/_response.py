@@ -57,6 +57,8 @@ class Response:
     summary : dict
         The run's final accumulators and constants (:mod:`fl_design.sim._metrics`), from
         which :attr:`metrics` is derived.
+    disturbance_start : float, optional
+        When the scenario's first non-zero disturbance acts (``inf``: none).
     duration_reason : str, optional
         ``"given"`` (the scenario's ``duration``), or how the run chose its length
         (:mod:`fl_design.sim._duration`): the multiple of the loop's slowest time constant,
@@ -90,6 +92,27 @@ class Response:
     method: str = "rk4"
     summary: dict = field(default_factory=dict, repr=False, compare=False)
     duration_reason: str = "given"
+    disturbance_start: float = float("inf")
+
+    @property
+    def disturbance(self) -> dict | None:
+        """Response to the scenario's disturbance: ``disturbance_at`` (s), ``disturbance_peak``
+        (max ``|y - r|`` from then on) and ``recovery_time`` (s until ``|y - r|`` stays
+        within ``tol``; ``inf``: not within this run). None without a disturbance.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> sc = fl.Scenario(0.1, 20.0, disturbance=fl.Disturbance(input=fl.Step(10.0, 0.5)))
+        >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), sc)
+        >>> resp.disturbance["disturbance_at"], resp.disturbance["recovery_time"] < 10
+        (10.0, True)
+        """
+        from ._disturbance import disturbance_metrics
+
+        if not np.isfinite(self.disturbance_start):
+            return None
+        return disturbance_metrics(self.t, self.y, self.r, self.disturbance_start, self.tol)
 
     @property
     def duration(self) -> float:
@@ -149,14 +172,14 @@ class Response:
         >>> d = fl.presets.pendulum_design()
         >>> data = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.05)).to_dict()
         >>> sorted(data)[:4], data["duration"], data["duration_reason"]
-        (['T', 'coords', 'divergence_index', 'duration'], 0.05, 'given')
+        (['T', 'coords', 'disturbance', 'divergence_index'], 0.05, 'given')
         """
         data = {name: getattr(self, name)
                 for name in ("t", "r", "y", "ym", "u", "xhat", "sigmahat", "sigma", "coords", "x")}
         data.update(T=self.T, tol=self.tol, k_tail=self.k_tail, y0=self.y0, step=self.step,
                     divergence_index=self.divergence_index, method=self.method,
                     duration=self.duration, duration_reason=self.duration_reason,
-                    metrics=self.metrics)
+                    metrics=self.metrics, disturbance=self.disturbance)
         return jsonable(data)
 
     def plot(self, *, axes=None, title: str | None = None):

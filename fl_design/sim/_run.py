@@ -18,6 +18,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,7 +76,7 @@ class RunSetup:
     N : int
         Samples.
     r, noise : numpy.ndarray
-        ``(N,)`` reference and measurement noise.
+        ``(N,)`` reference and measurement noise (the output disturbance included).
     x0 : numpy.ndarray
         Initial plant state.
     s0 : numpy.ndarray
@@ -93,6 +94,8 @@ class RunSetup:
         where none is declared).
     duration_reason : str, optional
         ``"given"``, or how the adaptive run length was chosen (:mod:`fl_design.sim._duration`).
+    d_in : numpy.ndarray, optional
+        ``(N,)`` input disturbance added to ``u`` at the plant (default zeros).
 
     Examples
     --------
@@ -101,7 +104,7 @@ class RunSetup:
     >>> d = fl.presets.pendulum_design()
     >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
     >>> run.D.shape, run.tol
-    ((2, 1000), 0.002)
+    ((3, 1000), 0.002)
     """
 
     loop: ClosedLoop
@@ -120,6 +123,11 @@ class RunSetup:
     bound: np.ndarray
     region: np.ndarray
     duration_reason: str = "given"
+    d_in: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.d_in is None:  # no input disturbance: zeros, one per sample
+            object.__setattr__(self, "d_in", np.zeros(self.N))
 
     @property
     def T(self) -> float:
@@ -131,10 +139,15 @@ class RunSetup:
         """Run length ``N T`` in seconds."""
         return self.N * self.loop.T
 
-    @property
+    @functools.cached_property
     def D(self) -> np.ndarray:
-        """``(2, N)`` per-sample inputs ``(r_k, w_k)``."""
-        return np.vstack([self.r, self.noise])
+        """``(3, N)`` per-sample inputs ``(r_k, w_k, d_k)``: reference, what is added to the
+        measurement (noise and output disturbance), what is added to ``u`` at the plant.
+
+        Built once, sample-major in memory (a transposed view of a C-contiguous ``(N, 3)``
+        array): the compiled runners read it, and any block of samples, without a copy.
+        """
+        return np.ascontiguousarray(np.column_stack([self.r, self.noise, self.d_in])).T
 
     @property
     def k_mid(self) -> int:
@@ -275,8 +288,13 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     scale = max(abs(step), float(np.ptp(r)))
     q = 0.0 if scenario.quantization is None else float(scenario.quantization)
     noise = scenario.noise.samples(N)
+    d_in = np.zeros(N)
+    if scenario.disturbance is not None:
+        d_in, d_out = scenario.disturbance.sampled(T, N)
+        noise = noise + d_out
     s0 = _start_state(_measured(y0 + float(noise[0]), q), plant, design, scenario)
     return RunSetup(loop=loop, scenario=scenario, classifier=classifier, N=N, r=r, noise=noise,
+                    d_in=d_in,
                     x0=x0, s0=s0, y0=y0, step=step,
                     tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
                     k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant),

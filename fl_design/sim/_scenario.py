@@ -141,6 +141,11 @@ class Scenario:
         The estimator's first estimates ``(y, y', ..., y^(rho-1), sigma)``, ``rho + 1``
         values (checked against the design by the run). Default: a bumpless start at rest at
         the first measurement, ``(y_0, 0, ..., 0)``.
+    disturbance : Disturbance, optional
+        Input and output disturbances (:class:`fl_design.Disturbance`: steps, sines, sampled
+        arrays or functions of t), in the compiled kernel, the interpreter and ``cvodes``
+        alike; :attr:`fl_design.Response.disturbance` measures the peak deviation and the
+        recovery time. Default none.
 
     Raises
     ------
@@ -168,8 +173,15 @@ class Scenario:
     noise: Noise = field(default_factory=Noise)
     quantization: float | None = None
     initial_estimate: Any = None
+    disturbance: Any = None
 
     def __post_init__(self) -> None:
+        if self.disturbance is not None:
+            from ._disturbance import Disturbance
+
+            if not isinstance(self.disturbance, Disturbance):
+                raise ParameterError(f"disturbance must be a fl.Disturbance(input=..., "
+                                     f"output=...), got {self.disturbance!r}")
         if self.duration is not None:
             V.positive("duration", self.duration)
         ref = self.reference
@@ -325,6 +337,8 @@ class Scenario:
                 "duration": None if self.duration is None else float(self.duration),
                 "x0": _jsonable(self.x0), "noise": self.noise.to_dict(),
                 "quantization": _jsonable(self.quantization),
+                "disturbance": (None if self.disturbance is None
+                                else self.disturbance.to_dict()),
                 "initial_estimate": _jsonable(self.initial_estimate)}
 
 

@@ -21,6 +21,7 @@ Examples
 from __future__ import annotations
 
 import functools
+import math
 
 import casadi as ca
 import numpy as np
@@ -135,6 +136,8 @@ def _response(run: RunSetup, out: np.ndarray, summary: dict, method: str) -> Res
         x=np.atleast_2d(rows["x"]).reshape(run.loop.n, -1).T.copy(), T=run.T, tol=run.tol,
         k_tail=run.k_tail, y0=run.y0, step=run.step, divergence_index=k_div, method=method,
         summary=_summary_fields(run, summary), duration_reason=run.duration_reason,
+        disturbance_start=(math.inf if run.scenario.disturbance is None
+                           else run.scenario.disturbance.start(run.T, run.N)),
     )
 
 
@@ -174,10 +177,11 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray, opts: Cvodes) -> tuple[np.ndarray
             np.asarray(v, dtype=float).ravel()
             for v in loop.control(xk, sk, run.r[k], run.noise[k], run.q, p))
         out[:, k] = np.concatenate([xk, y, ym, uk, xhat, sigma, coords])
+        u_plant = uk + run.d_in[k]  # the input disturbance acts at the plant
         try:
-            x_next = np.asarray(integ(run.T)(x0=xk, p=uk)["xf"], dtype=float).ravel()
+            x_next = np.asarray(integ(run.T)(x0=xk, p=u_plant)["xf"], dtype=float).ravel()
         except RuntimeError:
-            escaped = _escaped(loop, opts, xk, uk, run)
+            escaped = _escaped(loop, opts, xk, u_plant, run)
             status.update(diverged=float(escaped), solver_failed=float(not escaped),
                           k_div=float(k + 1) if escaped else -1.0)
             break

@@ -281,7 +281,8 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     decls = "".join(f"#pragma omp declare simd notinbranch\ndouble {name}(double);\n"
                     for name in vector_math)
     return fill_template(_template(), {
-        "W": int(width), "NACC": accumulate.size1_in(0), "I_K": indices["k"],
+        "W": int(width), "NACC": accumulate.size1_in(0), "ND": accumulate.size1_in(1),
+        "I_K": indices["k"],
         "I_DIV": indices["div"], "I_N": indices["N"], "VECTOR_MATH": decls,
         "STEP_BODY": _step_body(accumulate, rk4, substeps)})
 

@@ -62,6 +62,11 @@ from .._metrics import RUN_CONSTANTS, metric_layout, signals, update
 HUGE = 1e300
 
 
+#: Per-sample inputs ``d_k`` of the accumulating step: reference, what is added to the
+#: measurement (noise and output disturbance), what is added to ``u`` at the plant.
+N_INPUTS = 3
+
+
 def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     """The accumulator of a plant with ``n`` states and a design of state size ``m``.
 
@@ -384,11 +389,11 @@ class ClosedLoop:
     def _accumulating(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
         """Symbolic ``(acc, d, acc_next, out)`` of one accumulating step."""
         lay = self.layout
-        acc, d = ca.SX.sym("acc", lay.size), ca.SX.sym("d", 2)
+        acc, d = ca.SX.sym("acc", lay.size), ca.SX.sym("d", N_INPUTS)
         a = {name: acc[sl] for name, sl in lay.slices.items()}
-        r, w = d[0], d[1]
+        r, w, d_in = d[0], d[1], d[2]
         s_next, u, y, ym, xhat, sigma, coords = self.control(a["x"], a["s"], r, w, a["q"], a["p"])
-        x_next = self.plant_step(a["x"], u)
+        x_next = self.plant_step(a["x"], u + d_in)  # the input disturbance acts at the plant
         ok = self.within_bounds(x_next, s_next, u, a["x_op"], a["bound"])
         k = a["k"]
         active = k < a["N"]

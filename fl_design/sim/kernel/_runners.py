@@ -101,7 +101,7 @@ class NativeRunner:
         self._lib = _load(str(library))
 
     def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
-        """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (2, nsteps).
+        """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (n_d, nsteps).
 
         Examples
         --------
@@ -249,6 +249,7 @@ def runner_source(accumulate: ca.Function, record: ca.Function, indices: dict) -
     size = lambda v: max(1, int(v))
     values = {
         "NACC": accumulate.size1_in(0), "NOUT": record.size1_out(1),
+        "ND": accumulate.size1_in(1),
         "ACC_ARG": size(accumulate.sz_arg()), "ACC_RES": size(accumulate.sz_res()),
         "ACC_IW": size(accumulate.sz_iw()), "ACC_W": size(accumulate.sz_w()),
         "REC_ARG": size(record.sz_arg()), "REC_RES": size(record.sz_res()),
