@@ -34,7 +34,6 @@ import casadi as ca
 
 from ..design import EHGO, Design
 from ..errors import OutputPathError, ParameterError
-from ._float import mark_unused_parameters, to_single_precision
 from ._package import CPackage
 
 #: valid values of ``precision``
@@ -117,7 +116,7 @@ def step_design(design: Design, precision: str) -> Design:
     'delta'
     """
     est = design.estimator
-    if precision == "float" and isinstance(est, EHGO) and est.realization != "delta":
+    if isinstance(est, EHGO) and est.realization != "delta":
         return Design(estimator=est.replace(realization="delta"), controller=design.controller)
     return design
 
@@ -165,8 +164,7 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     used = step_design(design, precision)
     out = _writable_folder(out_dir)
     try:
-        files = _write_core(used, out, precision, prefix)
-        files += _write_templates(used, out, precision, prefix)
+        files = _write_templates(used, out, precision, prefix)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
@@ -188,14 +186,15 @@ def _writable_folder(out_dir) -> Path:
 
 
 def core_function(design: Design, prefix: str) -> ca.Function:
-    """``<prefix>_step_core``: :attr:`Design.step` under the name the C code uses.
+    """``<prefix>_step_core(x, y, r, p) -> (x_next, u)``: the function the C core computes.
 
-    The graph is ``design.step`` called on fresh symbols (inlined: the same instructions).
+    :attr:`Design.step` with the controller's numbers as the run-time parameter block ``p``
+    (:func:`fl_design.codegen._graph.parametric_core`).
 
     Parameters
     ----------
     design : Design
-        The design.
+        The design generated (after :func:`step_design`).
     prefix : str
         C prefix.
 
@@ -207,33 +206,22 @@ def core_function(design: Design, prefix: str) -> ca.Function:
     --------
     >>> from fl_design import presets
     >>> from fl_design.codegen import core_function
-    >>> core_function(presets.paper_design(), "fl").name()
-    'fl_step_core'
+    >>> core_function(presets.paper_design(), "fl").name_in()
+    ['x', 'y', 'r', 'p']
     """
-    f = design.step
-    state, y, r = ca.SX.sym("state", f.nnz_in(0)), ca.SX.sym("y"), ca.SX.sym("r")
-    return ca.Function(f"{prefix}_step_core", [state, y, r], f(state, y, r),
-                       ["state", "y", "r"], ["state_next", "u"])
+    from ._graph import parametric_core
 
-
-def _write_core(design: Design, out: Path, precision: str, prefix: str) -> list[Path]:
-    opts = {"with_header": True, "casadi_real": precision, "casadi_int": "int",
-            "with_export": False, "verbose": False}
-    cg = ca.CodeGenerator(f"{prefix}_core.c", opts)
-    cg.add(core_function(design, prefix))
-    cg.generate(str(out) + "/")
-    c_file, h_file = out / f"{prefix}_core.c", out / f"{prefix}_core.h"
-    text = mark_unused_parameters(c_file.read_text())
-    c_file.write_text(to_single_precision(text) if precision == "float" else text)
-    return [c_file, h_file]
+    return parametric_core(design, f"{prefix}_step_core")
 
 
 def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> list[Path]:
     from ._template import render, substitutions
 
     subs = substitutions(design, precision, prefix)
-    names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c", "main.c.in": "main.c",
-             "Makefile.in": "Makefile", "README.md.in": "README.md"}
+    names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
+             "core.c.in": f"{prefix}_core.c",
+             "main.c.in": "main.c", "Makefile.in": "Makefile",
+             "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md"}
     written = []
     for template, name in names.items():
         text = resources.files("fl_design.codegen").joinpath("templates", template).read_text()

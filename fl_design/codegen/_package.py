@@ -27,8 +27,9 @@ import numpy as np
 from ..errors import CompilationError, CompilerNotFoundError, ParameterError
 from ._build import STRICT_CFLAGS, find_compiler
 
-#: extra warnings of the single-precision build (any double arithmetic is an error)
-FLOAT_WARNINGS = ("-Wdouble-promotion", "-Wfloat-conversion")
+#: extra warnings of every build (prototypes, float equality, any double arithmetic in float)
+FLOAT_WARNINGS = ("-Wmissing-prototypes", "-Wfloat-equal", "-Wdouble-promotion",
+                  "-Wfloat-conversion")
 #: sanitizer flags of :meth:`CPackage.build` with ``sanitize=True``
 SANITIZE_FLAGS = ("-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
                   "-fno-sanitize-recover=all")
@@ -143,7 +144,7 @@ class CPackage:
 
     @property
     def sources(self) -> tuple[Path, Path]:
-        """``<prefix>.c`` and ``<prefix>_core.c``."""
+        """``<prefix>.c`` and ``<prefix>_core.c`` (the latter includes its header)."""
         return self.out_dir / f"{self.prefix}.c", self.out_dir / f"{self.prefix}_core.c"
 
     def flags(self, *, sanitize: bool = False, optimize: str = "-O2") -> list[str]:
@@ -168,9 +169,7 @@ class CPackage:
         ...                                    precision="float").flags()
         True
         """
-        out = [optimize, *STRICT_CFLAGS]
-        if self.precision == "float":
-            out += FLOAT_WARNINGS
+        out = [optimize, *STRICT_CFLAGS, *FLOAT_WARNINGS]
         return out + (list(SANITIZE_FLAGS) if sanitize else [])
 
     def build(self, *, sanitize: bool = False, compiler: str | None = None) -> Path:
