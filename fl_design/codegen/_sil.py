@@ -326,9 +326,9 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     >>> from fl_design import presets
     >>> from fl_design.codegen import software_in_the_loop
     >>> pkg = fl.generate_c(presets.paper_design(), "sil_doc2", precision="float")
-    >>> res = software_in_the_loop(pkg, fl.plants.trms_yaw(), fl.Scenario(0.3, 20.0))
-    >>> res.passed, res.c_status
-    (True, 'converged')
+    >>> res = software_in_the_loop(pkg, fl.plants.trms_yaw(), fl.Scenario(0.3, 40.0))
+    >>> res.passed, res.c_status, res.sim_status
+    (True, 'converging', 'converging')
     """
     from ..sim import RK4
 
