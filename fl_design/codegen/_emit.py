@@ -14,10 +14,10 @@ Examples
 >>> import casadi as ca
 >>> from fl_design.codegen._emit import c_body
 >>> x = ca.SX.sym("x")
->>> f = ca.Function("f", [x], [ca.fmin(ca.fmax(2 * x, 0), 1)])
+>>> f = ca.Function("f", [x], [ca.fmin(ca.fmax(3 * x, 0), 1)])
 >>> print(c_body(f, [["x"]], [["*u"]], "float"))  # doctest: +NORMALIZE_WHITESPACE
-  const float a1 = 2.0f;
-  const float a2 = (a1*x);
+  const float a0 = 3.0f;
+  const float a2 = (a0*x);
   const float a3 = 0.0f;
   const float a4 = (a2 > a3 ? a2 : a3);
   const float a5 = 1.0f;

@@ -1,19 +1,23 @@
 """``generate_c``: the observer-controller step of a design as a C99 package.
 
-The C code is CasADi's code generation of :attr:`fl_design.Design.step` (the one loop-step
-function; the loop is never written a second time) plus a small stateful wrapper from the
-template files of ``fl_design/codegen/templates``: ``<prefix>.h`` / ``<prefix>.c`` (the API
-``<prefix>_state_t``, ``<prefix>_init``, ``<prefix>_reset``, ``<prefix>_step`` and the design's
-numbers as named constants), ``<prefix>_core.h`` / ``<prefix>_core.c`` (CasADi's code),
-``main.c`` (the software-in-the-loop harness), ``Makefile`` and ``README.md``.
+The C is :attr:`fl_design.Design.step` itself, printed instruction by instruction from its
+CasADi graph (:mod:`fl_design.codegen._emit`; the loop is never written a second time), with
+the controller's numbers read from a run-time parameter block
+(:mod:`fl_design.codegen._graph`), plus a wrapper from the template files of
+``fl_design/codegen/templates``: ``<prefix>.h`` / ``<prefix>.c`` (``<prefix>_init``,
+``<prefix>_start`` (bumpless), ``<prefix>_step``, ``<prefix>_set_params`` (validating),
+``<prefix>_default_params``, ``<prefix>_reset``; bit-pattern finite tests, plausibility and
+rate checks, sensor-lost state, saturating counters, subnormal flushing), ``<prefix>_core.c``
+(the arithmetic: straight-line, no library call), ``main.c`` (the harness), ``Makefile``,
+``CMakeLists.txt`` and ``README.md`` (ISR usage, flags, cost).
 
-Single precision (``precision="float"``) is true single precision: the generated code is
-rewritten by :func:`~fl_design.codegen.to_single_precision`, and an EHGO is realized in its
-``"delta"`` form (:class:`fl_design.EHGO`, parameter ``realization``): the same input-output
-map as the design's observer to round-off, but with ``A_d - I`` stored with its full relative
-precision and a DC gain from ``y`` to the derivative estimates that is zero by construction. In
-float the rounded direct matrices ``A_d`` (entries within ``1e-5`` of one at ``T = 1 ms``) keep
-about two digits of ``A_d - I``.
+An EHGO is generated in its ``"delta"`` realization in every precision
+(:class:`fl_design.EHGO`, parameter ``realization``): the same input-output map as the
+design's observer to round-off, with ``A_d - I`` stored with its full relative precision and a
+DC gain from ``y`` to the derivative estimates that is zero by construction (the direct form's
+drifts at high ``rho`` and small ``eps``; in float its ``A_d`` keeps about two digits of
+``A_d - I``). ``precision="float"`` is true single precision: ``f``-suffixed literals, no
+double anywhere (``-Wdouble-promotion -Wfloat-conversion`` clean).
 
 Examples
 --------
@@ -21,7 +25,7 @@ Examples
 >>> from fl_design.codegen import generate_c
 >>> pkg = generate_c(presets.paper_design(), "trms_c")
 >>> sorted(p.name for p in pkg.files)  # doctest: +NORMALIZE_WHITESPACE
-['Makefile', 'README.md', 'fl.c', 'fl.h', 'fl_core.c', 'fl_core.h', 'main.c']
+['CMakeLists.txt', 'Makefile', 'README.md', 'fl.c', 'fl.h', 'fl_core.c', 'main.c']
 """
 
 from __future__ import annotations

@@ -325,10 +325,10 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     >>> import fl_design as fl
     >>> from fl_design import presets
     >>> from fl_design.codegen import software_in_the_loop
-    >>> pkg = fl.generate_c(presets.paper_design(), "sil_doc2", precision="float")
-    >>> res = software_in_the_loop(pkg, fl.plants.trms_yaw(), fl.Scenario(0.3, 40.0))
-    >>> res.passed, res.c_status, res.sim_status
-    (True, 'converging', 'converging')
+    >>> pkg = fl.generate_c(presets.maglev_design(), "sil_doc2", precision="float")
+    >>> res = software_in_the_loop(pkg, fl.plants.maglev(), fl.Scenario(6.2e-3, 2.0))
+    >>> res.passed, res.c_status, res.sim_status, res.max_rel_error < 1e-4
+    (True, 'converged', 'converged', True)
     """
     from ..sim import RK4
 
