@@ -225,8 +225,11 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> 
     names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
              "core.c.in": f"{prefix}_core.c",
              "main.c.in": "main.c", "Makefile.in": "Makefile",
-             "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md"}
+             "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",
+             "pil_main.c.in": "pil/pil_main.c", "pil_startup.c.in": "pil/pil_startup.c",
+             "pil_semihost.h.in": "pil/pil_semihost.h", "pil.ld.in": "pil/pil.ld"}
     written = []
+    (out / "pil").mkdir(exist_ok=True)
     for template, name in names.items():
         text = resources.files("fl_design.codegen").joinpath("templates", template).read_text()
         path = out / name
