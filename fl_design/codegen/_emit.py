@@ -28,6 +28,7 @@ Examples
 from __future__ import annotations
 
 import math
+import re
 
 import casadi as ca
 
@@ -38,7 +39,7 @@ _ARITH = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})"
           ca.OP_FMAX: "({0} > {1} ? {0} : {1})"}
 _COMPARE = {ca.OP_LT: "({0} < {1})", ca.OP_LE: "({0} <= {1})",
             ca.OP_EQ: "!({0} < {1} || {0} > {1})", ca.OP_NE: "({0} < {1} || {0} > {1})"}
-_LOGIC = {ca.OP_AND: "({0} & {1})", ca.OP_OR: "({0} | {1})"}
+_LOGIC = {ca.OP_AND: "({0} && {1})", ca.OP_OR: "({0} || {1})"}
 _UNARY = {ca.OP_NEG: "(-{0})", ca.OP_SQ: "({0}*{0})", ca.OP_ASSIGN: "{0}",
           ca.OP_FABS: "({0} < {z} ? -{0} : {0})", ca.OP_TWICE: "({0}+{0})"}
 #: elementary functions printed as <math.h> calls (``f`` variant in float)
@@ -193,7 +194,29 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") ->
     for k, args, _ in reversed(lines):  # drop what no output needs (-Wunused-variable)
         if k in live:
             live.update(args)
-    return "\n".join([text for k, _, text in lines if k in live] + stores)
+    lines = [line for line in lines if line[0] in live]
+    return "\n".join(_inline_logic(lines, names) + stores)
+
+
+def _inline_logic(lines, names) -> list[str]:
+    """Truth values used once are written into their user: ``&&``/``||`` then short-circuit
+    (e.g. the conditional-integration test is skipped when the switch is off)."""
+    uses = {}
+    for _, args, _ in lines:
+        for a in args:
+            uses[a] = uses.get(a, 0) + 1
+    text = {k: t.split(" = ", 1)[1][:-1] for k, _, t in lines}
+    out, inlined = [], {}
+    for k, args, line in lines:
+        body = text[k]
+        for a in sorted(args, reverse=True):
+            if a in inlined:
+                body = re.sub(rf"\ba{a}\b", lambda _m, a=a: inlined[a], body)
+        if names.kind.get(k) == "int" and uses.get(k, 0) == 1:
+            inlined[k] = body if body.startswith("(") or body.startswith("!") else f"({body})"
+            continue
+        out.append(line.split(" = ", 1)[0] + " = " + body + ";")
+    return out
 
 
 def math_calls(f: ca.Function) -> list[str]:

@@ -7,9 +7,10 @@ the controller's numbers read from a run-time parameter block
 ``fl_design/codegen/templates``: ``<prefix>.h`` / ``<prefix>.c`` (``<prefix>_init``,
 ``<prefix>_start`` (bumpless), ``<prefix>_step``, ``<prefix>_set_params`` (validating),
 ``<prefix>_default_params``, ``<prefix>_reset``; bit-pattern finite tests, plausibility and
-rate checks, sensor-lost state, saturating counters, subnormal flushing), ``<prefix>_core.c``
-(the arithmetic: straight-line, no library call), ``main.c`` (the harness), ``Makefile``,
-``CMakeLists.txt`` and ``README.md`` (ISR usage, flags, cost).
+rate checks, sensor-lost state, saturating counters, subnormal flushing; the arithmetic is the
+``static`` function ``<prefix>_core``: straight-line, no library call), ``main.c`` (the
+harness), ``Makefile``, ``CMakeLists.txt``, ``README.md`` (ISR usage, flags, cost) and ``pil/``
+(start-up file, linker script and main of the Cortex-M4 run).
 
 An EHGO is generated in its ``"delta"`` realization in every precision
 (:class:`fl_design.EHGO`, parameter ``realization``): the same input-output map as the
@@ -25,7 +26,8 @@ Examples
 >>> from fl_design.codegen import generate_c
 >>> pkg = generate_c(presets.paper_design(), "trms_c")
 >>> sorted(p.name for p in pkg.files)  # doctest: +NORMALIZE_WHITESPACE
-['CMakeLists.txt', 'Makefile', 'README.md', 'fl.c', 'fl.h', 'fl_core.c', 'main.c']
+['CMakeLists.txt', 'Makefile', 'README.md', 'fl.c', 'fl.h', 'main.c', 'pil.ld',
+ 'pil_main.c', 'pil_semihost.h', 'pil_startup.c']
 """
 
 from __future__ import annotations
@@ -223,7 +225,6 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> 
 
     subs = substitutions(design, precision, prefix)
     names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
-             "core.c.in": f"{prefix}_core.c",
              "main.c.in": "main.c", "Makefile.in": "Makefile",
              "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",
              "pil_main.c.in": "pil/pil_main.c", "pil_startup.c.in": "pil/pil_startup.c",

@@ -143,9 +143,9 @@ class CPackage:
         return self.out_dir / f"{self.prefix}.h"
 
     @property
-    def sources(self) -> tuple[Path, Path]:
-        """``<prefix>.c`` and ``<prefix>_core.c`` (the latter includes its header)."""
-        return self.out_dir / f"{self.prefix}.c", self.out_dir / f"{self.prefix}_core.c"
+    def sources(self) -> tuple[Path]:
+        """``(<prefix>.c,)``: the one source of the package (it includes its header)."""
+        return (self.out_dir / f"{self.prefix}.c",)
 
     def flags(self, *, sanitize: bool = False, optimize: str = "-O2") -> list[str]:
         """Compiler flags of the package's builds (strict; float warnings; sanitizers).

@@ -208,6 +208,9 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
         "UINT": "uint32_t" if precision == "float" else "uint64_t",
         "EXP_MASK": "0x7F800000u" if precision == "float" else "UINT64_C(0x7FF0000000000000)",
         "BODY": body, "N_INSTRUCTIONS": str(n_ins),
+        "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
+        "COMMIT": "\n".join(f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
+                            for i in range(design.state_size)),
         "STATE_BYTES": str(size * design.state_size),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",
