@@ -279,6 +279,40 @@ class CPackage:
 
         return software_in_the_loop(self, plant, scenario, substeps=substeps, compiler=compiler)
 
+    def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300):
+        """Processor-in-the-loop on a Cortex-M4F model (QEMU ``mps2-an386``): u and its cost.
+
+        See :func:`fl_design.codegen.processor_in_the_loop`.
+
+        Parameters
+        ----------
+        plant : Plant
+            The plant whose closed-loop measurements (:func:`fl_design.simulate`) are fed.
+        scenario : Scenario
+            The scenario of that recording.
+        max_samples : int, optional
+            Samples fed (default 2000).
+        timeout : float, optional
+            Seconds for QEMU.
+
+        Returns
+        -------
+        PilResult
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> from fl_design import presets
+        >>> from fl_design.codegen._pil import pil_tools
+        >>> pkg = fl.generate_c(presets.paper_design(), "ppil", precision="float")
+        >>> pil_tools()[2] != "" or pkg.pil(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.1)).passed
+        True
+        """
+        from ._pil import processor_in_the_loop
+
+        return processor_in_the_loop(self, plant, scenario, max_samples=max_samples,
+                                     timeout=timeout)
+
     def cost(self, *, name: str | None = None, bench_steps: int = 2_000_000, compiler=None):
         """Operations per step, stack, code size and time per step (:class:`StepCost`).
 
