@@ -272,7 +272,7 @@ class CPackage:
         >>> from fl_design import presets
         >>> pkg = fl.generate_c(presets.paper_design(), "pv")
         >>> res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5))
-        >>> res.matches, res.max_rel_error <= 1e-12, res.c_status, res.passed
+        >>> res.matches, res.max_rel_error <= 1e-12, res.c_status, res.c_stable
         (True, True, 'undecided', False)
         """
         from ._sil import software_in_the_loop

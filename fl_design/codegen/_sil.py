@@ -15,8 +15,11 @@ and the input ``fl.simulate`` starts from (``u_eq``, or the controller's ``u0``)
     against the same bound: no drift);
 (b) **the C loop does what the simulation says**: its status, classified by the simulation
     layer's rules (:mod:`fl_design.codegen._verdict`), equals that of :func:`fl_design.simulate`
-    on the same plant, design and scenario. A loop that diverges in C and in Python agrees, but
-    fails: :attr:`SilResult.passed` also needs the C loop to be stable.
+    on the same plant, design and scenario. A loop that diverges (or oscillates) in C and in
+    Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not to fail. A run
+    too short to tell (``"undecided"`` in both) passes with that status in the result
+    (:attr:`SilResult.c_stable` is then False): run longer, or give no duration (the run then
+    chooses its length from the loop's slowest mode), to see it converge.
 
 Examples
 --------
@@ -43,6 +46,8 @@ from ._verdict import c_loop_response
 DOUBLE_BOUND = 1e-12
 #: relative bound of the single-precision build (fraction of max |u|)
 FLOAT_BOUND = 1e-4
+#: statuses of the C loop that fail the check whatever the simulation says
+FAILING = ("diverged", "oscillating", "solver_failed")
 
 
 def bound_for(precision: str) -> float:
@@ -89,6 +94,8 @@ class SilResult:
     c_stable : bool, optional
         The C loop's status is convergent (``"converged"`` or ``"converging"``).
 
+    The failing statuses are :data:`FAILING`.
+
     Attributes
     ----------
     max_abs_error, max_rel_error, tail_rel_error : float
@@ -99,7 +106,7 @@ class SilResult:
     verdicts_agree : bool
         ``c_status == sim_status``.
     passed : bool
-        ``matches`` and ``verdicts_agree`` and ``c_stable``.
+        ``matches`` and ``verdicts_agree`` and the C loop's status not in :data:`FAILING`.
 
     Examples
     --------
@@ -160,8 +167,8 @@ class SilResult:
 
     @property
     def passed(self) -> bool:
-        """The C matches the design, the verdicts agree, and the C loop converges."""
-        return bool(self.matches and self.verdicts_agree and self.c_stable)
+        """The C matches the design, the verdicts agree, and the C loop does not fail."""
+        return bool(self.matches and self.verdicts_agree and self.c_status not in FAILING)
 
     def to_dict(self) -> dict:
         """Strict-JSON summary (no sample arrays).
@@ -171,15 +178,15 @@ class SilResult:
         >>> import numpy as np
         >>> from fl_design.codegen import SilResult
         >>> d = SilResult("float", np.zeros(1), np.ones(1), np.ones(1), 1e-4).to_dict()
-        >>> d["passed"], d["c_status"]
-        (False, 'undecided')
+        >>> d["passed"], d["c_status"], d["c_stable"]
+        (True, 'undecided', False)
         """
         return {"precision": self.precision, "n_samples": int(self.u_c.size),
                 "max_abs_error": self.max_abs_error, "max_rel_error": self.max_rel_error,
                 "tail_rel_error": self.tail_rel_error, "bound": float(self.bound),
                 "matches": self.matches, "c_status": self.c_status,
                 "sim_status": self.sim_status, "verdicts_agree": self.verdicts_agree,
-                "passed": self.passed}
+                "c_stable": bool(self.c_stable), "passed": self.passed}
 
 
 def _plant_code(loop: ClosedLoop, prefix: str, build) -> tuple:
@@ -356,5 +363,5 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
                      c_resp.status, sim_resp.status, bool(c_resp.stable))
 
 
-__all__ = ["DOUBLE_BOUND", "FLOAT_BOUND", "SilResult", "bound_for", "build_driver",
+__all__ = ["DOUBLE_BOUND", "FAILING", "FLOAT_BOUND", "SilResult", "bound_for", "build_driver",
            "reference_run", "software_in_the_loop"]
