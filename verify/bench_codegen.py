@@ -33,7 +33,6 @@ import argparse
 import json
 import sys
 import tempfile
-
 from pathlib import Path
 
 from _hand_step import compare_with_hand

@@ -213,7 +213,7 @@ def _inline_logic(lines, names) -> list[str]:
             if a in inlined:
                 body = re.sub(rf"\ba{a}\b", lambda _m, a=a: inlined[a], body)
         if names.kind.get(k) == "int" and uses.get(k, 0) == 1:
-            inlined[k] = body if body.startswith("(") or body.startswith("!") else f"({body})"
+            inlined[k] = body if body.startswith(("(", "!")) else f"({body})"
             continue
         out.append(line.split(" = ", 1)[0] + " = " + body + ";")
     return out

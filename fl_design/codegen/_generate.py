@@ -127,8 +127,12 @@ def step_design(design: Design, precision: str) -> Design:
     return design
 
 
-def generate_c(design: Design, out_dir, *, precision: str = "double",
-               prefix: str = "fl") -> CPackage:
+#: what :func:`generate_c` does when the float build is predicted to miss its bound
+FLOAT_POLICIES = ("warn", "refuse")
+
+
+def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: str = "fl",
+               plant=None, scenario=None, float_policy: str = "warn") -> CPackage:
     """Write the design's loop step as a C99 package (sources, header, harness, Makefile).
 
     Parameters
@@ -143,6 +147,14 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
+    plant, scenario : Plant and Scenario, optional
+        With ``precision="float"``: predict the float build's error on this run
+        (:func:`fl_design.codegen._float_check.predict_float_error`, no compiler needed) before
+        writing; the number is :attr:`CPackage.predicted_float_error`.
+    float_policy : {"warn", "refuse"}, optional
+        Above the float bound (``1e-4`` of ``max |u|``): a
+        :class:`~fl_design.errors.FloatPrecisionWarning` (default) or a
+        :class:`~fl_design.errors.PrecisionError`, both with the number and the fixes.
 
     Returns
     -------
@@ -152,7 +164,15 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     Raises
     ------
     ParameterError
-        Unknown ``precision``, ``prefix`` not a C identifier, ``design`` not a Design.
+        Unknown ``precision`` or ``float_policy``, ``prefix`` not a C identifier, ``design``
+        not a Design, only one of ``plant`` and ``scenario``.
+    PrecisionError
+        ``float_policy="refuse"`` and the float build is predicted to miss its bound.
+
+    Warns
+    -----
+    FloatPrecisionWarning
+        ``float_policy="warn"`` and the float build is predicted to miss its bound.
     OutputPathError
         ``out_dir`` cannot be created or written.
 
@@ -168,13 +188,40 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     if not isinstance(design, Design):
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
     used = step_design(design, precision)
+    predicted = _float_prediction(design, precision, plant, scenario, float_policy)
     out = _writable_folder(out_dir)
     try:
         files = _write_templates(used, out, precision, prefix)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
-                    prefix=prefix, files=tuple(files))
+                    prefix=prefix, files=tuple(files), predicted_float_error=predicted)
+
+
+def _float_prediction(design, precision, plant, scenario, policy) -> float | None:
+    import warnings
+
+    from ..errors import FloatPrecisionWarning, PrecisionError
+    from ._float_check import fixes, predict_float_error
+    from ._sil import FLOAT_BOUND
+
+    if policy not in FLOAT_POLICIES:
+        raise ParameterError(f"float_policy={policy!r} is not known; valid: "
+                             f"{', '.join(map(repr, FLOAT_POLICIES))}")
+    if (plant is None) != (scenario is None):
+        raise ParameterError("give both plant= and scenario= (the run on which the float "
+                             "build's error is predicted), or neither")
+    if precision != "float" or plant is None:
+        return None
+    err = predict_float_error(design, plant, scenario)
+    if err > FLOAT_BOUND:
+        text = (f"precision='float': the single-precision step is predicted to be "
+                f"{err:.3g} of max|u| off Design.step on this run (bound {FLOAT_BOUND:g}); "
+                f"{fixes(design)}")
+        if policy == "refuse":
+            raise PrecisionError(text)
+        warnings.warn(text, FloatPrecisionWarning, stacklevel=3)
+    return err
 
 
 def _writable_folder(out_dir) -> Path:
@@ -239,5 +286,5 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> 
     return written
 
 
-__all__ = ["PRECISIONS", "check_precision", "check_prefix", "core_function", "generate_c",
+__all__ = ["FLOAT_POLICIES", "PRECISIONS", "check_precision", "check_prefix", "core_function", "generate_c",
            "step_design"]

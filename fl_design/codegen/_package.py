@@ -120,6 +120,9 @@ class CPackage:
         C prefix.
     files : tuple of pathlib.Path
         Files written.
+    predicted_float_error : float or None, optional
+        The float build's predicted relative error (``generate_c`` with ``plant`` and
+        ``scenario``), else None.
 
     Examples
     --------
@@ -136,6 +139,7 @@ class CPackage:
     precision: str
     prefix: str
     files: tuple
+    predicted_float_error: float | None = None
 
     @property
     def header(self) -> Path:

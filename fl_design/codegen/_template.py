@@ -97,8 +97,8 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
                f"  {real} u_max;"]
     if clamped:
         used = ", ".join(str(i) for i in clamped)
-        members += [f"  {real} xhat_min[{rho}];  /* clamps of the estimates; entries {used} "
-                    "are used */", f"  {real} xhat_max[{rho}];"]
+        members += [(f"  {real} xhat_min[{rho}];  /* clamps of the estimates; entries {used} "
+                     "are used */"), f"  {real} xhat_max[{rho}];"]
     members.append("  int antiwindup;      /* 1: hold z while u is on a limit and z pushes it "
                    "further (conditional integration); 0: the design's law */")
     defaults = [f"  p->{name} = {lit(f.value)};" for name, f in fields.items()

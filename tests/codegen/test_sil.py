@@ -195,3 +195,42 @@ def test_initial_estimate_is_refused(tmp_path):
     sc = fl.Scenario(0.3, 1.0, initial_estimate=(0.0, 0.0, 0.0))
     with pytest.raises(fl.errors.ParameterError, match="initial_estimate.*PREFIX_start"):
         pkg.verify(fl.plants.trms_yaw(), sc)
+
+
+def test_float_error_is_predicted_at_generation(tmp_path):
+    from fl_design.codegen._float_check import emulate
+
+    plant, design, sc, _ = _tanks_case()
+    with pytest.warns(fl.errors.FloatPrecisionWarning,
+                      match=r"predicted to be .* of max\|u\| off .*bound 0.0001.*"
+                            r"precision='double'.*larger eps \(alpha = T/eps = 0.1"):
+        pkg = generate_c(design, tmp_path / "w", precision="float", plant=plant, scenario=sc)
+    assert pkg.predicted_float_error > FLOAT_BOUND
+    # the prediction is what the closed-loop SIL then measures, to within a factor 2
+    res = pkg.verify(plant, sc)
+    assert 0.5 < pkg.predicted_float_error / res.max_rel_error < 2.0
+    with pytest.raises(fl.errors.PrecisionError, match="predicted to be"):
+        generate_c(design, tmp_path / "r", precision="float", plant=plant, scenario=sc,
+                   float_policy="refuse")
+    assert not (tmp_path / "r").exists()  # refused before anything is written
+    # a design within the bound: no warning, the number kept
+    maglev, mdesign, msc, _ = _maglev_case()
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ok = generate_c(mdesign, tmp_path / "m", precision="float", plant=maglev, scenario=msc)
+    assert 0 < ok.predicted_float_error < FLOAT_BOUND
+    # the emulation is the compiled float C, bit for bit (same start, same samples)
+    y = 6.2e-3 + 1e-4 * np.sin(np.arange(500) * 0.01)
+    u_c = ok.run(y, np.full(500, 6.3e-3))
+    u_e = emulate(ok.step_design, y, np.full(500, 6.3e-3), ok.step_design.initial_state())
+    np.testing.assert_array_equal(u_c, u_e.astype(float))
+
+
+def test_float_policy_and_half_a_run_are_refused(tmp_path):
+    with pytest.raises(fl.errors.ParameterError, match="float_policy='ignore'.*'warn', 'refuse'"):
+        generate_c(presets.paper_design(), tmp_path, precision="float", float_policy="ignore")
+    with pytest.raises(fl.errors.ParameterError, match="give both plant= and scenario="):
+        generate_c(presets.paper_design(), tmp_path, precision="float",
+                   plant=fl.plants.trms_yaw())
