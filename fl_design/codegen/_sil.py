@@ -94,8 +94,6 @@ class SilResult:
     c_stable : bool, optional
         The C loop's status is convergent (``"converged"`` or ``"converging"``).
 
-    The failing statuses are :data:`FAILING`.
-
     Attributes
     ----------
     max_abs_error, max_rel_error, tail_rel_error : float
@@ -106,7 +104,8 @@ class SilResult:
     verdicts_agree : bool
         ``c_status == sim_status``.
     passed : bool
-        ``matches`` and ``verdicts_agree`` and the C loop's status not in :data:`FAILING`.
+        ``matches`` and ``verdicts_agree`` and the C loop's status not in :data:`FAILING`
+        (diverged, oscillating, solver failed).
 
     Examples
     --------
