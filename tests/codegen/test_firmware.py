@@ -210,3 +210,43 @@ def test_subnormals_are_flushed_from_the_state(packages):
   }
   printf("ok %.3g", s.x[0]);""")
     assert out[0] == "ok", out
+
+
+# --- held-out designs ---------------------------------------------------------------------------
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_rho5_at_eps_equal_T_holds_u_at_rest_for_1000_s(tmp_path, precision):
+    import fl_design as fl
+
+    T = 1e-3
+    design = fl.Design(estimator=fl.EHGO(5, T, T),
+                       controller=fl.DynamicController(fl.gains_from_poles([-2.0] * 5), 1e-4,
+                                                       ki=1e-3))
+    pkg = generate_c(design, tmp_path, precision=precision)
+    y0, u0 = ("0.25", "1.5") if precision == "double" else ("0.25f", "1.5f")
+    out = probe(pkg, f"""  fl_init(&s);
+  fl_start(&s, {y0}, {u0});
+  for (long k = 0; k < 1000000L; ++k) (void) fl_step(&s, {y0}, {y0});
+  printf("%.17g %.17g", (double) s.x[FL_U_INDEX], (double) s.x[FL_Z_INDEX]);""")
+    # the delta realization at rest: zero derivative estimates, so u and z never move
+    # (the direct matrices drift by -0.35 in u over these 10^6 samples)
+    assert float(out[0]) == 1.5 and float(out[1]) == 0.0
+
+
+def test_flexible_joint_at_eps_2T_double_passes_float_is_flagged(tmp_path):
+    import warnings
+
+    import fl_design as fl
+    from fl_design.codegen._sil import FLOAT_BOUND
+
+    plant, design = fl.plants.flexible_joint(), presets.flexible_joint_design(eps=2e-3)
+    sc = fl.Scenario(float(plant.x_op[0]) + 0.05, 3.0)
+    res = generate_c(design, tmp_path / "d").verify(plant, sc)
+    assert res.passed and res.c_status == res.sim_status and res.max_rel_error < 1e-12
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        pkg = generate_c(design, tmp_path / "f", precision="float", plant=plant, scenario=sc)
+    assert [w.category for w in caught] == [fl.errors.FloatPrecisionWarning]
+    assert pkg.predicted_float_error > 10 * FLOAT_BOUND  # ~1.6e-2 of max |u|
+    measured = pkg.verify(plant, sc)
+    assert not measured.matches and not measured.passed
+    assert 0.5 < pkg.predicted_float_error / measured.max_rel_error < 2.0
