@@ -243,7 +243,7 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
     return exe
 
 
-def reference_run(design, ym, r, *, state0=None, chunk: int = 100_000):
+def reference_run(design, ym, r, *, state0=None, chunk: int = 20_000):
     """``Design.step`` (CasADi's interpreter) fed ``ym, r``: inputs, estimates, states.
 
     The step is accumulated over chunks of samples (``mapaccum``), the state carried from
@@ -285,10 +285,12 @@ def reference_run(design, ym, r, *, state0=None, chunk: int = 100_000):
     s_next, u, xhat = design.parametric_step(s, y_, r_, p0)
     f = ca.Function("fl_sil_ref", [s, y_, r_], [s_next, u, xhat])
     state = design.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-    us, xs, ss = [], [], []
+    us, xs, ss, maps = [], [], [], {}
     for start in range(0, len(ym), chunk):
         y_c, r_c = ym[start:start + chunk], r[start:start + chunk]
-        states, u_c, x_c = f.mapaccum("fl_ref", y_c.size)(state, y_c[None, :], r_c[None, :])
+        if y_c.size not in maps:  # building a mapaccum costs more than running it: reuse
+            maps[y_c.size] = f.mapaccum("fl_ref", y_c.size)
+        states, u_c, x_c = maps[y_c.size](state, y_c[None, :], r_c[None, :])
         states = np.asarray(states, dtype=float)
         state = states[:, -1]
         ss.append(states.T)

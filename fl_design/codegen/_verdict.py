@@ -117,10 +117,14 @@ def c_loop_response(run, y, ym, u, X, X_next, xhat, S_next) -> Response:
     from ..sim import initial_values
 
     m = lay.pack(**initial_values(rho))[:, 0]
-    if K:
-        c = np.tile([[run.y0], [run.step], [run.tol], [run.k_tail], [run.k_mid]], (1, K))
-        m = np.asarray(metric_step(rho).mapaccum("fl_sil_acc", K)(m, sig.T, c),
-                       dtype=float)[:, -1]
+    maps, chunk = {}, 20_000  # a mapaccum per chunk size, reused (building one costs most)
+    for start in range(0, K, chunk):
+        part = sig[start:start + chunk].T
+        n = part.shape[1]
+        if n not in maps:
+            maps[n] = metric_step(rho).mapaccum("fl_sil_acc", n)
+        c = np.tile([[run.y0], [run.step], [run.tol], [run.k_tail], [run.k_mid]], (1, n))
+        m = np.asarray(maps[n](m, part, c), dtype=float)[:, -1]
     acc = lay.unpack(m)
     keep = {a.name for a in ACCUMULATORS}
     summary = {k: (np.asarray(v, dtype=float).ravel() if k == "est2_sum"
