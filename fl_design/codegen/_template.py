@@ -194,6 +194,10 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
     lit = lambda x: c_literal(x, precision)
     c0, c1 = start_map(design)
     body, n_ins = core_source(design, precision, prefix)
+    from ._cost import operation_counts
+    from ._graph import parametric_core
+
+    ops = operation_counts(parametric_core(design))
     size = 4 if precision == "float" else 8
     subs = {
         "PREFIX": prefix, "P": P, "REAL": precision, "PRECISION": precision,
@@ -207,7 +211,8 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
         "START0": ", ".join(lit(v) for v in c0), "START1": ", ".join(lit(v) for v in c1),
         "UINT": "uint32_t" if precision == "float" else "uint64_t",
         "EXP_MASK": "0x7F800000u" if precision == "float" else "UINT64_C(0x7FF0000000000000)",
-        "BODY": body, "N_INSTRUCTIONS": str(n_ins),
+        "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
+        "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
         "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
         "COMMIT": "\n".join(f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
                             for i in range(design.state_size)),

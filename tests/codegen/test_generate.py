@@ -145,3 +145,28 @@ def test_no_c_compiler(tmp_path, monkeypatch):
 def test_not_a_design(tmp_path):
     with pytest.raises(ParameterError, match="design must be a fl.Design"):
         generate_c(fl.EHGO(2, 0.05, 1e-3), tmp_path)
+
+
+def test_cmake_builds_the_library_and_harness(packages, tmp_path):
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake is not installed")
+    pkg = packages["float"]
+    build = tmp_path / "build"
+    for cmd in (["cmake", "-S", str(pkg.out_dir), "-B", str(build), "-DCMAKE_C_FLAGS=-Werror"],
+                ["cmake", "--build", str(build)]):
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    out = subprocess.run([str(build / "fl_main")], input="0.0 0.3\n", text=True,
+                         capture_output=True, check=True, timeout=60).stdout
+    assert float(out) == pytest.approx(presets.paper_design().run([0.0], 0.3).u[0], rel=1e-6)
+
+
+@pytest.mark.parametrize("design", ["ls26", "maglev"])
+def test_every_estimator_builds_clean_in_both_precisions(tmp_path, design):
+    d = presets.least_squares_design(26) if design == "ls26" else presets.maglev_design()
+    for precision in ("double", "float"):
+        pkg = generate_c(d, tmp_path / precision, precision=precision)
+        for cc in COMPILERS:
+            pkg.build(compiler=cc)  # -Werror with -Wmissing-prototypes -Wfloat-equal ...
+        code = pkg.sources[0].read_text()
+        assert not re.search(r"\bf(max|min|abs)f?\(", code)
