@@ -15,8 +15,8 @@ and the input ``fl.simulate`` starts from (``u_eq``, or the controller's ``u0``)
     against the same bound: no drift);
 (b) **the C loop does what the simulation says**: its status, classified by the simulation
     layer's rules (:mod:`fl_design.codegen._verdict`), equals that of :func:`fl_design.simulate`
-    on the same plant, design and scenario. A loop that diverges (or oscillates) in C and in
-    Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not to fail. A run
+    on the same plant, design and scenario. A loop that diverges (or oscillates under a constant
+    reference: :func:`loop_failed`) in C and in Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not to fail. A run
     too short to tell (``"undecided"`` in both) passes with that status in the result
     (:attr:`SilResult.c_stable` is then False): run longer, or give no duration (the run then
     chooses its length from the loop's slowest mode), to see it converge.
@@ -48,6 +48,35 @@ DOUBLE_BOUND = 1e-12
 FLOAT_BOUND = 1e-4
 #: statuses of the C loop that fail the check whatever the simulation says
 FAILING = ("diverged", "oscillating", "solver_failed")
+
+
+def loop_failed(status: str, r_tail) -> bool:
+    """Whether a C loop with ``status`` fails the check (``r_tail``: the reference's tail).
+
+    A status in :data:`FAILING` fails, except ``"oscillating"`` under a reference that moves
+    in the tail window: the classifier counts reversals of the error, which a loop tracking a
+    square wave shows too (the status then says nothing about the loop).
+
+    Parameters
+    ----------
+    status : str
+        The C loop's status.
+    r_tail : array_like
+        Reference samples of the tail window.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from fl_design.codegen._sil import loop_failed
+    >>> loop_failed("oscillating", [0.3, 0.3]), loop_failed("oscillating", [0.3, -0.3])
+    (True, False)
+    """
+    if status == "oscillating":
+        return bool(np.ptp(np.asarray(r_tail, dtype=float)) == 0.0)
+    return status in FAILING
 
 
 def bound_for(precision: str) -> float:
@@ -93,6 +122,9 @@ class SilResult:
         Status of :func:`fl_design.simulate` on the same run.
     c_stable : bool, optional
         The C loop's status is convergent (``"converged"`` or ``"converging"``).
+    c_failed : bool, optional
+        The C loop failed (:func:`loop_failed`: diverged, solver failed, or oscillating under a
+        constant reference).
 
     Attributes
     ----------
@@ -104,15 +136,14 @@ class SilResult:
     verdicts_agree : bool
         ``c_status == sim_status``.
     passed : bool
-        ``matches`` and ``verdicts_agree`` and the C loop's status not in :data:`FAILING`
-        (diverged, oscillating, solver failed).
+        ``matches`` and ``verdicts_agree`` and not ``c_failed``.
 
     Examples
     --------
     >>> import numpy as np
     >>> from fl_design.codegen import SilResult
     >>> r = SilResult("double", np.zeros(2), np.array([1.0, 2.0]), np.array([1.0, 2.0]), 1e-12,
-    ...               "converged", "converged", True)
+    ...               "converged", "converged", True, False)
     >>> r.passed, r.to_dict()["max_rel_error"]
     (True, 0.0)
     """
@@ -125,6 +156,7 @@ class SilResult:
     c_status: str = "undecided"
     sim_status: str = "undecided"
     c_stable: bool = False
+    c_failed: bool = False
 
     @property
     def _finite(self) -> slice:
@@ -167,7 +199,7 @@ class SilResult:
     @property
     def passed(self) -> bool:
         """The C matches the design, the verdicts agree, and the C loop does not fail."""
-        return bool(self.matches and self.verdicts_agree and self.c_status not in FAILING)
+        return bool(self.matches and self.verdicts_agree and not self.c_failed)
 
     def to_dict(self) -> dict:
         """Strict-JSON summary (no sample arrays).
@@ -185,7 +217,8 @@ class SilResult:
                 "tail_rel_error": self.tail_rel_error, "bound": float(self.bound),
                 "matches": self.matches, "c_status": self.c_status,
                 "sim_status": self.sim_status, "verdicts_agree": self.verdicts_agree,
-                "c_stable": bool(self.c_stable), "passed": self.passed}
+                "c_stable": bool(self.c_stable), "c_failed": bool(self.c_failed),
+                "passed": self.passed}
 
 
 def _plant_code(loop: ClosedLoop, prefix: str, build) -> tuple:
@@ -360,9 +393,11 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     u_ref, xhat, states = reference_run(used, ym, run.r, state0=state0)
     c_resp = c_loop_response(run, y, ym, u_c, X, X_next, xhat, states)
     sim_resp = simulate(plant, design, run.scenario, integrator=RK4(substeps=steps))
+    failed = loop_failed(c_resp.status, run.r[run.k_tail:])
     return SilResult(pkg.precision, ym, u_c, u_ref, bound_for(pkg.precision),
-                     c_resp.status, sim_resp.status, bool(c_resp.stable))
+                     c_resp.status, sim_resp.status, bool(c_resp.stable), failed)
 
 
 __all__ = ["DOUBLE_BOUND", "FAILING", "FLOAT_BOUND", "SilResult", "bound_for", "build_driver",
+           "loop_failed",
            "reference_run", "software_in_the_loop"]
