@@ -283,7 +283,8 @@ class CPackage:
 
         return software_in_the_loop(self, plant, scenario, substeps=substeps, compiler=compiler)
 
-    def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300):
+    def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300,
+            cflags=()):
         """Processor-in-the-loop on a Cortex-M4F model (QEMU ``mps2-an386``): u and its cost.
 
         See :func:`fl_design.codegen.processor_in_the_loop`.
@@ -298,6 +299,8 @@ class CPackage:
             Samples fed (default 2000).
         timeout : float, optional
             Seconds for QEMU.
+        cflags : sequence of str, optional
+            Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
 
         Returns
         -------
@@ -315,7 +318,7 @@ class CPackage:
         from ._pil import processor_in_the_loop
 
         return processor_in_the_loop(self, plant, scenario, max_samples=max_samples,
-                                     timeout=timeout)
+                                     timeout=timeout, cflags=cflags)
 
     def cost(self, *, name: str | None = None, bench_steps: int = 2_000_000, compiler=None):
         """Operations per step, stack, code size and time per step (:class:`StepCost`).

@@ -141,7 +141,7 @@ def _data_header(pkg, ym, r, y0, u0) -> str:
             f"static const {real} pil_r[{len(r)}] = {{\n{rows(r)}}};\n")
 
 
-def build_pil(pkg, ym, r, y0: float, u0: float) -> Path:
+def build_pil(pkg, ym, r, y0: float, u0: float, *, cflags=()) -> Path:
     """Cross-compile the PIL image of ``pkg`` fed ``ym, r`` from ``start(y0, u0)``; its path.
 
     Parameters
@@ -152,6 +152,8 @@ def build_pil(pkg, ym, r, y0: float, u0: float) -> Path:
         ``(N,)`` measurements and references.
     y0, u0 : float
         Start.
+    cflags : sequence of str, optional
+        Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
 
     Returns
     -------
@@ -180,7 +182,7 @@ def build_pil(pkg, ym, r, y0: float, u0: float) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "pil_data.h").write_text(_data_header(pkg, ym, r, y0, u0))
     pil = pkg.out_dir / "pil"
-    strict = [*ARM_CFLAGS, *pkg.flags()[1:]]
+    strict = [*ARM_CFLAGS, *pkg.flags()[1:], *cflags]
     glue = [*ARM_CFLAGS, "-std=gnu99", "-Wall", "-Wextra", "-Werror", f"-I{pkg.out_dir}",
             f"-I{pil}", f"-I{folder}"]
     objs = []
@@ -197,7 +199,7 @@ def build_pil(pkg, ym, r, y0: float, u0: float) -> Path:
 
 
 def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
-                          timeout: float = 300) -> PilResult:
+                          timeout: float = 300, cflags=()) -> PilResult:
     """Run ``pkg``'s step on the Cortex-M4F model fed a recorded closed-loop measurement.
 
     Parameters
@@ -212,6 +214,8 @@ def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
         Samples fed (the first ones of the run; default 2000).
     timeout : float, optional
         Seconds for QEMU.
+    cflags : sequence of str, optional
+        Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
 
     Returns
     -------
@@ -247,7 +251,7 @@ def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
     resp = simulate(plant, pkg.design, run.scenario)
     n = min(max_samples, int(np.flatnonzero(np.isfinite(resp.ym))[-1]) + 1)
     ym, r = resp.ym[:n], resp.r[:n]
-    elf = build_pil(pkg, ym, r, float(ym[0]), run.u0)
+    elf = build_pil(pkg, ym, r, float(ym[0]), run.u0, cflags=tuple(cflags))
     out = _run_qemu(qemu, elf, timeout).split()  # semihosting writes to QEMU's stderr
     step_ticks, empty_ticks, count, cal_ticks, cal_instructions = map(int, out[-5:])
     per_tick = cal_instructions / max(cal_ticks, 1)

@@ -38,6 +38,16 @@ def test_step_on_the_cortex_m4_model_equals_design_step(tmp_path, name, precisio
         assert res.instructions > 1000
 
 
+@needs_qemu
+def test_no_flush_build_is_leaner_and_computes_the_same(tmp_path):
+    pkg = generate_c(presets.paper_design(), tmp_path, precision="float")
+    sc = fl.Scenario(0.3, 1.0)
+    full = pkg.pil(fl.plants.trms_yaw(), sc, max_samples=500)
+    lean = pkg.pil(fl.plants.trms_yaw(), sc, max_samples=500, cflags=("-DFL_NO_FLUSH",))
+    assert (lean.u_c == full.u_c).all()  # no subnormal on this run: the same bits
+    assert lean.instructions < full.instructions - 10
+
+
 def test_missing_tools_are_named(tmp_path, monkeypatch):
     pkg = generate_c(presets.paper_design(), tmp_path, precision="float")
     monkeypatch.setattr("fl_design.codegen._pil.shutil.which", lambda name: None)
