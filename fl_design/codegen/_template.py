@@ -79,7 +79,7 @@ def _fixed_constants(design: Design, precision: str, P: str) -> list[str]:
     elif isinstance(est, LeastSquaresEstimator):
         rows += [(f"{P}_WINDOW", str(est.window), "least-squares window (samples)"),
                  (f"{P}_FIT_DEGREE", str(est.fit_degree), "least-squares polynomial degree")]
-    return [f"#define {name:<18} {value:<24} /* {what} */" for name, value, what in rows]
+    return [f"#define {name:<17} {value:<8} /* {what} */" for name, value, what in rows]
 
 
 def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
