@@ -32,14 +32,16 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) verify/bench_sweep.py
 
-# Cross-compiler for the Cortex-M4F checks of the generated C (tests skip without it).
+# Cross-compiler and Cortex-M4 model for the generated C's checks (tests skip without them):
+# arm-none-eabi-gcc + newlib (Cortex-M4F builds) and qemu-system-arm (processor in the loop).
 arm-toolchain:
-	@if command -v arm-none-eabi-gcc >/dev/null; then echo "arm-none-eabi-gcc present"; \
+	@if command -v arm-none-eabi-gcc >/dev/null && command -v qemu-system-arm >/dev/null; then \
+	  echo "arm-none-eabi-gcc and qemu-system-arm present"; \
 	elif command -v apt-get >/dev/null; then \
 	  SUDO=$$( [ "$$(id -u)" -eq 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi; \
-	else echo "no apt-get: install gcc-arm-none-eabi and newlib for your system" >&2; exit 1; fi
+	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm; \
+	else echo "no apt-get: install gcc-arm-none-eabi, newlib and qemu-system-arm for your system" >&2; exit 1; fi
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -139,3 +139,14 @@ __all__ = [
     "UnstableDiscretizationWarning",
     "WorkerLostError",
 ]
+
+
+class FloatPrecisionWarning(UserWarning):
+    """A single-precision C build is predicted to miss its accuracy bound (codegen)."""
+
+
+class PrecisionError(ParameterError):
+    """``precision="float"`` refused: the single-precision build would miss its bound."""
+
+
+__all__ += ["FloatPrecisionWarning", "PrecisionError"]

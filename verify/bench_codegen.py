@@ -12,8 +12,17 @@ installed). Targets, in double:
 2. at most 50 ns per call on this machine;
 3. at most half of the LS(26) step, in operations and in time.
 
+Then the paper's EHGO step against a hand-written one (``_hand_step.py``: the same loop, the
+design's numbers as literals, no checks), both checked against ``Design.step`` first: time per
+call on this machine, instructions per call under ``valgrind --tool=callgrind`` (x86), and, when
+``arm-none-eabi-gcc`` and ``qemu-system-arm`` are installed, the float step's instructions per
+call on the Cortex-M4F model (``CPackage.pil``, QEMU ``mps2-an386``). Targets:
+
+4. the generated step within 1.3x the hand-written one's time on this machine (each precision);
+5. the float step at most 120 instructions per call on the Cortex-M4F model (hand-written: 93).
+
 Exits with status 1 when a target is missed. ``--quick`` times short runs (targets on the
-operation counts still checked, the timing targets not): the tests run it.
+operation counts still checked, the timing and instruction targets not): the tests run it.
 
     python verify/bench_codegen.py [--quick] [--json FILE]
 """
@@ -24,12 +33,19 @@ import argparse
 import json
 import sys
 import tempfile
+from pathlib import Path
 
+from _hand_step import compare_with_hand
+
+import fl_design as fl
 from fl_design import presets
-from fl_design.codegen import compare_costs
+from fl_design.codegen import compare_costs, generate_c
+from fl_design.codegen._pil import pil_tools
 
 MAX_FLOPS = 60
 MAX_NS = 50.0
+MAX_HAND_RATIO = 1.3
+MAX_M4_INSTRUCTIONS = 120
 
 
 def _table(out_dir: str, precision: str, steps: int):
@@ -58,6 +74,52 @@ def _check(table, *, timing: bool) -> list[str]:
     return misses
 
 
+def _against_hand(tmp: str, steps: int, *, timing: bool) -> dict:
+    out, misses = {}, []
+    print("\nthe paper's EHGO step, generated vs hand-written (x86, -O2):\n")
+    print("| precision | max |u - Design.step| / max|u| (gen, hand) | ns gen | ns hand | ratio "
+          "| instr gen | instr hand |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for precision in ("double", "float"):
+        pkg = generate_c(presets.paper_design(), f"{tmp}/hand_{precision}", precision=precision)
+        row = compare_with_hand(pkg, Path(tmp) / f"hand_{precision}" / "bench", steps=steps)
+        out[precision] = row
+        ratio = row["ns_generated"] / row["ns_hand"]
+        print(f"| {precision} | {row['max_diff_generated']:.2g}, {row['max_diff_hand']:.2g} | "
+              f"{row['ns_generated']:.3g} | {row['ns_hand']:.3g} | {ratio:.2f} | "
+              f"{row.get('ir_generated', float('nan')):.0f} | "
+              f"{row.get('ir_hand', float('nan')):.0f} |")
+        bound = 1e-12 if precision == "double" else 1e-4
+        if max(row["max_diff_generated"], row["max_diff_hand"]) > bound:
+            misses.append(f"{precision}: a step differs from Design.step beyond {bound:g}")
+        if timing and ratio > MAX_HAND_RATIO:
+            misses.append(f"{precision}: generated step {ratio:.2f}x the hand-written time "
+                          f"> {MAX_HAND_RATIO}")
+    _, _, reason = pil_tools()
+    if reason:
+        print(f"\n  Cortex-M4F model: skipped ({reason})")
+    else:
+        pkg = generate_c(presets.paper_design(), f"{tmp}/pil", precision="float")
+        res = pkg.pil(fl.plants.trms_yaw(), fl.Scenario(0.3, 2.0))
+        out["cortex_m4"] = res.to_dict()
+        print(f"\n  Cortex-M4F model (QEMU mps2-an386): {res.instructions:.0f} instructions per "
+              f"step (target <= {MAX_M4_INSTRUCTIONS}; hand-written 93), u within "
+              f"{res.max_rel_error:.2g} of max|u| of Design.step over {res.u_c.size} samples")
+        lean = pkg.pil(fl.plants.trms_yaw(), fl.Scenario(0.3, 2.0), cflags=("-DFL_NO_FLUSH",))
+        out["cortex_m4_no_flush"] = lean.to_dict()
+        print(f"  with -DFL_NO_FLUSH (an FPU that handles subnormals): {lean.instructions:.0f} "
+              "instructions per step")
+        if not res.passed or not lean.passed:
+            misses.append("the Cortex-M4F step differs from Design.step beyond the bound")
+        if timing and res.instructions > MAX_M4_INSTRUCTIONS:
+            misses.append(f"Cortex-M4F float step {res.instructions:.0f} instructions > "
+                          f"{MAX_M4_INSTRUCTIONS}")
+    for text in misses:
+        print(f"  [MISS] {text}")
+    out["misses"] = misses
+    return out
+
+
 def main(argv=None) -> int:
     """Print the tables and check the targets; the exit status (1 on a miss)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -83,6 +145,9 @@ def main(argv=None) -> int:
                     print(f"  {row.name} on Cortex-M4F: skipped ({row.arm_skipped})")
             if precision == "double":
                 misses += _check(table, timing=not args.quick)
+        hand = _against_hand(tmp, steps, timing=not args.quick)
+        misses += hand.pop("misses")
+        tables["hand"] = hand
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(tables, fh, indent=1, allow_nan=False)

@@ -184,7 +184,22 @@ def _cmd_codegen(args) -> int:
           f"{pkg.out_dir}:")
     for path in pkg.files:
         print(f"  {path.name}")
-    return 0
+    return _pil(pkg, job, cfg) if args.pil else 0
+
+
+def _pil(pkg, job, cfg) -> int:
+    from ..codegen._pil import pil_tools
+    from ..sim import Scenario
+
+    reason = pil_tools()[2]
+    if reason:
+        print(f"error: --pil: {reason}", file=sys.stderr)
+        return 2
+    res = pkg.pil(job.plant, Scenario(float(cfg.scenario["reference"]), 2000 * pkg.design.T))
+    print(f"PIL on a Cortex-M4F (QEMU mps2-an386): {res.instructions:.0f} instructions per step; "
+          f"u within {res.max_rel_error:.3g} of max|u| of Design.step over {res.u_c.size} "
+          f"samples (bound {res.bound:g}): {'passed' if res.passed else 'FAILED'}")
+    return 0 if res.passed else 1
 
 
 def _common(p, *, config=True, out=False, scheduler=False) -> None:
@@ -249,6 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the configured design (default) or a least-squares baseline")
     code.add_argument("--verify", action="store_true",
                       help="also run software in the loop and measure the cost table")
+    code.add_argument("--pil", action="store_true",
+                      help="also run the step on a Cortex-M4F model (arm-none-eabi-gcc, QEMU)")
     _common(code, config=False)
     code.set_defaults(func=_cmd_codegen)
     return parser

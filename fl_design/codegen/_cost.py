@@ -95,11 +95,10 @@ def _objects(pkg, cc: str, flags, folder: Path) -> tuple[list[Path], dict[str, i
         objs.append(obj)
     frames = _stack_usage(folder.glob("*.su"))
     p = pkg.prefix
-    chain = frames.get(f"{p}_step", 0) + frames.get(f"{p}_step_core", 0)
-    chain += frames.get(f"{p}_core_f0", frames.get("casadi_f0", 0))
-    helpers = [v for k, v in frames.items()  # fmin/fmax helpers etc. of CasADi's file
-               if k.startswith(f"{p}_core_") and k != f"{p}_core_f0"]
-    return objs, {"stack": chain + max(helpers, default=0)}
+    # the step and the static functions it may call (if not inlined): an upper bound
+    chain = frames.get(f"{p}_step", 0) + max(frames.get(f"{p}_core", 0),
+                                              frames.get(f"{p}_start", 0))
+    return objs, {"stack": chain}
 
 
 def _arm(pkg) -> tuple[dict | None, str]:
@@ -111,7 +110,7 @@ def _arm(pkg) -> tuple[dict | None, str]:
     undefined = set()
     for obj in objs:
         undefined |= set(run_command(["arm-none-eabi-nm", "-u", str(obj)], what="nm").split())
-    undefined -= {"U"} | {f"{pkg.prefix}_step_core"}
+    undefined -= {"U"}
     code, data = _size(objs, "arm-none-eabi-size")
     helpers = sorted(u for u in undefined if u.startswith("__aeabi_d"))
     return {"code_bytes": code, "data_bytes": data, "stack_bytes": frames["stack"],

@@ -1,5 +1,9 @@
 """True single precision: CasADi's generated C turned into float-only C.
 
+:func:`~fl_design.codegen.generate_c` no longer goes through CasADi's code generator (it
+prints the step's instruction list itself, in the build's precision: :mod:`._emit`); these
+helpers remain for C that CasADi generates (e.g. a user's own ``CodeGenerator`` output).
+
 CasADi's ``casadi_real=float`` option changes the declared type but keeps double literals
 (``a0=1.0000000000000000e-03;``) and double math (``fmax(x, y)``, ``sin(x)``), so every
 operation with a literal is done in double and rounded back: slow on a single-precision FPU

@@ -1,19 +1,24 @@
 """``generate_c``: the observer-controller step of a design as a C99 package.
 
-The C code is CasADi's code generation of :attr:`fl_design.Design.step` (the one loop-step
-function; the loop is never written a second time) plus a small stateful wrapper from the
-template files of ``fl_design/codegen/templates``: ``<prefix>.h`` / ``<prefix>.c`` (the API
-``<prefix>_state_t``, ``<prefix>_init``, ``<prefix>_reset``, ``<prefix>_step`` and the design's
-numbers as named constants), ``<prefix>_core.h`` / ``<prefix>_core.c`` (CasADi's code),
-``main.c`` (the software-in-the-loop harness), ``Makefile`` and ``README.md``.
+The C is :attr:`fl_design.Design.step` itself, printed instruction by instruction from its
+CasADi graph (:mod:`fl_design.codegen._emit`; the loop is never written a second time), with
+the controller's numbers read from a run-time parameter block
+(:mod:`fl_design.codegen._graph`), plus a wrapper from the template files of
+``fl_design/codegen/templates``: ``<prefix>.h`` / ``<prefix>.c`` (``<prefix>_init``,
+``<prefix>_start`` (bumpless), ``<prefix>_step``, ``<prefix>_set_params`` (validating),
+``<prefix>_default_params``, ``<prefix>_reset``; bit-pattern finite tests, plausibility and
+rate checks, sensor-lost state, saturating counters, subnormal flushing; the arithmetic is the
+``static`` function ``<prefix>_core``: straight-line, no library call), ``main.c`` (the
+harness), ``Makefile``, ``CMakeLists.txt``, ``README.md`` (ISR usage, flags, cost) and ``pil/``
+(start-up file, linker script and main of the Cortex-M4 run).
 
-Single precision (``precision="float"``) is true single precision: the generated code is
-rewritten by :func:`~fl_design.codegen.to_single_precision`, and an EHGO is realized in its
-``"delta"`` form (:class:`fl_design.EHGO`, parameter ``realization``): the same input-output
-map as the design's observer to round-off, but with ``A_d - I`` stored with its full relative
-precision and a DC gain from ``y`` to the derivative estimates that is zero by construction. In
-float the rounded direct matrices ``A_d`` (entries within ``1e-5`` of one at ``T = 1 ms``) keep
-about two digits of ``A_d - I``.
+An EHGO is generated in its ``"delta"`` realization in every precision
+(:class:`fl_design.EHGO`, parameter ``realization``): the same input-output map as the
+design's observer to round-off, with ``A_d - I`` stored with its full relative precision and a
+DC gain from ``y`` to the derivative estimates that is zero by construction (the direct form's
+drifts at high ``rho`` and small ``eps``; in float its ``A_d`` keeps about two digits of
+``A_d - I``). ``precision="float"`` is true single precision: ``f``-suffixed literals, no
+double anywhere (``-Wdouble-promotion -Wfloat-conversion`` clean).
 
 Examples
 --------
@@ -21,7 +26,8 @@ Examples
 >>> from fl_design.codegen import generate_c
 >>> pkg = generate_c(presets.paper_design(), "trms_c")
 >>> sorted(p.name for p in pkg.files)  # doctest: +NORMALIZE_WHITESPACE
-['Makefile', 'README.md', 'fl.c', 'fl.h', 'fl_core.c', 'fl_core.h', 'main.c']
+['CMakeLists.txt', 'Makefile', 'README.md', 'fl.c', 'fl.h', 'main.c', 'pil.ld',
+ 'pil_main.c', 'pil_semihost.h', 'pil_startup.c']
 """
 
 from __future__ import annotations
@@ -34,7 +40,6 @@ import casadi as ca
 
 from ..design import EHGO, Design
 from ..errors import OutputPathError, ParameterError
-from ._float import mark_unused_parameters, to_single_precision
 from ._package import CPackage
 
 #: valid values of ``precision``
@@ -117,13 +122,17 @@ def step_design(design: Design, precision: str) -> Design:
     'delta'
     """
     est = design.estimator
-    if precision == "float" and isinstance(est, EHGO) and est.realization != "delta":
+    if isinstance(est, EHGO) and est.realization != "delta":
         return Design(estimator=est.replace(realization="delta"), controller=design.controller)
     return design
 
 
-def generate_c(design: Design, out_dir, *, precision: str = "double",
-               prefix: str = "fl") -> CPackage:
+#: what :func:`generate_c` does when the float build is predicted to miss its bound
+FLOAT_POLICIES = ("warn", "refuse")
+
+
+def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: str = "fl",
+               plant=None, scenario=None, float_policy: str = "warn") -> CPackage:
     """Write the design's loop step as a C99 package (sources, header, harness, Makefile).
 
     Parameters
@@ -138,6 +147,14 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
+    plant, scenario : Plant and Scenario, optional
+        With ``precision="float"``: predict the float build's error on this run
+        (:func:`fl_design.codegen._float_check.predict_float_error`, no compiler needed) before
+        writing; the number is :attr:`CPackage.predicted_float_error`.
+    float_policy : {"warn", "refuse"}, optional
+        Above the float bound (``1e-4`` of ``max |u|``): a
+        :class:`~fl_design.errors.FloatPrecisionWarning` (default) or a
+        :class:`~fl_design.errors.PrecisionError`, both with the number and the fixes.
 
     Returns
     -------
@@ -147,7 +164,15 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     Raises
     ------
     ParameterError
-        Unknown ``precision``, ``prefix`` not a C identifier, ``design`` not a Design.
+        Unknown ``precision`` or ``float_policy``, ``prefix`` not a C identifier, ``design``
+        not a Design, only one of ``plant`` and ``scenario``.
+    PrecisionError
+        ``float_policy="refuse"`` and the float build is predicted to miss its bound.
+
+    Warns
+    -----
+    FloatPrecisionWarning
+        ``float_policy="warn"`` and the float build is predicted to miss its bound.
     OutputPathError
         ``out_dir`` cannot be created or written.
 
@@ -163,14 +188,40 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     if not isinstance(design, Design):
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
     used = step_design(design, precision)
+    predicted = _float_prediction(design, precision, plant, scenario, float_policy)
     out = _writable_folder(out_dir)
     try:
-        files = _write_core(used, out, precision, prefix)
-        files += _write_templates(used, out, precision, prefix)
+        files = _write_templates(used, out, precision, prefix)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
-                    prefix=prefix, files=tuple(files))
+                    prefix=prefix, files=tuple(files), predicted_float_error=predicted)
+
+
+def _float_prediction(design, precision, plant, scenario, policy) -> float | None:
+    import warnings
+
+    from ..errors import FloatPrecisionWarning, PrecisionError
+    from ._float_check import fixes, predict_float_error
+    from ._sil import FLOAT_BOUND
+
+    if policy not in FLOAT_POLICIES:
+        raise ParameterError(f"float_policy={policy!r} is not known; valid: "
+                             f"{', '.join(map(repr, FLOAT_POLICIES))}")
+    if (plant is None) != (scenario is None):
+        raise ParameterError("give both plant= and scenario= (the run on which the float "
+                             "build's error is predicted), or neither")
+    if precision != "float" or plant is None:
+        return None
+    err = predict_float_error(design, plant, scenario)
+    if err > FLOAT_BOUND:
+        text = (f"precision='float': the single-precision step is predicted to be "
+                f"{err:.3g} of max|u| off Design.step on this run (bound {FLOAT_BOUND:g}); "
+                f"{fixes(design)}")
+        if policy == "refuse":
+            raise PrecisionError(text)
+        warnings.warn(text, FloatPrecisionWarning, stacklevel=3)
+    return err
 
 
 def _writable_folder(out_dir) -> Path:
@@ -188,14 +239,15 @@ def _writable_folder(out_dir) -> Path:
 
 
 def core_function(design: Design, prefix: str) -> ca.Function:
-    """``<prefix>_step_core``: :attr:`Design.step` under the name the C code uses.
+    """``<prefix>_step_core(x, y, r, p) -> (x_next, u)``: the function the C core computes.
 
-    The graph is ``design.step`` called on fresh symbols (inlined: the same instructions).
+    :attr:`Design.step` with the controller's numbers as the run-time parameter block ``p``
+    (:func:`fl_design.codegen._graph.parametric_core`).
 
     Parameters
     ----------
     design : Design
-        The design.
+        The design generated (after :func:`step_design`).
     prefix : str
         C prefix.
 
@@ -207,34 +259,25 @@ def core_function(design: Design, prefix: str) -> ca.Function:
     --------
     >>> from fl_design import presets
     >>> from fl_design.codegen import core_function
-    >>> core_function(presets.paper_design(), "fl").name()
-    'fl_step_core'
+    >>> core_function(presets.paper_design(), "fl").name_in()
+    ['x', 'y', 'r', 'p']
     """
-    f = design.step
-    state, y, r = ca.SX.sym("state", f.nnz_in(0)), ca.SX.sym("y"), ca.SX.sym("r")
-    return ca.Function(f"{prefix}_step_core", [state, y, r], f(state, y, r),
-                       ["state", "y", "r"], ["state_next", "u"])
+    from ._graph import parametric_core
 
-
-def _write_core(design: Design, out: Path, precision: str, prefix: str) -> list[Path]:
-    opts = {"with_header": True, "casadi_real": precision, "casadi_int": "int",
-            "with_export": False, "verbose": False}
-    cg = ca.CodeGenerator(f"{prefix}_core.c", opts)
-    cg.add(core_function(design, prefix))
-    cg.generate(str(out) + "/")
-    c_file, h_file = out / f"{prefix}_core.c", out / f"{prefix}_core.h"
-    text = mark_unused_parameters(c_file.read_text())
-    c_file.write_text(to_single_precision(text) if precision == "float" else text)
-    return [c_file, h_file]
+    return parametric_core(design, f"{prefix}_step_core")
 
 
 def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> list[Path]:
     from ._template import render, substitutions
 
     subs = substitutions(design, precision, prefix)
-    names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c", "main.c.in": "main.c",
-             "Makefile.in": "Makefile", "README.md.in": "README.md"}
+    names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
+             "main.c.in": "main.c", "Makefile.in": "Makefile",
+             "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",
+             "pil_main.c.in": "pil/pil_main.c", "pil_startup.c.in": "pil/pil_startup.c",
+             "pil_semihost.h.in": "pil/pil_semihost.h", "pil.ld.in": "pil/pil.ld"}
     written = []
+    (out / "pil").mkdir(exist_ok=True)
     for template, name in names.items():
         text = resources.files("fl_design.codegen").joinpath("templates", template).read_text()
         path = out / name
@@ -243,5 +286,5 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> 
     return written
 
 
-__all__ = ["PRECISIONS", "check_precision", "check_prefix", "core_function", "generate_c",
+__all__ = ["FLOAT_POLICIES", "PRECISIONS", "check_precision", "check_prefix", "core_function", "generate_c",
            "step_design"]

@@ -27,8 +27,9 @@ import numpy as np
 from ..errors import CompilationError, CompilerNotFoundError, ParameterError
 from ._build import STRICT_CFLAGS, find_compiler
 
-#: extra warnings of the single-precision build (any double arithmetic is an error)
-FLOAT_WARNINGS = ("-Wdouble-promotion", "-Wfloat-conversion")
+#: extra warnings of every build (prototypes, float equality, any double arithmetic in float)
+FLOAT_WARNINGS = ("-Wmissing-prototypes", "-Wfloat-equal", "-Wdouble-promotion",
+                  "-Wfloat-conversion")
 #: sanitizer flags of :meth:`CPackage.build` with ``sanitize=True``
 SANITIZE_FLAGS = ("-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
                   "-fno-sanitize-recover=all")
@@ -119,6 +120,9 @@ class CPackage:
         C prefix.
     files : tuple of pathlib.Path
         Files written.
+    predicted_float_error : float or None, optional
+        The float build's predicted relative error (``generate_c`` with ``plant`` and
+        ``scenario``), else None.
 
     Examples
     --------
@@ -135,6 +139,7 @@ class CPackage:
     precision: str
     prefix: str
     files: tuple
+    predicted_float_error: float | None = None
 
     @property
     def header(self) -> Path:
@@ -142,9 +147,9 @@ class CPackage:
         return self.out_dir / f"{self.prefix}.h"
 
     @property
-    def sources(self) -> tuple[Path, Path]:
-        """``<prefix>.c`` and ``<prefix>_core.c``."""
-        return self.out_dir / f"{self.prefix}.c", self.out_dir / f"{self.prefix}_core.c"
+    def sources(self) -> tuple[Path]:
+        """``(<prefix>.c,)``: the one source of the package (it includes its header)."""
+        return (self.out_dir / f"{self.prefix}.c",)
 
     def flags(self, *, sanitize: bool = False, optimize: str = "-O2") -> list[str]:
         """Compiler flags of the package's builds (strict; float warnings; sanitizers).
@@ -168,9 +173,7 @@ class CPackage:
         ...                                    precision="float").flags()
         True
         """
-        out = [optimize, *STRICT_CFLAGS]
-        if self.precision == "float":
-            out += FLOAT_WARNINGS
+        out = [optimize, *STRICT_CFLAGS, *FLOAT_WARNINGS]
         return out + (list(SANITIZE_FLAGS) if sanitize else [])
 
     def build(self, *, sanitize: bool = False, compiler: str | None = None) -> Path:
@@ -273,12 +276,49 @@ class CPackage:
         >>> from fl_design import presets
         >>> pkg = fl.generate_c(presets.paper_design(), "pv")
         >>> res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5))
-        >>> res.passed, res.max_rel_error <= 1e-12
-        (True, True)
+        >>> res.matches, res.max_rel_error <= 1e-12, res.c_status, res.c_stable
+        (True, True, 'undecided', False)
         """
         from ._sil import software_in_the_loop
 
         return software_in_the_loop(self, plant, scenario, substeps=substeps, compiler=compiler)
+
+    def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300,
+            cflags=()):
+        """Processor-in-the-loop on a Cortex-M4F model (QEMU ``mps2-an386``): u and its cost.
+
+        See :func:`fl_design.codegen.processor_in_the_loop`.
+
+        Parameters
+        ----------
+        plant : Plant
+            The plant whose closed-loop measurements (:func:`fl_design.simulate`) are fed.
+        scenario : Scenario
+            The scenario of that recording.
+        max_samples : int, optional
+            Samples fed (default 2000).
+        timeout : float, optional
+            Seconds for QEMU.
+        cflags : sequence of str, optional
+            Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
+
+        Returns
+        -------
+        PilResult
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> from fl_design import presets
+        >>> from fl_design.codegen._pil import pil_tools
+        >>> pkg = fl.generate_c(presets.paper_design(), "ppil", precision="float")
+        >>> pil_tools()[2] != "" or pkg.pil(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.1)).passed
+        True
+        """
+        from ._pil import processor_in_the_loop
+
+        return processor_in_the_loop(self, plant, scenario, max_samples=max_samples,
+                                     timeout=timeout, cflags=cflags)
 
     def cost(self, *, name: str | None = None, bench_steps: int = 2_000_000, compiler=None):
         """Operations per step, stack, code size and time per step (:class:`StepCost`).

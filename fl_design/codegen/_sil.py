@@ -1,17 +1,25 @@
-"""Software-in-the-loop check of a generated package against ``Design.step``.
+"""Software-in-the-loop check of a generated package: does the C loop work, and is it the design?
 
-The compiled ``<prefix>_step`` drives the simulated plant in closed loop: a C driver
+The compiled ``<prefix>_step`` drives the simulated plant in closed loop, started as firmware
+starts it: ``<prefix>_init``, then ``<prefix>_start(s, ym_0, u0)`` with the first measurement
+and the input ``fl.simulate`` starts from (``u_eq``, or the controller's ``u0``). A C driver
 (``templates/sil.c.in``) links the package with CasADi's code of the plant's RK4 step
-(:attr:`fl_design.sim.ClosedLoop.plant_step`, in double) and output ``h``, and runs the
-scenario's samples (reference, noise, quantization) ``ym_k -> u_k -> x_(k+1)``. The
-measurements ``ym`` it saw are then fed to the design's own step in CasADi's interpreter
-(:meth:`fl_design.Design.run`, the user's design, not the generated one) and the two input
-sequences are compared.
+(:attr:`fl_design.sim.ClosedLoop.plant_step`, in double) and runs the scenario's samples
+(reference, noise, quantization). The check passes only when both hold:
 
-Bounds: double within ``1e-12`` of ``max |u|``. Float (:data:`FLOAT_BOUND`): within ``1e-4`` of
-``max |u|``: the float step rounds the measurement (``ulp(y) ~ 3e-8`` at ``y ~ 0.3``) and its
-own arithmetic to 24 bits, and the closed loop keeps that error from accumulating; the error
-of the last tenth of the run is reported and checked against the same bound (no drift).
+(a) **the C is the design**: the measurements the C saw, fed to ``Design.step`` of the design
+    it was generated from (CasADi's interpreter, the same start state), give the same inputs
+    within the precision's bound: double within ``1e-12`` of ``max |u|``; float
+    (:data:`FLOAT_BOUND`) within ``1e-4`` of ``max |u|`` (24-bit rounding of ``y`` and of the
+    arithmetic; the closed loop keeps it from accumulating; the last tenth of the run is checked
+    against the same bound: no drift);
+(b) **the C loop does what the simulation says**: its status, classified by the simulation
+    layer's rules (:mod:`fl_design.codegen._verdict`), equals that of :func:`fl_design.simulate`
+    on the same plant, design and scenario. A loop that diverges (or oscillates under a constant
+    reference: :func:`loop_failed`) in C and in Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not to fail. A run
+    too short to tell (``"undecided"`` in both) passes with that status in the result
+    (:attr:`SilResult.c_stable` is then False): run longer, or give no duration (the run then
+    chooses its length from the loop's slowest mode), to see it converge.
 
 Examples
 --------
@@ -28,15 +36,48 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from ..sim import ClosedLoop
-from ..sim.kernel._loop import default_substeps
+from ..errors import ParameterError
+from ..sim import ClosedLoop, simulate
+from ..sim._run import prepare_run
 from ._package import compiler_or_raise, run_command
 from ._template import render
+from ._verdict import c_loop_response
 
 #: relative bound of the double build (fraction of max |u|)
 DOUBLE_BOUND = 1e-12
 #: relative bound of the single-precision build (fraction of max |u|)
 FLOAT_BOUND = 1e-4
+#: statuses of the C loop that fail the check whatever the simulation says
+FAILING = ("diverged", "oscillating", "solver_failed")
+
+
+def loop_failed(status: str, r_tail) -> bool:
+    """Whether a C loop with ``status`` fails the check (``r_tail``: the reference's tail).
+
+    A status in :data:`FAILING` fails, except ``"oscillating"`` under a reference that moves
+    in the tail window: the classifier counts reversals of the error, which a loop tracking a
+    square wave shows too (the status then says nothing about the loop).
+
+    Parameters
+    ----------
+    status : str
+        The C loop's status.
+    r_tail : array_like
+        Reference samples of the tail window.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from fl_design.codegen._sil import loop_failed
+    >>> loop_failed("oscillating", [0.3, 0.3]), loop_failed("oscillating", [0.3, -0.3])
+    (True, False)
+    """
+    if status == "oscillating":
+        return bool(np.ptp(np.asarray(r_tail, dtype=float)) == 0.0)
+    return status in FAILING
 
 
 def bound_for(precision: str) -> float:
@@ -62,7 +103,7 @@ def bound_for(precision: str) -> float:
 
 @dataclass(frozen=True)
 class SilResult:
-    """The compiled step in closed loop versus ``Design.step`` on the same measurements.
+    """The compiled step in closed loop: its verdict, the simulation's, and its error.
 
     Parameters
     ----------
@@ -73,22 +114,37 @@ class SilResult:
     u_c : numpy.ndarray
         ``(N,)`` inputs of the compiled step (applied to the plant).
     u_ref : numpy.ndarray
-        ``(N,)`` inputs of ``design.step`` fed ``ym``.
+        ``(N,)`` inputs of ``Design.step`` fed ``ym`` from the same start.
     bound : float
         Relative bound (fraction of ``max |u_ref|``).
+    c_status : str, optional
+        Status of the C loop (``"converged"``, ``"diverged"``...; :data:`fl_design.sim.STATUS_NAMES`).
+    sim_status : str, optional
+        Status of :func:`fl_design.simulate` on the same run.
+    c_stable : bool, optional
+        The C loop's status is convergent (``"converged"`` or ``"converging"``).
+    c_failed : bool, optional
+        The C loop failed (:func:`loop_failed`: diverged, solver failed, or oscillating under a
+        constant reference).
 
     Attributes
     ----------
     max_abs_error, max_rel_error, tail_rel_error : float
-        ``max |u_c - u_ref|``, divided by ``max |u_ref|``, and the latter over the last tenth.
-    passed : bool
+        ``max |u_c - u_ref|``, divided by ``max |u_ref|``, and the latter over the last tenth
+        (over the samples before a divergence, if any).
+    matches : bool
         Both relative errors within ``bound``.
+    verdicts_agree : bool
+        ``c_status == sim_status``.
+    passed : bool
+        ``matches`` and ``verdicts_agree`` and not ``c_failed``.
 
     Examples
     --------
     >>> import numpy as np
     >>> from fl_design.codegen import SilResult
-    >>> r = SilResult("double", np.zeros(2), np.array([1.0, 2.0]), np.array([1.0, 2.0]), 1e-12)
+    >>> r = SilResult("double", np.zeros(2), np.array([1.0, 2.0]), np.array([1.0, 2.0]), 1e-12,
+    ...               "converged", "converged", True, False)
     >>> r.passed, r.to_dict()["max_rel_error"]
     (True, 0.0)
     """
@@ -98,15 +154,26 @@ class SilResult:
     u_c: np.ndarray
     u_ref: np.ndarray
     bound: float
+    c_status: str = "undecided"
+    sim_status: str = "undecided"
+    c_stable: bool = False
+    c_failed: bool = False
+
+    @property
+    def _finite(self) -> slice:
+        ok = np.isfinite(self.u_c) & np.isfinite(self.u_ref)
+        n = int(np.argmin(ok)) if not ok.all() else ok.size
+        return slice(0, max(n, 1))
 
     @property
     def max_abs_error(self) -> float:
-        """``max |u_c - u_ref|``."""
-        return float(np.max(np.abs(self.u_c - self.u_ref)))
+        """``max |u_c - u_ref|`` (before any non-finite sample)."""
+        k = self._finite
+        return float(np.max(np.abs(self.u_c[k] - self.u_ref[k])))
 
     @property
     def _scale(self) -> float:
-        return max(float(np.max(np.abs(self.u_ref))), np.finfo(float).tiny)
+        return max(float(np.max(np.abs(self.u_ref[self._finite]))), np.finfo(float).tiny)
 
     @property
     def max_rel_error(self) -> float:
@@ -115,14 +182,25 @@ class SilResult:
 
     @property
     def tail_rel_error(self) -> float:
-        """The relative error over the last tenth of the run (drift check)."""
-        k = max(1, self.u_c.size // 10)
-        return float(np.max(np.abs(self.u_c[-k:] - self.u_ref[-k:]))) / self._scale
+        """The relative error over the last tenth of the (finite part of the) run."""
+        u_c, u_ref = self.u_c[self._finite], self.u_ref[self._finite]
+        k = max(1, u_c.size // 10)
+        return float(np.max(np.abs(u_c[-k:] - u_ref[-k:]))) / self._scale
+
+    @property
+    def matches(self) -> bool:
+        """The C equals ``Design.step`` within the bound, over the run and its last tenth."""
+        return bool(self.max_rel_error <= self.bound and self.tail_rel_error <= self.bound)
+
+    @property
+    def verdicts_agree(self) -> bool:
+        """The C loop's status equals :func:`fl_design.simulate`'s."""
+        return self.c_status == self.sim_status
 
     @property
     def passed(self) -> bool:
-        """Within the bound, over the run and over its last tenth."""
-        return bool(self.max_rel_error <= self.bound and self.tail_rel_error <= self.bound)
+        """The C matches the design, the verdicts agree, and the C loop does not fail."""
+        return bool(self.matches and self.verdicts_agree and not self.c_failed)
 
     def to_dict(self) -> dict:
         """Strict-JSON summary (no sample arrays).
@@ -131,12 +209,16 @@ class SilResult:
         --------
         >>> import numpy as np
         >>> from fl_design.codegen import SilResult
-        >>> sorted(SilResult("float", np.zeros(1), np.ones(1), np.ones(1), 1e-4).to_dict())
-        ['bound', 'max_abs_error', 'max_rel_error', 'n_samples', 'passed', 'precision', 'tail_rel_error']
+        >>> d = SilResult("float", np.zeros(1), np.ones(1), np.ones(1), 1e-4).to_dict()
+        >>> d["passed"], d["c_status"], d["c_stable"]
+        (True, 'undecided', False)
         """
         return {"precision": self.precision, "n_samples": int(self.u_c.size),
                 "max_abs_error": self.max_abs_error, "max_rel_error": self.max_rel_error,
                 "tail_rel_error": self.tail_rel_error, "bound": float(self.bound),
+                "matches": self.matches, "c_status": self.c_status,
+                "sim_status": self.sim_status, "verdicts_agree": self.verdicts_agree,
+                "c_stable": bool(self.c_stable), "c_failed": bool(self.c_failed),
                 "passed": self.passed}
 
 
@@ -195,11 +277,11 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
     return exe
 
 
-def reference_inputs(design, ym, r, *, chunk: int = 100_000) -> np.ndarray:
-    """The inputs of ``design.step`` (CasADi's interpreter) fed ``ym, r`` from the initial state.
+def reference_run(design, ym, r, *, state0=None, chunk: int = 20_000):
+    """``Design.step`` (CasADi's interpreter) fed ``ym, r``: inputs, estimates, states.
 
-    ``design.step`` is accumulated over chunks of samples (``mapaccum``), the state carried
-    from chunk to chunk: linear in the number of samples (about 4 us per sample).
+    The step is accumulated over chunks of samples (``mapaccum``), the state carried from
+    chunk to chunk: linear in the number of samples (about 4 us per sample).
 
     Parameters
     ----------
@@ -207,36 +289,55 @@ def reference_inputs(design, ym, r, *, chunk: int = 100_000) -> np.ndarray:
         The design.
     ym, r : numpy.ndarray
         ``(N,)`` measurements and references.
+    state0 : array_like, optional
+        Start state (default :meth:`Design.initial_state`).
     chunk : int, optional
         Samples per ``mapaccum``.
 
     Returns
     -------
-    numpy.ndarray
+    u : numpy.ndarray
         ``(N,)``.
+    xhat : numpy.ndarray
+        ``(N, rho + 1)`` clamped estimates.
+    states : numpy.ndarray
+        ``(N, state_size)`` states after each sample.
 
     Examples
     --------
     >>> import numpy as np
     >>> from fl_design import presets
-    >>> from fl_design.codegen._sil import reference_inputs
+    >>> from fl_design.codegen._sil import reference_run
     >>> d = presets.paper_design()
     >>> y, r = np.linspace(0, 0.1, 7), np.full(7, 0.3)
-    >>> np.allclose(reference_inputs(d, y, r, chunk=3), d.run(y, r).u, rtol=0, atol=1e-15)
-    True
+    >>> u, xhat, states = reference_run(d, y, r, chunk=3)
+    >>> np.allclose(u, d.run(y, r).u, rtol=0, atol=1e-15), xhat.shape
+    (True, (7, 3))
     """
-    state, out = design.initial_state(), []
+    p0 = ca.DM(design.parameter_vector())
+    s, y_, r_ = ca.SX.sym("s", design.state_size), ca.SX.sym("y"), ca.SX.sym("r")
+    s_next, u, xhat = design.parametric_step(s, y_, r_, p0)
+    f = ca.Function("fl_sil_ref", [s, y_, r_], [s_next, u, xhat])
+    state = design.initial_state() if state0 is None else np.asarray(state0, dtype=float)
+    us, xs, ss, maps = [], [], [], {}
     for start in range(0, len(ym), chunk):
         y_c, r_c = ym[start:start + chunk], r[start:start + chunk]
-        states, u = design.step.mapaccum("fl_ref", y_c.size)(state, y_c[None, :], r_c[None, :])
+        if y_c.size not in maps:  # building a mapaccum costs more than running it: reuse
+            maps[y_c.size] = f.mapaccum("fl_ref", y_c.size)
+        states, u_c, x_c = maps[y_c.size](state, y_c[None, :], r_c[None, :])
         states = np.asarray(states, dtype=float)
         state = states[:, -1]
-        out.append(np.asarray(u, dtype=float).ravel())
-    return np.concatenate(out)
+        ss.append(states.T)
+        us.append(np.asarray(u_c, dtype=float).ravel())
+        xs.append(np.asarray(x_c, dtype=float).T)
+    return np.concatenate(us), np.concatenate(xs), np.concatenate(ss)
 
 
 def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) -> SilResult:
-    """Run ``pkg``'s compiled step in closed loop with ``plant``; compare with ``Design.step``.
+    """Run ``pkg``'s compiled step in closed loop with ``plant``, started as firmware starts it.
+
+    See the module docstring: passes when the C equals ``Design.step`` within the precision's
+    bound, its loop's status equals :func:`fl_design.simulate`'s, and it converges.
 
     Parameters
     ----------
@@ -245,7 +346,8 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     plant : Plant
         The plant, integrated with RK4 (``ClosedLoop.plant_step``) in double.
     scenario : Scenario
-        Reference, duration, ``x0`` (default the operating point), noise, quantization.
+        Reference, duration, ``x0`` (default the operating point), noise, quantization. An
+        ``initial_estimate`` is refused (firmware starts from a measurement).
     substeps : int, optional
         RK4 steps per sample (default :func:`fl_design.sim.default_substeps`).
     compiler : str, optional
@@ -255,32 +357,48 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     -------
     SilResult
 
+    Raises
+    ------
+    ParameterError
+        ``scenario.initial_estimate`` is set.
+
     Examples
     --------
     >>> import fl_design as fl
     >>> from fl_design import presets
     >>> from fl_design.codegen import software_in_the_loop
-    >>> pkg = fl.generate_c(presets.paper_design(), "sil_doc2", precision="float")
-    >>> software_in_the_loop(pkg, fl.plants.trms_yaw(), fl.Scenario(0.3, 0.3)).passed
-    True
+    >>> pkg = fl.generate_c(presets.maglev_design(), "sil_doc2", precision="float")
+    >>> res = software_in_the_loop(pkg, fl.plants.maglev(), fl.Scenario(6.2e-3, 2.0))
+    >>> res.passed, res.c_status, res.sim_status, res.max_rel_error < 1e-4
+    (True, 'converged', 'converged', True)
     """
+    from ..sim import RK4
+
+    if getattr(scenario, "initial_estimate", None) is not None:
+        raise ParameterError(
+            "scenario.initial_estimate is set; the C loop starts as firmware does, from the "
+            "first measurement (PREFIX_start): give a scenario without initial_estimate")
     design = pkg.design
-    steps = default_substeps(plant, design.T) if substeps is None else int(substeps)
+    run = prepare_run(plant, design, scenario, integrator=RK4(substeps=substeps))
+    steps = run.loop.substeps
     exe = build_driver(pkg, plant, steps, compiler)
-    N = scenario.n_samples(design.T)
-    r = scenario.reference_samples(design.T)
-    w = scenario.noise.samples(N)
-    x0 = plant.x_op if scenario.x0 is None else np.asarray(scenario.x0, dtype=float)
-    q = 0.0 if scenario.quantization is None else float(scenario.quantization)
-    head = " ".join(repr(float(v)) for v in x0) + f" {q!r}\n"
-    body = "\n".join(f"{a!r} {b!r}" for a, b in zip(r.tolist(), w.tolist()))
+    head = " ".join(repr(float(v)) for v in run.x0) + f" {float(run.q)!r} {run.u0!r}\n"
+    body = "\n".join(f"{a!r} {b!r}" for a, b in zip(run.r.tolist(), run.noise.tolist()))
+    n = run.loop.n
     out = np.array(run_command([str(exe)], stdin=head + body + "\n", what="the SIL driver")
-                   .split(), dtype=float).reshape(-1, 2)
-    ym, u_c = out[:, 0], out[:, 1]
-    u_ref = reference_inputs(design, ym, r)
-    return SilResult(pkg.precision, ym, u_c, u_ref, bound_for(pkg.precision))
+                   .split(), dtype=float).reshape(-1, 3 + 2 * n)
+    y, ym, u_c = out[:, 0], out[:, 1], out[:, 2]
+    X, X_next = out[:, 3:3 + n], out[:, 3 + n:]
+    used = pkg.step_design
+    state0 = used.initial_state(y0=float(ym[0]), u0=run.u0)
+    u_ref, xhat, states = reference_run(used, ym, run.r, state0=state0)
+    c_resp = c_loop_response(run, y, ym, u_c, X, X_next, xhat, states)
+    sim_resp = simulate(plant, design, run.scenario, integrator=RK4(substeps=steps))
+    failed = loop_failed(c_resp.status, run.r[run.k_tail:])
+    return SilResult(pkg.precision, ym, u_c, u_ref, bound_for(pkg.precision),
+                     c_resp.status, sim_resp.status, bool(c_resp.stable), failed)
 
 
-__all__ = ["DOUBLE_BOUND", "FLOAT_BOUND", "SilResult", "bound_for", "build_driver",
-           "reference_inputs",
-           "software_in_the_loop"]
+__all__ = ["DOUBLE_BOUND", "FAILING", "FLOAT_BOUND", "SilResult", "bound_for", "build_driver",
+           "loop_failed",
+           "reference_run", "software_in_the_loop"]

@@ -69,21 +69,9 @@ def c_literal(x: float, precision: str) -> str:
     return text + "f" if precision == "float" else text
 
 
-def _constants(design: Design, precision: str, P: str) -> list[str]:
+def _fixed_constants(design: Design, precision: str, P: str) -> list[str]:
     lit = lambda x: c_literal(x, precision)
-    ctrl, est = design.controller, design.estimator
-    rows = [(f"{P}_T", lit(design.T), "sampling time (s): call the step at this period"),
-            (f"{P}_RHO", str(design.rho), "relative degree served"),
-            (f"{P}_GAMMA", lit(ctrl.gamma), "controller gain gamma"),
-            (f"{P}_KI", lit(ctrl.ki), "integral gain k_I")]
-    rows += [(f"{P}_K{i + 1}", lit(k), f"gain k_{i + 1}") for i, k in enumerate(ctrl.gains)]
-    if ctrl.u_range is not None:
-        rows += [(f"{P}_U_MIN", lit(ctrl.u_range[0]), "input saturation, low"),
-                 (f"{P}_U_MAX", lit(ctrl.u_range[1]), "input saturation, high")]
-    for i, lim in enumerate(ctrl.estimate_ranges):
-        if lim is not None:
-            rows += [(f"{P}_XHAT{i + 1}_MIN", lit(lim[0]), f"clamp of xhat_{i + 1}, low"),
-                     (f"{P}_XHAT{i + 1}_MAX", lit(lim[1]), f"clamp of xhat_{i + 1}, high")]
+    est, rows = design.estimator, []
     if isinstance(est, EHGO):
         rows += [(f"{P}_EPS", lit(est.eps), "EHGO time constant eps (s)")]
         rows += [(f"{P}_ALPHA{i + 1}", lit(a), f"EHGO coefficient alpha_{i + 1}")
@@ -91,8 +79,87 @@ def _constants(design: Design, precision: str, P: str) -> list[str]:
     elif isinstance(est, LeastSquaresEstimator):
         rows += [(f"{P}_WINDOW", str(est.window), "least-squares window (samples)"),
                  (f"{P}_FIT_DEGREE", str(est.fit_degree), "least-squares polynomial degree")]
-    width = max(len(name) for name, _, _ in rows)
-    return [f"#define {name:<{width}} {value:<24} /* {what} */" for name, value, what in rows]
+    return [f"#define {name:<17} {value:<8} /* {what} */" for name, value, what in rows]
+
+
+def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
+    """Members, defaults and setter checks of the parameter block (``_graph.parameter_fields``)."""
+    from ._graph import U_OPEN, parameter_fields
+
+    lit = lambda x: c_literal(x, precision)
+    real, rho = precision, design.rho
+    fields = {f.name: f for f in parameter_fields(design)}
+    clamped = [i for i, lim in enumerate(design.controller.estimate_ranges) if lim is not None]
+    members = [f"  {real} gamma;        /* {fields['gamma'].what} */",
+               f"  {real} k[{rho}];         /* gains k_1 .. k_rho of v */",
+               f"  {real} ki;           /* integral gain k_I (>= 0) */",
+               f"  {real} u_min;        /* input limits (u_min < u_max) */",
+               f"  {real} u_max;"]
+    if clamped:
+        used = ", ".join(str(i) for i in clamped)
+        members += [(f"  {real} xhat_min[{rho}];  /* clamps of the estimates; entries {used} "
+                     "are used */"), f"  {real} xhat_max[{rho}];"]
+    members.append("  int antiwindup;      /* 1: hold z while u is on a limit and z pushes it "
+                   "further (conditional integration); 0: the design's law */")
+    defaults = [f"  p->{name} = {lit(f.value)};" for name, f in fields.items()
+                if name != "antiwindup"]
+    if clamped:
+        defaults += [f"  p->xhat_{side}[{i}] = {lit(sign * U_OPEN)};  /* not clamped */"
+                     for i in range(rho) if i not in clamped
+                     for side, sign in (("min", -1), ("max", 1))]
+    defaults.append("  p->antiwindup = 0;")
+    finite = [f"!{{PFX}}_finite(p->{name})" for name in fields if name != "antiwindup"]
+    checks = ["  if (" + (" ||\n      ".join(finite)) + ") {",
+              f"    return {P}_BAD_NONFINITE;", "  }"]
+    sign = ">" if design.controller.gamma > 0 else "<"
+    checks += [f"  if (!(p->gamma {sign} ({real}) 0)) {{", f"    return {P}_BAD_GAMMA;", "  }",
+               f"  if (p->ki < ({real}) 0) {{", f"    return {P}_BAD_GAINS;", "  }",
+               "  if (!(p->u_min < p->u_max)) {", f"    return {P}_BAD_U_LIMITS;", "  }"]
+    for i in clamped:
+        checks += [f"  if (p->xhat_min[{i}] > p->xhat_max[{i}]) {{",
+                   f"    return {P}_BAD_XHAT_LIMITS;", "  }"]
+    checks += ["  if (p->antiwindup != 0 && p->antiwindup != 1) {",
+               f"    return {P}_BAD_SWITCH;", "  }"]
+    return {"PARAM_MEMBERS": "\n".join(members), "PARAM_DEFAULTS": "\n".join(defaults),
+            "PARAM_CHECKS": "\n".join(checks)}
+
+
+def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
+    """The body of ``<prefix>_step_core`` and the number of instructions of its graph.
+
+    Parameters
+    ----------
+    design : Design
+        The design generated.
+    precision : str
+        ``"double"`` or ``"float"``.
+    prefix : str
+        C prefix.
+
+    Returns
+    -------
+    tuple of (str, int)
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._template import core_source
+    >>> body, n = core_source(presets.paper_design(), "float", "fl")
+    >>> "fmax" in body, n > 0
+    (False, True)
+    """
+    from ._emit import c_body
+    from ._graph import parameter_fields, parametric_core
+
+    f = parametric_core(design, f"{prefix}_step_core")
+    names = [f"(({precision}) p->{fl.name})" if fl.name == "antiwindup" else f"p->{fl.name}"
+             for fl in parameter_fields(design)]
+    n = design.state_size
+    body = c_body(f, [[f"x[{i}]" for i in range(n)], ["y"], ["r"], names],
+                  [[f"x_next[{i}]" for i in range(n)], ["*u"]], precision)
+    unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
+    body = "".join(f"  (void) {v};\n" for v in unused) + body
+    return body, int(f.n_instructions())
 
 
 def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]:
@@ -120,34 +187,43 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
     """
     import fl_design
 
+    from ._graph import start_map
+
     P = prefix.upper()
     lay = design.state_layout
-    f = design.step
-    sz_iw, sz_w = int(f.sz_iw()), int(f.sz_w())
-    decl = []
-    if sz_iw:
-        decl.append(f"  int iw[{sz_iw}];")
-    if sz_w:
-        decl.append(f"  {precision} w[{sz_w}];")
-    init = ", ".join(c_literal(v, precision) for v in design.initial_state())
+    lit = lambda x: c_literal(x, precision)
+    c0, c1 = start_map(design)
+    body, n_ins = core_source(design, precision, prefix)
+    from ._cost import operation_counts
+    from ._graph import parametric_core
+
+    ops = operation_counts(parametric_core(design))
     size = 4 if precision == "float" else 8
-    return {
+    subs = {
         "PREFIX": prefix, "P": P, "REAL": precision, "PRECISION": precision,
         "VERSION": fl_design.__version__, "CASADI_VERSION": ca.__version__,
         "DESCRIPTION": " ".join(repr(design).split()),
-        "CONSTANTS": "\n".join(_constants(design, precision, P)),
+        "FIXED_CONSTANTS": "\n".join(_fixed_constants(design, precision, P)),
+        "T_LITERAL": lit(design.T), "RHO": str(design.rho),
         "STATE_SIZE": str(design.state_size), "ESTIMATOR_SIZE": str(lay["estimator"].stop),
         "U_INDEX": str(lay["u"].start), "Z_INDEX": str(lay["z"].start),
-        "INITIAL_STATE": init, "WORK_DECL": "\n".join(decl) or "  /* no work arrays */",
-        "WORK_ARGS": f"{'iw' if sz_iw else '0'}, {'w' if sz_w else '0'}",
-        "EXTRA_WARNINGS": "-Wdouble-promotion -Wfloat-conversion" if precision == "float" else "",
-        "FLOAT_NOTE": (", and `-Wdouble-promotion -Wfloat-conversion` clean: single precision "
-                       "only (float literals, `fmaxf`-family calls)" if precision == "float"
-                       else ""),
+        "INITIAL_STATE": ", ".join(lit(v) for v in design.initial_state()),
+        "START0": ", ".join(lit(v) for v in c0), "START1": ", ".join(lit(v) for v in c1),
+        "UINT": "uint32_t" if precision == "float" else "uint64_t",
+        "EXP_MASK": "0x7F800000u" if precision == "float" else "UINT64_C(0x7FF0000000000000)",
+        "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
+        "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
+        "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
+        "COMMIT": "\n".join(f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
+                            for i in range(design.state_size)),
         "STATE_BYTES": str(size * design.state_size),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",
     }
+    params = _parameter_text(design, precision, P)
+    params["PARAM_CHECKS"] = params["PARAM_CHECKS"].replace("{PFX}", prefix)
+    subs.update(params)
+    return subs
 
 
-__all__ = ["c_literal", "render", "substitutions"]
+__all__ = ["c_literal", "core_source", "render", "substitutions"]

@@ -1,0 +1,246 @@
+"""Straight-line C of an SX function's instruction list: the body of the generated step.
+
+Every instruction becomes one ``const`` local (SSA), printed so that no compiler flag changes
+what it computes and no library call is left: ``fmin``/``fmax`` as ``?:`` selects (the step
+never sees a NaN: the wrapper rejects it first), comparisons as ``int`` locals (so no float is
+ever used as a truth value: ``-Wfloat-conversion``, ``-Wfloat-equal`` clean), CasADi's
+``if_else`` pattern ``(c ? a : 0) + (!c ? b : 0)`` as one select, literals in the build's
+precision (``f``-suffixed in float: ``-Wdouble-promotion`` clean). Elementary functions the
+library's estimators never use (``sin``, ``sqrt``...) are printed as ``<math.h>`` calls in the
+build's precision and reported by :func:`math_calls`.
+
+Examples
+--------
+>>> import casadi as ca
+>>> from fl_design.codegen._emit import c_body
+>>> x = ca.SX.sym("x")
+>>> f = ca.Function("f", [x], [ca.fmin(ca.fmax(3 * x, 0), 1)])
+>>> print(c_body(f, [["x"]], [["*u"]], "float"))  # doctest: +NORMALIZE_WHITESPACE
+  const float a0 = 3.0f;
+  const float a2 = (a0*x);
+  const float a3 = 0.0f;
+  const float a4 = (a2 > a3 ? a2 : a3);
+  const float a5 = 1.0f;
+  const float a6 = (a4 < a5 ? a4 : a5);
+  *u = a6;
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import casadi as ca
+
+from ..errors import ComputationError
+
+_ARITH = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})",
+          ca.OP_DIV: "({0}/{1})", ca.OP_FMIN: "({0} < {1} ? {0} : {1})",
+          ca.OP_FMAX: "({0} > {1} ? {0} : {1})"}
+_COMPARE = {ca.OP_LT: "({0} < {1})", ca.OP_LE: "({0} <= {1})",
+            ca.OP_EQ: "!({0} < {1} || {0} > {1})", ca.OP_NE: "({0} < {1} || {0} > {1})"}
+_LOGIC = {ca.OP_AND: "({0} && {1})", ca.OP_OR: "({0} || {1})"}
+_UNARY = {ca.OP_NEG: "(-{0})", ca.OP_SQ: "({0}*{0})", ca.OP_ASSIGN: "{0}",
+          ca.OP_FABS: "({0} < {z} ? -{0} : {0})", ca.OP_TWICE: "({0}+{0})"}
+#: elementary functions printed as <math.h> calls (``f`` variant in float)
+MATH = {ca.OP_EXP: "exp", ca.OP_LOG: "log", ca.OP_SQRT: "sqrt", ca.OP_SIN: "sin",
+        ca.OP_COS: "cos", ca.OP_TAN: "tan", ca.OP_ASIN: "asin", ca.OP_ACOS: "acos",
+        ca.OP_ATAN: "atan", ca.OP_FLOOR: "floor", ca.OP_CEIL: "ceil", ca.OP_ERF: "erf",
+        ca.OP_SINH: "sinh", ca.OP_COSH: "cosh", ca.OP_TANH: "tanh", ca.OP_ASINH: "asinh",
+        ca.OP_ACOSH: "acosh", ca.OP_ATANH: "atanh", ca.OP_LOG1P: "log1p",
+        ca.OP_EXPM1: "expm1", ca.OP_POW: "pow", ca.OP_CONSTPOW: "pow", ca.OP_ATAN2: "atan2"}
+
+
+def literal(value: float, real: str) -> str:
+    """``value`` as a C literal of type ``real`` (finite values only).
+
+    Parameters
+    ----------
+    value : float
+        The number.
+    real : {"double", "float"}
+        The build's type.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ComputationError
+        ``value`` is not finite (a step constant must be: ``-ffast-math`` assumes it).
+
+    Examples
+    --------
+    >>> from fl_design.codegen._emit import literal
+    >>> literal(-2.0, "float"), literal(1e-3, "double"), literal(3.0, "double")
+    ('(-2.0f)', '0.001', '3.0')
+    """
+    if not math.isfinite(value):
+        raise ComputationError(f"the step has a non-finite constant {value!r}; C literals "
+                               "must be finite (the build may assume it: -ffast-math)")
+    text = repr(float(value)) + ("f" if real == "float" else "")
+    return f"({text})" if text.startswith("-") else text
+
+
+class _Namer:
+    """The current C name and kind (``"real"`` or ``"int"``) of each work-vector entry."""
+
+    def __init__(self, real: str):
+        self.real, self.name, self.kind = real, {}, {}
+
+    def as_real(self, w: int) -> str:
+        return self.name[w] if self.kind[w] == "real" else f"(({self.real}) {self.name[w]})"
+
+    def as_bool(self, w: int) -> str:
+        if self.kind[w] == "int":
+            return self.name[w]
+        z = literal(0.0, self.real)
+        return f"({self.name[w]} < {z} || {self.name[w]} > {z})"
+
+
+def _select(node: dict, a: int, b: int):
+    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None."""
+    na, nb = node.get(a), node.get(b)
+    if not (na and nb and na[0] == nb[0] == "ifz"):
+        return None
+    (_, ca_, xa), (_, cb, yb) = na, nb
+    if node.get(cb) == ("not", ca_):
+        return ca_, xa, yb
+    if node.get(ca_) == ("not", cb):
+        return cb, yb, xa
+    return None
+
+
+def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") -> str:
+    """The statements computing ``f``'s outputs from its inputs (see the module docstring).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        An SX function.
+    inputs : list of list of str
+        C expression of each input's nonzero ``j`` (``inputs[i][j]``).
+    outputs : list of list of str
+        C lvalue of each output's nonzero.
+    real : {"double", "float"}
+        Floating type.
+    indent : str, optional
+        Line prefix.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ComputationError
+        An operation without a translation.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from fl_design.codegen._emit import c_body
+    >>> x = ca.SX.sym("x")
+    >>> "a2 = (x < a1);" in c_body(ca.Function("f", [x], [x < 1]), [["x"]], [["*o"]], "double")
+    True
+    """
+    names, lines, stores, node, live = _Namer(real), [], [], {}, set()
+    cur = {}  # work index -> SSA id (int)
+    for k in range(f.n_instructions()):
+        op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
+        if op == ca.OP_OUTPUT:
+            w = cur[ins[0]]
+            stores.append(f"{indent}{outputs[outs[0]][outs[1]]} = {names.as_real(w)};")
+            live.add(w)
+            continue
+        args = [cur[i] for i in ins if i >= 0] if op not in (ca.OP_INPUT, ca.OP_CONST) else []
+        kind, text = "real", None
+        if op == ca.OP_INPUT:
+            names.name[k], names.kind[k] = inputs[ins[0]][ins[1]], "real"
+            cur[outs[0]] = k
+            continue
+        if op == ca.OP_CONST:
+            text = literal(f.instruction_constant(k), real)
+        elif op == ca.OP_ADD and _select(node, *args):
+            c, x, y = args = _select(node, *args)
+            text = f"({names.as_bool(c)} ? {names.as_real(x)} : {names.as_real(y)})"
+        elif op == ca.OP_IF_ELSE_ZERO:
+            node[k] = ("ifz", args[0], args[1])
+            text = (f"({names.as_bool(args[0])} ? {names.as_real(args[1])} : "
+                    f"{literal(0.0, real)})")
+        elif op in _ARITH:
+            text = _ARITH[op].format(*(names.as_real(a) for a in args))
+        elif op in _COMPARE:
+            kind, text = "int", _COMPARE[op].format(*(names.as_real(a) for a in args))
+        elif op in _LOGIC:
+            kind, text = "int", _LOGIC[op].format(*(names.as_bool(a) for a in args))
+        elif op == ca.OP_NOT:
+            node[k] = ("not", args[0])
+            kind, text = "int", f"!{names.as_bool(args[0])}"
+        elif op in _UNARY:
+            text = _UNARY[op].format(names.as_real(args[0]), z=literal(0.0, real))
+        elif op == ca.OP_INV:
+            text = f"({literal(1.0, real)}/{names.as_real(args[0])})"
+        elif op in MATH:
+            fn = MATH[op] + ("f" if real == "float" else "")
+            text = f"{fn}({', '.join(names.as_real(a) for a in args)})"
+        else:
+            raise ComputationError(f"CasADi operation {op} of {f.name()} has no C translation")
+        names.name[k], names.kind[k] = f"a{k}", kind
+        ctype = real if kind == "real" else "int"
+        lines.append((k, args, f"{indent}const {ctype} a{k} = {text};"))
+        cur[outs[0]] = k
+    for k, args, _ in reversed(lines):  # drop what no output needs (-Wunused-variable)
+        if k in live:
+            live.update(args)
+    lines = [line for line in lines if line[0] in live]
+    return "\n".join(_inline_logic(lines, names) + stores)
+
+
+def _inline_logic(lines, names) -> list[str]:
+    """Truth values used once are written into their user: ``&&``/``||`` then short-circuit
+    (e.g. the conditional-integration test is skipped when the switch is off)."""
+    uses = {}
+    for _, args, _ in lines:
+        for a in args:
+            uses[a] = uses.get(a, 0) + 1
+    text = {k: t.split(" = ", 1)[1][:-1] for k, _, t in lines}
+    out, inlined = [], {}
+    for k, args, line in lines:
+        body = text[k]
+        for a in sorted(args, reverse=True):
+            if a in inlined:
+                body = re.sub(rf"\ba{a}\b", lambda _m, a=a: inlined[a], body)
+        if names.kind.get(k) == "int" and uses.get(k, 0) == 1:
+            inlined[k] = body if body.startswith(("(", "!")) else f"({body})"
+            continue
+        out.append(line.split(" = ", 1)[0] + " = " + body + ";")
+    return out
+
+
+def math_calls(f: ca.Function) -> list[str]:
+    """The ``<math.h>`` functions :func:`c_body` prints for ``f`` (empty for the library's steps).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        An SX function.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from fl_design.codegen._emit import math_calls
+    >>> x = ca.SX.sym("x")
+    >>> math_calls(ca.Function("f", [x], [ca.sin(x) + ca.fmax(x, 0)]))
+    ['sin']
+    """
+    return sorted({MATH[f.instruction_id(k)] for k in range(f.n_instructions())
+                   if f.instruction_id(k) in MATH})
+
+
+__all__ = ["MATH", "c_body", "literal", "math_calls"]
