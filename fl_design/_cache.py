@@ -52,7 +52,7 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
 
     Examples
     --------
-    >>> from fl_design.codegen import cache_directory
+    >>> from fl_design._toolchain import cache_directory
     >>> cache_directory("kernels").is_dir()
     True
     """

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 import fl_design as fl
-from fl_design.codegen import build
+from fl_design._toolchain import build
 from fl_design.sim._grid import parameter_columns
 from fl_design.sim._run import prepare_run
 from fl_design.sim.kernel._runners import make_runner

@@ -74,7 +74,7 @@ def kernel(cache_dir=None):
     return runner
 def prebuilt(cache):
     """Build the pendulum kernel into ``cache`` without loading it; its path."""
-    from fl_design.codegen import build
+    from fl_design._toolchain import build
     from fl_design.sim import ClosedLoop
     from fl_design.sim.kernel._runners import runner_source
     loop = ClosedLoop(fl.plants.pendulum(), design(), substeps=1)

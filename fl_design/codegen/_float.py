@@ -83,7 +83,7 @@ def mark_unused_parameters(source: str) -> str:
 
     Examples
     --------
-    >>> from fl_design.codegen import mark_unused_parameters
+    >>> from fl_design.codegen._float import mark_unused_parameters
     >>> print(mark_unused_parameters("void f(int mem, int k) {\n  k++;\n}\n"))
     void f(int mem, int k) {
       (void) mem;

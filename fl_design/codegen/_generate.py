@@ -63,7 +63,7 @@ def check_prefix(prefix) -> str:
 
     Examples
     --------
-    >>> from fl_design.codegen import check_prefix
+    >>> from fl_design.codegen._generate import check_prefix
     >>> check_prefix("trms_yaw")
     'trms_yaw'
     """
@@ -90,7 +90,7 @@ def check_precision(precision) -> str:
 
     Examples
     --------
-    >>> from fl_design.codegen import check_precision
+    >>> from fl_design.codegen._generate import check_precision
     >>> check_precision("float")
     'float'
     """

@@ -49,7 +49,7 @@ def compiler_or_raise(compiler: str | None = None) -> str:
 
     Examples
     --------
-    >>> from fl_design.codegen import compiler_or_raise
+    >>> from fl_design.codegen._package import compiler_or_raise
     >>> compiler_or_raise("cc").endswith("cc")
     True
     """

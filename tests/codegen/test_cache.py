@@ -15,7 +15,7 @@ import pytest
 
 import fl_design as fl
 from fl_design import _toolchain as _build
-from fl_design.codegen import build, cache_directory, find_compiler
+from fl_design._toolchain import build, cache_directory, find_compiler
 from fl_design.errors import CompilationWarning, ComputationError
 from fl_design.sim._run import prepare_run
 from fl_design.sim.kernel import _runners

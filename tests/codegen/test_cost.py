@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 
 from fl_design import presets
+from fl_design._toolchain import find_compiler
 from fl_design.app import main
-from fl_design.codegen import compare_costs, find_compiler, generate_c, operation_counts
+from fl_design.codegen import compare_costs, generate_c, operation_counts
 from fl_design.codegen._cost import ARM_FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]

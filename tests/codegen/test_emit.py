@@ -9,7 +9,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from fl_design.codegen import find_compiler
+from fl_design._toolchain import find_compiler
 from fl_design.codegen._emit import c_body, literal, math_calls
 from fl_design.errors import ComputationError
 

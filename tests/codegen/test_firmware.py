@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from fl_design import presets
-from fl_design.codegen import find_compiler, generate_c
+from fl_design._toolchain import find_compiler
+from fl_design.codegen import generate_c
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
 COMPILERS = [c for c in ("gcc", "clang") if shutil.which(c)]

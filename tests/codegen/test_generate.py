@@ -11,7 +11,8 @@ import pytest
 
 import fl_design as fl
 from fl_design import presets
-from fl_design.codegen import CPackage, find_compiler, generate_c
+from fl_design._toolchain import find_compiler
+from fl_design.codegen import CPackage, generate_c
 from fl_design.errors import CompilerNotFoundError, OutputPathError, ParameterError
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")

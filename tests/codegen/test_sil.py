@@ -11,7 +11,8 @@ import pytest
 
 import fl_design as fl
 from fl_design import presets
-from fl_design.codegen import find_compiler, generate_c
+from fl_design._toolchain import find_compiler
+from fl_design.codegen import generate_c
 from fl_design.codegen._sil import DOUBLE_BOUND, FLOAT_BOUND
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")

@@ -13,7 +13,7 @@ import pytest
 
 import fl_design as fl
 from fl_design._isa import ISA_ENV, LEVELS, available_isas, resolve_isa
-from fl_design.codegen import find_compiler
+from fl_design._toolchain import find_compiler
 from fl_design.errors import ParameterError
 from fl_design.sim._run import prepare_run
 from fl_design.sim.kernel._lanes import build_lanes

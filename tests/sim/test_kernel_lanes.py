@@ -17,7 +17,7 @@ import pytest
 
 import fl_design as fl
 from fl_design._isa import LEVELS, available_isas
-from fl_design.codegen import find_compiler
+from fl_design._toolchain import find_compiler
 from fl_design.sim._grid import parameter_columns
 from fl_design.sim._run import prepare_run
 from fl_design.sim.kernel._emit import lanes_source, rk4_fold

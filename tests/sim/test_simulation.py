@@ -312,7 +312,7 @@ def test_if_else_drops_nan_and_inf_of_the_rejected_branch(compiled, tmp_path):
     """The divergence freeze relies on it: if_else selects, it does not multiply by 0/1."""
     import casadi as ca
 
-    from fl_design.codegen import build, generate_source
+    from fl_design._toolchain import build, generate_source
 
     c, a, b = ca.SX.sym("c"), ca.SX.sym("a"), ca.SX.sym("b")
     fn = ca.Function("fl_select", [c, a, b], [ca.if_else(c, a, b), a <= 1.0])
