@@ -100,6 +100,19 @@ class NonMinimumPhaseWarning(UserWarning):
     """
 
 
+class ExpressionError(PlantDefinitionError):
+    """An expression string is outside the plant grammar (unknown name or function, attribute,
+    call, too long, too deep, exponent too large); the message names the part and what is valid."""
+
+
+class UnsafeCacheWarning(CacheWarning):
+    """The cache folder is not private to the user (owner, group/world-writable): it is bypassed."""
+
+
+class OutputExistsError(OutputPathError):
+    """An output folder holds files fl_design did not write; refused unless ``force=True``."""
+
+
 __all__ = [
     "CacheWarning",
     "CertificationError",
@@ -109,15 +122,18 @@ __all__ = [
     "ComputationError",
     "DesignMismatchError",
     "DimensionError",
+    "ExpressionError",
     "FlDesignError",
     "HurwitzError",
     "MissingDependencyError",
     "NonMinimumPhaseWarning",
+    "OutputExistsError",
     "OutputPathError",
     "ParameterError",
     "PlantDefinitionError",
     "RelativeDegreeError",
     "ResourceLimitError",
     "UnmodeledDynamicsWarning",
+    "UnsafeCacheWarning",
     "UnstableDiscretizationWarning",
 ]

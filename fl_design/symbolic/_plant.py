@@ -37,6 +37,7 @@ from ._definition import (
     _sympify,
     check_params,
     check_symbols,
+    declared_names,
     operating_point_and_input,
 )
 from ._equilibrium import Equilibrium, solve_equilibrium
@@ -117,8 +118,9 @@ class Plant:
                 f"rhs has {len(rows)} entries but there are {len(sts)} states {list(sts)}; give one "
                 "derivative per state"
             )
-        f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e) for i, e in enumerate(rows)])
-        h = _sympify("output", output)
+        names = declared_names(sts, input, params)
+        f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e, names) for i, e in enumerate(rows)])
+        h = _sympify("output", output, names)
         pars = check_params(params, f, h, sts, input)
         check_symbols(f, h, sts, input, pars)
         set_ = object.__setattr__
