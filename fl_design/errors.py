@@ -113,6 +113,10 @@ class OutputExistsError(OutputPathError):
     """An output folder holds files fl_design did not write; refused unless ``force=True``."""
 
 
+class UnsafeCacheError(ComputationError):
+    """The cache folder (or its key) may have been written by someone else: it is not used."""
+
+
 __all__ = [
     "CacheWarning",
     "CertificationError",
@@ -134,6 +138,7 @@ __all__ = [
     "RelativeDegreeError",
     "ResourceLimitError",
     "UnmodeledDynamicsWarning",
+    "UnsafeCacheError",
     "UnsafeCacheWarning",
     "UnstableDiscretizationWarning",
 ]
