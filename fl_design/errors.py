@@ -117,6 +117,11 @@ class UnsafeCacheError(ComputationError):
     """The cache folder (or its key) may have been written by someone else: it is not used."""
 
 
+class PoorlyScaledWarning(UserWarning):
+    """A structural decision is exact, but the plant's numbers are near double round-off there
+    (e.g. the input's coefficient is below 1e-14 of the output derivative it enters)."""
+
+
 __all__ = [
     "CacheWarning",
     "CertificationError",
@@ -135,6 +140,7 @@ __all__ = [
     "OutputPathError",
     "ParameterError",
     "PlantDefinitionError",
+    "PoorlyScaledWarning",
     "RelativeDegreeError",
     "ResourceLimitError",
     "UnmodeledDynamicsWarning",

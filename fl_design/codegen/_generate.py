@@ -32,6 +32,7 @@ from pathlib import Path
 
 import casadi as ca
 
+from .._output import claim_output_folder, record_outputs
 from ..design import EHGO, Design
 from ..errors import OutputPathError, ParameterError
 from ._float import mark_unused_parameters, to_single_precision
@@ -123,7 +124,7 @@ def step_design(design: Design, precision: str) -> Design:
 
 
 def generate_c(design: Design, out_dir, *, precision: str = "double",
-               prefix: str = "fl") -> CPackage:
+               prefix: str = "fl", force: bool = False) -> CPackage:
     """Write the design's loop step as a C99 package (sources, header, harness, Makefile).
 
     Parameters
@@ -131,13 +132,17 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     design : Design
         EHGO or least-squares design; its :attr:`~fl_design.Design.step` is generated.
     out_dir : path-like
-        Folder to write (created if needed; existing files of the package are replaced).
+        Folder to write (created if needed): empty, or holding this package's earlier output
+        unchanged (:mod:`fl_design._output`); a folder with other files is refused.
     precision : {"double", "float"}, optional
         ``"float"``: true single precision everywhere (literals, math calls, API), with the
         EHGO in its delta realization (module docstring).
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
+    force : bool, optional
+        Write into ``out_dir`` even when it holds files fl_design did not write (they may be
+        replaced).
 
     Returns
     -------
@@ -150,6 +155,9 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
         Unknown ``precision``, ``prefix`` not a C identifier, ``design`` not a Design.
     OutputPathError
         ``out_dir`` cannot be created or written.
+    OutputExistsError
+        ``out_dir`` holds files fl_design did not write (or edited since) and ``force`` is
+        False.
 
     Examples
     --------
@@ -163,28 +171,15 @@ def generate_c(design: Design, out_dir, *, precision: str = "double",
     if not isinstance(design, Design):
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
     used = step_design(design, precision)
-    out = _writable_folder(out_dir)
+    out = claim_output_folder(out_dir, force=force, what="out_dir")
     try:
         files = _write_core(used, out, precision, prefix)
         files += _write_templates(used, out, precision, prefix)
+        record_outputs(out, files)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
                     prefix=prefix, files=tuple(files))
-
-
-def _writable_folder(out_dir) -> Path:
-    try:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".fl_design_write_probe"
-        probe.write_text("")
-        probe.unlink()
-    except (OSError, TypeError) as exc:
-        raise OutputPathError(
-            f"out_dir={str(out_dir)!r} cannot be used as the output folder ({exc}); give a "
-            "folder that can be created and written") from None
-    return out
 
 
 def core_function(design: Design, prefix: str) -> ca.Function:
