@@ -54,6 +54,7 @@ import casadi as ca
 import numpy as np
 
 from .. import _validate as V
+from .._limits import check_substeps
 from ..design import Layout
 from ..errors import DesignMismatchError, NonMinimumPhaseWarning, UnmodeledDynamicsWarning
 from ._metrics import RUN_CONSTANTS, metric_layout, signals, update
@@ -210,7 +211,7 @@ class ClosedLoop:
     allow_unmodeled: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "substeps", V.integer("substeps", self.substeps, minimum=1))
+        object.__setattr__(self, "substeps", check_substeps(self.substeps))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
         rho_p, rho_d = self.plant.relative_degree(), self.design.rho
         if self.plant.n > rho_p:
