@@ -327,7 +327,7 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     ...
     fl_design.app._config.ConfigError: <string>: unknown key 'epsilon' in [design]; ...
     """
-    text = text[1:] if text.startswith("\ufeff") else text  # a UTF-8 byte-order mark
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

@@ -130,5 +130,5 @@ def test_config_strings_are_config_errors(text, tmp_path):
 
 def test_config_plant_from_strings_equals_the_python_one():
     plant = build_plant(parse_config(_config("-k*sin(x1) + u")))
-    s1, s2 = plant.states
+    s1, _ = plant.states
     assert sp.simplify(plant.rhs[1] - (-sp.Symbol("k", real=True) * sp.sin(s1) + plant.input)) == 0

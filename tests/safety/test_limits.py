@@ -5,8 +5,14 @@ from __future__ import annotations
 import pytest
 
 import fl_design as fl
-from fl_design._limits import (MAX_SUBSTEPS, check_memory, check_substeps, env_flag, env_limit,
-                               memory_budget)
+from fl_design._limits import (
+    MAX_SUBSTEPS,
+    check_memory,
+    check_substeps,
+    env_flag,
+    env_limit,
+    memory_budget,
+)
 from fl_design.app import load_config, parse_config
 from fl_design.app._config import MAX_CERTIFY_POINTS, MAX_SWEEP_POINTS, ConfigError
 from fl_design.errors import ParameterError, ResourceLimitError
@@ -79,6 +85,9 @@ def test_check_memory_names_the_bound():
         check_memory(1e30, "a huge thing", "make it smaller")
 
 
+PLANT = '[plant]\nstates = ["x1", "x2"]\ninput = "u"\nrhs = ["x2", "-x1 + u"]\noutput = "x1"\n'
+
+
 @pytest.mark.parametrize("text, match", [
     ("[sweep]\npoints = 1000000000000000000000000000000\n",
      f"points must be >= 2 and <= {MAX_SWEEP_POINTS}"),
@@ -87,10 +96,8 @@ def test_check_memory_names_the_bound():
     ("[compare]\nseed = -5\n", "noise seed must be >= 0, got -5"),
     ("[scenario]\nnoise_std = -1.0\n", "std"),
     ("[compare]\nwindows = [0, 5]\n", r"windows must hold integers in \[1, "),
-    ('[plant]\nstates = ["x1", "x2"]\ninput = "u"\nrhs = ["x2", "-x1 + u"]\noutput = "x1"\n'
-     'region = {x1 = ["a", 1]}\n', r"region.x1 must hold finite numbers, got 'a'"),
-    ('[plant]\nstates = ["x1", "x2"]\ninput = "u"\nrhs = ["x2", "-x1 + u"]\noutput = "x1"\n'
-     'input_range = [1]\n', "input_range must be 2 numbers"),
+    (PLANT + 'region = {x1 = ["a", 1]}\n', r"region.x1 must hold finite numbers, got 'a'"),
+    (PLANT + 'input_range = [1]\n', "input_range must be 2 numbers"),
     ('[plant]\nstates = ["x 1", "x2"]\ninput = "u"\nrhs = ["x2", "u"]\noutput = "x2"\n',
      "states must be a name"),
 ])

@@ -24,7 +24,7 @@ def test_badly_scaled_plants_are_actuated_without_warning(second, b):
         plant = fl.Plant.from_ode([x1, x2], u, [x2, second], x1)
         nf = plant.normal_form()
     assert nf.rho == 2 and float(nf.b) == pytest.approx(b, rel=1e-12)
-    A, B, C, D = plant.linearization()  # independent: C A B is the first nonzero Markov parameter
+    A, B, C, _ = plant.linearization()  # independent: C A B is the first nonzero Markov parameter
     assert (C @ B).item() == 0 and (C @ A @ B).item() == pytest.approx(b, rel=1e-12)
 
 
