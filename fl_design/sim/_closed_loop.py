@@ -54,7 +54,7 @@ import casadi as ca
 import numpy as np
 
 from .. import _validate as V
-from .._limits import check_substeps
+from .._limits import check_substeps, env_flag
 from ..design import Layout
 from ..errors import DesignMismatchError, NonMinimumPhaseWarning, UnmodeledDynamicsWarning
 from ._metrics import RUN_CONSTANTS, metric_layout, signals, update
@@ -445,6 +445,11 @@ class ClosedLoop:
         -------
         LanesRunner, NativeRunner or InterpretedRunner
 
+        Raises
+        ------
+        ParameterError
+            ``$FL_DESIGN_VECTOR_MATH`` is set to something other than ``0`` or ``1``.
+
         Examples
         --------
         >>> import fl_design as fl
@@ -454,6 +459,8 @@ class ClosedLoop:
         False
         """
         from ._runners import make_runner
+
+        env_flag("FL_DESIGN_VECTOR_MATH", True)  # strict: "banana" is an error, not "on"
 
         sl = self.layout.slices
         indices = {"k": sl["k"].start, "div": sl["diverged"].start, "N": sl["N"].start}
