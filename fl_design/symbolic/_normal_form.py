@@ -44,7 +44,7 @@ import sympy as sp
 from ..errors import ComputationError, ParameterError, RelativeDegreeError
 from ._bridge import to_casadi
 from ._lie import lie_derivative
-from ._probe import _check_b_scale, _identically_zero, _Probe, _warn_if_negligible
+from ._probe import _check_b_scale, _identically_zero, _negligible_note, _Probe
 from ._tidy import _drop_dirac, _real_maps, tidy
 
 
@@ -60,6 +60,7 @@ class LieChain:
     rho: int
     derivatives: tuple
     b: sp.Expr
+    notes: tuple = ()  # warnings of the derivation, emitted again when read from the cache
 
 
 def lie_chain(plant) -> LieChain:
@@ -86,12 +87,12 @@ def lie_chain(plant) -> LieChain:
             derivs.append(y.xreplace(numbers))
             continue
         y, b = y.xreplace(numbers), b.xreplace(numbers)
-        _warn_if_negligible(plant, i, b.xreplace(back), y.xreplace(back), probe)
+        note = _negligible_note(plant, i, b.xreplace(back), y.xreplace(back), probe)
         derivs.append(y)
         out = tuple(tidy(d.xreplace(back)) for d in derivs)
         b = tidy(_drop_dirac(b).xreplace(back))
         _check_b_at_operating_point(plant, i, b, probe)
-        return LieChain(rho=i, derivatives=out, b=b)
+        return LieChain(rho=i, derivatives=out, b=b, notes=(note,) if note else ())
     raise RelativeDegreeError(
         f"the input {plant.input} does not appear in y, y', ..., y^({plant.n}) of plant "
         f"{plant.name!r} (n = {plant.n}): the relative degree is not defined; the output "

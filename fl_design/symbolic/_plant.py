@@ -43,6 +43,7 @@ from ._definition import (
 from ._equilibrium import Equilibrium, solve_equilibrium
 from ._functions import PlantFunctions
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
+from ._probe import warn_notes
 from ._stored import PlantStore, plant_key
 
 
@@ -284,7 +285,9 @@ class Plant:
         return self._cache[what]
 
     def _lie_chain(self) -> LieChain:
-        return self._derived("chain", lambda: lie_chain(self), LieChain)
+        if "chain" not in self._cache:
+            warn_notes(self._derived("chain", lambda: lie_chain(self), LieChain).notes)
+        return self._cache["chain"]
 
     def relative_degree(self) -> int:
         """The relative degree rho, by Lie derivatives along ``f(x, u)`` with u held constant.

@@ -82,17 +82,23 @@ def _identically_zero(expr: sp.Expr, probe: _Probe, numbers: dict | None = None)
     return sp.simplify(value) == 0
 
 
-def _warn_if_negligible(plant, i: int, b: sp.Expr, y: sp.Expr, probe: _Probe) -> None:
-    """Warn when the (nonzero) input coefficient is at round-off level against y^(i) everywhere."""
+def _negligible_note(plant, i: int, b: sp.Expr, y: sp.Expr, probe: _Probe) -> str | None:
+    """A warning text when the (nonzero) input coefficient is at round-off against y^(i)."""
     vb, vy = np.abs(probe.values(b)), np.abs(probe.values(y))
     ok = np.isfinite(vb) & np.isfinite(vy)
     if ok.any() and np.all(vb[ok] <= _NEGLIGIBLE * vy[ok]):
-        warnings.warn(
-            f"the input {plant.input} enters y^({i}) of plant {plant.name!r} with the "
-            f"coefficient {_short(b)}, which is nonzero (relative degree {i}) but below "
-            f"{_NEGLIGIBLE:g} of |y^({i})| at every probe point: the plant is at the limit of "
-            "double precision there; rescale its states or units", PoorlyScaledWarning,
-            stacklevel=5)
+        return (f"the input {plant.input} enters y^({i}) of plant {plant.name!r} with the "
+                f"coefficient {_short(b)}, which is nonzero (relative degree {i}) but below "
+                f"{_NEGLIGIBLE:g} of |y^({i})| at every probe point: the plant is at the limit "
+                "of double precision there; rescale its states or units")
+    return None
+
+
+def warn_notes(notes) -> None:
+    """Emit a derivation's notes as :class:`~fl_design.errors.PoorlyScaledWarning` (also when
+    the derivation was read from the cache)."""
+    for note in notes:
+        warnings.warn(note, PoorlyScaledWarning, stacklevel=4)
 
 
 def _short(expr, limit: int = 60) -> str:
