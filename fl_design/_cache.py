@@ -1,14 +1,22 @@
-"""The on-disk cache of fl_design: one directory, files named by content hash, each verified.
+"""The on-disk cache of fl_design: one private directory, files named by content hash, verified.
 
 Shared by every layer that caches work across processes: compiled kernels
 (:func:`fl_design.codegen.build`) and plant derivations (:mod:`fl_design.symbolic._stored`).
-Each file is written atomically (temporary name, then ``os.replace``), then a sidecar
-``<file>.json`` records its size and SHA-256, also written atomically. A cached file is used
-only when it matches its sidecar (:func:`verified`, :func:`read_verified`): a truncated, empty
-or overwritten file, a missing or disagreeing sidecar, counts as absent.
+Each file is written atomically (a ``mkstemp`` temporary file, created with ``O_EXCL`` and mode
+0600 in the same folder, then ``os.replace``), then a sidecar ``<file>.json`` records its size
+and SHA-256, also written atomically. A cached file is used only when it matches its sidecar
+(:func:`verified`, :func:`read_verified`) and is a regular file owned by the user: a
+truncated, empty, overwritten, foreign or symlinked file, a missing or disagreeing sidecar,
+counts as absent.
 
 Location, in order: the ``cache_dir`` argument, ``$FL_DESIGN_CACHE``,
-``$XDG_CACHE_HOME/fl_design``, ``~/.cache/fl_design`` (:func:`cache_directory`).
+``$XDG_CACHE_HOME/fl_design`` (only when absolute, as the XDG specification says; a relative
+value is ignored with one :class:`~fl_design.errors.UnsafeCacheWarning`),
+``~/.cache/fl_design`` (:func:`cache_directory`). The folder is created with mode 0700 and,
+like ``ssh`` with its keys, refused (:class:`~fl_design.errors.UnsafeCacheError`; callers
+then compute without the cache, with one warning) when it is not owned by the user or is
+group- or world-writable. :func:`user_key` is a per-user secret kept in that folder
+(mode 0600) that signs entries which must not be forged.
 
 Examples
 --------
@@ -23,22 +31,47 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import secrets
+import stat
+import tempfile
+import warnings
 from pathlib import Path
 
-from .errors import ComputationError
+from .errors import ComputationError, UnsafeCacheError, UnsafeCacheWarning
 
 #: Suffix of the sidecar recording a cached file's size and SHA-256.
 SIDECAR_SUFFIX = ".json"
+#: Name of the per-user secret inside the cache folder (:func:`user_key`).
+KEY_NAME = ".fl_design_key"
+_KEY_BYTES = 32
+_WARNED: set = set()  # messages already warned in this process
 
 
-def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
-    """The directory holding cached files (created if needed).
+def _warn_once(message: str) -> None:
+    if message not in _WARNED:
+        _WARNED.add(message)
+        warnings.warn(message, UnsafeCacheWarning, stacklevel=4)
+
+
+def _default_location() -> str:
+    explicit = os.environ.get("FL_DESIGN_CACHE", "")
+    if explicit.strip():
+        return explicit
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    if xdg and not os.path.isabs(xdg):
+        _warn_once(f"$XDG_CACHE_HOME={xdg!r} is a relative path, which the XDG specification "
+                   "says to ignore: the cache is in ~/.cache/fl_design; set an absolute path "
+                   "or $FL_DESIGN_CACHE")
+        xdg = ""
+    return os.path.join(xdg or os.path.join(os.path.expanduser("~"), ".cache"), "fl_design")
+
+
+def check_private(path: str | os.PathLike) -> Path:
+    """``path`` if it is a directory owned by the user and not group/world-writable.
 
     Parameters
     ----------
-    cache_dir : path-like, optional
-        Explicit directory; default ``$FL_DESIGN_CACHE``, else ``$XDG_CACHE_HOME/fl_design``,
-        else ``~/.cache/fl_design``.
+    path : path-like
 
     Returns
     -------
@@ -46,6 +79,57 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
 
     Raises
     ------
+    UnsafeCacheError
+        Not a directory, owned by another user, or writable by group or others (anyone else
+        could plant a library or an entry in it); the message says how to fix it.
+
+    Examples
+    --------
+    >>> import os
+    >>> from fl_design._cache import check_private
+    >>> os.makedirs("private", mode=0o700)
+    >>> check_private("private").name
+    'private'
+    >>> os.chmod("private", 0o777)
+    >>> check_private("private")
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.UnsafeCacheError: the cache folder ... is writable by group or others ...
+    """
+    path = Path(path)
+    st = os.stat(path)
+    where = str(path.resolve())
+    if not stat.S_ISDIR(st.st_mode):
+        raise UnsafeCacheError(f"the cache folder {where!r} is not a directory")
+    if st.st_uid != os.geteuid():
+        raise UnsafeCacheError(
+            f"the cache folder {where!r} is owned by uid {st.st_uid}, not by you (uid "
+            f"{os.geteuid()}): it is not used; set $FL_DESIGN_CACHE to a folder of your own")
+    if st.st_mode & 0o022:
+        raise UnsafeCacheError(
+            f"the cache folder {where!r} is writable by group or others (mode "
+            f"{stat.S_IMODE(st.st_mode):04o}): anyone could plant code in it, so it is not used; "
+            f"run chmod 700 {where} or set $FL_DESIGN_CACHE to a private folder")
+    return path
+
+
+def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
+    """The private directory holding cached files (created with mode 0700 if needed).
+
+    Parameters
+    ----------
+    cache_dir : path-like, optional
+        Explicit directory; default ``$FL_DESIGN_CACHE``, else ``$XDG_CACHE_HOME/fl_design``
+        (when absolute), else ``~/.cache/fl_design``.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    UnsafeCacheError
+        The directory exists but is not private (:func:`check_private`).
     ComputationError
         The directory cannot be created (a regular file in the way, no permission, read-only
         file system...); the message names it and ``FL_DESIGN_CACHE``.
@@ -53,21 +137,34 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
     Examples
     --------
     >>> from fl_design._toolchain import cache_directory
-    >>> cache_directory("kernels").is_dir()
-    True
+    >>> oct(cache_directory("kernels").stat().st_mode & 0o777)
+    '0o700'
     """
-    if cache_dir is None:
-        cache_dir = os.environ.get("FL_DESIGN_CACHE") or os.path.join(
-            os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
-            "fl_design")
-    path = Path(cache_dir)
+    default = cache_dir is None
+    path = Path(_default_location() if default else cache_dir)
     try:
-        path.mkdir(parents=True, exist_ok=True)
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        st = os.stat(path)
     except OSError as exc:
         raise ComputationError(f"cannot use {str(path)!r} as the compiled-kernel cache ({exc}); "
                                "give a writable directory as cache_dir or in $FL_DESIGN_CACHE"
                                ) from exc
-    return path
+    if default and st.st_uid == os.geteuid() and stat.S_IMODE(st.st_mode) & 0o077 \
+            and not st.st_mode & 0o022:
+        try:  # our own default folder, readable by others (made 0755 by older versions)
+            os.chmod(path, 0o700)
+        except OSError:
+            pass
+    return check_private(path)
+
+
+def _owned_regular(path: Path) -> bool:
+    """True when ``path`` is a regular file (not a symlink) owned by the user."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    return stat.S_ISREG(st.st_mode) and st.st_uid == os.geteuid()
 
 
 def digest(path: str | os.PathLike) -> dict:
@@ -89,6 +186,8 @@ def digest(path: str | os.PathLike) -> dict:
 
 
 def _record(path: Path) -> dict | None:
+    if not (_owned_regular(path) and _owned_regular(Path(str(path) + SIDECAR_SUFFIX))):
+        return None
     try:
         record = json.loads(Path(str(path) + SIDECAR_SUFFIX).read_text())
     except (OSError, ValueError, UnicodeDecodeError):
@@ -154,15 +253,68 @@ def replace_text(path: Path, text: str) -> None:
 
 
 def _replace_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a temporary name in the same folder, renamed."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    """Write ``data`` to ``path`` atomically: a ``mkstemp`` file (O_EXCL, 0600), renamed."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with open(tmp, "wb") as fh:
+        with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         os.replace(tmp, path)
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        if os.path.lexists(tmp):
+            os.unlink(tmp)
+
+
+def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
+    """The per-user secret (32 bytes) of the cache folder, created once with mode 0600.
+
+    Entries that must not be forged (plant derivations) are signed with it (HMAC-SHA256): only
+    someone who can read the private folder can sign.
+
+    Parameters
+    ----------
+    cache_dir : path-like, optional
+        See :func:`cache_directory`.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    UnsafeCacheError
+        The key file exists but is not a regular 32-byte file of the user readable by no one
+        else (it may have been planted or exposed).
+    OSError, ComputationError
+        The folder cannot be used.
+
+    Examples
+    --------
+    >>> from fl_design._cache import user_key
+    >>> key = user_key("kernels")
+    >>> len(key), key == user_key("kernels")
+    (32, True)
+    """
+    directory = cache_directory(cache_dir)
+    path = directory / KEY_NAME
+    if not os.path.lexists(path):
+        fd, tmp = tempfile.mkstemp(prefix=".key.", dir=directory)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(secrets.token_bytes(_KEY_BYTES))
+            try:
+                os.link(tmp, path)  # atomic and never replaces: a concurrent key wins
+            except FileExistsError:
+                pass
+        finally:
+            os.unlink(tmp)
+    st = os.lstat(path)
+    if not stat.S_ISREG(st.st_mode) or st.st_uid != os.geteuid() or st.st_mode & 0o077 \
+            or st.st_size != _KEY_BYTES:
+        raise UnsafeCacheError(
+            f"the cache key {str(path)!r} is not a private 32-byte file of yours (mode "
+            f"{stat.S_IMODE(st.st_mode):04o}, uid {st.st_uid}): signed cache entries are not "
+            "used; delete it to make a new one")
+    return path.read_bytes()
 
 
 def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
@@ -199,5 +351,5 @@ def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
     return out
 
 
-__all__ = ["SIDECAR_SUFFIX", "cache_directory", "digest", "read_verified", "replace_text",
-           "verified", "write_verified"]
+__all__ = ["KEY_NAME", "SIDECAR_SUFFIX", "cache_directory", "check_private", "digest",
+           "read_verified", "replace_text", "user_key", "verified", "write_verified"]

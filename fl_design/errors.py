@@ -117,6 +117,28 @@ class NonMinimumPhaseWarning(UserWarning):
     """
 
 
+class ExpressionError(PlantDefinitionError):
+    """An expression string is outside the plant grammar (unknown name or function, attribute,
+    call, too long, too deep, exponent too large); the message names the part and what is valid."""
+
+
+class UnsafeCacheWarning(CacheWarning):
+    """The cache folder is not private to the user (owner, group/world-writable): it is bypassed."""
+
+
+class OutputExistsError(OutputPathError):
+    """An output folder holds files fl_design did not write; refused unless ``force=True``."""
+
+
+class UnsafeCacheError(ComputationError):
+    """The cache folder (or its key) may have been written by someone else: it is not used."""
+
+
+class PoorlyScaledWarning(UserWarning):
+    """A structural decision is exact, but the plant's numbers are near double round-off there
+    (e.g. the input's coefficient is below 1e-14 of the output derivative it enters)."""
+
+
 __all__ = [
     "CacheWarning",
     "CertificationError",
@@ -126,16 +148,21 @@ __all__ = [
     "ComputationError",
     "DesignMismatchError",
     "DimensionError",
+    "ExpressionError",
     "FlDesignError",
     "HurwitzError",
     "MissingDependencyError",
     "NonMinimumPhaseWarning",
+    "OutputExistsError",
     "OutputPathError",
     "ParameterError",
     "PlantDefinitionError",
+    "PoorlyScaledWarning",
     "RelativeDegreeError",
     "ResourceLimitError",
     "UnmodeledDynamicsWarning",
+    "UnsafeCacheError",
+    "UnsafeCacheWarning",
     "UnstableDiscretizationWarning",
     "WorkerLostError",
 ]

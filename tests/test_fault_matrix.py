@@ -11,18 +11,23 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_fault_matrix_quick_has_no_raw_traceback_crash_or_hang(tmp_path):
+def test_fault_matrix_quick_has_no_exec_loss_false_diagnosis_raw_crash_or_hang(tmp_path):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
     proc = subprocess.run([sys.executable, str(ROOT / "verify" / "fault_matrix.py"), "--quick",
-                           "-v"], capture_output=True, text=True, timeout=300, check=False,
+                           "-v"], capture_output=True, text=True, timeout=600, check=False,
                           env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    rows = {m[0]: list(map(int, m[1:])) for m in re.findall(
-        r"^(input|env)\s+(\d+)\s+(\d+)\s+(\d+)\s+(\d+)\s+(\d+)\s+(\d+)$", proc.stdout, re.MULTILINE)}
-    clear, result, raw, crash, hang, _skipped = rows["input"]
-    assert clear >= 6 and result == 0 and raw + crash + hang == 0
-    clear, result, raw, crash, hang, _skipped = rows["env"]
-    assert result == 2 and raw + crash + hang == 0
-    assert "OK: no raw traceback, crash or hang" in proc.stdout
+    rows = {kind: list(map(int, numbers.split())) for kind, numbers in re.findall(r"^(input|env)((?:\s+\d+){10})$", proc.stdout, re.MULTILINE)}
+    names = ("clear", "result", "exec", "lost", "falsediag", "silent", "raw", "crash", "hang",
+             "skipped")
+    inputs, envs = (dict(zip(names, rows[k])) for k in ("input", "env"))
+    for row in (inputs, envs):
+        assert all(row[c] == 0 for c in names[2:9]), proc.stdout
+    assert inputs["clear"] >= 15 and inputs["result"] >= 1  # a badly scaled plant must run
+    assert envs["result"] >= 3 and envs["clear"] >= 4
+    assert "OK: no code executed, file lost" in proc.stdout
     assert re.search(r"result\s+env\s+cache: truncated library", proc.stdout)
+    assert re.search(r"clear\s+input\s+string rhs: __import__ os.system", proc.stdout)
+    assert re.search(r"clear\s+env\s+output: codegen \. in a project", proc.stdout)
+    assert re.search(r"result\s+env\s+cache: planted pickles", proc.stdout)

@@ -5,15 +5,20 @@ Every case runs in a fresh interpreter with a timeout and ends in one class:
 * ``clear``   - an exception from :mod:`fl_design.errors` (the message names the problem);
 * ``result``  - it ran (for environment faults: the documented fallback, e.g. a
   temporary cache or CasADi's interpreter, with a ``CompilationWarning``);
+* ``exec``    - code executed: a payload's marker file (``TMP/pwned``) appeared;
+* ``lost``    - files lost: a user's project folder (``TMP/project``: Makefile, README.md,
+  main.c, written before every case) changed;
+* ``falsediag`` - false diagnosis: a case that must run (a valid, e.g. badly scaled, plant)
+  ended in an error;
+* ``silent``  - silent acceptance: a case that must be refused ran;
 * ``raw``     - any other exception (a raw traceback: a bug);
 * ``crash``   - the process died from a signal (SIGBUS, SIGSEGV...);
 * ``hang``    - the timeout expired;
-* ``skipped`` - the case needs an API not present yet (e.g. ``fl.simulate(plant, design,
-  fl.Scenario(...))`` while the run functions are being moved to the option objects).
+* ``skipped`` - the case needs an API not present yet.
 
-Prints the counts per class (and the non-clear cases); exits 1 unless raw, crash and hang are
-all zero. ``--quick`` runs a representative subset in a few seconds (the tests run it);
-``-v`` prints every case.
+Prints the counts per class (and the cases not ``clear``/``result``); exits 1 unless exec,
+lost, falsediag, silent, raw, crash and hang are all zero. ``--quick`` runs a representative
+subset (the tests run it); ``-v`` prints every case.
 
     python verify/fault_matrix.py [--quick] [-v] [--timeout SECONDS] [--jobs N]
 """
@@ -92,6 +97,25 @@ def a_file(name="file"):
     p = TMP / name
     p.write_text("not a directory")
     return p
+PWNED = TMP / "pwned"
+PROJECT = TMP / "project"
+def cli(*args):
+    """The command line in-process; exit 2 (one line on stderr) counts as a clear error."""
+    from fl_design.app import main
+    rc = main([str(a) for a in args])
+    if rc == 2:
+        raise fl.errors.FlDesignError("fl-design exited 2")
+    return rc
+def toml(text, name="c.toml"):
+    p = TMP / name
+    p.write_text(text, encoding="utf-8")
+    return p
+def custom(second, extra=""):
+    return toml('[plant]\nstates = ["x1", "x2"]\ninput = "u"\n'
+                f'rhs = ["x2", {json.dumps(second)}]\noutput = "x1"\n' + extra)
+def not_me(module=os):
+    me = os.geteuid()
+    module.geteuid = lambda: me + 4242
 '''
 
 #: Run the case, classify in-process exceptions, print one JSON line.
@@ -116,6 +140,10 @@ _out["warnings"] = _caught[:3]
 print("@@FAULT@@" + json.dumps(_out))
 '''
 
+#: Files of the user's project written before each case (the ``lost`` check).
+PROJECT_FILES = {"Makefile": "all:\n\techo mine\n", "README.md": "# my project\n",
+                 "main.c": "int main(void) { return 0; }\n"}
+
 
 @dataclass
 class Case:
@@ -124,6 +152,7 @@ class Case:
     kind: str = "input"  # or "env"
     env: dict = field(default_factory=dict)
     quick: bool = False
+    expect: str | None = None  # "error" (must be refused), "result" (must run) or either
 
 
 def _inputs() -> list[Case]:
@@ -279,11 +308,200 @@ def _envs() -> list[Case]:
     ]
 
 
+_PAYLOADS = [
+    ("__import__ os.system", "__import__('os').system('touch {p}') + u"),
+    ("exec", "exec(\"open('{p}', 'w')\") + u"),
+    ("eval", "eval(\"open('{p}', 'w')\") + u"),
+    ("lambda", "(lambda: open('{p}', 'w'))() + u"),
+    ("open().write", "open('{p}', 'w').write('x') + u"),
+    ("dunder class walk", "().__class__.__bases__[0].__subclasses__()"),
+    ("getattr", "getattr(u, 'func')"),
+    ("globals", "globals()['fl']"),
+    ("comprehension", "[open('{p}', 'w') for i in (1,)]"),
+    ("walrus", "(z := open('{p}', 'w'))"),
+    ("f-string", "f\"{{open('{p}', 'w')}}\""),
+    ("subscript", "u[0]"),
+    ("keyword call", "sin(x=u)"),
+    ("starred call", "sin(*[u])"),
+    ("Symbol()", "Symbol('{p}')"),
+    ("sympify in string", "sympify('u')"),
+    ("2**2**40", "2**2**40 + u"),
+    ("factorial(10**8)", "factorial(10**8) + u"),
+    ("x1**(10**10)", "x1**(10**10) + u"),
+    ("10**999*10**999", "10**999 * 10**999 + u"),
+    ("(10**64)**64", "(10**64)**64 * u"),
+    ("250 nested parentheses", "(" * 250 + "u" + ")" * 250),
+    ("5000 unary minus", "-" * 5000 + "u"),
+    ("500 chained powers", "x1" + "**x1" * 500 + " + u"),
+    ("200 nested sin", "sin(" * 200 + "u" + ")" * 200),
+    ("20000 characters", "x1 + " * 4000 + "u"),
+    ("1e999", "1e999 * x1 + u"),
+    ("True", "True + u"),
+    ("1j", "1j * u"),
+    ("string literal", "'u'"),
+    ("^ for power", "x1 ^ 2 + u"),
+    ("// floor division", "x1 // 2 + u"),
+    ("conditional", "x1 if u else x2"),
+    ("comparison", "(x1 < u) + u"),
+    ("typo Al for A1", "-Al * x1 + u"),
+    ("unknown function", "gamma(x1) + u"),
+    ("empty", ""),
+]
+
+
+def _safety() -> list[Case]:
+    """Issue 19: strings, caches, output folders, structure checks, limits."""
+    cases = []
+    for i, (name, text) in enumerate(_PAYLOADS):
+        code = f"ode({text!r}.format(p=PWNED))"
+        cases.append(Case(f"string rhs: {name}", code, quick=i < 6, expect="error"))
+    for i, (name, text) in enumerate(_PAYLOADS[:17]):
+        code = f"cli('derive', custom({text!r}.format(p=PWNED)))"
+        cases.append(Case(f"config rhs via derive: {name}", code, quick=i < 3, expect="error"))
+    for name, text in [("pendulum-like", "-9.81*sin(x1) - 0.1*x2 + u"),
+                       ("atan2/Abs/sign", "atan2(x1, 1) + Abs(x2)*sign(x1) + u"),
+                       ("long sum", " + ".join(["x1"] * 1500) + " + u"),
+                       ("pi and E", "-pi*x1 - E*x2 + u")]:
+        cases.append(Case(f"string rhs valid: {name}", f"ode({text!r}).relative_degree()",
+                          expect="result"))
+    for name, text in [("-1e10*x1 + u", "-1e10*x1 + u"), ("-x1 + 1e-12*u", "-x1 + 1e-12*u"),
+                       ("x1**30 + u", "x1**30 + u"), ("1e8*x1**3 - 1e-9*u", "1e8*x1**3 - 1e-9*u")]:
+        cases.append(Case(f"badly scaled plant is actuated: {name}",
+                          f"assert ode({text!r}).relative_degree() == 2", quick="1e-12" in text,
+                          expect="result"))
+        cases.append(Case(f"badly scaled plant via derive: {name}", f"cli('derive', custom({text!r}))",
+                          expect="result"))
+    e = lambda name, code, env=None, quick=False, expect=None: Case(
+        name, code, "env", env or {}, quick, expect)
+    boom = ("class Boom:\n    def __reduce__(self):\n        return (open, (str(PWNED), 'w'))\n"
+            "import pickle\n")
+    cases += [
+        e("cache: planted pickles for every derivation",
+          "fl.plants.trms_yaw().normal_form()\n" + boom +
+          "from fl_design._cache import write_verified\n"
+          "for f in (TMP / 'cache').glob('plant_*'):\n"
+          "    if not f.name.endswith('.json'):\n"
+          "        write_verified(f.name, b'0' * 32 + pickle.dumps(Boom()), cache_dir=f.parent)\n"
+          "fl.plants.trms_yaw().normal_form()", {"FL_DESIGN_CACHE": "@TMP@/cache"}, True,
+          "result"),
+        e("cache: unsigned pickle (old format)",
+          "fl.plants.pendulum().normal_form()\n" + boom +
+          "from fl_design._cache import write_verified\n"
+          "for f in (TMP / 'cache').glob('plant_*'):\n"
+          "    if not f.name.endswith('.json'):\n"
+          "        write_verified(f.name, pickle.dumps(Boom()), cache_dir=f.parent)\n"
+          "fl.plants.pendulum().normal_form()", {"FL_DESIGN_CACHE": "@TMP@/cache"},
+          expect="result"),
+        e("cache: world-writable folder", "(TMP / 'open').mkdir(); os.chmod(TMP / 'open', 0o777)\n"
+          "fl.plants.pendulum().normal_form(); kernel()\n"
+          "assert not any(p.name.startswith('plant_') for p in (TMP / 'open').iterdir())",
+          {"FL_DESIGN_CACHE": "@TMP@/open"}, True, "result"),
+        e("cache: group-writable folder", "(TMP / 'g').mkdir(); os.chmod(TMP / 'g', 0o770)\n"
+          "fl.plants.pendulum().normal_form()\n"
+          "assert not list((TMP / 'g').iterdir())", {"FL_DESIGN_CACHE": "@TMP@/g"},
+          expect="result"),
+        e("cache: folder of another user", "(TMP / 'theirs').mkdir(mode=0o700); not_me()\n"
+          "fl.plants.pendulum().normal_form()\n"
+          "assert not list((TMP / 'theirs').iterdir())", {"FL_DESIGN_CACHE": "@TMP@/theirs"},
+          expect="result"),
+        e("cache: exposed key (0644)", "fl.plants.pendulum().normal_form()\n"
+          "os.chmod(TMP / 'c' / '.fl_design_key', 0o644)\n"
+          "fl.plants.maglev().normal_form()", {"FL_DESIGN_CACHE": "@TMP@/c"}, expect="result"),
+        e("cache: symlink planted at an entry", "fl.plants.pendulum().normal_form()\n"
+          "victim = TMP / 'victim.txt'; victim.write_text('keep')\n"
+          "for f in (TMP / 'c').glob('plant_*_chain.pkl'):\n"
+          "    f.unlink(); f.symlink_to(victim)\n"
+          "fl.plants.pendulum().normal_form()\n"
+          "assert victim.read_text() == 'keep'", {"FL_DESIGN_CACHE": "@TMP@/c"},
+          expect="result"),
+        e("cache: relative XDG_CACHE_HOME", "os.chdir(TMP); fl.plants.pendulum().normal_form()\n"
+          "assert not (TMP / 'rel').exists()", {"XDG_CACHE_HOME": "rel", "HOME": "@TMP@/home"},
+          expect="result"),
+        e("output: generate_c into a project", "from fl_design import presets\n"
+          "fl.generate_c(presets.least_squares_design(9), PROJECT)", quick=True, expect="error"),
+        e("output: codegen . in a project", "os.chdir(PROJECT); cli('codegen', '.')",
+          quick=True, expect="error"),
+        e("output: run --out a project", "cli('run', '--quick', '--no-progress', '--out', PROJECT)",
+          expect="error"),
+        e("output: report into a project", "from fl_design.app import load_config, run_job, "
+          "write_report\njob = run_job(load_config(None), quick=True, stages=('derive',), "
+          "progress=False)\nwrite_report(job, PROJECT)", expect="error"),
+        e("output: a hand-edited fl.c", "from fl_design import presets\n"
+          "d = presets.least_squares_design(9); fl.generate_c(d, TMP / 'c')\n"
+          "(TMP / 'c' / 'fl.c').write_text('/* edited */')\nfl.generate_c(d, TMP / 'c')",
+          expect="error"),
+        e("output: generate_c twice into its own folder", "from fl_design import presets\n"
+          "d = presets.least_squares_design(9); fl.generate_c(d, TMP / 'c'); "
+          "fl.generate_c(d, TMP / 'c')", expect="result"),
+        e("output: force=True elsewhere", "from fl_design import presets\n"
+          "(TMP / 'o').mkdir(); (TMP / 'o' / 'x.txt').write_text('x')\n"
+          "fl.generate_c(presets.least_squares_design(9), TMP / 'o', force=True)",
+          expect="result"),
+        e("RK4 substeps=10**6", "fl.RK4(substeps=10**6)", quick=True, expect="error"),
+        e("RK4 substeps=10**9", "simulate(fl.plants.pendulum(), design(), fl.Scenario(0.1, 0.1),"
+          " integrator=fl.RK4(substeps=10**9))", expect="error"),
+        e("ClosedLoop substeps=10**7", "from fl_design.sim import ClosedLoop\n"
+          "ClosedLoop(fl.plants.pendulum(), design(), substeps=10**7)", expect="error"),
+        e("3e7-sample run over a 1.5 GiB cap", "simulate(fl.plants.pendulum(), design(), "
+          "fl.Scenario(0.1, 3e4))", {"FL_DESIGN_MAX_MEMORY_GB": "1.5"}, True, "error"),
+    ]
+    for value in ("inf", "nan", "1e999", "-1", "0", "banana", "0x10", "4 GB"):
+        cases.append(e(f"FL_DESIGN_MAX_MEMORY_GB={value}", "from fl_design._limits import "
+                       "memory_budget; memory_budget()", {"FL_DESIGN_MAX_MEMORY_GB": value},
+                       value == "inf", "error"))
+    for var in ("FL_DESIGN_MAX_SAMPLES", "FL_DESIGN_MAX_SUBSTEPS", "FL_DESIGN_MAX_WINDOW"):
+        cases.append(e(f"{var}=inf", "fl.RK4(substeps=2); fl.LeastSquaresEstimator(2, 1e-3, "
+                       "window=9); fl.Scenario(0.1, 1.0).n_samples(1e-3)", {var: "inf"},
+                       expect="error"))
+    cases.append(e("FL_DESIGN_VECTOR_MATH=banana", "kernel(TMP / 'cache')",
+                   {"FL_DESIGN_VECTOR_MATH": "banana"}, expect="error"))
+    configs = [
+        ("[sweep] points = 10**30", "[sweep]\npoints = 1000000000000000000000000000000\n"),
+        ("[sweep] points = 1", "[sweep]\npoints = 1\n"),
+        ("[certify] points = 10**11", "[certify]\npoints = 100000000000\n"),
+        ("[scenario] seed = -5", "[scenario]\nseed = -5\n"),
+        ("[compare] seed = -5", "[compare]\nseed = -5\n"),
+        ("[compare] windows = [0]", "[compare]\nwindows = [0]\n"),
+        ("[compare] noise_std = [-1]", "[compare]\nnoise_std = [-1.0]\n"),
+        ("[scenario] noise_std = -1", "[scenario]\nnoise_std = -1.0\n"),
+        ("[design] eps = 1e400", "[design]\neps = 1e400\n"),
+        ("[design] gains = ['a', 1]", "[design]\ngains = ['a', 1]\n"),
+    ]
+    for name, text in configs:
+        cases.append(Case(f"config {name}", f"cli('run', '--quick', '--no-progress', '--out', "
+                          f"TMP / 'out', toml({text!r}))", quick="10**30" in name,
+                          expect="error"))
+    plant_configs = [
+        ("region = {x1 = ['a', 1]}", "region = {x1 = ['a', 1]}\n"),
+        ("region = {x1 = [1]}", "region = {x1 = [1]}\n"),
+        ("input_range = ['a', 1]", "input_range = ['a', 1]\n"),
+        ("params = {k = 'one'}", "params = {k = 'one'}\n"),
+        ("operating_point = {x1 = 'a'}", "operating_point = {x1 = 'a'}\n"),
+        ("params = {'k k' = 1.0}", "params = {'k k' = 1.0}\n"),
+    ]
+    for name, extra in plant_configs:
+        cases.append(Case(f"config [plant] {name}", f"cli('derive', custom('-x1 + u', "
+                          f"{extra!r}))", quick="'a', 1" in name and "region" in name,
+                          expect="error"))
+    cases.append(Case("config with a UTF-8 BOM", "p = TMP / 'bom.toml'; p.write_bytes("
+                      "b'\\xef\\xbb\\xbf[design]\\neps = 0.1\\n'); cli('derive', p)",
+                      expect="result"))
+    cases.append(Case("config states = ['x 1', 'x2']", "cli('derive', toml('[plant]\\nstates = "
+                      "[\"x 1\", \"x2\"]\\ninput = \"u\"\\nrhs = [\"x2\", \"u\"]\\n"
+                      "output = \"x2\"\\n'))", expect="error"))
+    return cases
+
+
 def run_case(case: Case, timeout: float) -> dict:
     """Run one case in a fresh interpreter; its class, detail and time."""
     with tempfile.TemporaryDirectory(prefix="fl_fault-") as tmp:
         with open(os.path.join(tmp, "f"), "w") as fh:
             fh.write("a regular file")
+        project = os.path.join(tmp, "project")
+        os.mkdir(project)
+        for name, text in PROJECT_FILES.items():
+            with open(os.path.join(project, name), "w") as fh:
+                fh.write(text)
         env = dict(os.environ, FAULT_TMP=tmp, FL_DESIGN_CACHE=os.path.join(tmp, "default"))
         env.update({k: v.replace("@TMP@", tmp) for k, v in case.env.items()})
         if "XDG_CACHE_HOME" in case.env:
@@ -298,6 +516,30 @@ def run_case(case: Case, timeout: float) -> dict:
             return {"cls": "hang", "detail": f"no answer within {timeout:g} s",
                     "seconds": timeout}
         seconds = time.perf_counter() - start
+        if os.path.lexists(os.path.join(tmp, "pwned")):
+            return {"cls": "exec", "detail": "the payload's marker file appeared",
+                    "seconds": seconds}
+        lost = [n for n, t in PROJECT_FILES.items() if not _same_text(os.path.join(project, n), t)]
+        if lost:
+            return {"cls": "lost", "detail": f"the user's {', '.join(lost)} changed",
+                    "seconds": seconds}
+    res = _classify(proc, seconds)
+    if case.expect == "result" and res["cls"] == "clear":
+        res["cls"] = "falsediag"
+    elif case.expect == "error" and res["cls"] == "result":
+        res["cls"] = "silent"
+    return res
+
+
+def _same_text(path: str, text: str) -> bool:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return fh.read() == text
+    except OSError:
+        return False
+
+
+def _classify(proc, seconds: float) -> dict:
     if proc.returncode < 0:
         return {"cls": "crash", "detail": f"signal {-proc.returncode}: {proc.stderr[-500:]}",
                 "seconds": seconds}
@@ -308,7 +550,9 @@ def run_case(case: Case, timeout: float) -> dict:
     return {**json.loads(line[len("@@FAULT@@"):]), "seconds": seconds}
 
 
-CLASSES = ("clear", "result", "raw", "crash", "hang", "skipped")
+CLASSES = ("clear", "result", "exec", "lost", "falsediag", "silent", "raw", "crash", "hang",
+           "skipped")
+BAD = ("exec", "lost", "falsediag", "silent", "raw", "crash", "hang")
 
 
 def main(argv=None) -> int:
@@ -318,7 +562,7 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=None, help="seconds per case")
     parser.add_argument("--jobs", type=int, default=max(2, min(8, os.cpu_count() or 1)))
     args = parser.parse_args(argv)
-    cases = _inputs() + _envs()
+    cases = _inputs() + _envs() + _safety()
     if args.quick:
         cases = [c for c in cases if c.quick]
     timeout = args.timeout or (60.0 if args.quick else 120.0)
@@ -328,19 +572,20 @@ def main(argv=None) -> int:
     counts = {kind: {cls: 0 for cls in CLASSES} for kind in ("input", "env")}
     for case, res in zip(cases, results):
         counts[case.kind][res["cls"]] += 1
-        if args.verbose or res["cls"] not in ("clear", "result"):
+        if args.verbose or res["cls"] not in ("clear", "result", "skipped"):
             first = res["detail"].strip().splitlines()[-1] if res["detail"].strip() else ""
             warn = f" [{res['warnings'][0][:90]}]" if res.get("warnings") else ""
             print(f"{res['cls']:>7}  {case.kind:5}  {case.name}: {first[:160]}{warn}")
     print(f"\n{len(cases)} cases ({sum(c.kind == 'input' for c in cases)} bad inputs, "
           f"{sum(c.kind == 'env' for c in cases)} environment faults) in "
           f"{time.perf_counter() - start:.1f} s")
-    print(f"{'':14}" + "".join(f"{cls:>9}" for cls in CLASSES))
+    print(f"{'':14}" + "".join(f"{cls:>10}" for cls in CLASSES))
     for kind, row in counts.items():
-        print(f"{kind:14}" + "".join(f"{row[cls]:>9}" for cls in CLASSES))
-    bad = sum(row[cls] for row in counts.values() for cls in ("raw", "crash", "hang"))
-    print("OK: no raw traceback, crash or hang" if not bad else
-          f"FAIL: {bad} case(s) ended in a raw traceback, a crash or a hang")
+        print(f"{kind:14}" + "".join(f"{row[cls]:>10}" for cls in CLASSES))
+    bad = sum(row[cls] for row in counts.values() for cls in BAD)
+    print("OK: no code executed, file lost, false diagnosis, silent acceptance, raw traceback, "
+          "crash or hang" if not bad else
+          f"FAIL: {bad} case(s) ended in {'/'.join(BAD)}")
     return 1 if bad else 0
 
 

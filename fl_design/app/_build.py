@@ -25,15 +25,17 @@ def _library(key: str, motor_lag: bool):
     return factories[key]()
 
 
-def _sympify(key: str, text, names: dict):
+def _parse(key: str, text, names: dict):
+    """One expression string of ``[plant]``, through the grammar (never evaluated as Python)."""
+    from ..errors import ExpressionError
+    from ..symbolic._grammar import parse_expression
+
     if not isinstance(text, str):
         raise ConfigError(f"[plant] {key} must be a string expression, got {text!r}")
     try:
-        return sp.sympify(text, locals=names)
-    except (sp.SympifyError, SyntaxError, TypeError) as err:
-        raise ConfigError(f"[plant] {key} = {text!r} is not a SymPy expression: "
-                          f"{str(err).splitlines()[0] if str(err) else type(err).__name__}") \
-            from None
+        return parse_expression(text, names, what=f"[plant] {key}")
+    except ExpressionError as err:
+        raise ConfigError(str(err)) from None
 
 
 def _pairs(key: str, table: dict) -> dict:
@@ -74,8 +76,8 @@ def build_plant(cfg: Config):
     u = sp.Symbol(p["input"], real=True)
     names = {s.name: s for s in states} | {u.name: u}
     names |= {k: sp.Symbol(k, real=True) for k in p.get("params", {})}
-    rhs = [_sympify(f"rhs[{i}]", e, names) for i, e in enumerate(p["rhs"])]
-    output = _sympify("output", p["output"], names)
+    rhs = [_parse(f"rhs[{i}]", e, names) for i, e in enumerate(p["rhs"])]
+    output = _parse("output", p["output"], names)
     kwargs = {"params": p.get("params") or None, "name": p.get("name", "plant")}
     if "region" in p:
         kwargs["region"] = _pairs("region", p["region"])

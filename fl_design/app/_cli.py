@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .. import __version__
+from .._output import claim_output_folder
 from ..errors import FlDesignError, OutputPathError, ParameterError
 from ._config import LIBRARY, load_config, parse_config
 
@@ -36,13 +37,18 @@ from ._config import LIBRARY, load_config, parse_config
 PLANT_CHOICES = LIBRARY
 
 
-def check_out_dir(path) -> Path:
+def check_out_dir(path, *, force: bool = False) -> Path:
     """Create ``path`` if needed and prove it writable, before any work (else OutputPathError).
+
+    The folder must be empty or hold fl_design's own earlier output, unchanged
+    (:func:`fl_design._output.claim_output_folder`), unless ``force``.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The output folder.
+    force : bool, optional
+        Accept a folder holding other files (``--force``).
 
     Returns
     -------
@@ -52,6 +58,8 @@ def check_out_dir(path) -> Path:
     ------
     OutputPathError
         Empty, not a folder, or not writable.
+    OutputExistsError
+        Holds files fl_design did not write and ``force`` is False.
 
     Examples
     --------
@@ -75,7 +83,7 @@ def check_out_dir(path) -> Path:
     except OSError as err:
         raise OutputPathError(f"cannot write to --out {str(path)!r}: "
                               f"{err.strerror or type(err).__name__}") from None
-    return p
+    return claim_output_folder(p, force=force, what="--out")
 
 
 def _executor(address: str | None):
@@ -108,12 +116,12 @@ def _cmd_run(args) -> int:
     from ._report_write import write_report
 
     cfg = load_config(args.config)
-    out = check_out_dir(args.out)
+    out = check_out_dir(args.out, force=args.force)
     prepare(cfg)  # plant and design fit: fail before any work
     executor = _executor(args.scheduler)
     job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
-                  progress=not args.no_progress)
-    paths = write_report(job, out)
+                  progress=not args.no_progress, force=args.force)
+    paths = write_report(job, out, force=args.force)
     print_job(job)
     print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']} and "
           f"{len(paths['figures'])} figures")
@@ -148,7 +156,8 @@ def _cmd_stage(stage: str):
         from ._job import prepare, run_job
 
         cfg = _config(args)
-        out = check_out_dir(args.out) if getattr(args, "out", None) else Path(".")
+        out = check_out_dir(args.out, force=getattr(args, "force", False)) \
+            if getattr(args, "out", None) else Path(".")
         prepare(cfg)
         executor = _executor(getattr(args, "scheduler", None))
         job = run_job(cfg, quick=args.quick, stages=(stage,), out_dir=out, executor=executor,
@@ -168,18 +177,19 @@ def _cmd_codegen(args) -> int:
     cg["precision"] = args.precision or cg["precision"]
     cg["prefix"] = args.prefix or cg["prefix"]
     cfg = type(cfg)(**{**cfg.__dict__, "codegen": cg})
-    out = check_out_dir(args.out)
+    out = check_out_dir(args.out, force=args.force)
     if args.verify:
         from ._console import print_codegen
 
         job = run_job(cfg, quick=args.quick, stages=("codegen",), out_dir=out,
-                      progress=not args.no_progress)
+                      progress=not args.no_progress, force=args.force)
         print_codegen(job)
         return 0
     job = prepare(cfg)
     design = job.design if args.design == "config" else build_design(
         cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
-    pkg = generate_c(design, out, precision=cg["precision"], prefix=cg["prefix"])
+    pkg = generate_c(design, out, precision=cg["precision"], prefix=cg["prefix"],
+                     force=args.force)
     print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) to "
           f"{pkg.out_dir}:")
     for path in pkg.files:
@@ -211,7 +221,10 @@ def _common(p, *, config=True, out=False, scheduler=False) -> None:
     p.add_argument("--quick", action="store_true", help="short runs, small grids (tests)")
     p.add_argument("--no-progress", action="store_true", help="no progress on stderr")
     if out:
-        p.add_argument("--out", default="out", help="output folder (default out)")
+        p.add_argument("--out", default="out", help="output folder (default out); must be "
+                       "empty or hold fl_design's own earlier output")
+        p.add_argument("--force", action="store_true",
+                       help="write into --out even if it holds other files (may replace them)")
     if scheduler:
         p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                        help="run sweeps on a Dask cluster (e.g. tcp://host:8786)")
@@ -256,7 +269,10 @@ def build_parser() -> argparse.ArgumentParser:
     _common(sweep, scheduler=True)
     sweep.set_defaults(func=_cmd_stage("sweep"))
     code = sub.add_parser("codegen", help="the loop step as a C99 package (SIL, cost)")
-    code.add_argument("out", help="output folder (created if needed)")
+    code.add_argument("out", help="output folder (created if needed); must be empty or hold "
+                      "fl_design's own earlier output")
+    code.add_argument("--force", action="store_true",
+                      help="write into the folder even if it holds other files (may replace them)")
     code.add_argument("--config", default=None, help="TOML configuration (default: the paper's)")
     code.add_argument("--precision", default=None, help="double or float ([codegen] precision)")
     code.add_argument("--prefix", default=None, help="prefix of the C names ([codegen] prefix)")

@@ -196,8 +196,69 @@ def _numbers(table: str, key: str, value, n: int | None = None, *, positive=Fals
     return [float(v) for v in value]
 
 
+#: Largest ``[sweep] points`` per axis (a grid of points**2 runs; 2048**2 = 4.2e6 runs).
+MAX_SWEEP_POINTS = 2048
+#: Largest ``[certify] points`` (one semidefinite program each).
+MAX_CERTIFY_POINTS = 1000
+
+
+def _api(table: str, key: str, check) -> None:
+    """Run the API's own validator so that the config accepts exactly what the API accepts."""
+    try:
+        check()
+    except ParameterError as err:
+        raise ConfigError(f"[{table}] {key}: {err}") from None
+
+
+def _check_api_values(t: dict) -> None:
+    from ..design._least_squares import max_window
+    from ..sim import Noise
+
+    sc, cmp = t["scenario"], t["compare"]
+    _api("scenario", "seed/noise_std", lambda: Noise(std=sc["noise_std"], seed=sc["seed"]))
+    _numbers("compare", "noise_std", cmp["noise_std"]) if cmp["noise_std"] else None
+    for std in cmp["noise_std"]:
+        _api("compare", "seed/noise_std", lambda std=std: Noise(std=std, seed=cmp["seed"]))
+    for w in cmp["windows"]:
+        if isinstance(w, bool) or not isinstance(w, int) or not 1 <= w <= max_window():
+            raise ConfigError(f"[compare] windows must hold integers in [1, {max_window()}] "
+                              f"($FL_DESIGN_MAX_WINDOW), got {w!r} in {cmp['windows']!r}")
+    limits = {"sweep": MAX_SWEEP_POINTS, "certify": MAX_CERTIFY_POINTS}
+    for table, top in limits.items():
+        n = t[table]["points"]
+        if not 2 <= n <= top:
+            raise ConfigError(f"[{table}] points must be >= 2 and <= {top}, got {n!r}"
+                              + (" (a grid of points**2 runs)" if table == "sweep" else ""))
+
+
+def _check_plant_values(p: dict) -> None:
+    """A plant from expressions: names are identifiers, ranges and values are finite numbers."""
+    import keyword
+
+    def name(key, v):
+        if not (isinstance(v, str) and v.isidentifier() and not keyword.iskeyword(v)):
+            raise ConfigError(f"[plant] {key} must be a name (letters, digits, _; not starting "
+                              f"with a digit), got {v!r}")
+    for s in p.get("states", []):
+        name("states", s)
+    if "input" in p:
+        name("input", p["input"])
+    for k, v in p.get("params", {}).items():
+        name("params", k)
+        _numbers("plant", f"params.{k}", [v])
+    for key in ("region", "operating_point"):
+        for k, v in p.get(key, {}).items():
+            name(key, k)
+            _numbers("plant", f"{key}.{k}", v if key == "region" else [v],
+                     2 if key == "region" else 1)
+    if "input_range" in p:
+        _numbers("plant", "input_range", p["input_range"], 2)
+
+
 def _check_semantics(t: dict) -> None:
     p, d = t["plant"], t["design"]
+    _check_plant_values(p)
+    _check_api_values(t)
     custom = {"states", "rhs", "output", "input"} & set(p)
     if custom:
         missing = [k for k in ("states", "input", "rhs", "output") if k not in p]
@@ -228,9 +289,6 @@ def _check_semantics(t: dict) -> None:
             continue
         if t[table][key] <= 0:
             raise ConfigError(f"[{table}] {key} must be > 0 s, got {t[table][key]!r}")
-    for table in ("sweep", "certify"):
-        if t[table]["points"] < 2:
-            raise ConfigError(f"[{table}] points must be >= 2, got {t[table]['points']!r}")
     if t["codegen"]["precision"] not in ("double", "float"):
         raise ConfigError(f"[codegen] precision must be 'double' or 'float', got "
                           f"{t['codegen']['precision']!r}")
@@ -269,6 +327,7 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     ...
     fl_design.app._config.ConfigError: <string>: unknown key 'epsilon' in [design]; ...
     """
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -313,7 +372,7 @@ def load_config(path: str | Path | None) -> Config:
         return parse_config(DEFAULT_TOML, source="<default>")
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is allowed
     except (OSError, UnicodeDecodeError) as err:
         reason = getattr(err, "strerror", None) or type(err).__name__
         raise ConfigError(f"cannot read config {str(path)!r}: {reason}") from None

@@ -216,7 +216,7 @@ def noise_levels(resp) -> dict:
     return out
 
 
-def _codegen(job: Job, quick: bool, out_dir: Path) -> None:
+def _codegen(job: Job, quick: bool, out_dir: Path, force: bool = False) -> None:
     from ..codegen import compare_costs, generate_c
     from ..sim import Noise, Scenario
 
@@ -224,7 +224,8 @@ def _codegen(job: Job, quick: bool, out_dir: Path) -> None:
     if not cfg["enabled"]:
         job.results["codegen"] = {"skipped": "[codegen] enabled = false"}
         return
-    pkg = generate_c(job.design, out_dir / "c", precision=cfg["precision"], prefix=cfg["prefix"])
+    pkg = generate_c(job.design, out_dir / "c", precision=cfg["precision"], prefix=cfg["prefix"],
+                     force=force)
     sil_t = QUICK["sil_duration"] if quick else cfg["sil_duration"]
     std = float(job.config.compare["noise_std"][0]) if job.config.compare["noise_std"] else 0.0
     sil = pkg.verify(job.plant, Scenario(float(job.config.scenario["reference"]), sil_t,
@@ -285,7 +286,7 @@ def prepare(config: Config) -> Job:
 
 
 def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
-            stages=STAGES, executor=None, progress: bool = True) -> Job:
+            stages=STAGES, executor=None, progress: bool = True, force: bool = False) -> Job:
     """Run the main job's stages (derive, certify, sweep, simulate, codegen) on ``config``.
 
     Parameters
@@ -302,6 +303,8 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         Runs the sweep's chunks (e.g. a Dask cluster's ``client.get_executor()``).
     progress : bool, optional
         Progress lines and the sweep's bar on stderr.
+    force : bool, optional
+        Write the C package into ``out_dir/c`` even if it holds files fl_design did not write.
 
     Returns
     -------
@@ -319,7 +322,7 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     steps = {"derive": lambda: _derive(job), "certify": lambda: _certify(job, quick),
              "sweep": lambda: _sweep(job, quick, executor, progress),
              "simulate": lambda: _simulate(job, quick),
-             "codegen": lambda: _codegen(job, quick, Path(out_dir))}
+             "codegen": lambda: _codegen(job, quick, Path(out_dir), force)}
     todo = [s for s in STAGES if s in stages or (s == "derive" and "certify" in stages)]
     for i, stage in enumerate(todo, 1):
         note(f"{i}/{len(todo)} {stage} ...", enabled=progress)

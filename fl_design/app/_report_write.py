@@ -24,6 +24,7 @@ import html
 from pathlib import Path
 
 from .._json import dumps, jsonable
+from .._output import claim_output_folder, record_outputs
 from ._report_figures import (
     design_label,
     eps_star_figure,
@@ -204,7 +205,7 @@ def _run_row(resp) -> dict:
             "duration_reason": resp.duration_reason, "metrics": m}
 
 
-def write_report(job, out_dir) -> dict:
+def write_report(job, out_dir, *, force: bool = False) -> dict:
     """Write ``report.html``, ``report.md``, the PNG figures and ``summary.json``.
 
     Parameters
@@ -212,7 +213,10 @@ def write_report(job, out_dir) -> dict:
     job : Job
         A finished job.
     out_dir : str or pathlib.Path
-        The output folder (must exist and be writable).
+        The output folder: empty, or holding fl_design's own earlier output unchanged
+        (:func:`fl_design._output.claim_output_folder`).
+    force : bool, optional
+        Write even into a folder holding other files (they may be replaced).
 
     Returns
     -------
@@ -226,7 +230,7 @@ def write_report(job, out_dir) -> dict:
     >>> sorted(write_report(job, "."))
     ['figures', 'html', 'markdown', 'summary']
     """
-    folder = Path(out_dir)
+    folder = claim_output_folder(out_dir, force=force, what="report folder")
     figures = _figures(job, folder)
     secs = sections(job, figures)
     title = f"fl_design report: {job.plant.name}, {design_label(job.design)}"
@@ -235,6 +239,7 @@ def write_report(job, out_dir) -> dict:
     paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
     paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
+    record_outputs(folder, [*paths.values(), *(folder / name for name in figures)])
     return {**{k: str(v) for k, v in paths.items()}, "figures": figures}
 
 

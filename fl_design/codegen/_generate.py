@@ -38,6 +38,7 @@ from pathlib import Path
 
 import casadi as ca
 
+from .._output import claim_output_folder, record_outputs
 from ..design import EHGO, Design
 from ..errors import OutputPathError, ParameterError
 from ._package import CPackage
@@ -132,7 +133,8 @@ FLOAT_POLICIES = ("warn", "refuse")
 
 
 def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: str = "fl",
-               plant=None, scenario=None, float_policy: str = "warn") -> CPackage:
+               plant=None, scenario=None, float_policy: str = "warn",
+               force: bool = False) -> CPackage:
     """Write the design's loop step as a C99 package (sources, header, harness, Makefile).
 
     Parameters
@@ -140,7 +142,8 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     design : Design
         EHGO or least-squares design; its :attr:`~fl_design.Design.step` is generated.
     out_dir : path-like
-        Folder to write (created if needed; existing files of the package are replaced).
+        Folder to write (created if needed): empty, or holding this package's earlier output
+        unchanged (:mod:`fl_design._output`); a folder with other files is refused.
     precision : {"double", "float"}, optional
         ``"float"``: true single precision everywhere (literals, math calls, API), with the
         EHGO in its delta realization (module docstring).
@@ -155,6 +158,9 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         Above the float bound (``1e-4`` of ``max |u|``): a
         :class:`~fl_design.errors.FloatPrecisionWarning` (default) or a
         :class:`~fl_design.errors.PrecisionError`, both with the number and the fixes.
+    force : bool, optional
+        Write into ``out_dir`` even when it holds files fl_design did not write (they may be
+        replaced).
 
     Returns
     -------
@@ -175,6 +181,9 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         ``float_policy="warn"`` and the float build is predicted to miss its bound.
     OutputPathError
         ``out_dir`` cannot be created or written.
+    OutputExistsError
+        ``out_dir`` holds files fl_design did not write (or edited since) and ``force`` is
+        False.
 
     Examples
     --------
@@ -189,9 +198,10 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
     used = step_design(design, precision)
     predicted = _float_prediction(design, precision, plant, scenario, float_policy)
-    out = _writable_folder(out_dir)
+    out = claim_output_folder(out_dir, force=force, what="out_dir")
     try:
         files = _write_templates(used, out, precision, prefix)
+        record_outputs(out, files)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
@@ -222,20 +232,6 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
             raise PrecisionError(text)
         warnings.warn(text, FloatPrecisionWarning, stacklevel=3)
     return err
-
-
-def _writable_folder(out_dir) -> Path:
-    try:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".fl_design_write_probe"
-        probe.write_text("")
-        probe.unlink()
-    except (OSError, TypeError) as exc:
-        raise OutputPathError(
-            f"out_dir={str(out_dir)!r} cannot be used as the output folder ({exc}); give a "
-            "folder that can be created and written") from None
-    return out
 
 
 def core_function(design: Design, prefix: str) -> ca.Function:

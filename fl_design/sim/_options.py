@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._limits import check_substeps
 from ..errors import ParameterError
 from ._scenario import Noise, Scenario, _jsonable
 
@@ -156,6 +157,9 @@ class RK4:
     ------
     ParameterError
         ``substeps`` not a positive integer.
+    ResourceLimitError
+        ``substeps`` above ``$FL_DESIGN_MAX_SUBSTEPS`` (default 10000: the work per sample and
+        the compiled kernel's work arrays grow with it).
 
     Examples
     --------
@@ -168,7 +172,7 @@ class RK4:
 
     def __post_init__(self) -> None:
         if self.substeps is not None:
-            V.integer("substeps", self.substeps, minimum=1)
+            check_substeps(self.substeps)
 
     def to_dict(self) -> dict:
         """Strict-JSON fields.

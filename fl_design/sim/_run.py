@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _validate as V
+from .._limits import check_memory
 from ..errors import DimensionError, ParameterError, RelativeDegreeError
 from ._duration import resolve_duration
 from ._metrics import initial_values
@@ -280,6 +281,8 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     if length.adaptive:
         scenario = scenario.replace(duration=length.duration)
     N = scenario.n_samples(T)
+    check_memory(8.0 * N * 3, f"a run of {N:.3g} samples (reference and noise)",
+                 "shorten the run (Scenario duration) or sample slower (a larger T)")
     r = scenario.reference_samples(T)
     x0 = (plant.x_op.copy() if scenario.x0 is None
           else V.real_vector("x0", scenario.x0, length=plant.n))

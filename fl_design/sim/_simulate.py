@@ -26,6 +26,7 @@ import math
 import casadi as ca
 import numpy as np
 
+from .._limits import check_memory
 from ._metrics import ACCUMULATORS, initial_values, metric_layout, signals, update
 from ._options import RK4, Classifier, Cvodes, Kernel, Scenario, option
 from ._response import Response
@@ -101,6 +102,9 @@ def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | No
     rk4 = integrator if isinstance(integrator, RK4) else RK4(substeps=1)
     run = prepare_run(plant, design, scenario, integrator=rk4, classifier=classifier,
                       allow_unmodeled=allow_unmodeled)
+    check_memory(8.0 * run.N * (run.loop.record_layout.size + 4),
+                  f"recording a run of {run.N:.3g} samples",
+                  "shorten the run (Scenario duration) or sample slower (a larger T)")
     p = design.parameter_vector()
     if isinstance(integrator, RK4):
         runner = run.loop.runner(kernel=kernel)

@@ -76,12 +76,22 @@ def _group(arg) -> list[sp.Symbol]:
     return items
 
 
+def _expr(e) -> sp.Expr:
+    """A SymPy object or a number; a string is refused (it would be evaluated as Python)."""
+    try:
+        return sp.sympify(e, strict=True)
+    except sp.SympifyError:
+        raise PlantDefinitionError(
+            f"to_casadi takes SymPy expressions or numbers, got {type(e).__name__} {e!r:.60}; "
+            "parse a string with fl_design.symbolic._grammar.parse_expression") from None
+
+
 def _as_list(exprs) -> list[sp.Expr]:
     if isinstance(exprs, sp.MatrixBase):
-        return [sp.sympify(e) for e in exprs]
+        return [_expr(e) for e in exprs]
     if isinstance(exprs, Iterable) and not isinstance(exprs, (str, sp.Basic)):
-        return [sp.sympify(e) for e in exprs]
-    return [sp.sympify(exprs)]
+        return [_expr(e) for e in exprs]
+    return [_expr(exprs)]
 
 
 class _Translator:

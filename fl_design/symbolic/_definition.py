@@ -24,6 +24,7 @@ from ..errors import PlantDefinitionError
 #: Keys of ``operating_point`` that give the output value instead of a state.
 OUTPUT_KEYS = ("y", "output")
 from ._constructs import check_expression, mismatched_assumptions, non_finite_at
+from ._grammar import parse_expression
 
 
 def _symbols(name: str, value) -> tuple:
@@ -44,9 +45,22 @@ def _symbols(name: str, value) -> tuple:
     return out
 
 
-def _sympify(what: str, value) -> sp.Expr:
+def declared_names(sts, u, params) -> dict:
+    """``{name: Symbol}`` a string expression may use: states, input, parameter names."""
+    names = {s.name: s for s in (*sts, u)}
+    if isinstance(params, Mapping):
+        for k in params:
+            nm = k.name if isinstance(k, sp.Symbol) else k
+            if isinstance(nm, str) and nm not in names:
+                names[nm] = k if isinstance(k, sp.Symbol) else sp.Symbol(nm)
+    return names
+
+
+def _sympify(what: str, value, names: Mapping[str, sp.Symbol]) -> sp.Expr:
+    """A SymPy expression from ``value``; a string goes through the grammar, never ``eval``."""
     try:
-        out = sp.sympify(value)
+        out = parse_expression(value, names, what=what) if isinstance(value, str) else \
+            sp.sympify(value, strict=True)
     except (sp.SympifyError, TypeError) as err:
         raise PlantDefinitionError(f"{what} must be a sympy expression, got {value!r}") from err
     if not isinstance(out, sp.Expr):

@@ -44,48 +44,13 @@ import sympy as sp
 from ..errors import ComputationError, ParameterError, RelativeDegreeError
 from ._bridge import to_casadi
 from ._lie import lie_derivative
+from ._probe import _check_b_scale, _identically_zero, _negligible_note, _Probe
 from ._tidy import _drop_dirac, _real_maps, tidy
-
-_ZERO_TOL = 1e-10  # |d y^(i)/du| <= tol * max(1, |y^(i)|) at every probe point: identically zero
-_N_PROBE = 16  # random points for the numeric zero tests
 
 
 # --- symbolic helpers --------------------------------------------------------------------------
 def _lie_step(y: sp.Expr, states, rhs) -> sp.Expr:
     return _drop_dirac(lie_derivative(y, states, rhs))
-
-
-class _Probe:
-    """Deterministic random evaluation points in the plant's region (or around its operating point)."""
-
-    def __init__(self, plant):
-        rng = np.random.default_rng(0)
-        cols = []
-        for i, s in enumerate(plant.states):
-            lo_hi = (plant.region or {}).get(s)
-            cols.append(rng.uniform(*lo_hi, _N_PROBE) if lo_hi else plant.x_op[i] + rng.normal(0, 1, _N_PROBE))
-        rng_u = plant.input_range
-        cols.append(rng.uniform(*rng_u, _N_PROBE) if rng_u else plant.u_eq + rng.normal(0, 1, _N_PROBE))
-        self.points = np.array(cols)
-        self.symbols = [*plant.states, plant.input]
-        self.params = plant.params
-
-    def values(self, expr: sp.Expr) -> np.ndarray:
-        fn = sp.lambdify(self.symbols, expr.subs(self.params), modules="numpy")
-        with np.errstate(all="ignore"):
-            out = np.asarray(fn(*self.points), dtype=float)
-        return np.broadcast_to(out, (_N_PROBE,))
-
-
-def _identically_zero(expr: sp.Expr, probe: _Probe, scale: float = 1.0) -> bool:
-    """Zero at every probe point (relative to ``scale``), else confirmed by ``simplify``."""
-    if expr == 0:
-        return True
-    vals = probe.values(expr)
-    finite = vals[np.isfinite(vals)]
-    if finite.size and np.any(np.abs(finite) > _ZERO_TOL * max(1.0, scale)):
-        return False
-    return finite.size > 0 or sp.simplify(expr) == 0
 
 
 @dataclass(frozen=True)
@@ -95,6 +60,7 @@ class LieChain:
     rho: int
     derivatives: tuple
     b: sp.Expr
+    notes: tuple = ()  # warnings of the derivation, emitted again when read from the cache
 
 
 def lie_chain(plant) -> LieChain:
@@ -106,23 +72,27 @@ def lie_chain(plant) -> LieChain:
     fwd, back = _real_maps([*plant.states, plant.input, *plant.params])
     states = [fwd.get(s, s) for s in plant.states]
     u = fwd.get(plant.input, plant.input)
-    rhs = [e.xreplace(fwd) for e in plant.rhs]
-    y = plant.output.xreplace(fwd)
+    floats = {f: sp.Dummy(f"c{k}", real=True) for k, f in enumerate(sorted(
+        set().union(*(e.atoms(sp.Float) for e in (*plant.rhs, plant.output))), key=float))}
+    numbers = {d: f for f, d in floats.items()}  # the plant's floats as symbols while deriving
+    rhs = [e.xreplace(fwd).xreplace(floats) for e in plant.rhs]
+    y = plant.output.xreplace(fwd).xreplace(floats)
     probe = _Probe(plant)
-    derivs = [y]
+    derivs = [y.xreplace(numbers)]
     for i in range(1, plant.n + 1):
         y = _lie_step(y, states, rhs)
         b = sp.diff(y, u)
-        scale = float(np.nanmax(np.abs(probe.values(y.xreplace(back))), initial=0.0))
-        if _identically_zero(b.xreplace(back), probe, scale):
-            derivs.append(y.subs(u, 0))  # exact; drops round-off terms such as 1e-16*u
-            y = derivs[-1]
+        if _identically_zero(b.xreplace(back), probe, numbers):
+            y = y.subs(u, 0)  # u only in terms that cancel
+            derivs.append(y.xreplace(numbers))
             continue
+        y, b = y.xreplace(numbers), b.xreplace(numbers)
+        note = _negligible_note(plant, i, b.xreplace(back), y.xreplace(back), probe)
         derivs.append(y)
         out = tuple(tidy(d.xreplace(back)) for d in derivs)
         b = tidy(_drop_dirac(b).xreplace(back))
         _check_b_at_operating_point(plant, i, b, probe)
-        return LieChain(rho=i, derivatives=out, b=b)
+        return LieChain(rho=i, derivatives=out, b=b, notes=(note,) if note else ())
     raise RelativeDegreeError(
         f"the input {plant.input} does not appear in y, y', ..., y^({plant.n}) of plant "
         f"{plant.name!r} (n = {plant.n}): the relative degree is not defined; the output "
@@ -133,8 +103,7 @@ def lie_chain(plant) -> LieChain:
 def _check_b_at_operating_point(plant, rho: int, b: sp.Expr, probe: _Probe) -> None:
     point = {**dict(zip(plant.states, plant.x_op.tolist())), plant.input: plant.u_eq}
     value = complex(b.subs(plant.params).subs(point).evalf()) if b.free_symbols else complex(b)
-    scale = max(1.0, float(np.nanmax(np.abs(probe.values(b)), initial=0.0)))
-    if not np.isfinite(value) or abs(value) <= 1e-12 * scale:
+    if _check_b_scale(value, b, probe):
         where = ", ".join(f"{s}={v:g}" for s, v in point.items())
         raise RelativeDegreeError(
             f"the input coefficient b = d y^({rho})/d{plant.input} = {b} of plant {plant.name!r} "

@@ -37,11 +37,13 @@ from ._definition import (
     _sympify,
     check_params,
     check_symbols,
+    declared_names,
     operating_point_and_input,
 )
 from ._equilibrium import Equilibrium, solve_equilibrium
 from ._functions import PlantFunctions
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
+from ._probe import warn_notes
 from ._stored import PlantStore, plant_key
 
 
@@ -117,8 +119,9 @@ class Plant:
                 f"rhs has {len(rows)} entries but there are {len(sts)} states {list(sts)}; give one "
                 "derivative per state"
             )
-        f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e) for i, e in enumerate(rows)])
-        h = _sympify("output", output)
+        names = declared_names(sts, input, params)
+        f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e, names) for i, e in enumerate(rows)])
+        h = _sympify("output", output, names)
         pars = check_params(params, f, h, sts, input)
         check_symbols(f, h, sts, input, pars)
         set_ = object.__setattr__
@@ -282,7 +285,9 @@ class Plant:
         return self._cache[what]
 
     def _lie_chain(self) -> LieChain:
-        return self._derived("chain", lambda: lie_chain(self), LieChain)
+        if "chain" not in self._cache:
+            warn_notes(self._derived("chain", lambda: lie_chain(self), LieChain).notes)
+        return self._cache["chain"]
 
     def relative_degree(self) -> int:
         """The relative degree rho, by Lie derivatives along ``f(x, u)`` with u held constant.

@@ -3,9 +3,9 @@
 What a :class:`fl_design.Plant` derives (its operating point and equilibrium input, relative
 degree and Lie chain, normal form, the bounds of ``b``, the CasADi functions ``f, h, sigma,
 b``) depends only on its definition and on the code deriving it. Each quantity is stored
-(pickled; CasADi functions pickle through their own serialization) in the cache directory of
-the compiled kernels (:func:`fl_design._cache.cache_directory`, ``$FL_DESIGN_CACHE``), under a
-name made from the SHA-256 of
+(pickled; CasADi functions pickle through their own serialization) in the private cache
+directory of the compiled kernels (:func:`fl_design._cache.cache_directory`,
+``$FL_DESIGN_CACHE``), under a name made from the SHA-256 of
 
 * the definition: ``srepr`` of the states, input, right-hand side and output (symbol
   assumptions included), every parameter value (``float.hex``), name, input range, region and
@@ -13,14 +13,17 @@ name made from the SHA-256 of
 * the code: the SHA-256 of the sources of :mod:`fl_design.symbolic` and of fl_design's private
   top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy;
 
-with the size/SHA-256 sidecar of :mod:`fl_design._cache`. A quantity read from the cache is
+with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each file starts with
+an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
+(:func:`fl_design._cache.user_key`, mode 0600). Nothing is unpickled unless its signature
+verifies, so a file written by anyone who cannot read that key (a planted pickle, an entry
+copied from another machine or user) is never loaded. A quantity read from the cache is
 identical to a fresh derivation (tests compare every one). A file that does not match its
-sidecar, or does not unpickle to the expected type, is recomputed and rewritten, with one
-:class:`~fl_design.errors.CacheWarning` per process; a cache that cannot be read or written
-is silently bypassed (the plant computes, as without a cache). Errors are never cached.
-
-The files are trusted like the compiled kernels beside them (which are ``dlopen``-ed): keep the
-cache directory private to its user.
+sidecar or signature, or does not unpickle to the expected type, is recomputed and rewritten,
+with one :class:`~fl_design.errors.CacheWarning` per process. A cache folder that is not
+private (:func:`fl_design._cache.check_private`) is not used, with one
+:class:`~fl_design.errors.UnsafeCacheWarning`; a cache that cannot be read or written is
+silently bypassed (the plant computes, as without a cache). Errors are never cached.
 
 Examples
 --------
@@ -34,16 +37,18 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import hmac
 import pickle
 import sys
 import warnings
 from pathlib import Path
 
-from .._cache import cache_directory, read_verified, write_verified
-from ..errors import CacheWarning, ComputationError
+from .._cache import cache_directory, read_verified, user_key, write_verified
+from ..errors import CacheWarning, ComputationError, UnsafeCacheError, UnsafeCacheWarning
 
 #: Bumped when the layout of the stored quantities changes.
-FORMAT = "fl_design plant derivations 1"
+FORMAT = "fl_design plant derivations 2 (HMAC-SHA256 signed)"
+_MAC_BYTES = 32
 _WARNED: set = set()  # the process has warned about a bad entry
 
 
@@ -136,10 +141,14 @@ def plant_key(states, input, rhs, output, params, name, input_range, region,
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
-def _warn_once(message: str) -> None:
-    if not _WARNED:
-        _WARNED.add(True)
-        warnings.warn(message, CacheWarning, stacklevel=4)
+def _warn_once(message: str, category=CacheWarning) -> None:
+    if category not in _WARNED:
+        _WARNED.add(category)
+        warnings.warn(message, category, stacklevel=4)
+
+
+def _mac(key: bytes, name: str, payload: bytes) -> bytes:
+    return hmac.new(key, name.encode() + b"\0" + payload, hashlib.sha256).digest()
 
 
 class PlantStore:
@@ -183,30 +192,39 @@ class PlantStore:
             return compute()
         try:
             path = cache_directory() / self._name(what)
-        except ComputationError:
+            secret = user_key(path.parent)
+        except UnsafeCacheError as exc:
+            _warn_once(f"{exc}; plant derivations are computed without the cache",
+                       UnsafeCacheWarning)
+            return compute()
+        except (OSError, ComputationError):
             return compute()
         if path.exists():
-            value, ok = self._load(path, check)
+            value, ok = self._load(path, check, secret)
             if ok:
                 return value
             _warn_once(f"the cached plant derivation {path} is corrupted (it does not match its "
-                       "recorded size and SHA-256, or does not load); recomputed and rewritten")
+                       "recorded size and SHA-256 or its signature, or does not load); "
+                       "recomputed and rewritten")
         value = compute()
         try:
             data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-            write_verified(path.name, data, cache_dir=path.parent)
+            write_verified(path.name, _mac(secret, path.name, data) + data, cache_dir=path.parent)
         except (OSError, ComputationError, pickle.PicklingError, TypeError, AttributeError,
                 RecursionError, RuntimeError):
             pass  # unwritable cache or unpicklable value: computed each time, as without a cache
         return value
 
     @staticmethod
-    def _load(path: Path, check) -> tuple[object, bool]:
+    def _load(path: Path, check, secret: bytes) -> tuple[object, bool]:
         data = read_verified(path)
-        if data is None:
+        if data is None or len(data) <= _MAC_BYTES:
             return None, False
+        mac, payload = data[:_MAC_BYTES], data[_MAC_BYTES:]
+        if not hmac.compare_digest(mac, _mac(secret, path.name, payload)):
+            return None, False  # not written by this user: never unpickled
         try:
-            value = pickle.loads(data)
+            value = pickle.loads(payload)
         except Exception:  # noqa: BLE001 (any failure to unpickle is a bad entry)
             return None, False
         return value, check is None or isinstance(value, check)

@@ -37,10 +37,16 @@ def test_the_output_is_checked_too():
         fl.Plant.from_ode([x1, x2], u, [x2, u], g(x1))
 
 
-def test_strings_against_real_symbols_say_why_they_differ():
+def test_strings_name_the_declared_symbols_with_their_assumptions():
+    plant = fl.Plant.from_ode([x1, x2], u, ["x2", "-x1 + u"], x1)  # x1, x2, u are real=True
+    assert list(plant.rhs) == [x2, -x1 + u] and plant.relative_degree() == 2
+
+
+def test_sympy_twins_with_other_assumptions_say_why_they_differ():
+    plain = sp.Symbol("u")
     with pytest.raises(PlantDefinitionError, match=r"symbol u appears with assumptions \{\} but "
                        r"the state/input/parameter u has \{'real': True\}.*same Symbol objects"):
-        fl.Plant.from_ode([x1, x2], u, ["x2", "-x1 + u"], x1)
+        fl.Plant.from_ode([x1, x2], u, [x2, -x1 + plain], x1)
 
 
 def test_strings_with_plain_symbols_still_work():

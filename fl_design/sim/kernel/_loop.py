@@ -54,6 +54,7 @@ import casadi as ca
 import numpy as np
 
 from ... import _validate as V
+from ..._limits import check_substeps, env_flag
 from ...design import Layout
 from ...errors import DesignMismatchError, NonMinimumPhaseWarning, UnmodeledDynamicsWarning
 from .._metrics import RUN_CONSTANTS, metric_layout, signals, update
@@ -215,7 +216,7 @@ class ClosedLoop:
     allow_unmodeled: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "substeps", V.integer("substeps", self.substeps, minimum=1))
+        object.__setattr__(self, "substeps", check_substeps(self.substeps))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
         rho_p, rho_d = self.plant.relative_degree(), self.design.rho
         if self.plant.n > rho_p:
@@ -449,6 +450,11 @@ class ClosedLoop:
         -------
         LanesRunner, NativeRunner or InterpretedRunner
 
+        Raises
+        ------
+        ParameterError
+            ``$FL_DESIGN_VECTOR_MATH`` is set to something other than ``0`` or ``1``.
+
         Examples
         --------
         >>> import fl_design as fl
@@ -458,6 +464,8 @@ class ClosedLoop:
         False
         """
         from ._runners import make_runner
+
+        env_flag("FL_DESIGN_VECTOR_MATH", True)  # strict: "banana" is an error, not "on"
 
         sl = self.layout.slices
         indices = {"k": sl["k"].start, "div": sl["diverged"].start, "N": sl["N"].start}
