@@ -343,7 +343,9 @@ class Kernel:
         compiled = bool(self.compiled) and find_compiler() is not None
         use_mvec = self.vector_math
         if use_mvec is None:
-            use_mvec = os.environ.get("FL_DESIGN_VECTOR_MATH", "1").strip() != "0"
+            from .._limits import env_flag
+
+            use_mvec = env_flag("FL_DESIGN_VECTOR_MATH", True)
         source = ("fl.Kernel(isa=...)" if self.isa is not None
                   else f"${ISA_ENV}" if os.environ.get(ISA_ENV, "").strip()
                   else "widest available")

@@ -38,7 +38,6 @@ from __future__ import annotations
 import ctypes
 import functools
 import math
-import os
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
@@ -46,6 +45,7 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
+from ..._limits import env_flag
 from ..._toolchain import build, discard, find_compiler, generate_source, verified
 from ...errors import CompilationWarning, ComputationError
 
@@ -328,7 +328,7 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
         scalar = functools.partial(make_runner, accumulate, record, indices, compiled=True,
                                    cache_dir=cache_dir, lanes=False)
         if vector_math is None:
-            vector_math = os.environ.get("FL_DESIGN_VECTOR_MATH", "1").strip() != "0"
+            vector_math = env_flag("FL_DESIGN_VECTOR_MATH", True)
         return LanesRunner(accumulate, record, indices, cache_dir=cache_dir, scalar=scalar,
                            vector_math=vector_math, isa=resolve_isa(isa))
     if compiled:
