@@ -22,11 +22,12 @@ import numpy as np
 
 from .errors import ParameterError
 
-#: Colours of the classification by status code -2 .. 3: solver failed, diverged, oscillating,
-#: converging, converged, undecided (too short to tell: a cool colour, neither good nor bad).
-STATUS_COLORS = ("#7f7f7f", "#d62728", "#ff9f1c", "#a6d96a", "#1a9641", "#9ecae1")
+#: Colours of the classification by status code -2 .. 4: solver failed, diverged, oscillating,
+#: converging, converged, undecided (too short to tell: a cool colour, neither good nor bad),
+#: stalled (bounded at an offset: a muted purple).
+STATUS_COLORS = ("#7f7f7f", "#d62728", "#ff9f1c", "#a6d96a", "#1a9641", "#9ecae1", "#9467bd")
 STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "converged",
-                 "undecided (run longer)")
+                 "undecided (run longer)", "stalled")
 
 
 def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
@@ -229,7 +230,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
         fig, (ax,) = _new_axes(1, figsize=(7.0, 5.0))
     fig = ax.figure
     cmap = ListedColormap(list(STATUS_COLORS))
-    norm = BoundaryNorm(np.arange(-2.5, 4.0), cmap.N)
+    norm = BoundaryNorm(np.arange(-2.5, 5.0), cmap.N)
     ax.pcolormesh(_edges(smap.gamma), _edges(smap.eps), np.asarray(smap.status), cmap=cmap,
                   norm=norm, shading="flat")
     ax.set_xscale("log")
@@ -237,7 +238,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     ax.set_xlabel("controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
     present = set(np.unique(np.asarray(smap.status)).tolist())
-    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 4), STATUS_COLORS,
+    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 5), STATUS_COLORS,
                                                               STATUS_LABELS) if code in present]
     if show_eps_star:
         stars = [smap.eps_star(g) for g in smap.gamma]

@@ -191,8 +191,8 @@ def _sweep(job, figures) -> list:
         return [("p", "Not run.")]
     labels = smap.labels
     counts = ", ".join(f"{int(np.sum(labels == s))} {s}" for s in
-                       ("converged", "converging", "oscillating", "undecided", "diverged",
-                        "solver_failed")
+                       ("converged", "converging", "oscillating", "stalled", "undecided",
+                        "diverged", "solver_failed")
                        if np.any(labels == s))
     cert = job.results.get("certify", {})
     rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
@@ -214,9 +214,10 @@ def _sweep(job, figures) -> list:
                             "Coulomb friction). Those runs count as failures for eps*; the last "
                             "column counts them as bounded, the practical stability of Theorem 1.")))
     if np.any(labels == "undecided"):
-        blocks.append(("p", ("'undecided' runs are bounded, outside the band, and neither "
-                            "shrinking nor swinging over their tail: a mode slower than the run "
-                            "or a persistent offset. They count as not converging for eps* "
+        blocks.append(("p", ("'undecided' runs are bounded and outside the band, and the last "
+                            "half of the run cannot call the trend (an envelope that grows "
+                            "without swinging, or swings that decay too little for the fit): a "
+                            "mode slower than the run. They count as not converging for eps* "
                             "(the bracket then says 'undecided at', not 'fails at'); longer "
                             "runs decide them.")))
     if "eps_star.png" in figures:

@@ -14,7 +14,7 @@ Examples
 --------
 >>> from fl_design.sim import STATUS_CODES
 >>> sorted(STATUS_CODES)
-['converged', 'converging', 'diverged', 'oscillating', 'solver_failed', 'undecided']
+['converged', 'converging', 'diverged', 'oscillating', 'solver_failed', 'stalled', 'undecided']
 """
 
 from ._closed_loop import HUGE, ClosedLoop, accumulator_layout, default_substeps

@@ -67,7 +67,7 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
 
     Fields: ``x`` (n), ``s`` (m), ``u_prev``, ``k``, ``diverged``, ``k_div``, the running
     values of :data:`fl_design.sim.ACCUMULATORS` (``est2_sum`` has ``rho + 1`` entries), and
-    the run's constants ``N k_tail k_mid y0 step tol q x_op (n) bound (n) region_lo (n)
+    the run's constants ``N k_tail k_mid y0 step tol noise q x_op (n) bound (n) region_lo (n)
     region_hi (n) p (n_p)``.
 
     Parameters
@@ -84,7 +84,7 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     >>> from fl_design.sim import accumulator_layout
     >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
     >>> lay["x"], "est2_sum" in lay, lay.size
-    (slice(0, 2, None), True, 75)
+    (slice(0, 2, None), True, 99)
     """
     fields = [("x", n), ("s", m), ("u_prev", 1), ("k", 1), ("diverged", 1), ("k_div", 1)]
     fields += list(metric_layout(rho).fields)
@@ -407,7 +407,8 @@ class ClosedLoop:
         sig = signals(e=y - r, u=u, u_prev=a["u_prev"], k=k,
                       est_err=xhat - ca.vertcat(coords, sigma), y=y, y0=a["y0"],
                       step=a["step"], tol=a["tol"], k_tail=a["k_tail"], k_mid=a["k_mid"],
-                      outside=outside)
+                      outside=outside, noise=a["noise"],
+                      u_range=self.design.controller.u_range)
         for name, value in update(a, sig).items():
             new[name] = ca.if_else(accept, value, a[name])
         acc_next = ca.vertcat(*[new[name] for name, _ in lay.fields])

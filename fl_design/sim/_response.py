@@ -68,7 +68,7 @@ class Response:
     >>> d = fl.presets.pendulum_design()
     >>> resp = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 2.0))
     >>> resp.y.shape, resp.xhat.shape, sorted(resp.metrics)[:3]
-    ((2000,), (2000, 2), ['divergence_time', 'estimation_rms', 'iae'])
+    ((2000,), (2000, 2), ['decay_rate', 'decay_rate_se', 'divergence_time'])
     """
 
     t: np.ndarray
@@ -124,10 +124,10 @@ class Response:
     tail_amplitude = property(lambda self: self.metrics["tail_amplitude"],
                               doc="Peak-to-peak of e on the tail.")
     status = property(lambda self: self.metrics["status"],
-                      doc="'converged', 'converging', 'oscillating', 'undecided', 'diverged' or "
-                          "'solver_failed' (see fl_design.sim.Status).")
+                      doc="'converged', 'converging', 'oscillating', 'stalled', 'undecided', "
+                          "'diverged' or 'solver_failed' (see fl_design.sim.Status).")
     bounded = property(lambda self: Status.from_label(self.status).bounded,
-                       doc="Stayed within bounds (oscillating, converging, converged, undecided).")
+                       doc="Stayed within bounds (every status but diverged and solver_failed).")
     converged = property(lambda self: self.status == "converged",
                          doc="Within tolerance over the whole tail.")
     stable = property(lambda self: Status.from_label(self.status).convergent,
@@ -200,43 +200,25 @@ class Response:
         >>> import fl_design as fl
         >>> d = fl.presets.pendulum_design()
         >>> fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 20.0)).verdict()
-        'converged: |e| <= 0.002 after 9.08 s; overshoot 0 %'
+        'converged: |e| <= 0.002 from t = 9.08 s, mean offset -4.4e-05; overshoot 0 %'
         """
-        m, tol = self.metrics, self.tol
-        tail = (self.t.size - self.k_tail) * self.T
+        m = self.metrics
+        window = self.duration / 2
+        text = _reason(self.status, m, self.tol, window, self.duration, self.adaptive_duration)
         over = "" if np.isnan(m["overshoot"]) else f"; overshoot {m['overshoot']:.3g} %"
         exit_ = ("" if np.isnan(m["region_exit_time"]) else
                  f"; left the plant's region at t = {m['region_exit_time']:.3g} s")
-        text = {
-            "converged": f"converged: |e| <= {tol:.3g} after {m['settling_time']:.3g} s",
-            "converging": (f"converging: |e| = {m['tail_error']:.3g} > {tol:.3g} at the end, "
-                           f"shrinking; estimated within tolerance at t = "
-                           f"{m['time_to_tolerance']:.3g} s (run longer to confirm)"),
-            "oscillating": (f"oscillating: bounded, the error swings and its envelope does not "
-                            f"shrink "
-                            f"({m['tail_reversals']:.0f} reversals over the last {tail:.3g} s; "
-                            f"tail |e| up to {m['tail_error']:.3g}, peak-to-peak "
-                            f"{m['tail_amplitude']:.3g}, tolerance {tol:.3g})"),
-            "undecided": (f"undecided: bounded, |e| = {m['tail_error']:.3g} > {tol:.3g} at the "
-                          f"end, neither shrinking nor swinging over the last {tail:.3g} s: a "
-                          f"mode slower than this run or a persistent offset; run longer "
-                          + ("(give a duration longer than this run's)" if self.adaptive_duration
-                             else "(omit the duration for one chosen from the loop's slowest "
-                                  "mode)")),
-            "diverged": f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or "
-                        "became non-finite)",
-            "solver_failed": "solver failed: cvodes gave up on a bounded state (not a verdict "
-                             "on the loop; try fl.RK4 or looser tolerances)",
-        }[self.status]
         run = (f"; run of {self.duration:.4g} s chosen by the loop: {self.duration_reason}"
                if self.adaptive_duration else "")
         return text + (over if self.status != "diverged" else "") + exit_ + run
 
     def _repr_html_(self) -> str:
         """A short HTML table for Jupyter: status, verdict, overshoot, settling time."""
+        settle = (f"{self.settling_time:.3g} s" if np.isfinite(self.settling_time) else
+                  "not settled (still outside the band at the end)")
         return _html_table([("status", self.status), ("verdict", self.verdict()),
                             ("overshoot", f"{self.overshoot:.3g} %"),
-                            ("settling time", f"{self.settling_time:.3g} s"),
+                            ("settling time", settle),
                             ("run", f"{self.t.size} samples, T = {self.T:g} s"),
                             ("run length", f"{self.duration:.4g} s ({self.duration_reason})")])
 
@@ -246,6 +228,53 @@ class Response:
         return (f"Response(N={self.t.size}, T={self.T:g}, status={self.status!r}, "
                 f"overshoot={self.overshoot:.3g}%, settling_time={self.settling_time:.3g} s"
                 f"{chosen})")
+
+
+def _saturation(m) -> str:
+    sat = m["saturated_fraction"]
+    return f"; u at its limits {100 * sat:.0f} % of the time" if sat >= 0.01 else ""
+
+
+def _reason(status: str, m: dict, tol: float, window: float, duration: float,
+            adaptive: bool) -> str:
+    """The one-line reason of ``status``, with the measurements of the run (module doc of
+    :mod:`fl_design.sim._status`); ``window`` is the analysed last half of the run (s)."""
+    band = tol + m["noise_floor"] / 2
+    noisy = f" (tolerance {tol:.3g} + half the noise floor)" if m["noise_floor"] > 0 else ""
+    trend = f"envelope {100 * m['envelope_change']:+.0f} % over the last {window:.3g} s"
+    swings = (f"; swings of {m['oscillation_amplitude']:.3g} peak-to-peak, period "
+              f"{m['oscillation_period']:.3g} s" if m["reversals"] >= 2 else "")
+    sat = _saturation(m)
+    pinned = m["saturated_fraction"] >= 0.5
+    longer = ("u is pinned at its limits, a longer run will not change this" if pinned else
+              f"a run of {3 * duration:.3g} s or more decides" if not adaptive else
+              f"a duration above this run's {duration:.3g} s decides")
+    rate, se = m["decay_rate"], m["decay_rate_se"]
+    if status == "converged":
+        return (f"converged: |e| <= {band:.3g}{noisy} from t = {m['settling_time']:.3g} s, mean "
+                f"offset {m['steady_state_error']:.2g}")
+    if status == "converging":
+        return (f"converging: |e| = {m['tail_error']:.3g} > {band:.3g}{noisy} at the end, "
+                f"{trend} (time constant {1 / rate:.3g} s +- {100 * se / rate:.0f} %)"
+                f"{swings}; within the band at about t = {m['time_to_tolerance']:.3g} s{sat}")
+    if status == "oscillating":
+        return (f"oscillating: {m['reversals']:.0f} reversals, swings of "
+                f"{m['oscillation_amplitude']:.3g} peak-to-peak (band {band:.3g}), period "
+                f"{m['oscillation_period']:.3g} s; {trend}{sat}")
+    if status == "stalled":
+        reached = ("" if m["reached"] else "; never covered 90 % of the step")
+        return (f"stalled: bounded, |e| up to {m['tail_error']:.3g} with mean offset "
+                f"{m['steady_state_error']:.3g} (band {band:.3g}), not approaching the "
+                f"reference ({trend}){reached}{sat}")
+    if status == "undecided":
+        return (f"undecided: |e| = {m['tail_error']:.3g} > {band:.3g}, {trend} without a full "
+                f"swing ({m['reversals']:.0f} reversals; the fit's rate is "
+                f"{-rate:.3g} +- {se:.2g} 1/s): {longer}{sat}")
+    if status == "diverged":
+        return (f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or became "
+                "non-finite)")
+    return ("solver failed: cvodes gave up on a bounded state (not a verdict on the loop; try "
+            "fl.RK4 or looser tolerances)")
 
 
 def _html_table(rows) -> str:

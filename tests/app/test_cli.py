@@ -53,7 +53,7 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
     assert data["derivation"]["b_bounds"] == pytest.approx([3.6, 6.8])
     runs = data["simulate"]["runs"]
     assert {r["design"] for r in runs} == {"EHGO eps=0.05", "LS(9)", "LS(26)"}
-    assert all(r["status"] in ("converged", "converging", "oscillating", "undecided", "diverged")
+    assert all(r["status"] in ("converged", "converging", "oscillating", "stalled", "undecided", "diverged")
                for r in runs)
     assert data["codegen"]["sil"]["passed"] is True
     assert data["certify"]["eps"]["certified"] is True

@@ -28,11 +28,11 @@ MARKERS = {
     "trms_walkthrough": [
         r"relative degree rho = 2",
         r"b-range over the region: \[3\.6, 6\.8\]",
-        r"EHGO eps=0\.05 +noise std 0 +(converged|converging|oscillating|undecided)",
-        r"LS\(9\) +noise std 0\.001 +(converged|converging|oscillating|undecided|diverged)",
-        r"LS\(26\) +noise std 0\.001 +(converged|converging|oscillating|undecided|diverged)",
+        r"EHGO eps=0\.05 +noise std 0 +(converged|converging|oscillating|stalled|undecided)",
+        r"LS\(9\) +noise std 0\.001 +(converged|converging|oscillating|stalled|undecided|diverged)",
+        r"LS\(26\) +noise std 0\.001 +(converged|converging|oscillating|stalled|undecided|diverged)",
         r"Response\(N=10000, T=0\.001, status=",
-        r"<th[^>]*>verdict</th><td[^>]*>(converged|converging|oscillating|undecided)",
+        r"<th[^>]*>verdict</th><td[^>]*>(converged|converging|oscillating|stalled|undecided)",
     ],
     "pendulum_map": [
         r"relative degree 2",
