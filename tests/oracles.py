@@ -166,11 +166,26 @@ def evidence_from_errors(e, *, k_tail: int, tol: float, noise: float = 0.0) -> d
     smooth = np.array([env[i:i + width].max() for i in range(8 - width + 1)])
     centres = (np.arange(smooth.size) + width / 2) * length
     fit = linregress(centres, np.log(smooth))
-    return {"reversals": rev, "period": period,
+    drops = -np.diff(smooth)
+    heading = math.nan
+    if smooth.size >= 4 and np.all(drops > 0):
+        q = math.exp(np.polyfit(np.arange(drops.size), np.log(drops), 1)[0])
+        heading = smooth[-1] - drops[-1] * q / (1 - q) if q < 1 else math.nan
+    curvature = math.nan
+    if smooth.size >= 5:
+        x = centres - centres.mean()
+        x = x / np.abs(x).max()
+        X = np.column_stack([np.ones_like(x), x, x * x])
+        coef, *_ = np.linalg.lstsq(X, np.log(smooth), rcond=None)
+        var = max(float(np.sum((np.log(smooth) - X @ coef) ** 2)) / (smooth.size - 3), 1e-18)
+        curvature = coef[2] / math.sqrt(var * np.linalg.inv(X.T @ X)[2, 2])
+    return {"reversals": rev, "period": period, "curvature_t": curvature, "window_start": start,
+            "spread": float(env.max() - env.min()),
             "amplitude": float(np.mean(swings)) if swings else math.nan,
             "swing_ratio": swings[-1] / swings[0] if len(swings) >= 2 else math.nan,
             "rate": fit.slope, "rate_se": fit.stderr,
             "change": math.expm1(fit.slope * length * (8 - width)), "band": tol + 4 * noise,
+            "asymptote": heading,
             "floor": 8 * noise}
 
 
@@ -186,14 +201,19 @@ def status_from_trajectories(resp, noise: float = 0.0) -> str:
             and np.ptp(tail) <= max(resp.tol, ev["floor"])):
         return "converged"
     t = ev["rate"] / ev["rate_se"] if ev["rate_se"] > 0 else math.copysign(math.inf, ev["rate"])
-    if t < -4 and ev["change"] < -0.05:
+    offset = ev["asymptote"] > ev["band"]
+    if t < -4 and ev["change"] < -0.05 and not offset:
         return "converging"
-    flat = abs(t) < 1 or abs(ev["change"]) < 0.05
+    flat = (abs(t) < 1 or abs(ev["change"]) < 0.05) and not abs(ev["curvature_t"]) > 4
+    flat = flat or (ev["spread"] <= ev["floor"] and abs(t) <= 4)
     swinging = ev["reversals"] >= 2 and ev["amplitude"] > max(resp.tol, ev["floor"])
-    sustained = flat or (t > 4 and ev["change"] > 0.05) or ev["swing_ratio"] >= 0.95
+    growing = t > 4 and ev["change"] > 0.05
+    sustained = (ev["change"] >= -0.05 or ev["swing_ratio"] >= 0.95) and not growing
     if swinging and sustained:
         return "oscillating"
-    return "stalled" if not swinging and flat else "undecided"
+    half = e[ev["window_start"]:]
+    one_sided = half.min() > -ev["band"] or half.max() < ev["band"]
+    return "stalled" if not swinging and (flat or offset) and one_sided else "undecided"
 
 
 def region_exit_time(resp, region: dict, states) -> float:

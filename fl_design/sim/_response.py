@@ -251,8 +251,13 @@ def _reason(status: str, m: dict, tol: float, window: float, duration: float,
               f"a duration above this run's {duration:.3g} s decides")
     rate, se = m["decay_rate"], m["decay_rate_se"]
     if status == "converged":
-        return (f"converged: |e| <= {band:.3g}{noisy} from t = {m['settling_time']:.3g} s, mean "
-                f"offset {m['steady_state_error']:.2g}")
+        ripple = (f"; ripple {m['tail_amplitude']:.2g} peak-to-peak at the noise level (floor "
+                  f"{m['noise_floor']:.2g})" if m["tail_amplitude"] > tol else "")
+        if np.isfinite(m["settling_time"]):
+            return (f"converged: |e| <= {tol:.3g} from t = {m['settling_time']:.3g} s, mean "
+                    f"offset {m['steady_state_error']:.2g}{ripple}")
+        return (f"converged: mean offset {m['steady_state_error']:.2g} within +-{tol:.3g}, "
+                f"|e| up to {m['tail_error']:.3g}{ripple}")
     if status == "converging":
         return (f"converging: |e| = {m['tail_error']:.3g} > {band:.3g}{noisy} at the end, "
                 f"{trend} (time constant {1 / rate:.3g} s +- {100 * se / rate:.0f} %)"

@@ -24,14 +24,18 @@ The statuses, in this order:
 * ``converged``: over the tail ``|e| <= band``, ``|mean e| <= tol`` and a peak-to-peak within
   ``max(tol, noise floor)``;
 * ``converging``: the envelope decays, significantly (``t = rate / se < -T_SIGNIFICANT``) and
-  by more than :data:`MIN_CHANGE` over the window (``time_to_tolerance`` extrapolates it);
+  by more than :data:`MIN_CHANGE` over the window, towards the band: a strictly decreasing
+  envelope whose successive drops, fitted as a geometric sequence, add up to an offset outside
+  the band is heading for that offset instead (``time_to_tolerance`` extrapolates the decay);
 * ``oscillating``: at least :data:`MIN_REVERSALS` reversals, swings larger than the band, not
-  decaying (a flat or growing envelope, or the last swing as large as the first): a limit
+  decaying (the envelope shrinks by less than :data:`MIN_CHANGE`, or the last swing is as
+  large as the first) and not growing significantly: a limit
   cycle (how an unstable loop usually looks behind input saturation);
-* ``stalled``: bounded, outside the band, no such swings, envelope flat: not approaching the
-  reference (an offset, often with ``u`` at a limit);
-* ``undecided``: what remains is ambiguous in this run: an envelope that grows without
-  swinging, or swings that decay too little for the fit to tell. A longer run decides.
+* ``stalled``: bounded, outside the band, no such swings, envelope flat or heading for an
+  offset: not approaching the reference (often with ``u`` at a limit);
+* ``undecided``: what remains is ambiguous in this run: an envelope that grows (a limit cycle
+  or a divergence to come), or swings that decay too little for the fit to tell. A longer run
+  decides.
 
 The integer codes are what a :class:`fl_design.StabilityMap` stores; ``undecided`` (3) and
 ``stalled`` (4) were added after the others, which keep their codes: test membership with
@@ -181,6 +185,43 @@ def _fit(env: np.ndarray, centres: np.ndarray):
             np.where(enough, np.exp(level), np.nan), n)
 
 
+def _curvature_t(env: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """``t`` statistic of the quadratic term of ``log env`` against ``centres`` (last axis; all
+    points finite, at least 5; NaN otherwise): a hump or a trough, half a swing slower than
+    the window, is not a flat envelope."""
+    ok = np.all(np.isfinite(env) & (env > 0), axis=-1) & (env.shape[-1] >= 5)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = np.log(np.where(np.isfinite(env) & (env > 0), env, 1.0))
+        x = centres - centres.mean(-1, keepdims=True)
+        x = x / np.max(np.abs(x), axis=-1, keepdims=True)
+        X = np.stack([np.ones_like(x), x, x * x], -1)
+        X = np.broadcast_to(X, (*y.shape, 3))
+        xtx = np.einsum("...ki,...kj->...ij", X, X)
+        inv = np.linalg.pinv(xtx)
+        coef = np.einsum("...ij,...kj,...k->...i", inv, X, y)
+        resid = y - np.einsum("...ki,...i->...k", X, coef)
+        # residuals below 1e-9 (relative) are rounding: a perfect exponential has no curvature
+        var = np.maximum((resid * resid).sum(-1) / max(env.shape[-1] - 3, 1), 1e-18)
+        t = coef[..., 2] / np.sqrt(var * inv[..., 2, 2])
+    return np.where(ok, t, np.nan)
+
+
+def _asymptote(env: np.ndarray) -> np.ndarray:
+    """Where a monotone decaying envelope (last axis) is heading: ``env_last - d_last q / (1 -
+    q)``, the differences ``d`` of successive values fitted as a geometric sequence of ratio
+    ``q < 1`` (``E = c + A q^i`` gives ``c``; an exponential to zero gives 0). NaN when the
+    envelope is not strictly decreasing, has fewer than 4 points, or ``q >= 1``."""
+    d = env[..., :-1] - env[..., 1:]
+    ok = np.all(np.isfinite(d) & (d > 0), axis=-1) & (env.shape[-1] >= 4)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = np.log(np.where(d > 0, d, 1.0))
+        x = np.arange(d.shape[-1], dtype=float)
+        xc = x - x.mean()
+        q = np.exp((y * xc).sum(-1) / (xc * xc).sum())
+        c = env[..., -1] - d[..., -1] * q / (1 - q)
+    return np.where(ok & (q < 1), c, np.nan)
+
+
 def evidence(summary: dict) -> dict:
     """What the run's accumulators show, in samples: the measurements behind its status.
 
@@ -192,6 +233,10 @@ def evidence(summary: dict) -> dict:
       its standard error, over the whole window: the largest ``|e|`` over every half period
       (one block when there is no swing) against time; ``change``: the fitted relative change
       of the envelope over the window; ``level``: the fitted envelope at the window's end;
+      ``asymptote``: where a strictly decreasing envelope is heading, its successive drops
+      fitted as a geometric sequence (NaN otherwise; about 0 for a decay to the reference);
+      ``curvature_t``: the ``t`` of a quadratic term in ``log`` envelope (a hump: half of a
+      swing slower than the window); ``spread``: largest minus smallest block ``|e|``;
     * ``saturated``: fraction of the window with ``u`` at a limit; ``reached``: the output
       covered 90 % of the step at some time.
 
@@ -237,7 +282,8 @@ def evidence(summary: dict) -> dict:
     width = np.broadcast_to(width, shape)
     block = np.broadcast_to(block, (*shape, NBLOCKS))
     slope = np.full(shape, np.nan)
-    se, level, npts = slope.copy(), slope.copy(), np.zeros(shape)
+    se, level, npts, heading = slope.copy(), slope.copy(), np.zeros(shape), slope.copy()
+    curved = slope.copy()
     for w in range(1, NBLOCKS - 1):
         pick = width == w
         if not np.any(pick):
@@ -245,8 +291,8 @@ def evidence(summary: dict) -> dict:
         m = NBLOCKS - w + 1
         env = np.stack([np.max(block[..., i:i + w], axis=-1) for i in range(m)], -1)
         centres = (np.arange(m) + w / 2) * np.broadcast_to(length, shape)[..., None]
-        fit = _fit(env, centres)
-        for out, value in zip((slope, se, level, npts), fit):
+        fit = (*_fit(env, centres), _asymptote(env), _curvature_t(env, centres))
+        for out, value in zip((slope, se, level, npts, heading, curved), fit):
             out[pick] = np.broadcast_to(value, shape)[pick]
     span = np.broadcast_to(length, shape) * (NBLOCKS - width)
     with np.errstate(over="ignore", invalid="ignore"):
@@ -255,7 +301,9 @@ def evidence(summary: dict) -> dict:
         saturated = g.get("sat_count", np.zeros_like(tol)) / n_window
     return {"band": tol + floor / 2, "floor": floor, "reversals": rev, "period": period,
             "amplitude": amplitude, "swing_ratio": swing_ratio, "rate": slope, "rate_se": se, "change": change,
-            "level": level, "fit_points": npts, "saturated": saturated,
+            "level": level, "asymptote": heading, "curvature_t": curved, "fit_points": npts,
+            "spread": np.nanmax(block, -1) - np.nanmin(block, -1),
+            "saturated": saturated,
             "reached": g.get("k90", np.zeros_like(tol)) >= 0, "window": n_window}
 
 
@@ -268,15 +316,21 @@ def classify(summary: dict) -> np.ndarray:
     * ``converged``: over the tail ``|e| <= band``, ``|mean e| <= tol`` and a peak-to-peak
       within the larger of ``tol`` and the noise floor;
     * ``converging``: the envelope's fitted decay is significant (``t < -T_SIGNIFICANT``) and
-      more than :data:`MIN_CHANGE` over the window;
+      more than :data:`MIN_CHANGE` over the window, and not heading for an offset outside
+      the band (``asymptote``);
     * ``oscillating``: at least :data:`MIN_REVERSALS` reversals of a swing whose mean
-      peak-to-peak exceeds the band (``tol`` and the noise floor), and sustained: the envelope
-      flat (``|t| < 1`` or less than :data:`MIN_CHANGE` over the window), growing
-      significantly, or the last swing at least ``1 - MIN_CHANGE`` times the first;
-    * ``stalled``: bounded, outside the band, no such swings, and the envelope flat: not
-      approaching the reference;
-    * ``undecided``: anything else, a trend the run cannot call: a growing envelope without
-      swings, or a swing decaying too little for the fit to be sure (a longer run decides).
+      peak-to-peak exceeds the band (``tol`` and the noise floor), and sustained: the fitted
+      envelope shrinks by less than :data:`MIN_CHANGE` over the window, or the last swing is at
+      least ``1 - MIN_CHANGE`` times the first, and it does not grow significantly (growing
+      swings end in a limit cycle or a divergence: undecided);
+    * ``stalled``: bounded, outside the band, no such swings, on one side of the reference
+      over the window (``e`` does not cross the band), and the envelope flat (no
+      significant trend nor hump: ``|curvature_t| <= T_SIGNIFICANT``; a hump whose ``spread`` is
+      within the noise floor does not count) or heading for an offset outside the band: not approaching the
+      reference;
+    * ``undecided``: anything else, a trend the run cannot call: a growing envelope (with or
+      without swings), or swings decaying too little for the fit to be sure (a longer run
+      decides).
 
     Parameters
     ----------
@@ -298,7 +352,8 @@ def classify(summary: dict) -> np.ndarray:
     ...     s = {"diverged": 0, "tol": 0.01, "k_tail": 800, "k_mid": 900, "reversals": 0,
     ...          "swing_sum": 0, "k_rev_first": -1, "k_rev_last": -1,
     ...          "tail_abs_e_max": max(abs(hi[-1]), abs(lo[-1])), "tail_e_max": hi[-1],
-    ...          "tail_e_min": lo[-1], "tail_e_sum": 100 * (hi[-1] + lo[-1]) / 2}
+    ...          "tail_e_min": lo[-1], "tail_e_sum": 100 * (hi[-1] + lo[-1]) / 2,
+    ...          "win_e_max": max(hi), "win_e_min": min(lo)}
     ...     s |= {f"blk_max{j}": hi[j] for j in range(NBLOCKS)}
     ...     s |= {f"blk_min{j}": lo[j] for j in range(NBLOCKS)}
     ...     return int(classify(s | kw))
@@ -323,13 +378,22 @@ def classify(summary: dict) -> np.ndarray:
                      & (p2p <= np.maximum(tol, ev["floor"])))
         t = ev["rate"] / ev["rate_se"]
         t = np.where(ev["rate_se"] == 0, np.sign(ev["rate"]) * np.inf, t)
-        decaying = (t < -T_SIGNIFICANT) & (ev["change"] < -MIN_CHANGE)
+        offset = ev["asymptote"] > band  # decays, but towards an offset outside the band
+        decaying = (t < -T_SIGNIFICANT) & (ev["change"] < -MIN_CHANGE) & ~offset
         swinging = (ev["reversals"] >= MIN_REVERSALS) & (ev["amplitude"] > np.maximum(tol, ev["floor"]))
-        flat = (np.abs(t) < 1) | (np.abs(ev["change"]) < MIN_CHANGE) | (ev["rate"] == 0)
+        # a stall sits on one side of the reference: an error crossing it is moving
+        one_sided = ((np.asarray(summary.get("win_e_min", -np.inf)) > -band)
+                     | (np.asarray(summary.get("win_e_max", np.inf)) < band))
+        flat = ((np.abs(t) < 1) | (np.abs(ev["change"]) < MIN_CHANGE) | (ev["rate"] == 0)) \
+            & ~(np.abs(ev["curvature_t"]) > T_SIGNIFICANT)
+        # a hump at the noise level is no evidence (a significant trend still is)
+        flat |= (ev["spread"] <= ev["floor"]) & (np.abs(t) <= T_SIGNIFICANT)
         growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
-        sustained = flat | growing | (ev["swing_ratio"] >= 1 - MIN_CHANGE)
+        sustained = ((ev["change"] >= -MIN_CHANGE) | (ev["swing_ratio"] >= 1 - MIN_CHANGE)) \
+            & ~growing
     code = np.select(
-        [div, converged, decaying, swinging & sustained, ~swinging & flat],
+        [div, converged, decaying, swinging & sustained,
+         ~swinging & (flat | offset) & one_sided],
         [int(Status.DIVERGED), int(Status.CONVERGED), int(Status.CONVERGING),
          int(Status.OSCILLATING), int(Status.STALLED)], int(Status.UNDECIDED))
     return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)

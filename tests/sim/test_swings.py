@@ -51,9 +51,11 @@ def _signals() -> dict:
     return {
         "decaying sine": (0.2 * np.exp(-t / 30) * np.sin(2 * np.pi * t / 7), 0.0, "converging"),
         "decaying offset": (0.3 * np.exp(-t / 40), 0.0, "converging"),
+        "decay to an offset": (0.05 + 0.3 * np.exp(-t / 15), 0.0, "stalled"),
         "sustained sine": (0.05 * np.sin(2 * np.pi * t / 9) + jitter, 0.0, "oscillating"),
-        "growing sine": (0.01 * np.exp(t / 60) * np.sin(2 * np.pi * t / 9), 0.0, "oscillating"),
+        "growing sine": (0.01 * np.exp(t / 60) * np.sin(2 * np.pi * t / 9), 0.0, "undecided"),
         "slow sine": (0.05 * np.sin(2 * np.pi * t / 500), 0.0, "undecided"),  # rises: no swing
+        "slow hump": (0.05 * np.sin(2 * np.pi * t / 300), 0.0, "undecided"),  # half a swing
         "ramp away": (0.02 + 1e-3 * t, 0.0, "undecided"),
         "noisy offset": (0.03 + jitter, 0.0, "stalled"),
         "noise ripple": (ripple, noise, "converged"),
@@ -71,8 +73,10 @@ def test_accumulated_evidence_equals_the_record_s_and_names_the_status(name):
     ev = evidence(acc)
     want = evidence_from_errors(e, k_tail=k_tail, tol=TOL, noise=noise)
     assert ev["reversals"] == want["reversals"]
-    for key in ("period", "amplitude", "swing_ratio", "rate", "rate_se", "change"):
-        assert float(ev[key]) == pytest.approx(want[key], rel=1e-9, abs=1e-15, nan_ok=True), key
+    for key in ("period", "amplitude", "swing_ratio", "rate", "rate_se", "change", "asymptote",
+                "curvature_t"):
+        close = 1e-6 if key == "curvature_t" else 1e-15  # a t near 0 is rounding over rounding
+        assert float(ev[key]) == pytest.approx(want[key], rel=1e-9, abs=close, nan_ok=True), key
     assert Status(int(metrics_from_summary(acc, 0.05)["status"])).label == status
     # the same record negated gives the same evidence
     assert evidence(_run_table(-e, k_tail, noise))["reversals"] == want["reversals"]
@@ -90,8 +94,8 @@ def test_classify_gives_every_status_from_accumulators():
     flat = 0.1 * np.ones(8)
     base = {"diverged": 0, "tol": TOL, "k_tail": 800, "k_mid": 900, "tail_abs_e_max": 0.1,
             "tail_e_max": 0.1, "tail_e_min": 0.09, "tail_e_sum": 19.0, "reversals": 0,
-            "swing_sum": 0.0, "k_rev_first": -1, "k_rev_last": -1,
-            **{f"blk_max{j}": flat[j] for j in range(8)},
+            "swing_sum": 0.0, "k_rev_first": -1, "k_rev_last": -1, "win_e_min": 0.0,
+            "win_e_max": 0.1, **{f"blk_max{j}": flat[j] for j in range(8)},
             **{f"blk_min{j}": 0.09 for j in range(8)}}
     low = {f"blk_min{j}": 0.0 for j in range(8)}
     decay = low | {f"blk_max{j}": 0.1 * np.exp(-j / 3) for j in range(8)}
