@@ -44,9 +44,9 @@ def check(name: str, n: int, ranges) -> tuple[bool, str]:
     long = fl.sweep(plant, design, fl.Scenario(ref, 10 * short.duration), eps=eps, gamma=gamma,
                     progress=False)
     a, b = short.labels, long.labels
-    lines = [f"{name}: {n} x {n} grid, eps {e0:g}..{e1:g} s, gamma {g0:g}..{g1:g}; "
-             f"D = {short.duration:g} s ({short.duration_reason}), 10 D = {long.duration:g} s; "
-             f"{time.perf_counter() - start:.1f} s"]
+    lines = [(f"{name}: {n} x {n} grid, eps {e0:g}..{e1:g} s, gamma {g0:g}..{g1:g}; "
+              f"D = {short.duration:g} s ({short.duration_reason}), 10 D = {long.duration:g} s; "
+              f"{time.perf_counter() - start:.1f} s")]
     counts = ", ".join(f"{int(np.sum(a == s))} {s}" for s in
                        ("converged", "converging", "oscillating", "stalled", "undecided",
                         "diverged", "solver_failed") if np.any(a == s))
@@ -62,7 +62,8 @@ def check(name: str, n: int, ranges) -> tuple[bool, str]:
         share = float(np.sum(at_d & kept)) / total
         good = share >= 0.95
         ok &= good
-        moved = {s: int(np.sum(at_d & ~kept & (b == s))) for s in np.unique(b[at_d & ~kept])}
+        moved = {str(s): int(np.sum(at_d & ~kept & (b == s)))
+                 for s in np.unique(b[at_d & ~kept])}
         lines.append(f"  {label} at D: {total}; the same at 10 D: {100 * share:.1f} % "
                      f"(>= 95 %: {'holds' if good else 'FAILS'})"
                      + (f"; moved to {moved}" if moved else ""))
