@@ -180,7 +180,7 @@ def evidence_from_errors(e, *, k_tail: int, tol: float, noise: float = 0.0) -> d
         var = max(float(np.sum((np.log(smooth) - X @ coef) ** 2)) / (smooth.size - 3), 1e-18)
         curvature = coef[2] / math.sqrt(var * np.linalg.inv(X.T @ X)[2, 2])
     return {"reversals": rev, "period": period, "curvature_t": curvature, "window_start": start,
-            "spread": float(env.max() - env.min()),
+            "spread": float(env.max() - env.min()), "top": float(env.max()),
             "amplitude": float(np.mean(swings)) if swings else math.nan,
             "swing_ratio": swings[-1] / swings[0] if len(swings) >= 2 else math.nan,
             "rate": fit.slope, "rate_se": fit.stderr,
@@ -201,12 +201,12 @@ def status_from_trajectories(resp, noise: float = 0.0) -> str:
             and np.ptp(tail) <= max(resp.tol, ev["floor"])):
         return "converged"
     t = ev["rate"] / ev["rate_se"] if ev["rate_se"] > 0 else math.copysign(math.inf, ev["rate"])
-    offset = ev["asymptote"] > ev["band"]
+    swinging = ev["reversals"] >= 2 and ev["amplitude"] > max(resp.tol, ev["floor"])
+    offset = ev["asymptote"] > ev["band"] and not swinging
     if t < -4 and ev["change"] < -0.05 and not offset:
         return "converging"
-    flat = (abs(t) < 1 or abs(ev["change"]) < 0.05) and not abs(ev["curvature_t"]) > 4
-    flat = flat or (ev["spread"] <= ev["floor"] and abs(t) <= 4)
-    swinging = ev["reversals"] >= 2 and ev["amplitude"] > max(resp.tol, ev["floor"])
+    hump = abs(ev["curvature_t"]) > 4 and ev["spread"] > max(0.05 * ev["top"], ev["floor"])
+    flat = (abs(t) < 1 or abs(ev["change"]) < 0.05) and not hump
     growing = t > 4 and ev["change"] > 0.05
     sustained = (ev["change"] >= -0.05 or ev["swing_ratio"] >= 0.95) and not growing
     if swinging and sustained:

@@ -26,3 +26,15 @@ def test_claim_script_quick(script):
     out = proc.stdout
     assert "holds" in out
     assert "FAILS" not in out and "nan" not in out.lower().replace("nanos", "")
+
+
+def test_predictive_check_quick():
+    """verify/predictive_check.py --quick: 6 x 6 grids of the TRMS and the pendulum, verdicts at
+    the adaptive duration D against 10 D (the full 12 x 12 check is the same script)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, str(ROOT / "verify" / "predictive_check.py"),
+                           "--quick"], capture_output=True, text=True, env=env, timeout=300,
+                          check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.count("6 x 6 grid") == 2
+    assert "predictive check: holds" in proc.stdout and "FAILS" not in proc.stdout

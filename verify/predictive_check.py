@@ -11,7 +11,7 @@ duration: :mod:`fl_design.sim._duration`) and again at 10 D. The classifier's pr
 * ``undecided`` is at most 5 % of the runs at D.
 
 A category with no run at D is reported and passes vacuously. Exit 1 when a number fails.
-``--quick``: 4 x 4 grids (the same ranges). ``--grid NAME=eps0,eps1,gamma0,gamma1`` changes a
+``--quick``: 6 x 6 grids (the same ranges). ``--grid NAME=eps0,eps1,gamma0,gamma1`` changes a
 plant's ranges (e.g. the demo's TRMS map, ``trms=0.005,1,3e-5,3e-2``).
 """
 
@@ -77,7 +77,7 @@ def check(name: str, n: int, ranges) -> tuple[bool, str]:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="4 x 4 grids")
+    parser.add_argument("--quick", action="store_true", help="6 x 6 grids")
     parser.add_argument("--grid", action="append", default=[], metavar="NAME=e0,e1,g0,g1",
                         help="grid ranges of a plant (trms, pendulum)")
     args = parser.parse_args(argv)
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
         if len(parsed) != 4 or not all(v > 0 for v in parsed):
             parser.error(f"--grid {item!r}: give four positive numbers eps0,eps1,gamma0,gamma1")
         ranges[name] = parsed
-    n = 4 if args.quick else 12
+    n = 6 if args.quick else 12
     ok = True
     for name in PLANTS:
         passed, text = check(name, n, ranges[name])

@@ -115,8 +115,9 @@ def _cmd_run(args) -> int:
                   progress=not args.no_progress)
     paths = write_report(job, out)
     print_job(job)
-    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']} and "
-          f"{len(paths['figures'])} figures")
+    runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
+    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
+          f"{len(paths['figures'])} figures{runs}")
     return 0
 
 

@@ -213,14 +213,15 @@ def write_report(job, out_dir) -> dict:
     Returns
     -------
     dict
-        ``{"html": path, "markdown": path, "summary": path, "figures": [names]}``.
+        ``{"html": path, "markdown": path, "summary": path, "figures": [names],
+        "csv": [relative paths of the runs' CSV files]}``.
 
     Examples
     --------
     >>> from fl_design.app import load_config, run_job, write_report
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
     >>> sorted(write_report(job, "."))
-    ['figures', 'html', 'markdown', 'summary']
+    ['csv', 'figures', 'html', 'markdown', 'summary']
     """
     folder = Path(out_dir)
     figures = _figures(job, folder)
@@ -231,7 +232,74 @@ def write_report(job, out_dir) -> dict:
     paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
     paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
-    return {**{k: str(v) for k, v in paths.items()}, "figures": figures}
+    return {**{k: str(v) for k, v in paths.items()}, "figures": figures,
+            "csv": write_runs_csv(job, folder)}
 
 
-__all__ = ["FIGURES", "render_html", "render_markdown", "summary", "write_report"]
+def run_csv_name(design: str, std: float) -> str:
+    """File name of a compared run's CSV: ``runs/<design>_noise<std>.csv`` (safe characters).
+
+    Parameters
+    ----------
+    design : str
+        The design's label (``"EHGO eps=0.05"``, ``"LS(9)"``, or ``"main"``).
+    std : float
+        Noise standard deviation of the run.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.app._report_write import run_csv_name
+    >>> run_csv_name("LS(9)", 0.001), run_csv_name("EHGO eps=0.05", 0.0)
+    ('runs/LS9_noise0.001.csv', 'runs/EHGO_eps0.05_noise0.csv')
+    """
+    import re
+
+    safe = re.sub(r"[^A-Za-z0-9.]+", "_", design.replace("(", "").replace(")", "")).strip("_")
+    safe = safe.replace("_eps_", "_eps").replace("eps_", "eps")
+    return f"runs/{safe}_noise{std:g}.csv"
+
+
+def write_runs_csv(job, folder) -> list:
+    """Write every simulated run (the compared runs and the main run) as CSV under
+    ``folder/runs`` (:meth:`fl_design.Response.to_csv`); return the relative paths.
+
+    Parameters
+    ----------
+    job : Job
+        A job (nothing is written without its simulate stage).
+    folder : str or pathlib.Path
+        The report's folder.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_write import write_runs_csv
+    >>> write_runs_csv(run_job(load_config(None), quick=True, stages=("derive",),
+    ...                        progress=False), ".")
+    []
+    """
+    sim = job.results.get("simulate")
+    if not sim:
+        return []
+    runs = dict(sim["runs"])
+    runs[("main", float(job.config.scenario["noise_std"]))] = sim["main"]
+    out = Path(folder) / "runs"
+    out.mkdir(exist_ok=True)
+    names = []
+    for (design, std), resp in runs.items():
+        name = run_csv_name(design, std)
+        resp.to_csv(Path(folder) / name, overwrite=True)  # the report's own folder
+        names.append(name)
+    return names
+
+
+__all__ = ["FIGURES", "render_html", "render_markdown", "run_csv_name", "summary",
+           "write_report", "write_runs_csv"]

@@ -159,6 +159,120 @@ class Response:
                     metrics=self.metrics)
         return jsonable(data)
 
+    def columns(self) -> dict:
+        """The trajectories as named 1-D columns: ``t``, ``r``, ``y``, ``ym``, ``u``,
+        ``sigmahat``, ``sigma``, ``xhat1 ..``, ``y_d0 ..`` (their true values ``y^(i)``) and
+        ``x1 ..`` (the plant states), in that order; NaN after a divergence.
+
+        Returns
+        -------
+        dict of numpy.ndarray
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> d = fl.presets.pendulum_design()
+        >>> list(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.05)).columns())[:7]
+        ['t', 'r', 'y', 'ym', 'u', 'sigmahat', 'sigma']
+        """
+        cols = {name: np.asarray(getattr(self, name), dtype=float)
+                for name in ("t", "r", "y", "ym", "u", "sigmahat", "sigma")}
+        for i in range(self.xhat.shape[1]):
+            cols[f"xhat{i + 1}"] = self.xhat[:, i]
+        for i in range(self.coords.shape[1]):
+            cols[f"y_d{i}"] = self.coords[:, i]
+        for i in range(self.x.shape[1]):
+            cols[f"x{i + 1}"] = self.x[:, i]
+        return cols
+
+    def to_frame(self):
+        """The trajectories (:meth:`columns`) as a ``pandas.DataFrame`` indexed by sample.
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        MissingDependencyError
+            pandas is not installed (``pip install pandas``; :meth:`to_csv` needs nothing).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
+        ...                    fl.Scenario(0.1, 0.05))
+        >>> try:
+        ...     frame = resp.to_frame()
+        ... except fl.errors.MissingDependencyError:
+        ...     frame = None  # pandas is optional
+        >>> frame is None or frame.shape == (50, 13)
+        True
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            from ..errors import MissingDependencyError
+
+            raise MissingDependencyError(
+                "Response.to_frame needs pandas, which is not installed: pip install pandas "
+                "(or use Response.to_csv / Response.columns, which need nothing)") from None
+        return pd.DataFrame(self.columns())
+
+    def to_csv(self, path=None, *, overwrite: bool = False) -> str:
+        """The trajectories (:meth:`columns`) as CSV: a header line, then one row per sample.
+
+        Numbers are written with ``repr`` precision (they read back exactly); NaN as ``nan``.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path, optional
+            Where to write; default: only return the text.
+        overwrite : bool, optional
+            Replace an existing file (default: refuse, so no one's file is overwritten).
+
+        Returns
+        -------
+        str
+            The CSV text.
+
+        Raises
+        ------
+        OutputPathError
+            ``path`` exists and ``overwrite`` is False, or its folder does not exist.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
+        ...                    fl.Scenario(0.1, 0.05))
+        >>> resp.to_csv().splitlines()[0]
+        't,r,y,ym,u,sigmahat,sigma,xhat1,xhat2,y_d0,y_d1,x1,x2'
+        """
+        import csv
+        import io
+        from pathlib import Path
+
+        cols = self.columns()
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(cols)
+        writer.writerows(zip(*(map(repr, map(float, c)) for c in cols.values())))
+        text = buf.getvalue()
+        if path is not None:
+            from ..errors import OutputPathError
+
+            target = Path(path)
+            if not target.parent.is_dir():
+                raise OutputPathError(f"cannot write {str(target)!r}: its folder does not exist")
+            try:
+                with target.open("w" if overwrite else "x", encoding="utf-8", newline="") as f:
+                    f.write(text)
+            except FileExistsError:
+                raise OutputPathError(
+                    f"{str(target)!r} exists; pass overwrite=True to replace it") from None
+        return text
+
     def plot(self, *, axes=None, title: str | None = None):
         """Output, input and sigma over time (:func:`fl_design.plotting.plot_response`).
 
@@ -272,9 +386,17 @@ def _reason(status: str, m: dict, tol: float, window: float, duration: float,
                 f"{m['steady_state_error']:.3g} (band {band:.3g}), not approaching the "
                 f"reference ({trend}){reached}{sat}")
     if status == "undecided":
-        return (f"undecided: |e| = {m['tail_error']:.3g} > {band:.3g}, {trend} without a full "
-                f"swing ({m['reversals']:.0f} reversals; the fit's rate is "
-                f"{-rate:.3g} +- {se:.2g} 1/s): {longer}{sat}")
+        if m["reversals"] >= 2:
+            swing = (f"swings of {m['oscillation_amplitude']:.3g} peak-to-peak (period "
+                     f"{m['oscillation_period']:.3g} s), {trend}")
+            what = (f"{swing}: growing, a limit cycle or a divergence to come"
+                    if m["envelope_change"] > 0 else
+                    f"{swing}: decaying too little to tell from a limit cycle")
+        else:
+            n = int(m["reversals"])
+            what = (f"{trend} without a full swing ({n} reversal{'s' if n != 1 else ''}; "
+                    f"fitted rate {-rate:.3g} +- {se:.2g} 1/s)")
+        return f"undecided: |e| = {m['tail_error']:.3g} > {band:.3g}, {what}; {longer}{sat}"
     if status == "diverged":
         return (f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or became "
                 "non-finite)")

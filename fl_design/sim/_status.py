@@ -236,7 +236,8 @@ def evidence(summary: dict) -> dict:
       ``asymptote``: where a strictly decreasing envelope is heading, its successive drops
       fitted as a geometric sequence (NaN otherwise; about 0 for a decay to the reference);
       ``curvature_t``: the ``t`` of a quadratic term in ``log`` envelope (a hump: half of a
-      swing slower than the window); ``spread``: largest minus smallest block ``|e|``;
+      swing slower than the window); ``spread``: largest minus smallest block ``|e|``, ``top``
+      the largest;
     * ``saturated``: fraction of the window with ``u`` at a limit; ``reached``: the output
       covered 90 % of the step at some time.
 
@@ -303,6 +304,7 @@ def evidence(summary: dict) -> dict:
             "amplitude": amplitude, "swing_ratio": swing_ratio, "rate": slope, "rate_se": se, "change": change,
             "level": level, "asymptote": heading, "curvature_t": curved, "fit_points": npts,
             "spread": np.nanmax(block, -1) - np.nanmin(block, -1),
+            "top": np.nanmax(block, -1),
             "saturated": saturated,
             "reached": g.get("k90", np.zeros_like(tol)) >= 0, "window": n_window}
 
@@ -325,8 +327,8 @@ def classify(summary: dict) -> np.ndarray:
       swings end in a limit cycle or a divergence: undecided);
     * ``stalled``: bounded, outside the band, no such swings, on one side of the reference
       over the window (``e`` does not cross the band), and the envelope flat (no
-      significant trend nor hump: ``|curvature_t| <= T_SIGNIFICANT``; a hump whose ``spread`` is
-      within the noise floor does not count) or heading for an offset outside the band: not approaching the
+      significant trend nor hump: a hump has ``|curvature_t| > T_SIGNIFICANT`` and a ``spread``
+      above both the noise floor and ``MIN_CHANGE`` of the largest ``|e|``) or heading for an offset outside the band: not approaching the
       reference;
     * ``undecided``: anything else, a trend the run cannot call: a growing envelope (with or
       without swings), or swings decaying too little for the fit to be sure (a longer run
@@ -378,16 +380,18 @@ def classify(summary: dict) -> np.ndarray:
                      & (p2p <= np.maximum(tol, ev["floor"])))
         t = ev["rate"] / ev["rate_se"]
         t = np.where(ev["rate_se"] == 0, np.sign(ev["rate"]) * np.inf, t)
-        offset = ev["asymptote"] > band  # decays, but towards an offset outside the band
-        decaying = (t < -T_SIGNIFICANT) & (ev["change"] < -MIN_CHANGE) & ~offset
         swinging = (ev["reversals"] >= MIN_REVERSALS) & (ev["amplitude"] > np.maximum(tol, ev["floor"]))
+        # a monotone decay towards an offset outside the band (swings: their envelope decides)
+        offset = (ev["asymptote"] > band) & ~swinging
+        decaying = (t < -T_SIGNIFICANT) & (ev["change"] < -MIN_CHANGE) & ~offset
         # a stall sits on one side of the reference: an error crossing it is moving
         one_sided = ((np.asarray(summary.get("win_e_min", -np.inf)) > -band)
                      | (np.asarray(summary.get("win_e_max", np.inf)) < band))
+        # a hump counts when significant and larger than MIN_CHANGE of |e| and the noise floor
+        hump = ((np.abs(ev["curvature_t"]) > T_SIGNIFICANT)
+                & (ev["spread"] > np.maximum(MIN_CHANGE * ev["top"], ev["floor"])))
         flat = ((np.abs(t) < 1) | (np.abs(ev["change"]) < MIN_CHANGE) | (ev["rate"] == 0)) \
-            & ~(np.abs(ev["curvature_t"]) > T_SIGNIFICANT)
-        # a hump at the noise level is no evidence (a significant trend still is)
-        flat |= (ev["spread"] <= ev["floor"]) & (np.abs(t) <= T_SIGNIFICANT)
+            & ~hump
         growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
         sustained = ((ev["change"] >= -MIN_CHANGE) | (ev["swing_ratio"] >= 1 - MIN_CHANGE)) \
             & ~growing

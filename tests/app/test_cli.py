@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fl_design.app import main
@@ -185,3 +186,16 @@ def test_every_library_plant_is_a_config_and_cli_name(name, capsys):
         assert f"|gamma| < 1/max|b| = {1 / abs(lo):.4g} (gamma < 0, as b)" in out
     else:
         assert f"gamma < 1/b_max = {1 / hi:.4g}" in out
+
+
+def test_run_writes_the_compared_runs_as_csv(quick_run):
+    """Every compared run and the main run, beside the report, reading back to its summary's
+    verdicts (the CSV's last sample equals the run's final output)."""
+    out, proc = quick_run
+    data = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    files = sorted((out / "runs").glob("*.csv"))
+    assert len(files) == len(data["simulate"]["runs"]) + 1
+    assert "runs as CSV under" in proc.stdout
+    table = np.genfromtxt(out / "runs" / "LS9_noise0.001.csv", delimiter=",", names=True)
+    assert table.dtype.names[:5] == ("t", "r", "y", "ym", "u")
+    assert np.all(np.diff(table["t"]) > 0) and table["r"][-1] == pytest.approx(0.3)

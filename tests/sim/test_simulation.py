@@ -438,7 +438,7 @@ def test_a_mode_slower_than_the_run_is_undecided_a_limit_cycle_oscillates():
         assert resp.bounded and not resp.stable
     assert slow.status == "undecided"
     assert slow.verdict().startswith("undecided: |e| = 0.0208 > 0.006, envelope +28 % over the "
-                                     "last 15 s without a full swing (0 reversals")
+                                     "last 15 s without a full swing (0 reversals;")
     assert "a run of 90 s or more decides" in slow.verdict()
     e = cycle.r[cycle.k_tail:] - cycle.y[cycle.k_tail:]
     assert np.min(e) < 0 < np.max(e)  # swings through the reference
