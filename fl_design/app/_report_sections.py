@@ -72,8 +72,9 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
 
 def _derivation(job) -> list:
     d = job.derivation
-    blocks = [("p", (f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with "
-                    f"a = {d['a']}, b = {d['b']}."))]
+    blocks = [("p", f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with"),
+              ("math", "a =", d["a_mathml"], d["a_latex"]),
+              ("math", "b =", d["b_mathml"], d["b_latex"])]
     if d["b_bounds"]:
         lo, hi = d["b_bounds"]
         blocks.append(("p", (f"b over the plant's region and input range: [{lo:.4g}, {hi:.4g}]; "
@@ -81,7 +82,7 @@ def _derivation(job) -> list:
     zd = ("no zero dynamics (n = rho)" if d["n"] == d["rho"] else
           f"zero dynamics eigenvalues {', '.join(d['zero_dynamics_eigenvalues'])}: "
           f"{'minimum phase' if d['minimum_phase'] else 'NOT minimum phase'}")
-    blocks += [("p", zd), ("pre", d["text"])]
+    blocks += [("p", zd), ("details", "The full derivation (text)", d["text"])]
     return blocks
 
 
@@ -240,18 +241,18 @@ def _simulations(job, figures) -> list:
     main = sim["main"]
     tol = main.tol
     blocks = [("p", f"This design, {sim['duration']:g} s step: {main.verdict()}."),
-              ("p", _tolerance_note(main))]
-    if "response.png" in figures:
-        blocks.append(("fig", "response.png", "This design's run: output, input, sigma"))
-    rows = []
+              ("p", "The figure of this run is in the summary above.")]
+    rows, reasons = [], []
     for (name, std), r in sim["runs"].items():
         lv = noise_levels(r)
         rows.append([name, f"{std:.3g}", r.status, overshoot_text(r), fmt(r.tail_error),
-                     fmt(lv["u_noise"], "n/a"), r.verdict()])
+                     fmt(lv["u_noise"], "n/a")])
+        reasons.append(f"{name}, noise std {std:.3g}: {r.verdict()}")
     blocks.append(("p", (f"The compared runs, {sim['compare_duration']:g} s each "
                          "(the transient: overshoot and noise):")))
     blocks.append(("table", ["design", "noise std", "verdict", "overshoot %", "tail max |e|",
-                             "u noise", "in words"], rows))
+                             "u noise"], rows))
+    blocks.append(("list", reasons))
     if "steps.png" in figures:
         blocks.append(("fig", "steps.png", ("Step responses, EHGO and least squares, with and "
                                            "without sensor noise")))
@@ -297,17 +298,6 @@ def overshoot_text(resp) -> str:
     return f"{resp.overshoot:.3g}"
 
 
-def _tolerance_note(resp) -> str:
-    if resp.status in ("converged", "diverged", "solver_failed"):
-        return f"Overshoot {resp.overshoot:.3g} %."
-    scale = max(abs(resp.step), 1e-12)
-    met = resp.tail_error / scale * 100
-    return (f"Overshoot {resp.overshoot:.3g} %. The error does not settle inside the 2 % band "
-            f"(tail max |e| {resp.tail_error:.3g}); it stays within {met:.2g} % of the step, "
-            f"peak-to-peak {resp.tail_amplitude:.3g} over the last part of the run: a bounded "
-            "slow oscillation (on the TRMS, hunting against the Coulomb friction tanh term).")
-
-
 def _codegen(job) -> list:
     cg = job.results.get("codegen")
     if not cg:
@@ -345,15 +335,17 @@ def sections(job, figures) -> list:
     --------
     >>> from fl_design.app import load_config, run_job, sections
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
-    >>> [title for title, _ in sections(job, [])][:2]
-    ['Derivation', 'Certificates']
+    >>> [title for title, _ in sections(job, [])][:3]
+    ['Summary', "Simulations: this design and the paper's comparison", 'Stability map and eps*']
     """
+    from . import _report_summary as S
+
     timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
-    return [("Derivation", _derivation(job)), ("Certificates", _certificates(job)),
-            ("Stability map and eps*", _sweep(job, figures)),
-            ("Simulations: the paper's comparison", _simulations(job, figures)),
-            ("C code", _codegen(job)),
+    return [("Summary", S.summary_blocks(job, figures)),
+            (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),
+            (S.CERTIFICATES, _certificates(job)), (S.CODE, _codegen(job)),
+            (S.DERIVATION, _derivation(job)),
             ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}.")])]
 
 

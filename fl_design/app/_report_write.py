@@ -39,6 +39,11 @@ FIGURES = {"stability_map.png": stability_map_figure, "eps_star.png": eps_star_f
            "response.png": main_response_figure}
 
 
+def _cell(value) -> str:
+    """A Markdown table cell: ``|`` escaped (``|e|`` would split the row)."""
+    return str(value).replace("|", "\\|")
+
+
 def render_markdown(secs) -> str:
     """Render sections as Markdown (figures as linked PNG files).
 
@@ -57,6 +62,8 @@ def render_markdown(secs) -> str:
     >>> render_markdown([("A", [("pre", "x")])]).splitlines()[2]
     '```'
     """
+    from ._report_summary import anchor
+
     out = []
     for title, blocks in secs:
         out += [f"## {title}", ""]
@@ -64,12 +71,23 @@ def render_markdown(secs) -> str:
             kind = block[0]
             if kind == "p":
                 out += [block[1], ""]
+            elif kind == "math":
+                out += [f"{block[1]} $${block[3]}$$", ""]
+            elif kind == "details":
+                out += [f"<details><summary>{block[1]}</summary>", "", "```", block[2], "```",
+                        "", "</details>", ""]
+            elif kind == "list":
+                out += [f"- {item}" for item in block[1]] + [""]
+            elif kind == "links":
+                out += ["| question | answer |", "| --- | --- |"]
+                out += [f"| [{q}](#{anchor(sec)}) | {_cell(a)} |" for q, a, sec in block[1]]
+                out.append("")
             elif kind == "pre":
                 out += ["```", block[1], "```", ""]
             elif kind == "table":
-                out.append("| " + " | ".join(map(str, block[1])) + " |")
+                out.append("| " + " | ".join(map(_cell, block[1])) + " |")
                 out.append("|" + " --- |" * len(block[1]))
-                out += ["| " + " | ".join(map(str, row)) + " |" for row in block[2]]
+                out += ["| " + " | ".join(map(_cell, row)) + " |" for row in block[2]]
                 out.append("")
             elif kind == "fig":
                 out += [f"![{block[2]}]({block[1]})", "", f"*{block[2]}*", ""]
@@ -96,17 +114,30 @@ def render_html(secs, folder: Path, *, title: str) -> str:
     --------
     >>> from pathlib import Path
     >>> from fl_design.app import render_html
-    >>> "<h2>A</h2>" in render_html([("A", [("p", "x < y")])], Path("."), title="t")
+    >>> '<h2 id="a">A</h2>' in render_html([("A", [("p", "x < y")])], Path("."), title="t")
     True
     """
+    from ._report_summary import anchor
+
     e = html.escape
     body = [f"<h1>{e(title)}</h1>"]
     for name, blocks in secs:
-        body.append(f"<h2>{e(name)}</h2>")
+        body.append(f'<h2 id="{anchor(name)}">{e(name)}</h2>')
         for block in blocks:
             kind = block[0]
             if kind == "p":
                 body.append(f"<p>{e(block[1])}</p>")
+            elif kind == "math":  # MathML from SymPy's printer (our own output, not user text)
+                body.append(f"<p>{e(block[1])} <math>{block[2]}</math></p>")
+            elif kind == "details":
+                body.append(f"<details><summary>{e(block[1])}</summary><pre>{e(block[2])}"
+                            "</pre></details>")
+            elif kind == "list":
+                body.append("<ul>" + "".join(f"<li>{e(i)}</li>" for i in block[1]) + "</ul>")
+            elif kind == "links":
+                rows = "".join(f'<tr><th><a href="#{anchor(sec)}">{e(q)}</a></th>'
+                               f'<td class="answer">{e(a)}</td></tr>' for q, a, sec in block[1])
+                body.append(f'<table class="summary">{rows}</table>')
             elif kind == "pre":
                 body.append(f"<pre>{e(block[1])}</pre>")
             elif kind == "table":
@@ -121,7 +152,8 @@ def render_html(secs, folder: Path, *, title: str) -> str:
     style = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
              "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:2px 6px;"
              "text-align:right}pre{background:#f4f4f4;padding:.5em;overflow-x:auto}"
-             "img{max-width:100%}")
+             "img{max-width:100%}table.summary th{text-align:left;vertical-align:top}"
+             "td.answer{text-align:left}")
     return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{e(title)}</title>"
             f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
@@ -167,7 +199,8 @@ def summary(job) -> dict:
     """
     res = job.results
     out = {"config": job.config.to_dict(), "quick": job.quick, "design": design_label(job.design),
-           "derivation": {k: v for k, v in job.derivation.items() if k != "text"},
+           "derivation": {k: v for k, v in job.derivation.items()
+                          if k not in ("text", "a_mathml", "b_mathml")},
            "timings_s": dict(job.timings)}
     cert = res.get("certify")
     if cert:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -34,9 +35,20 @@ def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
     out, _ = quick_run
     html = (out / "report.html").read_text()
     md = (out / "report.md").read_text()
-    for section in ("Derivation", "Certificates", "Stability map and eps*",
-                    "Simulations: the paper&#x27;s comparison", "C code"):
-        assert f"<h2>{section}</h2>" in html
+    order = ["Summary", "Simulations: this design and the paper&#x27;s comparison",
+             "Stability map and eps*", "Certificates", "C code", "Derivation"]
+    where = [html.index(f">{section}</h2>") for section in order]
+    assert where == sorted(where)  # the answers first, the derivation last
+    # the summary links every answer to its section, and those ids exist
+    summary = html[where[0]:where[1]]
+    for target in re.findall(r'href="#([a-z0-9-]+)"', summary):
+        assert f'<h2 id="{target}">' in html
+    for question in ("Plant", "Does it work?", "Certified", "Generated C"):
+        assert question in summary
+    assert "operating point x_op = (" in summary and "u_eq = " in summary
+    assert "SIL PASSED" in summary or "SIL FAILED" in summary
+    assert "<math>" in html and "$$" in md  # the maths rendered (MathML, LaTeX)
+    assert md.index("## Summary") < md.index("## Derivation")
     for name in ("stability_map.png", "eps_star.png", "steps.png", "noise_tradeoff.png",
                  "response.png"):
         assert (out / name).stat().st_size > 10_000
