@@ -33,7 +33,8 @@ STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "conv
 def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(nrows, 1, sharex=sharex, figsize=figsize, squeeze=False)
+    fig, axes = plt.subplots(nrows, 1, sharex=sharex, figsize=figsize, squeeze=False,
+                             layout="constrained")
     return fig, list(axes[:, 0])
 
 
@@ -77,22 +78,27 @@ def plot_response(resp, *, axes=None, title: str | None = None):
     ax.plot(t, resp.y, color="C0", lw=1.4, label="y")
     ax.plot(t, resp.xhat[:, 0], color="C1", lw=0.8, ls=":", label="estimate")
     ax.set_ylabel("output y")
-    ax.legend(loc="best", fontsize="small")
+    _legend_outside(ax)
     axes[1].step(t, resp.u, where="post", color="C2", lw=1.0)
     axes[1].set_ylabel("input u")
     axes[2].plot(t, resp.sigma, color="C0", lw=1.2, label="sigma (true)")
     axes[2].plot(t, resp.sigmahat, color="C1", lw=0.8, label="sigma estimate")
     axes[2].set_ylabel("sigma")
     axes[2].set_xlabel("time (s)")
-    axes[2].legend(loc="best", fontsize="small")
+    _legend_outside(axes[2])
     if resp.diverged:
         for a in axes:
             a.axvline(resp.divergence_time, color=STATUS_COLORS[0], lw=1.0)
     if title is None:
-        title = (f"{resp.status}: overshoot {resp.overshoot:.3g} %, settling "
-                 f"{resp.settling_time:.3g} s")
+        title = f"{resp.status}, overshoot {resp.overshoot:.3g} %"
     axes[0].set_title(title)
     return fig
+
+
+def _legend_outside(ax, **kwargs):
+    """A legend to the right of ``ax``, outside the data (constrained layout makes room)."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                     fontsize="small", **kwargs)
 
 
 def _edges(values: np.ndarray) -> np.ndarray:
@@ -227,7 +233,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     from matplotlib.patches import Patch
 
     if ax is None:
-        fig, (ax,) = _new_axes(1, figsize=(7.0, 5.0))
+        fig, (ax,) = _new_axes(1, figsize=(9.0, 5.0))
     fig = ax.figure
     cmap = ListedColormap(list(STATUS_COLORS))
     norm = BoundaryNorm(np.arange(-2.5, 5.0), cmap.N)
@@ -260,8 +266,8 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
         handles.append(h)
     ax.set_xlim(_edges(smap.gamma)[[0, -1]])
     ax.set_ylim(_edges(smap.eps)[[0, -1]])
-    ax.legend(handles=handles, loc="best", fontsize="small")
-    ax.set_title(f"closed-loop runs of {smap.duration:g} s, T = {smap.T:g} s")
+    _legend_outside(ax, handles=handles)
+    ax.set_title(f"closed-loop runs of {smap.duration:g} s")
     return fig
 
 

@@ -205,8 +205,10 @@ def _sweep(job, figures) -> list:
     if smap.duration_reason != "given":
         blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
     if "stability_map.png" in figures:
-        blocks.append(("fig", "stability_map.png", (f"Stability map, {job.plant.name}; the star "
-                       "is this design, the dotted line the paper's gamma < 1/b_max")))
+        blocks.append(("fig", "stability_map.png", (
+            f"Stability map, {job.plant.name}: {smap.duration:g} s noise-free runs to the "
+            f"reference {_reference_text(job)}; the star is this design ({design_label(job.design)}), "
+            "the dotted line the paper's gamma < 1/b_max")))
     blocks.append(("table", ["gamma", "empirical eps* (s)", "every run bounded up to eps (s)"],
                    rows))
     if np.mean(labels == "oscillating") > 0.3:
@@ -254,8 +256,11 @@ def _simulations(job, figures) -> list:
                              "u noise"], rows))
     blocks.append(("list", reasons))
     if "steps.png" in figures:
-        blocks.append(("fig", "steps.png", ("Step responses, EHGO and least squares, with and "
-                                           "without sensor noise")))
+        ctrl = job.design.controller
+        blocks.append(("fig", "steps.png", (
+            "Step responses, EHGO and least squares under one controller (gamma = "
+            f"{ctrl.gamma:g}, K = {tuple(float(k) for k in ctrl.gains)}), with and without "
+            "sensor noise; the legend gives each run's verdict and overshoot")))
     if sim["tradeoff"]:
         blocks.append(("table", ["eps (s)", "sigmahat noise", "u noise", "verdict",
                                  "overshoot %"],
@@ -264,10 +269,28 @@ def _simulations(job, figures) -> list:
                                                                     3)]
                         for r in sim["tradeoff"]]))
     if "noise_tradeoff.png" in figures:
-        blocks.append(("fig", "noise_tradeoff.png", "Noise of sigmahat and u against eps"))
+        blocks.append(("fig", "noise_tradeoff.png", (
+            "Noise of sigmahat and u against eps (std(diff)/sqrt(2) over the tail), gamma = "
+            f"{job.design.controller.gamma:g}")))
     blocks.append(("p", (f"Settling band: |e| <= {tol:.3g} (the [scenario] tolerance times the "
                         "step).")))
     return blocks
+
+
+def _reference_text(job) -> str:
+    ref = float(job.config.scenario["reference"])
+    unit = job.config.plant.get("output_unit", "")
+    sim = job.results.get("simulate")
+    if not sim:
+        return f"r = {ref:g} {unit}".rstrip()
+    main = sim["main"]
+    return f"r = {ref:g} {unit} (a step of {main.step:.3g} from y0 = {main.y0:.3g})"
+
+
+def design_label(design) -> str:
+    from ._report_figures import design_label as label
+
+    return label(design)
 
 
 def overshoot_text(resp) -> str:
