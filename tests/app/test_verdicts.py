@@ -59,3 +59,18 @@ def test_noise_ripple_above_the_tolerance_is_converged():
     assert abs(np.mean(tail)) < resp.tol
     assert resp.status == "converged" == status_from_trajectories(resp, noise=0.01)
     assert "at the noise level" in resp.verdict()
+
+
+def test_the_demo_map_has_no_stripes():
+    """The demo's TRMS map at its low-gamma end (300 s runs; the eps* there alternated 0.35,
+    < 0.005, 0.49, < 0.005 between neighbouring gammas): the empirical eps* brackets now change
+    once along gamma, from 'undecided' (modes slower than the run) to converging."""
+    gamma = np.geomspace(3e-5, 3e-2, 16)[:7]
+    smap = fl.sweep(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario(0.3, 300.0),
+                    eps=np.geomspace(0.005, 1.0, 6), gamma=gamma, progress=False)
+    brackets = [str(smap.eps_star(g)) for g in gamma]
+    runs = [b for i, b in enumerate(brackets) if i == 0 or b != brackets[i - 1]]
+    assert len(runs) == len(set(runs)), brackets  # no bracket comes back after another
+    undecided = [smap.eps_star(g).undecided for g in gamma]
+    changes = sum(a != b for a, b in zip(undecided, undecided[1:]))
+    assert undecided[0] and not undecided[-1] and changes == 1, brackets
