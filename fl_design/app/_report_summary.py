@@ -143,7 +143,9 @@ def summary_blocks(job, figures) -> list:
             ("Generated C", _code_text(job), CODE)]
     blocks = [("links", rows)]
     if "response.png" in figures:
-        blocks.append(("fig", "response.png", f"This design's run: {verdict}"))
+        blocks.append(("fig", "response.png", (
+            f"This design's run, {sim['main'].duration:g} s ({sim['main'].status}): output and "
+            "reference, input (the operating point's u_eq dotted), sigma and its estimate")))
     return blocks
 
 
