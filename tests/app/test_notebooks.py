@@ -46,7 +46,7 @@ MARKERS = {
         r"relative degree 2",
         r"b = 1/\(l\*\*2\*m\)",
         r"equilibrium input u_eq = 0\.94\d*",
-        r"converged: \|e\| <= 0\.002 after",
+        r"converged: \|e\| <= 0\.002 from t = ",
         r"SIL passed",
         r"\| design \| precision \| flops \| mul \| add \|",
         r"\| EHGO my_pendulum \| float \| \d+ \|",
