@@ -189,9 +189,12 @@ def evidence_from_errors(e, *, k_tail: int, tol: float, noise: float = 0.0) -> d
             "floor": 8 * noise}
 
 
-def status_from_trajectories(resp, noise: float = 0.0) -> str:
+def status_from_trajectories(resp, noise: float | None = None) -> str:
     """The classification of :mod:`fl_design.sim._status` from the recorded trajectories
-    (:func:`evidence_from_errors`), written again without the accumulators."""
+    (:func:`evidence_from_errors`), written again without the accumulators. ``noise``: the
+    noise std (default: the run's own, from its summary)."""
+    if noise is None:
+        noise = float(resp.summary.get("noise", 0.0))
     if resp.divergence_index is not None:
         return "diverged"
     e = resp.y - resp.r
