@@ -9,6 +9,8 @@ against the recorded trajectory.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -72,5 +74,5 @@ def test_the_demo_map_has_no_stripes():
     runs = [b for i, b in enumerate(brackets) if i == 0 or b != brackets[i - 1]]
     assert len(runs) == len(set(runs)), brackets  # no bracket comes back after another
     undecided = [smap.eps_star(g).undecided for g in gamma]
-    changes = sum(a != b for a, b in zip(undecided, undecided[1:]))
+    changes = sum(a != b for a, b in itertools.pairwise(undecided))
     assert undecided[0] and not undecided[-1] and changes == 1, brackets
