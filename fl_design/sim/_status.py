@@ -262,6 +262,12 @@ def evidence(summary: dict) -> dict:
     >>> round(-1 / float(evidence(s)["rate"]), 6)  # time constant in samples
     250.0
     """
+    with np.errstate(all="ignore"):  # a diverged run's empty blocks give NaN, silently
+        return _evidence(summary)
+
+
+def _evidence(summary: dict) -> dict:
+    """:func:`evidence` without the error-state guard."""
     g = {k: np.asarray(v, dtype=float) for k, v in summary.items() if k != "est2_sum"}
     _, length = window_geometry(g)
     tol = g["tol"]
@@ -303,8 +309,8 @@ def evidence(summary: dict) -> dict:
     return {"band": tol + floor / 2, "floor": floor, "reversals": rev, "period": period,
             "amplitude": amplitude, "swing_ratio": swing_ratio, "rate": slope, "rate_se": se, "change": change,
             "level": level, "asymptote": heading, "curvature_t": curved, "fit_points": npts,
-            "spread": np.nanmax(block, -1) - np.nanmin(block, -1),
-            "top": np.nanmax(block, -1),
+            "spread": np.fmax.reduce(block, -1) - np.fmin.reduce(block, -1),
+            "top": np.fmax.reduce(block, -1),
             "saturated": saturated,
             "reached": g.get("k90", np.zeros_like(tol)) >= 0, "window": n_window}
 
@@ -368,6 +374,11 @@ def classify(summary: dict) -> np.ndarray:
     ...     k_rev_last=960)  # sustained swings of 0.4: oscillating
     0
     """
+    with np.errstate(all="ignore"):
+        return _classify(summary)
+
+
+def _classify(summary: dict) -> np.ndarray:
     div = np.asarray(summary["diverged"]) != 0
     failed = np.asarray(summary.get("solver_failed", 0)) != 0
     ev = evidence(summary)
