@@ -99,6 +99,8 @@ def stability_map_figure(job):
     ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
     ax.set_ylabel("observer time constant eps (s)")
     ax.set_title(f"{job.plant.name}: stability map", fontsize="small")
+    fig.set_size_inches(10.0, 5.0)
+    fig.subplots_adjust(left=0.09, right=0.58)  # room for the legend on the right
     return fig
 
 
@@ -123,7 +125,8 @@ def eps_star_figure(job):
     """
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8.0, 4.6), layout="constrained")
+    fig, ax = plt.subplots(figsize=(10.0, 4.6))
+    fig.subplots_adjust(left=0.08, right=0.56, top=0.92, bottom=0.12)
     cert = job.results.get("certify", {})
     if "curve" in cert:
         c = cert["curve"]
@@ -180,7 +183,8 @@ def step_figure(job):
     sim = job.results["simulate"]
     stds = sim["stds"]
     fig, axes = plt.subplots(len(stds), 1, sharex=True, figsize=(9.0, 2.4 * len(stds)),
-                             squeeze=False, layout="constrained")
+                             squeeze=False)
+    fig.subplots_adjust(left=0.09, right=0.66, top=0.9, bottom=0.1, hspace=0.35)
     for ax, std in zip(axes[:, 0], stds):
         for i, name in enumerate(sim["designs"]):
             r = sim["runs"][(name, std)]
@@ -222,7 +226,8 @@ def tradeoff_figure(job):
     rows = job.results["simulate"]["tradeoff"]
     from matplotlib.ticker import LogFormatterSciNotation, NullFormatter
 
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.8), layout="constrained")
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.8))
+    fig.subplots_adjust(left=0.14, right=0.96, top=0.9, bottom=0.12, hspace=0.12)
     eps = np.array([r["eps"] for r in rows])
     axes[0].plot(eps, [r["sigmahat_noise"] for r in rows], "C1o-")
     axes[0].set_ylabel(f"sigmahat noise ({_y(job)}/s^{job.plant.relative_degree()})")
