@@ -74,7 +74,7 @@ def sampled_linearization(plant, design, *, r: float | None = None,
         Constant reference (default: the output at the plant's operating point).
     substeps : int, optional
         RK4 steps per sample, as in :func:`fl_design.simulate` (default
-        :func:`fl_design.sim.default_substeps`).
+        :func:`fl_design.sim.kernel.default_substeps`).
 
     Returns
     -------

@@ -25,6 +25,7 @@ import argparse
 import os
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -112,7 +113,7 @@ def _config(args):
 
 def _cmd_run(args) -> int:
     from ._console import print_job
-    from ._job import prepare, run_job
+    from ._job import note, prepare, run_job
     from ._report_write import write_report
 
     cfg = load_config(args.config)
@@ -121,10 +122,14 @@ def _cmd_run(args) -> int:
     executor = _executor(args.scheduler)
     job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
                   progress=not args.no_progress, force=args.force)
+    start = time.perf_counter()
     paths = write_report(job, out, force=args.force)
+    note(f"report (figures, HTML, Markdown, JSON, CSV) written in "
+         f"{time.perf_counter() - start:.1f} s", enabled=not args.no_progress)
     print_job(job)
-    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']} and "
-          f"{len(paths['figures'])} figures")
+    runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
+    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
+          f"{len(paths['figures'])} figures{runs}")
     return 0
 
 

@@ -77,8 +77,8 @@ def print_sweep(job) -> None:
     smap = job.results["sweep"]
     labels = smap.labels
     counts = ", ".join(f"{int((labels == s).sum())} {s}" for s in
-                       ("converged", "converging", "oscillating", "undecided", "diverged",
-                        "solver_failed") if (labels == s).any())
+                       ("converged", "converging", "oscillating", "stalled", "undecided",
+                        "diverged", "solver_failed") if (labels == s).any())
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
     if smap.duration_reason != "given":

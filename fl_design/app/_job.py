@@ -101,6 +101,11 @@ def _derive(job: Job) -> None:
         if plant.n > nf.rho else [],
         "minimum_phase": bool(nf.minimum_phase) if plant.n > nf.rho else True,
         "F_a": sp.sstr(disc.approx), "residual_orders": disc.residual_order_table(),
+        "a_latex": sp.latex(nf.a), "b_latex": sp.latex(nf.b),
+        "a_mathml": sp.mathml(nf.a, printer="presentation"),
+        "b_mathml": sp.mathml(nf.b, printer="presentation"),
+        "x_op": [float(v) for v in plant.x_op], "u_eq": float(plant.u_eq),
+        "states": [str(s) for s in plant.states],
         "text": derivation_report(plant),
     }
 

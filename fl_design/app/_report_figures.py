@@ -11,7 +11,6 @@ Examples
 from __future__ import annotations
 
 import math
-import textwrap
 
 import numpy as np
 
@@ -95,12 +94,13 @@ def stability_map_figure(job):
     handles, _labels = ax.get_legend_handles_labels()
     old = ax.get_legend()
     keep = list(old.legend_handles) if old is not None else []
-    ax.legend(handles=keep + handles[-2:], loc="lower left", fontsize="x-small")
+    ax.legend(handles=keep + handles[-2:], loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              borderaxespad=0.0, fontsize="x-small")
     ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
     ax.set_ylabel("observer time constant eps (s)")
-    ax.set_title(f"{job.plant.name}: {smap.duration:g} s noise-free runs, step "
-                 f"{job.config.scenario['reference']:g} {_y(job)}\n{design_label(d)}",
-                 fontsize="small")
+    ax.set_title(f"{job.plant.name}: stability map", fontsize="small")
+    fig.set_size_inches(10.0, 5.0)
+    fig.subplots_adjust(left=0.09, right=0.58)  # room for the legend on the right
     return fig
 
 
@@ -125,7 +125,8 @@ def eps_star_figure(job):
     """
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.0, 4.6))
+    fig, ax = plt.subplots(figsize=(10.0, 4.6))
+    fig.subplots_adjust(left=0.08, right=0.56, top=0.92, bottom=0.12)
     cert = job.results.get("certify", {})
     if "curve" in cert:
         c = cert["curve"]
@@ -152,9 +153,9 @@ def eps_star_figure(job):
     ax.set_yscale("log")
     ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
     ax.set_ylabel("eps* (s)")
-    ax.set_title(f"{job.plant.name}: eps*(gamma), {design_label(d)}", fontsize="small")
-    ax.legend(loc="best", fontsize="x-small")
-    fig.tight_layout()
+    ax.set_title(f"{job.plant.name}: eps*(gamma)", fontsize="small")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+              fontsize="x-small")
     return fig
 
 
@@ -181,24 +182,23 @@ def step_figure(job):
 
     sim = job.results["simulate"]
     stds = sim["stds"]
-    fig, axes = plt.subplots(len(stds), 1, sharex=True, figsize=(7.5, 2.6 * len(stds)),
+    fig, axes = plt.subplots(len(stds), 1, sharex=True, figsize=(9.0, 2.4 * len(stds)),
                              squeeze=False)
+    fig.subplots_adjust(left=0.09, right=0.66, top=0.9, bottom=0.1, hspace=0.35)
     for ax, std in zip(axes[:, 0], stds):
         for i, name in enumerate(sim["designs"]):
             r = sim["runs"][(name, std)]
-            ax.plot(r.t, r.y, color=f"C{i}", lw=1.1,
-                    label=f"{name}: {r.status}, overshoot {overshoot_text(r)} %")
+            over = overshoot_text(r)
+            over = f"{over} %" if over[:1].isdigit() else "never reaches r"
+            ax.plot(r.t, r.y, color=f"C{i}", lw=1.1, label=f"{name}: {r.status}, {over}")
         ax.plot(r.t, r.r, "k--", lw=0.9, label="reference")
         ax.set_ylabel(f"y ({_y(job)})")
-        ax.set_title(f"sensor noise std {std:.3g} {_y(job)}" if std else "noise-free",
+        ax.set_title(f"noise std {std:.3g} {_y(job)}" if std else "noise-free",
                      fontsize="small")
-        ax.legend(loc="best", fontsize="x-small")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                  fontsize="x-small")
     axes[-1, 0].set_xlabel("time (s)")
-    ctrl = job.design.controller
-    fig.suptitle(f"{job.plant.name}: EHGO vs least squares under one controller "
-                 f"(gamma = {ctrl.gamma:g}, K = {tuple(float(k) for k in ctrl.gains)})",
-                 fontsize="small")
-    fig.tight_layout()
+    fig.suptitle(f"{job.plant.name}: EHGO vs least squares", fontsize="small")
     return fig
 
 
@@ -224,7 +224,10 @@ def tradeoff_figure(job):
     import matplotlib.pyplot as plt
 
     rows = job.results["simulate"]["tradeoff"]
+    from matplotlib.ticker import LogFormatterSciNotation, NullFormatter
+
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.8))
+    fig.subplots_adjust(left=0.14, right=0.96, top=0.9, bottom=0.12, hspace=0.12)
     eps = np.array([r["eps"] for r in rows])
     axes[0].plot(eps, [r["sigmahat_noise"] for r in rows], "C1o-")
     axes[0].set_ylabel(f"sigmahat noise ({_y(job)}/s^{job.plant.relative_degree()})")
@@ -234,12 +237,12 @@ def tradeoff_figure(job):
     for ax in axes:
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):  # decade labels only: minor labels overlap
+            axis.set_major_formatter(LogFormatterSciNotation())
+            axis.set_minor_formatter(NullFormatter())
     std = rows[0]["noise_std"] if rows else 0.0
-    ctrl = job.design.controller
-    fig.suptitle(f"{job.plant.name}: EHGO (gamma = {ctrl.gamma:g}), sensor noise std "
-                 f"{std:.3g} {_y(job)}; noise = std(diff)/sqrt(2) over the tail",
+    fig.suptitle(f"{job.plant.name}: noise against eps (noise std {std:.3g} {_y(job)})",
                  fontsize="small")
-    fig.tight_layout()
     return fig
 
 
@@ -263,13 +266,17 @@ def main_response_figure(job):
     'time (s)'
     """
     resp = job.results["simulate"]["main"]
-    verdict = textwrap.fill(resp.verdict(), 120)  # the whole verdict, wrapped to the figure
-    fig = resp.plot(title=f"{job.plant.name}: {design_label(job.design)}\n{verdict}")
-    fig.axes[0].title.set_fontsize("x-small")
+    # a short title; the verdict is the caption
+    fig = resp.plot(title=f"{job.plant.name}: this design ({resp.status})")
+    fig.axes[0].title.set_fontsize("small")
     fig.axes[0].set_ylabel(f"output y ({_y(job)})")
     fig.axes[1].set_ylabel(f"input u ({job.config.plant.get('input_unit', 'input units')})")
     fig.axes[2].set_ylabel(f"sigma ({_y(job)}/s^{job.plant.relative_degree()})")
-    fig.tight_layout()
+    u_eq = job.derivation.get("u_eq")
+    if u_eq is not None:  # the operating point's input
+        fig.axes[1].axhline(u_eq, color="k", ls=":", lw=1.0, label=f"u_eq = {u_eq:.3g}")
+        fig.axes[1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                           fontsize="small")
     return fig
 
 

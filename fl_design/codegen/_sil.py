@@ -350,7 +350,7 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
         Reference, duration, ``x0`` (default the operating point), noise, quantization. An
         ``initial_estimate`` is refused (firmware starts from a measurement).
     substeps : int, optional
-        RK4 steps per sample (default :func:`fl_design.sim.default_substeps`).
+        RK4 steps per sample (default :func:`fl_design.sim.kernel.default_substeps`).
     compiler : str, optional
         C compiler.
 

@@ -150,7 +150,7 @@ class RK4:
     Parameters
     ----------
     substeps : int, optional
-        RK4 steps per sample (>= 1; default :func:`fl_design.sim.default_substeps`, from the
+        RK4 steps per sample (>= 1; default :func:`fl_design.sim.kernel.default_substeps`, from the
         plant's fastest linearized mode).
 
     Raises

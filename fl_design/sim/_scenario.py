@@ -223,7 +223,7 @@ class Scenario:
         ------
         ParameterError
             The duration is shorter than one sample, or not set (adaptive: resolved by
-            :func:`fl_design.sim.prepare_run`).
+            :func:`fl_design.sim._run.prepare_run`).
 
         Examples
         --------
