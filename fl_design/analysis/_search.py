@@ -14,6 +14,21 @@ import math
 import numpy as np
 
 
+def bisect_bracket(pred, good: float, bad: float, rtol: float) -> tuple[float, float]:
+    """``(good, bad)`` after log-bisection of ``[good, bad]`` to relative width ``rtol``.
+
+    Examples
+    --------
+    >>> g, b = bisect_bracket(lambda x: x < 2.0, 1.0, 4.0, 1e-3)
+    >>> g < 2.0 <= b, b / g - 1 <= 1e-3
+    (True, True)
+    """
+    while bad / good - 1.0 > rtol:
+        mid = math.sqrt(good * bad)
+        good, bad = (mid, bad) if pred(mid) else (good, mid)
+    return good, bad
+
+
 def bisect(pred, good: float, bad: float, rtol: float) -> float:
     """Largest known-good point after log-bisection of ``[good, bad]`` to relative ``rtol``.
 
@@ -22,10 +37,7 @@ def bisect(pred, good: float, bad: float, rtol: float) -> float:
     >>> round(bisect(lambda x: x < 2.0, 1.0, 4.0, 1e-3), 2)
     2.0
     """
-    while bad / good - 1.0 > rtol:
-        mid = math.sqrt(good * bad)
-        good, bad = (mid, bad) if pred(mid) else (good, mid)
-    return good
+    return bisect_bracket(pred, good, bad, rtol)[0]
 
 
 def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: float):
@@ -51,7 +63,36 @@ def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: 
             lg, m_good = x, m
         else:
             lb, m_bad = x, m
-    return math.exp(lg)
+    return math.exp(lg), math.exp(lb)
+
+
+def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float):
+    """``(good, bad)``: the frozen eps* bracket of a scan + refinement (see frozen_eps_star).
+
+    ``bad`` is an eps at which ``margin >= 0`` (a counterexample), None when no scan point
+    fails; None altogether when ``lo`` already fails.
+
+    Examples
+    --------
+    >>> g, b = frozen_bracket(lambda e: e - 0.3, 1e-3, 1.0, 8, 1e-4)
+    >>> round(g, 3), round(b, 3), b / g - 1 <= 1e-4
+    (0.3, 0.3, True)
+    """
+    grid = np.geomspace(lo, hi, n_scan)
+    m_prev = margin(grid[0])
+    if not m_prev < 0.0:
+        return None
+    for i in range(1, n_scan):
+        m = margin(grid[i])
+        if not m < 0.0:
+            if not np.isfinite(m) or not np.isfinite(m_prev):
+                good, bad = bisect_bracket(lambda e: margin(e) < 0.0, grid[i - 1], grid[i],
+                                           rtol)
+                return float(good), float(bad)
+            good, bad = _refine(margin, grid[i - 1], m_prev, grid[i], m, rtol)
+            return float(good), float(bad)
+        m_prev = m
+    return float(hi), None
 
 
 def frozen_eps_star(margin, lo: float, hi: float, n_scan: int, rtol: float) -> float | None:
@@ -78,18 +119,8 @@ def frozen_eps_star(margin, lo: float, hi: float, n_scan: int, rtol: float) -> f
     >>> frozen_eps_star(lambda e: 1.0, 1e-3, 1.0, 8, 1e-3) is None
     True
     """
-    grid = np.geomspace(lo, hi, n_scan)
-    m_prev = margin(grid[0])
-    if not m_prev < 0.0:
-        return None
-    for i in range(1, n_scan):
-        m = margin(grid[i])
-        if not m < 0.0:
-            if not np.isfinite(m) or not np.isfinite(m_prev):
-                return float(bisect(lambda e: margin(e) < 0.0, grid[i - 1], grid[i], rtol))
-            return float(_refine(margin, grid[i - 1], m_prev, grid[i], m, rtol))
-        m_prev = m
-    return float(hi)
+    out = frozen_bracket(margin, lo, hi, n_scan, rtol)
+    return None if out is None else out[0]
 
 
 def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
@@ -164,4 +195,5 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
     return float(g_min), float(g_max)
 
 
-__all__ = ["bisect", "certified_eps_star", "frozen_eps_star", "gamma_interval"]
+__all__ = ["bisect", "bisect_bracket", "certified_eps_star", "frozen_bracket", "frozen_eps_star",
+           "gamma_interval"]

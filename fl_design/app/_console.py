@@ -53,7 +53,12 @@ def print_certificates(job) -> None:
             print(cert[key])
     if "skipped" in cert:
         print(f"gamma/eps certificates skipped: {cert['skipped']}")
-    print(f"linearized eps* at this gamma: {linearized_text(cert['linearized_design'])}")
+    if "eps" in cert:
+        e = cert["eps"]
+        print(f"eps* to use: {e.eps_star_certified} s, certified for {e.covers} b (the "
+              "strongest coverage these data support; the brackets above say how tight)")
+    print("linearized eps* at this gamma (eigenvalues of the nonlinear loop's Jacobian at rest, "
+          f"not a certificate): {linearized_text(cert['linearized_design'])}")
 
 
 print_certify = print_certificates

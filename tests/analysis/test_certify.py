@@ -47,14 +47,82 @@ def test_eps_star_frozen_agrees_with_independent_eigenvalues(certs, gamma):
 
 
 @pytest.mark.parametrize("gamma", GAMMAS)
-def test_certified_eps_star_is_sound_and_close_to_frozen(certs, gamma):
+def test_frozen_bracket_is_sound_and_tight(certs, gamma):
     c = certs[gamma]
-    assert c.eps_star_certified <= c.eps_star_frozen
-    assert c.eps_star_certified >= 0.8 * c.eps_star_frozen
-    if c.eps_star_common is not None:  # the parameter-dependent certificate certifies more
-        assert c.eps_star_common <= c.eps_star_certified
-    ehgo = fl.EHGO(2, c.eps_star_certified, T, coeffs=(6, 11, 6))  # certified => Schur
+    fr = c.bracket("frozen")
+    assert fr.certified <= c.eps_star_frozen < fr.refuted
+    assert fr.certified >= 0.8 * fr.refuted
+    ehgo = fl.EHGO(2, fr.certified, T, coeffs=(6, 11, 6))  # certified => Schur
     assert spectral_radius_over_b(ehgo, GAINS, gamma, KI, np.linspace(*B_TRMS, 101)) < 1.0
+    ehgo = fl.EHGO(2, fr.refuted, T, coeffs=(6, 11, 6))  # refuted => a constant b diverges
+    assert spectral_radius_over_b(ehgo, GAINS, gamma, KI, np.linspace(*B_TRMS, 41)) > 1.0
+
+
+def _period_radius(eps, gamma, runs):
+    """Spectral radius of one period of ``runs`` ((b, samples), ...) from the oracle matrices."""
+    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+    acc = np.eye(7)
+    for b, n in runs:
+        acc = np.linalg.matrix_power(surrogate_loop_matrix(ehgo, GAINS, gamma, KI, b), n) @ acc
+    return float(np.max(np.abs(np.linalg.eigvals(acc))))
+
+
+def _attack(eps, gamma, seed):
+    """Independent switching attack: dwell pairs and random dwell sequences (oracle matrices)."""
+    rng = np.random.default_rng(seed)
+    dwells = (1, 2, 5, 10, 20, 50, 100, 200, 300, 400, 450, 500, 550, 600, 800, 1000, 1500)
+    worst = max(_period_radius(eps, gamma, ((B_TRMS[0], a), (B_TRMS[1], c)))
+                for a in dwells for c in dwells)
+    for _ in range(3):
+        runs = [(float(rng.choice(B_TRMS)), int(rng.integers(1, 1200))) for _ in range(8)]
+        worst = max(worst, _period_radius(eps, gamma, runs))
+    return worst
+
+
+@pytest.mark.parametrize("gamma", GAMMAS)
+def test_varying_bracket_is_the_headline_and_holds_under_attack(certs, gamma):
+    c = certs[gamma]
+    v = c.bracket("varying")
+    assert c.covers == "varying" and c.eps_star_certified == v.certified == c.eps_star_common
+    assert v.certified < v.refuted <= c.bracket("frozen").refuted
+    assert v.certified <= c.bracket("frozen").certified
+    if v.counterexample:  # the refuting period, rebuilt from the oracle's matrices, grows
+        assert _period_radius(v.refuted, gamma, v.counterexample) > 1.0
+    assert _attack(0.99 * v.certified, gamma, seed=int(gamma * 1e5)) < 1.0
+
+
+def test_paper_gamma_varying_bracket_matches_the_switching_counterexample(certs):
+    """At gamma = 3e-4 switching b with ~1 s period diverges above ~0.122 (the issue's attack)."""
+    v = certs[3e-4].bracket("varying")
+    assert 0.115 < v.refuted < 0.13 and "periodic" in v.how_refuted
+    assert 0.0814 * 0.99 < v.certified < v.refuted
+
+
+def test_small_gamma_is_refuted_for_varying_b_though_frozen_b_is_certified():
+    """gamma = 1.5e-4: every constant b is fine at eps = 0.05, switching b diverges."""
+    c = fl.certify_eps(fl.presets.paper_design(gamma=1.5e-4), B_TRMS)
+    assert not c.certified and c.eps_star_certified is None
+    v, fr = c.bracket("varying"), c.bracket("frozen")
+    assert v.refuted < 0.0011 and _period_radius(v.refuted, 1.5e-4, v.counterexample) > 1.0
+    assert fr.certified > 0.05  # frozen: certified at the design's eps
+    assert fl.certify_eps(fl.presets.paper_design(gamma=1.5e-4), B_TRMS, b_rate=0,
+                          search=False).certified
+
+
+def test_rate_bounded_bracket_respects_the_rate():
+    db = 0.01
+    c = fl.certify_eps(fl.presets.paper_design(), B_TRMS, b_rate=db)
+    r = c.bracket("rate-bounded")
+    assert c.covers == "rate-bounded" and r.b_rate == db and c.eps_star_certified == r.certified
+    assert r.certified >= c.bracket("varying").certified  # a varying certificate covers it
+    assert r.refuted <= c.bracket("frozen").refuted
+    if r.counterexample:
+        seq = [b for b, n in r.counterexample for _ in range(n)]
+        steps = np.abs(np.diff(seq + seq[:1]))
+        assert steps.max() <= db * (1 + 1e-9)
+        assert _period_radius(r.refuted, 3e-4, r.counterexample) > 1.0
+    with pytest.raises(ParameterError, match="b_rate"):
+        fl.certify_eps(fl.presets.paper_design(), B_TRMS, b_rate=-1.0)
 
 
 def test_paper_design_is_certified(certs):
@@ -124,11 +192,12 @@ def test_certify_gamma_of_the_paper_design():
 
 
 def test_negative_b_is_certified_through_b_gamma():
-    design = fl.presets.paper_design(eps=0.08, gamma=1e-3)
-    pos = fl.certify_eps(design, B_TRMS, search=False)
-    neg = fl.certify_eps(design, (-6.8, -3.6), search=False)
-    assert pos.certified and neg.certified
-    assert neg.gamma == -1e-3 and neg.b_bounds == (-6.8, -3.6)
+    for eps, b_rate in ((0.06, None), (0.08, 0.0)):  # varying b; frozen b (beyond varying)
+        design = fl.presets.paper_design(eps=eps, gamma=1e-3)
+        pos = fl.certify_eps(design, B_TRMS, b_rate=b_rate, search=False)
+        neg = fl.certify_eps(design, (-6.8, -3.6), b_rate=b_rate, search=False)
+        assert pos.certified and neg.certified and pos.covers == neg.covers
+        assert neg.gamma == -1e-3 and neg.b_bounds == (-6.8, -3.6)
 
 
 def test_not_certified_is_a_value_unless_asked_to_raise():
@@ -192,7 +261,8 @@ def test_cli_certify_prints_the_certificates(capsys):
 
     assert main(["certify", "--eps", "0.05", "--gamma", "3e-4"]) == 0
     out = capsys.readouterr().out
-    assert "GammaCertificate" in out and "certified: True" in out
+    assert "GammaCertificate" in out and "certified for varying b: True" in out
+    assert "varying b: eps* in [0.0814" in out and "eps* to use: 0.0814" in out
     assert main(["certify", "--eps", "-1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "eps" in err[0]
@@ -244,10 +314,11 @@ def test_every_certificate_stores_a_lyapunov_function_that_rechecks(certs, gamma
     c = certs[gamma]
     if c.certified:
         _stored_certificate_holds(c.point, gamma, c.eps)
-    design = fl.presets.paper_design(eps=c.eps_star_certified, gamma=gamma)
-    top = fl.certify_eps(design, B_TRMS, search=False)
-    assert top.certified and top.point.pieces > 1
-    _stored_certificate_holds(top.point, gamma, c.eps_star_certified)
+    top_eps = c.bracket("frozen").certified
+    design = fl.presets.paper_design(eps=top_eps, gamma=gamma)
+    top = fl.certify_eps(design, B_TRMS, b_rate=0.0, search=False)
+    assert top.certified and top.point.pieces > 1 and top.point.covers == "frozen"
+    _stored_certificate_holds(top.point, gamma, top_eps)
 
 
 def test_lmi_certificates_store_a_lyapunov_function_that_rechecks():
