@@ -89,7 +89,7 @@ def refuted_eps(L, gamma: float, db, start: float, frozen_bad: float | None, rto
     neither exists).
     """
     top = frozen_bad if frozen_bad is not None else hi
-    if start >= top:
+    if start >= top or L.b_lo == L.b_hi:  # one b: switching is no more than frozen
         return frozen_bad, None
     prev, found = start, None
     for e in np.geomspace(start, top, 10)[1:]:

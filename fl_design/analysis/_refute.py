@@ -157,34 +157,37 @@ def periodic_refutation(M_lo, M_hi, M_at, b_lo: float, b_hi: float,
     down, n_down = ramp(M_at, b_hi, b_lo, db)
     sq_lo, sq_hi = _squares(M_lo, 2 * top), _squares(M_hi, 2 * top)
 
-    def radii(pairs):
+    def rates(pairs):
+        """Per-sample growth ``log(rho) / period`` of each dwell pair (stacked eigvals)."""
         A = np.stack([_power(sq_lo, a) for a, _ in pairs])
         C = np.stack([_power(sq_hi, c) for _, c in pairs])
         with np.errstate(all="ignore"):
             rad = np.max(np.abs(np.linalg.eigvals(C @ down @ A @ up)), axis=-1)
-        return np.where(np.isfinite(rad), rad, -1.0)
+            rate = np.log(rad) / np.array([a + c + n_up + n_down for a, c in pairs])
+        return np.where(np.isfinite(rate), rate, -np.inf), rad
 
     pairs = [(a, c) for a in DWELLS for c in DWELLS
              if a <= top and c <= top and a + c + n_up + n_down > 0]
-    rad = radii(pairs)
-    i = int(np.argmax(rad))
-    (a, c), best = pairs[i], float(rad[i])
+    rate, rad = rates(pairs)
+    i = int(np.argmax(rate))
+    (a, c), best, radius = pairs[i], float(rate[i]), float(rad[i])
     step = max(a, c) // 4
     while step >= 1:  # coordinate refinement of the best dwell pair (stacked candidates)
         cand = [(a + da, c + dc) for da in (-step, 0, step) for dc in (-step, 0, step)
-                if a + da >= 0 and c + dc >= 0 and a + da + c + dc + n_up + n_down > 0]
-        r = radii(cand)
+                if 0 <= a + da <= 2 * top and 0 <= c + dc <= 2 * top
+                and a + da + c + dc + n_up + n_down > 0]
+        r, rd = rates(cand)
         k = int(np.argmax(r))
         if r[k] > best:
-            (a, c), best = cand[k], float(r[k])
+            (a, c), best, radius = cand[k], float(r[k]), float(rd[k])
         else:
             step //= 2
     ramps = "" if db is None else f", ramps of {n_up} samples (|db| <= {db:.4g})"
     how = (f"periodic: {a} samples at b = {b_lo:.6g}, {c} at b = {b_hi:.6g}{ramps}; "
-           f"spectral radius of the period {best:.9f}")
+           f"spectral radius of the period {radius:.9f}")
     seq = ([b_lo] * a + _ramp_values(b_lo, b_hi, db) + [b_hi] * c
            + _ramp_values(b_hi, b_lo, db))
-    return Refutation(bool(best > 1.0 + GROWTH_TOL), best, a + c + n_up + n_down, how,
+    return Refutation(bool(radius > 1.0 + GROWTH_TOL), radius, a + c + n_up + n_down, how,
                       _runs(seq))
 
 
