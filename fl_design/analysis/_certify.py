@@ -65,6 +65,7 @@ from ._analytic import piecewise_modal
 from ._cert_results import EpsCertificate, EpsStarCurve, PointCertificate
 from ._coverage import coverage_brackets, coverage_of
 from ._lmi import balance_scaling, vertex_lmi
+from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, frozen_eps_star
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
@@ -75,6 +76,8 @@ DEFAULT_EPS_RANGE = (1e-3, 1.0)
 MODAL_SPLIT = 8
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
+#: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).
+RATE_PIECES = 4
 
 
 def _serial(func):
@@ -155,11 +158,25 @@ class _Loop:
                   "varying" if pc.covers_time_varying_b else "frozen")
         return dataclasses.replace(pc, covers=covers)
 
-    def covered_point(self, eps: float, gamma: float, covers: str) -> PointCertificate:
+    def covered_point(self, eps: float, gamma: float, covers: str,
+                      b_rate: float | None = None) -> PointCertificate:
         """The certificate of coverage ``covers`` at one eps (a stronger one counts)."""
         if covers in ("varying", "rate-bounded"):
-            return self.point(eps, gamma, common_only=True)
+            pc = self.point(eps, gamma, common_only=True)
+            if pc.certified or covers == "varying" or not self.frozen_ok(eps, gamma):
+                return pc
+            return self.rate_point(eps, gamma, b_rate)
         return self.point(eps, gamma)
+
+    def rate_point(self, eps: float, gamma: float, db: float) -> PointCertificate:
+        """Rate-bounded certificate: ``P(b)`` piecewise affine with ``|b+ - b| <= db``."""
+        M0, M1 = self.loop.parts(eps, gamma)
+        ok, margin, note = rate_lmi(lambda b: delta(M0 + b * M1, self.T), self.b_lo,
+                                    self.b_hi, self.T, db, RATE_PIECES)
+        return PointCertificate(
+            float(eps), ok, "rate-bounded P(b)" if ok else None, RATE_PIECES if ok else 0,
+            False, "CLARABEL", "see reason", margin, note,
+            covers="rate-bounded" if ok else None)
 
     def _point(self, eps, gamma, *, common_only, lmi) -> PointCertificate:
         if self.box is not None:
@@ -346,7 +363,7 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     covers = coverage_of(b_rate, L.box)
     eps, gamma = design.estimator.eps, design.controller.gamma
-    point = L.covered_point(eps, gamma, covers)
+    point = L.covered_point(eps, gamma, covers, b_rate)
     f = c_common = c_head = None
     brackets = ()
     if search:
@@ -356,7 +373,10 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
             if f is not None:
                 c_head = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
         else:
-            found = coverage_brackets(L, gamma, lo, fb, rtol, b_rate)
+            found = coverage_brackets(
+                L, gamma, lo, fb, rtol, b_rate,
+                None if not b_rate else (lambda e: L.frozen_ok(e, gamma) and
+                                         L.rate_point(e, gamma, b_rate).certified))
             brackets = tuple(found.values())
             c_common = found["varying"].certified
             c_head = found[covers].certified

@@ -91,7 +91,7 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamm
                             rtol)[0] for e in grid_eps]
     mins = [m for m in mins if m is not None]
     lower = min(mins) if mins else None
-    point = L.covered_point(eps, gamma, coverage_of(b_rate, L.box))
+    point = L.covered_point(eps, gamma, coverage_of(b_rate, L.box), b_rate)
     inside = g_min is not None and g_min < gamma < g_max
     certified = bool(inside and point.certified)
     reason = _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside)

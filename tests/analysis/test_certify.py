@@ -111,7 +111,7 @@ def test_small_gamma_is_refuted_for_varying_b_though_frozen_b_is_certified():
 
 def test_rate_bounded_bracket_respects_the_rate():
     db = 0.01
-    c = fl.certify_eps(fl.presets.paper_design(), B_TRMS, b_rate=db)
+    c = fl.certify_eps(fl.presets.paper_design(), B_TRMS, b_rate=db, rtol=0.05)
     r = c.bracket("rate-bounded")
     assert c.covers == "rate-bounded" and r.b_rate == db and c.eps_star_certified == r.certified
     assert r.certified >= c.bracket("varying").certified  # a varying certificate covers it
@@ -123,6 +123,35 @@ def test_rate_bounded_bracket_respects_the_rate():
         assert _period_radius(r.refuted, 3e-4, r.counterexample) > 1.0
     with pytest.raises(ParameterError, match="b_rate"):
         fl.certify_eps(fl.presets.paper_design(), B_TRMS, b_rate=-1.0)
+
+
+def _rate_attack(eps, gamma, db, seed):
+    """Random rate-bounded sequences of b (random walks, ramps with dwells), oracle matrices."""
+    rng = np.random.default_rng(seed)
+    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+    worst = 0.0
+    for _ in range(4):
+        b, seq, step = B_TRMS[0], [], 1.0
+        for _ in range(int(rng.integers(2000, 6000))):
+            if rng.random() < 0.002:  # ramps and dwells of random length
+                step = float(rng.choice((-1.0, 0.0, 1.0)))
+            b = float(np.clip(b + db * step, *B_TRMS))
+            seq.append(b)
+        back = np.linspace(seq[-1], seq[0], int(np.ceil(abs(seq[0] - seq[-1]) / db)) + 1)[1:]
+        acc = np.eye(7)
+        for v in seq + list(back):
+            acc = surrogate_loop_matrix(ehgo, GAINS, gamma, KI, v) @ acc
+        worst = max(worst, float(np.max(np.abs(np.linalg.eigvals(acc)))))
+    return worst
+
+
+def test_rate_bounded_P_of_b_certifies_beyond_the_common_P():
+    """gamma = 3e-4, |db| <= 1e-3 per sample: P(b) certifies beyond common P (0.0814)."""
+    design = fl.presets.paper_design(eps=0.11)
+    c = fl.certify_eps(design, B_TRMS, b_rate=1e-3, search=False)
+    assert c.certified and c.point.covers == "rate-bounded" and c.point.margin > 1e-9
+    assert not fl.certify_eps(design, B_TRMS, search=False).certified  # no common P here
+    assert _rate_attack(0.11, 3e-4, 1e-3, seed=3) < 1.0
 
 
 def test_paper_design_is_certified(certs):
@@ -333,3 +362,26 @@ def test_lmi_certificates_store_a_lyapunov_function_that_rechecks():
     assert pd.kind == "parameter-dependent" and pd.solver == "CLARABEL"
     assert any(np.abs(a - b).max() > 0 for a, b in pd.lyapunov)  # P varies with b
     _stored_certificate_holds(pd, 1e-3, 0.08)
+
+
+@pytest.mark.parametrize("box,db", [((0, 1, 0, 1), 0.25), ((0, 1, 1, 2), 0.1), ((0, 2, 0, 1), 0.5),
+                                    ((0, 1, 3, 4), 0.5)])
+def test_rate_cells_are_the_band_inside_the_box(box, db):
+    """Vertices of {|b - b'| <= db} inside a box: in the set, and their hull has the set's area."""
+    from scipy.spatial import ConvexHull
+
+    from fl_design.analysis._rate import cell_vertices
+
+    a0, a1, c0, c1 = box
+    v = np.array(cell_vertices(a0, a1, c0, c1, db))
+    rng = np.random.default_rng(7)
+    pts = np.column_stack([rng.uniform(a0, a1, 200_000), rng.uniform(c0, c1, 200_000)])
+    inside = np.abs(pts[:, 0] - pts[:, 1]) <= db
+    area = inside.mean() * (a1 - a0) * (c1 - c0)
+    if v.size == 0:
+        assert not inside.any()
+        return
+    assert np.all(np.abs(v[:, 0] - v[:, 1]) <= db + 1e-12)
+    assert np.all((v[:, 0] >= a0) & (v[:, 0] <= a1) & (v[:, 1] >= c0) & (v[:, 1] <= c1))
+    hull = ConvexHull(v).volume if len(v) >= 3 else 0.0
+    assert hull == pytest.approx(area, abs=0.01 * (a1 - a0) * (c1 - c0))
