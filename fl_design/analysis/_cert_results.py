@@ -362,6 +362,9 @@ class EpsStarCurve(_Result):
         Sampling time.
     eps_range : tuple of float
         The eps search interval.
+    covers : str
+        What the certified curve covers: ``"frozen"`` (every constant ``b``; the curve is the
+        fast search, see :func:`fl_design.certify_eps` for varying ``b``).
 
     Examples
     --------
@@ -378,6 +381,7 @@ class EpsStarCurve(_Result):
     b_bounds: tuple
     T: float
     eps_range: tuple
+    covers: str = "frozen"
 
     @property
     def ratio(self) -> np.ndarray:
@@ -411,7 +415,8 @@ class EpsStarCurve(_Result):
 
     def _repr_lines(self):
         return [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
-                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
+                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}, "
+                f"certified for {self.covers} b"),
                 f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"
                 if np.any(np.isfinite(self.ratio)) else "no certified point"]
 
