@@ -223,6 +223,10 @@ class EpsCertificate(_Result):
         ``[certified, refuted]`` per coverage searched (empty without a search).
     b_rate : float or None
         The rate bound per sample given (None: ``b`` arbitrary in time; 0: constant ``b``).
+    eps_intervals_frozen : tuple of (float, float)
+        The eps of the range at which every frozen loop of the ``b`` grid is Schur, as
+        intervals (a scan of ``4 n_scan`` points, ends refined): not always ``(0, eps*]``
+        (for gamma just above its lower bound the stable eps form a band away from 0).
 
     Examples
     --------
@@ -248,6 +252,7 @@ class EpsCertificate(_Result):
     covers: str = "varying"
     brackets: tuple = ()
     b_rate: float | None = None
+    eps_intervals_frozen: tuple = ()
 
     def bracket(self, covers: str):
         """The :class:`EpsBracket` of one coverage, or None when not searched.
@@ -275,6 +280,9 @@ class EpsCertificate(_Result):
                   f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
         lines += [str(b) + ("  <- headline" if b.covers == self.covers else "")
                   for b in self.brackets]
+        if self.eps_intervals_frozen:
+            lines.append("frozen-stable eps: " + ", ".join(
+                f"[{a:.6g}, {b:.6g}]" for a, b in self.eps_intervals_frozen))
         return lines + [self.reason]
 
 

@@ -66,7 +66,7 @@ from ._cert_results import EpsCertificate, EpsStarCurve, PointCertificate
 from ._coverage import coverage_brackets, coverage_of
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
-from ._search import certified_eps_star, frozen_bracket, frozen_eps_star
+from ._search import certified_eps_star, frozen_bracket, frozen_eps_star, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
@@ -365,8 +365,10 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
     eps, gamma = design.estimator.eps, design.controller.gamma
     point = L.covered_point(eps, gamma, covers, b_rate)
     f = c_common = c_head = None
-    brackets = ()
+    brackets, intervals = (), ()
     if search:
+        intervals = stable_intervals(lambda e: L.frozen_ok(e, gamma), lo, hi, 4 * n_scan,
+                                     rtol / 10)
         fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10)
         f = None if fb is None else fb[0]
         if L.box is not None:
@@ -383,6 +385,9 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
     reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
               if point.certified else
               f"eps = {eps:g} not certified for {covers} b: {point.reason}")
+    if intervals and intervals[0][0] > lo:
+        reason += (f"; the frozen-stable eps form a band away from eps = {lo:g}: "
+                   + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals))
     if raise_on_failure and not point.certified:
         raise CertificationError(reason)
     return EpsCertificate(
@@ -391,7 +396,8 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
         eps_star_frozen=f, eps_star_common=c_common, eps_star_certified=c_head,
         certified=point.certified, point=point, n_b_grid=L.n_b,
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
-        reason=reason, covers=covers, brackets=brackets, b_rate=b_rate)
+        reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
+        eps_intervals_frozen=intervals)
 
 
 @_serial

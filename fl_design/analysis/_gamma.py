@@ -17,7 +17,7 @@ from ..errors import CertificationError, ParameterError
 from ._cert_results import GammaCertificate
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
 from ._coverage import coverage_of
-from ._search import gamma_interval
+from ._search import bisect_bracket, gamma_interval
 
 
 @_serial
@@ -29,9 +29,11 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamm
     ``gamma_min``, ``gamma_max`` bound the run of a log-spaced gamma scan (refined by bisection
     to ``rtol``) that contains the design's gamma, on which every frozen-b loop of the ``n_b``
     grid is Schur (the surrogate of :mod:`fl_design.analysis._certify`, at the design's eps and
-    T). ``gamma_lower_bound`` is the smallest ``gamma_min`` over ``eps_grid``: a gamma below it
-    destabilizes the loop for every eps of the grid (``b gamma / T`` slower than the closed
-    loop). ``certified`` needs the gamma inside the interval *and* the LMI certificate at the
+    T). ``gamma_lower_bound``: below it no eps of ``[1e-3, 1]`` gives a Schur loop for every
+    ``b`` of the grid (``b gamma / T`` slower than the closed loop); the smallest ``gamma_min``
+    over ``eps_grid``, refined by bisection in gamma (to 1e-4 relative) of "some eps works",
+    each tested by a log eps scan and a bounded 1-D minimization of the frozen margin.
+    ``certified`` needs the gamma inside the interval *and* the LMI certificate at the
     design's ``(eps, gamma)``. Gains are magnitudes: for ``b < 0``, ``gamma`` means
     ``-|gamma|`` and the bounds are on ``|gamma|``.
 
@@ -91,6 +93,8 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamm
                             rtol)[0] for e in grid_eps]
     mins = [m for m in mins if m is not None]
     lower = min(mins) if mins else None
+    if lower is not None:
+        lower = refine_lower_bound(L, lower, g_lo, *DEFAULT_EPS_RANGE)
     point = L.covered_point(eps, gamma, coverage_of(b_rate, L.box), b_rate)
     inside = g_min is not None and g_min < gamma < g_max
     certified = bool(inside and point.certified)
@@ -102,6 +106,49 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamm
         paper_bound=1.0 / L.b_hi, convergence_bound=2.0 / L.b_hi, gamma_min=g_min,
         gamma_max=g_max, gamma_lower_bound=lower, eps_grid=tuple(grid_eps.tolist()),
         certified=certified, point=point, reason=reason)
+
+
+#: Relative width of the bracket of the refined gamma lower bound.
+LOWER_RTOL = 1e-4
+
+
+def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24) -> float:
+    """Smallest frozen margin over eps in ``[lo, hi]``: a log scan, then a bounded 1-D search.
+
+    Negative: some eps gives a Schur loop for every b of the grid at this gamma.
+    """
+    from scipy.optimize import minimize_scalar
+
+    grid = np.geomspace(lo, hi, n)
+    m = np.array([L.frozen_margin(e, gamma) for e in grid])
+    i = int(np.argmin(m))
+    if m[i] < 0.0:
+        return float(m[i])
+    a, b = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, n - 1)])
+    res = minimize_scalar(lambda x: L.frozen_margin(float(np.exp(x)), gamma), bounds=(a, b),
+                          method="bounded", options={"xatol": 1e-6})
+    return float(min(m[i], res.fun))
+
+
+def refine_lower_bound(L, good: float, g_floor: float, lo: float, hi: float) -> float:
+    """The gamma below which no eps in ``[lo, hi]`` works, bracketed to :data:`LOWER_RTOL`.
+
+    ``good`` is a gamma at which some eps works; the bracket's lower (failing) end is found by
+    halving, then log-bisection. Returns the good end (some eps works there, none at
+    ``good / (1 + LOWER_RTOL)`` as far as :func:`best_margin` finds).
+    """
+    def works(g):
+        return best_margin(L, g, lo, hi) < 0.0
+
+    if not works(good):
+        return good
+    bad = good / 2.0
+    while works(bad):
+        if bad <= g_floor:
+            return bad
+        good, bad = bad, bad / 2.0
+    inv_good, _ = bisect_bracket(lambda x: works(1.0 / x), 1.0 / good, 1.0 / bad, LOWER_RTOL)
+    return float(1.0 / inv_good)
 
 
 def _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside) -> str:

@@ -161,6 +161,36 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     return None
 
 
+def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float) -> tuple:
+    """Runs of a log scan where ``pred`` holds, each end refined by bisection to ``rtol``.
+
+    Returns ``((a, b), ...)`` in increasing order; an end of the scan is kept as is when the
+    run reaches it. Gaps narrower than the scan's spacing can be missed.
+
+    Examples
+    --------
+    >>> [tuple(round(v, 3) for v in r)
+    ...  for r in stable_intervals(lambda e: 0.1 < e < 0.2 or e > 0.5, 0.01, 1.0, 40, 1e-4)]
+    [(0.1, 0.2), (0.5, 1.0)]
+    """
+    grid = np.geomspace(lo, hi, n_scan)
+    ok = [bool(pred(g)) for g in grid]
+    out, i = [], 0
+    while i < n_scan:
+        if not ok[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n_scan and ok[j + 1]:
+            j += 1
+        a = grid[0] if i == 0 else 1.0 / bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                  1.0 / grid[i - 1], rtol)
+        b = grid[-1] if j == n_scan - 1 else bisect(pred, grid[j], grid[j + 1], rtol)
+        out.append((float(a), float(b)))
+        i = j + 1
+    return tuple(out)
+
+
 def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
     """Stable run of a log gamma scan containing ``design_gamma`` (else the lowest run).
 
@@ -196,4 +226,4 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
 
 
 __all__ = ["bisect", "bisect_bracket", "certified_eps_star", "frozen_bracket", "frozen_eps_star",
-           "gamma_interval"]
+           "gamma_interval", "stable_intervals"]

@@ -385,3 +385,31 @@ def test_rate_cells_are_the_band_inside_the_box(box, db):
     assert np.all((v[:, 0] >= a0) & (v[:, 0] <= a1) & (v[:, 1] >= c0) & (v[:, 1] <= c1))
     hull = ConvexHull(v).volume if len(v) >= 3 else 0.0
     assert hull == pytest.approx(area, abs=0.01 * (a1 - a0) * (c1 - c0))
+
+
+def test_gamma_lower_bound_to_a_tenth_of_a_percent():
+    """Below 0.999 x the bound no eps works (dense oracle scan), above 1.001 x some eps does."""
+    g = fl.certify_gamma(fl.presets.paper_design(), B_TRMS)
+    low = g.gamma_lower_bound
+    assert 1.30e-4 < low < 1.333e-4  # the coarse 6-point eps grid gave 1.3332e-4
+    grid = np.linspace(*B_TRMS, 41)
+
+    def stable_eps(gamma, eps_values):
+        return [e for e in eps_values if spectral_radius_over_b(
+            fl.EHGO(2, e, T, coeffs=(6, 11, 6)), GAINS, gamma, KI, grid) < 1.0]
+
+    dense = np.concatenate([np.geomspace(1e-3, 0.05, 40), np.linspace(0.05, 0.15, 300),
+                            np.geomspace(0.15, 1.0, 40)])
+    assert stable_eps(0.999 * low, dense) == []
+    assert stable_eps(1.001 * low, dense)
+
+
+def test_eps_star_is_a_band_just_above_the_gamma_lower_bound():
+    """gamma = 1.35e-4: the frozen-stable eps form a band away from 0, reported as such."""
+    c = fl.certify_eps(fl.presets.paper_design(gamma=1.35e-4), B_TRMS)
+    (a, b), = c.eps_intervals_frozen
+    assert 0.02 < a < 0.05 and 0.1 < b < 0.15 and "band" in c.reason
+    grid = np.linspace(*B_TRMS, 41)
+    for eps, inside in ((0.99 * a, False), (1.01 * a, True), (0.99 * b, True), (1.01 * b, False)):
+        r = spectral_radius_over_b(fl.EHGO(2, eps, T, coeffs=(6, 11, 6)), GAINS, 1.35e-4, KI, grid)
+        assert (r < 1.0) == inside, (eps, r)
