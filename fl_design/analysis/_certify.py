@@ -61,7 +61,7 @@ import numpy as np
 from .. import _validate as V
 from ..errors import CertificationError, ParameterError
 from ..sim._lanes_blas import serial_blas
-from ._analytic import piecewise_modal
+from ._analytic import piecewise_modal, real_modal_basis
 from ._cert_results import EpsCertificate, EpsStarCurve, PointCertificate
 from ._coverage import coverage_brackets, coverage_of
 from ._lmi import balance_scaling, vertex_lmi
@@ -200,19 +200,46 @@ class _Loop:
             sol, s = self._vertex(eps, gamma, whole, common=False)
             if sol.certified:
                 return _point(eps, sol, "parameter-dependent", [(whole, sol, s)], False)
+        if common_only:
+            pc = self._modal(eps, gamma, whole=True)
+            if pc.certified:
+                return pc
         sol, s = self._vertex(eps, gamma, whole, common=True)
+        if not sol.certified and common_only:
+            sol = self._common_modal_basis(eps, gamma, sol)
         if sol.certified or common_only:
             return _point(eps, sol, "common", [(whole, sol, s)], True)
         return self._pieces(eps, gamma, sol)
+
+    def _common_modal_basis(self, eps, gamma, failed):
+        """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
+        the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
+
+        The LMI and its NumPy re-check run in that basis (a congruence: the same certificate);
+        ``P`` is returned in the balanced coordinates, ``X^-T P_m X^-1``. Else ``failed``.
+        """
+        D, _ = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
+        X = real_modal_basis(0.5 * (D[0] + D[1]))
+        cond = float(np.linalg.cond(X))
+        if not cond < 1e10:
+            return failed
+        sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], self.T, common=True)
+        if not sol.certified:
+            return failed
+        Xi = np.linalg.inv(X)
+        P = Xi.T @ sol.P[0] @ Xi
+        return dataclasses.replace(sol, P=(P,), G=P, note=(
+            f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
         return vertex_lmi(D, self.T, common=common), s
 
-    def _modal(self, eps, gamma) -> PointCertificate:
-        """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`)."""
+    def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
+        """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
+        one P for the whole interval (a common P, no halving)."""
         (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
-        width = (self.b_hi - self.b_lo) / (MODAL_SPLIT * self.max_pieces)
+        width = (self.b_hi - self.b_lo) / (1 if whole else MODAL_SPLIT * self.max_pieces)
         span = self.b_hi - self.b_lo or 1.0
         done, margin, bad = piecewise_modal(
             lambda b: Dlo + (b - self.b_lo) / span * (Dhi - Dlo), self.b_lo, self.b_hi,

@@ -413,3 +413,16 @@ def test_eps_star_is_a_band_just_above_the_gamma_lower_bound():
     for eps, inside in ((0.99 * a, False), (1.01 * a, True), (0.99 * b, True), (1.01 * b, False)):
         r = spectral_radius_over_b(fl.EHGO(2, eps, T, coeffs=(6, 11, 6)), GAINS, 1.35e-4, KI, grid)
         assert (r < 1.0) == inside, (eps, r)
+
+
+def test_flexible_joint_rho_4_certifies_at_its_design_eps():
+    """rho = 4, eps = 0.005 (spectral radius 0.99692): a common P in the real modal basis."""
+    plant, design = fl.plants.flexible_joint(), fl.presets.flexible_joint_design()
+    c = fl.certify_eps(design, plant.b_bounds(), search=False)
+    assert c.certified and c.point.covers == "varying" and "modal basis" in c.point.reason
+    M0, M1 = SurrogateLoop(design).parts()
+    M = M0 + plant.b_bounds()[0] * M1
+    (P_lo, _), = c.point.lyapunov  # in the loop's coordinates: M^T P M - P < 0, P > 0
+    L = np.linalg.cholesky(P_lo)  # P = L L^T: the decrease in the coordinates L^T x
+    Mt = np.linalg.solve(L, M.T @ L).T  # L^T M L^-T
+    assert np.linalg.norm(Mt, 2) < 1.0
