@@ -39,8 +39,8 @@ when ``certified`` says so, **not** at every eps in between. ``eps_star_certifie
 largest eps below which every frozen loop with ``b`` on an ``n_b``-point grid of the interval
 (ends included) is Schur, from a log-spaced scan refined to ``rtol / 10`` (secant steps,
 bracket kept): an eigenvalue scan, not a certificate. For ``b < 0`` the design's ``gamma`` is
-read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
-:class:`~fl_design.DynamicController` stores ``|gamma|``).
+read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only and is evaluated with ``|b|``
+and ``|gamma|``; a :class:`~fl_design.DynamicController` stores ``gamma`` of the sign of ``b``).
 
 Examples
 --------
@@ -63,7 +63,7 @@ from ..errors import CertificationError, ParameterError
 from ..sim._lanes_blas import serial_blas
 from ._analytic import piecewise_modal, real_modal_basis
 from ._cert_results import EpsCertificate, EpsStarCurve, PointCertificate
-from ._coverage import coverage_brackets, coverage_of
+from ._coverage import coverage_brackets, coverage_of, gamma_fix
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, frozen_eps_star, stable_intervals
@@ -389,7 +389,7 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
         b_rate = V.nonnegative("b_rate", b_rate)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     covers = coverage_of(b_rate, L.box)
-    eps, gamma = design.estimator.eps, design.controller.gamma
+    eps, gamma = design.estimator.eps, abs(design.controller.gamma)  # b gamma > 0: magnitudes
     point = L.covered_point(eps, gamma, covers, b_rate)
     f = c_common = c_head = None
     brackets, intervals = (), ()
@@ -412,6 +412,8 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
     reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
               if point.certified else
               f"eps = {eps:g} not certified for {covers} b: {point.reason}")
+    if search and not intervals:
+        reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {gamma_fix(L, gamma, lo, hi)}"
     if intervals and intervals[0][0] > lo:
         reason += (f"; the frozen-stable eps form a band away from eps = {lo:g}: "
                    + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals))

@@ -126,6 +126,47 @@ def bracket(covers: str, certified, refuted, how_certified: str,
                       () if refutation is None else refutation.runs)
 
 
+def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24) -> float:
+    """Smallest frozen margin over eps in ``[lo, hi]``: a log scan, then a bounded 1-D search.
+
+    Negative: some eps gives a Schur loop for every b of the grid at this gamma.
+    """
+    from scipy.optimize import minimize_scalar
+
+    grid = np.geomspace(lo, hi, n)
+    m = np.array([L.frozen_margin(e, gamma) for e in grid])
+    i = int(np.argmin(m))
+    if m[i] < 0.0:
+        return float(m[i])
+    a, b = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, n - 1)])
+    res = minimize_scalar(lambda x: L.frozen_margin(float(np.exp(x)), gamma), bounds=(a, b),
+                          method="bounded", options={"xatol": 1e-6})
+    return float(min(m[i], res.fun))
+
+
+def gamma_fix(L, gamma: float, lo: float, hi: float, n: int = 40) -> str:
+    """What would make some eps of ``[lo, hi]`` work, when none does at ``|gamma|``.
+
+    Scans ``n`` log-spaced ``|gamma|`` in ``[1e-4 T, 4] / |b|_max`` with :func:`best_margin`
+    and names the nearest stable run (``"|gamma| >= ..."`` or ``"|gamma| <= ..."``), or says
+    that no gain of the scan works (then the gains, ``k_I`` or ``T`` must change).
+    """
+    grid = np.geomspace(1e-4 * L.T / L.b_hi, 4.0 / L.b_hi, n)
+    ok = np.array([best_margin(L, float(g), lo, hi) < 0.0 for g in grid])
+    if not ok.any():
+        return (f"no |gamma| in [{grid[0]:.3g}, {grid[-1]:.3g}] gives a stable surrogate at any eps"
+                f" of [{lo:g}, {hi:g}] for every |b| in [{L.b_lo:.4g}, {L.b_hi:.4g}]: narrow the "
+                f"b interval (b_max/b_min = {L.b_hi / L.b_lo:.3g}: a smaller region) or change the"
+                " gains K, k_I or T; gamma alone cannot fix it")
+    good = grid[ok]
+    above, below = good[good > gamma], good[good < gamma]
+    if above.size and (not below.size or above[0] / gamma < gamma / below[-1]):
+        return (f"raise |gamma| to at least ~{above[0]:.3g} (|gamma| >= {above[0]:.3g} gives a "
+                "stable surrogate for some eps; see certify_gamma for the exact bound)")
+    return (f"lower |gamma| to at most ~{below[-1]:.3g} (|gamma| <= {below[-1]:.3g} gives a "
+            "stable surrogate for some eps)")
+
+
 def coverage_brackets(L, gamma: float, lo: float, frozen, rtol: float, b_rate,
                       rate_point=None) -> dict:
     """The brackets of every coverage the data allows, keyed by coverage name.
@@ -160,5 +201,5 @@ def coverage_brackets(L, gamma: float, lo: float, frozen, rtol: float, b_rate,
     return out
 
 
-__all__ = ["COVERAGES", "bracket", "coverage_brackets", "coverage_of", "refute",
-           "refuted_eps"]
+__all__ = ["COVERAGES", "best_margin", "bracket", "coverage_brackets", "coverage_of",
+           "gamma_fix", "refute", "refuted_eps"]

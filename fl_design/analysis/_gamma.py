@@ -16,7 +16,7 @@ from .. import _validate as V
 from ..errors import CertificationError, ParameterError
 from ._cert_results import GammaCertificate
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
-from ._coverage import coverage_of
+from ._coverage import best_margin, coverage_of
 from ._search import bisect_bracket, gamma_interval
 
 
@@ -79,7 +79,7 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamm
         b_rate = V.nonnegative("b_rate", b_rate)
     n_scan = V.integer("n_scan", n_scan, minimum=3)
     rtol = V.positive("rtol", rtol)
-    eps, gamma = design.estimator.eps, design.controller.gamma
+    eps, gamma = design.estimator.eps, abs(design.controller.gamma)  # b gamma > 0: magnitudes
     g_lo, g_hi = ((1e-4 * design.T / L.b_hi, 4.0 / L.b_hi) if gamma_range is None
                   else _eps_range(gamma_range))
     grid_eps = (np.geomspace(*DEFAULT_EPS_RANGE, 6) if eps_grid is None
@@ -110,24 +110,6 @@ def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamm
 
 #: Relative width of the bracket of the refined gamma lower bound.
 LOWER_RTOL = 1e-4
-
-
-def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24) -> float:
-    """Smallest frozen margin over eps in ``[lo, hi]``: a log scan, then a bounded 1-D search.
-
-    Negative: some eps gives a Schur loop for every b of the grid at this gamma.
-    """
-    from scipy.optimize import minimize_scalar
-
-    grid = np.geomspace(lo, hi, n)
-    m = np.array([L.frozen_margin(e, gamma) for e in grid])
-    i = int(np.argmin(m))
-    if m[i] < 0.0:
-        return float(m[i])
-    a, b = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, n - 1)])
-    res = minimize_scalar(lambda x: L.frozen_margin(float(np.exp(x)), gamma), bounds=(a, b),
-                          method="bounded", options={"xatol": 1e-6})
-    return float(min(m[i], res.fun))
 
 
 def refine_lower_bound(L, good: float, g_floor: float, lo: float, hi: float) -> float:

@@ -426,3 +426,15 @@ def test_flexible_joint_rho_4_certifies_at_its_design_eps():
     L = np.linalg.cholesky(P_lo)  # P = L L^T: the decrease in the coordinates L^T x
     Mt = np.linalg.solve(L, M.T @ L).T  # L^T M L^-T
     assert np.linalg.norm(Mt, 2) < 1.0
+
+
+def test_uncertifiable_designs_name_the_fix():
+    """A gamma below the lower bound names the gain to use; the maglev names the b interval."""
+    c = fl.certify_eps(fl.presets.paper_design(gamma=1e-4), B_TRMS)
+    assert not c.certified and "raise |gamma| to at least" in c.reason
+    need = float(c.reason.split("|gamma| >= ")[1].split(" ")[0])
+    assert fl.certify_eps(fl.presets.paper_design(gamma=need), B_TRMS).eps_intervals_frozen
+    plant, design = fl.plants.maglev(), fl.presets.maglev_design()
+    m = fl.certify_eps(design, plant.b_bounds())
+    assert not m.certified and "narrow the b interval" in m.reason
+    assert m.gamma == design.controller.gamma < 0  # b < 0: gamma of the sign of b, used as |gamma|
