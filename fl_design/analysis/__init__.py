@@ -2,8 +2,7 @@
 
 Modules: ``_linearization`` (:func:`sampled_linearization`, :func:`linearized_eps_star`),
 ``_surrogate`` (the linear surrogate loop, affine in ``b``), ``_lmi`` (delta-form vertex LMIs,
-CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_eps`,
-:func:`eps_star_curve`), ``_gamma`` (:func:`certify_gamma`), ``_coverage`` (eps* brackets
+CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_eps`), ``_curve`` (:func:`eps_star_curve`), ``_gamma`` (:func:`certify_gamma`), ``_coverage`` (eps* brackets
 ``[certified, refuted]`` per coverage: frozen, varying, rate-bounded, nonlinear), ``_refute``
 (switching counterexamples), ``_ldi`` (the linear differential inclusion
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
@@ -23,7 +22,8 @@ from ._cert_results import (
                             GammaCertificate,
                             PointCertificate,
 )
-from ._certify import certify_eps, eps_star_curve
+from ._certify import certify_eps
+from ._curve import eps_star_curve
 from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains

@@ -55,9 +55,14 @@ def modal_lyapunov(D: np.ndarray, T: float) -> np.ndarray | None:
     """
     mu, V = np.linalg.eig(D)
     d = -(2.0 * mu.real + T * np.abs(mu) ** 2)
-    if np.any(d <= 0.0) or np.linalg.cond(V) > 1e12:
+    if np.any(d <= 0.0):
         return None
-    Vi = np.linalg.inv(V)
+    try:
+        Vi = np.linalg.inv(V)
+    except np.linalg.LinAlgError:
+        return None
+    if np.linalg.norm(V, 1) * np.linalg.norm(Vi, 1) > 1e12:  # 1-norm condition number
+        return None
     P = ((Vi.conj().T * d ** -0.5) @ Vi).real
     P = 0.5 * (P + P.T)
     return P / np.linalg.norm(P, 2)

@@ -62,11 +62,11 @@ from .. import _validate as V
 from ..errors import CertificationError, ParameterError
 from ..sim._lanes_blas import serial_blas
 from ._analytic import piecewise_modal, real_modal_basis
-from ._cert_results import EpsCertificate, EpsStarCurve, PointCertificate
+from ._cert_results import EpsCertificate, PointCertificate
 from ._coverage import coverage_brackets, coverage_of, gamma_fix
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
-from ._search import certified_eps_star, frozen_bracket, frozen_eps_star, stable_intervals
+from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
@@ -125,6 +125,15 @@ class _Loop:
             m = float(np.max(schur_margins(D, self.T)))
             worst = max(worst, m if math.isfinite(m) else math.inf)
         return worst
+
+    def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
+        """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
+        if self.box is not None:
+            return np.array([self.frozen_margin(e, gamma) for e in eps_values])
+        parts = [self.loop.parts(float(e), gamma) for e in eps_values]
+        M = np.stack([M0[None] + self.b_grid[:, None, None] * M1[None] for M0, M1 in parts])
+        m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
+        return np.where(np.isfinite(m), m, np.inf)
 
     def frozen_ok(self, eps: float, gamma: float) -> bool:
         """Every frozen loop on the b grid (and the a-corners) is Schur."""
@@ -395,8 +404,9 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
     brackets, intervals = (), ()
     if search:
         intervals = stable_intervals(lambda e: L.frozen_ok(e, gamma), lo, hi, 4 * n_scan,
-                                     rtol / 10)
-        fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10)
+                                     rtol / 10, lambda es: L.frozen_margins(es, gamma) < 0.0)
+        fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10,
+                            lambda es: L.frozen_margins(es, gamma))
         f = None if fb is None else fb[0]
         if L.box is not None:
             if f is not None:
@@ -429,73 +439,4 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
         eps_intervals_frozen=intervals)
 
 
-@_serial
-def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
-                   eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
-                   rtol: float = 1e-2, max_pieces: int = 8,
-                   certified: bool = True) -> EpsStarCurve:
-    """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
-
-    Continuation along the curve: the certified search at each gamma starts from the ratio
-    found at the previous one (tries ``hint * eps*_frozen``, then steps down by 0.95).
-
-    Parameters
-    ----------
-    design : Design
-        An EHGO design (its structure; eps and gamma are varied).
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign.
-    gammas : sequence of float
-        Gains (> 0; magnitudes when ``b < 0``).
-    a_jacobian_bounds : sequence of (float, float), optional
-        As in :func:`certify_eps`.
-    eps_range : (float, float), optional
-        Search interval of eps.
-    n_b : int, optional
-        Points of the b grid.
-    n_scan : int, optional
-        Scan points of the frozen search.
-    rtol : float, optional
-        Relative resolution of the certified bisection (frozen: rtol/10).
-    max_pieces : int, optional
-        As in :func:`certify_eps`.
-    certified : bool, optional
-        False: frozen curve only (certified entries NaN).
-
-    Returns
-    -------
-    EpsStarCurve
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> c = fl.eps_star_curve(fl.presets.paper_design(), (3.6, 6.8), [1e-3, 3e-3])
-    >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
-    True
-    """
-    lo, hi = _eps_range(eps_range)
-    rtol = V.positive("rtol", rtol)
-    n_scan = V.integer("n_scan", n_scan, minimum=2)
-    g = V.real_vector("gammas", gammas)
-    if g.size == 0 or np.any(g <= 0):
-        raise ParameterError(f"gammas must be a non-empty sequence of numbers > 0, got {g.tolist()}")
-    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
-    frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
-    for i, gamma in enumerate(g):
-        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_margin(e, g_), lo, hi, n_scan,
-                            rtol / 10)
-        if f is None:
-            continue
-        frozen[i] = f
-        if certified:
-            L.modal_hit = False
-            c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f, rtol, hint,
-                                   0.95)
-            if c is not None:
-                cert[i], hint = c, c / f
-    return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
-                        b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi))
-
-
-__all__ = ["DEFAULT_EPS_RANGE", "certified_eps_star", "certify_eps", "eps_star_curve",
-           "frozen_eps_star"]
+__all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]

@@ -66,11 +66,12 @@ def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: 
     return math.exp(lg), math.exp(lb)
 
 
-def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float):
+def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float, margins=None):
     """``(good, bad)``: the frozen eps* bracket of a scan + refinement (see frozen_eps_star).
 
     ``bad`` is an eps at which ``margin >= 0`` (a counterexample), None when no scan point
-    fails; None altogether when ``lo`` already fails.
+    fails; None altogether when ``lo`` already fails. ``margins`` (optional) evaluates the whole
+    scan at once (``array -> array``, stacked eigenvalue problems).
 
     Examples
     --------
@@ -79,11 +80,12 @@ def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float):
     (0.3, 0.3, True)
     """
     grid = np.geomspace(lo, hi, n_scan)
-    m_prev = margin(grid[0])
+    scan = (np.asarray(margins(grid), dtype=float) if margins is not None else None)
+    m_prev = margin(grid[0]) if scan is None else scan[0]
     if not m_prev < 0.0:
         return None
     for i in range(1, n_scan):
-        m = margin(grid[i])
+        m = margin(grid[i]) if scan is None else scan[i]
         if not m < 0.0:
             if not np.isfinite(m) or not np.isfinite(m_prev):
                 good, bad = bisect_bracket(lambda e: margin(e) < 0.0, grid[i - 1], grid[i],
@@ -161,11 +163,13 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     return None
 
 
-def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float) -> tuple:
+def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float,
+                     preds=None) -> tuple:
     """Runs of a log scan where ``pred`` holds, each end refined by bisection to ``rtol``.
 
     Returns ``((a, b), ...)`` in increasing order; an end of the scan is kept as is when the
-    run reaches it. Gaps narrower than the scan's spacing can be missed.
+    run reaches it. Gaps narrower than the scan's spacing can be missed. ``preds`` (optional)
+    evaluates the whole scan at once.
 
     Examples
     --------
@@ -174,7 +178,7 @@ def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float) -> tu
     [(0.1, 0.2), (0.5, 1.0)]
     """
     grid = np.geomspace(lo, hi, n_scan)
-    ok = [bool(pred(g)) for g in grid]
+    ok = [bool(v) for v in preds(grid)] if preds is not None else [bool(pred(g)) for g in grid]
     out, i = [], 0
     while i < n_scan:
         if not ok[i]:
