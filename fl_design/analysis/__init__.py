@@ -6,7 +6,8 @@ CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_ep
 ``[certified, refuted]`` per coverage: frozen, varying, rate-bounded, nonlinear), ``_refute``
 (switching counterexamples), ``_ldi`` (the linear differential inclusion
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
-``_cert_results`` (the result objects).
+``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
+(the result objects).
 
 Examples
 --------
@@ -27,6 +28,7 @@ from ._curve import eps_star_curve
 from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
+from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
     "EpsBracket",
@@ -37,6 +39,7 @@ __all__ = [
     "LyapunovCertificate",
     "PointCertificate",
     "SampledLinearization",
+    "Theorem1Constants",
     "certify_eps",
     "certify_gamma",
     "certify_lyapunov",
@@ -44,4 +47,5 @@ __all__ = [
     "linearized_eps_star",
     "sampled_linearization",
     "synthesize_gains",
+    "theorem1_constants",
 ]

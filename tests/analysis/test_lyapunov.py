@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 import fl_design as fl
 from fl_design.errors import DimensionError, HurwitzError, ParameterError
@@ -124,3 +125,31 @@ def test_bad_Q(Q, err, match):
 def test_bad_gains():
     with pytest.raises(HurwitzError):
         fl.certify_lyapunov((2.0, -4.0))
+
+
+@pytest.mark.parametrize("gamma,alpha", [(3e-4, 0.02), (3e-3, 1.0)])
+def test_theorem1_constants_bound_the_decrease(gamma, alpha):
+    """Vbar(F) - Vbar <= -lambda_x h|x|^2 - lambda_u e^2 + H h^2 (|x|^2 + e^2) on random states,
+    the loop stepped independently (closed-form ZOH of the chain, e_u = K x - b u)."""
+    from fl_design.analysis import theorem1_constants
+
+    c = theorem1_constants((2.0, 4.0), gamma, (3.6, 6.8), alpha=alpha)
+    assert c.lambda_x == 0.5 and 0 < c.eps_star < np.inf
+    assert c.lambda_u == pytest.approx(min(1 - (1 - b * gamma) ** 2 for b in (3.6, 6.8)) / 4)
+    P = scipy.linalg.solve_continuous_lyapunov(np.array([[0.0, 1.0], [-2.0, -4.0]]).T,
+                                               -np.eye(2))
+    K = -np.array([2.0, 4.0])
+    rng = np.random.default_rng(5)
+    for h in np.geomspace(1e-7, alpha, 15):
+        Phi, Gam = chain_zoh_closed_form(2, h)
+        for b in (3.6, 5.0, 6.8):
+            for _ in range(20):
+                x, e = rng.normal(size=2), rng.normal()
+                u = (K @ x - e) / b
+                x1 = Phi @ x + Gam * b * u
+                u1 = u + gamma * e
+                e1 = K @ x1 - b * u1
+                dV = x1 @ P @ x1 + e1 ** 2 / 2 - x @ P @ x - e ** 2 / 2
+                bound = (-c.lambda_x * h * (x @ x) - c.lambda_u * e ** 2
+                         + c.H * h ** 2 * (x @ x + e ** 2))
+                assert dV <= bound + 1e-12 * (x @ x + e ** 2), (h, b)
