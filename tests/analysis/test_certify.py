@@ -298,13 +298,16 @@ def test_cli_certify_prints_the_certificates(capsys):
 
 
 def test_bench_certify_quick_runs():
+    import os
     import subprocess
     import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": str(root)}  # this tree's fl_design, not an installed one
     proc = subprocess.run([sys.executable, str(root / "verify" / "bench_certify.py"), "--quick"],
-                          capture_output=True, text=True, timeout=300, cwd=root, check=False)
+                          capture_output=True, text=True, timeout=300, cwd=root, check=False,
+                          env=env)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "4-point eps*(gamma) curve (certified for frozen b)" in proc.stdout
     ratios = proc.stdout.split("certified/frozen at gamma ")[1].splitlines()[0]
