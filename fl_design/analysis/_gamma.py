@@ -13,11 +13,12 @@ from __future__ import annotations
 import numpy as np
 
 from .. import _validate as V
+from .._numerics import bisect_log
 from ..errors import CertificationError, ParameterError
 from ._cert_results import GammaCertificate
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
 from ._coverage import best_margin, coverage_of
-from ._search import bisect_bracket, gamma_interval
+from ._search import gamma_interval
 
 
 @_serial
@@ -129,8 +130,8 @@ def refine_lower_bound(L, good: float, g_floor: float, lo: float, hi: float) -> 
         if bad <= g_floor:
             return bad
         good, bad = bad, bad / 2.0
-    inv_good, _ = bisect_bracket(lambda x: works(1.0 / x), 1.0 / good, 1.0 / bad, LOWER_RTOL)
-    return float(1.0 / inv_good)
+    out = bisect_log(lambda x: works(1.0 / x), 1.0 / good, 1.0 / bad, rtol=LOWER_RTOL)
+    return float(1.0 / out.lo)
 
 
 def _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside) -> str:

@@ -13,31 +13,13 @@ import math
 
 import numpy as np
 
-
-def bisect_bracket(pred, good: float, bad: float, rtol: float) -> tuple[float, float]:
-    """``(good, bad)`` after log-bisection of ``[good, bad]`` to relative width ``rtol``.
-
-    Examples
-    --------
-    >>> g, b = bisect_bracket(lambda x: x < 2.0, 1.0, 4.0, 1e-3)
-    >>> g < 2.0 <= b, b / g - 1 <= 1e-3
-    (True, True)
-    """
-    while bad / good - 1.0 > rtol:
-        mid = math.sqrt(good * bad)
-        good, bad = (mid, bad) if pred(mid) else (good, mid)
-    return good, bad
+from .._numerics import bisect_log
 
 
-def bisect(pred, good: float, bad: float, rtol: float) -> float:
-    """Largest known-good point after log-bisection of ``[good, bad]`` to relative ``rtol``.
-
-    Examples
-    --------
-    >>> round(bisect(lambda x: x < 2.0, 1.0, 4.0, 1e-3), 2)
-    2.0
-    """
-    return bisect_bracket(pred, good, bad, rtol)[0]
+def _bracket(pred, good: float, bad: float, rtol: float) -> tuple[float, float]:
+    """``(good, bad)`` after log-bisection (:func:`fl_design._numerics.bisect_log`)."""
+    out = bisect_log(pred, good, bad, rtol=rtol)
+    return out.lo, out.hi
 
 
 def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: float):
@@ -88,7 +70,7 @@ def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float, margi
         m = margin(grid[i]) if scan is None else scan[i]
         if not m < 0.0:
             if not np.isfinite(m) or not np.isfinite(m_prev):
-                good, bad = bisect_bracket(lambda e: margin(e) < 0.0, grid[i - 1], grid[i],
+                good, bad = _bracket(lambda e: margin(e) < 0.0, grid[i - 1], grid[i],
                                            rtol)
                 return float(good), float(bad)
             good, bad = _refine(margin, grid[i - 1], m_prev, grid[i], m, rtol)
@@ -154,11 +136,11 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     """
     x = max(lo, min(hint, 1.0 - rtol) * top)
     if pred(x):
-        return float(bisect(pred, x, top, rtol))
+        return float(_bracket(pred, x, top, rtol)[0])
     while x > lo:
         below = max(lo, step * x)
         if pred(below):
-            return float(bisect(pred, below, x, rtol))
+            return float(_bracket(pred, below, x, rtol)[0])
         x = below
     return None
 
@@ -187,9 +169,9 @@ def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float,
         j = i
         while j + 1 < n_scan and ok[j + 1]:
             j += 1
-        a = grid[0] if i == 0 else 1.0 / bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
-                                                  1.0 / grid[i - 1], rtol)
-        b = grid[-1] if j == n_scan - 1 else bisect(pred, grid[j], grid[j + 1], rtol)
+        a = grid[0] if i == 0 else 1.0 / _bracket(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                    1.0 / grid[i - 1], rtol)[0]
+        b = grid[-1] if j == n_scan - 1 else _bracket(pred, grid[j], grid[j + 1], rtol)[0]
         out.append((float(a), float(b)))
         i = j + 1
     return tuple(out)
@@ -223,11 +205,11 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
         return None, None
     run = next((r for r in runs if grid[r[0]] <= design_gamma <= grid[r[1]]), runs[0])
     i, j = run
-    g_min = grid[0] if i == 0 else 1.0 / bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
-                                                  1.0 / grid[i - 1], rtol)
-    g_max = grid[-1] if j == n_scan - 1 else bisect(pred, grid[j], grid[j + 1], rtol)
+    g_min = grid[0] if i == 0 else 1.0 / _bracket(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                    1.0 / grid[i - 1], rtol)[0]
+    g_max = grid[-1] if j == n_scan - 1 else _bracket(pred, grid[j], grid[j + 1], rtol)[0]
     return float(g_min), float(g_max)
 
 
-__all__ = ["bisect", "bisect_bracket", "certified_eps_star", "frozen_bracket", "frozen_eps_star",
+__all__ = ["certified_eps_star", "frozen_bracket", "frozen_eps_star",
            "gamma_interval", "stable_intervals"]
