@@ -55,8 +55,9 @@ def print_certificates(job) -> None:
         print(f"gamma/eps certificates skipped: {cert['skipped']}")
     if "eps" in cert:
         e = cert["eps"]
-        print(f"eps* to use: {e.eps_star_certified} s, certified for {e.covers} b (the "
-              "strongest coverage these data support; the brackets above say how tight)")
+        star = "none" if e.eps_star_certified is None else f"{e.eps_star_certified:.4g} s"
+        print(f"eps* to use: {star}, certified for {e.covers} b (the strongest coverage these "
+              "data support; the brackets above say how tight)")
     print("linearized eps* at this gamma (eigenvalues of the nonlinear loop's Jacobian at rest, "
           f"not a certificate): {linearized_text(cert['linearized_design'])}")
 
