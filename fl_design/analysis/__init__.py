@@ -6,7 +6,8 @@ CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_ep
 ``[certified, refuted]`` per coverage: frozen, varying, rate-bounded, nonlinear), ``_refute``
 (switching counterexamples), ``_ldi`` (the linear differential inclusion
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
-``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
+``_margins`` (gain, phase and delay margins at the plant input,
+:func:`loop_margins`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
 (the result objects).
 
 Examples
@@ -28,6 +29,7 @@ from ._curve import eps_star_curve
 from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
+from ._margins import LoopMargins, loop_margins
 from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
@@ -36,6 +38,7 @@ __all__ = [
     "EpsStarCurve",
     "GainSynthesis",
     "GammaCertificate",
+    "LoopMargins",
     "LyapunovCertificate",
     "PointCertificate",
     "SampledLinearization",
@@ -45,6 +48,7 @@ __all__ = [
     "certify_lyapunov",
     "eps_star_curve",
     "linearized_eps_star",
+    "loop_margins",
     "sampled_linearization",
     "synthesize_gains",
     "theorem1_constants",

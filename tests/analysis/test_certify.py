@@ -441,3 +441,31 @@ def test_uncertifiable_designs_name_the_fix():
     m = fl.certify_eps(design, plant.b_bounds())
     assert not m.certified and "narrow the b interval" in m.reason
     assert m.gamma == design.controller.gamma < 0  # b < 0: gamma of the sign of b, used as |gamma|
+
+
+def test_loop_margins_agree_with_the_gamma_interval_and_a_delayed_loop():
+    """The loop depends on b gamma only: k_max at b_max is gamma_max / gamma; a delay of 80 %
+    of the delay margin (whole samples, an independent augmented loop) keeps it Schur."""
+    from fl_design.analysis import loop_margins
+
+    design = fl.presets.paper_design()
+    g = fl.certify_gamma(design, B_TRMS)
+    m = loop_margins(design, B_TRMS[1])
+    assert m.gain_margins[1] == pytest.approx(g.gamma_max / 3e-4, rel=2e-3)
+    ehgo = fl.EHGO(2, 0.05, T, coeffs=(6, 11, 6))
+    M = surrogate_loop_matrix(ehgo, GAINS, 3e-4, KI, B_TRMS[1])
+    np.testing.assert_allclose(np.sort(np.abs(m.poles)), np.sort(np.abs(np.linalg.eigvals(M))),
+                               atol=1e-9)
+    assert m.phase_margin > 0 and m.delay_margin > 0
+    from fl_design.analysis._margins import open_loop
+
+    A, B, C = open_loop(design, B_TRMS[1])
+    n = int(0.8 * m.delay_margin / T)
+    N = A.shape[0]
+    big = np.zeros((N + n, N + n))  # w_k = u_(k-n): a shift register of n samples
+    big[:N, :N] = A
+    big[:N, N + n - 1] = B
+    big[N, :N] = C
+    for i in range(1, n):
+        big[N + i, N + i - 1] = 1.0
+    assert np.max(np.abs(np.linalg.eigvals(big))) < 1.0
