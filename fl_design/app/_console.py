@@ -53,7 +53,18 @@ def print_certificates(job) -> None:
             print(cert[key])
     if "skipped" in cert:
         print(f"gamma/eps certificates skipped: {cert['skipped']}")
-    print(f"linearized eps* at this gamma: {linearized_text(cert['linearized_design'])}")
+    if "eps" in cert:
+        e = cert["eps"]
+        star = "none" if e.eps_star_certified is None else f"{e.eps_star_certified:.4g} s"
+        print(f"eps* to use: {star}, certified for {e.covers} b (the strongest coverage these "
+              "data support; the brackets above say how tight)")
+        from ..analysis import loop_margins
+
+        for b in e.b_bounds:
+            print("margins at the plant input (surrogate, b frozen): "
+                  + loop_margins(job.design, b)._repr_lines()[0])
+    print("linearized eps* at this gamma (eigenvalues of the nonlinear loop's Jacobian at rest, "
+          f"not a certificate): {linearized_text(cert['linearized_design'])}")
 
 
 print_certify = print_certificates

@@ -55,7 +55,8 @@ def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
         assert f"]({name})" in md
     assert html.count('src="data:image/png;base64,') == 5
     assert "<img" in html and 'src="stability_map.png"' not in html  # self-contained
-    assert "P_x =" in md and "eps* certified (s)" in md and "Software in the loop" in md
+    assert "P_x =" in md and "eps* for varying b (s): [certified, refuted]" in md
+    assert "Software in the loop" in md
 
 
 def test_summary_is_strict_json_with_verdicts(quick_run):
