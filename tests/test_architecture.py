@@ -87,7 +87,7 @@ def test_analysis_and_codegen_never_import_each_other():
     assert ("analysis", "codegen") not in EDGES and ("codegen", "analysis") not in EDGES
 
 
-@pytest.mark.parametrize("layer", ["symbolic", "design", "sim", "analysis", "codegen"])
+@pytest.mark.parametrize("layer", LAYERS)
 def test_a_layer_exports_its_api_only(layer):
     module = importlib.import_module(f"fl_design.{layer}")
     assert len(module.__all__) <= MAX_EXPORTS, sorted(module.__all__)

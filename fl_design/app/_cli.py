@@ -64,7 +64,7 @@ def check_out_dir(path, *, force: bool = False) -> Path:
 
     Examples
     --------
-    >>> from fl_design.app import check_out_dir
+    >>> from fl_design.app._cli import check_out_dir
     >>> check_out_dir("out_ok").is_dir()
     True
     >>> check_out_dir("")

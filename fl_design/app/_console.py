@@ -2,7 +2,8 @@
 
 Examples
 --------
->>> from fl_design.app import load_config, print_derive, run_job
+>>> from fl_design.app import load_config, run_job
+>>> from fl_design.app._console import print_derive
 >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
 >>> print_derive(job)  # doctest: +ELLIPSIS
 Plant: trms_yaw...
@@ -24,7 +25,8 @@ def print_derive(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_derive, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_derive
     >>> print_derive(run_job(load_config(None), stages=("derive",), progress=False))  # doctest: +ELLIPSIS
     Plant: trms_yaw...
     """
@@ -41,7 +43,8 @@ def print_certificates(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_certificates, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_certificates
     >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
     >>> print_certificates(job)  # doctest: +ELLIPSIS
     Design: EHGO eps = 0.05 s...
@@ -80,7 +83,8 @@ def print_sweep(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_sweep, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_sweep
     >>> print_sweep(run_job(load_config(None), quick=True, stages=("sweep",), progress=False))
     ... # doctest: +ELLIPSIS
     Stability map 5 x 5...
@@ -111,7 +115,8 @@ def print_simulate(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_simulate, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_simulate
     >>> print_simulate(run_job(load_config(None), quick=True, stages=("simulate",),
     ...                        progress=False))  # doctest: +ELLIPSIS
     This design (EHGO eps = 0.05 s...
@@ -145,7 +150,8 @@ def print_codegen(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_codegen, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_codegen
     >>> print_codegen(run_job(load_config(None), quick=True, stages=("codegen",),
     ...                       progress=False))  # doctest: +ELLIPSIS
     C package...
@@ -171,7 +177,8 @@ def print_job(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_job, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_job
     >>> print_job(run_job(load_config(None), quick=True, stages=("derive",), progress=False))
     ... # doctest: +ELLIPSIS
     Plant: trms_yaw...

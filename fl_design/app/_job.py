@@ -79,7 +79,7 @@ def note(message: str, *, enabled: bool = True) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import note
+    >>> from fl_design.app._job import note
     >>> note("sweeping", enabled=False)
     """
     if enabled:
@@ -208,7 +208,7 @@ def noise_levels(resp) -> dict:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import noise_levels
+    >>> from fl_design.app._job import noise_levels
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
     >>> noise_levels(r)["u_noise"] < 1e-3
     True
@@ -274,7 +274,8 @@ def prepare(config: Config) -> Job:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, prepare
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._job import prepare
     >>> prepare(load_config(None)).design.controller.gamma
     0.0003
     """

@@ -2,7 +2,7 @@
 
 Examples
 --------
->>> from fl_design.app import design_label
+>>> from fl_design.app._report_figures import design_label
 >>> import fl_design as fl
 >>> design_label(fl.presets.paper_design())
 'EHGO eps = 0.05 s, gamma = 0.0003, K = (2, 4), k_I = 0.001, T = 0.001 s'
@@ -33,7 +33,7 @@ def design_label(design) -> str:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import design_label
+    >>> from fl_design.app._report_figures import design_label
     >>> design_label(fl.presets.least_squares_design(9))[:5]
     'LS(9)'
     """
@@ -67,7 +67,8 @@ def stability_map_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, stability_map_figure
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import stability_map_figure
     >>> job = run_job(load_config(None), quick=True, stages=("sweep",), progress=False)
     >>> stability_map_figure(job).axes[0].get_xscale()
     'log'
@@ -118,7 +119,8 @@ def eps_star_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import eps_star_figure, load_config, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import eps_star_figure
     >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
     >>> eps_star_figure(job).axes[0].get_ylabel()
     'eps* (s)'
@@ -173,7 +175,8 @@ def step_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, step_figure
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import step_figure
     >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
     >>> len(step_figure(job).axes)
     3
@@ -216,7 +219,8 @@ def tradeoff_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, tradeoff_figure
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import tradeoff_figure
     >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
     >>> tradeoff_figure(job).axes[1].get_xlabel()
     'observer time constant eps (s)'
@@ -260,7 +264,8 @@ def main_response_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, main_response_figure, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import main_response_figure
     >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
     >>> main_response_figure(job).axes[2].get_xlabel()
     'time (s)'

@@ -2,7 +2,7 @@
 
 Examples
 --------
->>> from fl_design.app import fmt
+>>> from fl_design.app._report_sections import fmt
 >>> fmt(float("nan"), "no boundary"), fmt(0.123456)
 ('no boundary', '0.1235')
 """
@@ -61,7 +61,7 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
 
     Examples
     --------
-    >>> from fl_design.app import fmt
+    >>> from fl_design.app._report_sections import fmt
     >>> fmt(None, "not certified")
     'not certified'
     """
@@ -140,7 +140,7 @@ def linearized_text(star) -> str:
     Examples
     --------
     >>> from fl_design.sim import EpsStar
-    >>> from fl_design.app import linearized_text
+    >>> from fl_design.app._report_sections import linearized_text
     >>> linearized_text(EpsStar(1.0, float("inf")))
     '> 1 s (stable on the whole scanned range: no boundary found up to 1 s)'
     >>> linearized_text(EpsStar(0.0417, 0.0418))
@@ -174,7 +174,7 @@ def bounded_up_to(smap, gamma: float) -> str:
     --------
     >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
-    >>> from fl_design.app import bounded_up_to
+    >>> from fl_design.app._report_sections import bounded_up_to
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
     ...                  1e-3, 1.0, 0.1)
     >>> bounded_up_to(m, 1.0)
@@ -312,7 +312,7 @@ def overshoot_text(resp) -> str:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import overshoot_text
+    >>> from fl_design.app._report_sections import overshoot_text
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> overshoot_text(r)
     '0'
@@ -360,7 +360,8 @@ def sections(job, figures) -> list:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, sections
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_sections import sections
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
     >>> [title for title, _ in sections(job, [])][:3]
     ['Summary', "Simulations: this design and the paper's comparison", 'Stability map and eps*']
