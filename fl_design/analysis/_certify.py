@@ -55,6 +55,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -68,6 +69,9 @@ from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
+
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
 
@@ -326,7 +330,7 @@ def _eps_range(eps_range) -> tuple[float, float]:
 
 
 @_serial
-def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
+def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
                 eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, max_pieces: int = 8,
                 n_scan: int = 32, rtol: float = 1e-2, search: bool = True,
                 raise_on_failure: bool = False) -> EpsCertificate:

@@ -10,6 +10,8 @@ Examples
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .. import _validate as V
@@ -18,9 +20,12 @@ from ._cert_results import EpsStarCurve
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
 from ._search import certified_eps_star, frozen_bracket
 
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
+
 
 @_serial
-def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
+def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                    eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
                    rtol: float = 1e-2, max_pieces: int = 8,
                    certified: bool = True) -> EpsStarCurve:

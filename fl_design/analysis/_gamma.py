@@ -10,6 +10,8 @@ Examples
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .. import _validate as V
@@ -20,10 +22,13 @@ from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
 from ._coverage import best_margin, coverage_of
 from ._search import gamma_interval
 
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
+
 
 @_serial
-def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, b_rate=None, gamma_range=None,
-                  eps_grid=None, n_scan: int = 80, n_b: int = 41, rtol: float = 1e-3,
+def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
+                  gamma_range=None, eps_grid=None, n_scan: int = 80, n_b: int = 41, rtol: float = 1e-3,
                   max_pieces: int = 8, raise_on_failure: bool = False) -> GammaCertificate:
     """Admissible ``gamma`` interval of the surrogate loop at the design's eps, and a certificate.
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -32,11 +33,16 @@ from ._options import RK4, Classifier, Cvodes, Kernel, Scenario, option
 from ._response import Response
 from ._run import RunSetup, prepare_run
 
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
+    from ..symbolic import Plant
+
 #: Growth of the state within the failing sample beyond which a cvodes failure is an escape.
 ESCAPE_GROWTH = 10.0
 
 
-def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | None = None,
+def simulate(plant: Plant, design: Design, scenario: Scenario, *,
+             integrator: RK4 | Cvodes | None = None,
              classifier: Classifier | None = None, kernel: Kernel | None = None,
              allow_unmodeled: bool = False) -> Response:
     """Simulate the sampled closed loop of ``plant`` and ``design`` under ``scenario``.

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import Executor
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -35,6 +36,10 @@ from ._metrics import Status, metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario, option
 from ._run import RunSetup, b_sign, prepare_run
 from ._stability_map import EpsStarEstimate, StabilityMap
+
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
+    from ..symbolic import Plant
 
 
 def _grid(name: str, values, *, signed: bool = False) -> np.ndarray:
@@ -83,9 +88,9 @@ def _signed_gammas(plant, grid: np.ndarray) -> np.ndarray:
     return sign * grid
 
 
-def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | None = None,
-          classifier: Classifier | None = None, kernel: Kernel | None = None,
-          executor: Executor | None = None, progress: bool = True,
+def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
+          integrator: RK4 | None = None, classifier: Classifier | None = None,
+          kernel: Kernel | None = None, executor: Executor | None = None, progress: bool = True,
           allow_unmodeled: bool = False) -> StabilityMap:
     """Run and classify the closed loop on every (eps, gamma) pair of a grid.
 
@@ -158,7 +163,7 @@ def sweep(plant, design, scenario: Scenario, *, eps, gamma, integrator: RK4 | No
                         duration_reason=run.duration_reason)
 
 
-def estimate_eps_star(plant, design, scenario: Scenario, *, eps_range=None,
+def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_range=None,
                       gamma: float | None = None, rtol: float = 0.01, max_simulations: int = 40,
                       integrator: RK4 | None = None, classifier: Classifier | None = None,
                       kernel: Kernel | None = None,
