@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._toolchain import STRICT_CFLAGS, find_compiler
 from ..errors import CompilationError, CompilerNotFoundError, ParameterError
-from ._build import STRICT_CFLAGS, find_compiler
 
 #: extra warnings of every build (prototypes, float equality, any double arithmetic in float)
 FLOAT_WARNINGS = ("-Wmissing-prototypes", "-Wfloat-equal", "-Wdouble-promotion",
