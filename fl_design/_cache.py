@@ -1,7 +1,7 @@
 """The on-disk cache of fl_design: one private directory, files named by content hash, verified.
 
 Shared by every layer that caches work across processes: compiled kernels
-(:func:`fl_design.codegen.build`) and plant derivations (:mod:`fl_design.symbolic._stored`).
+(:func:`fl_design.codegen.build`) and plant derivations (:mod:`fl_design.symbolic._derivation_cache`).
 Each file is written atomically (a ``mkstemp`` temporary file, created with ``O_EXCL`` and mode
 0600 in the same folder, then ``os.replace``), then a sidecar ``<file>.json`` records its size
 and SHA-256, also written atomically. A cached file is used only when it matches its sidecar

@@ -12,7 +12,7 @@ atomically. A cached file is used only when it matches its sidecar (:func:`verif
 truncated, empty or overwritten library, a missing or disagreeing sidecar, is rebuilt. Never
 is an unverified file loaded (:mod:`fl_design.sim.kernel._runners` checks again before ``dlopen``).
 The directory, sidecars and atomic writes are those of :mod:`fl_design._cache`, shared with the
-cache of plant derivations (:mod:`fl_design.symbolic._stored`).
+cache of plant derivations (:mod:`fl_design.symbolic._derivation_cache`).
 
 Cache location, in order: the ``cache_dir`` argument, the environment variable
 ``$FL_DESIGN_CACHE``, ``$XDG_CACHE_HOME/fl_design``, ``~/.cache/fl_design``. When that

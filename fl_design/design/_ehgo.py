@@ -36,7 +36,8 @@ from ..errors import (
     ParameterError,
     UnstableDiscretizationWarning,
 )
-from ._ehgo_math import (
+from ._ehgo_conversions import EHGOViews
+from ._ehgo_discretization import (
     _EIG_MAP,
     _THETA,
     MAX_RHO,
@@ -52,7 +53,6 @@ from ._ehgo_math import (
     discretize,
     start_state,
 )
-from ._ehgo_views import EHGOViews
 from ._estimator import Estimator, as_casadi, check_length, checked_estimate
 from ._poles import checked_poles, monic_coefficients
 

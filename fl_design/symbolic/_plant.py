@@ -31,6 +31,7 @@ import sympy as sp
 from .. import _validate as V
 from ..errors import PlantDefinitionError
 from ._bridge import to_casadi
+from ._casadi_functions import PlantFunctions
 from ._definition import (
     _key,
     _symbols,
@@ -40,11 +41,10 @@ from ._definition import (
     declared_names,
     operating_point_and_input,
 )
+from ._derivation_cache import PlantStore, plant_key
 from ._equilibrium import Equilibrium, solve_equilibrium
-from ._functions import PlantFunctions
 from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
 from ._probe import warn_notes
-from ._stored import PlantStore, plant_key
 
 
 class Plant:
@@ -52,7 +52,7 @@ class Plant:
 
     Validated on construction and immutable; derived results (relative degree, normal form,
     CasADi functions, bounds) are computed on first use and cached, in memory and on disk by
-    content (:mod:`fl_design.symbolic._stored`, beside the compiled kernels). Build it with
+    content (:mod:`fl_design.symbolic._derivation_cache`, beside the compiled kernels). Build it with
     :meth:`Plant.from_ode` (same arguments) or take one from :mod:`fl_design.plants`.
 
     Parameters
@@ -279,7 +279,7 @@ class Plant:
                      operating_point=dict(zip(self._states, self._x_op.tolist())))
 
     def _derived(self, what: str, compute, check=None):
-        """``what``, computed once per process and cached on disk by content (:mod:`._stored`)."""
+        """``what``, computed once per process and cached on disk by content (:mod:`._derivation_cache`)."""
         if what not in self._cache:
             self._cache[what] = self._store.get(what, compute, check)
         return self._cache[what]

@@ -177,7 +177,7 @@ def direct_update(xi, y, p):
     Examples
     --------
     >>> import casadi, fl_design as fl
-    >>> from fl_design.design._ehgo_math import direct_update
+    >>> from fl_design.design._ehgo_discretization import direct_update
     >>> obs = fl.EHGO(1, 0.1, 1e-3)
     >>> float(direct_update(casadi.DM.zeros(2), 1.0, casadi.DM(obs.parameter_vector()))[2])
     1.0
@@ -214,7 +214,7 @@ def delta_update(xi, y, p, *, theta: float):
     Examples
     --------
     >>> import casadi, numpy as np, fl_design as fl
-    >>> from fl_design.design._ehgo_math import delta_update
+    >>> from fl_design.design._ehgo_discretization import delta_update
     >>> obs = fl.EHGO(1, 0.1, 1e-3, realization="delta")
     >>> xhat, _, _ = delta_update(casadi.DM([1.0, 0.0]), 1.0, casadi.DM(obs.parameter_vector()),
     ...                           theta=0.5)
@@ -261,7 +261,7 @@ def start_state(p, n: int, *, theta: float | None, y0: float, estimate=None) -> 
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.design._ehgo_math import start_state
+    >>> from fl_design.design._ehgo_discretization import start_state
     >>> obs = fl.EHGO(1, 0.1, 1e-3)
     >>> start_state(obs.parameter_vector(), 2, theta=None, y0=0.5).tolist()
     [0.5, 0.0]
@@ -311,7 +311,7 @@ def discretize(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, dt: f
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.design._ehgo_math import discretize
+    >>> from fl_design.design._ehgo_discretization import discretize
     >>> discretize(np.array([[-1.0]]), np.ones((1, 1)), np.ones((1, 1)), np.zeros((1, 1)),
     ...            0.1, "zoh")[0].round(6)
     array([[0.904837]])

@@ -28,7 +28,7 @@ silently bypassed (the plant computes, as without a cache). Errors are never cac
 Examples
 --------
 >>> import fl_design as fl
->>> from fl_design.symbolic._stored import code_version
+>>> from fl_design.symbolic._derivation_cache import code_version
 >>> len(code_version())
 64
 """
@@ -63,7 +63,7 @@ def code_version() -> str:
 
     Examples
     --------
-    >>> from fl_design.symbolic._stored import code_version
+    >>> from fl_design.symbolic._derivation_cache import code_version
     >>> code_version() == code_version()
     True
     """
@@ -112,7 +112,7 @@ def plant_key(states, input, rhs, output, params, name, input_range, region,
     Examples
     --------
     >>> import sympy as sp
-    >>> from fl_design.symbolic._stored import plant_key
+    >>> from fl_design.symbolic._derivation_cache import plant_key
     >>> x, u = sp.symbols("x u")
     >>> k = plant_key((x,), u, sp.Matrix([u - x]), x, {}, "p", None, None, None)
     >>> k == plant_key((x,), u, sp.Matrix([u - x]), x, {}, "p", None, None, {x: 0.5})
@@ -161,7 +161,7 @@ class PlantStore:
 
     Examples
     --------
-    >>> from fl_design.symbolic._stored import PlantStore
+    >>> from fl_design.symbolic._derivation_cache import PlantStore
     >>> PlantStore(None).get("rho", lambda: 2)
     2
     """

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import _validate as v
 from ..errors import MissingDependencyError
-from ._ehgo_math import StateSpaceMatrices, _lsim_blocked
+from ._ehgo_discretization import StateSpaceMatrices, _lsim_blocked
 
 
 class EHGOViews:
@@ -23,7 +23,7 @@ class EHGOViews:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.design._ehgo_views import EHGOViews
+    >>> from fl_design.design._ehgo_conversions import EHGOViews
     >>> isinstance(fl.EHGO(1, 0.1, 1e-3), EHGOViews)
     True
     """

@@ -16,7 +16,8 @@ import sympy as sp
 import fl_design as fl
 from fl_design._cache import SIDECAR_SUFFIX, write_verified
 from fl_design.errors import CacheWarning
-from fl_design.symbolic import _normal_form, _plant, _stored
+from fl_design.symbolic import _derivation_cache as _stored
+from fl_design.symbolic import _normal_form, _plant
 
 QUANTITIES = ("op", "fh", "chain", "sigma_b", "bounds0", "nf")
 
