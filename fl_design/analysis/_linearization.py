@@ -33,8 +33,8 @@ from ..design import Design
 from ..errors import ComputationError, ParameterError
 from ..sim import EpsStar
 from ..sim._loop_jacobian import LoopLinearizer, SampledLinearization
-from ..sim._run import b_sign, check_gamma_sign
-from ..sim.kernel._loop import ClosedLoop, default_substeps
+from ..sim._run import check_gamma_sign, signed_gammas
+from ..sim.kernel._loop import ClosedLoop, resolve_substeps
 from ..symbolic import Plant
 
 #: Smallest ``rtol`` of :func:`linearized_eps_star` (4 ulps: float64 resolves no finer).
@@ -100,7 +100,7 @@ def sampled_linearization(plant: Plant, design: Design, *, r: float | None = Non
     ((7, 7), ('u', 'z'))
     """
     _check(plant, design)
-    steps = default_substeps(plant, design.T) if substeps is None else substeps
+    steps = resolve_substeps(plant, design.T, substeps)
     check_gamma_sign(plant, design.controller.gamma)
     lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     return lin(_reference(plant, r), design.parameter_vector())
@@ -178,9 +178,9 @@ def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
                              f"{MIN_RTOL:.3g} (4 units in the last place)")
     if gamma is not None:
         g = V.nonzero("gamma", gamma)
-        design = design.replace(gamma=g * b_sign(plant) if g > 0 and b_sign(plant) else g)
+        design = design.replace(gamma=float(signed_gammas(plant, g)))
     check_gamma_sign(plant, design.controller.gamma)
-    steps = default_substeps(plant, design.T) if substeps is None else substeps
+    steps = resolve_substeps(plant, design.T, substeps)
     lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     r = _reference(plant, r)
 

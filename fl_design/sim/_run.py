@@ -29,7 +29,7 @@ from ..errors import DimensionError, ParameterError, RelativeDegreeError
 from ._duration import resolve_duration
 from ._metrics import initial_values
 from ._options import RK4, Classifier, Scenario, option
-from .kernel._loop import ClosedLoop, default_substeps
+from .kernel._loop import ClosedLoop, resolve_substeps
 
 
 def default_divergence_bound(plant) -> np.ndarray:
@@ -279,7 +279,7 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     T = design.T
     if scenario.duration is not None:
         scenario.n_samples(T)  # a bad length is refused before the loop is built
-    steps = default_substeps(plant, T) if integrator.substeps is None else integrator.substeps
+    steps = resolve_substeps(plant, T, integrator.substeps)
     loop = ClosedLoop(plant, design, substeps=steps,
                       allow_unmodeled=V.boolean("allow_unmodeled", allow_unmodeled))
     check_gamma_sign(plant, design.controller.gamma if gammas is None else gammas)
@@ -327,6 +327,37 @@ def _start_state(ym0: float, plant, design, scenario: Scenario) -> np.ndarray:
             f"the design (rho={design.rho}) needs rho + 1 = {design.rho + 1}: y, y', ..., "
             f"y^({design.rho - 1}), sigma")
     return design.initial_state(y0=ym0, estimate=estimate, u0=u0)
+
+
+def signed_gammas(plant, gammas) -> np.ndarray:
+    """The one gamma-sign rule: positive values are magnitudes that take the sign of ``b``.
+
+    A grid given all negative (or on a plant whose sign of ``b`` is unknown) is kept as given.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant (its sign of ``b``: :func:`b_sign`).
+    gammas : float or array_like
+        Gains (nonzero).
+
+    Returns
+    -------
+    numpy.ndarray
+        The signed gains, same shape.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._run import signed_gammas
+    >>> signed_gammas(fl.plants.maglev(), [1e-3, 2e-3]).tolist()
+    [-0.001, -0.002]
+    """
+    grid = np.asarray(gammas, dtype=float)
+    sign = b_sign(plant)
+    if np.all(grid < 0) or sign == 0:
+        return grid
+    return sign * grid
 
 
 def b_sign(plant) -> int:

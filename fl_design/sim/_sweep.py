@@ -34,7 +34,7 @@ from ..errors import ParameterError
 from ._grid import _Columns, run_grid
 from ._metrics import Status, metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario, option
-from ._run import RunSetup, b_sign, prepare_run
+from ._run import RunSetup, prepare_run, signed_gammas
 from ._stability_map import EpsStarEstimate, StabilityMap
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -78,14 +78,6 @@ def _require_eps(design) -> None:
         raise ParameterError(
             f"a sweep over eps needs an estimator with an observer time constant eps (fl.EHGO); "
             f"{type(design.estimator).__name__} has no eps")
-
-
-def _signed_gammas(plant, grid: np.ndarray) -> np.ndarray:
-    """Positive grid values are magnitudes taking the sign of ``b``; signed ones are kept."""
-    sign = b_sign(plant)
-    if np.all(grid < 0) or sign == 0:
-        return grid
-    return sign * grid
 
 
 def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
@@ -152,7 +144,7 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     """
     _require_eps(design)
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
-    gammas = _signed_gammas(plant, gamma_grid)
+    gammas = signed_gammas(plant, gamma_grid)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
     acc = run_grid(run, _Columns(design, eps_grid, gammas), kernel=kernel,
@@ -216,7 +208,7 @@ def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_r
     _require_eps(design)
     if gamma is not None:
         g = V.nonzero("gamma", gamma)
-        design = design.replace(gamma=float(_signed_gammas(plant, np.array([g]))[0]))
+        design = design.replace(gamma=float(signed_gammas(plant, g)))
     lo, hi = V.interval("eps_range", eps_range if eps_range is not None else (design.T, 1.0),
                         allow_none=False)
     if lo <= 0:

@@ -133,6 +133,19 @@ def default_substeps(plant, T: float) -> int:
     return max(1, math.ceil(T * lam - 1e-12))
 
 
+def resolve_substeps(plant, T: float, substeps: int | None) -> int:
+    """``substeps`` as given, or :func:`default_substeps` when None (the one place deciding).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim.kernel._loop import resolve_substeps
+    >>> resolve_substeps(fl.plants.pendulum(), 1e-3, None), resolve_substeps(None, 1e-3, 4)
+    (1, 4)
+    """
+    return default_substeps(plant, T) if substeps is None else int(substeps)
+
+
 def _warn_if_not_minimum_phase(plant) -> None:
     """A :class:`~fl_design.errors.NonMinimumPhaseWarning` naming the unstable zero dynamics."""
     nf = plant.normal_form()
@@ -478,4 +491,4 @@ class ClosedLoop:
                            cache_dir=cache_dir)
 
 
-__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps"]
+__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps", "resolve_substeps"]
