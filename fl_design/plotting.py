@@ -118,13 +118,17 @@ def _curve_points(curve, gamma: np.ndarray):
     return g, e
 
 
+def _is_bracket(obj) -> bool:
+    """Anything shaped like :class:`~fl_design.sim.EpsStar` (a protocol, not an import of
+    ``sim``: results are drawn here, the simulation layer draws with this module)."""
+    return all(hasattr(obj, name) for name in ("lower", "upper", "upper_status"))
+
+
 def _holds_eps_stars(curve) -> bool:
     """A pair ``(gamma_values, [EpsStar, ...])``."""
-    from .sim import EpsStar
-
     return (isinstance(curve, (tuple, list)) and len(curve) == 2
             and not callable(curve) and np.ndim(curve[1]) == 1 and len(curve[1]) > 0
-            and all(isinstance(s, EpsStar) for s in curve[1]))
+            and all(_is_bracket(s) for s in curve[1]))
 
 
 def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = "-",

@@ -26,3 +26,15 @@ def test_claim_script_quick(script):
     out = proc.stdout
     assert "holds" in out
     assert "FAILS" not in out and "nan" not in out.lower().replace("nanos", "")
+
+
+def test_scaleout_bench_quick_runs_and_agrees():
+    """verify/bench_scaleout.py --quick: executors give the in-process classifications."""
+    pytest.importorskip("dask.distributed")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, str(ROOT / "verify" / "bench_scaleout.py"),
+                           "--quick"], capture_output=True, text=True, env=env, timeout=240,
+                          check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "every executor's map equals the in-process map" in proc.stdout
+    assert "isa " in proc.stdout.splitlines()[0]  # the machine and ISA that measured it

@@ -211,8 +211,8 @@ class LanesRunner:
                 self._pools.append((n, ThreadPoolExecutor(n, thread_name_prefix="fl_lanes")))
             return self._pools[-1][1]
 
-    def __del__(self):
-        if getattr(self, "_owner", None) == os.getpid():
+    def __del__(self, _getpid=os.getpid):  # bound now: module globals may be gone at exit
+        if getattr(self, "_owner", None) == _getpid():
             for _, pool in getattr(self, "_pools", ()):
                 pool.shutdown(wait=False)
 
