@@ -13,7 +13,9 @@ classified with a 20 % settling band and a divergence bound of 1 rad (yaw) and 6
    ``@njit`` and JAX ``jit(vmap(lax.scan))`` (``verify/peers/python_peers.py``, installed with
    ``pip install fl_design[bench]``) and the independent plain C loop
    ``verify/peers/trms_loop.c``. The peers get the design numbers ready-made (their time is the
-   loop only). Ratios are medians over interleaved rounds of ``t_peer / t_sweep`` in the same
+   loop only). The final states agree to about 1e-14 relative (median); a run or two that
+   sits on a knife edge (undecided, here) amplifies the last bits of ``tanh`` (libmvec's
+   against glibc's: the bitwise-exact kernel differs from the default there too). Ratios are medians over interleaved rounds of ``t_peer / t_sweep`` in the same
    round; ns per step count the steps computed (a diverged run stops at its divergence). Every
    peer must reproduce the sweep's classification of every run (diverged / within the band /
    neither) and the kernel's divergence samples;
@@ -204,9 +206,10 @@ def compare(w: Workload, name: str, out: np.ndarray, ref: np.ndarray,
     same = (np.array_equal(w.status(out), sweep_status)
             and np.array_equal(out[:, 0], ref[:, 0]))
     scale = np.maximum(np.abs(ref[:, 4:]), 1e-300)
-    dx = float(np.max(np.abs(out[:, 4:] - ref[:, 4:]) / scale))
+    dx = np.max(np.abs(out[:, 4:] - ref[:, 4:]) / scale, axis=1)
     print(f"  {name:<8} same classification of all {len(out)} runs and divergence samples: "
-          f"{'yes' if same else 'NO'}; max rel. difference of final x {dx:.1e}")
+          f"{'yes' if same else 'NO'}; final x: median rel. difference {np.median(dx):.1e}, "
+          f"{int(np.sum(dx > 1e-6))} runs above 1e-6 (max {np.max(dx):.1e})")
     return same
 
 
@@ -274,8 +277,8 @@ def whole_sweeps(w: Workload, peers: dict, n_rounds: int, targets: dict,
         total = sum(parts.values())
         print(f"  where a sweep's time goes (medians, same rounds): "
               + ", ".join(f"{k} {v * 1e3:.2f} ms" for k, v in parts.items())
-              + f"; sum {total * 1e3:.2f} ms, whole call {t * 1e3:.2f} ms (argument checks, "
-              f"chunking, blocks: {(t - total) * 1e3:.2f} ms)")
+              + f"; sum {total * 1e3:.2f} ms; whole call {t * 1e3:.2f} ms (the rest: argument "
+              f"checks, chunks, blocks of samples)")
     return ok
 
 
