@@ -2,13 +2,17 @@
 
 :func:`lanes_source` walks the instructions of ``fl_acc`` (and, when the plant step is a call
 to ``fold(fl_rk4_step)``, those of the single RK4 step) and writes each one as a C statement
-on one lane ``l`` of a ``#pragma omp simd`` loop over ``W`` lanes: the accumulators are stored
-structure-of-arrays (``A[i * W + l]``, updated in place: an accumulator entry the step
-only copies is not touched), every instruction result is a fresh local (the compiler
-keeps them in vector registers), and math calls are vectorised by glibc's libmvec where it has
-them. The RK4 substeps are a C loop around the single step, so the source does not grow with
-their number. Nothing is written by hand: an operation the table below does not know raises
-:class:`LanesUnsupported` and the caller keeps the scalar kernel.
+on one lane ``l`` of a ``#pragma omp simd`` loop over the ``FL_V`` doubles of a vector: the
+accumulators are stored structure-of-arrays (``A[i * FL_W + l]``, updated in place: an
+accumulator entry the step only copies is not touched), every instruction result is a fresh
+local (the compiler keeps them in vector registers), and math calls are vectorised by glibc's
+libmvec where it has them. Each statement is written for :data:`GROUPS` independent lane groups
+(``FL_W = groups * FL_V`` runs per block), so the dependent ``tanh`` calls of the RK4 stages of
+one group overlap with the other's. The RK4 substeps are unrolled inside the lane loop (the
+state stays in registers; what depends only on the held input is computed once per sample);
+beyond :data:`UNROLL_LINES` they run as a C loop over blocks of unrolled substeps, so the
+source stops growing with their number. Nothing is written by hand: an operation the table
+below does not know raises :class:`LanesUnsupported` and the caller keeps the scalar kernel.
 
 Operations are printed as CasADi's code generator prints them (``casadi_sq(x) = x*x``,
 ``c ? a : 0``, ``fmin``/``fmax`` as glibc computes them on x86-64, ``casadi_sign``), and the
