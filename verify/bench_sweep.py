@@ -459,7 +459,8 @@ def main(argv=None) -> int:
         ok &= whole_sweeps(subs, pick("numba", "plain C"), max(2, n_rounds // 2),
                            {"numba": 3.0})
         ok &= threads_scaling(big, max(2, n_rounds // 2), quick)
-        exact_math(big, max(2, n_rounds // 2), cache)
+        if not quick:  # one more compilation: kept out of the quick run (< 10 s)
+            exact_math(big, max(2, n_rounds // 2), cache)
         ok &= reference_and_memory(quick, cache)
     ok &= many_substeps_compile()
     ok &= map_walls(quick)
