@@ -12,6 +12,8 @@ substeps.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -134,11 +136,14 @@ def test_record_goes_to_the_scalar_kernel(results):
     np.testing.assert_array_equal(out, ref)
 
 
-def test_source_does_not_grow_with_substeps():
-    """10,000 substeps are a loop: the same source as 10 (up to the step length constant)."""
+def test_source_does_not_grow_with_substeps(monkeypatch):
+    """Beyond the unrolled block, more substeps are a longer C loop: 10,000 and 100,000
+    substeps give the same source up to the loop count and the step length constant; 10
+    substeps are unrolled (no loop)."""
+    monkeypatch.setenv("FL_DESIGN_MAX_SUBSTEPS", "100000")  # above the default cap, on purpose
     plant, d = fl.plants.trms_yaw(), fl.presets.paper_design()
     sources = {}
-    for substeps in (10, 10_000):
+    for substeps in (10, 10_000, 100_000):
         loop = prepare_run(plant, d, fl.Scenario(0.3, 0.01),
                            integrator=fl.RK4(substeps=substeps)).loop
         assert rk4_fold(loop.accumulate)[1] == substeps
@@ -146,8 +151,12 @@ def test_source_does_not_grow_with_substeps():
         sources[substeps] = lanes_source(
             loop.accumulate, {"k": sl["k"].start, "div": sl["diverged"].start,
                               "N": sl["N"].start}, width=8)
-    assert abs(len(sources[10]) - len(sources[10_000])) < 200
-    assert "sub < 10000" in sources[10_000]
+    assert abs(len(sources[10_000]) - len(sources[100_000])) < 200
+    blocks = {s: re.search(r"for \(sub = 0; sub < (\d+);", sources[s]) for s in sources}
+    assert blocks[10] is None
+    unroll = 10_000 // int(blocks[10_000].group(1))
+    assert int(blocks[100_000].group(1)) == 100_000 // unroll
+    assert "XS[" in sources[10_000]  # the state is stored between blocks only
 
 
 def test_ten_thousand_substeps_compile_and_match_the_interpreter(tmp_path):

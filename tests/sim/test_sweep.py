@@ -253,9 +253,10 @@ def test_bench_quick_runs():
     proc = subprocess.run([sys.executable, str(ROOT / "verify" / "bench_sweep.py"), "--quick"],
                           capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
-    for text in ("ns per step per grid point per core", "numpy", "plain C", "10 RK4 substeps",
-                 "same classification of all", "solve_ivp", "TRMS map", "from an empty cache",
-                 "bytes per extra run", "10,000 RK4 substeps"):
+    for text in ("ns per step per grid point per core", "numpy", "plain C", "lanes per vector",
+                 "RK4 substeps per sample", "same classification of all", "solve_ivp",
+                 "TRMS map", "from an empty cache", "bytes per extra run",
+                 "10,000 RK4 substeps", "where a sweep's time goes", "two threads"):
         assert text in proc.stdout
     assert "divergence samples: NO" not in proc.stdout  # every peer reproduces the kernel
 
