@@ -120,19 +120,30 @@ def _config(args):
 
 
 def _prepare(cfg):
-    """Plant and design fit, reference inside the region: refuse before any work; warn."""
-    from ._build import check_fit
+    """Plant and design fit, reference inside the region: refuse before any work; warn.
+
+    A plant from expressions without ``[design]`` gets a proposed design
+    (:func:`fl_design.app._propose.propose_design`; the reasons go to stderr and the report).
+    Returns the (possibly completed) config and its job.
+    """
+    from ._build import build_plant, check_fit
     from ._job import prepare
 
-    job = prepare(cfg) if cfg.design else None
-    plant = job.plant if job else None
-    if plant is None:
-        from ._build import build_plant
+    if not cfg.design:
+        from ._propose import propose_design
 
         plant = build_plant(cfg)
-    for line in check_fit(cfg, plant):
-        print(f"fl-design: warning: {line}", file=sys.stderr)
-    return job
+        if "reference" in cfg.scenario:
+            print("fl-design: no [design] given: proposing one from the plant ...",
+                  file=sys.stderr, flush=True)
+            cfg = propose_design(cfg, plant)
+        else:
+            check_fit(cfg, plant)  # refuses, naming what to add
+    job = prepare(cfg)
+    for line in check_fit(cfg, job.plant):
+        print(f"fl-design: warning: {line}" if not line.startswith("[design] proposed")
+              else f"fl-design: {line}", file=sys.stderr)
+    return cfg, job
 
 
 def _cmd_run(args) -> int:
@@ -140,8 +151,7 @@ def _cmd_run(args) -> int:
     from ._job import run_job
     from ._report_write import write_report
 
-    cfg = _config(args)
-    _prepare(cfg)  # plant and design fit: fail before any work
+    cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
     executor = _executor(args.scheduler)
     job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
@@ -165,8 +175,7 @@ def _cmd_certify(args) -> int:
     from ._console import print_certificates
     from ._job import run_job
 
-    cfg = _config(args)
-    _prepare(cfg)
+    cfg, _ = _prepare(_config(args))
     if args.eps is not None or args.gamma is not None:
         d = dict(cfg.design, eps=cfg.design["eps"] if args.eps is None else args.eps,
                  gamma=cfg.design["gamma"] if args.gamma is None else args.gamma)
@@ -181,8 +190,7 @@ def _cmd_stage(stage: str):
         from . import _console
         from ._job import run_job
 
-        cfg = _config(args)
-        _prepare(cfg)
+        cfg, _ = _prepare(_config(args))
         out = check_out_dir(args.out, force=getattr(args, "force", False)) \
             if getattr(args, "out", None) else Path(".")
         executor = _executor(getattr(args, "scheduler", None))
@@ -199,8 +207,7 @@ def _cmd_codegen(args) -> int:
     from ._job import run_job
 
     _codegen_paths(args)
-    cfg = _config(args)
-    job = _prepare(cfg)
+    cfg, job = _prepare(_config(args))
     cg = dict(cfg.codegen)
     cg["precision"] = args.precision or cg["precision"]
     cg["prefix"] = args.prefix or cg["prefix"]

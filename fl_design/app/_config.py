@@ -103,7 +103,8 @@ class Config:
         >>> sorted(load_config(None).to_dict())[:3]
         ['certify', 'codegen', 'compare']
         """
-        return {name: dict(getattr(self, name)) for name in _SCHEMA} | {"source": self.source}
+        return {name: dict(getattr(self, name)) for name in _SCHEMA} | {
+            "source": self.source, "notes": list(self.notes)}
 
 
 def _type_name(types: tuple) -> str:

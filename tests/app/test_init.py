@@ -1,5 +1,6 @@
 """`fl-design init`, `--plant` everywhere, the config of a user's plant and its checks."""
 
+import math
 import subprocess
 import sys
 import tomllib
@@ -188,14 +189,46 @@ def _cli(*args, timeout=300):
                           text=True, timeout=timeout, check=False)
 
 
-def test_cli_user_plant_without_design_is_one_line_exit_2(tmp_path):
+def test_cli_user_plant_without_design_or_reference_is_one_line_exit_2(tmp_path):
     path = tmp_path / "p.toml"
-    path.write_text(PENDULUM + "[scenario]\nreference = 0.1\n")
+    path.write_text(PENDULUM)
     proc = _cli("run", str(path), "--out", str(tmp_path / "o"))
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "[design] is missing" in lines[0]
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_proposed_design_for_a_user_plant_matches_its_time_scale_and_converges(sign):
+    from fl_design.app._propose import propose_design
+
+    text = PENDULUM.replace("+ u", "+ u" if sign > 0 else "- u") + "[scenario]\nreference = 0.1\n"
+    cfg = propose_design(parse_config(text))
+    assert "design proposed" in cfg.source
+    assert any(n.startswith("[design] proposed: checked") for n in cfg.notes)
+    job = prepare(cfg)
+    d = job.design
+    # time scale: |eig| of the linearization, here sqrt(9.81 - 0.25^2/...) from numpy
+    A = np.array([[0.0, 1.0], [-9.81, -0.5]])
+    decay = max(abs(np.linalg.eigvals(A)))
+    poles = np.roots([1.0, *reversed(d.controller.gains)])
+    assert poles == pytest.approx([-decay, -decay], rel=1e-4)
+    assert math.copysign(1.0, d.controller.gamma) == sign  # the sign of b
+    assert d.controller.u_range == (-20.0, 20.0)
+    lin = fl.linearized_eps_star(job.plant, d, eps_range=(1e-3, 1.0))
+    assert lin.value is not None and d.estimator.eps <= lin.lower / 2 * (1 + 1e-9)
+    resp = fl.simulate(job.plant, d, fl.Scenario(0.1, 10.0))
+    assert resp.status == "converged"
+
+
+def test_cli_proposes_a_design_and_says_so(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text(PENDULUM + "[scenario]\nreference = 0.1\n")
+    proc = _cli("simulate", str(path), "--quick", "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    assert "fl-design: [design] proposed: gamma = " in proc.stderr
+    assert "converged" in proc.stdout
 
 
 def test_cli_config_and_plant_together_is_refused(tmp_path, capsys):
