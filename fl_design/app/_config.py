@@ -348,6 +348,17 @@ def _custom_defaults(tables: dict, data: dict) -> None:
                                              for f in (0.4, 1.0, 2.0, 4.0, 10.0)]
 
 
+def _toml_line(text: str, message: str) -> str:
+    """The line a TOML error points at, quoted (the key the user wrote there)."""
+    import re
+
+    m = re.search(r"at line (\d+)", message)
+    lines = text.splitlines()
+    if not m or not 1 <= int(m.group(1)) <= len(lines):
+        return ""
+    return f": {lines[int(m.group(1)) - 1].strip()[:80]!r}"
+
+
 def parse_config(text: str, *, source: str = "<string>") -> Config:
     """Validate TOML text against the schema and fill in the defaults.
 
@@ -393,7 +404,8 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{source}: not valid TOML: {err}") from None
+        raise ConfigError(f"{source}: not valid TOML: {err}{_toml_line(text, str(err))}") \
+            from None
     _check_tables(data, source)
     plant = data.get("plant", {})
     custom = bool({"states", "rhs", "output", "input"} & set(plant))

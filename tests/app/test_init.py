@@ -255,3 +255,16 @@ def test_codegen_takes_the_config_as_positional_and_config_as_alias(tmp_path, ca
     assert (tmp_path / "a" / "fl.c").read_text() == (tmp_path / "b" / "fl.c").read_text()
     assert "gamma=0.01)" in (tmp_path / "a" / "fl.h").read_text()  # the pendulum's design
     assert "gamma=-0.0016," in (tmp_path / "m" / "fl.h").read_text()  # the maglev's, gamma < 0
+
+
+def test_parse_errors_show_the_whole_message_and_the_key(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text("[design]\neps = 0.1\ngamma = \n")
+    proc = _cli("run", str(path), "--out", str(tmp_path / "o"))
+    assert proc.returncode == 2
+    assert "not valid TOML: Invalid value (at line 3, column 9): 'gamma ='" in proc.stderr
+    path.write_text(PENDULUM.replace("- 0.5*om", "- (0.5*om") + "[scenario]\nreference = 0.1\n")
+    proc = _cli("derive", str(path))
+    assert proc.returncode == 2
+    assert "[plant] rhs[1] '-9.81*sin(th) - (0.5*om + u': not a valid expression ('(' was " \
+        "never closed at column 17)" in proc.stderr
