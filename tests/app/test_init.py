@@ -268,3 +268,17 @@ def test_parse_errors_show_the_whole_message_and_the_key(tmp_path):
     assert proc.returncode == 2
     assert "[plant] rhs[1] '-9.81*sin(th) - (0.5*om + u': not a valid expression ('(' was " \
         "never closed at column 17)" in proc.stderr
+
+
+def test_example_user_plant_gets_a_certified_proposed_design():
+    """examples/my_plant.toml (README): the proposed eps is covered by the certified eps*."""
+    from pathlib import Path
+
+    from fl_design.app import load_config
+    from fl_design.app._propose import propose_design
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "my_plant.toml"
+    cfg = propose_design(load_config(path))
+    job = prepare(cfg)
+    cert = fl.certify_eps(job.design, job.plant.b_bounds(), eps_range=(1e-3, 1.0))
+    assert cert.certified and cert.eps_star_certified > job.design.estimator.eps
