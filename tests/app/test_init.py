@@ -282,3 +282,22 @@ def test_example_user_plant_gets_a_certified_proposed_design():
     job = prepare(cfg)
     cert = fl.certify_eps(job.design, job.plant.b_bounds(), eps_range=(1e-3, 1.0))
     assert cert.certified and cert.eps_star_certified > job.design.estimator.eps
+
+
+def test_a_map_with_negative_gammas_reads_and_plots_at_abs_gamma():
+    """The maglev's map (gamma < 0): eps* per gamma and the figure at |gamma| (log axis)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from fl_design.plotting import plot_stability_map
+
+    plant, design = fl.plants.maglev(), fl.presets.maglev_design()
+    gammas = [-1.6e-3, -1e-4]
+    smap = fl.sweep(plant, design, fl.Scenario(6.2e-3, 1.0), eps=[1.5e-3, 2e-3], gamma=gammas,
+                    progress=False)
+    stars = [smap.eps_star(g) for g in gammas]
+    assert stars[0].above_range  # both eps converge at the bench gamma
+    assert not stars[1].above_range and stars[1].value is None  # |gamma| 1e-4: none does
+    ax = plot_stability_map(smap).axes[0]
+    lo, hi = ax.get_xlim()
+    assert 0 < lo < 1e-4 and 1.6e-3 < hi and "|gamma|" in ax.get_xlabel()
