@@ -320,9 +320,11 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
                       "input_range": [-20.0, 20.0], "operating_point": {"theta": 0.0},
                       "output_unit": "rad", "input_unit": "N m"}
         head = ("fl-design configuration: your own plant as expressions (here a damped "
-                "pendulum),\nwith a design for it. Replace [plant] by your equations, then "
-                "[design] (rho gains,\nrho + 1 coeffs, gamma with the sign of b, eps >= T) and "
-                "[scenario] reference.\nRun: fl-design run THIS.toml --out out")
+                "pendulum),\nwith a design for it. Replace [plant] by your equations and "
+                "[scenario] reference; then\nadapt [design] (rho gains, rho + 1 coeffs, gamma "
+                "with the sign of b, eps >= T), or\ndelete the [design] table and `fl-design "
+                "run` proposes one from the plant (and says why).\n"
+                "Run: fl-design run THIS.toml --out out")
         return render(t, head)
     head = (f"fl-design configuration: {_PLANT_DOC[plant]},\nwith its bench design "
             f"(fl_design.presets.bench_design({plant!r})). Every table and key is\nshown "
