@@ -2,10 +2,11 @@
 
 From the plant alone: its relative degree, its b-range (region and input range), and its time
 scale (the largest eigenvalue modulus of the linearization at the operating point, at least
-1 rad/s). The closed loop decays at that rate (all its poles there,
+1 rad/s, at most the rate at which a fifth of the input's room moves the step through
+``y^(rho) = b u``). The closed loop decays at that rate (all its poles there,
 :func:`fl_design.gains_from_poles`); ``T`` samples it 100 times faster (1-2-5 rounded);
 ``|gamma|`` makes the disturbance estimate ``5x`` faster than the loop (``gamma max|b| T``
-per sample, the sign of ``b``); ``eps`` is half the linearized ``eps*`` (at least ``2 T``);
+per sample, the sign of ``b``); ``eps`` is half the linearized ``eps*`` (at most ``0.2 / decay``, at least ``2 T``);
 the input is limited to the input range. A simulation of the configured step checks it;
 otherwise ``|gamma|`` is tried 3x smaller and larger. Each choice is said with its number.
 
@@ -87,7 +88,13 @@ def propose_design(cfg: Config, plant=None) -> Config:
     sign, bmax = math.copysign(1.0, lo), max(abs(lo), abs(hi))
     A = np.asarray(plant.linearization()[0], dtype=float)
     speed = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
-    decay = max(1.0, speed)
+    # what the actuator allows: y^(rho) ~ b u moves the step in about (step / (b du))^(1/rho),
+    # with a fifth of the input's room from u_eq to the nearer limit
+    step = abs(float(cfg.scenario["reference"]) - float(plant.casadi().h(plant.x_op)))
+    room = min(plant.u_eq - plant.input_range[0], plant.input_range[1] - plant.u_eq)
+    reach = (0.2 * min(abs(lo), abs(hi)) * room / step) ** (1.0 / rho) \
+        if step > 0 and room > 0 else math.inf
+    decay = max(0.01, min(max(1.0, speed), reach))
     T = min(0.1, max(1e-4, _nice(1.0 / (100.0 * decay))))
     gains = gains_from_poles([-decay] * rho)  # the loop at the plant's own time scale
     gains_why = f"closed loop (s + {decay:.3g})^{rho}"
@@ -101,19 +108,21 @@ def propose_design(cfg: Config, plant=None) -> Config:
         if star.value is None and not star.above_range:
             tried.append(f"gamma {gamma:.3g}: no stable eps in [{T:g}, {10 / decay:g}] s")
             continue
-        eps = max(2.0 * T, float(star.lower) / 2.0)
+        eps = max(2.0 * T, min(float(star.lower) / 2.0, 0.2 / decay))
         design = probe.replace(eps=eps)
         resp = simulate(plant, design, Scenario(float(cfg.scenario["reference"])))
         if resp.status in ("converged", "converging"):
             reasons = [
                 (f"time scale {decay:.3g} rad/s (largest |eigenvalue| of the linearization "
-                 f"{speed:.3g}, at least 1)"),
+                 f"{speed:.3g}, at least 1; at most {reach:.3g}, what a fifth of the input's "
+                 f"room {room:.3g} moves the step {step:.3g} at)"),
                 f"T = {T:g} s (100 samples per time constant, 1-2-5 rounded)",
                 f"gains {tuple(round(k, 6) for k in gains)} ({gains_why})",
                 (f"gamma = {gamma:.3g} (sign of b in [{lo:.4g}, {hi:.4g}]; disturbance "
                  f"estimate {5 * factor:.3g}x the loop's rate; paper bound |gamma| < "
                  f"{1 / bmax:.3g})"),
-                f"eps = {eps:.3g} s (half the linearized eps* {star}, at least 2 T)",
+                (f"eps = {eps:.3g} s (half the linearized eps* {star}, at most 0.2/decay, "
+                 "at least 2 T)"),
                 f"u_limits = {u_limits} (the input range)",
                 (f"checked: a step to {cfg.scenario['reference']:g} is {resp.status} "
                  f"({resp.verdict()})")]
