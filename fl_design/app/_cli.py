@@ -234,6 +234,8 @@ def _cmd_codegen(args) -> int:
 def _codegen_paths(args) -> None:
     """``codegen [CONFIG] --out DIR``; the older ``codegen DIR [--config C]`` still works."""
     if args.config_alias is not None:  # --config C: deprecated alias of the positional
+        print("fl-design: note: codegen --config is deprecated: give the config as the "
+              "positional argument and the folder as --out", file=sys.stderr)
         if args.config is not None and args.out is None:
             args.out = args.config
         elif args.config is not None:
