@@ -202,7 +202,7 @@ def verified(path: str | os.PathLike) -> bool:
 
     Examples
     --------
-    >>> from fl_design.codegen._build import verified
+    >>> from fl_design._toolchain import verified
     >>> verified("no-such-library.so")
     False
     """

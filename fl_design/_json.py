@@ -31,7 +31,7 @@ def jsonable(value):
     ----------
     value : object
         Nested dicts/lists/tuples, NumPy arrays and scalars, enums, paths, objects with
-        ``to_dict()``.
+        ``to_dict()``; a callable becomes ``"<callable NAME>"``.
 
     Returns
     -------
@@ -68,6 +68,8 @@ def jsonable(value):
         return str(value)
     if hasattr(value, "to_dict"):
         return jsonable(value.to_dict())
+    if callable(value):  # a function has no JSON form: named, so the record says what it was
+        return f"<callable {getattr(value, '__name__', type(value).__name__)}>"
     raise TypeError(f"no JSON form for {type(value).__name__}: {value!r}")
 
 

@@ -22,17 +22,21 @@ import numpy as np
 
 from .errors import ParameterError
 
-#: Colours of the classification by status code -2 .. 3: solver failed, diverged, oscillating,
-#: converging, converged, undecided (too short to tell: a cool colour, neither good nor bad).
-STATUS_COLORS = ("#7f7f7f", "#d62728", "#ff9f1c", "#a6d96a", "#1a9641", "#9ecae1")
+#: Colours of the classification by status code -2 .. 4: solver failed, diverged, oscillating,
+#: converging, converged, undecided (too short to tell: a cool colour, neither good nor bad),
+#: stalled (bounded at an offset: a muted purple).
+STATUS_COLORS = ("#7f7f7f", "#d62728", "#ff9f1c", "#a6d96a", "#1a9641", "#9ecae1", "#9467bd")
 STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "converged",
-                 "undecided (run longer)")
+                 "undecided (run longer)", "stalled")
 
 
 def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(nrows, 1, sharex=sharex, figsize=figsize, squeeze=False)
+    # fixed margins with room on the right for the legends (a layout engine's solve costs
+    # about half of a figure's rendering time)
+    fig.subplots_adjust(left=0.12, right=0.74, top=0.93, bottom=0.1, hspace=0.18)
     return fig, list(axes[:, 0])
 
 
@@ -76,22 +80,27 @@ def plot_response(resp, *, axes=None, title: str | None = None):
     ax.plot(t, resp.y, color="C0", lw=1.4, label="y")
     ax.plot(t, resp.xhat[:, 0], color="C1", lw=0.8, ls=":", label="estimate")
     ax.set_ylabel("output y")
-    ax.legend(loc="best", fontsize="small")
+    _legend_outside(ax)
     axes[1].step(t, resp.u, where="post", color="C2", lw=1.0)
     axes[1].set_ylabel("input u")
     axes[2].plot(t, resp.sigma, color="C0", lw=1.2, label="sigma (true)")
     axes[2].plot(t, resp.sigmahat, color="C1", lw=0.8, label="sigma estimate")
     axes[2].set_ylabel("sigma")
     axes[2].set_xlabel("time (s)")
-    axes[2].legend(loc="best", fontsize="small")
+    _legend_outside(axes[2])
     if resp.diverged:
         for a in axes:
             a.axvline(resp.divergence_time, color=STATUS_COLORS[0], lw=1.0)
     if title is None:
-        title = (f"{resp.status}: overshoot {resp.overshoot:.3g} %, settling "
-                 f"{resp.settling_time:.3g} s")
+        title = f"{resp.status}, overshoot {resp.overshoot:.3g} %"
     axes[0].set_title(title)
     return fig
+
+
+def _legend_outside(ax, **kwargs):
+    """A legend to the right of ``ax``, outside the data (the figure's margins make room)."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                     fontsize="small", **kwargs)
 
 
 def _edges(values: np.ndarray) -> np.ndarray:
@@ -230,10 +239,10 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     from matplotlib.patches import Patch
 
     if ax is None:
-        fig, (ax,) = _new_axes(1, figsize=(7.0, 5.0))
+        fig, (ax,) = _new_axes(1, figsize=(9.0, 5.0))
     fig = ax.figure
     cmap = ListedColormap(list(STATUS_COLORS))
-    norm = BoundaryNorm(np.arange(-2.5, 4.0), cmap.N)
+    norm = BoundaryNorm(np.arange(-2.5, 5.0), cmap.N)
     gx = np.abs(np.asarray(smap.gamma, dtype=float))  # gamma < 0 (b < 0): plotted as |gamma|
     negative = bool(np.any(np.asarray(smap.gamma) < 0))
     ax.pcolormesh(_edges(gx), _edges(smap.eps), np.asarray(smap.status), cmap=cmap,
@@ -244,7 +253,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
                   else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
     present = set(np.unique(np.asarray(smap.status)).tolist())
-    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 4), STATUS_COLORS,
+    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 5), STATUS_COLORS,
                                                               STATUS_LABELS) if code in present]
     if show_eps_star:
         stars = [smap.eps_star(g) for g in smap.gamma]
@@ -266,8 +275,8 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
         handles.append(h)
     ax.set_xlim(np.sort(_edges(gx)[[0, -1]]))
     ax.set_ylim(_edges(smap.eps)[[0, -1]])
-    ax.legend(handles=handles, loc="best", fontsize="small")
-    ax.set_title(f"closed-loop runs of {smap.duration:g} s, T = {smap.T:g} s")
+    _legend_outside(ax, handles=handles)
+    ax.set_title(f"closed-loop runs of {smap.duration:g} s")
     return fig
 
 

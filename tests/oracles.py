@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -48,7 +49,6 @@ def summary_from_trajectories(*, r, y, u, xhat, sigmahat, sigma, coords, y0: flo
         "tail_e_min": tail.min(initial=np.inf), "tail_e_sum": tail.sum(),
         "k10": first(prog >= 0.1 * abs(step)), "k90": first(prog >= 0.9 * abs(step)),
         "k_out": float(outside[-1]) if outside.size else -1.0,
-        "tail_reversals": float(count_reversals(tail, tol / 2)) if tail.size else 0.0,
     }
 
 
@@ -63,11 +63,13 @@ def metrics_from_trajectories(resp) -> dict:
         nan = float("nan")
         out = {k: nan for k in ("overshoot", "rise_time", "settling_time", "steady_state_error",
                                 "iae", "input_rms", "input_tv", "tail_error", "tail_amplitude",
-                                "tail_reversals")}
+                                "reversals", "oscillation_period", "decay_rate")}
         out["estimation_rms"] = np.full(np.shape(s["est2_sum"]), np.nan)
         out["divergence_time"] = s["k_div"] * T
         return out
     peak = s["e_max"] if step > 0 else -s["e_min"]
+    ev = evidence_from_errors(resp.y - resp.r, k_tail=resp.k_tail, tol=resp.tol,
+                              noise=resp.summary.get("noise", 0.0))
     return {
         "overshoot": 100.0 * max(0.0, peak) / abs(step) if step else float("nan"),
         "rise_time": ((s["k90"] - s["k10"]) * T if step and s["k10"] >= 0 and s["k90"] >= 0
@@ -80,7 +82,9 @@ def metrics_from_trajectories(resp) -> dict:
         "estimation_rms": np.sqrt(s["est2_sum"] / N),
         "tail_error": s["tail_abs_e_max"],
         "tail_amplitude": s["tail_e_max"] - s["tail_e_min"],
-        "tail_reversals": s["tail_reversals"],
+        "reversals": ev["reversals"],
+        "oscillation_period": ev["period"] * T,
+        "decay_rate": -ev["rate"] / T,
         "divergence_time": float("nan"),
     }
 
@@ -112,20 +116,107 @@ def count_reversals(e, h: float) -> int:
     return legs
 
 
-def status_from_trajectories(resp, shrink: float = 0.95) -> str:
-    """The classification from whole trajectories: converged / converging / oscillating /
-    undecided (the reversals counted by :func:`count_reversals` with ``h = tol / 2``)."""
+def turning_points(e, h: float) -> list:
+    """The zigzag of :func:`count_reversals` as ``[(index, value), ...]`` of its turning points."""
+    values = [float(v) for v in e]
+    points, top, bottom, trend = [], values[0], values[0], 0
+    for i, v in enumerate(values[1:], 1):
+        if trend == 0:
+            top, bottom = max(top, v), min(bottom, v)
+            if v < top - h:
+                trend, bottom = -1, v
+            elif v > bottom + h:
+                trend, top = 1, v
+        elif trend > 0:
+            if v < top - h:
+                points.append((i, top))
+                trend, bottom = -1, v
+            else:
+                top = max(top, v)
+        else:
+            if v > bottom + h:
+                points.append((i, bottom))
+                trend, top = 1, v
+            else:
+                bottom = min(bottom, v)
+    return points
+
+
+def evidence_from_errors(e, *, k_tail: int, tol: float, noise: float = 0.0) -> dict:
+    """The classifier's measurements recomputed from a whole error record ``e`` (NumPy and
+    SciPy, no accumulator): window = second half, 8 blocks, reversals with hysteresis
+    ``max(tol / 2, 4 noise)``, the envelope's log-linear fit by ``scipy.stats.linregress``."""
+    from scipy.stats import linregress
+
+    e = np.asarray(e, dtype=float)
+    n = e.size
+    k_mid = k_tail + (n - k_tail) // 2
+    n_est = 2 * k_mid - k_tail
+    start = math.floor(n_est / 2)
+    length = (n_est - start) / 8
+    k = np.arange(n)
+    block = np.floor((k - start) / length)
+    env = np.array([np.max(np.abs(e[(k >= start) & (block == j)])) for j in range(8)])
+    h = max(0.5 * tol, 4.0 * noise)
+    points = turning_points(e[start:], h)
+    swings = [abs(b[1] - a[1]) for a, b in itertools.pairwise(points)]
+    rev = len(points)
+    period = 2 * (points[-1][0] - points[0][0]) / (rev - 1) if rev >= 2 else math.nan
+    width = 1 if not rev >= 2 else int(min(max(math.ceil(period / 2 / length), 1), 6))
+    smooth = np.array([env[i:i + width].max() for i in range(8 - width + 1)])
+    centres = (np.arange(smooth.size) + width / 2) * length
+    fit = linregress(centres, np.log(smooth))
+    drops = -np.diff(smooth)
+    heading = math.nan
+    if smooth.size >= 4 and np.all(drops > 0):
+        q = math.exp(np.polyfit(np.arange(drops.size), np.log(drops), 1)[0])
+        heading = smooth[-1] - drops[-1] * q / (1 - q) if q < 1 else math.nan
+    curvature = math.nan
+    if smooth.size >= 5:
+        x = centres - centres.mean()
+        x = x / np.abs(x).max()
+        X = np.column_stack([np.ones_like(x), x, x * x])
+        coef, *_ = np.linalg.lstsq(X, np.log(smooth), rcond=None)
+        var = max(float(np.sum((np.log(smooth) - X @ coef) ** 2)) / (smooth.size - 3), 1e-18)
+        curvature = coef[2] / math.sqrt(var * np.linalg.inv(X.T @ X)[2, 2])
+    return {"reversals": rev, "period": period, "curvature_t": curvature, "window_start": start,
+            "spread": float(env.max() - env.min()), "top": float(env.max()),
+            "amplitude": float(np.mean(swings)) if swings else math.nan,
+            "swing_ratio": swings[-1] / swings[0] if len(swings) >= 2 else math.nan,
+            "rate": fit.slope, "rate_se": fit.stderr,
+            "change": math.expm1(fit.slope * length * (8 - width)), "band": tol + 4 * noise,
+            "asymptote": heading,
+            "floor": 8 * noise}
+
+
+def status_from_trajectories(resp, noise: float | None = None) -> str:
+    """The classification of :mod:`fl_design.sim._status` from the recorded trajectories
+    (:func:`evidence_from_errors`), written again without the accumulators. ``noise``: the
+    noise std (default: the run's own, from its summary)."""
+    if noise is None:
+        noise = float(resp.summary.get("noise", 0.0))
     if resp.divergence_index is not None:
         return "diverged"
     e = resp.y - resp.r
     tail = e[resp.k_tail:]
-    if np.abs(tail).max() <= resp.tol and np.ptp(tail) <= resp.tol:
+    ev = evidence_from_errors(e, k_tail=resp.k_tail, tol=resp.tol, noise=noise)
+    if (np.abs(tail).max() <= ev["band"] and abs(tail.mean()) <= resp.tol
+            and np.ptp(tail) <= max(resp.tol, ev["floor"])):
         return "converged"
-    half = (e.size - resp.k_tail) // 2
-    first, second = np.abs(tail[:half]).max(), np.abs(tail[half:]).max()
-    if second < shrink * first:
+    t = ev["rate"] / ev["rate_se"] if ev["rate_se"] > 0 else math.copysign(math.inf, ev["rate"])
+    swinging = ev["reversals"] >= 2 and ev["amplitude"] > max(resp.tol, ev["floor"])
+    offset = ev["asymptote"] > ev["band"] and not swinging
+    if t < -4 and ev["change"] < -0.05 and not offset:
         return "converging"
-    return "oscillating" if count_reversals(tail, resp.tol / 2) >= 2 else "undecided"
+    hump = abs(ev["curvature_t"]) > 4 and ev["spread"] > max(0.05 * ev["top"], ev["floor"])
+    flat = (abs(t) < 1 or abs(ev["change"]) < 0.05) and not hump
+    growing = t > 4 and ev["change"] > 0.05
+    sustained = (ev["change"] >= -0.05 or ev["swing_ratio"] >= 0.95) and not growing
+    if swinging and sustained:
+        return "oscillating"
+    half = e[ev["window_start"]:]
+    one_sided = half.min() > -ev["band"] or half.max() < ev["band"]
+    return "stalled" if not swinging and (flat or offset) and one_sided else "undecided"
 
 
 def region_exit_time(resp, region: dict, states) -> float:

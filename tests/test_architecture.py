@@ -87,9 +87,26 @@ def test_analysis_and_codegen_never_import_each_other():
     assert ("analysis", "codegen") not in EDGES and ("codegen", "analysis") not in EDGES
 
 
-@pytest.mark.parametrize("layer", ["symbolic", "design", "sim", "analysis", "codegen"])
+@pytest.mark.parametrize("layer", LAYERS)
 def test_a_layer_exports_its_api_only(layer):
     module = importlib.import_module(f"fl_design.{layer}")
     assert len(module.__all__) <= MAX_EXPORTS, sorted(module.__all__)
     for name in module.__all__:
         assert getattr(module, name).__doc__ or name.isupper(), f"{layer}.{name} undocumented"
+
+
+def test_the_readme_box_lists_every_module():
+    """README's "What is in the box" names each layer's modules exactly as the tree holds them."""
+    import re
+
+    text = (ROOT.parent / "README.md").read_text()
+    box = text[text.index("## What is in the box"):]
+    for layer in ("symbolic", "design", "sim", "analysis", "codegen", "app", "plants"):
+        row = next(line for line in box.splitlines() if line.startswith(f"| `{layer}/` |"))
+        listed = set(re.findall(r"`(_\w+)`", row.split("|")[2]))
+        folder = ROOT / layer
+        have = {p.stem for p in folder.glob("_*.py") if p.stem != "__init__"}
+        if layer == "sim":
+            have |= {p.stem for p in (folder / "kernel").glob("_*.py") if p.stem != "__init__"}
+        assert listed == have, f"{layer}: README lists {sorted(listed - have)} not in the " \
+                               f"tree, misses {sorted(have - listed)}"

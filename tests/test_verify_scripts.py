@@ -38,3 +38,15 @@ def test_scaleout_bench_quick_runs_and_agrees():
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "every executor's map equals the in-process map" in proc.stdout
     assert "isa " in proc.stdout.splitlines()[0]  # the machine and ISA that measured it
+
+
+def test_predictive_check_quick():
+    """verify/predictive_check.py --quick: 6 x 6 grids of the TRMS and the pendulum, verdicts at
+    the adaptive duration D against 10 D (the full 12 x 12 check is the same script)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, str(ROOT / "verify" / "predictive_check.py"),
+                           "--quick"], capture_output=True, text=True, env=env, timeout=300,
+                          check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.count("6 x 6 grid") == 2
+    assert "predictive check: holds" in proc.stdout and "FAILS" not in proc.stdout

@@ -1,11 +1,12 @@
 """Benchmark: the time of a 50-point eps*(gamma) curve of the paper's TRMS design.
 
-For 50 log-spaced gains in ``[2e-4, 5e-3]`` (TRMS static motor, ``b in [3.6, 6.8]``,
+For 50 log-spaced gains in ``[1.5e-4, 1e-2]`` (TRMS static motor, ``b in [3.6, 6.8]``,
 ``K = (2, 4)``, ``k_I = 1e-3``, ``alpha = (6, 11, 6)``, ``T = 1 ms``) computes the frozen-b
 ``eps*`` and the certified ``eps*`` (certificates re-checked in NumPy) with
 :func:`fl_design.eps_star_curve` in this one process, and prints the wall time, the
 certified/frozen ratios (also at the issue's gains 3e-4, 1e-3, 3e-3, untimed) and the load
-average. Target: under 10 s on the development machine (2 cores); exits with status 1 on a
+average. The curve certifies *frozen* ``b`` (each constant ``b``; ``certify_eps`` brackets the
+varying-``b`` eps*). Target: under 5 s on the development machine (2 cores, idle); exits with status 1 on a
 miss, when a certified eps* exceeds its frozen one (soundness) or when a ratio at the issue's
 gains is below 0.8. ``--quick`` computes 4 points and checks soundness and the ratios only (the
 tests run it).
@@ -24,7 +25,7 @@ import numpy as np
 
 import fl_design as fl
 
-TARGET_S = 10.0
+TARGET_S = 5.0
 ISSUE_GAMMAS = (3e-4, 1e-3, 3e-3)
 
 
@@ -34,14 +35,15 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="4 points, no time target")
     args = parser.parse_args(argv)
     n = 4 if args.quick else 50
-    gammas = np.geomspace(2e-4, 5e-3, n)
+    gammas = np.geomspace(1.5e-4, 1e-2, n)
     design = fl.presets.paper_design()
     fl.eps_star_curve(design, (3.6, 6.8), gammas[:1])  # warm-up: CasADi and CVXPY compile
     t0 = time.perf_counter()
     curve = fl.eps_star_curve(design, (3.6, 6.8), gammas)
     elapsed = time.perf_counter() - t0
     ratio = curve.ratio
-    print(f"{n}-point eps*(gamma) curve: {elapsed:.2f} s (target < {TARGET_S:g} s)")
+    print(f"{n}-point eps*(gamma) curve (certified for {curve.covers} b): {elapsed:.2f} s "
+          f"(target < {TARGET_S:g} s)")
     print(f"certified/frozen ratio: min {np.nanmin(ratio):.3f}, median "
           f"{np.nanmedian(ratio):.3f} over {int(np.sum(np.isfinite(ratio)))} certified gains")
     ok = bool(np.all(~(curve.eps_star_certified > curve.eps_star_frozen)))

@@ -239,7 +239,7 @@ smap = fl.sweep(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario({re
                 eps=np.geomspace({e0}, {e1}, {n}), gamma=np.geomspace({g0}, {g1}, {n}),
                 progress=False)
 print(", ".join(f"{{int(np.sum(smap.labels == s))}} {{s}}" for s in
-                ("converged", "converging", "oscillating", "undecided", "diverged")))
+                ("converged", "converging", "oscillating", "stalled", "undecided", "diverged")))
 """
 
 

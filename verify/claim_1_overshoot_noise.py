@@ -14,7 +14,7 @@ import argparse
 import numpy as np
 
 import fl_design as fl
-from fl_design.app import overshoot_text
+from fl_design.app._report_sections import overshoot_text
 
 PAPER = {"EHGO": "36 %", "LS(26)": "70 %", "LS(9)": "over 100 %"}
 

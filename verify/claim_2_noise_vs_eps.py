@@ -12,7 +12,7 @@ import argparse
 import numpy as np
 
 import fl_design as fl
-from fl_design.app import noise_levels
+from fl_design.app._job import noise_levels
 
 
 def main(argv=None) -> int:

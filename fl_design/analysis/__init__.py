@@ -2,10 +2,13 @@
 
 Modules: ``_linearization`` (:func:`sampled_linearization`, :func:`linearized_eps_star`),
 ``_surrogate`` (the linear surrogate loop, affine in ``b``), ``_lmi`` (delta-form vertex LMIs,
-CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_eps`,
-:func:`certify_gamma`, :func:`eps_star_curve`), ``_ldi`` (the linear differential inclusion
+CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_eps`), ``_curve`` (:func:`eps_star_curve`), ``_gamma`` (:func:`certify_gamma`), ``_coverage`` (eps* brackets
+``[certified, refuted]`` per coverage: frozen, varying, rate-bounded, nonlinear), ``_refute``
+(switching counterexamples), ``_ldi`` (the linear differential inclusion
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
-``_cert_results`` (the result objects).
+``_margins`` (gain, phase and delay margins at the plant input,
+:func:`loop_margins`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
+(the result objects).
 
 Examples
 --------
@@ -14,24 +17,39 @@ Examples
 ('SampledLinearization', 'certify_eps')
 """
 
-from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
-from ._certify import certify_eps, certify_gamma, eps_star_curve
+from ._cert_results import (
+                            EpsBracket,
+                            EpsCertificate,
+                            EpsStarCurve,
+                            GammaCertificate,
+                            PointCertificate,
+)
+from ._certify import certify_eps
+from ._curve import eps_star_curve
+from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
+from ._margins import LoopMargins, loop_margins
+from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
+    "EpsBracket",
     "EpsCertificate",
     "EpsStarCurve",
     "GainSynthesis",
     "GammaCertificate",
+    "LoopMargins",
     "LyapunovCertificate",
     "PointCertificate",
     "SampledLinearization",
+    "Theorem1Constants",
     "certify_eps",
     "certify_gamma",
     "certify_lyapunov",
     "eps_star_curve",
     "linearized_eps_star",
+    "loop_margins",
     "sampled_linearization",
     "synthesize_gains",
+    "theorem1_constants",
 ]

@@ -55,12 +55,47 @@ def modal_lyapunov(D: np.ndarray, T: float) -> np.ndarray | None:
     """
     mu, V = np.linalg.eig(D)
     d = -(2.0 * mu.real + T * np.abs(mu) ** 2)
-    if np.any(d <= 0.0) or np.linalg.cond(V) > 1e12:
+    if np.any(d <= 0.0):
         return None
-    Vi = np.linalg.inv(V)
+    try:
+        Vi = np.linalg.inv(V)
+    except np.linalg.LinAlgError:
+        return None
+    if np.linalg.norm(V, 1) * np.linalg.norm(Vi, 1) > 1e12:  # 1-norm condition number
+        return None
     P = ((Vi.conj().T * d ** -0.5) @ Vi).real
     P = 0.5 * (P + P.T)
     return P / np.linalg.norm(P, 2)
+
+
+def real_modal_basis(D: np.ndarray) -> np.ndarray:
+    """Real basis ``X`` with ``X^-1 D X`` block diagonal (1x1 and 2x2 blocks), unit columns.
+
+    Complex pairs contribute the real and imaginary parts of one eigenvector.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> D = np.array([[0.0, 1.0], [-1.0, -0.5]])
+    >>> X = real_modal_basis(D)
+    >>> B = np.linalg.solve(X, D @ X)
+    >>> bool(np.allclose(np.sort(np.linalg.eigvals(B).imag), np.sort(np.linalg.eigvals(D).imag)))
+    True
+    """
+    mu, V = np.linalg.eig(D)
+    cols, used = [], np.zeros(mu.size, dtype=bool)
+    for i in np.argsort(-mu.real):
+        if used[i]:
+            continue
+        used[i] = True
+        if abs(mu[i].imag) > 1e-12 * max(1.0, abs(mu[i])):
+            j = int(np.argmin(np.where(used, np.inf, np.abs(mu - mu[i].conj()))))
+            used[j] = True
+            cols += [V[:, i].real, V[:, i].imag]
+        else:
+            cols.append(V[:, i].real)
+    X = np.column_stack(cols)
+    return X / np.linalg.norm(X, axis=0)
 
 
 def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
@@ -107,4 +142,4 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     return done, min(p[3] for p in done), None
 
 
-__all__ = ["modal_lyapunov", "piecewise_modal"]
+__all__ = ["modal_lyapunov", "piecewise_modal", "real_modal_basis"]

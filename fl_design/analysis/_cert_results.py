@@ -88,6 +88,11 @@ class PointCertificate(_Result):
         Smallest relative eigenvalue margin of the NumPy re-check.
     reason : str
         How it was certified, or why not.
+    covers : str or None
+        What the certificate covers: ``"frozen"`` (every constant ``b``), ``"varying"``
+        (``b`` arbitrary in time), ``"rate-bounded"`` (``|b_(k+1) - b_k| <= db``) or
+        ``"nonlinear"`` (the linear differential inclusion of the plant in its region); None
+        when not certified.
     b_pieces : tuple of (float, float)
         The sub-intervals of ``|b|`` certified, in increasing order (empty when not certified;
         for ``b < 0`` the loop is evaluated with ``|b|`` and ``gamma`` of the sign of ``b``).
@@ -114,6 +119,7 @@ class PointCertificate(_Result):
     reason: str
     b_pieces: tuple = ()
     lyapunov: tuple = ()
+    covers: str | None = None
 
     def to_dict(self) -> dict:
         out = super().to_dict()
@@ -121,8 +127,63 @@ class PointCertificate(_Result):
         return out
 
     def _repr_lines(self):
+        what = f"{self.covers} b" if self.covers else "-"
         return [(f"eps = {self.eps:.6g}: {'certified' if self.certified else 'not certified'}"
-                f" ({self.kind or '-'}, {self.pieces} piece(s)), {self.reason}")]
+                f" for {what} ({self.kind or '-'}, {self.pieces} piece(s)), {self.reason}")]
+
+
+@dataclass(frozen=True, repr=False)
+class EpsBracket(_Result):
+    """eps* of one coverage as a bracket: certified below, refuted at or above.
+
+    Parameters
+    ----------
+    covers : str
+        ``"frozen"``, ``"varying"``, ``"rate-bounded"`` or ``"nonlinear"`` (see
+        :mod:`fl_design.analysis._coverage`).
+    certified : float or None
+        Largest eps found with a certificate of this coverage (None: none).
+    refuted : float or None
+        Smallest eps found with a counterexample of this coverage (None: none found).
+    how_certified : str
+        The certificate used.
+    how_refuted : str
+        The counterexample (a constant ``b``, or a switching sequence of ``b``).
+    b_rate : float or None
+        The rate bound ``db`` per sample (rate-bounded only).
+    counterexample : tuple of (float, int)
+        The refuting switching sequence, one period as runs ``(b, samples)`` (empty for a
+        constant-``b`` counterexample or none).
+
+    Examples
+    --------
+    >>> b = EpsBracket("varying", 0.08, 0.122, "common P", "periodic switching")
+    >>> round(b.gap, 3), str(b)
+    (0.525, 'varying b: eps* in [0.08, 0.122]')
+    """
+
+    covers: str
+    certified: float | None
+    refuted: float | None
+    how_certified: str
+    how_refuted: str
+    b_rate: float | None = None
+    counterexample: tuple = ()
+
+    @property
+    def gap(self) -> float:
+        """``refuted / certified - 1`` (NaN when either end is missing)."""
+        if self.certified is None or self.refuted is None:
+            return math.nan
+        return self.refuted / self.certified - 1.0
+
+    def __str__(self) -> str:
+        what = (f"rate-bounded b (|db| <= {self.b_rate:.4g} per sample)"
+                if self.covers == "rate-bounded" else f"{self.covers} b")
+        return f"{what}: eps* in [{_fmt(self.certified)}, {_fmt(self.refuted)}]"
+
+    def _repr_lines(self):
+        return [str(self), f"certified by {self.how_certified}", f"refuted by {self.how_refuted}"]
 
 
 @dataclass(frozen=True, repr=False)
@@ -138,28 +199,41 @@ class EpsCertificate(_Result):
     eps_range : tuple of float
         The eps search interval.
     eps_star_frozen : float or None
-        Largest eps below which every frozen-b surrogate loop on the ``b`` grid is Schur.
+        Largest eps below which every frozen-b surrogate loop on the ``b`` grid is Schur (an
+        eigenvalue scan, not a certificate: the upper end of the frozen bracket).
     eps_star_common : float or None
-        Largest eps found with a common quadratic Lyapunov function.
+        Largest eps found with a common quadratic Lyapunov function (covers varying ``b``).
     eps_star_certified : float or None
-        Largest eps found with a certificate (common or parameter-dependent).
+        The certified end of the bracket of ``covers``: the strongest coverage the data
+        supports (varying ``b`` unless ``b_rate`` says otherwise, nonlinear with Jacobian
+        bounds).
     certified : bool
-        The design's own eps is certified.
+        The design's own eps is certified for ``covers``.
     point : PointCertificate
-        The certificate at the design's eps.
+        The certificate at the design's eps (of coverage ``covers``).
     n_b_grid : int
         Points of the ``b`` grid of the frozen check.
     a_jacobian_bounds : tuple or None
         Bounds on ``da/dx_i`` (linear differential inclusion), or None (``a = 0``).
     reason : str
         Summary.
+    covers : str
+        The coverage of ``certified`` and ``eps_star_certified``.
+    brackets : tuple of EpsBracket
+        ``[certified, refuted]`` per coverage searched (empty without a search).
+    b_rate : float or None
+        The rate bound per sample given (None: ``b`` arbitrary in time; 0: constant ``b``).
+    eps_intervals_frozen : tuple of (float, float)
+        The eps of the range at which every frozen loop of the ``b`` grid is Schur, as
+        intervals (a scan of ``4 n_scan`` points, ends refined): not always ``(0, eps*]``
+        (for gamma just above its lower bound the stable eps form a band away from 0).
 
     Examples
     --------
     >>> import fl_design as fl
     >>> c = fl.certify_eps(fl.presets.paper_design(), (3.6, 6.8), search=False)
-    >>> c.certified
-    True
+    >>> c.certified, c.covers
+    (True, 'varying')
     """
 
     eps: float
@@ -175,19 +249,41 @@ class EpsCertificate(_Result):
     n_b_grid: int
     a_jacobian_bounds: tuple | None
     reason: str
+    covers: str = "varying"
+    brackets: tuple = ()
+    b_rate: float | None = None
+    eps_intervals_frozen: tuple = ()
+
+    def bracket(self, covers: str):
+        """The :class:`EpsBracket` of one coverage, or None when not searched.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> c = fl.certify_eps(fl.presets.paper_design(), (3.6, 6.8), search=False)
+        >>> c.bracket("varying") is None
+        True
+        """
+        return next((b for b in self.brackets if b.covers == covers), None)
 
     def to_dict(self) -> dict:
         out = super().to_dict()
         out["point"] = self.point.to_dict()
+        out["brackets"] = [b.to_dict() for b in self.brackets]
         return out
 
     def _repr_lines(self):
-        return [(f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
-                f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
-                f"certified: {self.certified} ({self.point.kind or '-'})",
-                (f"eps* frozen {_fmt(self.eps_star_frozen)}, common P "
-                f"{_fmt(self.eps_star_common)}, certified {_fmt(self.eps_star_certified)}"),
-                self.reason]
+        lines = [(f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
+                  f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
+                 (f"certified for {self.covers} b: {self.certified} "
+                  f"({self.point.kind or '-'}); eps* certified "
+                  f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
+        lines += [str(b) + ("  <- headline" if b.covers == self.covers else "")
+                  for b in self.brackets]
+        if self.eps_intervals_frozen:
+            lines.append("frozen-stable eps: " + ", ".join(
+                f"[{a:.6g}, {b:.6g}]" for a, b in self.eps_intervals_frozen))
+        return lines + [self.reason]
 
 
 @dataclass(frozen=True, repr=False)
@@ -247,7 +343,9 @@ class GammaCertificate(_Result):
         return out
 
     def _repr_lines(self):
-        return [f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified {self.certified}",
+        what = f" for {self.point.covers} b" if self.point.covers else ""
+        return [(f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
+                 f"{self.certified}"),
                 (f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"
                 f" lower bound over eps {_fmt(self.gamma_lower_bound)}"),
                 f"paper 1/b_max = {self.paper_bound:.6g}, 2/b_max = {self.convergence_bound:.6g}",
@@ -272,6 +370,9 @@ class EpsStarCurve(_Result):
         Sampling time.
     eps_range : tuple of float
         The eps search interval.
+    covers : str
+        What the certified curve covers: ``"frozen"`` (every constant ``b``; the curve is the
+        fast search, see :func:`fl_design.certify_eps` for varying ``b``).
 
     Examples
     --------
@@ -288,6 +389,7 @@ class EpsStarCurve(_Result):
     b_bounds: tuple
     T: float
     eps_range: tuple
+    covers: str = "frozen"
 
     @property
     def ratio(self) -> np.ndarray:
@@ -321,10 +423,11 @@ class EpsStarCurve(_Result):
 
     def _repr_lines(self):
         return [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
-                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
+                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}, "
+                f"certified for {self.covers} b"),
                 f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"
                 if np.any(np.isfinite(self.ratio)) else "no certified point"]
 
 
-__all__ = ["EpsCertificate", "EpsStarCurve", "GammaCertificate", "PointCertificate",
+__all__ = ["EpsBracket", "EpsCertificate", "EpsStarCurve", "GammaCertificate", "PointCertificate",
            "json_number"]

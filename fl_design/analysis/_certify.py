@@ -7,13 +7,14 @@ step (EHGO, clamps and saturation inactive, dynamic controller, integrator) at t
 ``T``. A certificate at one ``eps`` is a Lyapunov matrix, found in closed form
 (:mod:`._analytic`) or by an LMI (:mod:`._lmi`, delta form, balanced), re-checked in NumPy:
 
-* ``"common"``: one quadratic Lyapunov function for both ends of the ``b`` interval: the loop is
-  exponentially stable for every sequence ``b_k`` in the interval (``b`` may vary from sample to
-  sample);
-* ``"parameter-dependent"``: ``P(b)`` on each of ``pieces`` sub-intervals covering the
-  interval, either one closed-form modal ``P`` per piece (:mod:`._analytic`) or vertex matrices
-  ``P_v`` with a common slack ``G`` (LMI): every *constant* ``b`` of the interval gives a Schur
-  loop (robust stability, not time variation across pieces).
+* kind ``"common"`` (covers ``"varying"`` b): one quadratic Lyapunov function for both ends of
+  the ``b`` interval: the loop is exponentially stable for every sequence ``b_k`` in the
+  interval (``b`` may vary from sample to sample);
+* kind ``"parameter-dependent"`` (covers ``"frozen"`` b): ``P(b)`` on each of ``pieces``
+  sub-intervals covering the interval, either one closed-form modal ``P`` per piece
+  (:mod:`._analytic`) or vertex matrices ``P_v`` with a common slack ``G`` (LMI): every
+  *constant* ``b`` of the interval gives a Schur loop (robust stability, not time variation
+  across pieces).
 
 **How a point is certified** (cheapest first): the frozen loops on the ``b`` grid must be
 Schur (else no Lyapunov function exists and nothing is solved); then closed-form modal
@@ -25,38 +26,52 @@ A search (eps*) that already found a closed-form certificate at this gamma skips
 larger eps: a point left uncertified is never unsound. The certificate's ``b_pieces`` and
 ``lyapunov`` (``P`` per piece, the loop's coordinates) let anyone re-check it.
 
-``eps_star_certified`` is the largest ``eps`` of a bisection (relative resolution ``rtol``)
-at which a certificate was found, searched below ``eps_star_frozen``; the certificate holds at
-that ``eps`` and at the design's own ``eps`` when ``certified`` says so, **not** at every eps
-in between (each eps is its own LMI). ``eps_star_frozen`` is the largest eps below which every
-frozen loop with ``b`` on an ``n_b``-point grid of the interval (ends included) is Schur, from a
-log-spaced scan refined to ``rtol / 10`` (secant steps, bracket kept): a frozen grid check, not
-a certificate. For ``b < 0`` the design's ``gamma`` is read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only; a
-:class:`~fl_design.DynamicController` stores ``|gamma|``).
+**What is reported** (:mod:`._coverage`): per coverage (``frozen``: constant ``b``;
+``varying``: ``b`` arbitrary in time; ``rate-bounded``; ``nonlinear``) a bracket
+``[certified, refuted]`` of eps*: the largest eps of a bisection (relative resolution ``rtol``)
+at which a certificate of that coverage was found, and the smallest eps at which a
+counterexample was found (a constant ``b`` whose loop has an eigenvalue outside the unit
+circle, or a periodic/greedy switching of ``b`` whose period map does, :mod:`._refute`). Each
+certified eps is its own certificate: it holds at that ``eps`` and at the design's own ``eps``
+when ``certified`` says so, **not** at every eps in between. ``eps_star_certified`` and
+``certified`` are those of the strongest coverage the data support (``b_rate``: None means
+``b`` varies arbitrarily, the paper's ``b(k) = b(w(k), x(k))``). ``eps_star_frozen`` is the
+largest eps below which every frozen loop with ``b`` on an ``n_b``-point grid of the interval
+(ends included) is Schur, from a log-spaced scan refined to ``rtol / 10`` (secant steps,
+bracket kept): an eigenvalue scan, not a certificate. For ``b < 0`` the design's ``gamma`` is
+read as ``-|gamma|`` (the surrogate depends on ``b gamma`` only and is evaluated with ``|b|``
+and ``|gamma|``; a :class:`~fl_design.DynamicController` stores ``gamma`` of the sign of ``b``).
 
 Examples
 --------
 >>> import fl_design as fl
 >>> cert = fl.certify_eps(fl.presets.paper_design(), (3.6, 6.8), search=False)
->>> cert.certified, cert.point.kind
-(True, 'parameter-dependent')
+>>> cert.certified, cert.covers, cert.point.kind
+(True, 'varying', 'common')
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import _validate as V
 from .._blas import serial_blas
 from ..errors import CertificationError, ParameterError
-from ._analytic import piecewise_modal
-from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate, PointCertificate
+from ._analytic import piecewise_modal, real_modal_basis
+from ._cert_results import EpsCertificate, PointCertificate
+from ._coverage import coverage_brackets, coverage_of, gamma_fix
 from ._lmi import balance_scaling, vertex_lmi
-from ._search import certified_eps_star, frozen_eps_star, gamma_interval
+from ._rate import rate_lmi
+from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
+
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
 
@@ -65,6 +80,8 @@ DEFAULT_EPS_RANGE = (1e-3, 1.0)
 MODAL_SPLIT = 8
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
+#: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).
+RATE_PIECES = 4
 
 
 def _serial(func):
@@ -113,6 +130,15 @@ class _Loop:
             worst = max(worst, m if math.isfinite(m) else math.inf)
         return worst
 
+    def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
+        """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
+        if self.box is not None:
+            return np.array([self.frozen_margin(e, gamma) for e in eps_values])
+        parts = [self.loop.parts(float(e), gamma) for e in eps_values]
+        M = np.stack([M0[None] + self.b_grid[:, None, None] * M1[None] for M0, M1 in parts])
+        m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
+        return np.where(np.isfinite(m), m, np.inf)
+
     def frozen_ok(self, eps: float, gamma: float) -> bool:
         """Every frozen loop on the b grid (and the a-corners) is Schur."""
         return self.frozen_margin(eps, gamma) < 0.0
@@ -135,7 +161,37 @@ class _Loop:
         """Certificate at one eps: frozen pre-screen, modal P on pieces, then the LMIs.
 
         ``lmi=False`` stops after the closed-form candidates (a search that already has one).
+        ``covers`` of the result: ``"varying"`` for one common P over the whole interval,
+        ``"frozen"`` for P(b) on pieces, ``"nonlinear"`` for the LDI.
         """
+        pc = self._point(eps, gamma, common_only=common_only, lmi=lmi)
+        if not pc.certified:
+            return pc
+        covers = ("nonlinear" if pc.kind == "ldi" else
+                  "varying" if pc.covers_time_varying_b else "frozen")
+        return dataclasses.replace(pc, covers=covers)
+
+    def covered_point(self, eps: float, gamma: float, covers: str,
+                      b_rate: float | None = None) -> PointCertificate:
+        """The certificate of coverage ``covers`` at one eps (a stronger one counts)."""
+        if covers in ("varying", "rate-bounded"):
+            pc = self.point(eps, gamma, common_only=True)
+            if pc.certified or covers == "varying" or not self.frozen_ok(eps, gamma):
+                return pc
+            return self.rate_point(eps, gamma, b_rate)
+        return self.point(eps, gamma)
+
+    def rate_point(self, eps: float, gamma: float, db: float) -> PointCertificate:
+        """Rate-bounded certificate: ``P(b)`` piecewise affine with ``|b+ - b| <= db``."""
+        M0, M1 = self.loop.parts(eps, gamma)
+        ok, margin, note = rate_lmi(lambda b: delta(M0 + b * M1, self.T), self.b_lo,
+                                    self.b_hi, self.T, db, RATE_PIECES)
+        return PointCertificate(
+            float(eps), ok, "rate-bounded P(b)" if ok else None, RATE_PIECES if ok else 0,
+            False, "CLARABEL", "see reason", margin, note,
+            covers="rate-bounded" if ok else None)
+
+    def _point(self, eps, gamma, *, common_only, lmi) -> PointCertificate:
         if self.box is not None:
             from ._ldi import ldi_point
 
@@ -157,19 +213,46 @@ class _Loop:
             sol, s = self._vertex(eps, gamma, whole, common=False)
             if sol.certified:
                 return _point(eps, sol, "parameter-dependent", [(whole, sol, s)], False)
+        if common_only:
+            pc = self._modal(eps, gamma, whole=True)
+            if pc.certified:
+                return pc
         sol, s = self._vertex(eps, gamma, whole, common=True)
+        if not sol.certified and common_only:
+            sol = self._common_modal_basis(eps, gamma, sol)
         if sol.certified or common_only:
             return _point(eps, sol, "common", [(whole, sol, s)], True)
         return self._pieces(eps, gamma, sol)
+
+    def _common_modal_basis(self, eps, gamma, failed):
+        """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
+        the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
+
+        The LMI and its NumPy re-check run in that basis (a congruence: the same certificate);
+        ``P`` is returned in the balanced coordinates, ``X^-T P_m X^-1``. Else ``failed``.
+        """
+        D, _ = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
+        X = real_modal_basis(0.5 * (D[0] + D[1]))
+        cond = float(np.linalg.cond(X))
+        if not cond < 1e10:
+            return failed
+        sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], self.T, common=True)
+        if not sol.certified:
+            return failed
+        Xi = np.linalg.inv(X)
+        P = Xi.T @ sol.P[0] @ Xi
+        return dataclasses.replace(sol, P=(P,), G=P, note=(
+            f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
         return vertex_lmi(D, self.T, common=common), s
 
-    def _modal(self, eps, gamma) -> PointCertificate:
-        """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`)."""
+    def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
+        """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
+        one P for the whole interval (a common P, no halving)."""
         (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
-        width = (self.b_hi - self.b_lo) / (MODAL_SPLIT * self.max_pieces)
+        width = (self.b_hi - self.b_lo) / (1 if whole else MODAL_SPLIT * self.max_pieces)
         span = self.b_hi - self.b_lo or 1.0
         done, margin, bad = piecewise_modal(
             lambda b: Dlo + (b - self.b_lo) / span * (Dhi - Dlo), self.b_lo, self.b_hi,
@@ -247,17 +330,21 @@ def _eps_range(eps_range) -> tuple[float, float]:
 
 
 @_serial
-def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_EPS_RANGE,
-                n_b: int = 41, max_pieces: int = 8, n_scan: int = 32, rtol: float = 1e-2,
-                search: bool = True, raise_on_failure: bool = False) -> EpsCertificate:
-    """Certify the design's ``eps`` and find the frozen and certified ``eps*`` over ``b``.
+def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
+                eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, max_pieces: int = 8,
+                n_scan: int = 32, rtol: float = 1e-2, search: bool = True,
+                raise_on_failure: bool = False) -> EpsCertificate:
+    """Certify the design's ``eps`` and bracket ``eps*`` for each coverage of ``b``.
 
-    See the module docstring of :mod:`fl_design.analysis._certify` for exactly what is covered:
-    the sampled *linear surrogate* (chain of integrators, ``b`` in ``b_bounds``), the design's
-    ``T`` and ``gamma``; certificates at the eps values named, frozen checks on the b grid.
-    With ``a_jacobian_bounds`` the certificate is the linear differential inclusion of
-    :func:`fl_design.analysis._ldi.ldi_point` (what it guarantees for the nonlinear plant is
-    stated there).
+    See :mod:`fl_design.analysis._certify` for the loop covered (the sampled *linear
+    surrogate*: chain of integrators, ``b`` in ``b_bounds``, the design's ``T`` and ``gamma``)
+    and :mod:`fl_design.analysis._coverage` for the coverages: ``frozen`` (each constant
+    ``b``), ``varying`` (``b`` arbitrary in time, the paper's ``b(k) = b(w(k), x(k))`` with no
+    more known), ``rate-bounded`` (``|b_(k+1) - b_k| <= b_rate``), ``nonlinear`` (with
+    ``a_jacobian_bounds``: the linear differential inclusion of
+    :func:`fl_design.analysis._ldi.ldi_point`). Every eps* is a bracket
+    ``[certified, refuted]``: the refuted end is a counterexample found by the search (a
+    constant ``b`` with an unstable loop, or a periodic/greedy switching of ``b``).
 
     Parameters
     ----------
@@ -267,7 +354,11 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
         ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``).
     a_jacobian_bounds : sequence of (float, float), optional
         Bounds of ``d sigma/d x_i`` at the equilibrium input, i = 1..rho
-        (``plant.jacobian_bounds()``).
+        (``plant.jacobian_bounds()``): the certificate covers the nonlinear plant's LDI.
+    b_rate : float, optional
+        What is known of ``b`` along trajectories: None (default) arbitrary variation, ``0``
+        constant, ``> 0`` at most ``b_rate`` per sample. Sets the headline coverage
+        ``covers`` (the strongest these data support).
     eps_range : (float, float), optional
         Search interval of eps (default ``(1e-3, 1)``).
     n_b : int, optional
@@ -277,9 +368,10 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
     n_scan : int, optional
         Log-spaced scan points of the frozen search (default 32).
     rtol : float, optional
-        Relative resolution of the certified bisection (default 1e-2; frozen: rtol/10).
+        Relative resolution of the certified and refuted bisections (default 1e-2; frozen
+        eigenvalue scan: rtol/10).
     search : bool, optional
-        False: certify the design's eps only (no eps* searches).
+        False: certify the design's eps only (no eps* searches, no brackets).
     raise_on_failure : bool, optional
         Raise :class:`~fl_design.errors.CertificationError` instead of returning a result that
         is not certified.
@@ -291,7 +383,8 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
     Raises
     ------
     ParameterError
-        Bad ``b_bounds`` (reversed, containing 0, mixed sign, non-finite), a non-EHGO design.
+        Bad ``b_bounds`` (reversed, containing 0, mixed sign, non-finite), a bad ``b_rate``,
+        a non-EHGO design.
     DesignMismatchError
         ``a_jacobian_bounds`` of another relative degree than the design's.
 
@@ -299,198 +392,55 @@ def certify_eps(design, b_bounds, *, a_jacobian_bounds=None, eps_range=DEFAULT_E
     --------
     >>> import fl_design as fl
     >>> c = fl.certify_eps(fl.presets.paper_design(gamma=3e-3), (3.6, 6.8))
-    >>> c.certified, c.eps_star_certified <= c.eps_star_frozen
-    (False, True)
+    >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
+    ('varying', False, True)
     """
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
+    if b_rate is not None:
+        b_rate = V.nonnegative("b_rate", b_rate)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
-    eps, gamma = design.estimator.eps, design.controller.gamma
-    point = L.point(eps, gamma)
-    f = c_common = c_any = None
+    covers = coverage_of(b_rate, L.box)
+    eps, gamma = design.estimator.eps, abs(design.controller.gamma)  # b gamma > 0: magnitudes
+    point = L.covered_point(eps, gamma, covers, b_rate)
+    f = c_common = c_head = None
+    brackets, intervals = (), ()
     if search:
-        f = frozen_eps_star(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10)
-        if f is not None:
-            c_any = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
-            if L.box is None:
-                c_common = certified_eps_star(
-                    lambda e: L.point(e, gamma, common_only=True).certified, lo, f, rtol)
-    reason = (f"eps = {eps:g} certified ({point.kind}): {point.reason}" if point.certified
-              else f"eps = {eps:g} not certified: {point.reason}")
+        intervals = stable_intervals(lambda e: L.frozen_ok(e, gamma), lo, hi, 4 * n_scan,
+                                     rtol / 10, lambda es: L.frozen_margins(es, gamma) < 0.0)
+        fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10,
+                            lambda es: L.frozen_margins(es, gamma))
+        f = None if fb is None else fb[0]
+        if L.box is not None:
+            if f is not None:
+                c_head = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
+        else:
+            found = coverage_brackets(
+                L, gamma, lo, fb, rtol, b_rate,
+                None if not b_rate else (lambda e: L.frozen_ok(e, gamma) and
+                                         L.rate_point(e, gamma, b_rate).certified))
+            brackets = tuple(found.values())
+            c_common = found["varying"].certified
+            c_head = found[covers].certified
+    reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
+              if point.certified else
+              f"eps = {eps:g} not certified for {covers} b: {point.reason}")
+    if search and not intervals:
+        reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {gamma_fix(L, gamma, lo, hi)}"
+    if intervals and intervals[0][0] > lo:
+        reason += (f"; the frozen-stable eps form a band away from eps = {lo:g}: "
+                   + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals))
     if raise_on_failure and not point.certified:
         raise CertificationError(reason)
     return EpsCertificate(
         eps=float(eps), gamma=L.sign * gamma, T=design.T, b_bounds=L.signed_bounds,
         eps_range=(lo, hi),
-        eps_star_frozen=f, eps_star_common=c_common, eps_star_certified=c_any,
+        eps_star_frozen=f, eps_star_common=c_common, eps_star_certified=c_head,
         certified=point.certified, point=point, n_b_grid=L.n_b,
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
-        reason=reason)
+        reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
+        eps_intervals_frozen=intervals)
 
 
-@_serial
-def certify_gamma(design, b_bounds, *, a_jacobian_bounds=None, gamma_range=None,
-                  eps_grid=None, n_scan: int = 80, n_b: int = 41, rtol: float = 1e-3,
-                  max_pieces: int = 8, raise_on_failure: bool = False) -> GammaCertificate:
-    """Admissible ``gamma`` interval of the surrogate loop at the design's eps, and a certificate.
-
-    ``gamma_min``, ``gamma_max`` bound the run of a log-spaced gamma scan (refined by bisection
-    to ``rtol``) that contains the design's gamma, on which every frozen-b loop of the ``n_b``
-    grid is Schur (the surrogate of :mod:`fl_design.analysis._certify`, at the design's eps and
-    T). ``gamma_lower_bound`` is the smallest ``gamma_min`` over ``eps_grid``: a gamma below it
-    destabilizes the loop for every eps of the grid (``b gamma / T`` slower than the closed
-    loop). ``certified`` needs the gamma inside the interval *and* the LMI certificate at the
-    design's ``(eps, gamma)``. Gains are magnitudes: for ``b < 0``, ``gamma`` means
-    ``-|gamma|`` and the bounds are on ``|gamma|``.
-
-    Parameters
-    ----------
-    design : Design
-        An EHGO design.
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign.
-    a_jacobian_bounds : sequence of (float, float), optional
-        Bounds of ``d sigma/d x_i`` (see :func:`certify_eps`).
-    gamma_range : (float, float), optional
-        Scan interval (default ``(1e-4 T, 4) / |b|_max``).
-    eps_grid : sequence of float, optional
-        Eps values of ``gamma_lower_bound`` (default 6 log-spaced in ``[1e-3, 1]`` and the
-        design's eps).
-    n_scan : int, optional
-        Scan points (default 80).
-    n_b : int, optional
-        Points of the b grid (default 41).
-    rtol : float, optional
-        Relative resolution of the interval ends (default 1e-3).
-    max_pieces : int, optional
-        As in :func:`certify_eps`.
-    raise_on_failure : bool, optional
-        Raise :class:`~fl_design.errors.CertificationError` when not certified.
-
-    Returns
-    -------
-    GammaCertificate
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> g = fl.certify_gamma(fl.presets.paper_design(gamma=1e-4), (3.6, 6.8))
-    >>> g.certified, g.gamma_lower_bound > 1e-4
-    (False, True)
-    """
-    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
-    n_scan = V.integer("n_scan", n_scan, minimum=3)
-    rtol = V.positive("rtol", rtol)
-    eps, gamma = design.estimator.eps, design.controller.gamma
-    g_lo, g_hi = ((1e-4 * design.T / L.b_hi, 4.0 / L.b_hi) if gamma_range is None
-                  else _eps_range(gamma_range))
-    grid_eps = (np.geomspace(*DEFAULT_EPS_RANGE, 6) if eps_grid is None
-                else V.real_vector("eps_grid", eps_grid))
-    grid_eps = np.unique(np.concatenate([grid_eps, [eps]]))
-    if np.any(grid_eps <= 0):
-        raise ParameterError(f"eps_grid must be > 0, got {grid_eps.tolist()}")
-    g_min, g_max = gamma_interval(lambda g: L.frozen_ok(eps, g), gamma, g_lo, g_hi, n_scan,
-                                   rtol)
-    mins = [gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan,
-                            rtol)[0] for e in grid_eps]
-    mins = [m for m in mins if m is not None]
-    lower = min(mins) if mins else None
-    point = L.point(eps, gamma)
-    inside = g_min is not None and g_min < gamma < g_max
-    certified = bool(inside and point.certified)
-    reason = _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside)
-    if raise_on_failure and not certified:
-        raise CertificationError(reason)
-    return GammaCertificate(
-        gamma=float(gamma), eps=float(eps), T=design.T, b_bounds=L.signed_bounds,
-        paper_bound=1.0 / L.b_hi, convergence_bound=2.0 / L.b_hi, gamma_min=g_min,
-        gamma_max=g_max, gamma_lower_bound=lower, eps_grid=tuple(grid_eps.tolist()),
-        certified=certified, point=point, reason=reason)
-
-
-def _gamma_reason(gamma, eps, g_min, g_max, lower, point, inside) -> str:
-    if lower is not None and gamma < lower:
-        return (f"gamma = {gamma:g} is below the lower bound gamma_min = {lower:.6g}: the loop "
-                "is unstable for every eps of the grid (b gamma / T slower than the closed loop)")
-    if g_min is None:
-        return f"no gamma of the scan gives a stable loop at eps = {eps:g}"
-    if not inside:
-        return (f"gamma = {gamma:g} lies outside the admissible interval "
-                f"({g_min:.6g}, {g_max:.6g}) at eps = {eps:g}")
-    if not point.certified:
-        return f"gamma inside ({g_min:.6g}, {g_max:.6g}) but no LMI certificate: {point.reason}"
-    return (f"gamma = {gamma:g} inside ({g_min:.6g}, {g_max:.6g}), LMI certificate "
-            f"({point.kind}) at eps = {eps:g}")
-
-
-@_serial
-def eps_star_curve(design, b_bounds, gammas, *, a_jacobian_bounds=None,
-                   eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
-                   rtol: float = 1e-2, max_pieces: int = 8,
-                   certified: bool = True) -> EpsStarCurve:
-    """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
-
-    Continuation along the curve: the certified search at each gamma starts from the ratio
-    found at the previous one (tries ``hint * eps*_frozen``, then steps down by 0.95).
-
-    Parameters
-    ----------
-    design : Design
-        An EHGO design (its structure; eps and gamma are varied).
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign.
-    gammas : sequence of float
-        Gains (> 0; magnitudes when ``b < 0``).
-    a_jacobian_bounds : sequence of (float, float), optional
-        As in :func:`certify_eps`.
-    eps_range : (float, float), optional
-        Search interval of eps.
-    n_b : int, optional
-        Points of the b grid.
-    n_scan : int, optional
-        Scan points of the frozen search.
-    rtol : float, optional
-        Relative resolution of the certified bisection (frozen: rtol/10).
-    max_pieces : int, optional
-        As in :func:`certify_eps`.
-    certified : bool, optional
-        False: frozen curve only (certified entries NaN).
-
-    Returns
-    -------
-    EpsStarCurve
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> c = fl.eps_star_curve(fl.presets.paper_design(), (3.6, 6.8), [1e-3, 3e-3])
-    >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
-    True
-    """
-    lo, hi = _eps_range(eps_range)
-    rtol = V.positive("rtol", rtol)
-    n_scan = V.integer("n_scan", n_scan, minimum=2)
-    g = V.real_vector("gammas", gammas)
-    if g.size == 0 or np.any(g <= 0):
-        raise ParameterError(f"gammas must be a non-empty sequence of numbers > 0, got {g.tolist()}")
-    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
-    frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
-    for i, gamma in enumerate(g):
-        f = frozen_eps_star(lambda e, g_=gamma: L.frozen_margin(e, g_), lo, hi, n_scan,
-                            rtol / 10)
-        if f is None:
-            continue
-        frozen[i] = f
-        if certified:
-            L.modal_hit = False
-            c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f, rtol, hint,
-                                   0.95)
-            if c is not None:
-                cert[i], hint = c, c / f
-    return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
-                        b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi))
-
-
-__all__ = ["DEFAULT_EPS_RANGE", "certified_eps_star", "certify_eps", "certify_gamma",
-           "eps_star_curve", "frozen_eps_star"]
+__all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]

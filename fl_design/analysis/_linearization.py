@@ -54,7 +54,7 @@ def _reference(plant, r) -> float:
     return V.real_scalar("r", r)
 
 
-def sampled_linearization(plant, design, *, r: float | None = None,
+def sampled_linearization(plant: Plant, design: Design, *, r: float | None = None,
                           substeps: int | None = None) -> SampledLinearization:
     """Jacobian of the closed-loop sample map at its equilibrium, with its eigenvalues.
 
@@ -74,7 +74,7 @@ def sampled_linearization(plant, design, *, r: float | None = None,
         Constant reference (default: the output at the plant's operating point).
     substeps : int, optional
         RK4 steps per sample, as in :func:`fl_design.simulate` (default
-        :func:`fl_design.sim.default_substeps`).
+        :func:`fl_design.sim.kernel.default_substeps`).
 
     Returns
     -------
@@ -106,7 +106,8 @@ def sampled_linearization(plant, design, *, r: float | None = None,
     return lin(_reference(plant, r), design.parameter_vector())
 
 
-def linearized_eps_star(plant, design, *, eps_range=(1e-3, 1.0), gamma: float | None = None,
+def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
+                        gamma: float | None = None,
                         r: float | None = None, substeps: int | None = None, n_scan: int = 48,
                         rtol: float = 1e-6) -> EpsStar:
     """Largest ``eps`` up to which the linearized sampled loop is stable (spectral radius < 1).

@@ -130,14 +130,28 @@ def recheck(P, G, deltas, T: float, kappa: float = 0.0) -> float:
     >>> recheck([np.eye(1)], np.eye(1), [np.array([[-1.0]])], 1e-3) > 0
     True
     """
-    worst = math.inf
     Ps = list(P) if len(P) == len(deltas) else [P[0]] * len(deltas)
-    for Pv, Dv in zip(Ps, deltas):
-        for S in (Pv, _blocks(Pv, G, Dv, T, kappa, np.block)):
-            S = (S + S.T) / 2
-            lam = np.linalg.eigvalsh(S)
-            worst = min(worst, lam[0] / max(abs(lam[0]), abs(lam[-1])))
-    return float(worst)
+    n = Ps[0].shape[0]
+    stack = np.zeros((2 * len(deltas), 2 * n, 2 * n))
+    for k, (Pv, Dv) in enumerate(zip(Ps, deltas)):  # one stacked eigvalsh, no np.block
+        stack[2 * k, :n, :n] = Pv
+        S = _blocks(Pv, G, Dv, T, kappa, _block2)
+        stack[2 * k + 1] = S
+    sym = (stack + np.swapaxes(stack, -1, -2)) / 2
+    lam = np.linalg.eigvalsh(sym[0::2, :n, :n])
+    lam2 = np.linalg.eigvalsh(sym[1::2])
+    rel = [lam[:, 0] / np.maximum(np.abs(lam[:, 0]), np.abs(lam[:, -1])),
+           lam2[:, 0] / np.maximum(np.abs(lam2[:, 0]), np.abs(lam2[:, -1]))]
+    return float(min(np.min(r) for r in rel))
+
+
+def _block2(rows):
+    """``np.block`` for the 2 x 2 block matrix of :func:`_blocks` (plain slicing, faster)."""
+    (a, b), (c, d) = rows
+    n = a.shape[0]
+    out = np.empty((2 * n, 2 * n))
+    out[:n, :n], out[:n, n:], out[n:, :n], out[n:, n:] = a, b, c, d
+    return out
 
 
 def _solve(problem, solver: str) -> str:

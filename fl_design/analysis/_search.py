@@ -13,19 +13,13 @@ import math
 
 import numpy as np
 
+from .._numerics import bisect_log
 
-def bisect(pred, good: float, bad: float, rtol: float) -> float:
-    """Largest known-good point after log-bisection of ``[good, bad]`` to relative ``rtol``.
 
-    Examples
-    --------
-    >>> round(bisect(lambda x: x < 2.0, 1.0, 4.0, 1e-3), 2)
-    2.0
-    """
-    while bad / good - 1.0 > rtol:
-        mid = math.sqrt(good * bad)
-        good, bad = (mid, bad) if pred(mid) else (good, mid)
-    return good
+def _bracket(pred, good: float, bad: float, rtol: float) -> tuple[float, float]:
+    """``(good, bad)`` after log-bisection (:func:`fl_design._numerics.bisect_log`)."""
+    out = bisect_log(pred, good, bad, rtol=rtol)
+    return out.lo, out.hi
 
 
 def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: float):
@@ -51,7 +45,38 @@ def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: 
             lg, m_good = x, m
         else:
             lb, m_bad = x, m
-    return math.exp(lg)
+    return math.exp(lg), math.exp(lb)
+
+
+def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float, margins=None):
+    """``(good, bad)``: the frozen eps* bracket of a scan + refinement (see frozen_eps_star).
+
+    ``bad`` is an eps at which ``margin >= 0`` (a counterexample), None when no scan point
+    fails; None altogether when ``lo`` already fails. ``margins`` (optional) evaluates the whole
+    scan at once (``array -> array``, stacked eigenvalue problems).
+
+    Examples
+    --------
+    >>> g, b = frozen_bracket(lambda e: e - 0.3, 1e-3, 1.0, 8, 1e-4)
+    >>> round(g, 3), round(b, 3), b / g - 1 <= 1e-4
+    (0.3, 0.3, True)
+    """
+    grid = np.geomspace(lo, hi, n_scan)
+    scan = (np.asarray(margins(grid), dtype=float) if margins is not None else None)
+    m_prev = margin(grid[0]) if scan is None else scan[0]
+    if not m_prev < 0.0:
+        return None
+    for i in range(1, n_scan):
+        m = margin(grid[i]) if scan is None else scan[i]
+        if not m < 0.0:
+            if not np.isfinite(m) or not np.isfinite(m_prev):
+                good, bad = _bracket(lambda e: margin(e) < 0.0, grid[i - 1], grid[i],
+                                           rtol)
+                return float(good), float(bad)
+            good, bad = _refine(margin, grid[i - 1], m_prev, grid[i], m, rtol)
+            return float(good), float(bad)
+        m_prev = m
+    return float(hi), None
 
 
 def frozen_eps_star(margin, lo: float, hi: float, n_scan: int, rtol: float) -> float | None:
@@ -78,18 +103,8 @@ def frozen_eps_star(margin, lo: float, hi: float, n_scan: int, rtol: float) -> f
     >>> frozen_eps_star(lambda e: 1.0, 1e-3, 1.0, 8, 1e-3) is None
     True
     """
-    grid = np.geomspace(lo, hi, n_scan)
-    m_prev = margin(grid[0])
-    if not m_prev < 0.0:
-        return None
-    for i in range(1, n_scan):
-        m = margin(grid[i])
-        if not m < 0.0:
-            if not np.isfinite(m) or not np.isfinite(m_prev):
-                return float(bisect(lambda e: margin(e) < 0.0, grid[i - 1], grid[i], rtol))
-            return float(_refine(margin, grid[i - 1], m_prev, grid[i], m, rtol))
-        m_prev = m
-    return float(hi)
+    out = frozen_bracket(margin, lo, hi, n_scan, rtol)
+    return None if out is None else out[0]
 
 
 def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
@@ -121,13 +136,45 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     """
     x = max(lo, min(hint, 1.0 - rtol) * top)
     if pred(x):
-        return float(bisect(pred, x, top, rtol))
+        return float(_bracket(pred, x, top, rtol)[0])
     while x > lo:
         below = max(lo, step * x)
         if pred(below):
-            return float(bisect(pred, below, x, rtol))
+            return float(_bracket(pred, below, x, rtol)[0])
         x = below
     return None
+
+
+def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float,
+                     preds=None) -> tuple:
+    """Runs of a log scan where ``pred`` holds, each end refined by bisection to ``rtol``.
+
+    Returns ``((a, b), ...)`` in increasing order; an end of the scan is kept as is when the
+    run reaches it. Gaps narrower than the scan's spacing can be missed. ``preds`` (optional)
+    evaluates the whole scan at once.
+
+    Examples
+    --------
+    >>> [tuple(round(v, 3) for v in r)
+    ...  for r in stable_intervals(lambda e: 0.1 < e < 0.2 or e > 0.5, 0.01, 1.0, 40, 1e-4)]
+    [(0.1, 0.2), (0.5, 1.0)]
+    """
+    grid = np.geomspace(lo, hi, n_scan)
+    ok = [bool(v) for v in preds(grid)] if preds is not None else [bool(pred(g)) for g in grid]
+    out, i = [], 0
+    while i < n_scan:
+        if not ok[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n_scan and ok[j + 1]:
+            j += 1
+        a = grid[0] if i == 0 else 1.0 / _bracket(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                    1.0 / grid[i - 1], rtol)[0]
+        b = grid[-1] if j == n_scan - 1 else _bracket(pred, grid[j], grid[j + 1], rtol)[0]
+        out.append((float(a), float(b)))
+        i = j + 1
+    return tuple(out)
 
 
 def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
@@ -158,10 +205,11 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
         return None, None
     run = next((r for r in runs if grid[r[0]] <= design_gamma <= grid[r[1]]), runs[0])
     i, j = run
-    g_min = grid[0] if i == 0 else 1.0 / bisect(lambda x: pred(1.0 / x), 1.0 / grid[i],
-                                                  1.0 / grid[i - 1], rtol)
-    g_max = grid[-1] if j == n_scan - 1 else bisect(pred, grid[j], grid[j + 1], rtol)
+    g_min = grid[0] if i == 0 else 1.0 / _bracket(lambda x: pred(1.0 / x), 1.0 / grid[i],
+                                                    1.0 / grid[i - 1], rtol)[0]
+    g_max = grid[-1] if j == n_scan - 1 else _bracket(pred, grid[j], grid[j + 1], rtol)[0]
     return float(g_min), float(g_max)
 
 
-__all__ = ["bisect", "certified_eps_star", "frozen_eps_star", "gamma_interval"]
+__all__ = ["certified_eps_star", "frozen_bracket", "frozen_eps_star",
+           "gamma_interval", "stable_intervals"]

@@ -29,6 +29,7 @@ import argparse
 import os
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -67,7 +68,7 @@ def check_out_dir(path, *, force: bool = False) -> Path:
 
     Examples
     --------
-    >>> from fl_design.app import check_out_dir
+    >>> from fl_design.app._cli import check_out_dir
     >>> check_out_dir("out_ok").is_dir()
     True
     >>> check_out_dir("")
@@ -148,7 +149,7 @@ def _prepare(cfg):
 
 def _cmd_run(args) -> int:
     from ._console import print_job
-    from ._job import run_job
+    from ._job import note, run_job
     from ._report_write import write_report
 
     cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
@@ -156,10 +157,14 @@ def _cmd_run(args) -> int:
     executor = _executor(args.scheduler)
     job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
                   progress=not args.no_progress, force=args.force)
+    start = time.perf_counter()
     paths = write_report(job, out, force=args.force)
+    note(f"report (figures, HTML, Markdown, JSON, CSV) written in "
+         f"{time.perf_counter() - start:.1f} s", enabled=not args.no_progress)
     print_job(job)
-    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']} and "
-          f"{len(paths['figures'])} figures")
+    runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
+    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
+          f"{len(paths['figures'])} figures{runs}")
     return 0
 
 

@@ -2,7 +2,8 @@
 
 Examples
 --------
->>> from fl_design.app import load_config, print_derive, run_job
+>>> from fl_design.app import load_config, run_job
+>>> from fl_design.app._console import print_derive
 >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
 >>> print_derive(job)  # doctest: +ELLIPSIS
 Plant: trms_yaw...
@@ -24,7 +25,8 @@ def print_derive(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_derive, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_derive
     >>> print_derive(run_job(load_config(None), stages=("derive",), progress=False))  # doctest: +ELLIPSIS
     Plant: trms_yaw...
     """
@@ -41,7 +43,8 @@ def print_certificates(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_certificates, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_certificates
     >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
     >>> print_certificates(job)  # doctest: +ELLIPSIS
     Design: EHGO eps = 0.05 s...
@@ -53,7 +56,18 @@ def print_certificates(job) -> None:
             print(cert[key])
     if "skipped" in cert:
         print(f"gamma/eps certificates skipped: {cert['skipped']}")
-    print(f"linearized eps* at this gamma: {linearized_text(cert['linearized_design'])}")
+    if "eps" in cert:
+        e = cert["eps"]
+        star = "none" if e.eps_star_certified is None else f"{e.eps_star_certified:.4g} s"
+        print(f"eps* to use: {star}, certified for {e.covers} b (the strongest coverage these "
+              "data support; the brackets above say how tight)")
+        from ..analysis import loop_margins
+
+        for b in e.b_bounds:
+            print("margins at the plant input (surrogate, b frozen): "
+                  + loop_margins(job.design, b)._repr_lines()[0])
+    print("linearized eps* at this gamma (eigenvalues of the nonlinear loop's Jacobian at rest, "
+          f"not a certificate): {linearized_text(cert['linearized_design'])}")
 
 
 print_certify = print_certificates
@@ -69,7 +83,8 @@ def print_sweep(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_sweep, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_sweep
     >>> print_sweep(run_job(load_config(None), quick=True, stages=("sweep",), progress=False))
     ... # doctest: +ELLIPSIS
     Stability map 5 x 5...
@@ -77,8 +92,8 @@ def print_sweep(job) -> None:
     smap = job.results["sweep"]
     labels = smap.labels
     counts = ", ".join(f"{int((labels == s).sum())} {s}" for s in
-                       ("converged", "converging", "oscillating", "undecided", "diverged",
-                        "solver_failed") if (labels == s).any())
+                       ("converged", "converging", "oscillating", "stalled", "undecided",
+                        "diverged", "solver_failed") if (labels == s).any())
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
     if smap.duration_reason != "given":
@@ -100,7 +115,8 @@ def print_simulate(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_simulate, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_simulate
     >>> print_simulate(run_job(load_config(None), quick=True, stages=("simulate",),
     ...                        progress=False))  # doctest: +ELLIPSIS
     This design (EHGO eps = 0.05 s...
@@ -134,7 +150,8 @@ def print_codegen(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_codegen, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_codegen
     >>> print_codegen(run_job(load_config(None), quick=True, stages=("codegen",),
     ...                       progress=False))  # doctest: +ELLIPSIS
     C package...
@@ -160,7 +177,8 @@ def print_job(job) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, print_job, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_job
     >>> print_job(run_job(load_config(None), quick=True, stages=("derive",), progress=False))
     ... # doctest: +ELLIPSIS
     Plant: trms_yaw...

@@ -79,7 +79,7 @@ def note(message: str, *, enabled: bool = True) -> None:
 
     Examples
     --------
-    >>> from fl_design.app import note
+    >>> from fl_design.app._job import note
     >>> note("sweeping", enabled=False)
     """
     if enabled:
@@ -101,6 +101,11 @@ def _derive(job: Job) -> None:
         if plant.n > nf.rho else [],
         "minimum_phase": bool(nf.minimum_phase) if plant.n > nf.rho else True,
         "F_a": sp.sstr(disc.approx), "residual_orders": disc.residual_order_table(),
+        "a_latex": sp.latex(nf.a), "b_latex": sp.latex(nf.b),
+        "a_mathml": sp.mathml(nf.a, printer="presentation"),
+        "b_mathml": sp.mathml(nf.b, printer="presentation"),
+        "x_op": [float(v) for v in plant.x_op], "u_eq": float(plant.u_eq),
+        "states": [str(s) for s in plant.states],
         "text": derivation_report(plant),
     }
 
@@ -203,7 +208,7 @@ def noise_levels(resp) -> dict:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import noise_levels
+    >>> from fl_design.app._job import noise_levels
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
     >>> noise_levels(r)["u_noise"] < 1e-3
     True
@@ -269,7 +274,8 @@ def prepare(config: Config) -> Job:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, prepare
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._job import prepare
     >>> prepare(load_config(None)).design.controller.gamma
     0.0003
     """

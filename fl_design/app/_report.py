@@ -3,7 +3,7 @@
 Examples
 --------
 >>> import fl_design as fl
->>> from fl_design.app import derivation_report
+>>> from fl_design.app._report import derivation_report
 >>> text = derivation_report(fl.plants.trms_yaw())
 >>> "relative degree rho = 2" in text
 True
@@ -40,7 +40,7 @@ def derivation_report(plant, *, latex: bool = False) -> str:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import derivation_report
+    >>> from fl_design.app._report import derivation_report
     >>> print(derivation_report(fl.plants.pendulum()).splitlines()[0])
     Plant: pendulum
     """

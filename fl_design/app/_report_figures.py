@@ -2,7 +2,7 @@
 
 Examples
 --------
->>> from fl_design.app import design_label
+>>> from fl_design.app._report_figures import design_label
 >>> import fl_design as fl
 >>> design_label(fl.presets.paper_design())
 'EHGO eps = 0.05 s, gamma = 0.0003, K = (2, 4), k_I = 0.001, T = 0.001 s'
@@ -11,7 +11,6 @@ Examples
 from __future__ import annotations
 
 import math
-import textwrap
 
 import numpy as np
 
@@ -34,7 +33,7 @@ def design_label(design) -> str:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import design_label
+    >>> from fl_design.app._report_figures import design_label
     >>> design_label(fl.presets.least_squares_design(9))[:5]
     'LS(9)'
     """
@@ -68,7 +67,8 @@ def stability_map_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, stability_map_figure
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import stability_map_figure
     >>> job = run_job(load_config(None), quick=True, stages=("sweep",), progress=False)
     >>> stability_map_figure(job).axes[0].get_xscale()
     'log'
@@ -95,12 +95,13 @@ def stability_map_figure(job):
     handles, _labels = ax.get_legend_handles_labels()
     old = ax.get_legend()
     keep = list(old.legend_handles) if old is not None else []
-    ax.legend(handles=keep + handles[-2:], loc="lower left", fontsize="x-small")
+    ax.legend(handles=keep + handles[-2:], loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              borderaxespad=0.0, fontsize="x-small")
     ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
     ax.set_ylabel("observer time constant eps (s)")
-    ax.set_title(f"{job.plant.name}: {smap.duration:g} s noise-free runs, step "
-                 f"{job.config.scenario['reference']:g} {_y(job)}\n{design_label(d)}",
-                 fontsize="small")
+    ax.set_title(f"{job.plant.name}: stability map", fontsize="small")
+    fig.set_size_inches(10.0, 5.0)
+    fig.subplots_adjust(left=0.09, right=0.58)  # room for the legend on the right
     return fig
 
 
@@ -118,14 +119,16 @@ def eps_star_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import eps_star_figure, load_config, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import eps_star_figure
     >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
     >>> eps_star_figure(job).axes[0].get_ylabel()
     'eps* (s)'
     """
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.0, 4.6))
+    fig, ax = plt.subplots(figsize=(10.0, 4.6))
+    fig.subplots_adjust(left=0.08, right=0.56, top=0.92, bottom=0.12)
     cert = job.results.get("certify", {})
     if "curve" in cert:
         c = cert["curve"]
@@ -152,9 +155,9 @@ def eps_star_figure(job):
     ax.set_yscale("log")
     ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
     ax.set_ylabel("eps* (s)")
-    ax.set_title(f"{job.plant.name}: eps*(gamma), {design_label(d)}", fontsize="small")
-    ax.legend(loc="best", fontsize="x-small")
-    fig.tight_layout()
+    ax.set_title(f"{job.plant.name}: eps*(gamma)", fontsize="small")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+              fontsize="x-small")
     return fig
 
 
@@ -172,7 +175,8 @@ def step_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, step_figure
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import step_figure
     >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
     >>> len(step_figure(job).axes)
     3
@@ -181,24 +185,23 @@ def step_figure(job):
 
     sim = job.results["simulate"]
     stds = sim["stds"]
-    fig, axes = plt.subplots(len(stds), 1, sharex=True, figsize=(7.5, 2.6 * len(stds)),
+    fig, axes = plt.subplots(len(stds), 1, sharex=True, figsize=(9.0, 2.4 * len(stds)),
                              squeeze=False)
+    fig.subplots_adjust(left=0.09, right=0.66, top=0.9, bottom=0.1, hspace=0.35)
     for ax, std in zip(axes[:, 0], stds):
         for i, name in enumerate(sim["designs"]):
             r = sim["runs"][(name, std)]
-            ax.plot(r.t, r.y, color=f"C{i}", lw=1.1,
-                    label=f"{name}: {r.status}, overshoot {overshoot_text(r)} %")
+            over = overshoot_text(r)
+            over = f"{over} %" if over[:1].isdigit() else "never reaches r"
+            ax.plot(r.t, r.y, color=f"C{i}", lw=1.1, label=f"{name}: {r.status}, {over}")
         ax.plot(r.t, r.r, "k--", lw=0.9, label="reference")
         ax.set_ylabel(f"y ({_y(job)})")
-        ax.set_title(f"sensor noise std {std:.3g} {_y(job)}" if std else "noise-free",
+        ax.set_title(f"noise std {std:.3g} {_y(job)}" if std else "noise-free",
                      fontsize="small")
-        ax.legend(loc="best", fontsize="x-small")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                  fontsize="x-small")
     axes[-1, 0].set_xlabel("time (s)")
-    ctrl = job.design.controller
-    fig.suptitle(f"{job.plant.name}: EHGO vs least squares under one controller "
-                 f"(gamma = {ctrl.gamma:g}, K = {tuple(float(k) for k in ctrl.gains)})",
-                 fontsize="small")
-    fig.tight_layout()
+    fig.suptitle(f"{job.plant.name}: EHGO vs least squares", fontsize="small")
     return fig
 
 
@@ -216,7 +219,8 @@ def tradeoff_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, tradeoff_figure
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import tradeoff_figure
     >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
     >>> tradeoff_figure(job).axes[1].get_xlabel()
     'observer time constant eps (s)'
@@ -224,7 +228,10 @@ def tradeoff_figure(job):
     import matplotlib.pyplot as plt
 
     rows = job.results["simulate"]["tradeoff"]
+    from matplotlib.ticker import LogFormatterSciNotation, NullFormatter
+
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.8))
+    fig.subplots_adjust(left=0.14, right=0.96, top=0.9, bottom=0.12, hspace=0.12)
     eps = np.array([r["eps"] for r in rows])
     axes[0].plot(eps, [r["sigmahat_noise"] for r in rows], "C1o-")
     axes[0].set_ylabel(f"sigmahat noise ({_y(job)}/s^{job.plant.relative_degree()})")
@@ -234,12 +241,12 @@ def tradeoff_figure(job):
     for ax in axes:
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):  # decade labels only: minor labels overlap
+            axis.set_major_formatter(LogFormatterSciNotation())
+            axis.set_minor_formatter(NullFormatter())
     std = rows[0]["noise_std"] if rows else 0.0
-    ctrl = job.design.controller
-    fig.suptitle(f"{job.plant.name}: EHGO (gamma = {ctrl.gamma:g}), sensor noise std "
-                 f"{std:.3g} {_y(job)}; noise = std(diff)/sqrt(2) over the tail",
+    fig.suptitle(f"{job.plant.name}: noise against eps (noise std {std:.3g} {_y(job)})",
                  fontsize="small")
-    fig.tight_layout()
     return fig
 
 
@@ -257,19 +264,24 @@ def main_response_figure(job):
 
     Examples
     --------
-    >>> from fl_design.app import load_config, main_response_figure, run_job
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_figures import main_response_figure
     >>> job = run_job(load_config(None), quick=True, stages=("simulate",), progress=False)
     >>> main_response_figure(job).axes[2].get_xlabel()
     'time (s)'
     """
     resp = job.results["simulate"]["main"]
-    verdict = textwrap.fill(resp.verdict(), 120)  # the whole verdict, wrapped to the figure
-    fig = resp.plot(title=f"{job.plant.name}: {design_label(job.design)}\n{verdict}")
-    fig.axes[0].title.set_fontsize("x-small")
+    # a short title; the verdict is the caption
+    fig = resp.plot(title=f"{job.plant.name}: this design ({resp.status})")
+    fig.axes[0].title.set_fontsize("small")
     fig.axes[0].set_ylabel(f"output y ({_y(job)})")
     fig.axes[1].set_ylabel(f"input u ({job.config.plant.get('input_unit', 'input units')})")
     fig.axes[2].set_ylabel(f"sigma ({_y(job)}/s^{job.plant.relative_degree()})")
-    fig.tight_layout()
+    u_eq = job.derivation.get("u_eq")
+    if u_eq is not None:  # the operating point's input
+        fig.axes[1].axhline(u_eq, color="k", ls=":", lw=1.0, label=f"u_eq = {u_eq:.3g}")
+        fig.axes[1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                           fontsize="small")
     return fig
 
 

@@ -2,7 +2,7 @@
 
 Examples
 --------
->>> from fl_design.app import fmt
+>>> from fl_design.app._report_sections import fmt
 >>> fmt(float("nan"), "no boundary"), fmt(0.123456)
 ('no boundary', '0.1235')
 """
@@ -61,7 +61,7 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
 
     Examples
     --------
-    >>> from fl_design.app import fmt
+    >>> from fl_design.app._report_sections import fmt
     >>> fmt(None, "not certified")
     'not certified'
     """
@@ -72,8 +72,9 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
 
 def _derivation(job) -> list:
     d = job.derivation
-    blocks = [("p", (f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with "
-                    f"a = {d['a']}, b = {d['b']}."))]
+    blocks = [("p", f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with"),
+              ("math", "a =", d["a_mathml"], d["a_latex"]),
+              ("math", "b =", d["b_mathml"], d["b_latex"])]
     if d["b_bounds"]:
         lo, hi = d["b_bounds"]
         blocks.append(("p", (f"b over the plant's region and input range: [{lo:.4g}, {hi:.4g}]; "
@@ -81,7 +82,7 @@ def _derivation(job) -> list:
     zd = ("no zero dynamics (n = rho)" if d["n"] == d["rho"] else
           f"zero dynamics eigenvalues {', '.join(d['zero_dynamics_eigenvalues'])}: "
           f"{'minimum phase' if d['minimum_phase'] else 'NOT minimum phase'}")
-    blocks += [("p", zd), ("pre", d["text"])]
+    blocks += [("p", zd), ("details", "The full derivation (text)", d["text"])]
     return blocks
 
 
@@ -105,14 +106,18 @@ def _certificates(job) -> list:
             ["gamma below which no eps works", fmt(g.gamma_lower_bound, "none found")],
             ["paper's bound 1/b_max", fmt(g.paper_bound)],
             ["gamma certified (LMI at this eps)", str(g.certified)],
-            ["eps* frozen b grid (s)", fmt(e.eps_star_frozen, "none in range")],
-            ["eps* common P (time-varying b) (s)", fmt(e.eps_star_common, "none in range")],
-            ["eps* certified (s)", fmt(e.eps_star_certified, "not certified in range")],
-            ["this eps certified", f"{e.certified}: {e.reason}"],
+            *[[f"eps* for {b.covers} b (s): [certified, refuted]"
+               + ("  (headline)" if b.covers == e.covers else ""),
+               f"[{fmt(b.certified, 'none')}, {fmt(b.refuted, 'none found')}]"]
+              for b in e.brackets],
+            [f"this eps certified for {e.covers} b", f"{e.certified}: {e.reason}"],
         ]))
         blocks.append(("p", ("What is certified: the sampled linear surrogate loop (chain of "
-                            "integrators, sigma = b u, b anywhere in its interval) closed by "
-                            "this design's own step; not the nonlinear plant.")))
+                            "integrators, sigma = b u) closed by this design's own step, for b "
+                            "constant (frozen) or changing arbitrarily in its interval along "
+                            "the trajectory (varying, the paper's b(w(k), x(k))); not the "
+                            "nonlinear plant. Refuted: a constant or periodically switched b "
+                            "found that makes the surrogate grow.")))
     elif "skipped" in cert:
         blocks.append(("p", f"Certificates of gamma and eps* skipped: {cert['skipped']}."))
     blocks.append(("p", (f"Linearized nonlinear loop at the equilibrium, this gamma: eps* = "
@@ -135,7 +140,7 @@ def linearized_text(star) -> str:
     Examples
     --------
     >>> from fl_design.sim import EpsStar
-    >>> from fl_design.app import linearized_text
+    >>> from fl_design.app._report_sections import linearized_text
     >>> linearized_text(EpsStar(1.0, float("inf")))
     '> 1 s (stable on the whole scanned range: no boundary found up to 1 s)'
     >>> linearized_text(EpsStar(0.0417, 0.0418))
@@ -169,7 +174,7 @@ def bounded_up_to(smap, gamma: float) -> str:
     --------
     >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
-    >>> from fl_design.app import bounded_up_to
+    >>> from fl_design.app._report_sections import bounded_up_to
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
     ...                  1e-3, 1.0, 0.1)
     >>> bounded_up_to(m, 1.0)
@@ -191,8 +196,8 @@ def _sweep(job, figures) -> list:
         return [("p", "Not run.")]
     labels = smap.labels
     counts = ", ".join(f"{int(np.sum(labels == s))} {s}" for s in
-                       ("converged", "converging", "oscillating", "undecided", "diverged",
-                        "solver_failed")
+                       ("converged", "converging", "oscillating", "stalled", "undecided",
+                        "diverged", "solver_failed")
                        if np.any(labels == s))
     cert = job.results.get("certify", {})
     rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
@@ -204,8 +209,10 @@ def _sweep(job, figures) -> list:
     if smap.duration_reason != "given":
         blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
     if "stability_map.png" in figures:
-        blocks.append(("fig", "stability_map.png", (f"Stability map, {job.plant.name}; the star "
-                       "is this design, the dotted line the paper's gamma < 1/b_max")))
+        blocks.append(("fig", "stability_map.png", (
+            f"Stability map, {job.plant.name}: {smap.duration:g} s noise-free runs to the "
+            f"reference {_reference_text(job)}; the star is this design ({design_label(job.design)}), "
+            "the dotted line the paper's gamma < 1/b_max")))
     blocks.append(("table", ["gamma", "empirical eps* (s)", "every run bounded up to eps (s)"],
                    rows))
     if np.mean(labels == "oscillating") > 0.3:
@@ -214,9 +221,10 @@ def _sweep(job, figures) -> list:
                             "Coulomb friction). Those runs count as failures for eps*; the last "
                             "column counts them as bounded, the practical stability of Theorem 1.")))
     if np.any(labels == "undecided"):
-        blocks.append(("p", ("'undecided' runs are bounded, outside the band, and neither "
-                            "shrinking nor swinging over their tail: a mode slower than the run "
-                            "or a persistent offset. They count as not converging for eps* "
+        blocks.append(("p", ("'undecided' runs are bounded and outside the band, and the last "
+                            "half of the run cannot call the trend (an envelope that grows "
+                            "without swinging, or swings that decay too little for the fit): a "
+                            "mode slower than the run. They count as not converging for eps* "
                             "(the bracket then says 'undecided at', not 'fails at'); longer "
                             "runs decide them.")))
     if "eps_star.png" in figures:
@@ -224,7 +232,7 @@ def _sweep(job, figures) -> list:
                        "empirical")))
     if "curve" in cert:
         c = cert["curve"]
-        blocks.append(("table", ["gamma", "eps* frozen (s)", "eps* certified (s)"],
+        blocks.append(("table", ["gamma", "eps* frozen eigenvalues (s)", "eps* certified, frozen b (s)"],
                        [[f"{g:.3g}", fmt(f, "none"), fmt(x, "not certified")]
                         for g, f, x in zip(c.gamma, c.eps_star_frozen, c.eps_star_certified)]))
     return blocks
@@ -239,21 +247,24 @@ def _simulations(job, figures) -> list:
     main = sim["main"]
     tol = main.tol
     blocks = [("p", f"This design, {sim['duration']:g} s step: {main.verdict()}."),
-              ("p", _tolerance_note(main))]
-    if "response.png" in figures:
-        blocks.append(("fig", "response.png", "This design's run: output, input, sigma"))
-    rows = []
+              ("p", "The figure of this run is in the summary above.")]
+    rows, reasons = [], []
     for (name, std), r in sim["runs"].items():
         lv = noise_levels(r)
         rows.append([name, f"{std:.3g}", r.status, overshoot_text(r), fmt(r.tail_error),
-                     fmt(lv["u_noise"], "n/a"), r.verdict()])
+                     fmt(lv["u_noise"], "n/a")])
+        reasons.append(f"{name}, noise std {std:.3g}: {r.verdict()}")
     blocks.append(("p", (f"The compared runs, {sim['compare_duration']:g} s each "
                          "(the transient: overshoot and noise):")))
     blocks.append(("table", ["design", "noise std", "verdict", "overshoot %", "tail max |e|",
-                             "u noise", "in words"], rows))
+                             "u noise"], rows))
+    blocks.append(("list", reasons))
     if "steps.png" in figures:
-        blocks.append(("fig", "steps.png", ("Step responses, EHGO and least squares, with and "
-                                           "without sensor noise")))
+        ctrl = job.design.controller
+        blocks.append(("fig", "steps.png", (
+            "Step responses, EHGO and least squares under one controller (gamma = "
+            f"{ctrl.gamma:g}, K = {tuple(float(k) for k in ctrl.gains)}), with and without "
+            "sensor noise; the legend gives each run's verdict and overshoot")))
     if sim["tradeoff"]:
         blocks.append(("table", ["eps (s)", "sigmahat noise", "u noise", "verdict",
                                  "overshoot %"],
@@ -262,10 +273,28 @@ def _simulations(job, figures) -> list:
                                                                     3)]
                         for r in sim["tradeoff"]]))
     if "noise_tradeoff.png" in figures:
-        blocks.append(("fig", "noise_tradeoff.png", "Noise of sigmahat and u against eps"))
+        blocks.append(("fig", "noise_tradeoff.png", (
+            "Noise of sigmahat and u against eps (std(diff)/sqrt(2) over the tail), gamma = "
+            f"{job.design.controller.gamma:g}")))
     blocks.append(("p", (f"Settling band: |e| <= {tol:.3g} (the [scenario] tolerance times the "
                         "step).")))
     return blocks
+
+
+def _reference_text(job) -> str:
+    ref = float(job.config.scenario["reference"])
+    unit = job.config.plant.get("output_unit", "")
+    sim = job.results.get("simulate")
+    if not sim:
+        return f"r = {ref:g} {unit}".rstrip()
+    main = sim["main"]
+    return f"r = {ref:g} {unit} (a step of {main.step:.3g} from y0 = {main.y0:.3g})"
+
+
+def design_label(design) -> str:
+    from ._report_figures import design_label as label
+
+    return label(design)
 
 
 def overshoot_text(resp) -> str:
@@ -283,7 +312,7 @@ def overshoot_text(resp) -> str:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design.app import overshoot_text
+    >>> from fl_design.app._report_sections import overshoot_text
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> overshoot_text(r)
     '0'
@@ -294,17 +323,6 @@ def overshoot_text(resp) -> str:
     if reach < 0.9:
         return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
     return f"{resp.overshoot:.3g}"
-
-
-def _tolerance_note(resp) -> str:
-    if resp.status in ("converged", "diverged", "solver_failed"):
-        return f"Overshoot {resp.overshoot:.3g} %."
-    scale = max(abs(resp.step), 1e-12)
-    met = resp.tail_error / scale * 100
-    return (f"Overshoot {resp.overshoot:.3g} %. The error does not settle inside the 2 % band "
-            f"(tail max |e| {resp.tail_error:.3g}); it stays within {met:.2g} % of the step, "
-            f"peak-to-peak {resp.tail_amplitude:.3g} over the last part of the run: a bounded "
-            "slow oscillation (on the TRMS, hunting against the Coulomb friction tanh term).")
 
 
 def _codegen(job) -> list:
@@ -342,17 +360,20 @@ def sections(job, figures) -> list:
 
     Examples
     --------
-    >>> from fl_design.app import load_config, run_job, sections
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_sections import sections
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
-    >>> [title for title, _ in sections(job, [])][:2]
-    ['Derivation', 'Certificates']
+    >>> [title for title, _ in sections(job, [])][:3]
+    ['Summary', "Simulations: this design and the paper's comparison", 'Stability map and eps*']
     """
+    from . import _report_summary as S
+
     timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
-    return [("Derivation", _derivation(job)), ("Certificates", _certificates(job)),
-            ("Stability map and eps*", _sweep(job, figures)),
-            ("Simulations: the paper's comparison", _simulations(job, figures)),
-            ("C code", _codegen(job)),
+    return [("Summary", S.summary_blocks(job, figures)),
+            (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),
+            (S.CERTIFICATES, _certificates(job)), (S.CODE, _codegen(job)),
+            (S.DERIVATION, _derivation(job)),
             ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}.")])]
 
 

@@ -40,6 +40,11 @@ FIGURES = {"stability_map.png": stability_map_figure, "eps_star.png": eps_star_f
            "response.png": main_response_figure}
 
 
+def _cell(value) -> str:
+    """A Markdown table cell: ``|`` escaped (``|e|`` would split the row)."""
+    return str(value).replace("|", "\\|")
+
+
 def render_markdown(secs) -> str:
     """Render sections as Markdown (figures as linked PNG files).
 
@@ -58,6 +63,8 @@ def render_markdown(secs) -> str:
     >>> render_markdown([("A", [("pre", "x")])]).splitlines()[2]
     '```'
     """
+    from ._report_summary import anchor
+
     out = []
     for title, blocks in secs:
         out += [f"## {title}", ""]
@@ -65,12 +72,23 @@ def render_markdown(secs) -> str:
             kind = block[0]
             if kind == "p":
                 out += [block[1], ""]
+            elif kind == "math":
+                out += [f"{block[1]} $${block[3]}$$", ""]
+            elif kind == "details":
+                out += [f"<details><summary>{block[1]}</summary>", "", "```", block[2], "```",
+                        "", "</details>", ""]
+            elif kind == "list":
+                out += [f"- {item}" for item in block[1]] + [""]
+            elif kind == "links":
+                out += ["| question | answer |", "| --- | --- |"]
+                out += [f"| [{q}](#{anchor(sec)}) | {_cell(a)} |" for q, a, sec in block[1]]
+                out.append("")
             elif kind == "pre":
                 out += ["```", block[1], "```", ""]
             elif kind == "table":
-                out.append("| " + " | ".join(map(str, block[1])) + " |")
+                out.append("| " + " | ".join(map(_cell, block[1])) + " |")
                 out.append("|" + " --- |" * len(block[1]))
-                out += ["| " + " | ".join(map(str, row)) + " |" for row in block[2]]
+                out += ["| " + " | ".join(map(_cell, row)) + " |" for row in block[2]]
                 out.append("")
             elif kind == "fig":
                 out += [f"![{block[2]}]({block[1]})", "", f"*{block[2]}*", ""]
@@ -97,17 +115,30 @@ def render_html(secs, folder: Path, *, title: str) -> str:
     --------
     >>> from pathlib import Path
     >>> from fl_design.app import render_html
-    >>> "<h2>A</h2>" in render_html([("A", [("p", "x < y")])], Path("."), title="t")
+    >>> '<h2 id="a">A</h2>' in render_html([("A", [("p", "x < y")])], Path("."), title="t")
     True
     """
+    from ._report_summary import anchor
+
     e = html.escape
     body = [f"<h1>{e(title)}</h1>"]
     for name, blocks in secs:
-        body.append(f"<h2>{e(name)}</h2>")
+        body.append(f'<h2 id="{anchor(name)}">{e(name)}</h2>')
         for block in blocks:
             kind = block[0]
             if kind == "p":
                 body.append(f"<p>{e(block[1])}</p>")
+            elif kind == "math":  # MathML from SymPy's printer (our own output, not user text)
+                body.append(f"<p>{e(block[1])} <math>{block[2]}</math></p>")
+            elif kind == "details":
+                body.append(f"<details><summary>{e(block[1])}</summary><pre>{e(block[2])}"
+                            "</pre></details>")
+            elif kind == "list":
+                body.append("<ul>" + "".join(f"<li>{e(i)}</li>" for i in block[1]) + "</ul>")
+            elif kind == "links":
+                rows = "".join(f'<tr><th><a href="#{anchor(sec)}">{e(q)}</a></th>'
+                               f'<td class="answer">{e(a)}</td></tr>' for q, a, sec in block[1])
+                body.append(f'<table class="summary">{rows}</table>')
             elif kind == "pre":
                 body.append(f"<pre>{e(block[1])}</pre>")
             elif kind == "table":
@@ -122,7 +153,8 @@ def render_html(secs, folder: Path, *, title: str) -> str:
     style = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
              "table{border-collapse:collapse}td,th{border:1px solid #aaa;padding:2px 6px;"
              "text-align:right}pre{background:#f4f4f4;padding:.5em;overflow-x:auto}"
-             "img{max-width:100%}")
+             "img{max-width:100%}table.summary th{text-align:left;vertical-align:top}"
+             "td.answer{text-align:left}")
     return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{e(title)}</title>"
             f"<style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
@@ -168,7 +200,8 @@ def summary(job) -> dict:
     """
     res = job.results
     out = {"config": job.config.to_dict(), "quick": job.quick, "design": design_label(job.design),
-           "derivation": {k: v for k, v in job.derivation.items() if k != "text"},
+           "derivation": {k: v for k, v in job.derivation.items()
+                          if k not in ("text", "a_mathml", "b_mathml")},
            "timings_s": dict(job.timings)}
     if "sweep" in res:  # the machine and instruction set the sweep's kernel ran on
         from ..sim import Kernel
@@ -221,14 +254,15 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
     Returns
     -------
     dict
-        ``{"html": path, "markdown": path, "summary": path, "figures": [names]}``.
+        ``{"html": path, "markdown": path, "summary": path, "figures": [names],
+        "csv": [relative paths of the runs' CSV files]}``.
 
     Examples
     --------
     >>> from fl_design.app import load_config, run_job, write_report
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
     >>> sorted(write_report(job, "."))
-    ['figures', 'html', 'markdown', 'summary']
+    ['csv', 'figures', 'html', 'markdown', 'summary']
     """
     folder = claim_output_folder(out_dir, force=force, what="report folder")
     figures = _figures(job, folder)
@@ -239,8 +273,76 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
     paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
     paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
-    record_outputs(folder, [*paths.values(), *(folder / name for name in figures)])
-    return {**{k: str(v) for k, v in paths.items()}, "figures": figures}
+    csv = write_runs_csv(job, folder)
+    record_outputs(folder, [*paths.values(), *(folder / name for name in figures),
+                            *(folder / name for name in csv)])
+    return {**{k: str(v) for k, v in paths.items()}, "figures": figures, "csv": csv}
 
 
-__all__ = ["FIGURES", "render_html", "render_markdown", "summary", "write_report"]
+def run_csv_name(design: str, std: float) -> str:
+    """File name of a compared run's CSV: ``runs/<design>_noise<std>.csv`` (safe characters).
+
+    Parameters
+    ----------
+    design : str
+        The design's label (``"EHGO eps=0.05"``, ``"LS(9)"``, or ``"main"``).
+    std : float
+        Noise standard deviation of the run.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.app._report_write import run_csv_name
+    >>> run_csv_name("LS(9)", 0.001), run_csv_name("EHGO eps=0.05", 0.0)
+    ('runs/LS9_noise0.001.csv', 'runs/EHGO_eps0.05_noise0.csv')
+    """
+    import re
+
+    safe = re.sub(r"[^A-Za-z0-9.]+", "_", design.replace("(", "").replace(")", "")).strip("_")
+    safe = safe.replace("_eps_", "_eps").replace("eps_", "eps")
+    return f"runs/{safe}_noise{std:g}.csv"
+
+
+def write_runs_csv(job, folder) -> list:
+    """Write every simulated run (the compared runs and the main run) as CSV under
+    ``folder/runs`` (:meth:`fl_design.Response.to_csv`); return the relative paths.
+
+    Parameters
+    ----------
+    job : Job
+        A job (nothing is written without its simulate stage).
+    folder : str or pathlib.Path
+        The report's folder.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._report_write import write_runs_csv
+    >>> write_runs_csv(run_job(load_config(None), quick=True, stages=("derive",),
+    ...                        progress=False), ".")
+    []
+    """
+    sim = job.results.get("simulate")
+    if not sim:
+        return []
+    runs = dict(sim["runs"])
+    runs[("main", float(job.config.scenario["noise_std"]))] = sim["main"]
+    out = Path(folder) / "runs"
+    out.mkdir(exist_ok=True)
+    names = []
+    for (design, std), resp in runs.items():
+        name = run_csv_name(design, std)
+        resp.to_csv(Path(folder) / name, overwrite=True)  # the report's own folder
+        names.append(name)
+    return names
+
+
+__all__ = ["FIGURES", "render_html", "render_markdown", "run_csv_name", "summary",
+           "write_report", "write_runs_csv"]

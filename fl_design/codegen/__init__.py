@@ -11,8 +11,8 @@ Modules: ``_generate`` (:func:`generate_c`); ``_package`` (:class:`CPackage`); `
 (the step with its run-time parameter block); ``_emit`` (its C); ``_float``
 (:func:`to_single_precision`); ``_float_check`` (the float build's predicted error); ``_sil``
 and ``_verdict`` (closed-loop SIL, the C loop's status); ``_pil`` (the Cortex-M4F model);
-``_cost``; ``_template`` (the C files of ``templates/``); ``_build`` (the ground floor's
-compiler and cache, :mod:`fl_design._toolchain`, as this layer uses them).
+``_cost``; ``_template`` (the C files of ``templates/``). The compiler, its flag sets and the
+cache are the ground floor's (:mod:`fl_design._toolchain`).
 
 Examples
 --------
@@ -21,7 +21,7 @@ Examples
 True
 """
 
-from ._build import STRICT_CFLAGS
+from .._toolchain import STRICT_CFLAGS
 from ._cost import CostTable, StepCost, compare_costs, operation_counts, step_cost
 from ._float import to_single_precision
 from ._generate import PRECISIONS, core_function, generate_c, step_design

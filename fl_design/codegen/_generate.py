@@ -35,6 +35,7 @@ from __future__ import annotations
 import re
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import casadi as ca
 
@@ -42,6 +43,9 @@ from .._output import claim_output_folder, record_outputs
 from ..design import EHGO, Design
 from ..errors import OutputPathError, ParameterError
 from ._package import CPackage
+
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..symbolic import Plant
 
 #: valid values of ``precision``
 PRECISIONS = ("double", "float")
@@ -133,7 +137,7 @@ FLOAT_POLICIES = ("warn", "refuse")
 
 
 def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: str = "fl",
-               plant=None, scenario=None, float_policy: str = "warn",
+               plant: Plant | None = None, scenario=None, float_policy: str = "warn",
                force: bool = False) -> CPackage:
     """Write the design's loop step as a C99 package (sources, header, harness, Makefile).
 

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._toolchain import STRICT_CFLAGS, find_compiler
 from ..errors import CompilationError, CompilerNotFoundError, ParameterError
-from ._build import STRICT_CFLAGS, find_compiler
 
 #: extra warnings of every build (prototypes, float equality, any double arithmetic in float)
 FLOAT_WARNINGS = ("-Wmissing-prototypes", "-Wfloat-equal", "-Wdouble-promotion",
@@ -262,7 +262,7 @@ class CPackage:
         scenario : Scenario
             Reference, duration, initial state, noise, quantization.
         substeps : int, optional
-            RK4 steps per sample (default :func:`fl_design.sim.default_substeps`).
+            RK4 steps per sample (default :func:`fl_design.sim.kernel.default_substeps`).
         compiler : str, optional
             C compiler.
 
@@ -276,8 +276,8 @@ class CPackage:
         >>> from fl_design import presets
         >>> pkg = fl.generate_c(presets.paper_design(), "pv")
         >>> res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5))
-        >>> res.matches, res.max_rel_error <= 1e-12, res.c_status, res.c_stable
-        (True, True, 'undecided', False)
+        >>> res.matches, res.max_rel_error <= 1e-12, res.c_status == res.sim_status
+        (True, True, True)
         """
         from ._sil import software_in_the_loop
 

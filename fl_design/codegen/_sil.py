@@ -5,7 +5,8 @@ starts it: ``<prefix>_init``, then ``<prefix>_start(s, ym_0, u0)`` with the firs
 and the input ``fl.simulate`` starts from (``u_eq``, or the controller's ``u0``). A C driver
 (``templates/sil.c.in``) links the package with CasADi's code of the plant's RK4 step
 (:attr:`fl_design.sim.ClosedLoop.plant_step`, in double) and runs the scenario's samples
-(reference, noise, quantization). The check passes only when both hold:
+(reference, noise, quantization, the scenario's disturbances). The check passes only when both
+hold:
 
 (a) **the C is the design**: the measurements the C saw, fed to ``Design.step`` of the design
     it was generated from (CasADi's interpreter, the same start state), give the same inputs
@@ -349,7 +350,7 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
         Reference, duration, ``x0`` (default the operating point), noise, quantization. An
         ``initial_estimate`` is refused (firmware starts from a measurement).
     substeps : int, optional
-        RK4 steps per sample (default :func:`fl_design.sim.default_substeps`).
+        RK4 steps per sample (default :func:`fl_design.sim.kernel.default_substeps`).
     compiler : str, optional
         C compiler.
 
@@ -383,7 +384,8 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     steps = run.loop.substeps
     exe = build_driver(pkg, plant, steps, compiler)
     head = " ".join(repr(float(v)) for v in run.x0) + f" {float(run.q)!r} {run.u0!r}\n"
-    body = "\n".join(f"{a!r} {b!r}" for a, b in zip(run.r.tolist(), run.noise.tolist()))
+    body = "\n".join(f"{a!r} {b!r} {c!r}"
+                     for a, b, c in zip(run.r.tolist(), run.noise.tolist(), run.d_in.tolist()))
     n = run.loop.n
     out = np.array(run_command([str(exe)], stdin=head + body + "\n", what="the SIL driver")
                    .split(), dtype=float).reshape(-1, 3 + 2 * n)

@@ -4,7 +4,7 @@ The C driver of :func:`~fl_design.codegen.software_in_the_loop` records, per sam
 output, the measurement, the input and the plant state before and after the sample. This
 module classifies that run with the simulation layer's own rules, through its public
 functions: the divergence rule (``ClosedLoop.within_bounds``), the accumulator table
-(:func:`fl_design.sim.signals`, :func:`fl_design.sim.update`) replayed over the samples, and
+(:func:`fl_design.sim._metrics.signals`, :func:`fl_design.sim._metrics.update`) replayed over the samples, and
 :class:`fl_design.sim.Response` (metrics and status from the accumulators). The estimates
 ``xhat`` the accumulators need are those of ``Design.step`` fed the same measurements.
 
@@ -31,7 +31,7 @@ def metric_step(rho: int) -> ca.Function:
     """``fl_sil_metrics(m, sig, c) -> m_next``: one update of the run's accumulator table.
 
     ``sig = [e, u, u_prev, k, y, outside, est_err (rho + 1)]``, ``c = [y0, step, tol, k_tail,
-    k_mid]`` (the signals of :func:`fl_design.sim.signals`).
+    k_mid]`` (the signals of :func:`fl_design.sim._metrics.signals`).
 
     Parameters
     ----------
@@ -74,7 +74,7 @@ def c_loop_response(run, y, ym, u, X, X_next, xhat, S_next) -> Response:
     Parameters
     ----------
     run : fl_design.sim.RunSetup
-        The run (from :func:`fl_design.sim.prepare_run`): reference, constants, bounds.
+        The run (from :func:`fl_design.sim._run.prepare_run`): reference, constants, bounds.
     y, ym, u : numpy.ndarray
         ``(N,)`` true outputs, measurements and the C step's inputs.
     X, X_next : numpy.ndarray

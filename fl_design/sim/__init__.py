@@ -19,7 +19,7 @@ Examples
 --------
 >>> from fl_design.sim import STATUS_CODES
 >>> sorted(STATUS_CODES)
-['converged', 'converging', 'diverged', 'oscillating', 'solver_failed', 'undecided']
+['converged', 'converging', 'diverged', 'oscillating', 'solver_failed', 'stalled', 'undecided']
 """
 
 from ._disturbance import Disturbance, Sine, Step

@@ -16,9 +16,9 @@ run. The slowest mode's error ``A |step| exp(-t / tau)`` is inside the band from
 several modes adding up; the pendulum bench design's slow mode starts at 1.1 times its step).
 With the default classifier (2 %, tail 0.2) the multiple is ``ln(500) / 0.8 = 7.77``. A loop
 that decays like its linearization is then converged well inside the run, one that is
-converging shows a shrinking envelope between the tail's halves (``exp(-0.1 duration / tau)
-= 0.46`` < :data:`~fl_design.sim._metrics.SHRINK`), and an oscillating one has had 7.8 time
-constants to settle and did not.
+converging shows a decaying envelope over the run's second half (by ``exp(-0.5 duration /
+tau)``, far beyond :data:`~fl_design.sim._status.MIN_CHANGE`), and an oscillating one has had
+7.8 time constants to settle and did not.
 
 The length is clamped to ``[MIN_SAMPLES, MAX_SAMPLES]`` samples (and to
 ``$FL_DESIGN_MAX_SAMPLES``), saying so: at least :data:`MIN_SAMPLES` for the tail windows to

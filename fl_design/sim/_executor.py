@@ -47,6 +47,12 @@ from ._options import Kernel
 TASKS_PER_WORKER = 4
 #: Fewest runs per task (below this a task costs more to ship than to run).
 MIN_TASK_RUNS = 16
+#: Seconds per closed-loop step of one run that a worker may take before the grid is declared
+#: stuck: 250x the pessimistic scalar cost (400 ns), so only a hung worker, never a loaded
+#: machine, reaches it; plus :data:`STUCK_GRACE_SECONDS` for starting workers.
+STUCK_STEP_SECONDS = 1e-4
+#: Seconds added to every executor grid's time limit (worker start, imports, kernel loads).
+STUCK_GRACE_SECONDS = 600.0
 
 _MEMO: OrderedDict = OrderedDict()  # per worker process: task key -> runner
 _MEMO_LOCK = threading.Lock()
@@ -202,7 +208,10 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
 
     On an interrupt the pending tasks are cancelled and the interrupt re-raised. When the
     executor breaks (a worker died) the finished tasks are kept and
-    :class:`~fl_design.errors.WorkerLostError` names the lost grid points.
+    :class:`~fl_design.errors.WorkerLostError` names the lost grid points. The wait is bounded:
+    when no task has come back within :data:`STUCK_STEP_SECONDS` per step of the grid (over
+    the workers) plus :data:`STUCK_GRACE_SECONDS`, the grid is declared stuck
+    (:class:`~fl_design.errors.WorkerLostError`, the finished runs kept), never a silent hang.
 
     Examples
     --------
@@ -211,18 +220,29 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
     True
     """
     futures, lost, broken = {}, [], None
+    n_runs = sum(g.size for g in groups)
+    limit = (STUCK_GRACE_SECONDS + STUCK_STEP_SECONDS * n_runs * task.D.shape[1]
+             / max(1, executor_workers(executor)))
     try:
         for idx in groups:
             futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
-        for fut in as_completed(futures):
-            idx = futures[fut]
-            try:
-                out[:, idx] = fut.result()
-            except BrokenExecutor as exc:
-                lost.append(idx)
-                broken = exc
-                continue
-            bar.update(idx.size)
+        try:
+            for fut in as_completed(futures, timeout=limit):
+                idx = futures[fut]
+                try:
+                    out[:, idx] = fut.result()
+                except BrokenExecutor as exc:
+                    lost.append(idx)
+                    broken = exc
+                    continue
+                bar.update(idx.size)
+        except TimeoutError:
+            stuck = [f for f in futures if not f.done()]
+            for fut in stuck:
+                fut.cancel()
+            lost.extend(futures[f] for f in stuck)
+            broken = TimeoutError(f"{len(stuck)} of {len(groups)} tasks had not returned "
+                                  f"after {limit:.0f} s")
     except BaseException:
         for fut in futures:
             fut.cancel()
@@ -232,7 +252,7 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
         out[:, where] = np.nan
         done = len(groups) - len(lost)
         raise WorkerLostError(
-            f"a worker of the executor died ({type(broken).__name__}: {broken}) and the "
+            f"a worker of the executor died or hung ({type(broken).__name__}: {broken}) and the "
             f"results of {where.size} of {out.shape[1]} runs were lost (grid indices "
             f"{_ranges(where)}; eps-major); {done} of {len(groups)} tasks finished and are kept "
             "in this exception's .partial. Usual causes: memory exhausted (the OS killed it), "

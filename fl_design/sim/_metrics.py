@@ -26,25 +26,31 @@ peak-to-peak of r)``, or 1 output unit when both vanish):
 ``tail_error``               ``max |e|`` over the tail
 ``tail_amplitude``           ``max e - min e`` over the tail (= peak-to-peak of ``y`` for a
                              constant reference there)
-``tail_reversals``            direction reversals of ``e`` over the tail, each counted when
-                             ``e`` moves back by more than ``tol / 2`` from its running
-                             extremum (:data:`~fl_design.sim._status.REVERSAL_HYSTERESIS`)
 ``divergence_time``          time of the first sample out of bounds / non-finite (NaN if none)
 
-``time_to_tolerance``        converging runs: estimated time from the start until ``|e| <= tol``,
-                             extrapolating the envelope's exponential decay between the two
-                             halves of the tail (NaN for other runs; ``settling_time`` when
-                             converged)
+``time_to_tolerance``        converging runs: estimated time from the start until ``|e|`` is
+                             in the band, the tail's largest ``|e|`` decaying at the fitted
+                             ``decay_rate`` from the run's end (NaN for other runs;
+                             ``settling_time`` when converged)
 ``region_exit_time``         time of the first sample at which the plant state was outside its
                              declared region (NaN if never or no region): reported separately,
                              the loop may still converge
+``reversals``                reversals of ``e`` over the analysis window (the run's second
+                             half), with hysteresis ``max(tol / 2, 4 noise)``
+``oscillation_period``       ``2 (k_last - k_first) T / (reversals - 1)`` (NaN under 2)
+``oscillation_amplitude``    mean peak-to-peak of the swings between reversals
+``decay_rate``               ``-slope`` (1/s) of ``log`` envelope fitted over the window
+                             (:func:`~fl_design.sim._status.evidence`); ``decay_rate_se`` its
+                             standard error; ``envelope_change`` the fitted relative change
+``noise_floor``              ``NOISE_P2P * noise``: the peak-to-peak of noise-level ripple
+``saturated_fraction``       fraction of the window with ``u`` at a limit of ``u_limits``
+``reached``                  1 if the output covered 90 % of the step at some time
 ============================ ==================================================================
 
 Status (:class:`Status`, the same for :func:`fl_design.simulate` and :func:`fl_design.sweep`):
-``diverged``, ``converged``, ``converging`` (the envelope shrinks), ``oscillating`` (it does
-not, and the error swings: ``tail_reversals >= 2``), ``undecided`` (neither shrinking nor
-swinging: run longer) or ``solver_failed``; the rules are in :mod:`fl_design.sim._status`.
-All other metrics of a diverged run are NaN.
+``diverged``, ``converged``, ``converging``, ``oscillating``, ``stalled``, ``undecided`` or
+``solver_failed``; the rules are in :mod:`fl_design.sim._status`. All other metrics of a
+diverged run are NaN.
 
 Examples
 --------
@@ -63,12 +69,14 @@ import numpy as np
 
 from ..design import Layout
 from ._status import (
+    NBLOCKS,
+    NOISE_P2P,
     REVERSAL_HYSTERESIS,
-    SHRINK,
     STATUS_CODES,
     STATUS_NAMES,
     Status,
     classify,
+    evidence,
 )
 
 
@@ -124,34 +132,72 @@ def _fmin(a, b):
     return ca.fmin(a, b)
 
 
-def _swing(s):
-    """``(direction, extremum, reversed)`` of the tail's swing counter after this sample.
+def _fabs(a):
+    import casadi as ca
 
-    ``rev_dir`` is 0 until ``e`` has left the range of the tail so far
-    (``tail_e_min .. tail_e_max``) by more than the hysteresis ``h``, then +1 (rising) or -1
+    return ca.fabs(a)
+
+
+def _window(s):
+    """``(in_window, block)`` of this sample: the analysis window is the run's second half.
+
+    The run length is recovered from the constants the signals carry (``N ~ 2 k_mid - k_tail``,
+    exact or one short), the window starts at ``floor(N / 2)`` and is cut into
+    :data:`~fl_design.sim._status.NBLOCKS` blocks of equal length (the same arithmetic as
+    :func:`fl_design.sim._status.window_geometry`).
+    """
+    if "_window" not in s:
+        import casadi as ca
+
+        n = 2 * s["k_mid"] - s["k_tail"]
+        kw = ca.floor(n / 2)
+        length = (n - kw) / NBLOCKS
+        s["_window"] = (s["k"] >= kw, ca.floor((s["k"] - kw) / length))
+    return s["_window"]
+
+
+def _swing(s):
+    """``(direction, extremum, reversed)`` of the window's swing counter after this sample.
+
+    ``rev_dir`` is 0 until ``e`` has left the range of the window so far
+    (``win_e_min .. win_e_max``) by more than the hysteresis ``h``, then +1 (rising) or -1
     (falling); ``rev_ext`` is the running extremum of ``rev_dir * e`` (the largest ``e`` while
     rising, minus the smallest while falling). Moving back by more than ``h`` from it is a
-    reversal: the direction flips and the extremum restarts at ``e``. Before the tail the
-    tail's extremes are still -inf / inf, so nothing starts: no gating needed, which keeps the
-    kernel's step short.
+    reversal: the direction flips and the extremum restarts at ``e``. ``h`` is the larger of
+    ``REVERSAL_HYSTERESIS * tol`` and half the noise floor (:func:`noise_floor`): ripple at
+    the noise level is not a swing. Before the window its extremes are still -inf / inf, so
+    nothing starts: no gating needed, which keeps the kernel's step short.
     """
-    if "_swing" not in s:  # once per sample, shared by the three accumulators
+    if "_swing" not in s:  # once per sample, shared by the accumulators below
         p, e = s["prev"], s["e"]
-        h = REVERSAL_HYSTERESIS * s["tol"]
+        h = _fmax(REVERSAL_HYSTERESIS * s["tol"], 0.5 * NOISE_P2P * s["noise"])
         d, ext = p["rev_dir"], p["rev_ext"]
         idle = d == 0
         back = (1 - idle) * (d * e < ext - h)
-        down, up = idle * (e < p["tail_e_max"] - h), idle * (e > p["tail_e_min"] + h)
+        down, up = idle * (e < p["win_e_max"] - h), idle * (e > p["win_e_min"] + h)
         d_new = d * (1 - 2 * back) + up - down  # down and up never both hold
         s["_swing"] = (d_new, _if(back + down + up, d_new * e, _fmax(ext, d * e)), back)
     return s["_swing"]
 
 
-def _half(which):
-    def op(prev, s):
-        inside = s["tail"] * ((s["k"] < s["k_mid"]) if which == 1 else (s["k"] >= s["k_mid"]))
-        return _if(inside, _fmax(prev, s["abs_e"]), prev)
-    return op
+def _on_reversal(op):
+    """Update only on a reversal; ``op(prev, s, extremum)`` with the swing's extreme ``e``."""
+    def update_(p, s):
+        back = _swing(s)[2]
+        extremum = s["prev"]["rev_dir"] * s["prev"]["rev_ext"]
+        return _if(back, op(p, s, extremum), p)
+    return update_
+
+
+def _block(j, op):
+    def update_(p, s):
+        inside, block = _window(s)
+        return _if(inside * (block == j), op(p, s["e"]), p)
+    return update_
+
+
+def _in_window(op):
+    return lambda p, s: _if(_window(s)[0], op(p, s), p)
 
 
 #: The running values of a run (order = accumulator order).
@@ -171,16 +217,29 @@ ACCUMULATORS = (
     Accumulator("k90", -1.0, lambda p, s: _if((p < 0) * (s["progress"] >= 0.9 * s["abs_step"]),
                                               s["k"], p)),
     Accumulator("k_out", -1.0, lambda p, s: _if(s["abs_e"] > s["tol"], s["k"], p)),
-    Accumulator("env1_max", 0.0, _half(1)),
-    Accumulator("env2_max", 0.0, _half(2)),
     Accumulator("k_exit", -1.0, lambda p, s: _if((p < 0) * s["outside"], s["k"], p)),
+    Accumulator("win_e_max", -np.inf, _in_window(lambda p, s: _fmax(p, s["e"]))),
+    Accumulator("win_e_min", np.inf, _in_window(lambda p, s: _fmin(p, s["e"]))),
+    *(Accumulator(f"blk_max{j}", -np.inf, _block(j, _fmax)) for j in range(NBLOCKS)),
+    *(Accumulator(f"blk_min{j}", np.inf, _block(j, _fmin)) for j in range(NBLOCKS)),
+    Accumulator("sat_count", 0.0, _in_window(lambda p, s: p + s["saturated"])),
     Accumulator("rev_dir", 0.0, lambda p, s: _swing(s)[0]),
     Accumulator("rev_ext", 0.0, lambda p, s: _swing(s)[1]),
-    Accumulator("tail_reversals", 0.0, lambda p, s: p + _swing(s)[2]),
+    Accumulator("reversals", 0.0, lambda p, s: p + _swing(s)[2]),
+    Accumulator("swing_sum", 0.0, _on_reversal(
+        lambda p, s, x: p + _if(s["prev"]["reversals"] > 0,
+                                _fabs(x - s["prev"]["rev_last"]), 0))),
+    Accumulator("swing_first", 0.0, _on_reversal(
+        lambda p, s, x: _if(s["prev"]["reversals"] == 1, _fabs(x - s["prev"]["rev_last"]), p))),
+    Accumulator("swing_last", 0.0, _on_reversal(
+        lambda p, s, x: _if(s["prev"]["reversals"] > 0, _fabs(x - s["prev"]["rev_last"]), p))),
+    Accumulator("rev_last", 0.0, _on_reversal(lambda p, s, x: x)),
+    Accumulator("k_rev_first", -1.0, _on_reversal(lambda p, s, x: _if(p < 0, s["k"], p))),
+    Accumulator("k_rev_last", -1.0, _on_reversal(lambda p, s, x: s["k"])),
 )
 
 #: Constants of a run stored with its accumulators (inputs of the finalization).
-RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol")
+RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol", "noise")
 
 
 def metric_layout(rho: int) -> Layout:
@@ -225,7 +284,8 @@ def initial_values(rho: int) -> dict[str, np.ndarray]:
     return {a.name: np.full(rho + 1 if a.per_estimate else 1, a.initial) for a in ACCUMULATORS}
 
 
-def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outside) -> dict:
+def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outside, noise=0.0,
+            u_range=None) -> dict:
     """The per-sample signals the accumulators read (CasADi expressions).
 
     Parameters
@@ -238,6 +298,10 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outsid
         Run constants (``k_mid``: first sample of the second half of the tail).
     outside : casadi.SX
         1 when the plant state is outside its declared region at sample ``k``.
+    noise : casadi.SX or float, optional
+        The run's noise level (:data:`RUN_CONSTANTS` ``noise``): sets the swing hysteresis.
+    u_range : (float, float) or None, optional
+        The controller's input saturation; ``u`` at either end counts as saturated.
 
     Returns
     -------
@@ -254,9 +318,15 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outsid
     """
     import casadi as ca
 
+    saturated = 0
+    if u_range is not None:
+        lo, hi = (float(v) for v in u_range)
+        margin = 1e-9 * (hi - lo)  # the saturation returns the limit itself
+        saturated = (u <= lo + margin) + (u >= hi - margin)
     return {"e": e, "abs_e": ca.fabs(e), "u": u, "abs_du": ca.fabs(u - u_prev), "k": k,
             "est_err": est_err, "tail": k >= k_tail, "tol": tol, "abs_step": ca.fabs(step),
-            "progress": ca.sign(step) * (y - y0), "k_mid": k_mid, "outside": outside}
+            "progress": ca.sign(step) * (y - y0), "k_mid": k_mid, "k_tail": k_tail,
+            "outside": outside, "noise": noise, "saturated": saturated}
 
 
 def update(acc: dict, s: dict) -> dict:
@@ -343,19 +413,27 @@ METRICS = (
     Metric("tail_error", "output", lambda g, T: g["tail_abs_e_max"]),
     Metric("tail_amplitude", "output", lambda g, T: g["tail_e_max"] - g["tail_e_min"]),
     Metric("time_to_tolerance", "s", lambda g, T: _time_to_tolerance(g, T)),
-    Metric("tail_reversals", "count", lambda g, T: g["tail_reversals"]),
+    Metric("reversals", "count", lambda g, T: g["reversals"]),
+    Metric("oscillation_period", "s", lambda g, T: g["_ev"]["period"] * T),
+    Metric("oscillation_amplitude", "output", lambda g, T: g["_ev"]["amplitude"]),
+    Metric("decay_rate", "1/s", lambda g, T: -g["_ev"]["rate"] / T),
+    Metric("decay_rate_se", "1/s", lambda g, T: g["_ev"]["rate_se"] / T),
+    Metric("envelope_change", "fraction", lambda g, T: g["_ev"]["change"]),
+    Metric("noise_floor", "output", lambda g, T: g["_ev"]["floor"]),
+    Metric("saturated_fraction", "fraction", lambda g, T: g["_ev"]["saturated"]),
+    Metric("reached", "bool", lambda g, T: g["_ev"]["reached"].astype(float)),
 )
 METRIC_NAMES = tuple(m.name for m in METRICS) + ("divergence_time", "region_exit_time")
 
 
 def _time_to_tolerance(g, T):
-    status = classify(g)
+    """``settling_time`` when converged; for a converging run the run's end plus the time the
+    tail's largest ``|e|`` needs to reach the band at the fitted decay rate
+    (``ln(tail_error / band) / decay rate``)."""
+    status, ev = g["_status"], g["_ev"]
     settled = np.where(g["k_out"] >= g["N"] - 1, np.nan, (g["k_out"] + 1) * T)
-    spacing = (g["N"] - g["k_mid"]) * T  # distance between the two half-tail windows
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rate = np.log(g["env1_max"] / g["env2_max"]) / spacing
-        more = np.log(g["env2_max"] / g["tol"]) / rate
-    estimate = g["N"] * T + np.maximum(more, 0.0)
+    more = np.log(g["tail_abs_e_max"] / ev["band"]) / -ev["rate"]
+    estimate = (g["N"] + np.maximum(more, 0.0)) * T
     return np.where(status == Status.CONVERGED, settled,
                     np.where(status == Status.CONVERGING, estimate, np.nan))
 
@@ -380,27 +458,31 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.sim._metrics import metrics_from_summary
-    >>> s = dict(N=10, k_tail=8, step=1.0, tol=0.02, diverged=0, k_div=-1, e_max=0.1,
-    ...          e_min=-1.0, abs_e_sum=2.0, u2_sum=10.0, du_sum=1.0, est2_sum=np.zeros(3),
+    >>> from fl_design.sim._metrics import initial_values, metrics_from_summary
+    >>> s = dict(initial_values(2), N=10, k_tail=8, step=1.0, tol=0.02, diverged=0, k_div=-1,
+    ...          e_max=0.1, e_min=-1.0, abs_e_sum=2.0, u2_sum=10.0, du_sum=1.0,
     ...          tail_abs_e_max=0.01, tail_e_max=0.01, tail_e_min=0.0, tail_e_sum=0.01,
-    ...          k10=1, k90=3, k_out=5, k_mid=9, env1_max=0.01, env2_max=0.0, k_exit=-1,
-    ...          tail_reversals=0)
+    ...          k10=1, k90=3, k_out=5, k_mid=9)
     >>> m = metrics_from_summary(s, 0.1)
     >>> [round(float(m[k]), 12) for k in ("overshoot", "rise_time", "settling_time")]
     [10.0, 0.2, 0.6]
+    >>> m["status"].tolist()  # within the band over the tail
+    [2]
     """
     g = {k: np.asarray(v, dtype=float) for k, v in summary.items()}
+    g.setdefault("noise", np.zeros_like(g["tol"]))
     div = g["diverged"] != 0
     out = {}
-    with np.errstate(invalid="ignore", divide="ignore"):
+    g["_status"] = classify(g)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        g["_ev"] = evidence(g)
         for metric in METRICS:
             value = metric.finalize(g, T)
             out[metric.name] = np.where(div[..., None] if metric.per_estimate else div,
                                         np.nan, value)
     out["divergence_time"] = np.where(div, g["k_div"] * T, np.nan)
     out["region_exit_time"] = np.where(g["k_exit"] >= 0, g["k_exit"] * T, np.nan)
-    out["status"] = classify(g)
+    out["status"] = g["_status"]
     return out
 
 
@@ -408,8 +490,9 @@ __all__ = [
     "ACCUMULATORS",
     "METRICS",
     "METRIC_NAMES",
+    "NBLOCKS",
+    "NOISE_P2P",
     "RUN_CONSTANTS",
-    "SHRINK",
     "STATUS_CODES",
     "STATUS_NAMES",
     "Accumulator",

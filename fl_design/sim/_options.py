@@ -32,9 +32,10 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._json import jsonable
 from .._limits import check_substeps
 from ..errors import ParameterError
-from ._scenario import Noise, Scenario, _jsonable
+from ._scenario import Noise, Scenario
 
 
 @dataclass(frozen=True)
@@ -140,7 +141,7 @@ class Classifier:
         0.02
         """
         return {"tolerance": float(self.tolerance), "tail_fraction": float(self.tail_fraction),
-                "divergence_bound": _jsonable(self.divergence_bound)}
+                "divergence_bound": jsonable(self.divergence_bound)}
 
 
 @dataclass(frozen=True)
@@ -150,7 +151,7 @@ class RK4:
     Parameters
     ----------
     substeps : int, optional
-        RK4 steps per sample (>= 1; default :func:`fl_design.sim.default_substeps`, from the
+        RK4 steps per sample (>= 1; default :func:`fl_design.sim.kernel.default_substeps`, from the
         plant's fastest linearized mode).
 
     Raises

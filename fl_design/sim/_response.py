@@ -70,7 +70,7 @@ class Response:
     >>> d = fl.presets.pendulum_design()
     >>> resp = fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 2.0))
     >>> resp.y.shape, resp.xhat.shape, sorted(resp.metrics)[:3]
-    ((2000,), (2000, 2), ['divergence_time', 'estimation_rms', 'iae'])
+    ((2000,), (2000, 2), ['decay_rate', 'decay_rate_se', 'divergence_time'])
     """
 
     t: np.ndarray
@@ -147,10 +147,10 @@ class Response:
     tail_amplitude = property(lambda self: self.metrics["tail_amplitude"],
                               doc="Peak-to-peak of e on the tail.")
     status = property(lambda self: self.metrics["status"],
-                      doc="'converged', 'converging', 'oscillating', 'undecided', 'diverged' or "
-                          "'solver_failed' (see fl_design.sim.Status).")
+                      doc="'converged', 'converging', 'oscillating', 'stalled', 'undecided', "
+                          "'diverged' or 'solver_failed' (see fl_design.sim.Status).")
     bounded = property(lambda self: Status.from_label(self.status).bounded,
-                       doc="Stayed within bounds (oscillating, converging, converged, undecided).")
+                       doc="Stayed within bounds (every status but diverged and solver_failed).")
     converged = property(lambda self: self.status == "converged",
                          doc="Within tolerance over the whole tail.")
     stable = property(lambda self: Status.from_label(self.status).convergent,
@@ -181,6 +181,120 @@ class Response:
                     duration=self.duration, duration_reason=self.duration_reason,
                     metrics=self.metrics, disturbance=self.disturbance)
         return jsonable(data)
+
+    def columns(self) -> dict:
+        """The trajectories as named 1-D columns: ``t``, ``r``, ``y``, ``ym``, ``u``,
+        ``sigmahat``, ``sigma``, ``xhat1 ..``, ``y_d0 ..`` (their true values ``y^(i)``) and
+        ``x1 ..`` (the plant states), in that order; NaN after a divergence.
+
+        Returns
+        -------
+        dict of numpy.ndarray
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> d = fl.presets.pendulum_design()
+        >>> list(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.05)).columns())[:7]
+        ['t', 'r', 'y', 'ym', 'u', 'sigmahat', 'sigma']
+        """
+        cols = {name: np.asarray(getattr(self, name), dtype=float)
+                for name in ("t", "r", "y", "ym", "u", "sigmahat", "sigma")}
+        for i in range(self.xhat.shape[1]):
+            cols[f"xhat{i + 1}"] = self.xhat[:, i]
+        for i in range(self.coords.shape[1]):
+            cols[f"y_d{i}"] = self.coords[:, i]
+        for i in range(self.x.shape[1]):
+            cols[f"x{i + 1}"] = self.x[:, i]
+        return cols
+
+    def to_frame(self):
+        """The trajectories (:meth:`columns`) as a ``pandas.DataFrame`` indexed by sample.
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        MissingDependencyError
+            pandas is not installed (``pip install pandas``; :meth:`to_csv` needs nothing).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
+        ...                    fl.Scenario(0.1, 0.05))
+        >>> try:
+        ...     frame = resp.to_frame()
+        ... except fl.errors.MissingDependencyError:
+        ...     frame = None  # pandas is optional
+        >>> frame is None or frame.shape == (50, 13)
+        True
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            from ..errors import MissingDependencyError
+
+            raise MissingDependencyError(
+                "Response.to_frame needs pandas, which is not installed: pip install pandas "
+                "(or use Response.to_csv / Response.columns, which need nothing)") from None
+        return pd.DataFrame(self.columns())
+
+    def to_csv(self, path=None, *, overwrite: bool = False) -> str:
+        """The trajectories (:meth:`columns`) as CSV: a header line, then one row per sample.
+
+        Numbers are written with ``repr`` precision (they read back exactly); NaN as ``nan``.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path, optional
+            Where to write; default: only return the text.
+        overwrite : bool, optional
+            Replace an existing file (default: refuse, so no one's file is overwritten).
+
+        Returns
+        -------
+        str
+            The CSV text.
+
+        Raises
+        ------
+        OutputPathError
+            ``path`` exists and ``overwrite`` is False, or its folder does not exist.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
+        ...                    fl.Scenario(0.1, 0.05))
+        >>> resp.to_csv().splitlines()[0]
+        't,r,y,ym,u,sigmahat,sigma,xhat1,xhat2,y_d0,y_d1,x1,x2'
+        """
+        import csv
+        import io
+        from pathlib import Path
+
+        cols = self.columns()
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(cols)
+        writer.writerows(zip(*(map(repr, map(float, c)) for c in cols.values())))
+        text = buf.getvalue()
+        if path is not None:
+            from ..errors import OutputPathError
+
+            target = Path(path)
+            if not target.parent.is_dir():
+                raise OutputPathError(f"cannot write {str(target)!r}: its folder does not exist")
+            try:
+                with target.open("w" if overwrite else "x", encoding="utf-8", newline="") as f:
+                    f.write(text)
+            except FileExistsError:
+                raise OutputPathError(
+                    f"{str(target)!r} exists; pass overwrite=True to replace it") from None
+        return text
 
     def plot(self, *, axes=None, title: str | None = None):
         """Output, input and sigma over time (:func:`fl_design.plotting.plot_response`).
@@ -223,43 +337,25 @@ class Response:
         >>> import fl_design as fl
         >>> d = fl.presets.pendulum_design()
         >>> fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 20.0)).verdict()
-        'converged: |e| <= 0.002 after 9.08 s; overshoot 0 %'
+        'converged: |e| <= 0.002 from t = 9.08 s, mean offset -4.4e-05; overshoot 0 %'
         """
-        m, tol = self.metrics, self.tol
-        tail = (self.t.size - self.k_tail) * self.T
+        m = self.metrics
+        window = self.duration / 2
+        text = _reason(self.status, m, self.tol, window, self.duration, self.adaptive_duration)
         over = "" if np.isnan(m["overshoot"]) else f"; overshoot {m['overshoot']:.3g} %"
         exit_ = ("" if np.isnan(m["region_exit_time"]) else
                  f"; left the plant's region at t = {m['region_exit_time']:.3g} s")
-        text = {
-            "converged": f"converged: |e| <= {tol:.3g} after {m['settling_time']:.3g} s",
-            "converging": (f"converging: |e| = {m['tail_error']:.3g} > {tol:.3g} at the end, "
-                           f"shrinking; estimated within tolerance at t = "
-                           f"{m['time_to_tolerance']:.3g} s (run longer to confirm)"),
-            "oscillating": (f"oscillating: bounded, the error swings and its envelope does not "
-                            f"shrink "
-                            f"({m['tail_reversals']:.0f} reversals over the last {tail:.3g} s; "
-                            f"tail |e| up to {m['tail_error']:.3g}, peak-to-peak "
-                            f"{m['tail_amplitude']:.3g}, tolerance {tol:.3g})"),
-            "undecided": (f"undecided: bounded, |e| = {m['tail_error']:.3g} > {tol:.3g} at the "
-                          f"end, neither shrinking nor swinging over the last {tail:.3g} s: a "
-                          f"mode slower than this run or a persistent offset; run longer "
-                          + ("(give a duration longer than this run's)" if self.adaptive_duration
-                             else "(omit the duration for one chosen from the loop's slowest "
-                                  "mode)")),
-            "diverged": f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or "
-                        "became non-finite)",
-            "solver_failed": "solver failed: cvodes gave up on a bounded state (not a verdict "
-                             "on the loop; try fl.RK4 or looser tolerances)",
-        }[self.status]
         run = (f"; run of {self.duration:.4g} s chosen by the loop: {self.duration_reason}"
                if self.adaptive_duration else "")
         return text + (over if self.status != "diverged" else "") + exit_ + run
 
     def _repr_html_(self) -> str:
         """A short HTML table for Jupyter: status, verdict, overshoot, settling time."""
+        settle = (f"{self.settling_time:.3g} s" if np.isfinite(self.settling_time) else
+                  "not settled (still outside the band at the end)")
         return _html_table([("status", self.status), ("verdict", self.verdict()),
                             ("overshoot", f"{self.overshoot:.3g} %"),
-                            ("settling time", f"{self.settling_time:.3g} s"),
+                            ("settling time", settle),
                             ("run", f"{self.t.size} samples, T = {self.T:g} s"),
                             ("run length", f"{self.duration:.4g} s ({self.duration_reason})")])
 
@@ -269,6 +365,66 @@ class Response:
         return (f"Response(N={self.t.size}, T={self.T:g}, status={self.status!r}, "
                 f"overshoot={self.overshoot:.3g}%, settling_time={self.settling_time:.3g} s"
                 f"{chosen})")
+
+
+def _saturation(m) -> str:
+    sat = m["saturated_fraction"]
+    return f"; u at its limits {100 * sat:.0f} % of the time" if sat >= 0.01 else ""
+
+
+def _reason(status: str, m: dict, tol: float, window: float, duration: float,
+            adaptive: bool) -> str:
+    """The one-line reason of ``status``, with the measurements of the run (module doc of
+    :mod:`fl_design.sim._status`); ``window`` is the analysed last half of the run (s)."""
+    band = tol + m["noise_floor"] / 2
+    noisy = f" (tolerance {tol:.3g} + half the noise floor)" if m["noise_floor"] > 0 else ""
+    trend = f"envelope {100 * m['envelope_change']:+.0f} % over the last {window:.3g} s"
+    swings = (f"; swings of {m['oscillation_amplitude']:.3g} peak-to-peak, period "
+              f"{m['oscillation_period']:.3g} s" if m["reversals"] >= 2 else "")
+    sat = _saturation(m)
+    pinned = m["saturated_fraction"] >= 0.5
+    longer = ("u is pinned at its limits, a longer run will not change this" if pinned else
+              f"a run of {3 * duration:.3g} s or more decides" if not adaptive else
+              f"a duration above this run's {duration:.3g} s decides")
+    rate, se = m["decay_rate"], m["decay_rate_se"]
+    if status == "converged":
+        ripple = (f"; ripple {m['tail_amplitude']:.2g} peak-to-peak at the noise level (floor "
+                  f"{m['noise_floor']:.2g})" if m["tail_amplitude"] > tol else "")
+        if np.isfinite(m["settling_time"]):
+            return (f"converged: |e| <= {tol:.3g} from t = {m['settling_time']:.3g} s, mean "
+                    f"offset {m['steady_state_error']:.2g}{ripple}")
+        return (f"converged: mean offset {m['steady_state_error']:.2g} within +-{tol:.3g}, "
+                f"|e| up to {m['tail_error']:.3g}{ripple}")
+    if status == "converging":
+        return (f"converging: |e| = {m['tail_error']:.3g} > {band:.3g}{noisy} at the end, "
+                f"{trend} (time constant {1 / rate:.3g} s +- {100 * se / rate:.0f} %)"
+                f"{swings}; within the band at about t = {m['time_to_tolerance']:.3g} s{sat}")
+    if status == "oscillating":
+        return (f"oscillating: {m['reversals']:.0f} reversals, swings of "
+                f"{m['oscillation_amplitude']:.3g} peak-to-peak (band {band:.3g}), period "
+                f"{m['oscillation_period']:.3g} s; {trend}{sat}")
+    if status == "stalled":
+        reached = ("" if m["reached"] else "; never covered 90 % of the step")
+        return (f"stalled: bounded, |e| up to {m['tail_error']:.3g} with mean offset "
+                f"{m['steady_state_error']:.3g} (band {band:.3g}), not approaching the "
+                f"reference ({trend}){reached}{sat}")
+    if status == "undecided":
+        if m["reversals"] >= 2:
+            swing = (f"swings of {m['oscillation_amplitude']:.3g} peak-to-peak (period "
+                     f"{m['oscillation_period']:.3g} s), {trend}")
+            what = (f"{swing}: growing, a limit cycle or a divergence to come"
+                    if m["envelope_change"] > 0 else
+                    f"{swing}: decaying too little to tell from a limit cycle")
+        else:
+            n = int(m["reversals"])
+            what = (f"{trend} without a full swing ({n} reversal{'s' if n != 1 else ''}; "
+                    f"fitted rate {-rate:.3g} +- {se:.2g} 1/s)")
+        return f"undecided: |e| = {m['tail_error']:.3g} > {band:.3g}, {what}; {longer}{sat}"
+    if status == "diverged":
+        return (f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or became "
+                "non-finite)")
+    return ("solver failed: cvodes gave up on a bounded state (not a verdict on the loop; try "
+            "fl.RK4 or looser tolerances)")
 
 
 def _html_table(rows) -> str:

@@ -4,7 +4,7 @@
 :class:`~fl_design.RK4`, :class:`~fl_design.Classifier`) into a :class:`RunSetup` at the
 design's sampling time; :meth:`RunSetup.initial_accumulator` lays out one accumulator per run
 (:func:`fl_design.sim.accumulator_layout`) with the initial values of
-:data:`fl_design.sim.ACCUMULATORS`.
+:data:`fl_design.sim._metrics.ACCUMULATORS`.
 
 Examples
 --------
@@ -155,9 +155,15 @@ class RunSetup:
         """First sample of the second half of the tail window."""
         return self.k_tail + (self.N - self.k_tail) // 2
 
+    @property
+    def noise_level(self) -> float:
+        """Standard deviation of the measurement error: noise and quantization (``q^2 / 12``)."""
+        return float(np.hypot(self.scenario.noise.std, self.q / np.sqrt(12.0)))
+
     def constants(self) -> dict:
-        """The run constants of the accumulator (``N k_tail k_mid y0 step tol``)."""
+        """The run constants of the accumulator (``N k_tail k_mid y0 step tol noise``)."""
         return {"N": float(self.N), "k_tail": float(self.k_tail), "k_mid": float(self.k_mid),
+                "noise": self.noise_level,
                 "y0": self.y0, "step": self.step, "tol": self.tol}
 
     @property
@@ -200,7 +206,7 @@ class RunSetup:
         >>> d = fl.presets.pendulum_design()
         >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
         >>> run.initial_accumulator(d.parameter_vector()).shape
-        (75, 1)
+        (99, 1)
         """
         P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
         return self.loop.layout.pack(

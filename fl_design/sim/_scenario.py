@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate as V
+from .._json import jsonable
 from .._limits import env_limit
 from ..errors import DimensionError, ParameterError, ResourceLimitError
 
@@ -39,14 +40,6 @@ def max_samples() -> int:
     True
     """
     return env_limit(MAX_SAMPLES_ENV, MAX_SAMPLES, unit="samples")
-
-
-def _jsonable(value):
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    if callable(value):
-        return f"<callable {getattr(value, '__name__', type(value).__name__)}>"
-    return np.asarray(value, dtype=float).tolist()
 
 
 @dataclass(frozen=True)
@@ -223,7 +216,7 @@ class Scenario:
         ------
         ParameterError
             The duration is shorter than one sample, or not set (adaptive: resolved by
-            :func:`fl_design.sim.prepare_run`).
+            :func:`fl_design.sim._run.prepare_run`).
 
         Examples
         --------
@@ -333,13 +326,13 @@ class Scenario:
         >>> fl.Scenario(0.3, 20.0).to_dict()["noise"]
         {'std': 0.0, 'seed': 0}
         """
-        return {"reference": _jsonable(self.reference),
+        return {"reference": jsonable(self.reference),
                 "duration": None if self.duration is None else float(self.duration),
-                "x0": _jsonable(self.x0), "noise": self.noise.to_dict(),
-                "quantization": _jsonable(self.quantization),
+                "x0": jsonable(self.x0), "noise": self.noise.to_dict(),
+                "quantization": jsonable(self.quantization),
                 "disturbance": (None if self.disturbance is None
                                 else self.disturbance.to_dict()),
-                "initial_estimate": _jsonable(self.initial_estimate)}
+                "initial_estimate": jsonable(self.initial_estimate)}
 
 
 __all__ = ["Noise", "Scenario"]

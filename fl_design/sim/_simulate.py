@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -32,11 +33,16 @@ from ._options import RK4, Classifier, Cvodes, Kernel, Scenario, option
 from ._response import Response
 from ._run import RunSetup, prepare_run
 
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
+    from ..symbolic import Plant
+
 #: Growth of the state within the failing sample beyond which a cvodes failure is an escape.
 ESCAPE_GROWTH = 10.0
 
 
-def simulate(plant, design, scenario: Scenario, *, integrator: RK4 | Cvodes | None = None,
+def simulate(plant: Plant, design: Design, scenario: Scenario, *,
+             integrator: RK4 | Cvodes | None = None,
              classifier: Classifier | None = None, kernel: Kernel | None = None,
              allow_unmodeled: bool = False) -> Response:
     """Simulate the sampled closed loop of ``plant`` and ``design`` under ``scenario``.
@@ -146,15 +152,16 @@ def _response(run: RunSetup, out: np.ndarray, summary: dict, method: str) -> Res
 
 
 @functools.lru_cache(maxsize=16)
-def _metric_step(rho: int) -> ca.Function:
+def _metric_step(rho: int, u_range: tuple | None = None) -> ca.Function:
     """``fl_metrics(m, sig, c) -> m_next``: the accumulator update of the table, for replay."""
     lay = metric_layout(rho)
     m = ca.SX.sym("m", lay.size)
     sig = ca.SX.sym("sig", 6 + rho + 1)  # e, u, u_prev, k, y, outside, est_err
-    c = ca.SX.sym("c", 5)  # y0, step, tol, k_tail, k_mid
+    c = ca.SX.sym("c", 6)  # y0, step, tol, k_tail, k_mid, noise
     acc = {name: m[sl] for name, sl in lay.slices.items()}
     s = signals(e=sig[0], u=sig[1], u_prev=sig[2], k=sig[3], y=sig[4], outside=sig[5],
-                est_err=sig[6:], y0=c[0], step=c[1], tol=c[2], k_tail=c[3], k_mid=c[4])
+                est_err=sig[6:], y0=c[0], step=c[1], tol=c[2], k_tail=c[3], k_mid=c[4],
+                noise=c[5], u_range=u_range)
     new = update(acc, s)
     return ca.Function("fl_metrics", [m, sig, c], [ca.vertcat(*[new[n] for n, _ in lay.fields])])
 
@@ -173,8 +180,9 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray, opts: Cvodes) -> tuple[np.ndarray
     out = np.full((loop.record_layout.size, run.N), np.nan)
     lay = metric_layout(loop.rho)
     m = lay.pack(**initial_values(loop.rho))[:, 0]
-    c = [run.y0, run.step, run.tol, run.k_tail, run.k_mid]
-    step_m = _metric_step(loop.rho)
+    c = [run.y0, run.step, run.tol, run.k_tail, run.k_mid, run.noise_level]
+    u_range = loop.design.controller.u_range
+    step_m = _metric_step(loop.rho, None if u_range is None else tuple(map(float, u_range)))
     status = {"diverged": 0.0, "k_div": -1.0, "solver_failed": 0.0}
     for k in range(run.N):
         s_next, uk, y, ym, xhat, sigma, coords = (

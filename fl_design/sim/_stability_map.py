@@ -31,7 +31,7 @@ class EpsStar:
     converged); ``upper`` the first grid eps that does not. No boundary in the scanned range
     is said as such: ``upper = inf`` ("> eps_max": every eps converged, eps* lies above the
     range) or ``lower = nan`` ("< eps_min": even the smallest eps failed). When the run at
-    ``upper`` is ``undecided`` (bounded, neither converging nor swinging: too short to tell),
+    ``upper`` is ``undecided`` (bounded, a trend the run is too short to call),
     the text says so instead of "fails at": the bracket is then a lower bound that a longer run
     may raise.
 

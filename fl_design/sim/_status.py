@@ -1,41 +1,52 @@
 """How a run is classified: :class:`Status` and :func:`classify`, from the run's accumulators.
 
-The statuses answer the questions of Theorem 1 (bounded? converging?) from the run, in this
-order:
+The classifier measures what it names, from the run's own signals (the accumulators of
+:mod:`fl_design.sim._metrics`, so a sweep classifies every grid point the same way a single
+run does); :func:`evidence` gives the measurements:
+
+* **the band**: ``tol`` plus half the noise floor, ``NOISE_P2P * noise`` (the run's noise
+  standard deviation, with quantization): ripple at the noise level is not an error, and not
+  an oscillation;
+* **swings** over the analysis window, the run's second half: reversals of ``e`` with a
+  hysteresis of ``max(tol / 2, half the noise floor)``, their period and mean peak-to-peak,
+  and the last swing against the first;
+* **the envelope's decay**: ``log`` of the largest ``|e|`` over every half period (one of
+  :data:`NBLOCKS` blocks when there is no swing) fitted against time by least squares over the
+  whole window: the rate, its standard error (the confidence) and the fitted change;
+* **time at the input limits** and whether the output ever covered 90 % of the step.
+
+The statuses, in this order:
 
 * ``solver_failed``: the reference integrator (``cvodes``) gave up on a sample although the
   state was within bounds: a failure of the tool, not of the loop;
 * ``diverged``: at some sample the plant state left ``|x - x_op| <= divergence_bound`` or a
   state or the input became non-finite (NaN, inf, finite escape); the run is stopped there;
-* ``converged``: ``tail_error <= tol`` and ``tail_amplitude <= tol``;
-* ``converging``: bounded, not yet within tolerance, and the error envelope shrinks: the
-  largest ``|e|`` over the second half of the tail is below :data:`SHRINK` times that over
-  the first half (``time_to_tolerance`` estimates when it gets there);
-* ``oscillating``: bounded, the envelope does not shrink, and the error swings: at least
-  :data:`MIN_REVERSALS` direction reversals in the tail (``tail_reversals``, one full swing):
-  a sustained oscillation or limit cycle (how an unstable loop usually looks behind input
-  saturation);
-* ``undecided``: bounded, not within tolerance, neither shrinking nor swinging (fewer than
-  :data:`MIN_REVERSALS` reversals): the error creeps or sits still, and the run is too short to
-  tell a mode slower than the run from a persistent offset. A longer run decides.
+* ``converged``: over the tail ``|e| <= band``, ``|mean e| <= tol`` and a peak-to-peak within
+  ``max(tol, noise floor)``;
+* ``converging``: the envelope decays, significantly (``t = rate / se < -T_SIGNIFICANT``) and
+  by more than :data:`MIN_CHANGE` over the window, towards the band: a strictly decreasing
+  envelope whose successive drops, fitted as a geometric sequence, add up to an offset outside
+  the band is heading for that offset instead (``time_to_tolerance`` extrapolates the decay);
+* ``oscillating``: at least :data:`MIN_REVERSALS` reversals, swings larger than the band, not
+  decaying (the envelope shrinks by less than :data:`MIN_CHANGE`, or the last swing is as
+  large as the first) and not growing significantly: a limit
+  cycle (how an unstable loop usually looks behind input saturation);
+* ``stalled``: bounded, outside the band, no such swings, envelope flat or heading for an
+  offset: not approaching the reference (often with ``u`` at a limit);
+* ``undecided``: what remains is ambiguous in this run: an envelope that grows (a limit cycle
+  or a divergence to come), or swings that decay too little for the fit to tell. A longer run
+  decides.
 
-A reversal counts only when ``e`` moves back by more than :data:`REVERSAL_HYSTERESIS` ``* tol``
-from its running extremum in the tail (the accumulators ``rev_dir``, ``rev_ext``,
-``tail_reversals`` of :mod:`fl_design.sim._metrics`). Half the tolerance: a wiggle smaller than
-that cannot on its own take a run out of the band (``converged`` allows a peak-to-peak of
-``tol``), while the loop's response to measurement noise and the numerical jitter of a creeping
-error (orders of magnitude smaller) do not count as swings; any oscillation that keeps a run
-from converging with zero mean has a peak-to-peak above ``tol`` and is counted.
-
-The integer codes are what a :class:`fl_design.StabilityMap` stores; ``undecided`` (3) was
-added after the others, which keep their codes: test membership with :attr:`Status.bounded`,
-:attr:`Status.convergent`, :data:`BOUNDED_CODES` or :data:`CONVERGENT_CODES`, not by order.
+The integer codes are what a :class:`fl_design.StabilityMap` stores; ``undecided`` (3) and
+``stalled`` (4) were added after the others, which keep their codes: test membership with
+:attr:`Status.bounded`, :attr:`Status.convergent`, :data:`BOUNDED_CODES` or
+:data:`CONVERGENT_CODES`, not by order.
 
 Examples
 --------
 >>> from fl_design.sim import Status
 >>> [s.label for s in Status if s.bounded]
-['oscillating', 'converging', 'converged', 'undecided']
+['oscillating', 'converging', 'converged', 'undecided', 'stalled']
 """
 
 from __future__ import annotations
@@ -63,10 +74,12 @@ class Status(enum.IntEnum):
     CONVERGING = 1
     CONVERGED = 2
     UNDECIDED = 3
+    STALLED = 4
 
     @property
     def bounded(self) -> bool:
-        """The run stayed within bounds (oscillating, converging, converged or undecided)."""
+        """The run stayed within bounds (oscillating, converging, converged, undecided,
+        stalled)."""
         return int(self) in BOUNDED_CODES
 
     @property
@@ -102,29 +115,237 @@ class Status(enum.IntEnum):
 
 
 #: Codes of the runs that stayed within bounds.
-BOUNDED_CODES = (0, 1, 2, 3)
+BOUNDED_CODES = (0, 1, 2, 3, 4)
 #: Codes of the runs whose error converges (converging, converged).
 CONVERGENT_CODES = (1, 2)
 #: Integer codes of the classification by label (``StabilityMap.status`` holds these).
 STATUS_CODES = {s.label: int(s) for s in Status}
 STATUS_NAMES = {code: name for name, code in STATUS_CODES.items()}
 
-#: Envelope ratio (second half of the tail / first half) below which a run is converging.
-SHRINK = 0.95
-#: Hysteresis of the tail's reversal count, as a fraction of the tolerance ``tol``.
+#: Blocks of the analysis window (the run's second half) whose extremes the kernel keeps.
+NBLOCKS = 8
+#: Peak-to-peak of noise-level ripple, in noise standard deviations (a Gaussian's extremes
+#: over a few thousand samples lie near +-4 std): swings and offsets below it are noise.
+NOISE_P2P = 8.0
+#: Hysteresis of the window's reversal count, as a fraction of the tolerance ``tol``.
 REVERSAL_HYSTERESIS = 0.5
-#: Reversals in the tail (one full swing) that make a non-shrinking run ``oscillating``.
+#: Reversals (one full swing) that, with an amplitude above the band, make a run oscillate.
 MIN_REVERSALS = 2
+#: |t| of the envelope's fitted log-slope beyond which the trend counts (about 99.9 % with
+#: the fit's few degrees of freedom).
+T_SIGNIFICANT = 4.0
+#: Relative change of the fitted envelope over the window below which it is flat.
+MIN_CHANGE = 0.05
+
+
+def window_geometry(summary: dict):
+    """``(start, length)`` of the analysis window and of its blocks, in samples.
+
+    The window is the run's second half, from ``floor(N' / 2)`` with ``N' = 2 k_mid - k_tail``
+    (the kernel's reconstruction of ``N``), cut into :data:`NBLOCKS` blocks of ``length``.
+
+    Parameters
+    ----------
+    summary : dict
+        ``k_tail`` and ``k_mid`` (arrays broadcast).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+
+    Examples
+    --------
+    >>> from fl_design.sim._status import window_geometry
+    >>> [float(v) for v in window_geometry({"k_tail": 800, "k_mid": 900})]
+    [500.0, 62.5]
+    """
+    n = 2 * np.asarray(summary["k_mid"], dtype=float) - np.asarray(summary["k_tail"], dtype=float)
+    start = np.floor(n / 2)
+    return start, (n - start) / NBLOCKS
+
+
+def _fit(env: np.ndarray, centres: np.ndarray):
+    """Least-squares line through ``log env`` against ``centres`` (last axis): slope, its
+    standard error and the points used (finite, positive entries only)."""
+    ok = np.isfinite(env) & (env > 0)
+    n = ok.sum(axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = np.where(ok, np.log(np.where(ok, env, 1.0)), 0.0)
+        x = np.where(ok, centres, 0.0)
+        xm, ym = x.sum(-1) / n, y.sum(-1) / n
+        dx = np.where(ok, x - xm[..., None], 0.0)
+        dy = np.where(ok, y - ym[..., None], 0.0)
+        sxx = (dx * dx).sum(-1)
+        slope = (dx * dy).sum(-1) / sxx
+        resid = np.where(ok, dy - slope[..., None] * dx, 0.0)
+        se = np.sqrt((resid * resid).sum(-1) / np.maximum(n - 2, 1) / sxx)
+        level = ym + slope * (np.where(ok, centres, -np.inf).max(-1) - xm)
+    enough = n >= 3
+    return (np.where(enough, slope, np.nan), np.where(enough, se, np.nan),
+            np.where(enough, np.exp(level), np.nan), n)
+
+
+def _curvature_t(env: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """``t`` statistic of the quadratic term of ``log env`` against ``centres`` (last axis; all
+    points finite, at least 5; NaN otherwise): a hump or a trough, half a swing slower than
+    the window, is not a flat envelope."""
+    ok = np.all(np.isfinite(env) & (env > 0), axis=-1) & (env.shape[-1] >= 5)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = np.log(np.where(np.isfinite(env) & (env > 0), env, 1.0))
+        x = centres - centres.mean(-1, keepdims=True)
+        x = x / np.max(np.abs(x), axis=-1, keepdims=True)
+        X = np.stack([np.ones_like(x), x, x * x], -1)
+        X = np.broadcast_to(X, (*y.shape, 3))
+        xtx = np.einsum("...ki,...kj->...ij", X, X)
+        inv = np.linalg.pinv(xtx)
+        coef = np.einsum("...ij,...kj,...k->...i", inv, X, y)
+        resid = y - np.einsum("...ki,...i->...k", X, coef)
+        # residuals below 1e-9 (relative) are rounding: a perfect exponential has no curvature
+        var = np.maximum((resid * resid).sum(-1) / max(env.shape[-1] - 3, 1), 1e-18)
+        t = coef[..., 2] / np.sqrt(var * inv[..., 2, 2])
+    return np.where(ok, t, np.nan)
+
+
+def _asymptote(env: np.ndarray) -> np.ndarray:
+    """Where a monotone decaying envelope (last axis) is heading: ``env_last - d_last q / (1 -
+    q)``, the differences ``d`` of successive values fitted as a geometric sequence of ratio
+    ``q < 1`` (``E = c + A q^i`` gives ``c``; an exponential to zero gives 0). NaN when the
+    envelope is not strictly decreasing, has fewer than 4 points, or ``q >= 1``."""
+    d = env[..., :-1] - env[..., 1:]
+    ok = np.all(np.isfinite(d) & (d > 0), axis=-1) & (env.shape[-1] >= 4)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = np.log(np.where(d > 0, d, 1.0))
+        x = np.arange(d.shape[-1], dtype=float)
+        xc = x - x.mean()
+        q = np.exp((y * xc).sum(-1) / (xc * xc).sum())
+        c = env[..., -1] - d[..., -1] * q / (1 - q)
+    return np.where(ok & (q < 1), c, np.nan)
+
+
+def evidence(summary: dict) -> dict:
+    """What the run's accumulators show, in samples: the measurements behind its status.
+
+    * ``band``: the converged band, ``tol`` plus half the noise floor
+      ``NOISE_P2P * noise`` (ripple at the noise level is not an error);
+    * ``reversals``, ``period`` and ``amplitude`` (mean peak-to-peak) of the swings in the
+      analysis window (the run's second half);
+    * ``rate`` and ``rate_se``: the fitted log-slope of the error's envelope (per sample) and
+      its standard error, over the whole window: the largest ``|e|`` over every half period
+      (one block when there is no swing) against time; ``change``: the fitted relative change
+      of the envelope over the window; ``level``: the fitted envelope at the window's end;
+      ``asymptote``: where a strictly decreasing envelope is heading, its successive drops
+      fitted as a geometric sequence (NaN otherwise; about 0 for a decay to the reference);
+      ``curvature_t``: the ``t`` of a quadratic term in ``log`` envelope (a hump: half of a
+      swing slower than the window); ``spread``: largest minus smallest block ``|e|``, ``top``
+      the largest;
+    * ``saturated``: fraction of the window with ``u`` at a limit; ``reached``: the output
+      covered 90 % of the step at some time.
+
+    Parameters
+    ----------
+    summary : dict
+        Accumulators (:data:`fl_design.sim._metrics.ACCUMULATORS`) and run constants.
+
+    Returns
+    -------
+    dict of numpy.ndarray
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim._status import NBLOCKS, evidence
+    >>> env = 0.1 * np.exp(-np.arange(NBLOCKS) / 4)  # |e| decays by e every 4 blocks (250 k)
+    >>> s = {"k_tail": 800, "k_mid": 900, "tol": 0.001, "noise": 0.0, "reversals": 0,
+    ...      "swing_sum": 0, "k_rev_first": -1, "k_rev_last": -1, "sat_count": 0, "k90": 10,
+    ...      **{f"blk_max{j}": env[j] for j in range(NBLOCKS)},
+    ...      **{f"blk_min{j}": 0.0 for j in range(NBLOCKS)}}
+    >>> round(-1 / float(evidence(s)["rate"]), 6)  # time constant in samples
+    250.0
+    """
+    with np.errstate(all="ignore"):  # a diverged run's empty blocks give NaN, silently
+        return _evidence(summary)
+
+
+def _evidence(summary: dict) -> dict:
+    """:func:`evidence` without the error-state guard."""
+    g = {k: np.asarray(v, dtype=float) for k, v in summary.items() if k != "est2_sum"}
+    _, length = window_geometry(g)
+    tol = g["tol"]
+    noise = g.get("noise", np.zeros_like(tol))
+    floor = NOISE_P2P * noise
+    rev = g["reversals"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        period = np.where(rev >= 2, 2 * (g["k_rev_last"] - g["k_rev_first"]) / (rev - 1), np.nan)
+        amplitude = np.where(rev >= 2, g["swing_sum"] / (rev - 1), np.nan)
+        swing_ratio = np.where(rev >= 3, g.get("swing_last", np.nan) / g.get("swing_first", np.nan),
+                               np.nan)
+    hi = np.stack([g[f"blk_max{j}"] for j in range(NBLOCKS)], -1)
+    lo = np.stack([g[f"blk_min{j}"] for j in range(NBLOCKS)], -1)
+    block = np.where(np.isfinite(hi) & np.isfinite(lo), np.maximum(np.abs(hi), np.abs(lo)),
+                     np.nan)
+    # envelope: the largest |e| over a half period (at least one block)
+    width = np.clip(np.ceil(np.nan_to_num(period / 2 / length, nan=1.0)), 1, NBLOCKS - 2)
+    shape = np.broadcast_shapes(np.shape(width), block.shape[:-1])
+    width = np.broadcast_to(width, shape)
+    block = np.broadcast_to(block, (*shape, NBLOCKS))
+    slope = np.full(shape, np.nan)
+    se, level, npts, heading = slope.copy(), slope.copy(), np.zeros(shape), slope.copy()
+    curved = slope.copy()
+    for w in range(1, NBLOCKS - 1):
+        pick = width == w
+        if not np.any(pick):
+            continue
+        m = NBLOCKS - w + 1
+        env = np.stack([np.max(block[..., i:i + w], axis=-1) for i in range(m)], -1)
+        centres = (np.arange(m) + w / 2) * np.broadcast_to(length, shape)[..., None]
+        fit = (*_fit(env, centres), _asymptote(env), _curvature_t(env, centres))
+        for out, value in zip((slope, se, level, npts, heading, curved), fit):
+            out[pick] = np.broadcast_to(value, shape)[pick]
+    span = np.broadcast_to(length, shape) * (NBLOCKS - width)
+    with np.errstate(over="ignore", invalid="ignore"):
+        change = np.expm1(slope * span)
+        n_window = NBLOCKS * length
+        saturated = g.get("sat_count", np.zeros_like(tol)) / n_window
+    return {"band": tol + floor / 2, "floor": floor, "reversals": rev, "period": period,
+            "amplitude": amplitude, "swing_ratio": swing_ratio, "rate": slope, "rate_se": se, "change": change,
+            "level": level, "asymptote": heading, "curvature_t": curved, "fit_points": npts,
+            "spread": np.fmax.reduce(block, -1) - np.fmin.reduce(block, -1),
+            "top": np.fmax.reduce(block, -1),
+            "saturated": saturated,
+            "reached": g.get("k90", np.zeros_like(tol)) >= 0, "window": n_window}
 
 
 def classify(summary: dict) -> np.ndarray:
     """Status codes (:class:`Status`) from the accumulators (arrays broadcast).
 
+    The rules, in order (the measurements are those of :func:`evidence`):
+
+    * ``solver_failed`` / ``diverged``: as flagged by the run;
+    * ``converged``: over the tail ``|e| <= band``, ``|mean e| <= tol`` and a peak-to-peak
+      within the larger of ``tol`` and the noise floor;
+    * ``converging``: the envelope's fitted decay is significant (``t < -T_SIGNIFICANT``) and
+      more than :data:`MIN_CHANGE` over the window, and not heading for an offset outside
+      the band (``asymptote``);
+    * ``oscillating``: at least :data:`MIN_REVERSALS` reversals of a swing whose mean
+      peak-to-peak exceeds the band (``tol`` and the noise floor), and sustained: the fitted
+      envelope shrinks by less than :data:`MIN_CHANGE` over the window, or the last swing is at
+      least ``1 - MIN_CHANGE`` times the first, and it does not grow significantly (growing
+      swings end in a limit cycle or a divergence: undecided);
+    * ``stalled``: bounded, outside the band, no such swings, on one side of the reference
+      over the window (``e`` does not cross the band), and the envelope flat (no
+      significant trend nor hump: a hump has ``|curvature_t| > T_SIGNIFICANT`` and a ``spread``
+      above both the noise floor and ``MIN_CHANGE`` of the largest ``|e|``) or heading for an offset outside the band: not approaching the
+      reference;
+    * ``undecided``: anything else, a trend the run cannot call: a growing envelope (with or
+      without swings), or swings decaying too little for the fit to be sure (a longer run
+      decides).
+
     Parameters
     ----------
     summary : dict
-        At least ``diverged``, ``tail_abs_e_max``, ``tail_e_max``, ``tail_e_min``, ``tol``,
-        ``env1_max``, ``env2_max``, ``tail_reversals``; optionally ``solver_failed``.
+        Accumulators (:data:`fl_design.sim._metrics.ACCUMULATORS`) and run constants (``tol``,
+        ``k_tail``, ``k_mid``, optionally ``noise``), ``diverged``; optionally
+        ``solver_failed``.
 
     Returns
     -------
@@ -132,32 +353,80 @@ def classify(summary: dict) -> np.ndarray:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from fl_design.sim._status import classify
-    >>> base = dict(diverged=0, tol=0.01, tail_reversals=0)
-    >>> classify(dict(base, tail_abs_e_max=0.001, tail_e_max=0.001, tail_e_min=0.0,
-    ...               env1_max=0.001, env2_max=0.0005)).tolist()
-    2
-    >>> swing = dict(base, tail_abs_e_max=0.1, tail_e_max=0.1, tail_e_min=-0.1, env1_max=0.1,
-    ...              env2_max=0.1)
-    >>> classify(dict(swing, tail_reversals=6)).tolist()  # sustained oscillation
+    >>> from fl_design.sim._status import NBLOCKS
+    >>> def run(hi, lo, **kw):
+    ...     s = {"diverged": 0, "tol": 0.01, "k_tail": 800, "k_mid": 900, "reversals": 0,
+    ...          "swing_sum": 0, "k_rev_first": -1, "k_rev_last": -1,
+    ...          "tail_abs_e_max": max(abs(hi[-1]), abs(lo[-1])), "tail_e_max": hi[-1],
+    ...          "tail_e_min": lo[-1], "tail_e_sum": 100 * (hi[-1] + lo[-1]) / 2,
+    ...          "win_e_max": max(hi), "win_e_min": min(lo)}
+    ...     s |= {f"blk_max{j}": hi[j] for j in range(NBLOCKS)}
+    ...     s |= {f"blk_min{j}": lo[j] for j in range(NBLOCKS)}
+    ...     return int(classify(s | kw))
+    >>> flat = [0.2] * NBLOCKS
+    >>> run(flat, [0.19] * NBLOCKS)  # sits at an offset: stalled
+    4
+    >>> run(list(0.2 * np.exp(-np.arange(NBLOCKS) / 3)), [0.0] * NBLOCKS)  # decays: converging
+    1
+    >>> run(flat, [-0.2] * NBLOCKS, reversals=6, swing_sum=2.0, k_rev_first=520,
+    ...     k_rev_last=960)  # sustained swings of 0.4: oscillating
     0
-    >>> classify(swing).tolist()  # no reversal: a creep or an offset (undecided)
-    3
     """
+    with np.errstate(all="ignore"):
+        return _classify(summary)
+
+
+def _classify(summary: dict) -> np.ndarray:
     div = np.asarray(summary["diverged"]) != 0
     failed = np.asarray(summary.get("solver_failed", 0)) != 0
-    tol = np.asarray(summary["tol"])
-    with np.errstate(invalid="ignore"):
-        converged = (np.asarray(summary["tail_abs_e_max"]) <= tol) & (
-            np.asarray(summary["tail_e_max"]) - np.asarray(summary["tail_e_min"]) <= tol)
-        shrinking = np.asarray(summary["env2_max"]) < SHRINK * np.asarray(summary["env1_max"])
-        swinging = np.asarray(summary["tail_reversals"]) >= MIN_REVERSALS
-    bounded = np.where(swinging, int(Status.OSCILLATING), int(Status.UNDECIDED))
-    code = np.where(div, int(Status.DIVERGED),
-                    np.where(converged, int(Status.CONVERGED),
-                             np.where(shrinking, int(Status.CONVERGING), bounded)))
+    ev = evidence(summary)
+    tol, band = np.asarray(summary["tol"], dtype=float), ev["band"]
+    n_tail = 2 * (np.asarray(summary["k_mid"], float) - np.asarray(summary["k_tail"], float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.asarray(summary.get("tail_e_sum", 0.0)) / np.maximum(n_tail, 1)
+        p2p = np.asarray(summary["tail_e_max"]) - np.asarray(summary["tail_e_min"])
+        converged = ((np.asarray(summary["tail_abs_e_max"]) <= band) & (np.abs(mean) <= tol)
+                     & (p2p <= np.maximum(tol, ev["floor"])))
+        t = ev["rate"] / ev["rate_se"]
+        t = np.where(ev["rate_se"] == 0, np.sign(ev["rate"]) * np.inf, t)
+        swinging = (ev["reversals"] >= MIN_REVERSALS) & (ev["amplitude"] > np.maximum(tol, ev["floor"]))
+        # a monotone decay towards an offset outside the band (swings: their envelope decides)
+        offset = (ev["asymptote"] > band) & ~swinging
+        decaying = (t < -T_SIGNIFICANT) & (ev["change"] < -MIN_CHANGE) & ~offset
+        # a stall sits on one side of the reference: an error crossing it is moving
+        one_sided = ((np.asarray(summary.get("win_e_min", -np.inf)) > -band)
+                     | (np.asarray(summary.get("win_e_max", np.inf)) < band))
+        # a hump counts when significant and larger than MIN_CHANGE of |e| and the noise floor
+        hump = ((np.abs(ev["curvature_t"]) > T_SIGNIFICANT)
+                & (ev["spread"] > np.maximum(MIN_CHANGE * ev["top"], ev["floor"])))
+        flat = ((np.abs(t) < 1) | (np.abs(ev["change"]) < MIN_CHANGE) | (ev["rate"] == 0)) \
+            & ~hump
+        growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
+        sustained = ((ev["change"] >= -MIN_CHANGE) | (ev["swing_ratio"] >= 1 - MIN_CHANGE)) \
+            & ~growing
+    code = np.select(
+        [div, converged, decaying, swinging & sustained,
+         ~swinging & (flat | offset) & one_sided],
+        [int(Status.DIVERGED), int(Status.CONVERGED), int(Status.CONVERGING),
+         int(Status.OSCILLATING), int(Status.STALLED)], int(Status.UNDECIDED))
     return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)
 
 
-__all__ = ["BOUNDED_CODES", "CONVERGENT_CODES", "MIN_REVERSALS", "REVERSAL_HYSTERESIS",
-           "SHRINK", "STATUS_CODES", "STATUS_NAMES", "Status", "classify"]
+__all__ = [
+    "BOUNDED_CODES",
+    "CONVERGENT_CODES",
+    "MIN_CHANGE",
+    "MIN_REVERSALS",
+    "NBLOCKS",
+    "NOISE_P2P",
+    "REVERSAL_HYSTERESIS",
+    "STATUS_CODES",
+    "STATUS_NAMES",
+    "T_SIGNIFICANT",
+    "Status",
+    "classify",
+    "evidence",
+    "window_geometry",
+]

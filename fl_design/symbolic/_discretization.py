@@ -36,7 +36,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sp
@@ -57,6 +57,9 @@ from ._series import (
     lie_series_terms,
     sigma_symbol,
 )
+
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ._plant import Plant
 
 
 @dataclass(frozen=True)
@@ -411,7 +414,8 @@ def _is_plant(obj) -> bool:
 MAX_ORDER = {"plant": 8, "chain": 40}
 
 
-def taylor_discretization(plant, order: int, *, max_order: int | None = None) -> Discretization:
+def taylor_discretization(plant: Plant, order: int, *,
+                          max_order: int | None = None) -> Discretization:
     """Zero-order-hold discretization: exact Taylor (Lie) series ``F^e``, ``F^a``, residuals.
 
     With the input held over each sample, ``x(k+1) = sum_{j=0}^{N} T^j/j! L_F^j x + R_N`` at

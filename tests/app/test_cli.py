@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fl_design.app import main
@@ -33,16 +35,28 @@ def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
     out, _ = quick_run
     html = (out / "report.html").read_text()
     md = (out / "report.md").read_text()
-    for section in ("Derivation", "Certificates", "Stability map and eps*",
-                    "Simulations: the paper&#x27;s comparison", "C code"):
-        assert f"<h2>{section}</h2>" in html
+    order = ["Summary", "Simulations: this design and the paper&#x27;s comparison",
+             "Stability map and eps*", "Certificates", "C code", "Derivation"]
+    where = [html.index(f">{section}</h2>") for section in order]
+    assert where == sorted(where)  # the answers first, the derivation last
+    # the summary links every answer to its section, and those ids exist
+    summary = html[where[0]:where[1]]
+    for target in re.findall(r'href="#([a-z0-9-]+)"', summary):
+        assert f'<h2 id="{target}">' in html
+    for question in ("Plant", "Does it work?", "Certified", "Generated C"):
+        assert question in summary
+    assert "operating point x_op = (" in summary and "u_eq = " in summary
+    assert "SIL PASSED" in summary or "SIL FAILED" in summary
+    assert "<math>" in html and "$$" in md  # the maths rendered (MathML, LaTeX)
+    assert md.index("## Summary") < md.index("## Derivation")
     for name in ("stability_map.png", "eps_star.png", "steps.png", "noise_tradeoff.png",
                  "response.png"):
         assert (out / name).stat().st_size > 10_000
         assert f"]({name})" in md
     assert html.count('src="data:image/png;base64,') == 5
     assert "<img" in html and 'src="stability_map.png"' not in html  # self-contained
-    assert "P_x =" in md and "eps* certified (s)" in md and "Software in the loop" in md
+    assert "P_x =" in md and "eps* for varying b (s): [certified, refuted]" in md
+    assert "Software in the loop" in md
 
 
 def test_summary_is_strict_json_with_verdicts(quick_run):
@@ -53,7 +67,7 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
     assert data["derivation"]["b_bounds"] == pytest.approx([3.6, 6.8])
     runs = data["simulate"]["runs"]
     assert {r["design"] for r in runs} == {"EHGO eps=0.05", "LS(9)", "LS(26)"}
-    assert all(r["status"] in ("converged", "converging", "oscillating", "undecided", "diverged")
+    assert all(r["status"] in ("converged", "converging", "oscillating", "stalled", "undecided", "diverged")
                for r in runs)
     assert data["codegen"]["sil"]["passed"] is True
     assert data["certify"]["eps"]["certified"] is True
@@ -185,3 +199,16 @@ def test_every_library_plant_is_a_config_and_cli_name(name, capsys):
         assert f"|gamma| < 1/max|b| = {1 / abs(lo):.4g} (gamma < 0, as b)" in out
     else:
         assert f"gamma < 1/b_max = {1 / hi:.4g}" in out
+
+
+def test_run_writes_the_compared_runs_as_csv(quick_run):
+    """Every compared run and the main run, beside the report, reading back to its summary's
+    verdicts (the CSV's last sample equals the run's final output)."""
+    out, proc = quick_run
+    data = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    files = sorted((out / "runs").glob("*.csv"))
+    assert len(files) == len(data["simulate"]["runs"]) + 1
+    assert "runs as CSV under" in proc.stdout
+    table = np.genfromtxt(out / "runs" / "LS9_noise0.001.csv", delimiter=",", names=True)
+    assert table.dtype.names[:5] == ("t", "r", "y", "ym", "u")
+    assert np.all(np.diff(table["t"]) > 0) and table["r"][-1] == pytest.approx(0.3)

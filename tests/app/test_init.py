@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import fl_design as fl
-from fl_design.app import ConfigError, main, parse_config, prepare
+from fl_design.app import main, parse_config
 from fl_design.app._build import build_plant, check_fit
-from fl_design.app._config import LIBRARY
+from fl_design.app._config import LIBRARY, ConfigError
+from fl_design.app._job import prepare
 from fl_design.app._template import config_toml
 
 PENDULUM = """

@@ -34,9 +34,11 @@ def test_double_closed_loop_matches_design_step(packages):
     assert res.u_c.size == 40000 and np.ptp(res.u_ref) > 0.1  # the loop did something
     assert res.max_rel_error <= DOUBLE_BOUND and res.matches
     # the C loop's own verdict (classified like fl.simulate's) agrees with fl.simulate's
-    assert res.c_status == res.sim_status == "converging" and res.passed
+    # (the paper design's slowest mode is ~240 s: at 40 s "converging" or "undecided", never a
+    # failure, and always the same in C and in Python)
+    assert res.c_status == res.sim_status in ("converging", "undecided") and res.passed
     short = packages["double"].verify(fl.plants.trms_yaw(), _noisy_step_scenario(20.0))
-    assert short.c_status == short.sim_status == "undecided"  # too short to tell: a pass
+    assert short.c_status == short.sim_status in ("undecided", "stalled")  # too short: a pass
     assert short.matches and short.passed and not short.c_stable  # that says so
     # the plant followed the reference: the compiled step really closed the loop
     assert abs(np.mean(res.ym[-1000:]) - 0.3) < 0.02
@@ -238,3 +240,19 @@ def test_float_policy_and_half_a_run_are_refused(tmp_path):
     with pytest.raises(fl.errors.ParameterError, match="give both plant= and scenario="):
         generate_c(presets.paper_design(), tmp_path, precision="float",
                    plant=fl.plants.trms_yaw())
+
+
+def test_the_sil_loop_sees_the_scenarios_disturbances(tmp_path):
+    """The C loop gets the input and output disturbances fl.simulate applies: the same
+    measurements and inputs (to the double bound), the same verdict; without them it differs."""
+    p, d = fl.plants.pendulum(), presets.pendulum_design()
+    dist = fl.Disturbance(input=fl.Step(at=2.0, size=0.5), output=fl.Step(at=3.0, size=0.01))
+    sc = fl.Scenario(0.1, 8.0, disturbance=dist)
+    pkg = generate_c(d, tmp_path)
+    res = pkg.verify(p, sc)
+    sim = fl.simulate(p, d, sc)
+    assert res.passed and res.c_status == res.sim_status == sim.status != "diverged"
+    np.testing.assert_allclose(res.ym, sim.ym, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(res.u_c, sim.u, rtol=0, atol=1e-9 * np.max(np.abs(sim.u)))
+    clean = pkg.verify(p, fl.Scenario(0.1, 8.0))
+    assert np.max(np.abs(clean.ym - res.ym)) > 1e-3  # the disturbance really acted

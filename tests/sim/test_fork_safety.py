@@ -113,3 +113,30 @@ def test_a_killed_worker_gives_a_clear_error_with_the_finished_chunks(tmp_path):
     n_lost, n_kept, consistent = words["LOST"].split()
     assert int(n_lost) > 0 and int(n_lost) + int(n_kept) == 256 and consistent == "True"
     assert words["MESSAGE"] == "True"
+
+
+def test_a_hung_executor_is_a_clear_error_not_a_hang(monkeypatch):
+    """An executor whose tasks never come back: the wait ends at its limit with the reason."""
+    import time
+    from concurrent.futures import Executor, Future
+
+    import numpy as np
+
+    import fl_design as fl
+    from fl_design.errors import WorkerLostError
+    from fl_design.sim import _executor
+
+    class Hangs(Executor):
+        _max_workers = 2
+
+        def submit(self, fn, /, *args, **kwargs):
+            return Future()  # never completes
+
+    monkeypatch.setattr(_executor, "STUCK_GRACE_SECONDS", 0.5)
+    monkeypatch.setattr(_executor, "STUCK_STEP_SECONDS", 0.0)
+    started = time.perf_counter()
+    with pytest.raises(WorkerLostError, match="had not returned after 0 s") as info:
+        fl.sweep(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.05, 0.1),
+                 eps=[0.01, 0.02], gamma=[1e-2, 3e-2], executor=Hangs(), progress=False)
+    assert time.perf_counter() - started < 30
+    assert info.value.lost == [0, 1, 2, 3] and np.isnan(info.value.partial).all()

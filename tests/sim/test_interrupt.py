@@ -52,7 +52,7 @@ def test_a_grid_too_large_for_memory_is_refused_before_any_work(monkeypatch):
                  progress=False)
     assert time.perf_counter() - started < 10.0
     monkeypatch.setenv("FL_DESIGN_MAX_MEMORY_GB", "1e-9")
-    with pytest.raises(ResourceLimitError, match="above the limit"):
+    with pytest.raises(ResourceLimitError, match=r"above (the limit of )?1e-09 GiB"):
         fl.sweep(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.01), eps=[0.02, 0.03],
                  gamma=[1e-2], progress=False, kernel=fl.Kernel(compiled=False))
 

@@ -398,12 +398,19 @@ def test_verdicts_say_what_they_mean(pendulum):
     assert longer.status == "converged"
     # the envelope's exponential extrapolation predicts the settling time
     assert longer.settling_time == pytest.approx(resp.time_to_tolerance, rel=0.15)
-    assert "converging" in resp.verdict() and "estimated within tolerance" in resp.verdict()
+    assert resp.verdict().startswith("converging: |e| = 0.0262 > 0.002 at the end, envelope "
+                                     "-53 % over the last 3 s (time constant 3.47 s")
+    assert resp.metrics["decay_rate"] == pytest.approx(1 / 3.47, rel=0.01)
     # saturated input + an unstable eps: a bounded limit cycle, not 'diverged'
     cyc = fl.simulate(pendulum, fl.presets.pendulum_design(eps=0.2, u_limits=(-1.2, 1.2)),
                       fl.Scenario(0.05, 30.0))
     assert cyc.status == "oscillating" == status_from_trajectories(cyc) and cyc.bounded
-    assert cyc.tail_amplitude > cyc.tol and "does not shrink" in cyc.verdict()
+    assert cyc.tail_amplitude > cyc.tol
+    assert cyc.verdict().startswith("oscillating: 24 reversals, swings of 0.178 peak-to-peak "
+                                    "(band 0.001), period 1.23 s")
+    assert "u at its limits 70 % of the time" in cyc.verdict()
+    u = cyc.u[cyc.t.size // 2:]
+    assert cyc.metrics["saturated_fraction"] == pytest.approx(np.mean(np.abs(u) >= 1.2), abs=1e-3)
 
 
 def test_wrong_typed_plant_or_design_is_a_clear_error(pendulum, pendulum_design):
@@ -414,13 +421,13 @@ def test_wrong_typed_plant_or_design_is_a_clear_error(pendulum, pendulum_design)
                  gamma=[1e-2], progress=False)
 
 
-def test_a_tail_that_sits_at_an_offset_is_undecided_a_limit_cycle_oscillates():
-    """TRMS, the paper's design, 30 s: the error creeps at about 7 % of the step (its slowest
-    linearized mode, ~2000 s, is far slower than the run): no swing in the tail, 'undecided'.
-    A real limit cycle (eps = 0.5, gamma = 0.03) swings: 'oscillating'. The tail numbers and
-    reversal counts are recomputed from the recorded output, independently of the
-    accumulators."""
-    from tests.oracles import count_reversals
+def test_a_mode_slower_than_the_run_is_undecided_a_limit_cycle_oscillates():
+    """TRMS, the paper's design, 30 s: the error drifts away (+28 % over the last 15 s, its
+    slowest linearized mode, ~2000 s, is far slower than the run) without a swing: 'undecided',
+    and the verdict says what decides. A real limit cycle (eps = 0.5, gamma = 0.03) swings:
+    'oscillating'. The tail numbers are recomputed from the recorded output and the status from
+    the whole record (:func:`tests.oracles.status_from_trajectories`)."""
+    from tests.oracles import status_from_trajectories
 
     plant, design = fl.plants.trms_yaw(), fl.presets.paper_design()
     slow = fl.simulate(plant, design, fl.Scenario(0.3, 30.0))
@@ -429,15 +436,12 @@ def test_a_tail_that_sits_at_an_offset_is_undecided_a_limit_cycle_oscillates():
         e = resp.r[resp.k_tail:] - resp.y[resp.k_tail:]
         assert resp.tail_error == pytest.approx(np.max(np.abs(e)), rel=1e-12)
         assert resp.tail_amplitude == pytest.approx(np.ptp(e), rel=1e-12)
-        assert resp.metrics["tail_reversals"] == count_reversals(e, resp.tol / 2)
+        assert resp.status == status_from_trajectories(resp)
         assert resp.bounded and not resp.stable
-    e = slow.r[slow.k_tail:] - slow.y[slow.k_tail:]
-    assert np.ptp(e) < 0.1 * np.max(np.abs(e))  # sits still: moves < 10 % of its size
-    assert slow.status == "undecided" and count_reversals(e, slow.tol / 2) == 0
-    assert slow.verdict().startswith("undecided: bounded, |e| = 0.0208 > 0.006 at the end, "
-                                     "neither shrinking nor swinging over the last 6 s")
-    assert "run longer (omit the duration" in slow.verdict()
+    assert slow.status == "undecided"
+    assert slow.verdict().startswith("undecided: |e| = 0.0208 > 0.006, envelope +28 % over the "
+                                     "last 15 s without a full swing (0 reversals;")
+    assert "a run of 90 s or more decides" in slow.verdict()
     e = cycle.r[cycle.k_tail:] - cycle.y[cycle.k_tail:]
     assert np.min(e) < 0 < np.max(e)  # swings through the reference
-    assert cycle.status == "oscillating" and count_reversals(e, cycle.tol / 2) >= 2
-    assert "swings and its envelope does not shrink" in cycle.verdict()
+    assert cycle.status == "oscillating" and cycle.metrics["reversals"] >= 2

@@ -57,7 +57,7 @@ def test_grid_layout_and_to_dict(small_map):
     assert small_map.metrics["estimation_rms"].shape == (4, 3, 3)
     assert all(v.shape[:2] == (4, 3) for v in small_map.metrics.values())
     d = json.loads(json.dumps(small_map.to_dict()))
-    assert d["status"][0][0] in ("converged", "converging", "oscillating", "undecided", "diverged")
+    assert d["status"][0][0] in ("converged", "converging", "oscillating", "stalled", "undecided", "diverged")
     assert np.array_equal(small_map.labels == "converged", small_map.status == 2)
     assert np.array_equal(small_map.labels == "diverged", small_map.status == -1)
     fig = small_map.plot(curves={"1/gamma law": lambda g: 3e-4 / g,

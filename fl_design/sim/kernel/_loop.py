@@ -26,7 +26,7 @@ state ``acc`` holds the plant and design states, running metrics, the run's cons
 * **padding**: samples ``k >= N`` change nothing (only ``k < N`` samples count), so blocks of
   samples may be padded and a frozen run may skip its remaining samples.
 * running metrics: every accepted sample updates the accumulators of
-  :data:`fl_design.sim.ACCUMULATORS` (defined once, in :mod:`fl_design.sim._metrics`).
+  :data:`fl_design.sim._metrics.ACCUMULATORS` (defined once, in :mod:`fl_design.sim._metrics`).
 
 The step is run over the samples and over the grid's parameter columns by a compiled C driver
 (or, without a compiler, by CasADi's ``fold`` in its interpreter): see :mod:`fl_design.sim.kernel._runners`.
@@ -72,8 +72,8 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     """The accumulator of a plant with ``n`` states and a design of state size ``m``.
 
     Fields: ``x`` (n), ``s`` (m), ``u_prev``, ``k``, ``diverged``, ``k_div``, the running
-    values of :data:`fl_design.sim.ACCUMULATORS` (``est2_sum`` has ``rho + 1`` entries), and
-    the run's constants ``N k_tail k_mid y0 step tol q x_op (n) bound (n) region_lo (n)
+    values of :data:`fl_design.sim._metrics.ACCUMULATORS` (``est2_sum`` has ``rho + 1`` entries), and
+    the run's constants ``N k_tail k_mid y0 step tol noise q x_op (n) bound (n) region_lo (n)
     region_hi (n) p (n_p)``.
 
     Parameters
@@ -90,7 +90,7 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     >>> from fl_design.sim.kernel._loop import accumulator_layout
     >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
     >>> lay["x"], "est2_sum" in lay, lay.size
-    (slice(0, 2, None), True, 75)
+    (slice(0, 2, None), True, 99)
     """
     fields = [("x", n), ("s", m), ("u_prev", 1), ("k", 1), ("diverged", 1), ("k_div", 1)]
     fields += list(metric_layout(rho).fields)
@@ -413,7 +413,8 @@ class ClosedLoop:
         sig = signals(e=y - r, u=u, u_prev=a["u_prev"], k=k,
                       est_err=xhat - ca.vertcat(coords, sigma), y=y, y0=a["y0"],
                       step=a["step"], tol=a["tol"], k_tail=a["k_tail"], k_mid=a["k_mid"],
-                      outside=outside)
+                      outside=outside, noise=a["noise"],
+                      u_range=self.design.controller.u_range)
         for name, value in update(a, sig).items():
             new[name] = ca.if_else(accept, value, a[name])
         acc_next = ca.vertcat(*[new[name] for name, _ in lay.fields])

@@ -1,0 +1,95 @@
+"""eps*(gamma): the frozen eigenvalue boundary and the frozen-b certificate along a gain scan.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> c = fl.eps_star_curve(fl.presets.paper_design(), (3.6, 6.8), [1e-3])
+>>> c.covers, bool(c.eps_star_certified[0] <= c.eps_star_frozen[0])
+('frozen', True)
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import ParameterError
+from ._cert_results import EpsStarCurve
+from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
+from ._search import certified_eps_star, frozen_bracket
+
+if TYPE_CHECKING:  # annotations only (no import at run time)
+    from ..design import Design
+
+
+@_serial
+def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
+                   eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
+                   rtol: float = 1e-2, max_pieces: int = 8,
+                   certified: bool = True) -> EpsStarCurve:
+    """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
+
+    Continuation along the curve: the certified search at each gamma starts from the ratio
+    found at the previous one (tries ``hint * eps*_frozen``, then steps down by 0.95).
+
+    Parameters
+    ----------
+    design : Design
+        An EHGO design (its structure; eps and gamma are varied).
+    b_bounds : (float, float)
+        ``(b_min, b_max)`` of one strict sign.
+    gammas : sequence of float
+        Gains (> 0; magnitudes when ``b < 0``).
+    a_jacobian_bounds : sequence of (float, float), optional
+        As in :func:`certify_eps`.
+    eps_range : (float, float), optional
+        Search interval of eps.
+    n_b : int, optional
+        Points of the b grid.
+    n_scan : int, optional
+        Scan points of the frozen search.
+    rtol : float, optional
+        Relative resolution of the certified bisection (frozen: rtol/10).
+    max_pieces : int, optional
+        As in :func:`certify_eps`.
+    certified : bool, optional
+        False: frozen curve only (certified entries NaN).
+
+    Returns
+    -------
+    EpsStarCurve
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> c = fl.eps_star_curve(fl.presets.paper_design(), (3.6, 6.8), [1e-3, 3e-3])
+    >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
+    True
+    """
+    lo, hi = _eps_range(eps_range)
+    rtol = V.positive("rtol", rtol)
+    n_scan = V.integer("n_scan", n_scan, minimum=2)
+    g = V.real_vector("gammas", gammas)
+    if g.size == 0 or np.any(g <= 0):
+        raise ParameterError(f"gammas must be a non-empty sequence of numbers > 0, got {g.tolist()}")
+    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
+    frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
+    for i, gamma in enumerate(g):
+        fb = frozen_bracket(lambda e, g_=gamma: L.frozen_margin(e, g_), lo, hi, n_scan,
+                            rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
+        if fb is None:
+            continue
+        frozen[i] = f = fb[0]
+        if certified:
+            L.modal_hit = False
+            c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f, rtol, hint,
+                                   0.95)
+            if c is not None:
+                cert[i], hint = c, c / f
+    return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
+                        b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi))
+
+
+__all__ = ["eps_star_curve"]
