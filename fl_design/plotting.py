@@ -184,7 +184,7 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     >>> [h.get_label() for h in hs]
     ['linearized', 'linearized: eps* above the range (> top)']
     """
-    g = np.asarray(gamma, dtype=float).ravel()
+    g = np.abs(np.asarray(gamma, dtype=float).ravel())  # gamma < 0 (b < 0): at |gamma|
     stars = list(stars)
     if len(stars) != g.size:
         raise ParameterError(f"gamma has {g.size} values but {len(stars)} eps* brackets were "
@@ -243,19 +243,22 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     fig = ax.figure
     cmap = ListedColormap(list(STATUS_COLORS))
     norm = BoundaryNorm(np.arange(-2.5, 5.0), cmap.N)
-    ax.pcolormesh(_edges(smap.gamma), _edges(smap.eps), np.asarray(smap.status), cmap=cmap,
+    gx = np.abs(np.asarray(smap.gamma, dtype=float))  # gamma < 0 (b < 0): plotted as |gamma|
+    negative = bool(np.any(np.asarray(smap.gamma) < 0))
+    ax.pcolormesh(_edges(gx), _edges(smap.eps), np.asarray(smap.status), cmap=cmap,
                   norm=norm, shading="flat")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("controller gain gamma")
+    ax.set_xlabel("controller gain |gamma| (gamma < 0, as b)" if negative
+                  else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
     present = set(np.unique(np.asarray(smap.status)).tolist())
     handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 5), STATUS_COLORS,
                                                               STATUS_LABELS) if code in present]
     if show_eps_star:
         stars = [smap.eps_star(g) for g in smap.gamma]
-        inside = [(g, b.lower) for g, b in zip(smap.gamma, stars) if b.value is not None]
-        above = [(g, b.lower) for g, b in zip(smap.gamma, stars) if b.above_range]
+        inside = [(g, b.lower) for g, b in zip(gx, stars) if b.value is not None]
+        above = [(g, b.lower) for g, b in zip(gx, stars) if b.above_range]
         if inside:
             (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6, label="eps* (this map)")
             handles.append(h)
@@ -268,9 +271,9 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
             handles += plot_eps_star(ax, *curve, label=str(label), color=f"C{i % 10}")
             continue
         g, e = _curve_points(curve, np.asarray(smap.gamma))
-        (h,) = ax.plot(g, e, color=f"C{i % 10}", lw=1.8, label=str(label))
+        (h,) = ax.plot(np.abs(g), e, color=f"C{i % 10}", lw=1.8, label=str(label))
         handles.append(h)
-    ax.set_xlim(_edges(smap.gamma)[[0, -1]])
+    ax.set_xlim(np.sort(_edges(gx)[[0, -1]]))
     ax.set_ylim(_edges(smap.eps)[[0, -1]])
     _legend_outside(ax, handles=handles)
     ax.set_title(f"closed-loop runs of {smap.duration:g} s")

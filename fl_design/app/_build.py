@@ -85,7 +85,12 @@ def build_plant(cfg: Config):
         kwargs["input_range"] = tuple(float(v) for v in p["input_range"])
     if "operating_point" in p:
         kwargs["operating_point"] = {k: float(v) for k, v in p["operating_point"].items()}
-    return Plant.from_ode(states, u, rhs, output, **kwargs)
+    from ..errors import FlDesignError
+
+    try:
+        return Plant.from_ode(states, u, rhs, output, **kwargs)
+    except (FlDesignError, ValueError) as err:  # the API's whole message, after the table
+        raise ConfigError(f"[plant] {err}") from None
 
 
 def _limits(value) -> tuple | None:
@@ -131,6 +136,10 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     from ..design import EHGO, Design, DynamicController, LeastSquaresEstimator
 
     d = cfg.design
+    if not d:
+        raise ConfigError(f"{cfg.source}: [design] is missing: a plant from expressions has no "
+                          "bench design; add [design] with gains, gamma, eps and T (see "
+                          "`fl-design init --from-ode`)")
     gains = tuple(float(k) for k in d["gains"])
     rho = rho or len(gains)
     u_limits = tuple(float(v) for v in d["u_limits"]) if d.get("u_limits") else None
@@ -174,6 +183,9 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     from ..sim import Noise, Scenario
 
     s = cfg.scenario
+    if "reference" not in s:
+        raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
+                          "step target (absolute, in the plant's units)")
     std = float(s["noise_std"] if noise_std is None else noise_std)
     length = s["duration"] if duration is None else duration
     return Scenario(float(s["reference"]), None if length == "adaptive" else float(length),
@@ -203,4 +215,96 @@ def build_classifier(cfg: Config):
     return Classifier(tolerance=float(cfg.scenario["tolerance"]))
 
 
-__all__ = ["build_classifier", "build_design", "build_plant", "build_scenario"]
+def check_fit(cfg: Config, plant) -> tuple:
+    """Check ``cfg`` against its plant before any work; return the warnings (strings).
+
+    Refuses (:class:`ConfigError`, one message with the numbers) a missing ``[design]`` for a
+    plant from expressions (naming its relative degree, b-range and input range, what to add)
+    and a reference outside the plant's region; warns when the operating point was not given.
+
+    Parameters
+    ----------
+    cfg : Config
+        A validated configuration.
+    plant : fl_design.Plant
+        Its plant (:func:`build_plant`).
+
+    Returns
+    -------
+    tuple of str
+        Warnings (the config's own notes first).
+
+    Raises
+    ------
+    ConfigError
+        As above.
+
+    Examples
+    --------
+    >>> from fl_design.app import build_plant, load_config
+    >>> from fl_design.app._build import check_fit
+    >>> cfg = load_config(None)
+    >>> check_fit(cfg, build_plant(cfg))
+    ()
+    """
+    from ..design import gains_from_poles
+
+    notes = list(cfg.notes)
+    if not cfg.design:
+        rho = plant.relative_degree()
+        has_b = plant.region is not None and plant.input_range is not None
+        b = plant.b_bounds(allow_sign_change=True) if has_b else None
+        sign = "" if b is None else (" (> 0, as b)" if b[0] > 0 else " (< 0, as b)"
+                                     if b[1] < 0 else "")
+        bound = "" if b is None or b[0] * b[1] <= 0 else \
+            f"; |gamma| < 1/max|b| = {1 / max(abs(b[0]), abs(b[1])):.3g}"
+        raise ConfigError(
+            f"{cfg.source}: [design] is missing for the plant {plant.name!r} (relative degree "
+            f"{rho}" + ("" if b is None else f", b in [{b[0]:.4g}, {b[1]:.4g}]")
+            + ("" if plant.input_range is None else
+               f", input range [{plant.input_range[0]:g}, {plant.input_range[1]:g}]")
+            + f"): add [design] with gains ({rho} numbers, e.g. "
+            f"{list(gains_from_poles([-1.0] * rho))}), gamma{sign}{bound}, eps and T (s), "
+            "and u_limits if the input is limited; `fl-design init --from-ode` shows one")
+    if "reference" not in cfg.scenario:
+        raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
+                          f"step target (absolute, in the plant's units; the output "
+                          f"{plant.output} is {_y_op(plant):g} at the operating point)")
+    _check_reference(cfg, plant)
+    _check_gamma_sign(cfg, plant)
+    if "operating_point" not in cfg.plant and "library" not in cfg.plant:
+        notes.append(f"[plant] operating_point not given: the origin, with u_eq = "
+                     f"{plant.u_eq:g} (give e.g. operating_point = {{ "
+                     f"{plant.states[0].name} = ... }})")
+    return tuple(notes)
+
+
+def _y_op(plant) -> float:
+    return float(plant.casadi().h(plant.x_op))
+
+
+def _check_gamma_sign(cfg: Config, plant) -> None:
+    if plant.region is None or plant.input_range is None:
+        return
+    lo, hi = plant.b_bounds(allow_sign_change=True)
+    g = float(cfg.design["gamma"])
+    if lo * hi > 0 and g * lo < 0:
+        word = "< 0" if lo < 0 else "> 0"
+        raise ConfigError(f"{cfg.source}: [design] gamma = {g:g} but b in [{lo:.4g}, {hi:.4g}] "
+                          f"on the plant's region: gamma takes the sign of b; give gamma {word} "
+                          f"(e.g. gamma = {-g:g})")
+
+
+def _check_reference(cfg: Config, plant) -> None:
+    region = plant.region or {}
+    y = plant.output
+    if y in region:
+        lo, hi = region[y]
+        r = float(cfg.scenario["reference"])
+        if not lo <= r <= hi:
+            raise ConfigError(f"{cfg.source}: [scenario] reference = {r:g} is outside the "
+                              f"plant's region {y} in [{lo:g}, {hi:g}]: give a reference "
+                              "inside it (or widen [plant] region)")
+
+
+__all__ = ["build_classifier", "build_design", "build_plant", "build_scenario", "check_fit"]

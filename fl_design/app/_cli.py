@@ -5,8 +5,12 @@ Sub-commands
 ``run [CONFIG.toml] [--out DIR] [--quick]``
     The main job: derive, certify, sweep, simulate the paper's comparison, generate and verify
     the C step, write ``report.html``, ``report.md``, the figures and ``summary.json``.
-``derive``, ``certify``, ``simulate``, ``sweep``, ``codegen``
-    Each stage alone, on the same configuration (default: the paper's TRMS design).
+``derive``, ``certify``, ``simulate``, ``sweep``, ``codegen [CONFIG] [--out DIR]``
+    Each stage alone, on the same configuration (default: the paper's TRMS design). Every
+    subcommand takes the config as its positional argument, or ``--plant P`` (a library plant
+    with its bench design, :func:`fl_design.presets.bench_design`).
+``init [--plant P | --from-ode]``
+    Write a commented configuration (every table and key) to stdout.
 
 Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
 checked before the work starts; a closed pipe (``| head``) too.
@@ -106,19 +110,50 @@ def _executor(address: str | None):
 
 
 def _config(args):
-    if getattr(args, "plant", None):
-        return parse_config(f'[plant]\nlibrary = "{args.plant}"', source=f"--plant {args.plant}")
-    return load_config(getattr(args, "config", None))
+    """The config of any subcommand: a TOML file (positional) or ``--plant P``, not both."""
+    path, plant = getattr(args, "config", None), getattr(args, "plant", None)
+    if path is not None and plant:
+        raise ParameterError(f"give a config file or --plant, not both (got {path!r} and "
+                             f"--plant {plant})")
+    if plant:
+        return parse_config(f'[plant]\nlibrary = "{plant}"', source=f"--plant {plant}")
+    return load_config(path)
+
+
+def _prepare(cfg):
+    """Plant and design fit, reference inside the region: refuse before any work; warn.
+
+    A plant from expressions without ``[design]`` gets a proposed design
+    (:func:`fl_design.app._propose.propose_design`; the reasons go to stderr and the report).
+    Returns the (possibly completed) config and its job.
+    """
+    from ._build import build_plant, check_fit
+    from ._job import prepare
+
+    if not cfg.design:
+        from ._propose import propose_design
+
+        plant = build_plant(cfg)
+        if "reference" in cfg.scenario:
+            print("fl-design: no [design] given: proposing one from the plant ...",
+                  file=sys.stderr, flush=True)
+            cfg = propose_design(cfg, plant)
+        else:
+            check_fit(cfg, plant)  # refuses, naming what to add
+    job = prepare(cfg)
+    for line in check_fit(cfg, job.plant):
+        print(f"fl-design: warning: {line}" if not line.startswith("[design] proposed")
+              else f"fl-design: {line}", file=sys.stderr)
+    return cfg, job
 
 
 def _cmd_run(args) -> int:
     from ._console import print_job
-    from ._job import note, prepare, run_job
+    from ._job import note, run_job
     from ._report_write import write_report
 
-    cfg = load_config(args.config)
+    cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
-    prepare(cfg)  # plant and design fit: fail before any work
     executor = _executor(args.scheduler)
     job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
                   progress=not args.no_progress, force=args.force)
@@ -145,7 +180,7 @@ def _cmd_certify(args) -> int:
     from ._console import print_certificates
     from ._job import run_job
 
-    cfg = _config(args)
+    cfg, _ = _prepare(_config(args))
     if args.eps is not None or args.gamma is not None:
         d = dict(cfg.design, eps=cfg.design["eps"] if args.eps is None else args.eps,
                  gamma=cfg.design["gamma"] if args.gamma is None else args.gamma)
@@ -158,12 +193,11 @@ def _cmd_certify(args) -> int:
 def _cmd_stage(stage: str):
     def command(args) -> int:
         from . import _console
-        from ._job import prepare, run_job
+        from ._job import run_job
 
-        cfg = _config(args)
+        cfg, _ = _prepare(_config(args))
         out = check_out_dir(args.out, force=getattr(args, "force", False)) \
             if getattr(args, "out", None) else Path(".")
-        prepare(cfg)
         executor = _executor(getattr(args, "scheduler", None))
         job = run_job(cfg, quick=args.quick, stages=(stage,), out_dir=out, executor=executor,
                       progress=not args.no_progress)
@@ -175,9 +209,10 @@ def _cmd_stage(stage: str):
 def _cmd_codegen(args) -> int:
     from ..codegen import generate_c
     from ._build import build_design
-    from ._job import prepare, run_job
+    from ._job import run_job
 
-    cfg = load_config(args.config)
+    _codegen_paths(args)
+    cfg, job = _prepare(_config(args))
     cg = dict(cfg.codegen)
     cg["precision"] = args.precision or cg["precision"]
     cg["prefix"] = args.prefix or cg["prefix"]
@@ -190,7 +225,6 @@ def _cmd_codegen(args) -> int:
                       progress=not args.no_progress, force=args.force)
         print_codegen(job)
         return 0
-    job = prepare(cfg)
     design = job.design if args.design == "config" else build_design(
         cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
     pkg = generate_c(design, out, precision=cg["precision"], prefix=cg["prefix"],
@@ -200,6 +234,33 @@ def _cmd_codegen(args) -> int:
     for path in pkg.files:
         print(f"  {path.name}")
     return _pil(pkg, job, cfg) if args.pil else 0
+
+
+def _codegen_paths(args) -> None:
+    """``codegen [CONFIG] --out DIR``; the older ``codegen DIR [--config C]`` still works."""
+    if args.config_alias is not None:  # --config C: deprecated alias of the positional
+        print("fl-design: note: codegen --config is deprecated: give the config as the "
+              "positional argument and the folder as --out", file=sys.stderr)
+        if args.config is not None and args.out is None:
+            args.out = args.config
+        elif args.config is not None:
+            raise ParameterError(f"give the config once (positional {args.config!r} or "
+                                 f"--config {args.config_alias!r})")
+        args.config = args.config_alias
+    elif args.config is not None and args.out is None and \
+            not str(args.config).lower().endswith(".toml"):
+        args.out, args.config = args.config, None  # `codegen DIR`: the older form
+    if args.out is None:
+        args.out = "c"
+
+
+def _cmd_init(args) -> int:
+    from ._template import config_toml
+
+    if args.from_ode and args.plant:
+        raise ParameterError("give --plant P or --from-ode, not both")
+    sys.stdout.write(config_toml(args.plant or "trms", from_ode=args.from_ode))
+    return 0
 
 
 def _pil(pkg, job, cfg) -> int:
@@ -220,9 +281,10 @@ def _pil(pkg, job, cfg) -> int:
 def _common(p, *, config=True, out=False, scheduler=False) -> None:
     if config:
         p.add_argument("config", nargs="?", default=None,
-                       help="TOML configuration (default: the paper's TRMS experiment)")
+                       help="TOML configuration (default: the paper's TRMS experiment; "
+                       "`fl-design init` writes one)")
         p.add_argument("--plant", choices=PLANT_CHOICES, default=None,
-                       help="a library plant with the default design instead of a config")
+                       help="a library plant with its bench design instead of a config")
     p.add_argument("--quick", action="store_true", help="short runs, small grids (tests)")
     p.add_argument("--no-progress", action="store_true", help="no progress on stderr")
     if out:
@@ -254,10 +316,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"fl-design {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run = sub.add_parser("run", help="the main job: every stage and the report")
-    run.add_argument("config", nargs="?", default=None, help="TOML configuration "
-                     "(default: the paper's TRMS experiment)")
-    _common(run, config=False, out=True, scheduler=True)
+    _common(run, out=True, scheduler=True)
     run.set_defaults(func=_cmd_run)
+    init = sub.add_parser("init", help="write a commented config (every table and key) to "
+                          "stdout; `fl-design run` accepts it as is")
+    init.add_argument("--plant", choices=PLANT_CHOICES, default=None,
+                      help="a library plant with its bench design (default trms)")
+    init.add_argument("--from-ode", action="store_true",
+                      help="a plant written as expressions (states, rhs, output, params, "
+                      "region, input range, operating point) to replace by yours")
+    init.set_defaults(func=_cmd_init)
     derive = sub.add_parser("derive", help="relative degree, a, b, b-range, F^a, residuals")
     _common(derive)
     derive.add_argument("--latex", action="store_true", help="also print LaTeX")
@@ -274,11 +342,12 @@ def build_parser() -> argparse.ArgumentParser:
     _common(sweep, scheduler=True)
     sweep.set_defaults(func=_cmd_stage("sweep"))
     code = sub.add_parser("codegen", help="the loop step as a C99 package (SIL, cost)")
-    code.add_argument("out", help="output folder (created if needed); must be empty or hold "
-                      "fl_design's own earlier output")
+    code.add_argument("--out", default=None, help="output folder (default c; created if "
+                      "needed); must be empty or hold fl_design's own earlier output")
     code.add_argument("--force", action="store_true",
                       help="write into the folder even if it holds other files (may replace them)")
-    code.add_argument("--config", default=None, help="TOML configuration (default: the paper's)")
+    code.add_argument("--config", dest="config_alias", default=None,
+                      help="deprecated: give the config as the positional argument")
     code.add_argument("--precision", default=None, help="double or float ([codegen] precision)")
     code.add_argument("--prefix", default=None, help="prefix of the C names ([codegen] prefix)")
     code.add_argument("--design", choices=("config", "ls9", "ls26"), default="config",
@@ -287,7 +356,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="also run software in the loop and measure the cost table")
     code.add_argument("--pil", action="store_true",
                       help="also run the step on a Cortex-M4F model (arm-none-eabi-gcc, QEMU)")
-    _common(code, config=False)
+    _common(code)
     code.set_defaults(func=_cmd_codegen)
     return parser
 
@@ -326,7 +395,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout.flush()
         return code
     except FlDesignError as err:
-        print(f"fl-design: error: {str(err).splitlines()[0]}", file=sys.stderr)
+        lines = str(err).splitlines() or [type(err).__name__]  # the whole message
+        print("fl-design: error: " + "\n  ".join(lines), file=sys.stderr)
         return 2
     except BrokenPipeError:
         return _closed_pipe()

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ParameterError
+from ._template import config_toml
 
 
 class ConfigError(ParameterError):
@@ -37,57 +38,6 @@ class ConfigError(ParameterError):
     <string>: [sweep] points must be an integer, got 'many'
     """
 
-
-#: The embedded default: the paper's TRMS yaw experiment (Shenoy et al.).
-DEFAULT_TOML = """\
-# The paper's TRMS yaw experiment (Shenoy, Saradagi, Pasumarthy, Chellaboina).
-[plant]
-library = "trms"          # trms | trms-lag | pendulum | flexible-joint
-output_unit = "rad"       # axis labels of the report
-input_unit = "V"
-
-[design]
-estimator = "ehgo"        # ehgo | least_squares
-eps = 0.05                # observer time constant (s)
-T = 0.001                 # sampling time (s)
-coeffs = [6.0, 11.0, 6.0] # s^3 + 6 s^2 + 11 s + 6
-gains = [2.0, 4.0]
-gamma = 0.0003
-ki = 0.001
-u_limits = [-2.5, 2.5]
-estimate_limits = ["none", 0.05]   # |xhat_2| <= 0.05 rad/s
-
-[scenario]
-reference = 0.3           # rad
-duration = "adaptive"     # from the loop's slowest time constant, or seconds
-tolerance = 0.02          # relative to the step (settling band 2 %)
-noise_std = 0.0           # sensor noise of the main run (rad)
-seed = 1
-
-[compare]
-windows = [9, 26]                      # least-squares baselines
-noise_std = [0.001, 0.0316227766]      # std 1e-3 and the paper's variance 1e-3
-eps_tradeoff = [0.02, 0.05, 0.1, 0.2, 0.5]
-seed = 1
-duration = 30.0           # s: the transient (overshoot, noise) of every compared run
-
-[sweep]
-eps = [0.005, 1.0]        # log-spaced range (s)
-gamma = [3e-5, 0.03]
-points = 16               # per axis
-duration = "adaptive"     # one length for the map, from the design point's slowest mode
-
-[certify]
-enabled = true
-gamma = [1.5e-4, 3e-3]
-points = 8
-
-[codegen]
-enabled = true
-precision = "double"
-prefix = "fl"
-sil_duration = 10.0       # s of software in the loop
-"""
 
 _NUM = (int, float)
 _DURATION = (int, float, str)  # seconds, or "adaptive" (fl.Scenario without a duration)
@@ -105,7 +55,7 @@ _SCHEMA: dict[str, dict[str, tuple]] = {
     "compare": {"windows": (list,), "noise_std": (list,), "eps_tradeoff": (list,),
                 "seed": (int,), "duration": _DURATION},
     "sweep": {"eps": (list,), "gamma": (list,), "points": (int,), "duration": _DURATION},
-    "certify": {"enabled": (bool,), "gamma": (list,), "points": (int,)},
+    "certify": {"enabled": (bool,), "eps_range": (list,), "gamma": (list,), "points": (int,)},
     "codegen": {"enabled": (bool,), "precision": (str,), "prefix": (str,),
                 "sil_duration": _NUM},
 }
@@ -123,6 +73,9 @@ class Config:
         The tables.
     source : str
         Where it came from (a path or ``"<default>"``).
+    notes : tuple of str
+        Warnings about values that run but are likely mistakes (eps below T, ...), with the
+        numbers; the command line prints them on stderr.
 
     Examples
     --------
@@ -139,6 +92,7 @@ class Config:
     certify: dict
     codegen: dict
     source: str = "<default>"
+    notes: tuple = ()
 
     def to_dict(self) -> dict:
         """The tables as a dict (strict JSON).
@@ -149,7 +103,8 @@ class Config:
         >>> sorted(load_config(None).to_dict())[:3]
         ['certify', 'codegen', 'compare']
         """
-        return {name: dict(getattr(self, name)) for name in _SCHEMA} | {"source": self.source}
+        return {name: dict(getattr(self, name)) for name in _SCHEMA} | {
+            "source": self.source, "notes": list(self.notes)}
 
 
 def _type_name(types: tuple) -> str:
@@ -255,6 +210,66 @@ def _check_plant_values(p: dict) -> None:
         _numbers("plant", "input_range", p["input_range"], 2)
 
 
+def _check_design(d: dict, custom: bool) -> None:
+    """``[design]`` through the API's own objects: the config accepts what the API accepts."""
+    from ..design import EHGO, DynamicController
+
+    if not d:  # a plant from expressions without [design]: refused by check_fit when used
+        return
+    if d.get("estimator") not in ("ehgo", "least_squares"):
+        raise ConfigError(f"[design] estimator must be 'ehgo' or 'least_squares', got "
+                          f"{d.get('estimator')!r}")
+    need = ("gains", "gamma", "T") + (("eps",) if d["estimator"] == "ehgo" else ())
+    missing = [k for k in need if k not in d]
+    if missing:
+        raise ConfigError(f"[design] needs {', '.join(missing)} for this plant (a plant from "
+                          "expressions has no bench design): give gains (rho numbers), gamma "
+                          "(the sign of b), eps and T (s); `fl-design init --from-ode` shows them")
+    gains = _numbers("design", "gains", d["gains"])
+    u_lim = _numbers("design", "u_limits", d["u_limits"], 2) if d.get("u_limits") else None
+    limits = _estimate_limits(d.get("estimate_limits"))
+    if limits is not None and len(limits) != len(gains):
+        limits = None  # the relative degree is checked against the plant's (prepare)
+    _api("design", "gains/gamma/ki/u_limits/estimate_limits", lambda: DynamicController(
+        gains, d["gamma"], ki=d.get("ki", 0.0), u_limits=u_lim, estimate_limits=limits))
+    coeffs = _numbers("design", "coeffs", d["coeffs"]) if d.get("coeffs") else None
+    if coeffs is not None and len(coeffs) != len(gains) + 1:
+        coeffs = None  # the relative degree is checked against the plant's (prepare)
+    if d["estimator"] == "ehgo":
+        _api("design", "eps/T/coeffs",
+             lambda: EHGO(rho=len(gains), eps=d["eps"], T=d["T"], coeffs=coeffs))
+    elif d["T"] <= 0:
+        raise ConfigError(f"[design] T must be > 0, got {d['T']!r}")
+
+
+def _estimate_limits(value):
+    if not value:
+        return None
+    out = []
+    for v in value:
+        if isinstance(v, str):
+            if v.lower() != "none":
+                raise ConfigError(f'[design] estimate_limits entries are numbers or "none", '
+                                  f"got {v!r}")
+            out.append(None)
+        else:
+            out.append(v)
+    return tuple(out)
+
+
+def _check_range(table: str, key: str, value, gamma_sign: float | None = None) -> None:
+    """A [lo, hi] range: two finite numbers, lo < hi, of one sign (eps > 0; gamma as b)."""
+    lo, hi = _numbers(table, key, value, 2)
+    if not lo < hi:
+        raise ConfigError(f"[{table}] {key} must be [lo, hi] with lo < hi, got {value!r}")
+    if gamma_sign is None and lo <= 0:
+        raise ConfigError(f"[{table}] {key} must hold positive numbers (s), got {value!r}")
+    if gamma_sign is not None and (lo * hi <= 0 or (gamma_sign and lo * gamma_sign < 0)):
+        sign = "negative" if gamma_sign < 0 else "positive"
+        raise ConfigError(f"[{table}] {key} must not contain 0 and has the sign of [design] "
+                          f"gamma ({sign}), got {value!r}")
+
+
 def _check_semantics(t: dict) -> None:
     p, d = t["plant"], t["design"]
     _check_plant_values(p)
@@ -269,15 +284,12 @@ def _check_semantics(t: dict) -> None:
     elif p.get("library") not in LIBRARY:
         raise ConfigError(f"[plant] library must be one of {', '.join(LIBRARY)}, got "
                           f"{p.get('library')!r} (or give states, input, rhs and output)")
-    if d["estimator"] not in ("ehgo", "least_squares"):
-        raise ConfigError(f"[design] estimator must be 'ehgo' or 'least_squares', got "
-                          f"{d['estimator']!r}")
-    for key in ("eps", "T", "gamma"):
-        if d[key] <= 0:
-            raise ConfigError(f"[design] {key} must be > 0, got {d[key]!r}")
-    _numbers("design", "gains", d["gains"], positive=True)
-    for table, key, n in (("sweep", "eps", 2), ("sweep", "gamma", 2), ("certify", "gamma", 2)):
-        _numbers(table, key, t[table][key], n, positive=True)
+    _check_design(d, bool(custom))
+    sign = math.copysign(1.0, d["gamma"]) if d else 0.0
+    for table, key, g in (("sweep", "eps", None), ("sweep", "gamma", sign),
+                          ("certify", "gamma", sign), ("certify", "eps_range", None)):
+        if key in t[table]:
+            _check_range(table, key, t[table][key], g)
     _numbers("compare", "eps_tradeoff", t["compare"]["eps_tradeoff"], positive=True)
     for table, key in (("scenario", "duration"), ("compare", "duration"), ("sweep", "duration"),
                        ("codegen", "sil_duration")):
@@ -294,12 +306,68 @@ def _check_semantics(t: dict) -> None:
                           f"{t['codegen']['precision']!r}")
 
 
-def _defaults() -> dict:
-    return tomllib.loads(DEFAULT_TOML)
+def _warnings(t: dict) -> tuple:
+    """Numbers that run but are likely mistakes (said on stderr and in the config's notes)."""
+    d, out = t["design"], []
+    if not d:
+        return ()
+    T = float(d["T"])
+    if d.get("estimator") == "ehgo" and d["eps"] < T:
+        out.append(f"[design] eps = {d['eps']:g} s is below the sampling time T = {T:g} s "
+                   f"(alpha = T/eps = {T / d['eps']:.3g} > 1): the observer is faster than "
+                   "its sampling; eps >= T is the usual choice")
+    for table, key in (("sweep", "eps"), ("certify", "eps_range")):
+        lo = t[table].get(key, [math.inf])[0]
+        if lo < T:
+            out.append(f"[{table}] {key} starts at {lo:g} s, below the sampling time "
+                       f"T = {T:g} s (alpha = T/eps up to {T / lo:.3g})")
+    return tuple(out)
+
+
+def _custom_defaults(tables: dict, data: dict) -> None:
+    """Defaults for a plant from expressions: no TRMS design, scales from the user's numbers."""
+    p, d = data.get("plant", {}), data.get("design")
+    tables["plant"] = {"output_unit": "output units", "input_unit": "input units"}
+    tables["design"] = {} if not d else {
+        "estimator": "ehgo", "ki": 0.0, "coeffs": [], "estimate_limits": [],
+        "u_limits": list(p["input_range"]) if isinstance(p.get("input_range"), list) else []}
+    sc = data.get("scenario", {})
+    if "reference" not in sc:
+        tables["scenario"].pop("reference")
+        return
+    op = p.get("operating_point", {}) if isinstance(p.get("operating_point"), dict) else {}
+    y0 = op.get("y", op.get(p.get("output"), 0.0))
+    step = abs(float(sc["reference"]) - float(y0)) if isinstance(y0, _NUM) and \
+        isinstance(sc["reference"], _NUM) else 0.0
+    if step > 0:
+        tables["compare"]["noise_std"] = [float(f"{step / 300:.3g}"),
+                                          float(f"{step * 0.105409:.3g}")]
+    eps = (d or {}).get("eps")
+    if isinstance(eps, _NUM) and not isinstance(eps, bool) and eps > 0:
+        tables["compare"]["eps_tradeoff"] = [float(f"{eps * f:.6g}")
+                                             for f in (0.4, 1.0, 2.0, 4.0, 10.0)]
+
+
+def _toml_line(text: str, message: str) -> str:
+    """The line a TOML error points at, quoted (the key the user wrote there)."""
+    import re
+
+    m = re.search(r"at line (\d+)", message)
+    lines = text.splitlines()
+    if not m or not 1 <= int(m.group(1)) <= len(lines):
+        return ""
+    return f": {lines[int(m.group(1)) - 1].strip()[:80]!r}"
 
 
 def parse_config(text: str, *, source: str = "<string>") -> Config:
     """Validate TOML text against the schema and fill in the defaults.
+
+    A library plant (``[plant] library``) gets its bench design and bench step
+    (:func:`fl_design.presets.bench_design`); a plant from expressions gets no design (give
+    ``[design]`` and ``[scenario] reference``; ``derive`` needs neither, the other stages
+    refuse their absence: :func:`fl_design.app._build.check_fit`). The ``[sweep]``
+    and ``[certify]`` ranges default to ranges around the design point (from ``T``, eps and
+    gamma: :func:`fl_design.app._template.default_ranges`).
 
     Parameters
     ----------
@@ -315,34 +383,52 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     Raises
     ------
     ConfigError
-        Invalid TOML, an unknown table or key, a wrong type or value.
+        Invalid TOML, an unknown table or key, a wrong type or value (the whole message of
+        the API object that refused it, after the table and key).
 
     Examples
     --------
     >>> from fl_design.app import parse_config
     >>> parse_config('[design]\\neps = 0.1').design["eps"]
     0.1
+    >>> parse_config('[plant]\\nlibrary = "maglev"').design["gamma"]
+    -0.0016
     >>> parse_config('[design]\\nepsilon = 0.1')
     Traceback (most recent call last):
     ...
     fl_design.app._config.ConfigError: <string>: unknown key 'epsilon' in [design]; ...
     """
+    from ._template import fill_ranges, library_tables
+
     text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{source}: not valid TOML: {err}") from None
+        raise ConfigError(f"{source}: not valid TOML: {err}{_toml_line(text, str(err))}") \
+            from None
     _check_tables(data, source)
-    tables = _defaults()
-    if "plant" in data and "library" not in data["plant"]:
-        tables["plant"] = {"output_unit": "output units", "input_unit": "input units"}
+    plant = data.get("plant", {})
+    custom = bool({"states", "rhs", "output", "input"} & set(plant))
+    library = plant.get("library", "trms")
+    if not custom and library not in LIBRARY:
+        raise ConfigError(f"{source}: [plant] library must be one of {', '.join(LIBRARY)}, got "
+                          f"{library!r} (or give states, input, rhs and output)")
+    tables = library_tables("trms" if custom else library)
+    gamma = data.get("design", {}).get("gamma")
+    if isinstance(gamma, _NUM) and gamma * tables["design"]["gamma"] < 0:
+        for table in ("sweep", "certify"):  # the bench ranges have the bench gamma's sign
+            for key in ("eps", "gamma", "eps_range"):
+                tables[table].pop(key, None)
+    if custom:
+        _custom_defaults(tables, data)
     for name, body in data.items():
         tables[name].update(body)
     try:
+        fill_ranges(tables, data)
         _check_semantics(tables)
     except ConfigError as err:
         raise ConfigError(f"{source}: {err}") from None
-    return Config(**tables, source=source)
+    return Config(**tables, source=source, notes=_warnings(tables))
 
 
 def load_config(path: str | Path | None) -> Config:
@@ -377,6 +463,10 @@ def load_config(path: str | Path | None) -> Config:
         reason = getattr(err, "strerror", None) or type(err).__name__
         raise ConfigError(f"cannot read config {str(path)!r}: {reason}") from None
     return parse_config(text, source=str(path))
+
+
+#: The embedded default: the paper's TRMS experiment, as ``fl-design init`` writes it.
+DEFAULT_TOML = config_toml("trms")
 
 
 __all__ = ["DEFAULT_TOML", "Config", "ConfigError", "load_config", "parse_config"]

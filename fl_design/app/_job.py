@@ -124,13 +124,13 @@ def _certify(job: Job, quick: bool) -> None:
     out = {"lyapunov": certify_lyapunov(design.controller.gains, T=design.T)}
     n = QUICK["certify_points"] if quick else cfg["points"]
     gammas = np.geomspace(*cfg["gamma"], n)
+    eps_range = tuple(cfg.get("eps_range") or job.config.sweep["eps"])  # [certify] eps_range
     if b is not None and design.estimator.has_time_constant and cfg["enabled"]:
         out["gamma"] = certify_gamma(design, tuple(b))
-        out["eps"] = certify_eps(design, tuple(b))
-        out["curve"] = eps_star_curve(design, tuple(b), gammas)
+        out["eps"] = certify_eps(design, tuple(b), eps_range=eps_range)
+        out["curve"] = eps_star_curve(design, tuple(b), np.abs(gammas), eps_range=eps_range)  # |gamma|
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
-    eps_range = tuple(job.config.sweep["eps"])
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
         linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
         for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range

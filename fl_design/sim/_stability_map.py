@@ -154,7 +154,7 @@ class StabilityMap:
         return labels.reshape(np.shape(self.status)).astype(str)
 
     def _index(self, grid: np.ndarray, value, name: str) -> int:
-        value = V.positive(name, value)
+        value = V.nonzero(name, value) if name == "gamma" else V.positive(name, value)  # gamma < 0 when b < 0
         hits = np.flatnonzero(np.isclose(grid, value, rtol=1e-9, atol=0.0))
         if hits.size == 0:
             raise ParameterError(

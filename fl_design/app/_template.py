@@ -1,0 +1,338 @@
+"""The configuration of each library plant, and ``fl-design init``: commented TOML text.
+
+One source for both: :func:`library_tables` turns a library plant's bench design
+(:func:`fl_design.presets.bench_design`) and bench step into the config's tables;
+:func:`default_ranges` gives the ``[sweep]`` and ``[certify]`` ranges from the design's ``T``,
+``eps`` and ``gamma``; :func:`config_toml` writes them all, with a comment per key, as a file
+``fl-design run`` accepts as is.
+
+Examples
+--------
+>>> import tomllib
+>>> from fl_design.app._template import config_toml
+>>> tomllib.loads(config_toml("maglev"))["design"]["gamma"]
+-0.0016
+"""
+
+from __future__ import annotations
+
+import math
+
+#: Units of each library plant's output and input (axis labels of the report).
+UNITS = {"trms": ("rad", "V"), "trms-lag": ("rad", "V"), "pendulum": ("rad", "N m"),
+         "flexible-joint": ("rad", "N m"), "cart-pendulum": ("m", "N"), "maglev": ("m", "V")}
+#: Length of the compared runs and of software in the loop per library plant (s): a few times
+#: the bench step's settling time (measured: trms-lag 19.3 s, flexible-joint 2.7 s,
+#: cart-pendulum 2.9 s, maglev 0.51 s, pendulum 17.5 s).
+_RUN_LENGTH = {"trms": 30.0, "trms-lag": 40.0, "pendulum": 30.0, "flexible-joint": 6.0,
+               "cart-pendulum": 6.0, "maglev": 2.0}
+
+#: Library plants whose stable window is narrower than the default ranges: the maglev's loop
+#: converges only for |gamma| in about [6e-4, 2.4e-3] and eps below about 3 ms (fl.sweep,
+#: 3 s runs); the map is drawn around that window.
+_RANGES = {"maglev": {"sweep": {"eps": [1.2e-3, 6e-3], "gamma": [-1e-2, -2e-4]},
+                      "certify": {"gamma": [-3e-3, -6e-4]}}}
+
+#: The paper's noise std sqrt(1e-3) relative to its 0.3 rad step.
+_PAPER_NOISE = math.sqrt(1e-3) / 0.3
+
+_PLANT_DOC = {
+    "trms": "the paper's TRMS yaw (rho = 2, b in [3.6, 6.8], input [-2.5, 2.5] V)",
+    "trms-lag": "the TRMS yaw with its motor lag (rho = 3, input [-2.5, 2.5] V)",
+    "pendulum": "a damped pendulum (rho = 2, b = 1, torque [-20, 20] N m)",
+    "flexible-joint": "a flexible-joint robot (rho = 4, b = 418.5, input [-10, 10])",
+    "cart-pendulum": "a gantry crane, output the cart (rho = 2, force [-10, 10] N)",
+    "maglev": "a magnetic levitation at a 6 mm gap (rho = 3, b < 0: gamma < 0, coil [0, 24] V)",
+}
+
+
+def default_ranges(eps: float, T: float, gamma: float) -> dict:
+    """The ``[sweep]`` and ``[certify]`` ranges around a design point, from ``T``, eps, gamma.
+
+    eps from ``max(2 T, eps/10)`` (the observer no faster than half the sampling rate) to
+    ``20 eps``; gamma over ``[gamma/10, 100 gamma]`` for the map and ``[gamma/2, 10 gamma]``
+    for the certificates, with the sign of gamma (the sign of ``b``). For the paper's TRMS
+    (eps 0.05, T 1 ms, gamma 3e-4) these are the paper's ranges.
+
+    Parameters
+    ----------
+    eps, T, gamma : float
+        The design point (gamma nonzero, either sign).
+
+    Returns
+    -------
+    dict
+        ``sweep_eps``, ``sweep_gamma``, ``certify_gamma``, ``certify_eps`` (lists [lo, hi]).
+
+    Examples
+    --------
+    >>> from fl_design.app._template import default_ranges
+    >>> r = default_ranges(0.05, 1e-3, 3e-4)
+    >>> r["sweep_eps"], [round(g, 9) for g in r["sweep_gamma"]]
+    ([0.005, 1.0], [3e-05, 0.03])
+    >>> default_ranges(2e-3, 1e-3, -1e-3)["certify_gamma"]
+    [-0.01, -0.0005]
+    """
+    lo = max(2.0 * T, eps / 10.0)
+    eps_r = [_round(lo), _round(max(20.0 * eps, 4.0 * lo))]
+
+    def span(a, b):
+        v = [_round(gamma * a), _round(gamma * b)]
+        return sorted(v)
+    return {"sweep_eps": eps_r, "certify_eps": list(eps_r), "sweep_gamma": span(0.1, 100.0),
+            "certify_gamma": span(0.5, 10.0)}
+
+
+def _round(x: float) -> float:
+    return float(f"{x:.6g}")
+
+
+def library_tables(name: str) -> dict:
+    """A library plant's tables (without the ranges: see :func:`default_ranges`).
+
+    Parameters
+    ----------
+    name : str
+        A library plant (``fl-design --plant`` name).
+
+    Returns
+    -------
+    dict
+        ``plant``, ``design``, ``scenario``, ``compare``, ``sweep``, ``certify``, ``codegen``.
+
+    Examples
+    --------
+    >>> from fl_design.app._template import library_tables
+    >>> library_tables("flexible-joint")["design"]["gains"]
+    [625.0, 500.0, 150.0, 20.0]
+    """
+    from ..presets import BENCH_REFERENCES, bench_design
+
+    d = bench_design(name)
+    est, ctrl = d.estimator, d.controller
+    ref = BENCH_REFERENCES[name]
+    step = abs(ref - (6e-3 if name == "maglev" else 0.0))
+    length = _RUN_LENGTH[name]
+    y_unit, u_unit = UNITS[name]
+    limits = [] if ctrl.estimate_limits is None else \
+        ["none" if v is None else float(v) for v in ctrl.estimate_limits]
+    return {
+        "plant": {"library": name, "output_unit": y_unit, "input_unit": u_unit},
+        "design": {"estimator": "ehgo", "eps": float(est.eps), "T": float(est.T),
+                   "coeffs": [float(c) for c in est.coeffs] if est.coeffs is not None else
+                   [float(math.comb(d.rho + 1, k)) for k in range(1, d.rho + 2)],
+                   "gains": [float(k) for k in ctrl.gains], "gamma": float(ctrl.gamma),
+                   "ki": float(ctrl.ki),
+                   "u_limits": [] if ctrl.u_limits is None else [float(v) for v in ctrl.u_limits],
+                   "estimate_limits": limits},
+        "scenario": {"reference": float(ref), "duration": "adaptive", "tolerance": 0.02,
+                     "noise_std": 0.0, "seed": 1},
+        "compare": {"windows": [9, 26], "noise_std": [_round(step / 300), float(f"{step * _PAPER_NOISE:.10g}")],
+                    "eps_tradeoff": [_round(est.eps * f) for f in (0.4, 1.0, 2.0, 4.0, 10.0)
+                                     if est.eps * f >= est.T],
+                    "seed": 1, "duration": length},
+        "sweep": {"points": 16, "duration": "adaptive"} | _RANGES.get(name, {}).get("sweep", {}),
+        "certify": {"enabled": True, "points": 8} | _RANGES.get(name, {}).get("certify", {}),
+        "codegen": {"enabled": True, "precision": "double", "prefix": "fl",
+                    "sil_duration": min(length, 10.0)},
+    }
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else "nan"
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_value(x)}" for k, x in v.items()) + " }"
+    return str(v)
+
+
+_COMMENTS = {
+    ("plant", "library"): "trms | trms-lag | pendulum | flexible-joint | cart-pendulum | maglev",
+    ("plant", "output_unit"): "axis labels of the report",
+    ("plant", "input_unit"): "the input's unit",
+    ("plant", "name"): "a label for the report",
+    ("plant", "states"): "state names",
+    ("plant", "input"): "the input's name",
+    ("plant", "rhs"): "x' = f(x, u), one expression per state (+ - * / ** sin cos exp ...)",
+    ("plant", "output"): "y = h(x)",
+    ("plant", "params"): "numbers for the other names",
+    ("plant", "region"): "where the plant is used: gives the b-range of the certificates",
+    ("plant", "input_range"): "what the actuator can give",
+    ("plant", "operating_point"): "held states (or y); the others and u_eq are solved",
+    ("design", "estimator"): "ehgo | least_squares",
+    ("design", "eps"): "observer time constant (s); keep it >= T",
+    ("design", "T"): "sampling time (s)",
+    ("design", "coeffs"): "observer polynomial s^(rho+1) + c1 s^rho + ... (rho + 1 numbers)",
+    ("design", "gains"): "K: closed loop s^rho + K_rho s^(rho-1) + ... + K_1 (rho numbers)",
+    ("design", "gamma"): "controller gain, with the sign of b; |gamma| < 1/max|b|",
+    ("design", "ki"): "integral gain",
+    ("design", "u_limits"): "input saturation [lo, hi]; [] for none",
+    ("design", "estimate_limits"): "|xhat_i| bounds, a number or \"none\" each; [] for none",
+    ("design", "window"): "least_squares only: samples in the fit",
+    ("scenario", "reference"): "the output's step target (absolute, in the plant's units)",
+    ("scenario", "duration"): '"adaptive" (from the loop\'s slowest mode) or seconds',
+    ("scenario", "tolerance"): "settling band, relative to the step",
+    ("scenario", "noise_std"): "sensor noise of the main run",
+    ("scenario", "seed"): "noise seed",
+    ("compare", "windows"): "least-squares baselines (samples)",
+    ("compare", "noise_std"): "sensor noise levels of the comparison",
+    ("compare", "eps_tradeoff"): "eps values of the noise trade-off",
+    ("compare", "duration"): "s, every compared run",
+    ("sweep", "eps"): "log-spaced range (s); default [max(2 T, eps/10), 20 eps]",
+    ("sweep", "gamma"): "log-spaced range, the sign of gamma; default [gamma/10, 100 gamma]",
+    ("sweep", "points"): "per axis (points**2 closed-loop runs)",
+    ("sweep", "duration"): '"adaptive" or seconds, one length for the whole map',
+    ("certify", "enabled"): "the LMI certificates (needs [plant] region and input_range)",
+    ("certify", "eps_range"): "where eps* is searched (s); default that of [sweep] eps",
+    ("certify", "gamma"): "the eps*(gamma) curve; default [gamma/2, 10 gamma]",
+    ("certify", "points"): "gammas on the curve",
+    ("codegen", "enabled"): "generate the C99 step and check it in the loop",
+    ("codegen", "precision"): "double | float",
+    ("codegen", "prefix"): "prefix of the C names",
+    ("codegen", "sil_duration"): "s of software in the loop",
+}
+
+
+def render(tables: dict, header: str) -> str:
+    """TOML text of ``tables`` with a comment on every key.
+
+    Parameters
+    ----------
+    tables : dict
+        Table name -> {key: value} (strings, numbers, booleans, lists, flat dicts).
+    header : str
+        Comment lines put first (without the ``#``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.app._template import render
+    >>> print(render({"design": {"eps": 0.05}}, "x"), end="")
+    # x
+    <BLANKLINE>
+    [design]
+    eps = 0.05  # observer time constant (s); keep it >= T
+    """
+    lines = [f"# {h}".rstrip() for h in header.splitlines()]
+    for table, body in tables.items():
+        lines += ["", f"[{table}]"]
+        for key, value in body.items():
+            line = f"{key} = {_value(value)}"
+            note = _COMMENTS.get((table, key))
+            lines.append(f"{line}  # {note}" if note else line)
+    return "\n".join(lines) + "\n"
+
+
+def full_tables(name: str) -> dict:
+    """A library plant's tables with the default ranges filled in (what ``init`` writes).
+
+    Parameters
+    ----------
+    name : str
+        A library plant.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from fl_design.app._template import full_tables
+    >>> full_tables("trms")["certify"]["gamma"]
+    [0.00015, 0.003]
+    """
+    t = library_tables(name)
+    fill_ranges(t, {})
+    return t
+
+
+def fill_ranges(tables: dict, given: dict) -> None:
+    """Fill the ``[sweep]`` and ``[certify]`` ranges the user did not give, from ``[design]``.
+
+    Parameters
+    ----------
+    tables : dict
+        The merged tables (``design`` holds eps, T, gamma).
+    given : dict
+        The user's tables (what they gave is kept).
+
+    Examples
+    --------
+    >>> from fl_design.app._template import fill_ranges
+    >>> given = {"sweep": {"eps": [0.01, 0.1]}}
+    >>> t = {"design": {"eps": 0.05, "T": 1e-3, "gamma": 3e-4}, "sweep": {"eps": [0.01, 0.1]},
+    ...      "certify": {}}
+    >>> fill_ranges(t, given)
+    >>> t["sweep"], t["certify"]
+    ({'eps': [0.01, 0.1], 'gamma': [3e-05, 0.03]}, {'gamma': [0.00015, 0.003], 'eps_range': [0.01, 0.1]})
+    """
+    d = tables["design"]
+    if not all(isinstance(d.get(k), (int, float)) and not isinstance(d.get(k), bool) and d[k]
+               for k in ("eps", "T", "gamma")):
+        return
+    r = default_ranges(float(d["eps"]), float(d["T"]), float(d["gamma"]))
+    # a value already in ``tables`` (the user's, or a library plant's window) is kept
+    tables["sweep"].setdefault("eps", r["sweep_eps"])
+    tables["sweep"].setdefault("gamma", r["sweep_gamma"])
+    tables["certify"].setdefault("gamma", r["certify_gamma"])
+    if "eps_range" not in given.get("certify", {}):
+        tables["certify"]["eps_range"] = list(tables["sweep"]["eps"])
+
+
+def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
+    """The commented configuration ``fl-design init`` writes (``fl-design run`` accepts it).
+
+    Parameters
+    ----------
+    plant : str, optional
+        A library plant (default the paper's TRMS).
+    from_ode : bool, optional
+        A plant written as expressions instead (a damped pendulum with every ``[plant]`` key:
+        states, input, rhs, output, params, region, input_range, operating_point), with its
+        design; edit the expressions and the design for your own plant.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design.app import parse_config
+    >>> from fl_design.app._template import config_toml
+    >>> parse_config(config_toml(from_ode=True)).plant["states"]
+    ['theta', 'omega']
+    """
+    if from_ode:
+        t = full_tables("pendulum")
+        t["plant"] = {"name": "my_pendulum", "states": ["theta", "omega"], "input": "u",
+                      "rhs": ["omega", "-g/l*sin(theta) - c*omega + u/(m*l**2)"],
+                      "output": "theta", "params": {"g": 9.81, "l": 1.0, "m": 1.0, "c": 0.5},
+                      "region": {"theta": [-3.14159, 3.14159], "omega": [-10.0, 10.0]},
+                      "input_range": [-20.0, 20.0], "operating_point": {"theta": 0.0},
+                      "output_unit": "rad", "input_unit": "N m"}
+        head = ("fl-design configuration: your own plant as expressions (here a damped "
+                "pendulum),\nwith a design for it. Replace [plant] by your equations and "
+                "[scenario] reference; then\nadapt [design] (rho gains, rho + 1 coeffs, gamma "
+                "with the sign of b, eps >= T), or\ndelete the [design] table and `fl-design "
+                "run` proposes one from the plant (and says why).\n"
+                "Run: fl-design run THIS.toml --out out")
+        return render(t, head)
+    head = (f"fl-design configuration: {_PLANT_DOC[plant]},\nwith its bench design "
+            f"(fl_design.presets.bench_design({plant!r})). Every table and key is\nshown "
+            "with its value. The operating point is the plant's own ("
+            + ("gap y = 6 mm, current and voltage solved" if plant == "maglev" else "the origin")
+            + ").\nRun: fl-design run THIS.toml --out out")
+    return render(full_tables(plant), head)
+
+
+__all__ = ["config_toml", "default_ranges", "fill_ranges", "full_tables", "library_tables",
+           "render"]
