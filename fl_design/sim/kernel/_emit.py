@@ -276,8 +276,8 @@ def _unrolled(body: list, outs: list[str], xs: list[str], count: int):
     for j in range(count):
         sub = {**{x: state[i] for i, x in enumerate(xs)},
                **{name: f"{name}_{j}" for name in local}}
-        rename = lambda text: re.sub(r"\b(?:s\d+|xs\d+)\b",
-                                     lambda m: sub.get(m.group(0), m.group(0)), text)
+        rename = lambda text, sub=sub: re.sub(r"\b(?:s\d+|xs\d+)\b",
+                                              lambda m: sub.get(m.group(0), m.group(0)), text)
         lines += [f"double {name}_{j} = {rename(text)};" for name, text in body]
         state = [rename(o) for o in outs]
     return state, lines
