@@ -23,7 +23,8 @@ from fl_design._cache import (
     write_verified,
 )
 from fl_design.errors import CacheWarning, UnsafeCacheError, UnsafeCacheWarning
-from fl_design.symbolic import _plant, _stored
+from fl_design.symbolic import _derivation_cache as _stored
+from fl_design.symbolic import _plant
 
 
 @pytest.fixture
