@@ -473,9 +473,9 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
     g.setdefault("noise", np.zeros_like(g["tol"]))
     div = g["diverged"] != 0
     out = {}
+    g["_ev"] = evidence(g)  # once: the classification and the metrics share it
     g["_status"] = classify(g)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        g["_ev"] = evidence(g)
         for metric in METRICS:
             value = metric.finalize(g, T)
             out[metric.name] = np.where(div[..., None] if metric.per_estimate else div,

@@ -185,6 +185,23 @@ def _fit(env: np.ndarray, centres: np.ndarray):
             np.where(enough, np.exp(level), np.nan), n)
 
 
+def _inverse3(m: np.ndarray) -> np.ndarray:
+    """Inverses of a stack of symmetric 3 x 3 normal matrices: batched LU where they are well
+    conditioned (thousands of runs: 10x faster than ``pinv``'s SVDs), ``pinv`` for the rest."""
+    out = np.empty_like(m)
+    flat, res = m.reshape(-1, 3, 3), out.reshape(-1, 3, 3)
+    scale = np.abs(np.trace(flat, axis1=1, axis2=2)) / 3.0
+    with np.errstate(all="ignore"):
+        ok = np.abs(np.linalg.det(flat)) > 1e-12 * scale ** 3 if flat.shape[0] else \
+            np.zeros(0, bool)
+    ok &= np.all(np.isfinite(flat), axis=(1, 2))
+    if np.any(ok):
+        res[ok] = np.linalg.inv(flat[ok])
+    if np.any(~ok):
+        res[~ok] = np.linalg.pinv(flat[~ok])
+    return out
+
+
 def _curvature_t(env: np.ndarray, centres: np.ndarray) -> np.ndarray:
     """``t`` statistic of the quadratic term of ``log env`` against ``centres`` (last axis; all
     points finite, at least 5; NaN otherwise): a hump or a trough, half a swing slower than
@@ -197,7 +214,7 @@ def _curvature_t(env: np.ndarray, centres: np.ndarray) -> np.ndarray:
         X = np.stack([np.ones_like(x), x, x * x], -1)
         X = np.broadcast_to(X, (*y.shape, 3))
         xtx = np.einsum("...ki,...kj->...ij", X, X)
-        inv = np.linalg.pinv(xtx)
+        inv = _inverse3(xtx)
         coef = np.einsum("...ij,...kj,...k->...i", inv, X, y)
         resid = y - np.einsum("...ki,...i->...k", X, coef)
         # residuals below 1e-9 (relative) are rounding: a perfect exponential has no curvature
@@ -381,7 +398,7 @@ def classify(summary: dict) -> np.ndarray:
 def _classify(summary: dict) -> np.ndarray:
     div = np.asarray(summary["diverged"]) != 0
     failed = np.asarray(summary.get("solver_failed", 0)) != 0
-    ev = evidence(summary)
+    ev = summary["_ev"] if "_ev" in summary else evidence(summary)  # computed once per table
     tol, band = np.asarray(summary["tol"], dtype=float), ev["band"]
     n_tail = 2 * (np.asarray(summary["k_mid"], float) - np.asarray(summary["k_tail"], float))
     with np.errstate(invalid="ignore", divide="ignore"):
