@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ._config import Config, ConfigError
+from ._config import Config, ConfigError, estimate_limits
 
 
 def _library(key: str, motor_lag: bool):
@@ -93,21 +93,6 @@ def build_plant(cfg: Config):
         raise ConfigError(f"[plant] {err}") from None
 
 
-def _limits(value) -> tuple | None:
-    if not value:
-        return None
-    out = []
-    for v in value:
-        if isinstance(v, str):
-            if v.lower() != "none":
-                raise ConfigError(f"[design] estimate_limits entries are numbers or \"none\", "
-                                  f"got {v!r}")
-            out.append(None)
-        else:
-            out.append(float(v))
-    return tuple(out)
-
-
 def build_design(cfg: Config, *, eps: float | None = None, window: int | None = None,
                  rho: int | None = None):
     """The design of ``[design]`` (EHGO or least squares) under its dynamic controller.
@@ -144,7 +129,7 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     rho = rho or len(gains)
     u_limits = tuple(float(v) for v in d["u_limits"]) if d.get("u_limits") else None
     ctrl = DynamicController(gains, float(d["gamma"]), ki=float(d["ki"]), u_limits=u_limits,
-                             estimate_limits=_limits(d.get("estimate_limits")))
+                             estimate_limits=estimate_limits(d.get("estimate_limits")))
     if window is None and d["estimator"] == "least_squares":
         window = int(d.get("window", 9))
     if window is not None:

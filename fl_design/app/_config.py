@@ -227,7 +227,7 @@ def _check_design(d: dict, custom: bool) -> None:
                           "(the sign of b), eps and T (s); `fl-design init --from-ode` shows them")
     gains = _numbers("design", "gains", d["gains"])
     u_lim = _numbers("design", "u_limits", d["u_limits"], 2) if d.get("u_limits") else None
-    limits = _estimate_limits(d.get("estimate_limits"))
+    limits = estimate_limits(d.get("estimate_limits"))
     if limits is not None and len(limits) != len(gains):
         limits = None  # the relative degree is checked against the plant's (prepare)
     _api("design", "gains/gamma/ki/u_limits/estimate_limits", lambda: DynamicController(
@@ -242,18 +242,26 @@ def _check_design(d: dict, custom: bool) -> None:
         raise ConfigError(f"[design] T must be > 0, got {d['T']!r}")
 
 
-def _estimate_limits(value):
+def estimate_limits(value) -> tuple | None:
+    """``[design] estimate_limits``: numbers, or ``"none"`` for an estimate without a limit.
+
+    Examples
+    --------
+    >>> from fl_design.app._config import estimate_limits
+    >>> estimate_limits([2.5, "none"])
+    (2.5, None)
+    """
     if not value:
         return None
     out = []
     for v in value:
-        if isinstance(v, str):
-            if v.lower() != "none":
-                raise ConfigError(f'[design] estimate_limits entries are numbers or "none", '
-                                  f"got {v!r}")
+        if isinstance(v, str) and v.lower() == "none":
             out.append(None)
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            out.append(float(v))
         else:
-            out.append(v)
+            raise ConfigError(f'[design] estimate_limits entries are numbers or "none", '
+                              f"got {v!r}")
     return tuple(out)
 
 
