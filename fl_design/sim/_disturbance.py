@@ -70,10 +70,6 @@ class Step:
         """The signal at the times ``t``."""
         return np.where(t >= float(self.at) - 1e-12, float(self.size), 0.0)
 
-    def start(self) -> float:
-        """When it starts acting."""
-        return float(self.at) if self.size != 0 else math.inf
-
     def to_dict(self) -> dict:
         """Strict-JSON fields."""
         return {"kind": "step", "at": float(self.at), "size": float(self.size)}
@@ -118,10 +114,6 @@ class Sine:
         s = float(self.amplitude) * np.sin(2 * np.pi * float(self.frequency)
                                            * (t - float(self.at)) + float(self.phase))
         return np.where(t >= float(self.at) - 1e-12, s, 0.0)
-
-    def start(self) -> float:
-        """When it starts acting."""
-        return float(self.at) if self.amplitude != 0 else math.inf
 
     def to_dict(self) -> dict:
         """Strict-JSON fields."""
@@ -229,9 +221,7 @@ class Disturbance:
         >>> fl.Disturbance(input=fl.Step(at=2.0, size=1.0)).start(0.01, 1000)
         2.0
         """
-        d_in, d_out = self.sampled(T, N)
-        nz = np.flatnonzero((d_in != 0) | (d_out != 0))
-        return float(nz[0] * T) if nz.size else math.inf
+        return onset(*self.sampled(T, N), T)
 
     def to_dict(self) -> dict:
         """Strict-JSON fields (arrays and functions are named, not listed).
@@ -250,6 +240,20 @@ class Disturbance:
             return {"kind": "samples", "n": int(np.size(v))}
 
         return {"input": one(self.input), "output": one(self.output)}
+
+
+def onset(d_in: np.ndarray, d_out: np.ndarray, T: float) -> float:
+    """Time of the first sample at which either sampled disturbance is non-zero (``inf``: none).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim._disturbance import onset
+    >>> onset(np.array([0.0, 0.0, 1.0]), np.zeros(3), 0.5)
+    1.0
+    """
+    nz = np.flatnonzero((d_in != 0) | (d_out != 0))
+    return float(nz[0] * T) if nz.size else math.inf
 
 
 def disturbance_metrics(t: np.ndarray, y: np.ndarray, r: np.ndarray, start: float,
@@ -300,4 +304,4 @@ def disturbance_metrics(t: np.ndarray, y: np.ndarray, r: np.ndarray, start: floa
             "recovery_time": recovery}
 
 
-__all__ = ["Disturbance", "Sine", "Step", "disturbance_metrics"]
+__all__ = ["Disturbance", "Sine", "Step", "disturbance_metrics", "onset"]

@@ -19,6 +19,7 @@ Examples
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -97,6 +98,8 @@ class RunSetup:
         ``"given"``, or how the adaptive run length was chosen (:mod:`fl_design.sim._duration`).
     d_in : numpy.ndarray, optional
         ``(N,)`` input disturbance added to ``u`` at the plant (default zeros).
+    disturbance_start : float, optional
+        When the first non-zero disturbance acts (``inf``: none).
 
     Examples
     --------
@@ -125,6 +128,7 @@ class RunSetup:
     region: np.ndarray
     duration_reason: str = "given"
     d_in: np.ndarray | None = None
+    disturbance_start: float = math.inf
 
     def __post_init__(self) -> None:
         if self.d_in is None:  # no input disturbance: zeros, one per sample
@@ -297,13 +301,16 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     scale = max(abs(step), float(np.ptp(r)))
     q = 0.0 if scenario.quantization is None else float(scenario.quantization)
     noise = scenario.noise.samples(N)
-    d_in = np.zeros(N)
-    if scenario.disturbance is not None:
+    d_in, d_start = np.zeros(N), math.inf
+    if scenario.disturbance is not None:  # sampled once: a user's function is called once
+        from ._disturbance import onset
+
         d_in, d_out = scenario.disturbance.sampled(T, N)
+        d_start = onset(d_in, d_out, T)
         noise = noise + d_out
     s0 = _start_state(_measured(y0 + float(noise[0]), q), plant, design, scenario)
     return RunSetup(loop=loop, scenario=scenario, classifier=classifier, N=N, r=r, noise=noise,
-                    d_in=d_in,
+                    d_in=d_in, disturbance_start=d_start,
                     x0=x0, s0=s0, y0=y0, step=step,
                     tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
                     k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant),

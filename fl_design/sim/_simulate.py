@@ -21,7 +21,6 @@ Examples
 from __future__ import annotations
 
 import functools
-import math
 from typing import TYPE_CHECKING
 
 import casadi as ca
@@ -146,8 +145,7 @@ def _response(run: RunSetup, out: np.ndarray, summary: dict, method: str) -> Res
         x=np.atleast_2d(rows["x"]).reshape(run.loop.n, -1).T.copy(), T=run.T, tol=run.tol,
         k_tail=run.k_tail, y0=run.y0, step=run.step, divergence_index=k_div, method=method,
         summary=_summary_fields(run, summary), duration_reason=run.duration_reason,
-        disturbance_start=(math.inf if run.scenario.disturbance is None
-                           else run.scenario.disturbance.start(run.T, run.N)),
+        disturbance_start=run.disturbance_start,
     )
 
 
