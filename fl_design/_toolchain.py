@@ -38,6 +38,7 @@ Examples
 from __future__ import annotations
 
 import atexit
+import ctypes
 import functools
 import hashlib
 import json
@@ -226,6 +227,38 @@ def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: l
         os.replace(Path(tmp) / out_name, out)
     replace_text(Path(str(out) + SIDECAR_SUFFIX), record)
     return out
+
+
+class UnverifiedLibrary(ComputationError):
+    """A cached library no longer matches the size and SHA-256 recorded when it was built."""
+
+
+def open_verified(path) -> ctypes.CDLL:
+    """``dlopen`` a cached library, only if it matches its recorded size and SHA-256.
+
+    The one rule of every loader of compiled kernels: never load a file that is not the one
+    built (a truncated or replaced library could SIGBUS or run someone else's code).
+
+    Raises
+    ------
+    UnverifiedLibrary
+        The file does not match its sidecar (a :class:`~fl_design.errors.ComputationError`).
+    OSError
+        The dynamic loader refuses it.
+
+    Examples
+    --------
+    >>> from fl_design._toolchain import UnverifiedLibrary, open_verified
+    >>> try:
+    ...     open_verified("no-such-library.so")
+    ... except UnverifiedLibrary as exc:
+    ...     "recorded size and SHA-256" in str(exc)
+    True
+    """
+    if not verified(path):
+        raise UnverifiedLibrary(f"the compiled library {path} does not match its recorded size and "
+                      "SHA-256")
+    return ctypes.CDLL(str(path))
 
 
 def discard(path) -> None:

@@ -93,7 +93,7 @@ def test_a_damaged_cached_kernel_is_rebuilt_and_runs_as_a_clean_one(kind, bench,
 def test_an_unverified_library_is_never_loaded(bench, tmp_path, monkeypatch):
     lib = build(bench[1], "fl_loop", cache_dir=tmp_path)
     _truncate(lib)
-    monkeypatch.setattr(_runners.ctypes, "CDLL", lambda *a: pytest.fail("dlopen of a bad file"))
+    monkeypatch.setattr(_build.ctypes, "CDLL", lambda *a: pytest.fail("dlopen of a bad file"))
     with pytest.raises(ComputationError, match="does not match its recorded size and SHA-256"):
         _runners._load(str(lib))
 
@@ -101,7 +101,7 @@ def test_an_unverified_library_is_never_loaded(bench, tmp_path, monkeypatch):
 @needs_cc
 def test_a_library_changed_after_each_build_ends_in_the_interpreter(bench, tmp_path, monkeypatch):
     run = bench[0]
-    monkeypatch.setattr(_runners, "verified", lambda path: False)
+    monkeypatch.setattr(_build, "verified", lambda path: False)  # the loaders' one check
     with pytest.warns(CompilationWarning, match="after 3 rebuilds") as caught:
         runner = run.loop.runner(kernel=fl.Kernel(cache_dir=tmp_path, lanes=False))
     assert isinstance(runner, InterpretedRunner) and len(caught) == 1

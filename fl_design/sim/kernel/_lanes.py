@@ -43,7 +43,14 @@ import casadi as ca
 import numpy as np
 
 from ..._isa import Isa, mvec_functions, resolve_isa
-from ..._toolchain import LANES_CFLAGS, build, discard, find_compiler, verified
+from ..._toolchain import (
+    LANES_CFLAGS,
+    UnverifiedLibrary,
+    build,
+    discard,
+    find_compiler,
+    open_verified,
+)
 from ...errors import CompilationWarning, ComputationError
 from ._emit import MATH, LanesUnsupported, lanes_source
 
@@ -85,9 +92,7 @@ def vector_math(isa: Isa | None = None) -> tuple[str, ...]:
 
 @functools.lru_cache(maxsize=32)
 def _load(path: str) -> ctypes.CDLL:
-    if not verified(path):  # never dlopen a file that is not the one built
-        raise OSError(f"{path} does not match its recorded size and SHA-256")
-    lib = ctypes.CDLL(path)
+    lib = open_verified(path)
     dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     lng = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
     lib.fl_lanes_run.argtypes = [dbl, ctypes.c_long, dbl, ctypes.c_long, lng]
@@ -254,7 +259,7 @@ class LanesRunner:
                     raise OSError(f"{path} runs {lib.fl_lanes_width()} lanes, not "
                                   f"{self.isa.width}")
                 return lib
-            except (OSError, AttributeError) as exc:
+            except (UnverifiedLibrary, OSError, AttributeError) as exc:
                 problem = f"{type(exc).__name__}: {exc}"
                 _load.cache_clear()
                 discard(path)

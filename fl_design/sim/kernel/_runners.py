@@ -46,21 +46,20 @@ import casadi as ca
 import numpy as np
 
 from ..._limits import env_flag
-from ..._toolchain import build, discard, find_compiler, generate_source, verified
+from ..._toolchain import (
+    UnverifiedLibrary,
+    build,
+    discard,
+    find_compiler,
+    generate_source,
+    open_verified,
+)
 from ...errors import CompilationWarning, ComputationError
-
-
-class _UnverifiedLibrary(ComputationError):
-    """The library on disk no longer matches the size and SHA-256 recorded when it was built."""
-
 
 
 @functools.lru_cache(maxsize=32)
 def _load(path: str) -> ctypes.CDLL:
-    if not verified(path):  # never dlopen a file that is not the one built (SIGBUS, bad ELF)
-        raise _UnverifiedLibrary(f"the compiled kernel {path} does not match its recorded size "
-                                 "and SHA-256")
-    lib = ctypes.CDLL(path)
+    lib = open_verified(path)
     dbl = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
     lib.fl_run.argtypes = [dbl, ctypes.c_long, dbl, ctypes.c_long]
     lib.fl_run.restype = ctypes.c_int
@@ -339,7 +338,7 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
                 break
             try:
                 return NativeRunner(accumulate, record, indices, lib)
-            except (_UnverifiedLibrary, OSError, AttributeError) as exc:
+            except (UnverifiedLibrary, OSError, AttributeError) as exc:
                 problem = f"{type(exc).__name__}: {exc}"
                 _load.cache_clear()
                 discard(lib)
