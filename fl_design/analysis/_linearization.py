@@ -31,8 +31,9 @@ import numpy as np
 from .. import _validate as V
 from ..design import Design
 from ..errors import ComputationError, ParameterError
-from ..sim import EpsStar
+from ..sim import RK4, EpsStar
 from ..sim._loop_jacobian import LoopLinearizer, SampledLinearization
+from ..sim._options import option
 from ..sim._run import check_gamma_sign, signed_gammas
 from ..sim.kernel._loop import ClosedLoop, resolve_substeps
 from ..symbolic import Plant
@@ -48,6 +49,13 @@ def _check(plant, design) -> None:
     V.instance("design", design, Design, "an fl.Design(estimator=..., controller=...)")
 
 
+def _substeps(plant, design, integrator) -> int:
+    """RK4 steps per sample of ``integrator`` (an ``fl.RK4`` or None), resolved for the plant."""
+    rk4 = option("integrator", integrator, RK4, what="a fl.RK4 (the linearized loop is the "
+                 "fixed-step one)")
+    return resolve_substeps(plant, design.T, rk4.substeps)
+
+
 def _reference(plant, r) -> float:
     if r is None:
         return float(plant.casadi().h(plant.x_op))
@@ -55,7 +63,7 @@ def _reference(plant, r) -> float:
 
 
 def sampled_linearization(plant: Plant, design: Design, *, r: float | None = None,
-                          substeps: int | None = None) -> SampledLinearization:
+                          integrator: RK4 | None = None) -> SampledLinearization:
     """Jacobian of the closed-loop sample map at its equilibrium, with its eigenvalues.
 
     The equilibrium ``F(X) = X`` is found by Newton's method from the operating point, to a
@@ -72,9 +80,9 @@ def sampled_linearization(plant: Plant, design: Design, *, r: float | None = Non
         The design (its ``eps``, ``gamma``, gains, ``T``).
     r : float, optional
         Constant reference (default: the output at the plant's operating point).
-    substeps : int, optional
-        RK4 steps per sample, as in :func:`fl_design.simulate` (default
-        :func:`fl_design.sim.kernel.default_substeps`).
+    integrator : RK4, optional
+        The fixed-step integrator between samples, as in :func:`fl_design.simulate`
+        (default ``fl.RK4()``: :func:`fl_design.sim.kernel.default_substeps` steps).
 
     Returns
     -------
@@ -100,7 +108,7 @@ def sampled_linearization(plant: Plant, design: Design, *, r: float | None = Non
     ((7, 7), ('u', 'z'))
     """
     _check(plant, design)
-    steps = resolve_substeps(plant, design.T, substeps)
+    steps = _substeps(plant, design, integrator)
     check_gamma_sign(plant, design.controller.gamma)
     lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     return lin(_reference(plant, r), design.parameter_vector())
@@ -108,7 +116,7 @@ def sampled_linearization(plant: Plant, design: Design, *, r: float | None = Non
 
 def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
                         gamma: float | None = None,
-                        r: float | None = None, substeps: int | None = None, n_scan: int = 48,
+                        r: float | None = None, integrator: RK4 | None = None, n_scan: int = 48,
                         rtol: float = 1e-6) -> EpsStar:
     """Largest ``eps`` up to which the linearized sampled loop is stable (spectral radius < 1).
 
@@ -134,8 +142,8 @@ def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
         sign of ``b``, as in :func:`fl_design.estimate_eps_star`.
     r : float, optional
         Reference of the equilibrium (default the operating point's output).
-    substeps : int, optional
-        RK4 steps per sample.
+    integrator : RK4, optional
+        The fixed-step integrator between samples (default ``fl.RK4()``).
     n_scan : int, optional
         Scan points (>= 2, default 48).
     rtol : float, optional
@@ -180,7 +188,7 @@ def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
         g = V.nonzero("gamma", gamma)
         design = design.replace(gamma=float(signed_gammas(plant, g)))
     check_gamma_sign(plant, design.controller.gamma)
-    steps = resolve_substeps(plant, design.T, substeps)
+    steps = _substeps(plant, design, integrator)
     lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     r = _reference(plant, r)
 

@@ -250,7 +250,7 @@ class CPackage:
                                    f"{proc.stderr[-3000:]}")
         return np.array(proc.stdout.split(), dtype=float)
 
-    def verify(self, plant, scenario, *, substeps: int | None = None, compiler=None):
+    def verify(self, plant, scenario, *, integrator=None, compiler=None):
         """Software-in-the-loop: the compiled step drives the simulated plant in closed loop.
 
         See :func:`fl_design.codegen.software_in_the_loop`.
@@ -261,8 +261,8 @@ class CPackage:
             The plant (integrated with RK4, ``ClosedLoop.plant_step``).
         scenario : Scenario
             Reference, duration, initial state, noise, quantization.
-        substeps : int, optional
-            RK4 steps per sample (default :func:`fl_design.sim.kernel.default_substeps`).
+        integrator : RK4, optional
+            The plant's fixed-step integrator (default ``fl.RK4()``).
         compiler : str, optional
             C compiler.
 
@@ -281,7 +281,8 @@ class CPackage:
         """
         from ._sil import software_in_the_loop
 
-        return software_in_the_loop(self, plant, scenario, substeps=substeps, compiler=compiler)
+        return software_in_the_loop(self, plant, scenario, integrator=integrator,
+                                    compiler=compiler)
 
     def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300,
             cflags=()):

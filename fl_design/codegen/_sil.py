@@ -334,7 +334,7 @@ def reference_run(design, ym, r, *, state0=None, chunk: int = 20_000):
     return np.concatenate(us), np.concatenate(xs), np.concatenate(ss)
 
 
-def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) -> SilResult:
+def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None) -> SilResult:
     """Run ``pkg``'s compiled step in closed loop with ``plant``, started as firmware starts it.
 
     See the module docstring: passes when the C equals ``Design.step`` within the precision's
@@ -349,8 +349,10 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     scenario : Scenario
         Reference, duration, ``x0`` (default the operating point), noise, quantization. An
         ``initial_estimate`` is refused (firmware starts from a measurement).
-    substeps : int, optional
-        RK4 steps per sample (default :func:`fl_design.sim.kernel.default_substeps`).
+    integrator : RK4, optional
+        The plant's fixed-step integrator between samples (default ``fl.RK4()``:
+        :func:`fl_design.sim.kernel.default_substeps` steps), in the C driver and the
+        simulation alike.
     compiler : str, optional
         C compiler.
 
@@ -361,7 +363,7 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
     Raises
     ------
     ParameterError
-        ``scenario.initial_estimate`` is set.
+        ``scenario.initial_estimate`` is set; ``integrator`` not a ``fl.RK4``.
 
     Examples
     --------
@@ -380,7 +382,7 @@ def software_in_the_loop(pkg, plant, scenario, *, substeps=None, compiler=None) 
             "scenario.initial_estimate is set; the C loop starts as firmware does, from the "
             "first measurement (PREFIX_start): give a scenario without initial_estimate")
     design = pkg.design
-    run = prepare_run(plant, design, scenario, integrator=RK4(substeps=substeps))
+    run = prepare_run(plant, design, scenario, integrator=integrator)
     steps = run.loop.substeps
     exe = build_driver(pkg, plant, steps, compiler)
     head = " ".join(repr(float(v)) for v in run.x0) + f" {float(run.q)!r} {run.u0!r}\n"

@@ -179,3 +179,31 @@ def test_linearization_bad_input(pendulum_design, pendulum):
                    controller=fl.DynamicController((1,), 1e-2))
     with pytest.raises(DesignMismatchError, match="relative degree 2"):
         fl.sampled_linearization(pendulum, d1)
+
+
+def test_integrator_sets_the_substeps_of_the_linearized_loop(oscillator):
+    """``integrator=fl.RK4(substeps=k)`` linearizes the loop integrated with k RK4 steps: its
+    matrix tends to the hand-built one with scipy's exact ZOH as k grows (error ~ (T/k)^4)."""
+    Ts, k1, k2, gamma = 0.05, 2.0, 4.0, 0.02
+    obs = fl.EHGO(rho=2, eps=0.03, T=Ts)
+    design = fl.Design(estimator=obs, controller=fl.DynamicController((k1, k2), gamma))
+    A, B, C = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[0.0], [1.5]]), np.eye(1, 2)
+    Ad, Bd, *_ = scipy.signal.cont2discrete((A, B, C, np.zeros((1, 1))), Ts, method="zoh")
+    Ao, Bo, _, _ = obs.matrices
+    Cu, Du = obs.output_matrices()
+    Px, Pxi = np.eye(2, 7), np.eye(3, 7, 2)
+    eu, ez = np.eye(7)[5], np.eye(7)[6]
+    L = Du.reshape(-1, 1) @ (C @ Px) + Cu @ Pxi
+    Z = ez + Ts * L[0]
+    U = eu + gamma * (-k1 * L[0] - k2 * L[1] - L[2])
+    M = np.vstack([Ad @ Px + Bd @ U[None, :], Bo.reshape(-1, 1) @ (C @ Px) + Ao @ Pxi, U, Z])
+    errs = [np.abs(fl.sampled_linearization(oscillator, design, integrator=fl.RK4(substeps=k))
+                   .matrix - M).max() for k in (1, 4)]
+    assert 1e-7 < errs[0] and errs[1] < errs[0] / 100  # RK4's (T/k)^4: 256x smaller
+    star = fl.linearized_eps_star(oscillator, design, integrator=fl.RK4(substeps=2),
+                                  eps_range=(1e-3, 1.0), n_scan=8, rtol=1e-3)
+    assert star.lower <= star.upper
+    with pytest.raises(ParameterError, match=r"integrator must be a fl.RK4 .*got Cvodes"):
+        fl.sampled_linearization(oscillator, design, integrator=fl.Cvodes())
+    with pytest.raises(TypeError, match="substeps"):
+        fl.linearized_eps_star(oscillator, design, substeps=4)  # the old keyword is gone

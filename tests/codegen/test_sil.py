@@ -256,3 +256,22 @@ def test_the_sil_loop_sees_the_scenarios_disturbances(tmp_path):
     np.testing.assert_allclose(res.u_c, sim.u, rtol=0, atol=1e-9 * np.max(np.abs(sim.u)))
     clean = pkg.verify(p, fl.Scenario(0.1, 8.0))
     assert np.max(np.abs(clean.ym - res.ym)) > 1e-3  # the disturbance really acted
+
+
+def test_the_integrator_is_the_plants_in_the_c_driver_and_the_simulation(tmp_path):
+    pkg = generate_c(presets.paper_design(), tmp_path)
+    res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5), integrator=fl.RK4(substeps=1))
+    assert res.matches and res.verdicts_agree and res.max_rel_error <= DOUBLE_BOUND
+    with pytest.raises(fl.errors.ParameterError, match="integrator must be a fl.RK4"):
+        pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5), integrator=fl.Cvodes())
+
+
+@pytest.mark.xfail(strict=True, raises=fl.errors.CompilationError,
+                   reason="known bug (also with the former substeps=2): with more than one "
+                   "substep ClosedLoop.plant_step is a never-inlined fold whose CasADi C code "
+                   "needs arg/w work arrays (sz_arg 8, sz_w 37 for the TRMS, 3 substeps); "
+                   "sil.c.in passes 2 args and no work, and the driver segfaults (exit -11)")
+def test_more_than_one_substep_in_the_sil_driver(tmp_path):
+    pkg = generate_c(presets.paper_design(), tmp_path)
+    res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5), integrator=fl.RK4(substeps=3))
+    assert res.matches
