@@ -222,3 +222,77 @@ def hurwitz_monic(name: str, coeffs_high_to_low: np.ndarray, *, what: str) -> np
             "Hurwitz (e.g. binomial coefficients, all roots at -1)"
         )
     return roots
+
+
+def identifier(name: str, value) -> str:
+    """Return ``value`` if it is a name (letters, digits, ``_``; not a keyword), else raise.
+
+    Examples
+    --------
+    >>> from fl_design._validate import identifier
+    >>> identifier("states", "theta")
+    'theta'
+    """
+    import keyword
+
+    if isinstance(value, str) and value.isidentifier() and not keyword.iskeyword(value):
+        return value
+    raise ParameterError(f"{name} must be a name (letters, digits, _; not starting with a "
+                         f"digit), got {short(value)}")
+
+
+def choice(name: str, value, options: Sequence[str]):
+    """Return ``value`` if it is one of ``options``, else raise ParameterError listing them.
+
+    Examples
+    --------
+    >>> from fl_design._validate import choice
+    >>> choice("precision", "float", ("double", "float"))
+    'float'
+    """
+    if isinstance(value, str) and value in options:
+        return value
+    raise ParameterError(f"{name} must be one of {', '.join(map(repr, options))}, got "
+                         f"{short(value)}")
+
+
+def real_tuple(name: str, value, *, length: int | None = None, positive_only: bool = False,
+            nonempty: bool = False) -> tuple[float, ...]:
+    """Return a tuple of finite floats (:func:`real_vector`), optionally all > 0 or non-empty.
+
+    Examples
+    --------
+    >>> from fl_design._validate import real_tuple
+    >>> real_tuple("gains", [2, 4.0])
+    (2.0, 4.0)
+    """
+    out = tuple(float(v) for v in real_vector(name, value, length=length))
+    if nonempty and not out:
+        raise ParameterError(f"{name} must hold at least one number, got an empty array")
+    bad = [v for v in out if v <= 0] if positive_only else []
+    if bad:
+        raise ParameterError(f"{name} must hold positive numbers, got {bad[0]!r} in {short(value)}")
+    return out
+
+
+def log_range(name: str, value, *, sign: float | None = None) -> tuple[float, float]:
+    """A ``[lo, hi]`` range of one sign for a log-spaced grid: ``0 < lo < hi`` by default;
+    ``sign=-1`` or ``+1``: both ends of that sign; ``sign=0``: either sign, not containing 0.
+
+    Examples
+    --------
+    >>> from fl_design._validate import log_range
+    >>> log_range("eps", [0.01, 1])
+    (0.01, 1.0)
+    >>> log_range("gamma", [-1e-2, -1e-4], sign=0)
+    (-0.01, -0.0001)
+    """
+    lo, hi = real_tuple(name, value, length=2)
+    if not lo < hi:
+        raise ParameterError(f"{name} must be [lo, hi] with lo < hi, got {short(value)}")
+    if sign is None and lo <= 0:
+        raise ParameterError(f"{name} must hold positive numbers (s), got {short(value)}")
+    if sign is not None and (lo * hi <= 0 or (sign and lo * sign < 0)):
+        which = "" if not sign else f" and be {'negative' if sign < 0 else 'positive'}"
+        raise ParameterError(f"{name} must not contain 0{which}, got {short(value)}")
+    return lo, hi

@@ -6,7 +6,8 @@ report (:func:`write_report`, :func:`summary`, :func:`render_html`, :func:`rende
 :func:`derivation_report`) and the builders from config tables. Helpers (console printers,
 figures, report sections) are imported from their modules.
 
-Library layers never import this package. Modules: ``_config`` (TOML schema), ``_build``
+Library layers never import this package. Modules: ``_config`` (the TOML file -> :class:`Config`),
+``_tables``, ``_plant_table``, ``_design_table`` (one frozen dataclass per table), ``_build``
 (config -> plant, design, scenario), ``_job`` (the stages), ``_console`` (stdout tables),
 ``_report`` (derivation text), ``_report_figures``, ``_report_sections``, ``_report_write``
 (HTML, Markdown, summary.json), ``_cli``.

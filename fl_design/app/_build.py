@@ -12,17 +12,16 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ._config import Config, ConfigError, estimate_limits
+from ..errors import ParameterError
+from ._config import Config, ConfigError
 
 
 def _library(key: str, motor_lag: bool):
     from .. import plants
+    from ._plant_table import LIBRARY
 
-    factories = {"trms": lambda: plants.trms_yaw(motor_lag=motor_lag),
-                 "trms-lag": lambda: plants.trms_yaw(motor_lag=True),
-                 "pendulum": plants.pendulum, "flexible-joint": plants.flexible_joint,
-                 "cart-pendulum": plants.cart_pendulum, "maglev": plants.maglev}
-    return factories[key]()
+    factory, kwargs = LIBRARY[key]
+    return getattr(plants, factory)(**({"motor_lag": True} if motor_lag else {}) | kwargs)
 
 
 def _parse(key: str, text, names: dict):
@@ -36,15 +35,6 @@ def _parse(key: str, text, names: dict):
         return parse_expression(text, names, what=f"[plant] {key}")
     except ExpressionError as err:
         raise ConfigError(str(err)) from None
-
-
-def _pairs(key: str, table: dict) -> dict:
-    out = {}
-    for name, value in table.items():
-        if not (isinstance(value, list) and len(value) == 2):
-            raise ConfigError(f"[plant] {key}.{name} must be [lo, hi], got {value!r}")
-        out[name] = tuple(float(v) for v in value)
-    return out
 
 
 def build_plant(cfg: Config):
@@ -70,21 +60,21 @@ def build_plant(cfg: Config):
     from ..symbolic import Plant
 
     p = cfg.plant
-    if "library" in p:
-        return _library(p["library"], bool(p.get("motor_lag", False)))
-    states = [sp.Symbol(str(s), real=True) for s in p["states"]]
-    u = sp.Symbol(p["input"], real=True)
+    if not p.expression:
+        return _library(p.library, p.motor_lag)
+    states = [sp.Symbol(str(s), real=True) for s in p.states]
+    u = sp.Symbol(p.input, real=True)
     names = {s.name: s for s in states} | {u.name: u}
-    names |= {k: sp.Symbol(k, real=True) for k in p.get("params", {})}
-    rhs = [_parse(f"rhs[{i}]", e, names) for i, e in enumerate(p["rhs"])]
-    output = _parse("output", p["output"], names)
-    kwargs = {"params": p.get("params") or None, "name": p.get("name", "plant")}
-    if "region" in p:
-        kwargs["region"] = _pairs("region", p["region"])
-    if "input_range" in p:
-        kwargs["input_range"] = tuple(float(v) for v in p["input_range"])
-    if "operating_point" in p:
-        kwargs["operating_point"] = {k: float(v) for k, v in p["operating_point"].items()}
+    names |= {k: sp.Symbol(k, real=True) for k in p.params or {}}
+    rhs = [_parse(f"rhs[{i}]", e, names) for i, e in enumerate(p.rhs)]
+    output = _parse("output", p.output, names)
+    kwargs = {"params": dict(p.params) if p.params else None, "name": p.name}
+    if p.region is not None:
+        kwargs["region"] = dict(p.region)
+    if p.input_range is not None:
+        kwargs["input_range"] = p.input_range
+    if p.operating_point is not None:
+        kwargs["operating_point"] = dict(p.operating_point)
     from ..errors import FlDesignError
 
     try:
@@ -118,32 +108,20 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     >>> build_design(load_config(None), window=9).estimator.window
     9
     """
-    from ..design import EHGO, Design, DynamicController, LeastSquaresEstimator
-
-    d = cfg.design
-    if not d:
+    if cfg.design is None:
         raise ConfigError(f"{cfg.source}: [design] is missing: a plant from expressions has no "
                           "bench design; add [design] with gains, gamma, eps and T (see "
                           "`fl-design init --from-ode`)")
-    gains = tuple(float(k) for k in d["gains"])
-    rho = rho or len(gains)
-    u_limits = tuple(float(v) for v in d["u_limits"]) if d.get("u_limits") else None
-    ctrl = DynamicController(gains, float(d["gamma"]), ki=float(d["ki"]), u_limits=u_limits,
-                             estimate_limits=estimate_limits(d.get("estimate_limits")))
-    if window is None and d["estimator"] == "least_squares":
-        window = int(d.get("window", 9))
-    if window is not None:
-        est = LeastSquaresEstimator(rho=rho, T=float(d["T"]), window=int(window))
-    else:
-        coeffs = tuple(float(c) for c in d["coeffs"]) if d.get("coeffs") else None
-        est = EHGO(rho=rho, eps=float(eps if eps is not None else d["eps"]), T=float(d["T"]),
-                   coeffs=coeffs)
-    return Design(estimator=est, controller=ctrl)
+    try:
+        return cfg.design.build(rho=rho, eps=eps, window=window)
+    except ParameterError as err:  # a length that does not fit the plant's relative degree
+        raise ConfigError(f"{cfg.source}: [design] {err}") from None
 
 
 def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: float | None = None,
                    seed: int | None = None):
-    """The scenario of ``[scenario]`` (a step to ``reference``), optionally changed.
+    """The scenario of ``[scenario]`` (a step to ``reference``, its disturbances), optionally
+    changed.
 
     Parameters
     ----------
@@ -165,20 +143,14 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     >>> build_scenario(load_config(None), duration=2.0).duration
     2.0
     """
-    from ..sim import Noise, Scenario
-
-    s = cfg.scenario
-    if "reference" not in s:
+    if cfg.scenario.reference is None:
         raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
                           "step target (absolute, in the plant's units)")
-    std = float(s["noise_std"] if noise_std is None else noise_std)
-    length = s["duration"] if duration is None else duration
-    return Scenario(float(s["reference"]), None if length == "adaptive" else float(length),
-                    noise=Noise(std, seed=int(s["seed"] if seed is None else seed)))
+    return cfg.scenario.build(duration=duration, noise_std=noise_std, seed=seed)
 
 
 def build_classifier(cfg: Config):
-    """The classifier of ``[scenario]`` (its relative ``tolerance``).
+    """The classifier of ``[classifier]`` (:class:`fl_design.Classifier` itself).
 
     Parameters
     ----------
@@ -195,9 +167,7 @@ def build_classifier(cfg: Config):
     >>> build_classifier(load_config(None)).tolerance
     0.02
     """
-    from ..sim import Classifier
-
-    return Classifier(tolerance=float(cfg.scenario["tolerance"]))
+    return cfg.classifier
 
 
 def check_fit(cfg: Config, plant) -> tuple:
@@ -235,7 +205,7 @@ def check_fit(cfg: Config, plant) -> tuple:
     from ..design import gains_from_poles
 
     notes = list(cfg.notes)
-    if not cfg.design:
+    if cfg.design is None:
         rho = plant.relative_degree()
         has_b = plant.region is not None and plant.input_range is not None
         b = plant.b_bounds(allow_sign_change=True) if has_b else None
@@ -251,13 +221,13 @@ def check_fit(cfg: Config, plant) -> tuple:
             + f"): add [design] with gains ({rho} numbers, e.g. "
             f"{list(gains_from_poles([-1.0] * rho))}), gamma{sign}{bound}, eps and T (s), "
             "and u_limits if the input is limited; `fl-design init --from-ode` shows one")
-    if "reference" not in cfg.scenario:
+    if cfg.scenario.reference is None:
         raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
                           f"step target (absolute, in the plant's units; the output "
                           f"{plant.output} is {_y_op(plant):g} at the operating point)")
     _check_reference(cfg, plant)
     _check_gamma_sign(cfg, plant)
-    if "operating_point" not in cfg.plant and "library" not in cfg.plant:
+    if cfg.plant.expression and cfg.plant.operating_point is None:
         notes.append(f"[plant] operating_point not given: the origin, with u_eq = "
                      f"{plant.u_eq:g} (give e.g. operating_point = {{ "
                      f"{plant.states[0].name} = ... }})")
@@ -272,7 +242,7 @@ def _check_gamma_sign(cfg: Config, plant) -> None:
     if plant.region is None or plant.input_range is None:
         return
     lo, hi = plant.b_bounds(allow_sign_change=True)
-    g = float(cfg.design["gamma"])
+    g = cfg.design.gamma
     if lo * hi > 0 and g * lo < 0:
         word = "< 0" if lo < 0 else "> 0"
         raise ConfigError(f"{cfg.source}: [design] gamma = {g:g} but b in [{lo:.4g}, {hi:.4g}] "
@@ -285,7 +255,7 @@ def _check_reference(cfg: Config, plant) -> None:
     y = plant.output
     if y in region:
         lo, hi = region[y]
-        r = float(cfg.scenario["reference"])
+        r = cfg.scenario.reference
         if not lo <= r <= hi:
             raise ConfigError(f"{cfg.source}: [scenario] reference = {r:g} is outside the "
                               f"plant's region {y} in [{lo:g}, {hi:g}]: give a reference "

@@ -31,6 +31,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from .. import __version__
@@ -39,7 +40,7 @@ from ..errors import FlDesignError, OutputPathError, ParameterError
 from ._config import LIBRARY, load_config, parse_config
 
 #: ``--plant`` choices: the library plants of the config.
-PLANT_CHOICES = LIBRARY
+PLANT_CHOICES = tuple(LIBRARY)
 
 
 def check_out_dir(path, *, force: bool = False) -> Path:
@@ -130,11 +131,11 @@ def _prepare(cfg):
     from ._build import build_plant, check_fit
     from ._job import prepare
 
-    if not cfg.design:
+    if cfg.design is None:
         from ._propose import propose_design
 
         plant = build_plant(cfg)
-        if "reference" in cfg.scenario:
+        if cfg.scenario.reference is not None:
             print("fl-design: no [design] given: proposing one from the plant ...",
                   file=sys.stderr, flush=True)
             cfg = propose_design(cfg, plant)
@@ -182,9 +183,9 @@ def _cmd_certify(args) -> int:
 
     cfg, _ = _prepare(_config(args))
     if args.eps is not None or args.gamma is not None:
-        d = dict(cfg.design, eps=cfg.design["eps"] if args.eps is None else args.eps,
-                 gamma=cfg.design["gamma"] if args.gamma is None else args.gamma)
-        cfg = type(cfg)(**{**cfg.__dict__, "design": d})
+        d = replace(cfg.design, eps=cfg.design.eps if args.eps is None else args.eps,
+                    gamma=cfg.design.gamma if args.gamma is None else args.gamma)
+        cfg = replace(cfg, design=d)
     job = run_job(cfg, quick=args.quick, stages=("certify",), progress=not args.no_progress)
     print_certificates(job)
     return 0
@@ -213,10 +214,9 @@ def _cmd_codegen(args) -> int:
 
     _codegen_paths(args)
     cfg, job = _prepare(_config(args))
-    cg = dict(cfg.codegen)
-    cg["precision"] = args.precision or cg["precision"]
-    cg["prefix"] = args.prefix or cg["prefix"]
-    cfg = type(cfg)(**{**cfg.__dict__, "codegen": cg})
+    cg = replace(cfg.codegen, precision=args.precision or cfg.codegen.precision,
+                 prefix=args.prefix or cfg.codegen.prefix)
+    cfg = replace(cfg, codegen=cg)
     out = check_out_dir(args.out, force=args.force)
     if args.verify:
         from ._console import print_codegen
@@ -227,7 +227,7 @@ def _cmd_codegen(args) -> int:
         return 0
     design = job.design if args.design == "config" else build_design(
         cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
-    pkg = generate_c(design, out, precision=cg["precision"], prefix=cg["prefix"],
+    pkg = generate_c(design, out, precision=cg.precision, prefix=cg.prefix,
                      force=args.force)
     print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) to "
           f"{pkg.out_dir}:")
@@ -271,7 +271,7 @@ def _pil(pkg, job, cfg) -> int:
     if reason:
         print(f"error: --pil: {reason}", file=sys.stderr)
         return 2
-    res = pkg.pil(job.plant, Scenario(float(cfg.scenario["reference"]), 2000 * pkg.design.T))
+    res = pkg.pil(job.plant, Scenario(cfg.scenario.reference, 2000 * pkg.design.T))
     print(f"PIL on a Cortex-M4F (QEMU mps2-an386): {res.instructions:.0f} instructions per step; "
           f"u within {res.max_rel_error:.3g} of max|u| of Design.step over {res.u_c.size} "
           f"samples (bound {res.bound:g}): {'passed' if res.passed else 'FAILED'}")

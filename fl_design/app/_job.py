@@ -122,10 +122,10 @@ def _certify(job: Job, quick: bool) -> None:
     cfg, design, plant = job.config.certify, job.design, job.plant
     b = job.derivation["b_bounds"]
     out = {"lyapunov": certify_lyapunov(design.controller.gains, T=design.T)}
-    n = QUICK["certify_points"] if quick else cfg["points"]
-    gammas = np.geomspace(*cfg["gamma"], n)
-    eps_range = tuple(cfg.get("eps_range") or job.config.sweep["eps"])  # [certify] eps_range
-    if b is not None and design.estimator.has_time_constant and cfg["enabled"]:
+    n = QUICK["certify_points"] if quick else cfg.points
+    gammas = np.geomspace(*cfg.gamma, n)
+    eps_range = tuple(cfg.eps_range or job.config.sweep.eps)  # [certify] eps_range
+    if b is not None and design.estimator.has_time_constant and cfg.enabled:
         out["gamma"] = certify_gamma(design, tuple(b))
         out["eps"] = certify_eps(design, tuple(b), eps_range=eps_range)
         out["curve"] = eps_star_curve(design, tuple(b), np.abs(gammas), eps_range=eps_range)  # |gamma|
@@ -142,9 +142,9 @@ def _sweep(job: Job, quick: bool, executor, progress: bool) -> None:
     from ..sim import sweep
 
     cfg = job.config.sweep
-    n = QUICK["sweep_points"] if quick else cfg["points"]
-    duration = QUICK["sweep_duration"] if quick else cfg["duration"]
-    eps, gamma = np.geomspace(*cfg["eps"], n), np.geomspace(*cfg["gamma"], n)
+    n = QUICK["sweep_points"] if quick else cfg.points
+    duration = QUICK["sweep_duration"] if quick else cfg.duration
+    eps, gamma = np.geomspace(*cfg.eps, n), np.geomspace(*cfg.gamma, n)
     smap = sweep(job.plant, job.design, build_scenario(job.config, duration=duration,
                                                        noise_std=0.0),
                  eps=eps, gamma=gamma, classifier=build_classifier(job.config),
@@ -156,7 +156,7 @@ def _simulate_one(job: Job, design, duration: float, std: float):
     from ..sim import simulate
 
     scenario = build_scenario(job.config, duration=duration, noise_std=std,
-                              seed=job.config.compare["seed"])
+                              seed=job.config.compare.seed)
     return simulate(job.plant, design, scenario, classifier=build_classifier(job.config))
 
 
@@ -164,21 +164,21 @@ def _simulate(job: Job, quick: bool) -> None:
     cfg = job.config
     # the main run's length (default adaptive: long enough for its verdict); the compared runs
     # are about the transient (overshoot, noise) and share one fixed length
-    duration = QUICK["duration"] if quick else cfg.scenario["duration"]
-    compare = QUICK["duration"] if quick else cfg.compare["duration"]
+    duration = QUICK["duration"] if quick else cfg.scenario.duration
+    compare = QUICK["duration"] if quick else cfg.compare.duration
     rho = job.plant.relative_degree()
     designs = {_label(job.design): job.design}
     if job.design.estimator.has_time_constant:
         designs |= {f"LS({w})": build_design(cfg, window=int(w), rho=rho)
-                    for w in cfg.compare["windows"]}
-    stds = [0.0] + [float(s) for s in cfg.compare["noise_std"]]
+                    for w in cfg.compare.windows}
+    stds = [0.0] + [float(s) for s in cfg.compare.noise_std]
     runs = {(name, std): _simulate_one(job, d, compare, std)
             for std in stds for name, d in designs.items()}
-    main = _simulate_one(job, job.design, duration, float(cfg.scenario["noise_std"]))
+    main = _simulate_one(job, job.design, duration, cfg.scenario.noise_std)
     tradeoff = []
     if job.design.estimator.has_time_constant:
         std = stds[-1]
-        for e in cfg.compare["eps_tradeoff"]:
+        for e in cfg.compare.eps_tradeoff:
             resp = _simulate_one(job, job.design.replace(eps=float(e)), compare, std)
             tradeoff.append({"eps": float(e), "noise_std": std, **noise_levels(resp),
                              "status": resp.status, "overshoot_%": resp.overshoot})
@@ -226,22 +226,23 @@ def _codegen(job: Job, quick: bool, out_dir: Path, force: bool = False) -> None:
     from ..sim import Noise, Scenario
 
     cfg = job.config.codegen
-    if not cfg["enabled"]:
+    if not cfg.enabled:
         job.results["codegen"] = {"skipped": "[codegen] enabled = false"}
         return
-    pkg = generate_c(job.design, out_dir / "c", precision=cfg["precision"], prefix=cfg["prefix"],
+    pkg = generate_c(job.design, out_dir / "c", precision=cfg.precision, prefix=cfg.prefix,
                      force=force)
-    sil_t = QUICK["sil_duration"] if quick else cfg["sil_duration"]
-    std = float(job.config.compare["noise_std"][0]) if job.config.compare["noise_std"] else 0.0
-    sil = pkg.verify(job.plant, Scenario(float(job.config.scenario["reference"]), sil_t,
-                                         noise=Noise(std, seed=1)))
+    sil_t = QUICK["sil_duration"] if quick else cfg.sil_duration
+    std = float(job.config.compare.noise_std[0]) if job.config.compare.noise_std else 0.0
+    sil = pkg.verify(job.plant, Scenario(job.config.scenario.reference, sil_t,
+                                         noise=Noise(std, seed=1),
+                                         disturbance=job.config.scenario.disturbance))
     rho = job.plant.relative_degree()
     designs = {_label(job.design): job.design}
     if job.design.estimator.has_time_constant:
         designs |= {f"LS({w})": build_design(job.config, window=int(w), rho=rho)
-                    for w in job.config.compare["windows"]}
+                    for w in job.config.compare.windows}
     steps = QUICK["bench_steps"] if quick else 1_000_000
-    costs = compare_costs(designs, out_dir / "c_cost", precision=cfg["precision"],
+    costs = compare_costs(designs, out_dir / "c_cost", precision=cfg.precision,
                           bench_steps=steps)
     job.results["codegen"] = {"package": pkg, "sil": sil, "costs": costs,
                               "sil_duration": sil_t, "sil_noise_std": std}
@@ -283,9 +284,9 @@ def prepare(config: Config) -> Job:
 
     plant = build_plant(config)
     rho = plant.relative_degree()
-    if len(config.design["gains"]) != rho:
+    if len(config.design.gains) != rho:
         raise DesignMismatchError(
-            f"[design] gains has {len(config.design['gains'])} entries but the plant "
+            f"[design] gains has {len(config.design.gains)} entries but the plant "
             f"{plant.name!r} has relative degree {rho}: give {rho} gains (and "
             f"{rho + 1} coeffs)")
     return Job(config, plant=plant, design=build_design(config, rho=rho))

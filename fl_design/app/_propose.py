@@ -19,8 +19,8 @@ Examples
 ...     'region = { th = [-3.0, 3.0], om = [-10.0, 10.0] }\\ninput_range = [-20.0, 20.0]\\n'
 ...     '[scenario]\\nreference = 0.1')
 >>> new = propose_design(cfg)
->>> new.design["gains"] != [], "design proposed" in new.source
-(True, True)
+>>> len(new.design.gains), "design proposed" in new.source
+(2, True)
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from dataclasses import replace
 import numpy as np
 
 from ._config import Config, ConfigError
+from ._design_table import DesignTable
 
 
 def _nice(x: float) -> float:
@@ -82,7 +83,7 @@ def propose_design(cfg: Config, plant=None) -> Config:
     if lo * hi <= 0:
         raise ConfigError(f"{cfg.source}: [design] cannot be proposed: b changes sign on the "
                           f"region (b in [{lo:.4g}, {hi:.4g}]); shrink [plant] region")
-    if "reference" not in cfg.scenario:
+    if cfg.scenario.reference is None:
         raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
                           "step target (absolute, in the plant's units)")
     sign, bmax = math.copysign(1.0, lo), max(abs(lo), abs(hi))
@@ -90,7 +91,7 @@ def propose_design(cfg: Config, plant=None) -> Config:
     speed = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
     # what the actuator allows: y^(rho) ~ b u moves the step in about (step / (b du))^(1/rho),
     # with a fifth of the input's room from u_eq to the nearer limit
-    step = abs(float(cfg.scenario["reference"]) - float(plant.casadi().h(plant.x_op)))
+    step = abs(cfg.scenario.reference - float(plant.casadi().h(plant.x_op)))
     room = min(plant.u_eq - plant.input_range[0], plant.input_range[1] - plant.u_eq)
     reach = (0.2 * min(abs(lo), abs(hi)) * room / step) ** (1.0 / rho) \
         if step > 0 and room > 0 else math.inf
@@ -110,7 +111,7 @@ def propose_design(cfg: Config, plant=None) -> Config:
             continue
         eps = max(2.0 * T, min(float(star.lower) / 2.0, 0.2 / decay))
         design = probe.replace(eps=eps)
-        resp = simulate(plant, design, Scenario(float(cfg.scenario["reference"])))
+        resp = simulate(plant, design, Scenario(cfg.scenario.reference))
         if resp.status in ("converged", "converging"):
             reasons = [
                 (f"time scale {decay:.3g} rad/s (largest |eigenvalue| of the linearization "
@@ -124,7 +125,7 @@ def propose_design(cfg: Config, plant=None) -> Config:
                 (f"eps = {eps:.3g} s (half the linearized eps* {star}, at most 0.2/decay, "
                  "at least 2 T)"),
                 f"u_limits = {u_limits} (the input range)",
-                (f"checked: a step to {cfg.scenario['reference']:g} is {resp.status} "
+                (f"checked: a step to {cfg.scenario.reference:g} is {resp.status} "
                  f"({resp.verdict()})")]
             return _config_with(cfg, design, reasons + tried, default_ranges(eps, T, gamma))
         tried.append(f"gamma {gamma:.3g}, eps {eps:.3g}: {resp.status}")
@@ -135,16 +136,15 @@ def propose_design(cfg: Config, plant=None) -> Config:
 
 def _config_with(cfg: Config, design, reasons: list, ranges: dict) -> Config:
     est, ctrl = design.estimator, design.controller
-    d = {"estimator": "ehgo", "eps": float(est.eps), "T": float(est.T), "coeffs": [],
-         "gains": [float(k) for k in ctrl.gains], "gamma": float(ctrl.gamma), "ki": 0.0,
-         "u_limits": [float(v) for v in ctrl.u_limits], "estimate_limits": []}
-    sweep, certify = dict(cfg.sweep), dict(cfg.certify)
-    sweep.setdefault("eps", ranges["sweep_eps"])
-    sweep.setdefault("gamma", ranges["sweep_gamma"])
-    certify.setdefault("gamma", ranges["certify_gamma"])
-    certify.setdefault("eps_range", list(sweep["eps"]))
-    compare = dict(cfg.compare, eps_tradeoff=[float(f"{est.eps * f:.3g}")
-                                              for f in (0.5, 1.0, 2.0, 4.0)])
+    d = DesignTable(estimator="ehgo", eps=float(est.eps), T=float(est.T),
+                    gains=tuple(float(k) for k in ctrl.gains), gamma=float(ctrl.gamma),
+                    u_limits=tuple(float(v) for v in ctrl.u_limits))
+    sweep = replace(cfg.sweep, eps=cfg.sweep.eps or ranges["sweep_eps"],
+                    gamma=cfg.sweep.gamma or ranges["sweep_gamma"])
+    certify = replace(cfg.certify, gamma=cfg.certify.gamma or ranges["certify_gamma"],
+                      eps_range=cfg.certify.eps_range or sweep.eps)
+    compare = replace(cfg.compare, eps_tradeoff=tuple(float(f"{est.eps * f:.3g}")
+                                                      for f in (0.5, 1.0, 2.0, 4.0)))
     notes = tuple(cfg.notes) + tuple(f"[design] proposed: {r}" for r in reasons)
     return replace(cfg, design=d, sweep=sweep, certify=certify, compare=compare,
                    source=f"{cfg.source} (design proposed: no [design] given; see the notes)",

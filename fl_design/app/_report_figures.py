@@ -46,11 +46,11 @@ def design_label(design) -> str:
 
 def _gamma_unit(job) -> str:
     rho = job.plant.relative_degree()
-    return f"{job.config.plant.get('input_unit', 'u')} s^{rho}/{_y(job)}"
+    return f"{job.config.plant.input_unit} s^{rho}/{_y(job)}"
 
 
 def _y(job) -> str:
-    return job.config.plant.get("output_unit", "output units")
+    return job.config.plant.output_unit
 
 
 def stability_map_figure(job):
@@ -236,7 +236,7 @@ def tradeoff_figure(job):
     axes[0].plot(eps, [r["sigmahat_noise"] for r in rows], "C1o-")
     axes[0].set_ylabel(f"sigmahat noise ({_y(job)}/s^{job.plant.relative_degree()})")
     axes[1].plot(eps, [r["u_noise"] for r in rows], "C2o-")
-    axes[1].set_ylabel(f"u noise ({job.config.plant.get('input_unit', 'input units')})")
+    axes[1].set_ylabel(f"u noise ({job.config.plant.input_unit})")
     axes[1].set_xlabel("observer time constant eps (s)")
     for ax in axes:
         ax.set_xscale("log")
@@ -275,7 +275,7 @@ def main_response_figure(job):
     fig = resp.plot(title=f"{job.plant.name}: this design ({resp.status})")
     fig.axes[0].title.set_fontsize("small")
     fig.axes[0].set_ylabel(f"output y ({_y(job)})")
-    fig.axes[1].set_ylabel(f"input u ({job.config.plant.get('input_unit', 'input units')})")
+    fig.axes[1].set_ylabel(f"input u ({job.config.plant.input_unit})")
     fig.axes[2].set_ylabel(f"sigma ({_y(job)}/s^{job.plant.relative_degree()})")
     u_eq = job.derivation.get("u_eq")
     if u_eq is not None:  # the operating point's input

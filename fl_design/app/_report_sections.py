@@ -282,8 +282,8 @@ def _simulations(job, figures) -> list:
 
 
 def _reference_text(job) -> str:
-    ref = float(job.config.scenario["reference"])
-    unit = job.config.plant.get("output_unit", "")
+    ref = job.config.scenario.reference
+    unit = job.config.plant.output_unit
     sim = job.results.get("simulate")
     if not sim:
         return f"r = {ref:g} {unit}".rstrip()

@@ -333,7 +333,7 @@ def write_runs_csv(job, folder) -> list:
     if not sim:
         return []
     runs = dict(sim["runs"])
-    runs[("main", float(job.config.scenario["noise_std"]))] = sim["main"]
+    runs[("main", job.config.scenario.noise_std)] = sim["main"]
     out = Path(folder) / "runs"
     out.mkdir(exist_ok=True)
     names = []

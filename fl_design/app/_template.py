@@ -1,10 +1,13 @@
 """The configuration of each library plant, and ``fl-design init``: commented TOML text.
 
-One source for both: :func:`library_tables` turns a library plant's bench design
-(:func:`fl_design.presets.bench_design`) and bench step into the config's tables;
+:func:`library_tables` turns a library plant's bench design
+(:func:`fl_design.presets.bench_design`) and bench step into the config's values;
 :func:`default_ranges` gives the ``[sweep]`` and ``[certify]`` ranges from the design's ``T``,
-``eps`` and ``gamma``; :func:`config_toml` writes them all, with a comment per key, as a file
-``fl-design run`` accepts as is.
+``eps`` and ``gamma``. :func:`config_toml` parses them into a :class:`~fl_design.app.Config`
+and :func:`render` writes that config back: every field of every table object
+(:data:`fl_design.app._config.TABLES`), each with its value (or commented out when unset) and
+the first sentence of its documentation. The keys, defaults and comments ``init`` writes are
+thus the option objects' own; ``fl-design run`` accepts the file as is.
 
 Examples
 --------
@@ -125,8 +128,8 @@ def library_tables(name: str) -> dict:
                    "ki": float(ctrl.ki),
                    "u_limits": [] if ctrl.u_limits is None else [float(v) for v in ctrl.u_limits],
                    "estimate_limits": limits},
-        "scenario": {"reference": float(ref), "duration": "adaptive", "tolerance": 0.02,
-                     "noise_std": 0.0, "seed": 1},
+        "scenario": {"reference": float(ref), "duration": "adaptive", "noise_std": 0.0,
+                     "seed": 1},
         "compare": {"windows": [9, 26], "noise_std": [_round(step / 300), float(f"{step * _PAPER_NOISE:.10g}")],
                     "eps_tradeoff": [_round(est.eps * f) for f in (0.4, 1.0, 2.0, 4.0, 10.0)
                                      if est.eps * f >= est.T],
@@ -139,73 +142,44 @@ def library_tables(name: str) -> dict:
 
 
 def _value(v) -> str:
+    """A TOML value (strings, numbers, booleans, arrays, inline tables, disturbances)."""
+    from collections.abc import Mapping
+
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, float):
         return repr(v) if math.isfinite(v) else "nan"
-    if isinstance(v, list):
+    if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_value(x) for x in v) + "]"
-    if isinstance(v, dict):
+    if isinstance(v, Mapping):
         return "{ " + ", ".join(f"{k} = {_value(x)}" for k, x in v.items()) + " }"
+    if hasattr(v, "sampled"):  # a fl.Disturbance of steps and sines
+        spec = {where: {d["kind"]: {k: x for k, x in d.items() if k != "kind"}}
+                for where, d in v.to_dict().items() if d is not None}
+        return _value(spec)
     return str(v)
 
 
-_COMMENTS = {
-    ("plant", "library"): "trms | trms-lag | pendulum | flexible-joint | cart-pendulum | maglev",
-    ("plant", "output_unit"): "axis labels of the report",
-    ("plant", "input_unit"): "the input's unit",
-    ("plant", "name"): "a label for the report",
-    ("plant", "states"): "state names",
-    ("plant", "input"): "the input's name",
-    ("plant", "rhs"): "x' = f(x, u), one expression per state (+ - * / ** sin cos exp ...)",
-    ("plant", "output"): "y = h(x)",
-    ("plant", "params"): "numbers for the other names",
-    ("plant", "region"): "where the plant is used: gives the b-range of the certificates",
-    ("plant", "input_range"): "what the actuator can give",
-    ("plant", "operating_point"): "held states (or y); the others and u_eq are solved",
-    ("design", "estimator"): "ehgo | least_squares",
-    ("design", "eps"): "observer time constant (s); keep it >= T",
-    ("design", "T"): "sampling time (s)",
-    ("design", "coeffs"): "observer polynomial s^(rho+1) + c1 s^rho + ... (rho + 1 numbers)",
-    ("design", "gains"): "K: closed loop s^rho + K_rho s^(rho-1) + ... + K_1 (rho numbers)",
-    ("design", "gamma"): "controller gain, with the sign of b; |gamma| < 1/max|b|",
-    ("design", "ki"): "integral gain",
-    ("design", "u_limits"): "input saturation [lo, hi]; [] for none",
-    ("design", "estimate_limits"): "|xhat_i| bounds, a number or \"none\" each; [] for none",
-    ("design", "window"): "least_squares only: samples in the fit",
-    ("scenario", "reference"): "the output's step target (absolute, in the plant's units)",
-    ("scenario", "duration"): '"adaptive" (from the loop\'s slowest mode) or seconds',
-    ("scenario", "tolerance"): "settling band, relative to the step",
-    ("scenario", "noise_std"): "sensor noise of the main run",
-    ("scenario", "seed"): "noise seed",
-    ("compare", "windows"): "least-squares baselines (samples)",
-    ("compare", "noise_std"): "sensor noise levels of the comparison",
-    ("compare", "eps_tradeoff"): "eps values of the noise trade-off",
-    ("compare", "duration"): "s, every compared run",
-    ("sweep", "eps"): "log-spaced range (s); default [max(2 T, eps/10), 20 eps]",
-    ("sweep", "gamma"): "log-spaced range, the sign of gamma; default [gamma/10, 100 gamma]",
-    ("sweep", "points"): "per axis (points**2 closed-loop runs)",
-    ("sweep", "duration"): '"adaptive" or seconds, one length for the whole map',
-    ("certify", "enabled"): "the LMI certificates (needs [plant] region and input_range)",
-    ("certify", "eps_range"): "where eps* is searched (s); default that of [sweep] eps",
-    ("certify", "gamma"): "the eps*(gamma) curve; default [gamma/2, 10 gamma]",
-    ("certify", "points"): "gammas on the curve",
-    ("codegen", "enabled"): "generate the C99 step and check it in the loop",
-    ("codegen", "precision"): "double | float",
-    ("codegen", "prefix"): "prefix of the C names",
-    ("codegen", "sil_duration"): "s of software in the loop",
-}
+#: Commented-out examples of keys without a default value (shown as ``# key = example``).
+_EXAMPLES = {"disturbance": "{ input = { step = { at = 10.0, size = 0.5 } } }",
+             "divergence_bound": "1e6"}
 
 
-def render(tables: dict, header: str) -> str:
-    """TOML text of ``tables`` with a comment on every key.
+def _sentence(text: str) -> str:
+    import re
+
+    return re.split(r"(?<=\.)\s+(?=[A-Z])", " ".join(text.split()), maxsplit=1)[0]
+
+
+def render(cfg, header: str) -> str:
+    """TOML text of every field of every table of ``cfg``, with its documentation.
 
     Parameters
     ----------
-    tables : dict
-        Table name -> {key: value} (strings, numbers, booleans, lists, flat dicts).
+    cfg : Config
+        A validated configuration.
     header : str
         Comment lines put first (without the ``#``).
 
@@ -215,21 +189,39 @@ def render(tables: dict, header: str) -> str:
 
     Examples
     --------
+    >>> from fl_design.app import load_config
     >>> from fl_design.app._template import render
-    >>> print(render({"design": {"eps": 0.05}}, "x"), end="")
-    # x
-    <BLANKLINE>
-    [design]
-    eps = 0.05  # observer time constant (s); keep it >= T
+    >>> print(render(load_config(None), "x").split("[design]")[1].splitlines()[2])
+    eps = 0.05  # Observer time constant (s); keep it >= T.
     """
+    import dataclasses
+
+    from ._config import TABLES
+    from ._tables import field_docs
+
     lines = [f"# {h}".rstrip() for h in header.splitlines()]
-    for table, body in tables.items():
+    for table, cls in TABLES.items():
+        obj = getattr(cfg, table)
+        if obj is None:
+            continue
+        docs = field_docs(cls)
         lines += ["", f"[{table}]"]
-        for key, value in body.items():
-            line = f"{key} = {_value(value)}"
-            note = _COMMENTS.get((table, key))
-            lines.append(f"{line}  # {note}" if note else line)
+        for f in dataclasses.fields(cls):
+            if not f.init:
+                continue
+            value, doc = getattr(obj, f.name), _sentence(docs.get(f.name, ""))
+            if value is None:
+                line = f"# {f.name} = {_EXAMPLES.get(f.name, '...')}  # (not set) {doc}"
+            else:
+                line = f"{f.name} = {_value(value)}  # {doc}"
+            lines.append(line.rstrip(" #"))
     return "\n".join(lines) + "\n"
+
+
+def _toml(tables: dict) -> str:
+    """Plain TOML of ``{table: {key: value}}`` (no comments; parsed by :func:`config_toml`)."""
+    return "\n".join(f"[{t}]\n" + "".join(f"{k} = {_value(v)}\n" for k, v in body.items())
+                     for t, body in tables.items())
 
 
 def full_tables(name: str) -> dict:
@@ -308,9 +300,11 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
     --------
     >>> from fl_design.app import parse_config
     >>> from fl_design.app._template import config_toml
-    >>> parse_config(config_toml(from_ode=True)).plant["states"]
-    ['theta', 'omega']
+    >>> parse_config(config_toml(from_ode=True)).plant.states
+    ('theta', 'omega')
     """
+    from ._config import parse_config
+
     if from_ode:
         t = full_tables("pendulum")
         t["plant"] = {"name": "my_pendulum", "states": ["theta", "omega"], "input": "u",
@@ -325,13 +319,13 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
                 "with the sign of b, eps >= T), or\ndelete the [design] table and `fl-design "
                 "run` proposes one from the plant (and says why).\n"
                 "Run: fl-design run THIS.toml --out out")
-        return render(t, head)
+        return render(parse_config(_toml(t), source="init"), head)
     head = (f"fl-design configuration: {_PLANT_DOC[plant]},\nwith its bench design "
             f"(fl_design.presets.bench_design({plant!r})). Every table and key is\nshown "
             "with its value. The operating point is the plant's own ("
             + ("gap y = 6 mm, current and voltage solved" if plant == "maglev" else "the origin")
             + ").\nRun: fl-design run THIS.toml --out out")
-    return render(full_tables(plant), head)
+    return render(parse_config(_toml(full_tables(plant)), source="init"), head)
 
 
 __all__ = ["config_toml", "default_ranges", "fill_ranges", "full_tables", "library_tables",

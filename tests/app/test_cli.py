@@ -91,7 +91,7 @@ def test_progress_goes_to_stderr_only(quick_run):
 
 @pytest.mark.parametrize("text,needle", [
     ("[design]\nepsilon = 0.1\n", "unknown key 'epsilon' in [design]"),
-    ("[design]\neps = 'small'\n", "[design] eps must be a number"),
+    ("[design]\neps = 'small'\n", "[design] eps must be a real number, got 'small'"),
     ("[plantt]\n", "unknown table [plantt]"),
     ("[design]\neps = \n", "not valid TOML"),
     ("[plant]\nstates = ['x']\n", "needs 'input'"),

@@ -164,8 +164,8 @@ def test_default_config_runs_adaptive_and_compares_fixed_transients():
     """The built-in job: the design's run and the map choose their length from the loop; the
     compared runs (overshoot and noise of the transient) share one fixed length."""
     cfg = parse_config("")
-    assert cfg.scenario["duration"] == "adaptive" and cfg.sweep["duration"] == "adaptive"
-    assert cfg.compare["duration"] == 30.0
-    assert parse_config("[compare]\nduration = 12.5").compare["duration"] == 12.5
+    assert cfg.scenario.duration == "adaptive" and cfg.sweep.duration == "adaptive"
+    assert cfg.compare.duration == 30.0
+    assert parse_config("[compare]\nduration = 12.5").compare.duration == 12.5
     with pytest.raises(ConfigError, match=r"\[compare\] duration must be > 0 s"):
         parse_config("[compare]\nduration = 0")
