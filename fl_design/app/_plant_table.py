@@ -87,11 +87,17 @@ class PlantTable:
         V.boolean("motor_lag", self.motor_lag)
         for key in ("name", "output_unit", "input_unit"):
             V.instance(key, getattr(self, key), str, "a string")
+        if self.motor_lag and self.library not in (None, "trms"):
+            raise ParameterError(f'motor_lag = true applies to library = "trms" only (the '
+                                 f"TRMS's motor lag), got library = {self.library!r}")
         if not self.expression:
             V.choice("library", "trms" if self.library is None else self.library, LIBRARY)
             if self.library is None:
                 set_fields(self, library="trms")
             return
+        if self.motor_lag:
+            raise ParameterError('motor_lag = true applies to library = "trms" only, not to '
+                                 "a plant from expressions (write the lag into rhs)")
         if self.library is not None:
             raise ParameterError(f"library = {self.library!r} and a plant from expressions "
                                  "(states, input, rhs, output) are given: give one of them")

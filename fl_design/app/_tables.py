@@ -219,6 +219,8 @@ class ScenarioTable:
         set_fields(self, duration=duration("duration", self.duration),
              disturbance=_disturbance(self.disturbance))
         Noise(std=self.noise_std, seed=self.seed)
+        if self.reference is not None:
+            self.build()  # and fl.Scenario accepts the whole
 
     def build(self, *, duration=None, noise_std=None, seed=None):
         """The :class:`fl_design.Scenario` of this table, optionally changed.

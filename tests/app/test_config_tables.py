@@ -93,6 +93,15 @@ def test_library_and_expressions_together_are_refused_not_silently_dropped():
                      'rhs = ["-x + u"]\noutput = "x"')
 
 
+def test_motor_lag_is_the_trms_option_only():
+    from fl_design.app import build_plant
+
+    assert build_plant(parse_config("[plant]\nmotor_lag = true")).relative_degree() == 3
+    with pytest.raises(ConfigError, match=r'\[plant\] motor_lag = true applies to library = '
+                       r'"trms" only .*got library = .pendulum.'):
+        parse_config('[plant]\nlibrary = "pendulum"\nmotor_lag = true')
+
+
 def test_classifier_table_and_the_deprecated_scenario_tolerance():
     assert parse_config("[classifier]\ntolerance = 0.05").classifier.tolerance == 0.05
     cfg = parse_config("[classifier]\ntail_fraction = 0.5\ndivergence_bound = 3.0")
@@ -167,3 +176,14 @@ def test_a_table_is_one_dataclass_and_one_config_line():
                             if "table" in f.metadata]
     for cls in TABLES.values():
         assert dataclasses.is_dataclass(cls) and cls.__dataclass_params__.frozen
+
+
+def test_the_library_names_are_one_registry():
+    from fl_design.app import _template
+    from fl_design.app._cli import PLANT_CHOICES
+
+    names = set(LIBRARY)
+    assert set(PLANT_CHOICES) == names
+    assert set(_template.UNITS) == set(_template._RUN_LENGTH) == set(_template._PLANT_DOC) == names
+    for name in names:  # each has a bench design and a config
+        assert parse_config(f'[plant]\nlibrary = "{name}"').plant.library == name
