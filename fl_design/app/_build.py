@@ -68,7 +68,7 @@ def build_plant(cfg: Config):
     names |= {k: sp.Symbol(k, real=True) for k in p.params or {}}
     rhs = [_parse(f"rhs[{i}]", e, names) for i, e in enumerate(p.rhs)]
     output = _parse("output", p.output, names)
-    kwargs = {"params": dict(p.params) if p.params else None, "name": p.name}
+    kwargs = {"params": dict(p.params) if p.params else None, "name": p.name or "plant"}
     if p.region is not None:
         kwargs["region"] = dict(p.region)
     if p.input_range is not None:

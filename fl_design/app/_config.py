@@ -208,13 +208,15 @@ def _deprecated(data: dict) -> tuple:
     sc = data.get("scenario", {})
     if "tolerance" not in sc:
         return ()
-    if "tolerance" in data.get("classifier", {}):
+    classifier = data.get("classifier", {})
+    if isinstance(classifier, dict) and "tolerance" in classifier:
         raise ConfigError("[scenario] tolerance and [classifier] tolerance are both given: "
                           "keep [classifier] tolerance (the settling band is the classifier's)")
     msg = (f"[scenario] tolerance is deprecated: the settling band is the classifier's; write "
            f"[classifier] tolerance = {sc['tolerance']!r} instead")
     warnings.warn(msg, DeprecationWarning, stacklevel=3)
-    data.setdefault("classifier", {})["tolerance"] = sc.pop("tolerance")
+    if isinstance(classifier, dict):  # else [classifier] itself is refused, as a table
+        data.setdefault("classifier", {})["tolerance"] = sc.pop("tolerance")
     return (msg,)
 
 
@@ -310,7 +312,7 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
         plant = data.get("plant", {})
         custom = bool({"states", "rhs", "output", "input"} & set(plant))
         library = plant.get("library", "trms")
-        if not custom and library not in LIBRARY:
+        if not custom and (not isinstance(library, str) or library not in LIBRARY):
             _build("plant", {}, plant)  # refused, naming the valid names
         tables = library_tables("trms" if custom else library)
         gamma = data.get("design", {}).get("gamma")

@@ -25,6 +25,10 @@ LIBRARY = {"trms": ("trms_yaw", {}), "trms-lag": ("trms_yaw", {"motor_lag": True
            "pendulum": ("pendulum", {}), "flexible-joint": ("flexible_joint", {}),
            "cart-pendulum": ("cart_pendulum", {}), "maglev": ("maglev", {})}
 
+#: Keys that only a plant from expressions takes (a library plant has its own).
+_EXPRESSION_ONLY = ("name", "params", "region", "input_range", "operating_point")
+
+
 @dataclass(frozen=True)
 class PlantTable:
     """``[plant]``: a library plant by name, or a plant written as expressions.
@@ -36,7 +40,7 @@ class PlantTable:
     motor_lag : bool, optional
         With library = "trms": add the motor's lag (the same as library = "trms-lag").
     name : str, optional
-        A label for the report (a plant from expressions).
+        A label for the report (a plant from expressions; default "plant").
     states : tuple of str, optional
         State names (a plant from expressions: states, input, rhs and output).
     input : str, optional
@@ -71,7 +75,7 @@ class PlantTable:
 
     library: str | None = None
     motor_lag: bool = False
-    name: str = "plant"
+    name: str | None = None
     states: tuple | None = None
     input: str | None = None
     rhs: tuple | None = None
@@ -85,7 +89,7 @@ class PlantTable:
 
     def __post_init__(self) -> None:
         V.boolean("motor_lag", self.motor_lag)
-        for key in ("name", "output_unit", "input_unit"):
+        for key in ("output_unit", "input_unit") + (("name",) if self.name is not None else ()):
             V.instance(key, getattr(self, key), str, "a string")
         if self.motor_lag and self.library not in (None, "trms"):
             raise ParameterError(f'motor_lag = true applies to library = "trms" only (the '
@@ -94,6 +98,11 @@ class PlantTable:
             V.choice("library", "trms" if self.library is None else self.library, LIBRARY)
             if self.library is None:
                 set_fields(self, library="trms")
+            extra = [k for k in _EXPRESSION_ONLY if getattr(self, k) is not None]
+            if extra:
+                raise ParameterError(f"{extra[0]} is a key of a plant from expressions; the "
+                                     f"library plant {self.library!r} has its own (remove it, "
+                                     "or write the plant as states, input, rhs and output)")
             return
         if self.motor_lag:
             raise ParameterError('motor_lag = true applies to library = "trms" only, not to '

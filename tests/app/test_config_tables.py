@@ -93,6 +93,14 @@ def test_library_and_expressions_together_are_refused_not_silently_dropped():
                      'rhs = ["-x + u"]\noutput = "x"')
 
 
+@pytest.mark.parametrize("key", ["name = \"x\"", "params = { k = 1.0 }", "region = 3",
+                                 "input_range = [-1.0, 1.0]", "operating_point = { x = 0.0 }"])
+def test_keys_of_an_expression_plant_are_refused_with_a_library_plant(key):
+    with pytest.raises(ConfigError, match=r"\[plant\] \w+ is a key of a plant from expressions; "
+                       r"the library plant 'maglev' has its own"):
+        parse_config(f'[plant]\nlibrary = "maglev"\n{key}')
+
+
 def test_motor_lag_is_the_trms_option_only():
     from fl_design.app import build_plant
 
