@@ -224,6 +224,12 @@ class SilResult:
 
 
 def _plant_code(loop: ClosedLoop, prefix: str, build) -> tuple:
+    """CasADi's C of the plant's RK4 sample and output map; (path, work sizes for the driver).
+
+    The driver passes real ``arg/res/iw/w`` arrays sized from the functions' own ``sz_*``
+    (at least 1 each): with more than one substep the RK4 sample is a ``fold`` whose code
+    uses them (passing null work pointers crashed the driver).
+    """
     x, u = ca.SX.sym("x", loop.n), ca.SX.sym("u")
     rk4 = ca.Function(f"{prefix}_sil_rk4", [x, u], [loop.plant_step(x, u)])
     h = ca.Function(f"{prefix}_sil_h", [x], [loop.plant.casadi().h(x)])
@@ -232,7 +238,10 @@ def _plant_code(loop: ClosedLoop, prefix: str, build) -> tuple:
     cg.add(rk4)
     cg.add(h)
     cg.generate(str(build) + "/")
-    return build / f"{prefix}_plant.c"
+    sizes = {key: str(max(1, getattr(rk4, f"sz_{key.lower()[3:]}")(),
+                          getattr(h, f"sz_{key.lower()[3:]}")()))
+             for key in ("SZ_ARG", "SZ_RES", "SZ_IW", "SZ_W")}
+    return build / f"{prefix}_plant.c", sizes
 
 
 def build_driver(pkg, plant, substeps: int, compiler=None):
@@ -266,11 +275,11 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
     loop = ClosedLoop(plant, pkg.design, substeps=substeps)
     build = pkg.out_dir / "build"
     build.mkdir(exist_ok=True)
-    plant_c = _plant_code(loop, pkg.prefix, build)
+    plant_c, work_sizes = _plant_code(loop, pkg.prefix, build)
     text = resources.files("fl_design.codegen").joinpath("templates", "sil.c.in").read_text()
     driver = build / "sil.c"
     driver.write_text(render(text, {"PREFIX": pkg.prefix, "REAL": pkg.precision,
-                                    "N_PLANT": str(loop.n)}))
+                                    "N_PLANT": str(loop.n), **work_sizes}))
     exe = build / f"{pkg.prefix}_sil"
     run_command([cc, "-O2", "-std=c99", f"-I{pkg.out_dir}", f"-I{build}", "-o", str(exe),
                  str(driver), str(plant_c), *map(str, pkg.sources), "-lm"],

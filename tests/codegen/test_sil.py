@@ -266,12 +266,14 @@ def test_the_integrator_is_the_plants_in_the_c_driver_and_the_simulation(tmp_pat
         pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5), integrator=fl.Cvodes())
 
 
-@pytest.mark.xfail(strict=True, raises=fl.errors.CompilationError,
-                   reason="known bug (also with the former substeps=2): with more than one "
-                   "substep ClosedLoop.plant_step is a never-inlined fold whose CasADi C code "
-                   "needs arg/w work arrays (sz_arg 8, sz_w 37 for the TRMS, 3 substeps); "
-                   "sil.c.in passes 2 args and no work, and the driver segfaults (exit -11)")
 def test_more_than_one_substep_in_the_sil_driver(tmp_path):
     pkg = generate_c(presets.paper_design(), tmp_path)
-    res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5), integrator=fl.RK4(substeps=3))
-    assert res.matches
+    """Three RK4 substeps (a CasADi fold needing work arrays; it crashed the driver before)."""
+    rk4 = fl.RK4(substeps=3)
+    res = pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.5), integrator=rk4)
+    assert res.matches and res.verdicts_agree, res.to_dict()
+    assert res.passed and res.max_rel_error <= DOUBLE_BOUND
+    # the C loop's plant is the simulation's: same measurements as fl.simulate with that RK4
+    sim = fl.simulate(fl.plants.trms_yaw(), presets.paper_design(), fl.Scenario(0.3, 0.5),
+                      integrator=rk4)
+    np.testing.assert_allclose(res.ym, np.asarray(sim.y)[:res.ym.size], rtol=0, atol=1e-12)
