@@ -161,7 +161,7 @@ def fixes(design) -> str:
     Parameters
     ----------
     design : Design
-        The design.
+        The design whose float build missed (an EHGO also gets the advice on ``eps``).
 
     Returns
     -------

@@ -130,45 +130,8 @@ def _data_header(pkg, ym, r, y0, u0) -> str:
             f"static const {real} pil_r[{len(r)}] = {{\n{rows(r)}}};\n")
 
 
-def build_pil(pkg, ym, r, y0: float, u0: float, *, cflags=(), step=None) -> Path:
-    """Cross-compile the PIL image of ``pkg`` fed ``ym, r`` from ``start(y0, u0)``; its path.
-
-    Parameters
-    ----------
-    pkg : CPackage
-        The package.
-    ym, r : numpy.ndarray
-        ``(N,)`` measurements and references.
-    y0, u0 : float
-        Start.
-    cflags : sequence of str, optional
-        Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
-    step : tuple of (path, str), optional
-        A C file and the name of a function in it called in place of ``<prefix>_step``.
-
-    Returns
-    -------
-    pathlib.Path
-        The ELF image.
-
-    Raises
-    ------
-    CompilerNotFoundError
-        ``arm-none-eabi-gcc`` or ``qemu-system-arm`` missing.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import generate_c
-    >>> from fl_design.codegen._pil import build_pil, pil_tools
-    >>> pkg = generate_c(presets.paper_design(), "pil_doc", precision="float")
-    >>> pil_tools()[2] != "" or build_pil(pkg, np.zeros(3), np.zeros(3), 0.0, 0.0).suffix == ".elf"
-    True
-    """
-    cc, _, reason = pil_tools()
-    if reason:
-        raise CompilerNotFoundError(f"processor-in-the-loop: {reason}")
+def _build_pil(cc: str, pkg, ym, r, y0: float, u0: float, cflags, step) -> Path:
+    """The PIL image of ``pkg`` (see :func:`run_on_model`), cross-compiled with ``cc``."""
     folder = pkg.out_dir / "build" / "pil"
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "pil_data.h").write_text(_data_header(pkg, ym, r, y0, u0))
@@ -196,6 +159,10 @@ def run_on_model(pkg, ym, r, y0: float, u0: float, *, cflags=(), step=None,
                  timeout: float = 300) -> tuple[np.ndarray, float]:
     """Feed ``ym, r`` to ``pkg``'s step on the Cortex-M4F model from ``start(y0, u0)``.
 
+    The image (``<out_dir>/build/pil``): the samples in ``pil_data.h``, the package's sources
+    with the strict flags and ``cflags``, the shipped ``pil/`` main, start-up file and linker
+    script.
+
     Parameters
     ----------
     pkg : CPackage
@@ -208,7 +175,8 @@ def run_on_model(pkg, ym, r, y0: float, u0: float, *, cflags=(), step=None,
         Extra flags of the package's sources.
     step : tuple of (path, str), optional
         A C file and the name of a function in it that replaces ``<prefix>_step`` (same
-        signature and state layout: e.g. a hand-written step, for comparison).
+        signature and state layout: e.g. a hand-written step, for comparison); it is built
+        with the package's flags.
     timeout : float, optional
         Seconds for QEMU.
 
@@ -235,10 +203,10 @@ def run_on_model(pkg, ym, r, y0: float, u0: float, *, cflags=(), step=None,
     >>> skip or float(run_on_model(pkg, np.zeros(4), np.zeros(4), 0.0, 0.5)[0][-1]) == 0.5
     True
     """
-    _, qemu, reason = pil_tools()
+    cc, qemu, reason = pil_tools()
     if reason:
         raise CompilerNotFoundError(f"processor-in-the-loop: {reason}")
-    elf = build_pil(pkg, ym, r, y0, u0, cflags=tuple(cflags), step=step)
+    elf = _build_pil(cc, pkg, ym, r, y0, u0, tuple(cflags), step)
     out = _run_qemu(qemu, elf, timeout).split()  # semihosting writes to QEMU's stderr
     step_ticks, empty_ticks, count, cal_ticks, cal_instructions = map(int, out[-5:])
     per_tick = cal_instructions / max(cal_ticks, 1)
@@ -318,5 +286,5 @@ def _run_qemu(qemu: str, elf: Path, timeout: float) -> str:
     return proc.stderr
 
 
-__all__ = ["ARM_CFLAGS", "QEMU_ARGS", "PilResult", "build_pil", "pil_tools",
+__all__ = ["ARM_CFLAGS", "QEMU_ARGS", "PilResult", "pil_tools",
            "processor_in_the_loop", "run_on_model"]

@@ -167,12 +167,8 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
 
     Parameters
     ----------
-    design : Design
-        The design generated (after :func:`~fl_design.codegen.step_design`).
-    precision : str
-        ``"double"`` or ``"float"``.
-    prefix : str
-        C prefix.
+    design, precision, prefix
+        As in :func:`core_source` (the design after :func:`~fl_design.codegen.step_design`).
 
     Returns
     -------
