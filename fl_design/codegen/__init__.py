@@ -9,7 +9,8 @@ cost tables (:class:`StepCost`, :class:`CostTable`, :func:`compare_costs`,
 
 Modules: ``_generate`` (:func:`generate_c`); ``_package`` (:class:`CPackage`); ``_graph``
 (the step with its run-time parameter block); ``_emit`` (its C); ``_float``
-(:func:`to_single_precision`); ``_float_check`` (the float build's predicted error); ``_sil``
+(:func:`to_single_precision`); ``_float_check`` (the float build's predicted error);
+``_compare`` (a step's inputs against ``Design.step``'s on the same record); ``_sil``
 and ``_verdict`` (closed-loop SIL, the C loop's status); ``_pil`` (the Cortex-M4F model);
 ``_cost``; ``_template`` (the C files of ``templates/``). The compiler, its flag sets and the
 cache are the ground floor's (:mod:`fl_design._toolchain`).

@@ -2,9 +2,9 @@
 
 Per package (:meth:`CPackage.cost`): the operations of one step by kind, read from the
 instruction list of the generated CasADi function (the code that runs, after CasADi's
-simplifications); the stack frame (``-fstack-usage``, the wrapper plus CasADi's function: an
-upper bound along the static call chain, libm excluded); the code and data size of the two
-objects (``size``); the measured time per step of the compiled harness (``--bench``, ``-O2``);
+simplifications); the stack frame (``-fstack-usage``: the step and the static functions it
+calls that were not inlined, along the deepest chain: an upper bound, libm excluded); the code
+and data size of the package's object (``size``); the measured time per step of the compiled harness (``--bench``, ``-O2``);
 and, for a single-precision package when ``arm-none-eabi-gcc`` is installed, the same for a
 Cortex-M4F with the double-precision helpers (``__aeabi_d*``) it calls (must be none).
 
@@ -95,9 +95,11 @@ def _objects(pkg, cc: str, flags, folder: Path) -> tuple[list[Path], dict[str, i
         objs.append(obj)
     frames = _stack_usage(folder.glob("*.su"))
     p = pkg.prefix
-    # the step and the static functions it may call (if not inlined): an upper bound
-    chain = frames.get(f"{p}_step", 0) + max(frames.get(f"{p}_core", 0),
-                                              frames.get(f"{p}_start", 0))
+    # the step and the static functions it may call (those not inlined): the deepest chain,
+    # step -> checked -> run -> core (or start, reject); an upper bound (tail calls share)
+    f = lambda name: frames.get(f"{p}_{name}", 0)
+    run = f("run") + f("core")
+    chain = f("step") + max(run, f("checked") + max(run, f("start"), f("reject")))
     return objs, {"stack": chain}
 
 

@@ -4,7 +4,9 @@ Every instruction becomes one ``const`` local (SSA), printed so that no compiler
 what it computes and no library call is left: ``fmin``/``fmax`` as ``?:`` selects (the step
 never sees a NaN: the wrapper rejects it first), comparisons as ``int`` locals (so no float is
 ever used as a truth value: ``-Wfloat-conversion``, ``-Wfloat-equal`` clean), CasADi's
-``if_else`` pattern ``(c ? a : 0) + (!c ? b : 0)`` as one select, literals in the build's
+``if_else`` pattern ``(c ? a : 0) + (!c ? b : 0)`` as one select, a comparison of a *switch*
+input (a C ``int`` holding 0 or 1, e.g. ``p->antiwindup``) with a constant as an integer test
+(``p->antiwindup != 0``: no conversion, no floating compare), literals in the build's
 precision (``f``-suffixed in float: ``-Wdouble-promotion`` clean). Elementary functions the
 library's estimators never use (``sin``, ``sqrt``...) are printed as ``<math.h>`` calls in the
 build's precision and reported by :func:`math_calls`.
@@ -28,6 +30,7 @@ Examples
 from __future__ import annotations
 
 import math
+import operator
 import re
 
 import casadi as ca
@@ -39,6 +42,8 @@ _ARITH = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})"
           ca.OP_FMAX: "({0} > {1} ? {0} : {1})"}
 _COMPARE = {ca.OP_LT: "({0} < {1})", ca.OP_LE: "({0} <= {1})",
             ca.OP_EQ: "!({0} < {1} || {0} > {1})", ca.OP_NE: "({0} < {1} || {0} > {1})"}
+_TRUTH = {ca.OP_LT: operator.lt, ca.OP_LE: operator.le, ca.OP_EQ: operator.eq,
+          ca.OP_NE: operator.ne}
 _LOGIC = {ca.OP_AND: "({0} && {1})", ca.OP_OR: "({0} || {1})"}
 _UNARY = {ca.OP_NEG: "(-{0})", ca.OP_SQ: "({0}*{0})", ca.OP_ASSIGN: "{0}",
           ca.OP_FABS: "({0} < {z} ? -{0} : {0})", ca.OP_TWICE: "({0}+{0})"}
@@ -93,7 +98,7 @@ class _Namer:
         return self.name[w] if self.kind[w] == "real" else f"(({self.real}) {self.name[w]})"
 
     def as_bool(self, w: int) -> str:
-        if self.kind[w] == "int":
+        if self.kind[w] in ("int", "switch"):
             return self.name[w]
         z = literal(0.0, self.real)
         return f"({self.name[w]} < {z} || {self.name[w]} > {z})"
@@ -112,7 +117,21 @@ def _select(node: dict, a: int, b: int):
     return None
 
 
-def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") -> str:
+def _switch_test(op: int, args, names: _Namer, consts: dict):
+    """A comparison of a switch (an ``int``, 0 or 1) with a constant as an ``int`` test:
+    ``(text, switch)``, or None."""
+    a, b = args
+    for s, c, first in ((a, b, True), (b, a, False)):
+        if names.kind.get(s) == "switch" and c in consts:
+            truth = tuple(_TRUTH[op](v, consts[c]) if first else _TRUTH[op](consts[c], v)
+                          for v in (0, 1))
+            return {(False, True): f"({names.name[s]} != 0)",
+                    (True, False): f"({names.name[s]} == 0)"}.get(truth, str(int(truth[0]))), s
+    return None
+
+
+def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
+           switches=frozenset()) -> str:
     """The statements computing ``f``'s outputs from its inputs (see the module docstring).
 
     Parameters
@@ -127,6 +146,8 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") ->
         Floating type.
     indent : str, optional
         Line prefix.
+    switches : collection of str, optional
+        Input expressions that are C ``int`` holding 0 or 1 (compared as integers).
 
     Returns
     -------
@@ -144,8 +165,12 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") ->
     >>> x = ca.SX.sym("x")
     >>> "a2 = (x < a1);" in c_body(ca.Function("f", [x], [x < 1]), [["x"]], [["*o"]], "double")
     True
+    >>> s = ca.SX.sym("s")
+    >>> g = ca.Function("g", [x, s], [ca.if_else(s > 0.5, x, 2 * x)])
+    >>> "(on != 0) ? x :" in c_body(g, [["x"], ["on"]], [["*o"]], "float", switches={"on"})
+    True
     """
-    names, lines, stores, node, live = _Namer(real), [], [], {}, set()
+    names, lines, stores, node, live, consts = _Namer(real), [], [], {}, set(), {}
     cur = {}  # work index -> SSA id (int)
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
@@ -157,11 +182,13 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") ->
         args = [cur[i] for i in ins if i >= 0] if op not in (ca.OP_INPUT, ca.OP_CONST) else []
         kind, text = "real", None
         if op == ca.OP_INPUT:
-            names.name[k], names.kind[k] = inputs[ins[0]][ins[1]], "real"
+            name = inputs[ins[0]][ins[1]]
+            names.name[k], names.kind[k] = name, "switch" if name in switches else "real"
             cur[outs[0]] = k
             continue
         if op == ca.OP_CONST:
-            text = literal(f.instruction_constant(k), real)
+            consts[k] = f.instruction_constant(k)
+            text = literal(consts[k], real)
         elif op == ca.OP_ADD and _select(node, *args):
             c, x, y = args = _select(node, *args)
             text = f"({names.as_bool(c)} ? {names.as_real(x)} : {names.as_real(y)})"
@@ -171,6 +198,9 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ") ->
                     f"{literal(0.0, real)})")
         elif op in _ARITH:
             text = _ARITH[op].format(*(names.as_real(a) for a in args))
+        elif op in _COMPARE and _switch_test(op, args, names, consts) is not None:
+            text, switch = _switch_test(op, args, names, consts)
+            kind, args = "int", [switch]  # the constant is not read
         elif op in _COMPARE:
             kind, text = "int", _COMPARE[op].format(*(names.as_real(a) for a in args))
         elif op in _LOGIC:

@@ -144,19 +144,13 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     ...                     fl.Scenario(0.3, 0.2)) < 1e-4
     True
     """
-    from ..sim import simulate
-    from ..sim._run import prepare_run
+    from ._compare import recorded_run, reference_inputs
     from ._generate import step_design
-    from ._sil import reference_run
 
     used = step_design(design, "float")
-    run = prepare_run(plant, design, scenario)
-    ym = simulate(plant, design, run.scenario).ym
-    n = min(max_samples, int(np.argmax(~np.isfinite(ym))) if not np.isfinite(ym).all()
-            else ym.size)
-    ym, r = ym[:n], run.r[:n]
-    state0 = used.initial_state(y0=float(ym[0]), u0=run.u0)
-    u64, _, _ = reference_run(used, ym, r, state0=state0)
+    ym, r, u0 = recorded_run(plant, design, scenario, max_samples=max_samples)
+    u64 = reference_inputs(used, ym, r, u0)
+    state0 = used.initial_state(y0=float(ym[0]), u0=u0)
     u32 = emulate(used, ym, r, np.asarray(state0, dtype=_F)).astype(float)
     return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
 
@@ -167,7 +161,7 @@ def fixes(design) -> str:
     Parameters
     ----------
     design : Design
-        The design.
+        The design whose float build missed (an EHGO also gets the advice on ``eps``).
 
     Returns
     -------

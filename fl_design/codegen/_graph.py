@@ -68,7 +68,8 @@ def parameter_fields(design: Design) -> tuple[ParameterField, ...]:
     Parameters
     ----------
     design : Design
-        The design.
+        The design whose controller's numbers (``gamma``, gains, ``k_I``, limits, estimate
+        clamps) are the fields and their defaults.
 
     Returns
     -------

@@ -288,20 +288,12 @@ class CPackage:
             cflags=()):
         """Processor-in-the-loop on a Cortex-M4F model (QEMU ``mps2-an386``): u and its cost.
 
-        See :func:`fl_design.codegen.processor_in_the_loop`.
-
         Parameters
         ----------
-        plant : Plant
-            The plant whose closed-loop measurements (:func:`fl_design.simulate`) are fed.
-        scenario : Scenario
-            The scenario of that recording.
-        max_samples : int, optional
-            Samples fed (default 2000).
-        timeout : float, optional
-            Seconds for QEMU.
-        cflags : sequence of str, optional
-            Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
+        plant, scenario, max_samples, timeout, cflags
+            As in :func:`fl_design.codegen.processor_in_the_loop`, which this calls with
+            this package: the recorded run's plant and scenario, the samples fed (default
+            2000), QEMU's time limit (s), extra flags of the package's sources.
 
         Returns
         -------
@@ -326,12 +318,9 @@ class CPackage:
 
         Parameters
         ----------
-        name : str, optional
-            Row name (default: the estimator's kind).
-        bench_steps : int, optional
-            Steps of the timing run.
-        compiler : str, optional
-            C compiler.
+        name, bench_steps, compiler
+            As in :func:`fl_design.codegen.step_cost`, which this calls with this package:
+            the row's name, the steps of the timing run, the C compiler.
 
         Returns
         -------

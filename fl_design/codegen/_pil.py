@@ -4,9 +4,10 @@
 user's plant and scenario, writes them into ``pil_data.h``, cross-compiles the package with the
 shipped start-up file and linker script (``pil/`` in the package) for ``-mcpu=cortex-m4
 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16`` (the package sources with the strict flags), runs it
-under ``qemu-system-arm -M mps2-an386 -icount shift=0`` (one instruction per virtual clock
-tick: SysTick counts instructions; QEMU is not cycle-accurate, so the cost is reported in
-instructions per step, not time), and compares the inputs ``u`` it prints (bit patterns, via
+under ``qemu-system-arm -M mps2-an386 -icount shift=0`` (one instruction per nanosecond of
+virtual time; SysTick, at the board's clock, ticks every few tens of instructions, so the
+steps are timed in blocks of 256 against the same loop calling an empty function; QEMU is
+not cycle-accurate, so the cost is reported in instructions per step, not time), and compares the inputs ``u`` it prints (bit patterns, via
 semihosting) with ``Design.step`` fed the same measurements from the same start, within the
 precision's bound of :mod:`fl_design.codegen._sil`.
 
@@ -32,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CompilationError, CompilerNotFoundError, ParameterError
+from ._compare import InputComparison, recorded_run, reference_inputs
 from ._package import run_command
 
 #: target flags of the Cortex-M4F build (true single-precision FPU, hard-float ABI)
@@ -65,55 +67,42 @@ def pil_tools() -> tuple[str, str, str]:
 
 
 @dataclass(frozen=True)
-class PilResult:
+class PilResult(InputComparison):
     """The step on the Cortex-M4F model against ``Design.step`` on the same measurements.
 
     Parameters
     ----------
-    precision : str
-        Of the package.
-    u_c : numpy.ndarray
-        ``(N,)`` inputs computed on the model.
-    u_ref : numpy.ndarray
-        ``(N,)`` inputs of ``Design.step``.
-    bound : float
-        Relative bound (fraction of ``max |u_ref|``).
+    precision, ym, u_c, u_ref, bound
+        As in :class:`~fl_design.codegen._compare.InputComparison`: the package's precision,
+        the ``(N,)`` measurements fed, the inputs computed on the model and by
+        ``Design.step``, the relative bound (fraction of ``max |u_ref|``).
     instructions : float
-        Mean instructions per call of ``<prefix>_step`` (SysTick ticks over the run, the
-        empty measurement's subtracted, times the instructions per tick of a calibration loop).
+        Mean instructions per call of ``<prefix>_step``: SysTick ticks of the loop of calls
+        over the samples, less those of the same loop calling an empty function of the
+        step's signature, times the instructions per tick of a calibration loop, per sample.
 
     Attributes
     ----------
     max_rel_error : float
-        ``max |u_c - u_ref| / max |u_ref|``.
+        ``max |u_c - u_ref| / max |u_ref|`` (and the other errors of ``InputComparison``).
     passed : bool
-        ``max_rel_error <= bound``.
+        Within the bound, over the run and its last tenth (``matches``).
 
     Examples
     --------
     >>> import numpy as np
     >>> from fl_design.codegen._pil import PilResult
-    >>> r = PilResult("float", np.ones(2), np.ones(2), 1e-4, 85.0)
+    >>> r = PilResult("float", np.zeros(2), np.ones(2), np.ones(2), 1e-4, 85.0)
     >>> r.passed, r.to_dict()["instructions_per_step"]
     (True, 85.0)
     """
 
-    precision: str
-    u_c: np.ndarray
-    u_ref: np.ndarray
-    bound: float
     instructions: float
-
-    @property
-    def max_rel_error(self) -> float:
-        """``max |u_c - u_ref| / max |u_ref|``."""
-        scale = max(float(np.max(np.abs(self.u_ref))), np.finfo(float).tiny)
-        return float(np.max(np.abs(self.u_c - self.u_ref))) / scale
 
     @property
     def passed(self) -> bool:
         """Within the precision's bound."""
-        return bool(self.max_rel_error <= self.bound)
+        return self.matches
 
     def to_dict(self) -> dict:
         """Strict-JSON summary.
@@ -122,12 +111,12 @@ class PilResult:
         --------
         >>> import numpy as np
         >>> from fl_design.codegen._pil import PilResult
-        >>> sorted(PilResult("float", np.ones(1), np.ones(1), 1e-4, 1.0).to_dict())[:2]
-        ['bound', 'instructions_per_step']
+        >>> d = PilResult("float", np.zeros(1), np.ones(1), np.ones(1), 1e-4, 1.0).to_dict()
+        >>> d["instructions_per_step"], d["passed"]
+        (1.0, True)
         """
-        return {"precision": self.precision, "n_samples": int(self.u_c.size),
-                "max_rel_error": self.max_rel_error, "bound": float(self.bound),
-                "instructions_per_step": float(self.instructions), "passed": self.passed}
+        return {**self.errors(), "instructions_per_step": float(self.instructions),
+                "passed": self.passed}
 
 
 def _data_header(pkg, ym, r, y0, u0) -> str:
@@ -141,8 +130,38 @@ def _data_header(pkg, ym, r, y0, u0) -> str:
             f"static const {real} pil_r[{len(r)}] = {{\n{rows(r)}}};\n")
 
 
-def build_pil(pkg, ym, r, y0: float, u0: float, *, cflags=()) -> Path:
-    """Cross-compile the PIL image of ``pkg`` fed ``ym, r`` from ``start(y0, u0)``; its path.
+def _build_pil(cc: str, pkg, ym, r, y0: float, u0: float, cflags, step) -> Path:
+    """The PIL image of ``pkg`` (see :func:`run_on_model`), cross-compiled with ``cc``."""
+    folder = pkg.out_dir / "build" / "pil"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "pil_data.h").write_text(_data_header(pkg, ym, r, y0, u0))
+    pil = pkg.out_dir / "pil"
+    strict = [*ARM_CFLAGS, *pkg.flags()[1:], *cflags]
+    glue = [*ARM_CFLAGS, "-std=gnu99", "-Wall", "-Wextra", "-Werror", f"-I{pkg.out_dir}",
+            f"-I{pil}", f"-I{folder}"]
+    units = [(p, strict) for p in pkg.sources]
+    if step is not None:  # the main calls step[1]; its file is built like the package
+        units.append((Path(step[0]), strict))
+        glue.append(f"-D{pkg.prefix}_step={step[1]}")
+    objs = []
+    for src, flags in units + [(pil / "pil_main.c", glue), (pil / "pil_startup.c", glue)]:
+        obj = folder / (Path(src).stem + ".o")
+        run_command([cc, *flags, "-c", str(src), "-o", str(obj)],
+                    what=f"cross-compiling {Path(src).name}")
+        objs.append(str(obj))
+    elf = folder / f"{pkg.prefix}_pil.elf"
+    run_command([cc, *ARM_CFLAGS, "-nostartfiles", "--specs=nosys.specs",
+                 f"-T{pil / 'pil.ld'}", "-o", str(elf), *objs], what="linking the PIL image")
+    return elf
+
+
+def run_on_model(pkg, ym, r, y0: float, u0: float, *, cflags=(), step=None,
+                 timeout: float = 300) -> tuple[np.ndarray, float]:
+    """Feed ``ym, r`` to ``pkg``'s step on the Cortex-M4F model from ``start(y0, u0)``.
+
+    The image (``<out_dir>/build/pil``): the samples in ``pil_data.h``, the package's sources
+    with the strict flags and ``cflags``, the shipped ``pil/`` main, start-up file and linker
+    script.
 
     Parameters
     ----------
@@ -153,12 +172,20 @@ def build_pil(pkg, ym, r, y0: float, u0: float, *, cflags=()) -> Path:
     y0, u0 : float
         Start.
     cflags : sequence of str, optional
-        Extra flags of the package's sources (e.g. ``("-DFL_NO_FLUSH",)``).
+        Extra flags of the package's sources.
+    step : tuple of (path, str), optional
+        A C file and the name of a function in it that replaces ``<prefix>_step`` (same
+        signature and state layout: e.g. a hand-written step, for comparison); it is built
+        with the package's flags.
+    timeout : float, optional
+        Seconds for QEMU.
 
     Returns
     -------
-    pathlib.Path
-        The ELF image.
+    u : numpy.ndarray
+        ``(N,)`` inputs computed on the model (float64 copies).
+    instructions : float
+        Mean instructions per call (see :class:`PilResult`).
 
     Raises
     ------
@@ -170,32 +197,26 @@ def build_pil(pkg, ym, r, y0: float, u0: float, *, cflags=()) -> Path:
     >>> import numpy as np
     >>> from fl_design import presets
     >>> from fl_design.codegen import generate_c
-    >>> from fl_design.codegen._pil import build_pil, pil_tools
-    >>> pkg = generate_c(presets.paper_design(), "pil_doc", precision="float")
-    >>> pil_tools()[2] != "" or build_pil(pkg, np.zeros(3), np.zeros(3), 0.0, 0.0).suffix == ".elf"
+    >>> from fl_design.codegen._pil import pil_tools, run_on_model
+    >>> pkg = generate_c(presets.paper_design(), "pil_doc3", precision="float")
+    >>> skip = pil_tools()[2] != ""
+    >>> skip or float(run_on_model(pkg, np.zeros(4), np.zeros(4), 0.0, 0.5)[0][-1]) == 0.5
     True
     """
-    cc, _, reason = pil_tools()
+    cc, qemu, reason = pil_tools()
     if reason:
         raise CompilerNotFoundError(f"processor-in-the-loop: {reason}")
-    folder = pkg.out_dir / "build" / "pil"
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "pil_data.h").write_text(_data_header(pkg, ym, r, y0, u0))
-    pil = pkg.out_dir / "pil"
-    strict = [*ARM_CFLAGS, *pkg.flags()[1:], *cflags]
-    glue = [*ARM_CFLAGS, "-std=gnu99", "-Wall", "-Wextra", "-Werror", f"-I{pkg.out_dir}",
-            f"-I{pil}", f"-I{folder}"]
-    objs = []
-    for src, flags in [(p, strict) for p in pkg.sources] + [
-            (pil / "pil_main.c", glue), (pil / "pil_startup.c", glue)]:
-        obj = folder / (Path(src).stem + ".o")
-        run_command([cc, *flags, "-c", str(src), "-o", str(obj)],
-                    what=f"cross-compiling {Path(src).name}")
-        objs.append(str(obj))
-    elf = folder / f"{pkg.prefix}_pil.elf"
-    run_command([cc, *ARM_CFLAGS, "-nostartfiles", "--specs=nosys.specs",
-                 f"-T{pil / 'pil.ld'}", "-o", str(elf), *objs], what="linking the PIL image")
-    return elf
+    elf = _build_pil(cc, pkg, ym, r, y0, u0, tuple(cflags), step)
+    out = _run_qemu(qemu, elf, timeout).split()  # semihosting writes to QEMU's stderr
+    step_ticks, empty_ticks, count, cal_ticks, cal_instructions = map(int, out[-5:])
+    per_tick = cal_instructions / max(cal_ticks, 1)
+    instructions = (step_ticks - empty_ticks) / max(count, 1) * per_tick
+    words = out[:-6]
+    if pkg.precision == "float":
+        u_c = np.array([int(w, 16) for w in words], dtype=np.uint32).view(np.float32)
+    else:
+        u_c = np.array([int(w, 16) for w in words], dtype=np.uint64).view(np.float64)
+    return u_c.astype(float), float(instructions)
 
 
 def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
@@ -239,34 +260,18 @@ def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
     >>> res is None or res.passed
     True
     """
-    from ..sim import simulate
-    from ..sim._run import prepare_run
-    from ._sil import bound_for, reference_run
+    from ._sil import bound_for
 
     if not isinstance(max_samples, int) or max_samples < 1:
         raise ParameterError(f"max_samples={max_samples!r} must be an integer >= 1")
-    _, qemu, reason = pil_tools()
+    _, _, reason = pil_tools()
     if reason:
         raise CompilerNotFoundError(f"processor-in-the-loop: {reason}")
-    run = prepare_run(plant, pkg.design, scenario)
-    resp = simulate(plant, pkg.design, run.scenario)
-    n = min(max_samples, int(np.flatnonzero(np.isfinite(resp.ym))[-1]) + 1)
-    ym, r = resp.ym[:n], resp.r[:n]
-    elf = build_pil(pkg, ym, r, float(ym[0]), run.u0, cflags=tuple(cflags))
-    out = _run_qemu(qemu, elf, timeout).split()  # semihosting writes to QEMU's stderr
-    step_ticks, empty_ticks, count, cal_ticks, cal_instructions = map(int, out[-5:])
-    per_tick = cal_instructions / max(cal_ticks, 1)
-    instructions = (step_ticks - empty_ticks) / max(count, 1) * per_tick
-    words = out[:-6]
-    if pkg.precision == "float":
-        u_c = np.array([int(w, 16) for w in words], dtype=np.uint32).view(np.float32)
-    else:
-        u_c = np.array([int(w, 16) for w in words], dtype=np.uint64).view(np.float64)
-    used = pkg.step_design
-    u_ref, _, _ = reference_run(used, ym, r, state0=used.initial_state(y0=float(ym[0]),
-                                                                      u0=run.u0))
-    return PilResult(pkg.precision, u_c.astype(float), u_ref, bound_for(pkg.precision),
-                     float(instructions))
+    ym, r, u0 = recorded_run(plant, pkg.design, scenario, max_samples=max_samples)
+    u_c, instructions = run_on_model(pkg, ym, r, float(ym[0]), u0, cflags=cflags,
+                                     timeout=timeout)
+    u_ref = reference_inputs(pkg.step_design, ym, r, u0)
+    return PilResult(pkg.precision, ym, u_c, u_ref, bound_for(pkg.precision), instructions)
 
 
 def _run_qemu(qemu: str, elf: Path, timeout: float) -> str:
@@ -281,5 +286,5 @@ def _run_qemu(qemu: str, elf: Path, timeout: float) -> str:
     return proc.stderr
 
 
-__all__ = ["ARM_CFLAGS", "QEMU_ARGS", "PilResult", "build_pil", "pil_tools",
-           "processor_in_the_loop"]
+__all__ = ["ARM_CFLAGS", "QEMU_ARGS", "PilResult", "pil_tools",
+           "processor_in_the_loop", "run_on_model"]

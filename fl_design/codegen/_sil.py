@@ -40,6 +40,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
+from ._compare import InputComparison
 from ._package import compiler_or_raise, run_command
 from ._template import render
 from ._verdict import c_loop_response
@@ -103,21 +104,16 @@ def bound_for(precision: str) -> float:
 
 
 @dataclass(frozen=True)
-class SilResult:
+class SilResult(InputComparison):
     """The compiled step in closed loop: its verdict, the simulation's, and its error.
 
     Parameters
     ----------
-    precision : str
-        Of the package.
-    ym : numpy.ndarray
-        ``(N,)`` measurements the C step received.
-    u_c : numpy.ndarray
-        ``(N,)`` inputs of the compiled step (applied to the plant).
-    u_ref : numpy.ndarray
-        ``(N,)`` inputs of ``Design.step`` fed ``ym`` from the same start.
-    bound : float
-        Relative bound (fraction of ``max |u_ref|``).
+    precision, ym, u_c, u_ref, bound
+        As in :class:`~fl_design.codegen._compare.InputComparison`: the package's precision,
+        the ``(N,)`` measurements the C step received, its inputs (applied to the plant) and
+        those of ``Design.step`` fed ``ym`` from the same start, the relative bound
+        (fraction of ``max |u_ref|``).
     c_status : str, optional
         Status of the C loop (``"converged"``, ``"diverged"``...; :data:`fl_design.sim.STATUS_NAMES`).
     sim_status : str, optional
@@ -130,11 +126,9 @@ class SilResult:
 
     Attributes
     ----------
-    max_abs_error, max_rel_error, tail_rel_error : float
-        ``max |u_c - u_ref|``, divided by ``max |u_ref|``, and the latter over the last tenth
-        (over the samples before a divergence, if any).
-    matches : bool
-        Both relative errors within ``bound``.
+    max_abs_error, max_rel_error, tail_rel_error, matches
+        Of :class:`~fl_design.codegen._compare.InputComparison` (over the samples before a
+        divergence, if any).
     verdicts_agree : bool
         ``c_status == sim_status``.
     passed : bool
@@ -150,48 +144,10 @@ class SilResult:
     (True, 0.0)
     """
 
-    precision: str
-    ym: np.ndarray
-    u_c: np.ndarray
-    u_ref: np.ndarray
-    bound: float
     c_status: str = "undecided"
     sim_status: str = "undecided"
     c_stable: bool = False
     c_failed: bool = False
-
-    @property
-    def _finite(self) -> slice:
-        ok = np.isfinite(self.u_c) & np.isfinite(self.u_ref)
-        n = int(np.argmin(ok)) if not ok.all() else ok.size
-        return slice(0, max(n, 1))
-
-    @property
-    def max_abs_error(self) -> float:
-        """``max |u_c - u_ref|`` (before any non-finite sample)."""
-        k = self._finite
-        return float(np.max(np.abs(self.u_c[k] - self.u_ref[k])))
-
-    @property
-    def _scale(self) -> float:
-        return max(float(np.max(np.abs(self.u_ref[self._finite]))), np.finfo(float).tiny)
-
-    @property
-    def max_rel_error(self) -> float:
-        """``max |u_c - u_ref| / max |u_ref|``."""
-        return self.max_abs_error / self._scale
-
-    @property
-    def tail_rel_error(self) -> float:
-        """The relative error over the last tenth of the (finite part of the) run."""
-        u_c, u_ref = self.u_c[self._finite], self.u_ref[self._finite]
-        k = max(1, u_c.size // 10)
-        return float(np.max(np.abs(u_c[-k:] - u_ref[-k:]))) / self._scale
-
-    @property
-    def matches(self) -> bool:
-        """The C equals ``Design.step`` within the bound, over the run and its last tenth."""
-        return bool(self.max_rel_error <= self.bound and self.tail_rel_error <= self.bound)
 
     @property
     def verdicts_agree(self) -> bool:
@@ -214,13 +170,9 @@ class SilResult:
         >>> d["passed"], d["c_status"], d["c_stable"]
         (True, 'undecided', False)
         """
-        return {"precision": self.precision, "n_samples": int(self.u_c.size),
-                "max_abs_error": self.max_abs_error, "max_rel_error": self.max_rel_error,
-                "tail_rel_error": self.tail_rel_error, "bound": float(self.bound),
-                "matches": self.matches, "c_status": self.c_status,
-                "sim_status": self.sim_status, "verdicts_agree": self.verdicts_agree,
-                "c_stable": bool(self.c_stable), "c_failed": bool(self.c_failed),
-                "passed": self.passed}
+        return {**self.errors(), "c_status": self.c_status, "sim_status": self.sim_status,
+                "verdicts_agree": self.verdicts_agree, "c_stable": bool(self.c_stable),
+                "c_failed": bool(self.c_failed), "passed": self.passed}
 
 
 def _plant_code(loop: ClosedLoop, prefix: str, build) -> tuple:

@@ -152,11 +152,11 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
     from ._graph import parameter_fields, parametric_core
 
     f = parametric_core(design, f"{prefix}_step_core")
-    names = [f"(({precision}) p->{fl.name})" if fl.name == "antiwindup" else f"p->{fl.name}"
-             for fl in parameter_fields(design)]
+    names = [f"p->{fl.name}" for fl in parameter_fields(design)]
     n = design.state_size
     body = c_body(f, [[f"x[{i}]" for i in range(n)], ["y"], ["r"], names],
-                  [[f"x_next[{i}]" for i in range(n)], ["*u"]], precision)
+                  [[f"x_next[{i}]" for i in range(n)], ["*u"]], precision,
+                  switches={"p->antiwindup"})
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
@@ -167,12 +167,8 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
 
     Parameters
     ----------
-    design : Design
-        The design generated (after :func:`~fl_design.codegen.step_design`).
-    precision : str
-        ``"double"`` or ``"float"``.
-    prefix : str
-        C prefix.
+    design, precision, prefix
+        As in :func:`core_source` (the design after :func:`~fl_design.codegen.step_design`).
 
     Returns
     -------
@@ -211,6 +207,7 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
         "START0": ", ".join(lit(v) for v in c0), "START1": ", ".join(lit(v) for v in c1),
         "UINT": "uint32_t" if precision == "float" else "uint64_t",
         "EXP_MASK": "0x7F800000u" if precision == "float" else "UINT64_C(0x7FF0000000000000)",
+        "ARM_FP_BIT": "4" if precision == "float" else "8",  # ACLE __ARM_FP: single, double
         "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
         "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
         "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),

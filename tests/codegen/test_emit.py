@@ -77,3 +77,42 @@ def test_literals_and_unsupported_operations():
     assert math_calls(ca.Function("g", [x], [ca.sin(x) * ca.exp(x)])) == ["exp", "sin"]
     body = c_body(ca.Function("g", [x], [ca.sin(x)]), [["x"]], [["*o"]], "float")
     assert "sinf(x)" in body
+
+
+def test_a_switch_compared_with_a_constant_is_an_integer_test(tmp_path):
+    """Every comparison of a 0/1 switch with a constant (either side) prints as an ``int`` test
+    and computes what CasADi computes for both values of the switch; a switch used in
+    arithmetic is converted."""
+    x, s = ca.SX.sym("x"), ca.SX.sym("s")
+    outs = [ca.if_else(s > 0.5, x, 2 * x), ca.if_else(0.5 < s, 3 * x, x),
+            ca.if_else(s < 0.5, x, -x), ca.if_else(s <= 1.0, 4 * x, x),  # always true
+            ca.if_else(s >= 2.0, x, 5 * x), ca.if_else(s == 1.0, x, 6 * x), s * x]
+    f = ca.Function("g", [x, s], [ca.vertcat(*outs)])
+    n = f.nnz_out(0)
+    body = c_body(f, [["x"], ["on"]], [[f"o[{i}]" for i in range(n)]], "float",
+                  switches={"on"})
+    assert "(float) on" in body  # the product s * x
+    assert "< ((float) on)" not in body and "((float) on) <" not in body  # no float compare
+    src = tmp_path / "s.c"
+    src.write_text(f"""#include <stdio.h>
+static void g(float x, int on, float *o) {{
+{body}
+}}
+int main(void) {{
+  float o[{n}];
+  int on, i;
+  for (on = 0; on <= 1; ++on) {{
+    g(1.5f, on, o);
+    for (i = 0; i < {n}; ++i) printf("%.9g ", (double) o[i]);
+  }}
+  return 0;
+}}
+""")
+    exe = tmp_path / "s"
+    proc = subprocess.run([find_compiler(), *FLAGS, "-o", str(exe), str(src)],
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr
+    got = np.array(subprocess.run([str(exe)], capture_output=True, text=True, check=True,
+                                  timeout=60).stdout.split(), dtype=float)
+    ref = np.concatenate([np.asarray(f(1.5, v), dtype=float).ravel() for v in (0, 1)])
+    np.testing.assert_array_equal(got, ref)

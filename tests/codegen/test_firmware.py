@@ -174,6 +174,49 @@ def test_plausibility_rate_sensor_lost_and_saturating_counters(packages):
     assert out[13:] == ["4294967295", "4294967295"]  # saturated, not wrapped
 
 
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_faults_without_optional_checks_are_named(packages, precision):
+    """With every optional check off the step tests y, r and its result in one sum: the fault
+    still says which (a non-finite input, or a result that overflows)."""
+    pkg = packages[("trms", precision)]
+    big = "3e38f" if precision == "float" else "1.7e308"
+    out = probe(pkg, f"""  fl_init(&s);
+  fl_start(&s, 0.1, 0.0);
+  float u0 = (float) fl_step(&s, 0.1, 0.3);
+  fl_real_t bad[4][2] = {{{{0.0 / 0.0, 0.3}}, {{0.1, 1.0 / 0.0}}, {{{big}, 0.0}}, {{0.1, 0.3}}}};
+  for (int k = 0; k < 4; ++k) {{
+    float u = (float) fl_step(&s, bad[k][0], bad[k][1]);
+    printf("%u %u %d ", (unsigned) s.fault, (unsigned) s.n_consecutive, k < 3 ? u == u0 : u != u0);
+  }}
+  printf("%u %u", (unsigned) s.faults, (unsigned) s.n_rejected);""", extra_flags=("-w",))
+    # NaN y, infinite r: FL_FAULT_NONFINITE (1); a huge finite y overflows the result: 8;
+    # the state held (u unchanged) while rejected, then a good sample accepted and counters reset
+    assert out == ["1", "1", "1", "1", "2", "1", "8", "3", "1", "0", "0", "1", "9", "3"]
+
+
+def test_rate_check_switched_on_later_starts_at_the_next_sample(packages):
+    pkg = packages[("trms", "float")]
+    out = probe(pkg, """  fl_init(&s);
+  fl_start(&s, 0.1f, 0.0f);
+  for (int k = 0; k < 10; ++k) (void) fl_step(&s, 0.5f, 0.1f);   /* no check: y_last not kept */
+  fl_default_params(&p);
+  p.dy_max = 0.05f;
+  if (fl_set_params(&s, &p) != FL_OK) return 1;
+  (void) fl_step(&s, 0.52f, 0.1f);   /* first sample of the check: nothing to compare with */
+  printf("%u ", (unsigned) s.fault);
+  (void) fl_step(&s, 0.6f, 0.1f);    /* 0.08 above the last: rejected */
+  printf("%u ", (unsigned) s.fault);
+  (void) fl_step(&s, 0.55f, 0.1f);   /* 0.03 above 0.52 */
+  printf("%u ", (unsigned) s.fault);
+  if (fl_set_params(&s, &p) != FL_OK) return 1;   /* still on: the last y is kept */
+  (void) fl_step(&s, 0.65f, 0.1f);
+  printf("%u ", (unsigned) s.fault);
+  fl_reset(&s);                      /* the design's start: no last y */
+  (void) fl_step(&s, 0.9f, 0.1f);
+  printf("%u", (unsigned) s.fault);""")
+    assert out == ["0", "4", "0", "4", "0"]
+
+
 @pytest.mark.parametrize("compiler", COMPILERS)
 @pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
 @pytest.mark.parametrize("precision", ["double", "float"])

@@ -3,13 +3,14 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import fl_design as fl
 from fl_design import presets
 from fl_design.app import main
 from fl_design.codegen import generate_c
-from fl_design.codegen._pil import pil_tools
+from fl_design.codegen._pil import pil_tools, run_on_model
 from fl_design.codegen._sil import DOUBLE_BOUND, FLOAT_BOUND
 from fl_design.errors import CompilerNotFoundError, ParameterError
 
@@ -45,7 +46,35 @@ def test_no_flush_build_is_leaner_and_computes_the_same(tmp_path):
     full = pkg.pil(fl.plants.trms_yaw(), sc, max_samples=500)
     lean = pkg.pil(fl.plants.trms_yaw(), sc, max_samples=500, cflags=("-DFL_NO_FLUSH",))
     assert (lean.u_c == full.u_c).all()  # no subnormal on this run: the same bits
-    assert lean.instructions < full.instructions - 10
+    # the flush is the FPU's flush-to-zero mode: FPSCR read, FZ set, FPSCR written, restored
+    assert full.instructions - lean.instructions == pytest.approx(4.0, abs=0.5)
+
+
+@needs_qemu
+def test_the_cortex_m4_build_flushes_a_subnormal_state(tmp_path):
+    """u started at a subnormal value, y = r = 0 at rest: the step computes u - gamma * 0;
+    in FZ mode its subnormal operand reads as 0 and u becomes 0, without the flush it stays."""
+    pkg = generate_c(presets.paper_design(), tmp_path, precision="float")
+    zeros, tiny = np.zeros(50), float(np.float32(1e-40))
+    assert 0.0 < tiny < np.finfo(np.float32).tiny
+    u, _ = run_on_model(pkg, zeros, zeros, 0.0, tiny)
+    kept, _ = run_on_model(pkg, zeros, zeros, 0.0, tiny, cflags=("-DFL_NO_FLUSH",))
+    assert (u == 0.0).all()
+    assert (kept == tiny).all()
+
+
+@needs_qemu
+def test_a_replacement_step_is_timed_in_the_same_loop(tmp_path):
+    """The empty loop is subtracted: a step that only returns its argument costs ~0."""
+    pkg = generate_c(presets.paper_design(), tmp_path, precision="float")
+    stub = tmp_path / "stub.c"
+    stub.write_text('#include "fl.h"\nfloat stub_step(fl_state_t *s, float y, float r);\n'
+                    "float stub_step(fl_state_t *s, float y, float r) {\n"
+                    "  (void) s;\n  (void) r;\n  return y;\n}\n")
+    y = np.linspace(0.0, 1.0, 600)
+    u, instructions = run_on_model(pkg, y, y, 0.0, 0.0, step=(stub, "stub_step"))
+    np.testing.assert_array_equal(u, y.astype(np.float32))
+    assert abs(instructions) < 0.5
 
 
 def test_missing_tools_are_named(tmp_path, monkeypatch):
