@@ -90,7 +90,7 @@ def test_cli_codegen_writes_the_package(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args,needle", [
-    (["--precision", "half"], "precision='half' is not known; valid: 'double', 'float'"),
+    (["--precision", "half"], "precision must be one of 'double', 'float', got 'half'"),
     (["--prefix", "9x"], "prefix='9x' is not a usable C identifier"),
 ])
 def test_cli_codegen_bad_input_one_line_exit_2(tmp_path, capsys, args, needle):
