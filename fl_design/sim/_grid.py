@@ -57,7 +57,8 @@ if hasattr(os, "register_at_fork"):
 def _runner(run: RunSetup, kernel: Kernel):
     """The runner of ``run.loop``, memoised per process (tasks of one sweep share it)."""
     try:
-        key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps, kernel))
+        key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps,
+                            run.loop.uncertain, kernel))
     except (pickle.PicklingError, TypeError, AttributeError):  # unpicklable: no memo
         return run.loop.runner(kernel=kernel)
     with _RUNNERS_LOCK:

@@ -68,18 +68,21 @@ HUGE = 1e300
 N_INPUTS = 3
 
 
-def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
+def accumulator_layout(*, n: int, m: int, rho: int, n_p: int, n_theta: int = 0) -> Layout:
     """The accumulator of a plant with ``n`` states and a design of state size ``m``.
 
     Fields: ``x`` (n), ``s`` (m), ``u_prev``, ``k``, ``diverged``, ``k_div``, the running
     values of :data:`fl_design.sim._metrics.ACCUMULATORS` (``est2_sum`` has ``rho + 1`` entries), and
     the run's constants ``N k_tail k_mid y0 step tol noise q x_op (n) bound (n) region_lo (n)
-    region_hi (n) p (n_p)``.
+    region_hi (n) p (n_p)``, then ``theta (n_theta)``, the plant parameters given at run time
+    (only when ``n_theta > 0``: :attr:`ClosedLoop.uncertain`).
 
     Parameters
     ----------
     n, m, rho, n_p : int
         Plant states, design state size, relative degree, parameter-vector length.
+    n_theta : int, optional
+        Plant parameters that are run-time inputs (default 0).
 
     Returns
     -------
@@ -96,6 +99,8 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     fields += list(metric_layout(rho).fields)
     fields += [(name, 1) for name in (*RUN_CONSTANTS, "q")]
     fields += [("x_op", n), ("bound", n), ("region_lo", n), ("region_hi", n), ("p", n_p)]
+    if n_theta:
+        fields.append(("theta", n_theta))
     return Layout(tuple(fields))
 
 
@@ -180,6 +185,13 @@ class ClosedLoop:
         :class:`~fl_design.errors.UnmodeledDynamicsWarning`. The design's "true" coordinates
         are then the plant's ``y, ..., y^(rho_d - 1)`` and its ``sigma`` is ``y^(rho_d) =
         L_f^rho_d h`` (no input term). Default False: a mismatch is refused.
+    uncertain : tuple of str, optional
+        Names of plant parameters that are *run-time inputs* of the accumulating step (the
+        accumulator's ``theta``, one value per run) instead of numbers compiled in: one
+        kernel runs a whole family of plants (:func:`fl_design.monte_carlo`). The plant
+        step then integrates ``[x; theta]`` with ``theta' = 0`` (``theta`` is carried
+        exactly). :attr:`control`, :attr:`sample` and :attr:`plant_step` keep the plant's
+        own values. Default ``()``.
 
     Attributes
     ----------
@@ -227,10 +239,12 @@ class ClosedLoop:
     design: Any
     substeps: int
     allow_unmodeled: bool = False
+    uncertain: tuple = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "substeps", check_substeps(self.substeps))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
+        object.__setattr__(self, "uncertain", _uncertain_names(self.plant, self.uncertain))
         rho_p, rho_d = self.plant.relative_degree(), self.design.rho
         if self.plant.n > rho_p:
             _warn_if_not_minimum_phase(self.plant)
@@ -251,7 +265,7 @@ class ClosedLoop:
         )
 
     def __getstate__(self):  # CasADi graphs are rebuilt after unpickling
-        keep = ("plant", "design", "substeps", "allow_unmodeled")
+        keep = ("plant", "design", "substeps", "allow_unmodeled", "uncertain")
         return {k: v for k, v in self.__dict__.items() if k in keep}
 
     # --- sizes ----------------------------------------------------------------------------------
@@ -283,7 +297,8 @@ class ClosedLoop:
     @functools.cached_property
     def layout(self) -> Layout:
         """The accumulator layout (:func:`accumulator_layout`)."""
-        return accumulator_layout(n=self.n, m=self.m, rho=self.rho, n_p=self.n_p)
+        return accumulator_layout(n=self.n, m=self.m, rho=self.rho, n_p=self.n_p,
+                                  n_theta=len(self.uncertain))
 
     @property
     def record_layout(self) -> Layout:
@@ -400,14 +415,90 @@ class ClosedLoop:
                            ["x_next", "s_next", "u", "x_op", "bound"], ["ok"])
 
     @functools.cached_property
+    def uncertain_functions(self) -> dict:
+        """The plant with the parameters :attr:`uncertain` as an input ``theta``.
+
+        ``f(x, u, theta)``, ``h(x, theta)``, ``b(x, u, theta)``, ``control(x, s, r, w, q, p,
+        theta)`` (as :attr:`control`), and ``plant_step([x; theta], u) -> [x_next; theta]``
+        (``substeps`` RK4 steps of the augmented state, ``theta' = 0``; named as
+        :attr:`plant_step` so the lanes emitter unrolls it the same way).
+        """
+        from ...symbolic._bridge import to_casadi
+
+        plant, rho = self.plant, self.rho
+        by_name = {sym.name: sym for sym in plant.params}
+        theta_syms = [by_name[name] for name in self.uncertain]
+        rest = {k: v for k, v in plant.params.items() if k.name not in self.uncertain}
+        states, inp = list(plant.states), plant.input
+        kw = {"subs": rest}
+        f = to_casadi(plant.rhs, [states, [inp], theta_syms], "f", input_names=["x", "u", "theta"],
+                      output_name="xdot", **kw)
+        h = to_casadi(plant.output, [states, theta_syms], "h", input_names=["x", "theta"],
+                      output_name="y", **kw)
+        sig_expr = plant.output_derivatives(rho)[-1]
+        sigma = to_casadi(sig_expr, [states, [inp], theta_syms], "sigma",
+                          input_names=["x", "u", "theta"], output_name="sigma", **kw)
+        b = to_casadi(plant.normal_form().b, [states, [inp], theta_syms], "b",
+                      input_names=["x", "u", "theta"], output_name="b", **kw) \
+            if plant.relative_degree() == rho else None
+        coords_expr = (list(plant.normal_form().coordinates)
+                       if plant.relative_degree() == rho else list(plant.output_derivatives(rho - 1)))
+        coords = to_casadi(coords_expr, [states, theta_syms], "fl_coords",
+                           input_names=["x", "theta"], output_name="coords", **kw)
+        n, nt = self.n, len(theta_syms)
+        # one RK4 step of the augmented state
+        xa, u = ca.SX.sym("x", n + nt), ca.SX.sym("u")
+        hstep = self.T / self.substeps
+        th = xa[n:]
+
+        def fa(z):
+            return ca.vertcat(f(z[:n], u, th), ca.SX.zeros(nt))
+
+        k1 = fa(xa)
+        k2 = fa(xa + (hstep / 2) * k1)
+        k3 = fa(xa + (hstep / 2) * k2)
+        k4 = fa(xa + hstep * k3)
+        x_next = xa[:n] + (hstep / 6) * (k1 + 2 * k2 + 2 * k3 + k4)[:n]
+        rk4_step = ca.Function("fl_rk4_step", [xa, u], [ca.vertcat(x_next, th)], ["x", "u"],
+                               ["x_next"])
+        if self.substeps == 1:
+            step = ca.Function("fl_rk4", [xa, u], [rk4_step(xa, u)], ["x", "u"], ["x_next"])
+        else:
+            X, U = ca.MX.sym("x", n + nt), ca.MX.sym("u")
+            step = ca.Function("fl_rk4", [X, U],
+                               [rk4_step.fold(self.substeps)(X, ca.repmat(U, 1, self.substeps))],
+                               ["x", "u"], ["x_next"], {"never_inline": True})
+        x, s = ca.SX.sym("x", n), ca.SX.sym("s", self.m)
+        r, w, q, p = ca.SX.sym("r"), ca.SX.sym("w"), ca.SX.sym("q"), ca.SX.sym("p", self.n_p)
+        theta = ca.SX.sym("theta", nt)
+        y = h(x, theta)
+        q_safe = ca.if_else(q > 0, q, 1.0)
+        ym = ca.if_else(q > 0, q_safe * ca.floor((y + w) / q_safe + 0.5), y + w)
+        s_next, uc, xhat = self.design.parametric_step(s, ym, r, p)
+        control = ca.Function(
+            "fl_control", [x, s, r, w, q, p, theta],
+            [s_next, uc, y, ym, xhat, sigma(x, uc, theta), ca.vec(coords(x, theta))],
+            ["x", "s", "r", "w", "q", "p", "theta"],
+            ["s_next", "u", "y", "ym", "xhat", "sigma", "coords"])
+        return {"f": f, "h": h, "b": b, "sigma": sigma, "coords": coords, "control": control,
+                "plant_step": step}
+
+    @functools.cached_property
     def _accumulating(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
         """Symbolic ``(acc, d, acc_next, out)`` of one accumulating step."""
         lay = self.layout
         acc, d = ca.SX.sym("acc", lay.size), ca.SX.sym("d", N_INPUTS)
         a = {name: acc[sl] for name, sl in lay.slices.items()}
         r, w, d_in = d[0], d[1], d[2]
-        s_next, u, y, ym, xhat, sigma, coords = self.control(a["x"], a["s"], r, w, a["q"], a["p"])
-        x_next = self.plant_step(a["x"], u + d_in)  # the input disturbance acts at the plant
+        if self.uncertain:  # the plant's parameters theta are inputs (one value per run)
+            fns = self.uncertain_functions
+            s_next, u, y, ym, xhat, sigma, coords = fns["control"](
+                a["x"], a["s"], r, w, a["q"], a["p"], a["theta"])
+            x_next = fns["plant_step"](ca.vertcat(a["x"], a["theta"]), u + d_in)[:self.n]
+        else:
+            s_next, u, y, ym, xhat, sigma, coords = self.control(a["x"], a["s"], r, w, a["q"],
+                                                                 a["p"])
+            x_next = self.plant_step(a["x"], u + d_in)  # the input disturbance acts at the plant
         ok = self.within_bounds(x_next, s_next, u, a["x_op"], a["bound"])
         k = a["k"]
         active = k < a["N"]
@@ -489,6 +580,22 @@ class ClosedLoop:
                                vector_math=kernel.vector_math, isa=kernel.isa)
         return make_runner(self.accumulate, self.record, indices, compiled=compiled,
                            cache_dir=cache_dir)
+
+
+def _uncertain_names(plant, names) -> tuple:
+    """``names`` checked: a tuple of distinct parameter names of ``plant``."""
+    from ...errors import ParameterError
+
+    if isinstance(names, str) or not isinstance(names, (tuple, list)):
+        raise ParameterError(f"uncertain must be a tuple of parameter names, got {names!r}")
+    known = sorted(sym.name for sym in plant.params)
+    for name in names:
+        if name not in known:
+            raise ParameterError(f"{name!r} is not a parameter of plant {plant.name!r}; its "
+                                 f"parameters are {known}")
+    if len(set(names)) != len(names):
+        raise ParameterError(f"uncertain parameters repeat a name: {list(names)}")
+    return tuple(names)
 
 
 __all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps", "resolve_substeps"]
