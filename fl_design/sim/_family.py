@@ -23,6 +23,7 @@ Examples
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -32,7 +33,7 @@ import numpy as np
 from .. import _validate as V
 from ..errors import ParameterError, PlantDefinitionError
 from ._run import RunSetup, _measured, b_sign
-from .kernel._loop import ClosedLoop
+from .kernel._loop import ClosedLoop, parametric_plant
 
 
 @dataclass(frozen=True)
@@ -186,7 +187,7 @@ class FamilySetup(RunSetup):
     >>> fam = prepare_family(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0),
     ...                      {"c": [0.1, 0.2, 0.3]})
     >>> fam.initial_accumulator(fam.columns(d.parameter_vector(), 3)).shape
-    (100, 3)
+    (103, 3)
     """
 
     theta: np.ndarray = None
@@ -285,7 +286,7 @@ def prepare_family(plant, design, scenario, values: dict, **options) -> FamilySe
         raise ParameterError("the sampled plant parameters must be finite")
     loop = ClosedLoop(plant, design, substeps=nominal.loop.substeps,
                       allow_unmodeled=nominal.loop.allow_unmodeled, uncertain=names)
-    fns = loop.uncertain_functions
+    fns = parametric_plant(plant, names, loop.rho)
     u_eq = _equilibrium_inputs(plant, fns["f"], theta, names)
     _check_b_signs(plant, fns["b"], u_eq, theta, names, options.get("gammas"))
     ctrl = design.controller
@@ -307,20 +308,17 @@ def _equilibrium_inputs(plant, f, theta, names) -> np.ndarray:
     ``u_eq`` (exact in one step for an input-affine plant), else ``with_params``'s own solve
     (which raises a clear error when there is none)."""
     n = theta.shape[1]
-    u = ca.SX.sym("u")
-    th = ca.SX.sym("theta", theta.shape[0])
-    res = f(plant.x_op, u, th)
-    newton = ca.Function("fl_ueq", [u, th], [u - ca.dot(ca.jacobian(res, u), res)
-                                              / ca.sumsqr(ca.jacobian(res, u)), res])
+    newton, f0 = _newton(f, tuple(plant.x_op), theta.shape[0])
     many = newton.map(n)
     ue = np.full(n, plant.u_eq)
+    scale = np.maximum(1.0, np.max(np.abs(np.asarray(f0.map(n)(theta), dtype=float)), axis=0))
     for _ in range(8):
         with np.errstate(all="ignore"):
-            nxt = np.asarray(many(ue[None, :], theta)[0], dtype=float)
+            nxt, res = (np.asarray(v, dtype=float) for v in many(ue[None, :], theta))
+        resid = np.max(np.abs(res), axis=0)
+        if np.all(resid <= 1e-9 * scale):
+            break
         ue = np.where(np.isfinite(nxt.ravel()), nxt.ravel(), ue)
-    resid = np.max(np.abs(np.asarray(many(ue[None, :], theta)[1], dtype=float)), axis=0)
-    scale = np.maximum(1.0, np.max(np.abs(np.asarray(
-        ca.Function("fl_f0", [th], [f(plant.x_op, 0.0, th)]).map(n)(theta))), axis=0))
     lo, hi = plant.input_range or (-math.inf, math.inf)
     bad = np.flatnonzero(~((resid <= 1e-9 * scale) & (ue >= lo) & (ue <= hi)))
     for i in bad:  # rare: the plant's own solver decides, and names what is wrong
@@ -330,6 +328,17 @@ def _equilibrium_inputs(plant, f, theta, names) -> np.ndarray:
         except PlantDefinitionError as exc:
             raise PlantDefinitionError(f"sample {i} of the family ({sample}): {exc}") from None
     return np.where(np.abs(ue) < 1e-12, 0.0, ue)
+
+
+@functools.lru_cache(maxsize=16)
+def _newton(f, x_op: tuple, n_theta: int):
+    """``(newton, f0)``: one Gauss-Newton step ``u -> u - J' r / J' J`` with the residual
+    ``r = f(x_op, u, theta)`` before it, and ``f(x_op, 0, theta)`` (the residual's scale)."""
+    u, th = ca.SX.sym("u"), ca.SX.sym("theta", n_theta)
+    res = f(list(x_op), u, th)
+    jac = ca.jacobian(res, u)
+    newton = ca.Function("fl_ueq", [u, th], [u - ca.dot(jac, res) / ca.sumsqr(jac), res])
+    return newton, ca.Function("fl_f0", [th], [f(list(x_op), 0.0, th)])
 
 
 def _check_b_signs(plant, b, u_eq, theta, names, gammas) -> None:

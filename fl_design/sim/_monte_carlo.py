@@ -19,11 +19,13 @@ Examples
 
 from __future__ import annotations
 
+import math
 from concurrent.futures import Executor
 
 import numpy as np
 
 from .. import _validate as V
+from ._disturbance import summary_metrics
 from ._ensemble import Ensemble
 from ._family import draw, parse_distributions, prepare_family
 from ._grid import run_grid
@@ -45,7 +47,8 @@ class _SampleColumns:
 
 
 def summarize(family, acc: np.ndarray) -> tuple[np.ndarray, dict]:
-    """``(status, metrics)`` of final accumulators ``acc`` (one column per run).
+    """``(status, metrics)`` of final accumulators ``acc`` (one column per run); with a
+    disturbance in the scenario, ``disturbance_peak`` and ``recovery_time`` too.
 
     Examples
     --------
@@ -56,6 +59,8 @@ def summarize(family, acc: np.ndarray) -> tuple[np.ndarray, dict]:
     info = family.loop.layout.unpack(acc)
     info["est2_sum"] = np.asarray(info["est2_sum"]).T
     m = metrics_from_summary(info, family.T)
+    if math.isfinite(family.disturbance_start):  # the response to the scenario's disturbance
+        m.update(summary_metrics(info, family.T, family.disturbance_start))
     return m.pop("status"), m
 
 

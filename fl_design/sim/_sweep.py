@@ -31,6 +31,7 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import ParameterError
+from ._disturbance import summary_metrics
 from ._grid import _Columns, run_grid
 from ._metrics import Status, metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario, option
@@ -65,6 +66,8 @@ def _assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray,
     info = run.loop.layout.unpack(acc)
     info["est2_sum"] = np.asarray(info["est2_sum"]).T
     m = metrics_from_summary(info, run.T)
+    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
+        m.update(summary_metrics(info, run.T, run.disturbance_start))
     status = m.pop("status").reshape(shape)
     metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
                for k, v in m.items()}

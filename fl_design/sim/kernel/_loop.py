@@ -93,7 +93,7 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int, n_theta: int = 0) 
     >>> from fl_design.sim.kernel._loop import accumulator_layout
     >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
     >>> lay["x"], "est2_sum" in lay, lay.size
-    (slice(0, 2, None), True, 99)
+    (slice(0, 2, None), True, 102)
     """
     fields = [("x", n), ("s", m), ("u_prev", 1), ("k", 1), ("diverged", 1), ("k_div", 1)]
     fields += list(metric_layout(rho).fields)
@@ -423,29 +423,9 @@ class ClosedLoop:
         (``substeps`` RK4 steps of the augmented state, ``theta' = 0``; named as
         :attr:`plant_step` so the lanes emitter unrolls it the same way).
         """
-        from ...symbolic._bridge import to_casadi
-
-        plant, rho = self.plant, self.rho
-        by_name = {sym.name: sym for sym in plant.params}
-        theta_syms = [by_name[name] for name in self.uncertain]
-        rest = {k: v for k, v in plant.params.items() if k.name not in self.uncertain}
-        states, inp = list(plant.states), plant.input
-        kw = {"subs": rest}
-        f = to_casadi(plant.rhs, [states, [inp], theta_syms], "f", input_names=["x", "u", "theta"],
-                      output_name="xdot", **kw)
-        h = to_casadi(plant.output, [states, theta_syms], "h", input_names=["x", "theta"],
-                      output_name="y", **kw)
-        sig_expr = plant.output_derivatives(rho)[-1]
-        sigma = to_casadi(sig_expr, [states, [inp], theta_syms], "sigma",
-                          input_names=["x", "u", "theta"], output_name="sigma", **kw)
-        b = to_casadi(plant.normal_form().b, [states, [inp], theta_syms], "b",
-                      input_names=["x", "u", "theta"], output_name="b", **kw) \
-            if plant.relative_degree() == rho else None
-        coords_expr = (list(plant.normal_form().coordinates)
-                       if plant.relative_degree() == rho else list(plant.output_derivatives(rho - 1)))
-        coords = to_casadi(coords_expr, [states, theta_syms], "fl_coords",
-                           input_names=["x", "theta"], output_name="coords", **kw)
-        n, nt = self.n, len(theta_syms)
+        fns = parametric_plant(self.plant, self.uncertain, self.rho)
+        f, h, sigma, coords = fns["f"], fns["h"], fns["sigma"], fns["coords"]
+        n, nt = self.n, len(self.uncertain)
         # one RK4 step of the augmented state
         xa, u = ca.SX.sym("x", n + nt), ca.SX.sym("u")
         hstep = self.T / self.substeps
@@ -480,8 +460,7 @@ class ClosedLoop:
             [s_next, uc, y, ym, xhat, sigma(x, uc, theta), ca.vec(coords(x, theta))],
             ["x", "s", "r", "w", "q", "p", "theta"],
             ["s_next", "u", "y", "ym", "xhat", "sigma", "coords"])
-        return {"f": f, "h": h, "b": b, "sigma": sigma, "coords": coords, "control": control,
-                "plant_step": step}
+        return {**fns, "control": control, "plant_step": step}
 
     @functools.cached_property
     def _accumulating(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
@@ -518,7 +497,7 @@ class ClosedLoop:
                       est_err=xhat - ca.vertcat(coords, sigma), y=y, y0=a["y0"],
                       step=a["step"], tol=a["tol"], k_tail=a["k_tail"], k_mid=a["k_mid"],
                       outside=outside, noise=a["noise"],
-                      u_range=self.design.controller.u_range)
+                      u_range=self.design.controller.u_range, k_dist=a["k_dist"])
         for name, value in update(a, sig).items():
             new[name] = ca.if_else(accept, value, a[name])
         acc_next = ca.vertcat(*[new[name] for name, _ in lay.fields])
@@ -582,6 +561,45 @@ class ClosedLoop:
                            cache_dir=cache_dir)
 
 
+@functools.lru_cache(maxsize=16)
+def parametric_plant(plant, names: tuple, rho: int) -> dict:
+    """The plant's functions with the parameters ``names`` as an input ``theta`` (cached).
+
+    ``f(x, u, theta)``, ``h(x, theta)``, ``sigma(x, u, theta)`` (``y^(rho)``), ``coords(x,
+    theta)`` (``y .. y^(rho-1)``: the normal-form coordinates when ``rho`` is the plant's) and
+    ``b(x, u, theta)`` (None when ``rho`` is not the plant's relative degree).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim.kernel._loop import parametric_plant
+    >>> fns = parametric_plant(fl.plants.pendulum(), ("b",), 2)
+    >>> float(fns["b"]([0.0, 0.0], 0.0, 2.5))
+    2.5
+    """
+    from ...symbolic._bridge import to_casadi
+
+    by_name = {sym.name: sym for sym in plant.params}
+    theta = [by_name[name] for name in names]
+    kw = {"subs": {k: v for k, v in plant.params.items() if k.name not in names}}
+    states, inp = list(plant.states), plant.input
+    own = plant.relative_degree() == rho
+    xut, xt = [states, [inp], theta], [states, theta]
+    return {
+        "f": to_casadi(plant.rhs, xut, "f", input_names=["x", "u", "theta"],
+                       output_name="xdot", **kw),
+        "h": to_casadi(plant.output, xt, "h", input_names=["x", "theta"], output_name="y",
+                       **kw),
+        "sigma": to_casadi(plant.output_derivatives(rho)[-1], xut, "sigma",
+                           input_names=["x", "u", "theta"], output_name="sigma", **kw),
+        "b": to_casadi(plant.normal_form().b, xut, "b", input_names=["x", "u", "theta"],
+                       output_name="b", **kw) if own else None,
+        "coords": to_casadi(list(plant.normal_form().coordinates) if own
+                            else list(plant.output_derivatives(rho - 1)), xt, "fl_coords",
+                            input_names=["x", "theta"], output_name="coords", **kw),
+    }
+
+
 def _uncertain_names(plant, names) -> tuple:
     """``names`` checked: a tuple of distinct parameter names of ``plant``."""
     from ...errors import ParameterError
@@ -598,4 +616,5 @@ def _uncertain_names(plant, names) -> tuple:
     return tuple(names)
 
 
-__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps", "resolve_substeps"]
+__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps", "parametric_plant",
+           "resolve_substeps"]
