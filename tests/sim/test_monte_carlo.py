@@ -170,3 +170,25 @@ def test_one_lanes_kernel_for_the_family_same_results_everywhere(setup, substeps
     resp = fl.simulate(plant.with_params(**a.sample(0)), design, scenario, integrator=rk4)
     assert resp.status == a.labels[0]
     np.testing.assert_allclose(resp.metrics["iae"], a.metrics["iae"][0], rtol=1e-9)
+
+
+def test_noise_quantization_start_and_estimate_as_simulate(setup):
+    plant, design, _ = setup
+    scenario = fl.Scenario(0.1, 3.0, x0=[0.05, -0.1], noise=fl.Noise(std=1e-4, seed=4),
+                           quantization=1e-4, initial_estimate=[0.04, 0.0, 0.2])
+    ens = fl.monte_carlo(plant, design, scenario, params={"b": (0.8, 1.2), "c": (0.1, 0.9)},
+                         n=2, seed=5, progress=False)
+    for i in range(ens.n):
+        resp = fl.simulate(plant.with_params(**ens.sample(i)), design, scenario)
+        assert resp.status == ens.labels[i]
+        for name in ("iae", "input_tv", "estimation_rms", "overshoot"):
+            np.testing.assert_allclose(ens.metrics[name][i], resp.metrics[name], rtol=1e-6)
+
+
+def test_adaptive_duration_is_chosen_once_on_the_nominal_plant(setup):
+    plant, design, _ = setup
+    ens = fl.monte_carlo(plant, design, fl.Scenario(0.1), params={"b": (0.9, 1.1)}, n=3,
+                         progress=False)
+    nominal = fl.simulate(plant, design, fl.Scenario(0.1))
+    assert ens.duration == pytest.approx(nominal.t[-1] + design.T)
+    assert ens.duration_reason == nominal.duration_reason != "given"
