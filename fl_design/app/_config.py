@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ParameterError
@@ -58,6 +58,8 @@ _SCHEMA: dict[str, dict[str, tuple]] = {
     "certify": {"enabled": (bool,), "eps_range": (list,), "gamma": (list,), "points": (int,)},
     "codegen": {"enabled": (bool,), "precision": (str,), "prefix": (str,),
                 "sil_duration": _NUM},
+    "uncertainty": {"params": (dict,), "samples": (int,), "seed": (int,),
+                    "duration": _DURATION},
 }
 #: Library plants by config name (``[plant] library``, ``--plant``).
 LIBRARY = ("trms", "trms-lag", "pendulum", "flexible-joint", "cart-pendulum", "maglev")
@@ -71,6 +73,9 @@ class Config:
     ----------
     plant, design, scenario, compare, sweep, certify, codegen : dict
         The tables.
+    uncertainty : dict, optional
+        The ``[uncertainty]`` table (:mod:`fl_design.app._uncertainty`; no ``params``: no
+        robustness stage).
     source : str
         Where it came from (a path or ``"<default>"``).
     notes : tuple of str
@@ -93,6 +98,7 @@ class Config:
     codegen: dict
     source: str = "<default>"
     notes: tuple = ()
+    uncertainty: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The tables as a dict (strict JSON).
@@ -407,6 +413,7 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     fl_design.app._config.ConfigError: <string>: unknown key 'epsilon' in [design]; ...
     """
     from ._template import fill_ranges, library_tables
+    from ._uncertainty import check_table as check_uncertainty
 
     text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark
     try:
@@ -429,11 +436,13 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
                 tables[table].pop(key, None)
     if custom:
         _custom_defaults(tables, data)
+    tables.setdefault("uncertainty", {})
     for name, body in data.items():
         tables[name].update(body)
     try:
         fill_ranges(tables, data)
         _check_semantics(tables)
+        check_uncertainty(tables["uncertainty"])
     except ConfigError as err:
         raise ConfigError(f"{source}: {err}") from None
     return Config(**tables, source=source, notes=_warnings(tables))

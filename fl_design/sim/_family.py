@@ -33,7 +33,8 @@ import numpy as np
 from .. import _validate as V
 from ..errors import ParameterError, PlantDefinitionError
 from ._run import RunSetup, _measured, b_sign
-from .kernel._loop import ClosedLoop, parametric_plant
+from .kernel._loop import ClosedLoop
+from .kernel._parametric import parametric_plant
 
 
 @dataclass(frozen=True)

@@ -244,7 +244,10 @@ class ClosedLoop:
     def __post_init__(self) -> None:
         object.__setattr__(self, "substeps", check_substeps(self.substeps))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
-        object.__setattr__(self, "uncertain", _uncertain_names(self.plant, self.uncertain))
+        if self.uncertain != ():
+            from ._parametric import uncertain_names
+
+            object.__setattr__(self, "uncertain", uncertain_names(self.plant, self.uncertain))
         rho_p, rho_d = self.plant.relative_degree(), self.design.rho
         if self.plant.n > rho_p:
             _warn_if_not_minimum_phase(self.plant)
@@ -423,44 +426,9 @@ class ClosedLoop:
         (``substeps`` RK4 steps of the augmented state, ``theta' = 0``; named as
         :attr:`plant_step` so the lanes emitter unrolls it the same way).
         """
-        fns = parametric_plant(self.plant, self.uncertain, self.rho)
-        f, h, sigma, coords = fns["f"], fns["h"], fns["sigma"], fns["coords"]
-        n, nt = self.n, len(self.uncertain)
-        # one RK4 step of the augmented state
-        xa, u = ca.SX.sym("x", n + nt), ca.SX.sym("u")
-        hstep = self.T / self.substeps
-        th = xa[n:]
+        from ._parametric import parametric_loop
 
-        def fa(z):
-            return ca.vertcat(f(z[:n], u, th), ca.SX.zeros(nt))
-
-        k1 = fa(xa)
-        k2 = fa(xa + (hstep / 2) * k1)
-        k3 = fa(xa + (hstep / 2) * k2)
-        k4 = fa(xa + hstep * k3)
-        x_next = xa[:n] + (hstep / 6) * (k1 + 2 * k2 + 2 * k3 + k4)[:n]
-        rk4_step = ca.Function("fl_rk4_step", [xa, u], [ca.vertcat(x_next, th)], ["x", "u"],
-                               ["x_next"])
-        if self.substeps == 1:
-            step = ca.Function("fl_rk4", [xa, u], [rk4_step(xa, u)], ["x", "u"], ["x_next"])
-        else:
-            X, U = ca.MX.sym("x", n + nt), ca.MX.sym("u")
-            step = ca.Function("fl_rk4", [X, U],
-                               [rk4_step.fold(self.substeps)(X, ca.repmat(U, 1, self.substeps))],
-                               ["x", "u"], ["x_next"], {"never_inline": True})
-        x, s = ca.SX.sym("x", n), ca.SX.sym("s", self.m)
-        r, w, q, p = ca.SX.sym("r"), ca.SX.sym("w"), ca.SX.sym("q"), ca.SX.sym("p", self.n_p)
-        theta = ca.SX.sym("theta", nt)
-        y = h(x, theta)
-        q_safe = ca.if_else(q > 0, q, 1.0)
-        ym = ca.if_else(q > 0, q_safe * ca.floor((y + w) / q_safe + 0.5), y + w)
-        s_next, uc, xhat = self.design.parametric_step(s, ym, r, p)
-        control = ca.Function(
-            "fl_control", [x, s, r, w, q, p, theta],
-            [s_next, uc, y, ym, xhat, sigma(x, uc, theta), ca.vec(coords(x, theta))],
-            ["x", "s", "r", "w", "q", "p", "theta"],
-            ["s_next", "u", "y", "ym", "xhat", "sigma", "coords"])
-        return {**fns, "control": control, "plant_step": step}
+        return parametric_loop(self)
 
     @functools.cached_property
     def _accumulating(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
@@ -561,60 +529,4 @@ class ClosedLoop:
                            cache_dir=cache_dir)
 
 
-@functools.lru_cache(maxsize=16)
-def parametric_plant(plant, names: tuple, rho: int) -> dict:
-    """The plant's functions with the parameters ``names`` as an input ``theta`` (cached).
-
-    ``f(x, u, theta)``, ``h(x, theta)``, ``sigma(x, u, theta)`` (``y^(rho)``), ``coords(x,
-    theta)`` (``y .. y^(rho-1)``: the normal-form coordinates when ``rho`` is the plant's) and
-    ``b(x, u, theta)`` (None when ``rho`` is not the plant's relative degree).
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> from fl_design.sim.kernel._loop import parametric_plant
-    >>> fns = parametric_plant(fl.plants.pendulum(), ("b",), 2)
-    >>> float(fns["b"]([0.0, 0.0], 0.0, 2.5))
-    2.5
-    """
-    from ...symbolic._bridge import to_casadi
-
-    by_name = {sym.name: sym for sym in plant.params}
-    theta = [by_name[name] for name in names]
-    kw = {"subs": {k: v for k, v in plant.params.items() if k.name not in names}}
-    states, inp = list(plant.states), plant.input
-    own = plant.relative_degree() == rho
-    xut, xt = [states, [inp], theta], [states, theta]
-    return {
-        "f": to_casadi(plant.rhs, xut, "f", input_names=["x", "u", "theta"],
-                       output_name="xdot", **kw),
-        "h": to_casadi(plant.output, xt, "h", input_names=["x", "theta"], output_name="y",
-                       **kw),
-        "sigma": to_casadi(plant.output_derivatives(rho)[-1], xut, "sigma",
-                           input_names=["x", "u", "theta"], output_name="sigma", **kw),
-        "b": to_casadi(plant.normal_form().b, xut, "b", input_names=["x", "u", "theta"],
-                       output_name="b", **kw) if own else None,
-        "coords": to_casadi(list(plant.normal_form().coordinates) if own
-                            else list(plant.output_derivatives(rho - 1)), xt, "fl_coords",
-                            input_names=["x", "theta"], output_name="coords", **kw),
-    }
-
-
-def _uncertain_names(plant, names) -> tuple:
-    """``names`` checked: a tuple of distinct parameter names of ``plant``."""
-    from ...errors import ParameterError
-
-    if isinstance(names, str) or not isinstance(names, (tuple, list)):
-        raise ParameterError(f"uncertain must be a tuple of parameter names, got {names!r}")
-    known = sorted(sym.name for sym in plant.params)
-    for name in names:
-        if name not in known:
-            raise ParameterError(f"{name!r} is not a parameter of plant {plant.name!r}; its "
-                                 f"parameters are {known}")
-    if len(set(names)) != len(names):
-        raise ParameterError(f"uncertain parameters repeat a name: {list(names)}")
-    return tuple(names)
-
-
-__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps", "parametric_plant",
-           "resolve_substeps"]
+__all__ = ["HUGE", "ClosedLoop", "accumulator_layout", "default_substeps", "resolve_substeps"]
