@@ -211,6 +211,16 @@ class Ensemble:
                 "(or use Ensemble.to_dict / Ensemble.columns, which need nothing)") from None
         return pd.DataFrame(self.columns())
 
+    def _repr_html_(self) -> str:
+        """A short HTML table for Jupyter: the family, the runs, the verdict fractions."""
+        from ._response import _html_table
+
+        rows = [("plants", f"{self.n}: " + ", ".join(f"{k} ~ {v}" for k, v in
+                                                    self.distributions.items())),
+                ("runs", f"{self.duration:g} s each, T = {self.T:g} s, seed {self.seed}")]
+        return _html_table(rows + [(k, f"{100 * v:.1f} %") for k, v in self.fractions.items()
+                                   if v > 0])
+
     def __str__(self) -> str:
         parts = [f"{100 * v:.1f}% {k}" for k, v in self.fractions.items() if v > 0]
         return f"{self.n} plants ({', '.join(self.params)}): " + ", ".join(parts)

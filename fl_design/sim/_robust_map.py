@@ -177,6 +177,19 @@ class RobustMap:
                          "eps_star": [self.eps_star(g) for g in self.gamma],
                          "status": labels.tolist(), "metrics": self.metrics})
 
+    def _repr_html_(self) -> str:
+        """A short HTML table for Jupyter: grid, plants, robust eps* per gamma."""
+        from ._response import _html_table
+
+        grid = (f"{self.eps.size} eps in [{self.eps.min():.3g}, {self.eps.max():.3g}] x "
+                f"{self.gamma.size} gamma")
+        rows = [("grid", grid),
+                ("plants", f"{self.n}: " + ", ".join(f"{k} ~ {v}" for k, v in
+                                                    self.distributions.items())),
+                ("runs", f"{self.duration:g} s each, T = {self.T:g} s")]
+        return _html_table(rows + [(f"robust eps* at gamma {g:.3g}", str(self.eps_star(g)))
+                                   for g in self.gamma])
+
     def plot(self, *, ax=None, level: float = 1.0):
         """Heat map of the converging fraction over (gamma, eps), with the robust eps*.
 

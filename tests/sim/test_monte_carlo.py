@@ -89,6 +89,8 @@ def test_ensemble_outputs(ensemble):
     import json
 
     json.dumps(d)  # plain JSON
+    html = ensemble._repr_html_()
+    assert html.startswith("<table>") and "b ~ Normal(1, 0.3)" in html
     cols = ensemble.columns()
     assert cols["status"].tolist() == ensemble.labels.tolist()
     assert cols["estimation_rms_2"].shape == (12,)
@@ -192,3 +194,39 @@ def test_adaptive_duration_is_chosen_once_on_the_nominal_plant(setup):
     nominal = fl.simulate(plant, design, fl.Scenario(0.1))
     assert ens.duration == pytest.approx(nominal.t[-1] + design.T)
     assert ens.duration_reason == nominal.duration_reason != "given"
+
+
+def test_process_pool_gives_the_same_ensemble(setup):
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    plant, design, _ = setup
+    kw = {"params": PARAMS, "n": 9, "seed": 2, "progress": False}
+    scenario = fl.Scenario(0.1, 2.0)
+    local = fl.monte_carlo(plant, design, scenario, **kw)
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as ex:
+        remote = fl.monte_carlo(plant, design, scenario, executor=ex, **kw)
+    np.testing.assert_array_equal(local.status, remote.status)
+    np.testing.assert_array_equal(local.metrics["iae"], remote.metrics["iae"])
+
+
+def test_uncertain_names_checked():
+    from fl_design.sim import ClosedLoop
+
+    plant, design = fl.plants.pendulum(), fl.presets.pendulum_design()
+    with pytest.raises(ParameterError, match="'zz' is not a parameter of plant 'pendulum'"):
+        ClosedLoop(plant, design, substeps=1, uncertain=("zz",))
+    with pytest.raises(ParameterError, match="repeat a name"):
+        ClosedLoop(plant, design, substeps=1, uncertain=("c", "c"))
+    with pytest.raises(ParameterError, match="tuple of parameter names"):
+        ClosedLoop(plant, design, substeps=1, uncertain="c")
+    loop = ClosedLoop(plant, design, substeps=1, uncertain=["b"])
+    assert loop.uncertain == ("b",) and loop.layout["theta"] == slice(loop.layout.size - 1,
+                                                                      loop.layout.size)
+
+
+def test_plot_refuses_unknown_names(ensemble):
+    with pytest.raises(ParameterError, match="unknown metric"):
+        ensemble.plot(metrics=("speed",))
+    with pytest.raises(ParameterError, match="not a parameter of the ensemble"):
+        ensemble.plot(x="g")

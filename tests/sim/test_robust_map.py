@@ -47,6 +47,8 @@ def test_robust_eps_star_is_the_boundary_of_the_fraction(robust):
         assert star.below_range if first_bad == 0 else star.lower == rmap.eps[first_bad - 1]
         half = rmap.eps_star(g, level=0.5)
         assert half.above_range or half.upper >= star.upper
+    html = rmap._repr_html_()
+    assert html.startswith("<table>") and f">{rmap.eps_star(rmap.gamma[1])}<" in html
     d = rmap.to_dict()
     assert np.array_equal(np.array(d["fraction"]), frac) and len(d["eps_star"]) == 3
 
