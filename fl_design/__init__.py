@@ -54,6 +54,11 @@ _LAZY = {
     "EpsStar": "sim",
     "EpsStarEstimate": "sim",
     "estimate_eps_star": "sim",
+    "monte_carlo": "sim",
+    "Ensemble": "sim._ensemble",
+    "Uniform": "sim._family",
+    "Normal": "sim._family",
+    "RobustMap": "sim._robust_map",
     "SampledLinearization": "analysis",
     "sampled_linearization": "analysis",
     "linearized_eps_star": "analysis",
@@ -122,9 +127,13 @@ if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on 
         StabilityMap,
         Step,
         estimate_eps_star,
+        monte_carlo,
         simulate,
         sweep,
     )
+    from .sim._ensemble import Ensemble
+    from .sim._family import Normal, Uniform
+    from .sim._robust_map import RobustMap
     from .symbolic import (
         Discretization,
         Equilibrium,

@@ -43,6 +43,7 @@ from ._tables import (
     table_dict,
 )
 from ._template import config_toml
+from ._uncertainty import UncertaintyTable
 
 
 class ConfigError(ParameterError):
@@ -77,6 +78,8 @@ class Config:
         ``[classifier]``.
     compare, sweep, certify, codegen : CompareTable, SweepTable, CertifyTable, CodegenTable
         The stages' tables.
+    uncertainty : UncertaintyTable
+        ``[uncertainty]`` (no ``params``: no robustness stage).
     source : str
         Where it came from (a path or ``"<default>"``).
     notes : tuple of str
@@ -103,6 +106,7 @@ class Config:
     sweep: SweepTable = field(default=None, metadata={"table": SweepTable})
     certify: CertifyTable = field(default=None, metadata={"table": CertifyTable})
     codegen: CodegenTable = field(default=None, metadata={"table": CodegenTable})
+    uncertainty: UncertaintyTable = field(default=None, metadata={"table": UncertaintyTable})
     source: str = "<default>"
     notes: tuple = ()
 

@@ -24,8 +24,9 @@ import sympy as sp
 
 from ._build import build_classifier, build_design, build_plant, build_scenario
 from ._config import Config
+from ._uncertainty import run_stage as run_robustness
 
-STAGES = ("derive", "certify", "sweep", "simulate", "codegen")
+STAGES = ("derive", "certify", "sweep", "simulate", "robustness", "codegen")
 QUICK = {"duration": 4.0, "sweep_points": 5, "sweep_duration": 3.0, "certify_points": 3,
          "bench_steps": 20_000, "sil_duration": 1.0}
 
@@ -294,7 +295,10 @@ def prepare(config: Config) -> Job:
 
 def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
             stages=STAGES, executor=None, progress: bool = True, force: bool = False) -> Job:
-    """Run the main job's stages (derive, certify, sweep, simulate, codegen) on ``config``.
+    """Run the main job's stages (derive, certify, sweep, simulate, robustness, codegen).
+
+    ``robustness`` (:func:`fl_design.monte_carlo` over the ``[uncertainty]`` family) runs only
+    when the config gives ``[uncertainty] params``.
 
     Parameters
     ----------
@@ -329,8 +333,11 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     steps = {"derive": lambda: _derive(job), "certify": lambda: _certify(job, quick),
              "sweep": lambda: _sweep(job, quick, executor, progress),
              "simulate": lambda: _simulate(job, quick),
+             "robustness": lambda: run_robustness(job, quick, executor, progress),
              "codegen": lambda: _codegen(job, quick, Path(out_dir), force)}
     todo = [s for s in STAGES if s in stages or (s == "derive" and "certify" in stages)]
+    if not config.uncertainty.params:  # robustness only with [uncertainty] params
+        todo = [s for s in todo if s != "robustness"]
     for i, stage in enumerate(todo, 1):
         note(f"{i}/{len(todo)} {stage} ...", enabled=progress)
         start = time.perf_counter()

@@ -370,9 +370,13 @@ def sections(job, figures) -> list:
 
     timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
+    from ._uncertainty import report_blocks
+
+    robust = ([("Robustness: a family of plants", report_blocks(job))]
+              if "robustness" in job.results else [])
     return [("Summary", S.summary_blocks(job, figures)),
             (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),
-            (S.CERTIFICATES, _certificates(job)), (S.CODE, _codegen(job)),
+            *robust, (S.CERTIFICATES, _certificates(job)), (S.CODE, _codegen(job)),
             (S.DERIVATION, _derivation(job)),
             ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}.")])]
 

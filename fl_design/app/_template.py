@@ -164,7 +164,8 @@ def _value(v) -> str:
 
 #: Commented-out examples of keys without a default value (shown as ``# key = example``).
 _EXAMPLES = {"disturbance": "{ input = { step = { at = 10.0, size = 0.5 } } }",
-             "divergence_bound": "1e6"}
+             "divergence_bound": "1e6",
+             "uncertainty.params": "{ c = [0.05, 1.0], b = { normal = [1.0, 0.1] } }"}
 
 
 def _sentence(text: str) -> str:
@@ -211,7 +212,8 @@ def render(cfg, header: str) -> str:
                 continue
             value, doc = getattr(obj, f.name), _sentence(docs.get(f.name, ""))
             if value is None:
-                line = f"# {f.name} = {_EXAMPLES.get(f.name, '...')}  # (not set) {doc}"
+                example = _EXAMPLES.get(f"{table}.{f.name}", _EXAMPLES.get(f.name, "..."))
+                line = f"# {f.name} = {example}  # (not set) {doc}"
             else:
                 line = f"{f.name} = {_value(value)}  # {doc}"
             lines.append(line.rstrip(" #"))

@@ -4,7 +4,10 @@ Public API (re-exported at ``fl_design``): run options :class:`Scenario`, :class
 :class:`Classifier`, :class:`RK4`, :class:`Cvodes`, :class:`Kernel`, :class:`Disturbance`
 (:class:`Step`, :class:`Sine`); :func:`simulate` ->
 :class:`Response`; :func:`sweep` -> :class:`StabilityMap`; :func:`estimate_eps_star` ->
-:class:`EpsStarEstimate`; :class:`EpsStar` brackets; :class:`Status` and its codes; the
+:class:`EpsStarEstimate`; :class:`EpsStar` brackets; :func:`monte_carlo` over a family of
+plants (``fl.Uniform``, ``fl.Normal``) -> ``fl.Ensemble``, and ``sweep(..., params=)`` ->
+``fl.RobustMap`` (those four imported from their modules: ``_family``, ``_ensemble``,
+``_robust_map``); :class:`Status` and its codes; the
 :class:`ClosedLoop` for advanced use.
 
 Modules, one concept each: ``_scenario`` and ``_options`` (the option objects), ``_metrics``
@@ -12,7 +15,8 @@ Modules, one concept each: ``_scenario`` and ``_options`` (the option objects), 
 ``_run`` (:func:`prepare_run`: samples and constants of a run), ``_duration`` (the adaptive
 run length), ``_loop_jacobian`` (the loop's equilibrium and Jacobian), ``_simulate`` and
 ``_response``, ``_grid`` (many runs in this process) and ``_executor`` (as tasks of an
-executor), ``_sweep`` and ``_stability_map``; the compiled kernel in the subpackage
+executor), ``_sweep`` and ``_stability_map``; ``_family`` (a family of plants: distributions and the
+per-sample setup), ``_monte_carlo`` and ``_ensemble``, ``_robust_map``, ``_family_plots``; the compiled kernel in the subpackage
 :mod:`fl_design.sim.kernel`. Helpers other layers need are imported from their module.
 
 Examples
@@ -24,6 +28,7 @@ Examples
 
 from ._disturbance import Disturbance, Sine, Step
 from ._metrics import STATUS_CODES, Status
+from ._monte_carlo import monte_carlo
 from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
 from ._response import Response
 from ._simulate import simulate
@@ -49,6 +54,7 @@ __all__ = [
     "Status",
     "Step",
     "estimate_eps_star",
+    "monte_carlo",
     "simulate",
     "sweep",
 ]

@@ -304,4 +304,46 @@ def disturbance_metrics(t: np.ndarray, y: np.ndarray, r: np.ndarray, start: floa
             "recovery_time": recovery}
 
 
-__all__ = ["Disturbance", "Sine", "Step", "disturbance_metrics", "onset"]
+def summary_metrics(summary: dict, T: float, start: float) -> dict:
+    """:func:`disturbance_metrics` from a kernel's running accumulators (sweeps, Monte Carlo).
+
+    ``dist_peak`` is the largest ``|y - r|`` from the disturbance's first sample on,
+    ``k_dist_out`` the last such sample outside the run's band (:data:`fl_design.sim._metrics.
+    ACCUMULATORS`); the same definitions as from a recorded trajectory.
+
+    Parameters
+    ----------
+    summary : dict
+        Accumulators (arrays of any shape), with ``N``, ``diverged``.
+    T : float
+        Sampling time.
+    start : float
+        When the disturbance starts (``inf``: none).
+
+    Returns
+    -------
+    dict
+        ``disturbance_peak`` and ``recovery_time`` arrays (NaN for diverged runs or without
+        a disturbance; ``recovery_time`` ``inf`` when still outside the band at the end).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim._disturbance import summary_metrics
+    >>> m = summary_metrics({"dist_peak": np.array([0.5]), "k_dist_out": np.array([3.0]),
+    ...                      "N": np.array([6.0]), "diverged": np.array([0.0])}, 1.0, 2.0)
+    >>> m["disturbance_peak"].tolist(), m["recovery_time"].tolist()
+    ([0.5], [2.0])
+    """
+    g = {k: np.asarray(summary[k], dtype=float) for k in ("dist_peak", "k_dist_out", "N",
+                                                            "diverged")}
+    bad = (g["diverged"] != 0) | ~np.isfinite(g["dist_peak"]) | (not math.isfinite(start))
+    recovery = np.where(g["k_dist_out"] < 0, 0.0,
+                        np.where(g["k_dist_out"] >= g["N"] - 1, np.inf,
+                                 (g["k_dist_out"] + 1) * T - (start if math.isfinite(start)
+                                                              else 0.0)))
+    return {"disturbance_peak": np.where(bad, np.nan, g["dist_peak"]),
+            "recovery_time": np.where(bad, np.nan, recovery)}
+
+
+__all__ = ["Disturbance", "Sine", "Step", "disturbance_metrics", "onset", "summary_metrics"]

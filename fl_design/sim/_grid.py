@@ -57,7 +57,8 @@ if hasattr(os, "register_at_fork"):
 def _runner(run: RunSetup, kernel: Kernel):
     """The runner of ``run.loop``, memoised per process (tasks of one sweep share it)."""
     try:
-        key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps, kernel))
+        key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps,
+                            run.loop.uncertain, kernel))
     except (pickle.PicklingError, TypeError, AttributeError):  # unpicklable: no memo
         return run.loop.runner(kernel=kernel)
     with _RUNNERS_LOCK:
@@ -274,7 +275,7 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.05], [1e-2]),
     ...                kernel=fl.Kernel(compiled=False), progress=False)
     >>> acc.shape, run.loop.layout.unpack(acc)["k"].tolist()
-    ((99, 2), [500.0, 500.0])
+    ((102, 2), [500.0, 500.0])
     """
     kernel = option("kernel", kernel, Kernel)
     if executor is not None and not isinstance(executor, Executor):

@@ -236,10 +236,14 @@ ACCUMULATORS = (
     Accumulator("rev_last", 0.0, _on_reversal(lambda p, s, x: x)),
     Accumulator("k_rev_first", -1.0, _on_reversal(lambda p, s, x: _if(p < 0, s["k"], p))),
     Accumulator("k_rev_last", -1.0, _on_reversal(lambda p, s, x: s["k"])),
+    # the response to a disturbance starting at sample k_dist (inf: none), see _disturbance
+    Accumulator("dist_peak", -np.inf, lambda p, s: _if(s["after_dist"], _fmax(p, s["abs_e"]), p)),
+    Accumulator("k_dist_out", -1.0,
+                lambda p, s: _if(s["after_dist"] * (s["abs_e"] > s["tol"]), s["k"], p)),
 )
 
 #: Constants of a run stored with its accumulators (inputs of the finalization).
-RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol", "noise")
+RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol", "noise", "k_dist")
 
 
 def metric_layout(rho: int) -> Layout:
@@ -285,7 +289,7 @@ def initial_values(rho: int) -> dict[str, np.ndarray]:
 
 
 def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outside, noise=0.0,
-            u_range=None) -> dict:
+            u_range=None, k_dist=None) -> dict:
     """The per-sample signals the accumulators read (CasADi expressions).
 
     Parameters
@@ -302,6 +306,8 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outsid
         The run's noise level (:data:`RUN_CONSTANTS` ``noise``): sets the swing hysteresis.
     u_range : (float, float) or None, optional
         The controller's input saturation; ``u`` at either end counts as saturated.
+    k_dist : casadi.SX or float, optional
+        First sample of the scenario's disturbance (default None: none).
 
     Returns
     -------
@@ -326,7 +332,8 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outsid
     return {"e": e, "abs_e": ca.fabs(e), "u": u, "abs_du": ca.fabs(u - u_prev), "k": k,
             "est_err": est_err, "tail": k >= k_tail, "tol": tol, "abs_step": ca.fabs(step),
             "progress": ca.sign(step) * (y - y0), "k_mid": k_mid, "k_tail": k_tail,
-            "outside": outside, "noise": noise, "saturated": saturated}
+            "outside": outside, "noise": noise, "saturated": saturated,
+            "after_dist": 0 if k_dist is None else k >= k_dist}
 
 
 def update(acc: dict, s: dict) -> dict:

@@ -165,10 +165,13 @@ class RunSetup:
         return float(np.hypot(self.scenario.noise.std, self.q / np.sqrt(12.0)))
 
     def constants(self) -> dict:
-        """The run constants of the accumulator (``N k_tail k_mid y0 step tol noise``)."""
+        """The run constants of the accumulator (``N k_tail k_mid y0 step tol noise k_dist``;
+        ``k_dist`` the first sample of the disturbance, ``inf`` without one)."""
+        k_dist = (float(round(self.disturbance_start / self.T))
+                  if math.isfinite(self.disturbance_start) else math.inf)
         return {"N": float(self.N), "k_tail": float(self.k_tail), "k_mid": float(self.k_mid),
                 "noise": self.noise_level,
-                "y0": self.y0, "step": self.step, "tol": self.tol}
+                "y0": self.y0, "step": self.step, "tol": self.tol, "k_dist": k_dist}
 
     @property
     def u0(self) -> float:
@@ -210,7 +213,7 @@ class RunSetup:
         >>> d = fl.presets.pendulum_design()
         >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
         >>> run.initial_accumulator(d.parameter_vector()).shape
-        (99, 1)
+        (102, 1)
         """
         P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
         return self.loop.layout.pack(

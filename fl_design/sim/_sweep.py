@@ -31,9 +31,11 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import ParameterError
+from ._disturbance import summary_metrics
 from ._grid import _Columns, run_grid
 from ._metrics import Status, metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario, option
+from ._robust_map import RobustMap
 from ._run import RunSetup, prepare_run, signed_gammas
 from ._stability_map import EpsStarEstimate, StabilityMap
 
@@ -64,6 +66,8 @@ def _assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray,
     info = run.loop.layout.unpack(acc)
     info["est2_sum"] = np.asarray(info["est2_sum"]).T
     m = metrics_from_summary(info, run.T)
+    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
+        m.update(summary_metrics(info, run.T, run.disturbance_start))
     status = m.pop("status").reshape(shape)
     metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
                for k, v in m.items()}
@@ -83,8 +87,14 @@ def _require_eps(design) -> None:
 def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
           integrator: RK4 | None = None, classifier: Classifier | None = None,
           kernel: Kernel | None = None, executor: Executor | None = None, progress: bool = True,
-          allow_unmodeled: bool = False) -> StabilityMap:
+          allow_unmodeled: bool = False, params: dict | None = None, samples: int = 32,
+          seed: int = 0) -> StabilityMap | RobustMap:
     """Run and classify the closed loop on every (eps, gamma) pair of a grid.
+
+    With ``params`` the map is *robust*: every grid point runs against the same ``samples``
+    plants drawn from the parameter distributions (as :func:`fl_design.monte_carlo`), and the
+    result, a :class:`~fl_design.sim.RobustMap`, gives the fraction of plants that converge
+    at each point and the robust eps* (:meth:`RobustMap.eps_star`).
 
     Parameters
     ----------
@@ -118,10 +128,18 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     allow_unmodeled : bool, optional
         Run a design of lower relative degree than the plant's (unmodeled dynamics, with a
         warning); default False.
+    params : dict, optional
+        ``{parameter name: (lo, hi) | fl.Uniform | fl.Normal}``: a robust map over a family
+        of plants (default None: the plant alone).
+    samples : int, optional
+        Plants drawn for a robust map (default 32); ignored without ``params``.
+    seed : int, optional
+        Seed of the draw (default 0).
 
     Returns
     -------
-    StabilityMap
+    StabilityMap or RobustMap
+        A :class:`RobustMap` when ``params`` is given.
 
     Raises
     ------
@@ -145,6 +163,11 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     _require_eps(design)
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
     gammas = signed_gammas(plant, gamma_grid)
+    if params is not None:
+        return _robust_sweep(plant, design, scenario, eps_grid, gamma_grid, gammas,
+                             params=params, samples=samples, seed=seed, integrator=integrator,
+                             classifier=classifier, kernel=kernel, executor=executor,
+                             progress=progress, allow_unmodeled=allow_unmodeled)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
     acc = run_grid(run, _Columns(design, eps_grid, gammas), kernel=kernel,
@@ -153,6 +176,47 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
                         T=run.T, duration=run.N * run.T, tol=run.tol,
                         duration_reason=run.duration_reason)
+
+
+class _FamilyGridColumns:
+    """Columns ``[p; sample]`` of an (eps, gamma) grid times a family's samples (sample
+    fastest, then gamma, then eps)."""
+
+    def __init__(self, grid: _Columns, family):
+        self.grid, self.family = grid, family
+        self.n = grid.n * family.n_samples
+
+    def __call__(self, a: int, b: int) -> np.ndarray:
+        return self.take(np.arange(a, b))
+
+    def take(self, idx) -> np.ndarray:
+        idx = np.asarray(idx)
+        S = self.family.n_samples
+        return np.vstack([self.grid.take(idx // S), (idx % S)[None, :].astype(float)])
+
+
+def _robust_sweep(plant, design, scenario, eps_grid, gamma_grid, gammas, *, params, samples,
+                  seed, integrator, classifier, kernel, executor, progress, allow_unmodeled):
+    from ._family import draw, parse_distributions, prepare_family
+    from ._monte_carlo import summarize
+
+    dists = parse_distributions(plant, params)
+    samples = V.integer("samples", samples, minimum=1)
+    seed = V.integer("seed", seed, minimum=0)
+    values = draw(dists, samples, seed)
+    family = prepare_family(plant, design, scenario, values, integrator=integrator,
+                            classifier=classifier, gammas=gammas,
+                            allow_unmodeled=allow_unmodeled)
+    grid = _Columns(design, eps_grid, gammas)
+    acc = run_grid(family, _FamilyGridColumns(grid, family), kernel=kernel, executor=executor,
+                   progress=progress, desc="robust sweep")
+    status, m = summarize(family, acc)
+    shape = (eps_grid.size, gamma_grid.size, samples)
+    metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
+               for k, v in m.items()}
+    return RobustMap(eps=eps_grid, gamma=gamma_grid, status=status.reshape(shape),
+                     metrics=metrics, params=values, T=family.T, duration=family.duration,
+                     distributions=dists, seed=seed, duration_reason=family.duration_reason)
 
 
 def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_range=None,

@@ -52,7 +52,7 @@ def test_init_round_trips_every_library_plant_to_its_bench_design(name):
     assert code == 0
     tables = tomllib.loads(text)
     assert set(tables) == {"plant", "design", "scenario", "classifier", "compare", "sweep",
-                           "certify", "codegen"}
+                           "certify", "codegen", "uncertainty"}
     cfg = parse_config(text, source="init")
     assert cfg.to_dict() | {"source": ""} == parse_config(
         f'[plant]\nlibrary = "{name}"').to_dict() | {"source": ""}

@@ -42,6 +42,13 @@ MARKERS = {
         r"0\.01 +0\.04\d* +0\.04\d* +0\.04\d*",
         r"<th[^>]*>grid</th><td[^>]*>7 eps in \[0\.002, 0\.5\] x 7 gamma",
     ],
+    "robustness": [
+        r"nominal plant: converged; disturbance response \{'disturbance_at': 10\.0",
+        r"64 plants \(c, b\): [\d.]+% converged",
+        r"recovery time: median 3\.\d+ s",
+        r"sample (\d+) again with fl\.simulate: (\w+) \(Monte Carlo: \2\)",
+        r"gamma = 0\.01: robust eps\* 0\.0\d+ \(fails at 0\.0\d+\)",
+    ],
     "own_plant_to_c": [
         r"relative degree 2",
         r"b = 1/\(l\*\*2\*m\)",

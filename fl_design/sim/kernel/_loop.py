@@ -68,18 +68,21 @@ HUGE = 1e300
 N_INPUTS = 3
 
 
-def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
+def accumulator_layout(*, n: int, m: int, rho: int, n_p: int, n_theta: int = 0) -> Layout:
     """The accumulator of a plant with ``n`` states and a design of state size ``m``.
 
     Fields: ``x`` (n), ``s`` (m), ``u_prev``, ``k``, ``diverged``, ``k_div``, the running
     values of :data:`fl_design.sim._metrics.ACCUMULATORS` (``est2_sum`` has ``rho + 1`` entries), and
     the run's constants ``N k_tail k_mid y0 step tol noise q x_op (n) bound (n) region_lo (n)
-    region_hi (n) p (n_p)``.
+    region_hi (n) p (n_p)``, then ``theta (n_theta)``, the plant parameters given at run time
+    (only when ``n_theta > 0``: :attr:`ClosedLoop.uncertain`).
 
     Parameters
     ----------
     n, m, rho, n_p : int
         Plant states, design state size, relative degree, parameter-vector length.
+    n_theta : int, optional
+        Plant parameters that are run-time inputs (default 0).
 
     Returns
     -------
@@ -90,12 +93,14 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int) -> Layout:
     >>> from fl_design.sim.kernel._loop import accumulator_layout
     >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
     >>> lay["x"], "est2_sum" in lay, lay.size
-    (slice(0, 2, None), True, 99)
+    (slice(0, 2, None), True, 102)
     """
     fields = [("x", n), ("s", m), ("u_prev", 1), ("k", 1), ("diverged", 1), ("k_div", 1)]
     fields += list(metric_layout(rho).fields)
     fields += [(name, 1) for name in (*RUN_CONSTANTS, "q")]
     fields += [("x_op", n), ("bound", n), ("region_lo", n), ("region_hi", n), ("p", n_p)]
+    if n_theta:
+        fields.append(("theta", n_theta))
     return Layout(tuple(fields))
 
 
@@ -180,6 +185,13 @@ class ClosedLoop:
         :class:`~fl_design.errors.UnmodeledDynamicsWarning`. The design's "true" coordinates
         are then the plant's ``y, ..., y^(rho_d - 1)`` and its ``sigma`` is ``y^(rho_d) =
         L_f^rho_d h`` (no input term). Default False: a mismatch is refused.
+    uncertain : tuple of str, optional
+        Names of plant parameters that are *run-time inputs* of the accumulating step (the
+        accumulator's ``theta``, one value per run) instead of numbers compiled in: one
+        kernel runs a whole family of plants (:func:`fl_design.monte_carlo`). The plant
+        step then integrates ``[x; theta]`` with ``theta' = 0`` (``theta`` is carried
+        exactly). :attr:`control`, :attr:`sample` and :attr:`plant_step` keep the plant's
+        own values. Default ``()``.
 
     Attributes
     ----------
@@ -227,10 +239,15 @@ class ClosedLoop:
     design: Any
     substeps: int
     allow_unmodeled: bool = False
+    uncertain: tuple = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "substeps", check_substeps(self.substeps))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
+        if self.uncertain != ():
+            from ._parametric import uncertain_names
+
+            object.__setattr__(self, "uncertain", uncertain_names(self.plant, self.uncertain))
         rho_p, rho_d = self.plant.relative_degree(), self.design.rho
         if self.plant.n > rho_p:
             _warn_if_not_minimum_phase(self.plant)
@@ -251,7 +268,7 @@ class ClosedLoop:
         )
 
     def __getstate__(self):  # CasADi graphs are rebuilt after unpickling
-        keep = ("plant", "design", "substeps", "allow_unmodeled")
+        keep = ("plant", "design", "substeps", "allow_unmodeled", "uncertain")
         return {k: v for k, v in self.__dict__.items() if k in keep}
 
     # --- sizes ----------------------------------------------------------------------------------
@@ -283,7 +300,8 @@ class ClosedLoop:
     @functools.cached_property
     def layout(self) -> Layout:
         """The accumulator layout (:func:`accumulator_layout`)."""
-        return accumulator_layout(n=self.n, m=self.m, rho=self.rho, n_p=self.n_p)
+        return accumulator_layout(n=self.n, m=self.m, rho=self.rho, n_p=self.n_p,
+                                  n_theta=len(self.uncertain))
 
     @property
     def record_layout(self) -> Layout:
@@ -400,14 +418,34 @@ class ClosedLoop:
                            ["x_next", "s_next", "u", "x_op", "bound"], ["ok"])
 
     @functools.cached_property
+    def uncertain_functions(self) -> dict:
+        """The plant with the parameters :attr:`uncertain` as an input ``theta``.
+
+        ``f(x, u, theta)``, ``h(x, theta)``, ``b(x, u, theta)``, ``control(x, s, r, w, q, p,
+        theta)`` (as :attr:`control`), and ``plant_step([x; theta], u) -> [x_next; theta]``
+        (``substeps`` RK4 steps of the augmented state, ``theta' = 0``; named as
+        :attr:`plant_step` so the lanes emitter unrolls it the same way).
+        """
+        from ._parametric import parametric_loop
+
+        return parametric_loop(self)
+
+    @functools.cached_property
     def _accumulating(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
         """Symbolic ``(acc, d, acc_next, out)`` of one accumulating step."""
         lay = self.layout
         acc, d = ca.SX.sym("acc", lay.size), ca.SX.sym("d", N_INPUTS)
         a = {name: acc[sl] for name, sl in lay.slices.items()}
         r, w, d_in = d[0], d[1], d[2]
-        s_next, u, y, ym, xhat, sigma, coords = self.control(a["x"], a["s"], r, w, a["q"], a["p"])
-        x_next = self.plant_step(a["x"], u + d_in)  # the input disturbance acts at the plant
+        if self.uncertain:  # the plant's parameters theta are inputs (one value per run)
+            fns = self.uncertain_functions
+            s_next, u, y, ym, xhat, sigma, coords = fns["control"](
+                a["x"], a["s"], r, w, a["q"], a["p"], a["theta"])
+            x_next = fns["plant_step"](ca.vertcat(a["x"], a["theta"]), u + d_in)[:self.n]
+        else:
+            s_next, u, y, ym, xhat, sigma, coords = self.control(a["x"], a["s"], r, w, a["q"],
+                                                                 a["p"])
+            x_next = self.plant_step(a["x"], u + d_in)  # the input disturbance acts at the plant
         ok = self.within_bounds(x_next, s_next, u, a["x_op"], a["bound"])
         k = a["k"]
         active = k < a["N"]
@@ -427,7 +465,7 @@ class ClosedLoop:
                       est_err=xhat - ca.vertcat(coords, sigma), y=y, y0=a["y0"],
                       step=a["step"], tol=a["tol"], k_tail=a["k_tail"], k_mid=a["k_mid"],
                       outside=outside, noise=a["noise"],
-                      u_range=self.design.controller.u_range)
+                      u_range=self.design.controller.u_range, k_dist=a["k_dist"])
         for name, value in update(a, sig).items():
             new[name] = ca.if_else(accept, value, a[name])
         acc_next = ca.vertcat(*[new[name] for name, _ in lay.fields])

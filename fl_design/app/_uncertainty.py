@@ -1,0 +1,218 @@
+"""The ``[uncertainty]`` table: the job's robustness stage and its report section.
+
+A configuration that gives parameter distributions runs the design against that family of
+plants (:func:`fl_design.monte_carlo`) after the simulations, and the report gains a
+*Robustness* section (verdict fractions, the worst samples)::
+
+    [uncertainty]
+    samples = 200               # plants drawn (quick mode: 16)
+    seed = 0                    # the same seed gives the same plants
+    duration = "adaptive"       # seconds per run, or chosen from the nominal loop
+    [uncertainty.params]
+    c = [0.05, 1.0]             # uniform on [lo, hi]
+    b = { normal = [1.0, 0.1] } # normal: mean, standard deviation
+
+Without ``params`` nothing runs and the report has no such section.
+
+Examples
+--------
+>>> from fl_design.app import parse_config
+>>> cfg = parse_config('[uncertainty.params]\\nc = [0.1, 1.0]\\nb = { normal = [1.0, 0.1] }')
+>>> cfg.uncertainty.distributions()
+{'c': Uniform(lo=0.1, hi=1.0), 'b': Normal(mu=1.0, sigma=0.1)}
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+from .. import _validate as V
+from ..errors import ParameterError
+from ._tables import duration as _duration
+from ._tables import set_fields
+
+#: Plants drawn in quick mode.
+QUICK_SAMPLES = 16
+#: Largest ``samples``.
+MAX_SAMPLES = 1_000_000
+
+
+def _spec(name: str, spec):
+    """One ``params`` entry, normalized: ``(lo, hi)`` or ``{"normal"|"uniform": (a, b)}``."""
+    from ..sim._family import Normal, Uniform
+
+    kind, values = "uniform", spec
+    if isinstance(spec, Mapping):
+        if len(spec) != 1 or next(iter(spec)) not in ("uniform", "normal"):
+            raise ParameterError(f"params.{name} must be [lo, hi], {{uniform = [lo, hi]}} or "
+                                 f"{{normal = [mean, std]}}, got {V.short(dict(spec))}")
+        kind, values = next(iter(spec.items()))
+    if not (isinstance(values, (list, tuple)) and len(values) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in values)):
+        raise ParameterError(f"params.{name} must hold two finite numbers, got {values!r}")
+    values = tuple(float(v) for v in values)
+    try:
+        Uniform(*values) if kind == "uniform" else Normal(*values)
+    except ParameterError as err:
+        raise ParameterError(f"params.{name}: {err}") from None
+    return values if not isinstance(spec, Mapping) else MappingProxyType({kind: values})
+
+
+@dataclass(frozen=True)
+class UncertaintyTable:
+    """``[uncertainty]``: a family of plants the design is run against (robustness stage).
+
+    Parameters
+    ----------
+    params : mapping, optional
+        Plant parameters drawn per sample: [lo, hi] (uniform) or { normal = [mean, std] }; not set: no robustness stage.
+    samples : int, optional
+        Plants drawn (quick mode: 16), in [1, 1000000].
+    seed : int, optional
+        The same seed gives the same plants (>= 0).
+    duration : float or str, optional
+        Seconds per run, or "adaptive" (chosen once on the nominal loop).
+
+    Raises
+    ------
+    ParameterError
+        A value of ``params`` that is neither ``[lo, hi]`` nor ``{normal = [mu, sigma]}`` /
+        ``{uniform = [lo, hi]}`` or numbers the distribution refuses, ``samples`` out of
+        ``1 .. MAX_SAMPLES``, a negative seed, a bad duration.
+
+    Examples
+    --------
+    >>> from fl_design.app._uncertainty import UncertaintyTable
+    >>> t = UncertaintyTable(params={"c": [0.1, 1.0], "b": {"normal": [1.0, 0.1]}})
+    >>> t.samples, t.distributions()
+    (200, {'c': Uniform(lo=0.1, hi=1.0), 'b': Normal(mu=1.0, sigma=0.1)})
+    """
+
+    params: Mapping | None = None
+    samples: int = 200
+    seed: int = 0
+    duration: float | str = "adaptive"
+
+    def __post_init__(self):
+        params = None
+        if self.params is not None:
+            if not isinstance(self.params, Mapping):
+                raise ParameterError(f"params must be a table {{ name = [lo, hi], ... }}, got "
+                                     f"{V.short(self.params)}")
+            params = MappingProxyType({V.identifier("params", k): _spec(k, v)
+                                       for k, v in self.params.items()})
+        samples = V.integer("samples", self.samples)
+        if not 1 <= samples <= MAX_SAMPLES:
+            raise ParameterError(f"samples must be in 1 .. {MAX_SAMPLES}, got {samples}")
+        seed = V.integer("seed", self.seed)
+        if seed < 0:
+            raise ParameterError(f"seed must be >= 0, got {seed}")
+        set_fields(self, params=params or None, samples=samples, seed=seed,
+                   duration=_duration("duration", self.duration))
+
+    def distributions(self) -> dict:
+        """``{name: fl.Uniform or fl.Normal}`` of :attr:`params` (empty when not set).
+
+        Examples
+        --------
+        >>> from fl_design.app._uncertainty import UncertaintyTable
+        >>> UncertaintyTable(params={"b": {"uniform": [0.5, 2]}}).distributions()
+        {'b': Uniform(lo=0.5, hi=2.0)}
+        """
+        from ..sim._family import Normal, Uniform
+
+        out = {}
+        for name, spec in (self.params or {}).items():
+            kind, values = next(iter(spec.items())) if isinstance(spec, Mapping) else \
+                ("uniform", spec)
+            out[name] = Uniform(*values) if kind == "uniform" else Normal(*values)
+        return out
+
+
+def run_stage(job, quick: bool, executor, progress: bool) -> None:
+    """The robustness stage: ``fl.monte_carlo`` of the job's design over the family.
+
+    Stores the :class:`~fl_design.Ensemble` in ``job.results["robustness"]``.
+
+    Parameters
+    ----------
+    job : Job
+        A prepared job whose config has ``[uncertainty] params``.
+    quick : bool
+        :data:`QUICK_SAMPLES` plants and the quick run length.
+    executor : concurrent.futures.Executor or None
+        Runs chunks of samples.
+    progress : bool
+        Progress bar.
+
+    Examples
+    --------
+    >>> from fl_design.app import parse_config
+    >>> from fl_design.app._job import prepare
+    >>> from fl_design.app._uncertainty import run_stage
+    >>> job = prepare(parse_config('[plant]\\nlibrary = "pendulum"\\n'
+    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'))
+    >>> run_stage(job, True, None, False)
+    >>> job.results["robustness"].n
+    16
+    """
+    from ..sim import monte_carlo
+    from ._build import build_classifier, build_scenario
+    from ._job import QUICK
+
+    table = job.config.uncertainty
+    duration = QUICK["duration"] if quick else table.duration
+    scenario = build_scenario(job.config, duration=duration, noise_std=0.0)
+    job.results["robustness"] = monte_carlo(
+        job.plant, job.design, scenario, params=table.distributions(),
+        n=QUICK_SAMPLES if quick else table.samples, seed=table.seed,
+        classifier=build_classifier(job.config), executor=executor, progress=progress)
+
+
+def report_blocks(job) -> list:
+    """The report's *Robustness* section (blocks as :mod:`fl_design.app._report_sections`).
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+
+    Returns
+    -------
+    list
+
+    Examples
+    --------
+    >>> from fl_design.app._uncertainty import report_blocks
+    >>> class Job:
+    ...     results = {}
+    >>> report_blocks(Job())
+    [('p', 'Not run (no [uncertainty] params).')]
+    """
+    ens = job.results.get("robustness")
+    if ens is None:
+        return [("p", "Not run (no [uncertainty] params).")]
+    dists = ", ".join(f"{k} ~ {v}" for k, v in ens.distributions.items())
+    verdicts = ", ".join(f"{100 * v:.1f} % {k}" for k, v in ens.fractions.items() if v > 0)
+    blocks = [("p", (f"The design against {ens.n} plants drawn from {dists} (seed {ens.seed}; "
+                    f"each the plant with those parameter values, its own equilibrium input), "
+                    f"noise-free runs of {ens.duration:g} s classified as the simulations: "
+                    f"{verdicts} ({100 * ens.convergent_fraction:.1f} % converge: converging "
+                    f"or converged)."))]
+    if ens.duration_reason != "given":
+        blocks.append(("p", f"Run length chosen on the nominal plant: {ens.duration_reason}."))
+    names = list(ens.params)
+    rows = [[str(w["index"]), *(f"{w[k]:.4g}" for k in names), w["status"],
+             f"{w['tail_error']:.3g}" if math.isfinite(w["tail_error"]) else "-",
+             f"{w['divergence_time']:.3g}" if math.isfinite(w["divergence_time"]) else "-"]
+            for w in ens.worst(5)]
+    blocks.append(("table", ["sample", *names, "verdict", "tail error", "diverged at (s)"],
+                   rows))
+    return blocks
+
+
+__all__ = ["MAX_SAMPLES", "QUICK_SAMPLES", "UncertaintyTable", "report_blocks", "run_stage"]
