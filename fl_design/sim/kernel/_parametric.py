@@ -24,7 +24,6 @@ import functools
 import casadi as ca
 
 from ...errors import ParameterError
-from ...symbolic._bridge import to_casadi
 
 
 def parametric_loop(loop) -> dict:
@@ -109,6 +108,8 @@ def parametric_plant(plant, names: tuple, rho: int) -> dict:
     >>> float(fns["b"]([0.0, 0.0], 0.0, 2.5))
     2.5
     """
+    from ...symbolic._bridge import to_casadi  # SymPy: never in a worker that runs a kernel
+
     by_name = {sym.name: sym for sym in plant.params}
     theta = [by_name[name] for name in names]
     kw = {"subs": {k: v for k, v in plant.params.items() if k.name not in names}}
