@@ -227,6 +227,11 @@ class EpsCertificate(_Result):
         The eps of the range at which every frozen loop of the ``b`` grid is Schur, as
         intervals (a scan of ``4 n_scan`` points, ends refined): not always ``(0, eps*]``
         (for gamma just above its lower bound the stable eps form a band away from 0).
+    params : tuple of (str, float, float)
+        The plant parameters covered, with their ranges (``lo == hi``: a fixed value), when
+        ``b_bounds`` came from :func:`fl_design.analysis.plant_bounds`; empty otherwise.
+    b_rate_source : str or None
+        Where ``b_rate`` came from (``"given"``, or the plant's derivation term by term).
 
     Examples
     --------
@@ -253,6 +258,8 @@ class EpsCertificate(_Result):
     brackets: tuple = ()
     b_rate: float | None = None
     eps_intervals_frozen: tuple = ()
+    params: tuple = ()
+    b_rate_source: str | None = None
 
     def bracket(self, covers: str):
         """The :class:`EpsBracket` of one coverage, or None when not searched.
@@ -280,6 +287,11 @@ class EpsCertificate(_Result):
                   f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
         lines += [str(b) + ("  <- headline" if b.covers == self.covers else "")
                   for b in self.brackets]
+        ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
+        if ranges:
+            lines.append("covers every plant with " + ", ".join(ranges))
+        if self.b_rate is not None:
+            lines.append(f"b rate {self.b_rate:.6g} per sample ({self.b_rate_source})")
         if self.eps_intervals_frozen:
             lines.append("frozen-stable eps: " + ", ".join(
                 f"[{a:.6g}, {b:.6g}]" for a, b in self.eps_intervals_frozen))

@@ -66,6 +66,7 @@ from ._analytic import piecewise_modal, real_modal_basis
 from ._cert_results import EpsCertificate, PointCertificate
 from ._coverage import coverage_brackets, coverage_of, gamma_fix
 from ._lmi import balance_scaling, vertex_lmi
+from ._plant_bounds import resolve
 from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
@@ -350,15 +351,19 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     ----------
     design : Design
         An EHGO design.
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``).
-    a_jacobian_bounds : sequence of (float, float), optional
+    b_bounds : (float, float) or PlantBounds
+        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``), or the enclosures
+        of :func:`fl_design.analysis.plant_bounds` over a parameter box: the certificate then
+        covers every plant of the box and ``params`` lists the ranges.
+    a_jacobian_bounds : sequence of (float, float) or "plant", optional
         Bounds of ``d sigma/d x_i`` at the equilibrium input, i = 1..rho
         (``plant.jacobian_bounds()``): the certificate covers the nonlinear plant's LDI.
-    b_rate : float, optional
+        ``"plant"``: those of the ``PlantBounds`` given as ``b_bounds``.
+    b_rate : float or "plant", optional
         What is known of ``b`` along trajectories: None (default) arbitrary variation, ``0``
-        constant, ``> 0`` at most ``b_rate`` per sample. Sets the headline coverage
-        ``covers`` (the strongest these data support).
+        constant, ``> 0`` at most ``b_rate`` per sample; ``"plant"``: the rate the
+        ``PlantBounds`` derived from the plant (``b_rate_source`` of the result says how).
+        Sets the headline coverage ``covers`` (the strongest these data support).
     eps_range : (float, float), optional
         Search interval of eps (default ``(1e-3, 1)``).
     n_b : int, optional
@@ -395,6 +400,8 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
     ('varying', False, True)
     """
+    b_bounds, b_rate, a_jacobian_bounds, params, rate_source = resolve(
+        b_bounds, b_rate, a_jacobian_bounds, design.T)
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
@@ -440,7 +447,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
         certified=point.certified, point=point, n_b_grid=L.n_b,
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
         reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
-        eps_intervals_frozen=intervals)
+        eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source)
 
 
 __all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]
