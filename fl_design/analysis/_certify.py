@@ -135,8 +135,8 @@ class _Loop:
         """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
         if self.box is not None:
             return np.array([self.frozen_margin(e, gamma) for e in eps_values])
-        parts = [self.loop.parts(float(e), gamma) for e in eps_values]
-        M = np.stack([M0[None] + self.b_grid[:, None, None] * M1[None] for M0, M1 in parts])
+        M0, M1 = self.loop.parts_many(eps_values, gamma)
+        M = M0[:, None] + self.b_grid[None, :, None, None] * M1[:, None]
         m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
         return np.where(np.isfinite(m), m, np.inf)
 
