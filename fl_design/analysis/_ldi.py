@@ -54,8 +54,33 @@ DECAY_FRACTION = 0.8
 
 
 def _vertices(L):
-    corners = L._corners()
-    return [(a, b) for a in corners for b in (L.b_lo, L.b_hi)]
+    corners = np.unique(L._corners(), axis=0)  # a degenerate range gives one corner
+    return [(a, b) for a in corners for b in sorted({L.b_lo, L.b_hi})]
+
+
+def _vertex_words(a_row, b) -> str:
+    return f"d sigma/d xi = ({', '.join(f'{v:.6g}' for v in a_row)}), b = {b:.6g}"
+
+
+def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma) -> str:
+    """Which vertex of the first-order model fails, by how much, and its exact ZOH."""
+    v = int(np.argmax(margins))
+    rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
+    rho = L.loop.rho
+    E = scipy.linalg.expm(L.T * Xs[v])
+    M0, M1 = L.loop.assemble(E[:rho, :rho], E[:rho, rho], u_row, eps, gamma)
+    zoh = float(np.max(np.abs(np.linalg.eigvals(M0 + M1))))
+    half = 0.5 * (np.max(Xs, axis=0) - np.min(Xs, axis=0))
+    stiff = L.T * float(np.max(half[rho - 1, :rho]))
+    tail = (f"its exact ZOH is Schur (spectral radius {zoh:.9f}): what fails is the model "
+            f"expm(T X_c) + T (X - X_c) around the box centre X_c, whose first-order term is too "
+            f"large (T x the half-width of the d sigma/d xi box = {stiff:.3g}); a ZOH vertex "
+            "model with a bounded remainder would be needed" if zoh < 1.0 else
+            f"its exact ZOH is not Schur either (spectral radius {zoh:.9f}): with this design the "
+            "plant frozen at that vertex is unstable")
+    return (f"LDI: the first-order vertex model is not Schur at vertex {v + 1} of {len(verts)} "
+            f"({_vertex_words(*verts[v])}): spectral radius {rad:.9f}, Schur margin "
+            f"{float(margins[v]):.3g} >= 0; {tail}")
 
 
 def _remainder_bound(Xs, T: float) -> tuple[np.ndarray, np.ndarray]:
@@ -92,19 +117,26 @@ def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
     margins = schur_margins(np.stack(D), T)
     if np.max(margins) >= 0.0:
         return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
-                                "a vertex of the LDI (Euler) is not Schur: no common P")
+                                _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma))
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
     _, (s, _) = scipy.linalg.matrix_balance(sum(np.abs(x) for x in D), permute=False,
                                             separate=True)
     Db = [x * s[None, :] / s[:, None] for x in D]
     sol = vertex_lmi(Db, T, common=True, kappa=kappa)
     if not sol.certified:
-        return PointCertificate(float(eps), False, None, 0, False, sol.solver,
-                                sol.solver_status, sol.margin, "LDI: " + sol.note)
+        v = int(np.argmax(margins))
+        return PointCertificate(
+            float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
+            f"LDI: every vertex of the first-order model is Schur (the worst, vertex {v + 1} of "
+            f"{len(verts)}, {_vertex_words(*verts[v])}, Schur margin {float(margins[v]):.3g}), "
+            f"but no common quadratic P with decay {kappa:.3g} covers them all varying in time "
+            f"({sol.note})")
     q, nu, dP = _contraction(sol.P[0], Db, s, Rbar, u_row, loop, T)
     ok = q < 1.0 - RECHECK_TOL
     reason = (f"LDI common P over {len(verts)} vertices: ||M||_P <= {nu:.12f} + remainder "
-              f"{dP:.3g} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)")
+              f"{dP:.3g} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)"
+              + ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
+                 f"{1.0 - nu:.3g} by {q - 1.0:.3g}"))
     return PointCertificate(float(eps), ok, "ldi" if ok else None, 1 if ok else 0, ok,
                             sol.solver, sol.solver_status, sol.margin, reason)
 
