@@ -326,6 +326,8 @@ class GammaCertificate(_Result):
         The LMI certificate at the design's numbers.
     reason : str
         Why (not).
+    params : tuple of (str, float, float)
+        The plant parameters covered with their ranges (from a ``PlantBounds``), else empty.
 
     Examples
     --------
@@ -348,6 +350,7 @@ class GammaCertificate(_Result):
     certified: bool
     point: PointCertificate
     reason: str
+    params: tuple = ()
 
     def to_dict(self) -> dict:
         out = super().to_dict()
@@ -356,6 +359,9 @@ class GammaCertificate(_Result):
 
     def _repr_lines(self):
         what = f" for {self.point.covers} b" if self.point.covers else ""
+        ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
+        if ranges:
+            what += " and every plant with " + ", ".join(ranges)
         return [(f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
                  f"{self.certified}"),
                 (f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"

@@ -206,3 +206,26 @@ def test_trms_nonlinear_certificate_says_which_vertex_fails_and_by_how_much():
                             search=False)
     assert not narrow.certified and "the remainder bound exceeds the contraction" in \
         narrow.point.reason
+
+
+def test_gamma_interval_and_curve_over_the_box_match_the_plain_b_interval(pendulum_box):
+    design = fl.presets.pendulum_design()
+    g_box = fl.certify_gamma(design, pendulum_box)
+    g_plain = fl.certify_gamma(design, pendulum_box.b_bounds)
+    assert (g_box.gamma_min, g_box.gamma_max) == (g_plain.gamma_min, g_plain.gamma_max)
+    assert g_box.params == pendulum_box.params and g_plain.params == ()
+    assert "every plant with b in [0.8, 1.2], c in [0.05, 1]" in repr(g_box)
+    c_box = fl.eps_star_curve(design, pendulum_box, [1e-2])
+    c_plain = fl.eps_star_curve(design, (0.8, 1.2), [1e-2])
+    assert c_box.eps_star_frozen[0] == c_plain.eps_star_frozen[0]
+
+
+def test_plant_bounds_and_box_certificates_are_strict_json(pendulum_box):
+    import json
+
+    d = json.loads(json.dumps(pendulum_box.to_dict(), allow_nan=False))
+    assert d["b_bounds"] == [0.8, 1.2] and ["c", 0.05, 1.0] in d["params"]
+    cert = fl.certify_eps(fl.presets.pendulum_design(), pendulum_box, b_rate="plant",
+                          search=False)
+    d = json.loads(json.dumps(cert.to_dict(), allow_nan=False))
+    assert ["b", 0.8, 1.2] in d["params"] and d["b_rate_source"].startswith("the plant")
