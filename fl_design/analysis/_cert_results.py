@@ -232,6 +232,10 @@ class EpsCertificate(_Result):
         ``b_bounds`` came from :func:`fl_design.analysis.plant_bounds`; empty otherwise.
     b_rate_source : str or None
         Where ``b_rate`` came from (``"given"``, or the plant's derivation term by term).
+    covered_set : CoveredSet or None
+        For a nonlinear certificate from a ``PlantBounds`` of a chain plant: the initial loop
+        states covered, the largest sublevel set of ``V`` in the region
+        (:class:`fl_design.analysis._ldi.CoveredSet`).
 
     Examples
     --------
@@ -260,6 +264,7 @@ class EpsCertificate(_Result):
     eps_intervals_frozen: tuple = ()
     params: tuple = ()
     b_rate_source: str | None = None
+    covered_set: object = None
 
     def bracket(self, covers: str):
         """The :class:`EpsBracket` of one coverage, or None when not searched.
@@ -277,6 +282,7 @@ class EpsCertificate(_Result):
         out = super().to_dict()
         out["point"] = self.point.to_dict()
         out["brackets"] = [b.to_dict() for b in self.brackets]
+        out["covered_set"] = None if self.covered_set is None else self.covered_set.to_dict()
         return out
 
     def _repr_lines(self):
@@ -292,6 +298,8 @@ class EpsCertificate(_Result):
             lines.append("covers every plant with " + ", ".join(ranges))
         if self.b_rate is not None:
             lines.append(f"b rate {self.b_rate:.6g} per sample ({self.b_rate_source})")
+        if self.covered_set is not None:
+            lines += ["covered initial states: " + x for x in self.covered_set._repr_lines()]
         if self.eps_intervals_frozen:
             lines.append("frozen-stable eps: " + ", ".join(
                 f"[{a:.6g}, {b:.6g}]" for a, b in self.eps_intervals_frozen))

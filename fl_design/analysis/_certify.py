@@ -65,6 +65,7 @@ from ..errors import CertificationError, ParameterError
 from ._analytic import piecewise_modal, real_modal_basis
 from ._cert_results import EpsCertificate, PointCertificate
 from ._coverage import coverage_brackets, coverage_of, gamma_fix
+from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
 from ._plant_bounds import resolve
 from ._rate import rate_lmi
@@ -400,7 +401,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
     ('varying', False, True)
     """
-    b_bounds, b_rate, a_jacobian_bounds, params, rate_source = resolve(
+    b_bounds, b_rate, a_jacobian_bounds, params, rate_source, pb = resolve(
         b_bounds, b_rate, a_jacobian_bounds, design.T)
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
@@ -447,7 +448,9 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
         certified=point.certified, point=point, n_b_grid=L.n_b,
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
         reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
-        eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source)
+        eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source,
+        covered_set=loop_covered_set(L, point, pb))
+
 
 
 __all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]

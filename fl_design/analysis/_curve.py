@@ -69,7 +69,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
     True
     """
-    b_bounds, _, a_jacobian_bounds, _, _ = resolve(b_bounds, None, a_jacobian_bounds, design.T)
+    b_bounds, _, a_jacobian_bounds, _, _, _ = resolve(b_bounds, None, a_jacobian_bounds, design.T)
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)

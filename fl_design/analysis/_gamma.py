@@ -82,7 +82,7 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
     >>> g.certified, g.gamma_lower_bound > 1e-4
     (False, True)
     """
-    b_bounds, b_rate, a_jacobian_bounds, params, _ = resolve(
+    b_bounds, b_rate, a_jacobian_bounds, params, _, _ = resolve(
         b_bounds, b_rate, a_jacobian_bounds, design.T)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     if b_rate is not None:

@@ -67,6 +67,13 @@ class PlantBounds(_Result):
         Sampling time of ``b_rate``.
     method : str
         How the enclosures were computed.
+    xi_region : tuple of (float, float) or None
+        The region in normal-form coordinates, when they are the states themselves
+        (``xi = x``: the plant is a chain ``x_i' = x_(i+1)``); None otherwise.
+    xi_op : tuple of float or None
+        The operating point in those coordinates.
+    u_eq : float
+        The equilibrium input.
 
     Examples
     --------
@@ -87,6 +94,9 @@ class PlantBounds(_Result):
     input_range: tuple | None
     T: float | None
     method: str
+    xi_region: tuple | None = None
+    xi_op: tuple | None = None
+    u_eq: float = 0.0
 
     def covered(self) -> dict:
         """The parameters given as ranges: ``{name: (lo, hi)}``.
@@ -246,6 +256,9 @@ def plant_bounds(plant, *, params=None, region=None, T=None, du=None,
             "contains 0: the method needs a known sign of b; narrow the region or the parameters")
     jac, note = _jacobian(plant, box, splits)
     rate, source = (None, "no T given") if T is None else _rate(plant, b, box, T, du, splits)
+    chain = plant._lie_chain()
+    is_chain = chain.rho == plant.n and all(
+        d == s_ for d, s_ in zip(chain.derivatives[: chain.rho], plant.states))
     return PlantBounds(
         plant=str(plant.name), b_bounds=(lo, hi), a_jacobian_bounds=jac, jacobian_note=note,
         b_rate=rate, b_rate_source=source,
@@ -255,11 +268,15 @@ def plant_bounds(plant, *, params=None, region=None, T=None, du=None,
                      if s in states),
         input_range=None if plant.input_range is None else tuple(map(float, plant.input_range)),
         T=T, method=(f"interval arithmetic (mpmath iv, outward rounding) on the symbolic "
-                     f"expressions, each variable split in up to {splits} sub-intervals"))
+                     f"expressions, each variable split in up to {splits} sub-intervals"),
+        xi_region=(tuple(tuple(float(v) for v in states[s_]) for s_ in plant.states)
+                   if is_chain and all(s_ in states for s_ in plant.states) else None),
+        xi_op=tuple(float(v) for v in plant.x_op) if is_chain else None,
+        u_eq=float(plant.u_eq))
 
 
 def resolve(b_bounds, b_rate, a_jacobian_bounds, T: float):
-    """``(b_bounds, b_rate, a_jacobian_bounds, params, b_rate_source)`` for certify_eps.
+    """``(b_bounds, b_rate, a_jacobian_bounds, params, b_rate_source, plant_bounds)``.
 
     ``b_bounds`` may be a :class:`PlantBounds`; ``b_rate`` and ``a_jacobian_bounds`` may be
     ``"plant"`` (taken from it, its ``T`` must be the design's).
@@ -289,8 +306,8 @@ def resolve(b_bounds, b_rate, a_jacobian_bounds, T: float):
             raise ParameterError(f"a_jacobian_bounds='plant': {pb.jacobian_note}")
         a_jacobian_bounds = pb.a_jacobian_bounds
     if pb is None:
-        return b_bounds, b_rate, a_jacobian_bounds, (), source
-    return pb.b_bounds, b_rate, a_jacobian_bounds, pb.params, source
+        return b_bounds, b_rate, a_jacobian_bounds, (), source, None
+    return pb.b_bounds, b_rate, a_jacobian_bounds, pb.params, source, pb
 
 
 __all__ = ["PlantBounds", "plant_bounds", "resolve"]

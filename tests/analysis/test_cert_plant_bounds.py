@@ -229,3 +229,37 @@ def test_plant_bounds_and_box_certificates_are_strict_json(pendulum_box):
                           search=False)
     d = json.loads(json.dumps(cert.to_dict(), allow_nan=False))
     assert ["b", 0.8, 1.2] in d["params"] and d["b_rate_source"].startswith("the plant")
+
+
+def test_covered_initial_states_hold_in_simulation_from_their_boundary(pendulum_box):
+    """Start the nonlinear plant (corners of the box) and its observer on the boundary of the
+    covered set V(X) = level: every run stays in the region and converges."""
+    from scipy.optimize import brentq
+
+    design = fl.presets.pendulum_design()
+    cert = fl.certify_eps(design, pendulum_box, a_jacobian_bounds="plant", search=False)
+    cs = cert.covered_set
+    assert cert.certified and cs is not None and cs.level > 0
+    assert cs.names == ("x_1", "x_2", "xi_0", "xi_1", "xi_2", "u")
+    # theta inside its room, u inside the input range (where b was enclosed); one of them binds
+    w = dict(zip(cs.names, cs.half_widths))
+    assert w["x_1"] <= 0.5 * (1 + 1e-12) and w["u"] <= 20.0 * (1 + 1e-12)
+    assert w[cs.binding] == pytest.approx(0.5 if cs.binding == "x_1" else 20.0, rel=1e-9)
+    s_eq = design.initial_state(y0=0.0, u0=0.0)
+    for b, c in ((0.8, 0.05), (1.2, 1.0)):
+        plant = fl.plants.pendulum().with_params(b=b, c=c)
+        for direction in ((1.0, 0.0), (0.3, -1.0), (-0.6, 1.0)):
+            def X0(t, d=direction, c=c):
+                th, om = t * d[0], t * d[1]
+                est = (th, om, -c * om - 9.81 * math.sin(th))  # consistent start, u = u_eq = 0
+                s = design.initial_state(estimate=est, u0=0.0) - s_eq
+                return np.concatenate([[th, om], s[:4]]), est   # (x, xi, u); z dropped (k_I = 0)
+
+            t = brentq(lambda t: X0(t)[0] @ cs.P @ X0(t)[0] - cs.level, 1e-9, 10.0, xtol=1e-12)
+            X, est = X0(t)
+            assert cs.contains(X * (1 - 1e-9)) and not cs.contains(X * 1.01)
+            resp = fl.simulate(plant, design, fl.Scenario(0.0, 20.0, x0=X[:2],
+                                                          initial_estimate=est))
+            assert np.max(np.abs(resp.x[:, 0])) <= 0.5, (b, c, direction)
+            assert np.max(np.abs(resp.u)) <= 20.0, (b, c, direction)
+            assert resp.status == "converged", resp.verdict()
