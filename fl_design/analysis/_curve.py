@@ -79,7 +79,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
     for i, gamma in enumerate(g):
-        fb = frozen_bracket(lambda e, g_=gamma: L.frozen_margin(e, g_), lo, hi, n_scan,
+        fb = frozen_bracket(lambda e, g_=gamma: L.screened_margin(e, g_), lo, hi, n_scan,
                             rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
         if fb is None:
             continue
