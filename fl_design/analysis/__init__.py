@@ -6,6 +6,8 @@ CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_ep
 ``[certified, refuted]`` per coverage: frozen, varying, rate-bounded, nonlinear), ``_refute``
 (switching counterexamples), ``_ldi`` (the linear differential inclusion
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
+``_intervals`` (interval enclosures of SymPy expressions), ``_plant_bounds`` (``b``,
+``d sigma/d xi`` and ``b``'s rate over a region and a parameter box, :func:`plant_bounds`),
 ``_margins`` (gain, phase and delay margins at the plant input,
 :func:`loop_margins`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
 (the result objects).
@@ -30,6 +32,7 @@ from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
 from ._margins import LoopMargins, loop_margins
+from ._plant_bounds import plant_bounds
 from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
@@ -49,6 +52,7 @@ __all__ = [
     "eps_star_curve",
     "linearized_eps_star",
     "loop_margins",
+    "plant_bounds",
     "sampled_linearization",
     "synthesize_gains",
     "theorem1_constants",

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._lmi import RECHECK_TOL, recheck
+from ._lmi import RECHECK_TOL, recheck_stack
 
 
 def modal_lyapunov(D: np.ndarray, T: float) -> np.ndarray | None:
@@ -53,19 +53,46 @@ def modal_lyapunov(D: np.ndarray, T: float) -> np.ndarray | None:
     >>> modal_lyapunov(np.array([[1.0]]), 1e-3) is None
     True
     """
+    P = modal_lyapunov_stack(np.asarray(D, dtype=float)[None], T)[0]
+    return None if np.isnan(P[0, 0]) else P
+
+
+def modal_lyapunov_stack(D: np.ndarray, T: float) -> np.ndarray:
+    """:func:`modal_lyapunov` of a stack ``(k, n, n)`` at once; NaN matrices where None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> P = modal_lyapunov_stack(np.array([[[-1.0]], [[1.0]]]), 1e-3)
+    >>> P[0].tolist(), bool(np.isnan(P[1]).all())
+    ([[1.0]], True)
+    """
     mu, V = np.linalg.eig(D)
     d = -(2.0 * mu.real + T * np.abs(mu) ** 2)
-    if np.any(d <= 0.0):
-        return None
+    bad = np.any(d <= 0.0, axis=-1)
     try:
         Vi = np.linalg.inv(V)
+    except np.linalg.LinAlgError:  # one singular eigenvector matrix: one at a time
+        Vi = np.stack([_inv_or_nan(v) for v in V])
+    with np.errstate(invalid="ignore", over="ignore"):
+        cond = np.linalg.norm(V, 1, axis=(-2, -1)) * np.linalg.norm(Vi, 1, axis=(-2, -1))
+        bad |= ~(cond <= 1e12)  # 1-norm condition number (NaN: singular)
+        w = np.where(d > 0.0, d, 1.0) ** -0.5
+        P = (np.swapaxes(Vi.conj(), -1, -2) * w[..., None, :]) @ Vi
+    P = P.real
+    P = 0.5 * (P + np.swapaxes(P, -1, -2))
+    P[bad] = np.nan
+    good = ~bad
+    if good.any():
+        P[good] /= np.linalg.norm(P[good], 2, axis=(-2, -1))[:, None, None]
+    return P
+
+
+def _inv_or_nan(V):
+    try:
+        return np.linalg.inv(V)
     except np.linalg.LinAlgError:
-        return None
-    if np.linalg.norm(V, 1) * np.linalg.norm(Vi, 1) > 1e12:  # 1-norm condition number
-        return None
-    P = ((Vi.conj().T * d ** -0.5) @ Vi).real
-    P = 0.5 * (P + P.T)
-    return P / np.linalg.norm(P, 2)
+        return np.full(V.shape, np.nan + 0j)
 
 
 def real_modal_basis(D: np.ndarray) -> np.ndarray:
@@ -126,20 +153,28 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     >>> len(pieces), bad
     (1, None)
     """
-    stack, done = [(lo, hi)], []
-    while stack:
-        a, b = stack.pop()
-        Da, Db = delta_at(a), delta_at(b)
-        P = modal_lyapunov(delta_at(0.5 * (a + b)), T)
-        margin = -np.inf if P is None else recheck([P], P, [Da, Db], T)
-        if margin > RECHECK_TOL:
-            done.append((a, b, P, margin))
-        elif b - a > min_width * (1.0 + 1e-9):
-            mid = 0.5 * (a + b)
-            stack += [(mid, b), (a, mid)]
-        else:
-            return done, None, (a, b)
-    return done, min(p[3] for p in done), None
+    level, done = [(lo, hi)], []
+    while level:  # one halving level at a time, its pieces stacked
+        a = np.array([p[0] for p in level])
+        b = np.array([p[1] for p in level])
+        Dm = np.stack([delta_at(v) for v in 0.5 * (a + b)])
+        P = modal_lyapunov_stack(Dm, T)
+        ends = np.stack([delta_at(v) for v in np.concatenate([a, b])])
+        k = len(level)
+        margin = np.where(np.isnan(P[:, 0, 0]), -np.inf, np.minimum(
+            *np.split(recheck_stack(np.concatenate([P, P]), np.concatenate([P, P]), ends, T), 2)))
+        nxt = []
+        for i in range(k):
+            if margin[i] > RECHECK_TOL:
+                done.append((a[i], b[i], P[i], float(margin[i])))
+            elif b[i] - a[i] > min_width * (1.0 + 1e-9):
+                mid = 0.5 * (a[i] + b[i])
+                nxt += [(a[i], mid), (mid, b[i])]
+            else:
+                return sorted(done, key=lambda p: p[0]), None, (float(a[i]), float(b[i]))
+        level = nxt
+    done.sort(key=lambda p: p[0])
+    return [(float(a), float(b), P, m) for a, b, P, m in done], min(p[3] for p in done), None
 
 
-__all__ = ["modal_lyapunov", "piecewise_modal", "real_modal_basis"]
+__all__ = ["modal_lyapunov", "modal_lyapunov_stack", "piecewise_modal", "real_modal_basis"]

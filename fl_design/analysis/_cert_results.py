@@ -227,6 +227,15 @@ class EpsCertificate(_Result):
         The eps of the range at which every frozen loop of the ``b`` grid is Schur, as
         intervals (a scan of ``4 n_scan`` points, ends refined): not always ``(0, eps*]``
         (for gamma just above its lower bound the stable eps form a band away from 0).
+    params : tuple of (str, float, float)
+        The plant parameters covered, with their ranges (``lo == hi``: a fixed value), when
+        ``b_bounds`` came from :func:`fl_design.analysis.plant_bounds`; empty otherwise.
+    b_rate_source : str or None
+        Where ``b_rate`` came from (``"given"``, or the plant's derivation term by term).
+    covered_set : CoveredSet or None
+        For a nonlinear certificate from a ``PlantBounds`` of a chain plant: the initial loop
+        states covered, the largest sublevel set of ``V`` in the region
+        (:class:`fl_design.analysis._ldi.CoveredSet`).
 
     Examples
     --------
@@ -253,6 +262,9 @@ class EpsCertificate(_Result):
     brackets: tuple = ()
     b_rate: float | None = None
     eps_intervals_frozen: tuple = ()
+    params: tuple = ()
+    b_rate_source: str | None = None
+    covered_set: object = None
 
     def bracket(self, covers: str):
         """The :class:`EpsBracket` of one coverage, or None when not searched.
@@ -270,6 +282,7 @@ class EpsCertificate(_Result):
         out = super().to_dict()
         out["point"] = self.point.to_dict()
         out["brackets"] = [b.to_dict() for b in self.brackets]
+        out["covered_set"] = None if self.covered_set is None else self.covered_set.to_dict()
         return out
 
     def _repr_lines(self):
@@ -280,6 +293,13 @@ class EpsCertificate(_Result):
                   f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
         lines += [str(b) + ("  <- headline" if b.covers == self.covers else "")
                   for b in self.brackets]
+        ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
+        if ranges:
+            lines.append("covers every plant with " + ", ".join(ranges))
+        if self.b_rate is not None:
+            lines.append(f"b rate {self.b_rate:.6g} per sample ({self.b_rate_source})")
+        if self.covered_set is not None:
+            lines += ["covered initial states: " + x for x in self.covered_set._repr_lines()]
         if self.eps_intervals_frozen:
             lines.append("frozen-stable eps: " + ", ".join(
                 f"[{a:.6g}, {b:.6g}]" for a, b in self.eps_intervals_frozen))
@@ -314,6 +334,8 @@ class GammaCertificate(_Result):
         The LMI certificate at the design's numbers.
     reason : str
         Why (not).
+    params : tuple of (str, float, float)
+        The plant parameters covered with their ranges (from a ``PlantBounds``), else empty.
 
     Examples
     --------
@@ -336,6 +358,7 @@ class GammaCertificate(_Result):
     certified: bool
     point: PointCertificate
     reason: str
+    params: tuple = ()
 
     def to_dict(self) -> dict:
         out = super().to_dict()
@@ -344,6 +367,9 @@ class GammaCertificate(_Result):
 
     def _repr_lines(self):
         what = f" for {self.point.covers} b" if self.point.covers else ""
+        ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
+        if ranges:
+            what += " and every plant with " + ", ".join(ranges)
         return [(f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
                  f"{self.certified}"),
                 (f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"

@@ -65,7 +65,9 @@ from ..errors import CertificationError, ParameterError
 from ._analytic import piecewise_modal, real_modal_basis
 from ._cert_results import EpsCertificate, PointCertificate
 from ._coverage import coverage_brackets, coverage_of, gamma_fix
+from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
+from ._plant_bounds import resolve
 from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
@@ -115,6 +117,7 @@ class _Loop:
         self.max_pieces = V.integer("max_pieces", max_pieces, minimum=1)
         self.loop, self.T, self.design = SurrogateLoop(design), design.T, design
         self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
+        self._worst = 0  # the b index that failed last (screened_margin)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
@@ -130,12 +133,33 @@ class _Loop:
             worst = max(worst, m if math.isfinite(m) else math.inf)
         return worst
 
+    def screened_margin(self, eps: float, gamma: float) -> float:
+        """:meth:`frozen_margin`, screened first on a few ``b`` (the ends and the last worst).
+
+        A failing screen is a counterexample (some ``b`` of the grid is not Schur) and its
+        margin, a lower bound of the grid's, is returned; otherwise the whole grid is
+        evaluated, so a negative value is exactly :meth:`frozen_margin`'s. For the refinement
+        of a scan, where half the points fail.
+        """
+        if self.box is not None:
+            return self.frozen_margin(eps, gamma)
+        M0, M1 = self.loop.parts(eps, gamma)
+        idx = sorted({0, self.n_b - 1, self._worst})
+        m = schur_margins(delta(M0[None] + self.b_grid[idx, None, None] * M1[None], self.T),
+                          self.T)
+        if not np.max(m) < 0.0:
+            return float(np.max(m)) if np.all(np.isfinite(m)) else math.inf
+        m = schur_margins(delta(M0[None] + self.b_grid[:, None, None] * M1[None], self.T),
+                          self.T)
+        self._worst = int(np.argmax(m))
+        return float(np.max(m)) if np.all(np.isfinite(m)) else math.inf
+
     def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
         """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
         if self.box is not None:
             return np.array([self.frozen_margin(e, gamma) for e in eps_values])
-        parts = [self.loop.parts(float(e), gamma) for e in eps_values]
-        M = np.stack([M0[None] + self.b_grid[:, None, None] * M1[None] for M0, M1 in parts])
+        M0, M1 = self.loop.parts_many(eps_values, gamma)
+        M = M0[:, None] + self.b_grid[None, :, None, None] * M1[:, None]
         m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
         return np.where(np.isfinite(m), m, np.inf)
 
@@ -350,15 +374,19 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     ----------
     design : Design
         An EHGO design.
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``).
-    a_jacobian_bounds : sequence of (float, float), optional
+    b_bounds : (float, float) or PlantBounds
+        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``), or the enclosures
+        of :func:`fl_design.analysis.plant_bounds` over a parameter box: the certificate then
+        covers every plant of the box and ``params`` lists the ranges.
+    a_jacobian_bounds : sequence of (float, float) or "plant", optional
         Bounds of ``d sigma/d x_i`` at the equilibrium input, i = 1..rho
         (``plant.jacobian_bounds()``): the certificate covers the nonlinear plant's LDI.
-    b_rate : float, optional
+        ``"plant"``: those of the ``PlantBounds`` given as ``b_bounds``.
+    b_rate : float or "plant", optional
         What is known of ``b`` along trajectories: None (default) arbitrary variation, ``0``
-        constant, ``> 0`` at most ``b_rate`` per sample. Sets the headline coverage
-        ``covers`` (the strongest these data support).
+        constant, ``> 0`` at most ``b_rate`` per sample; ``"plant"``: the rate the
+        ``PlantBounds`` derived from the plant (``b_rate_source`` of the result says how).
+        Sets the headline coverage ``covers`` (the strongest these data support).
     eps_range : (float, float), optional
         Search interval of eps (default ``(1e-3, 1)``).
     n_b : int, optional
@@ -395,6 +423,8 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
     ('varying', False, True)
     """
+    b_bounds, b_rate, a_jacobian_bounds, params, rate_source, pb = resolve(
+        b_bounds, b_rate, a_jacobian_bounds, design.T)
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
@@ -409,7 +439,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     if search:
         intervals = stable_intervals(lambda e: L.frozen_ok(e, gamma), lo, hi, 4 * n_scan,
                                      rtol / 10, lambda es: L.frozen_margins(es, gamma) < 0.0)
-        fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, n_scan, rtol / 10,
+        fb = frozen_bracket(lambda e: L.screened_margin(e, gamma), lo, hi, n_scan, rtol / 10,
                             lambda es: L.frozen_margins(es, gamma))
         f = None if fb is None else fb[0]
         if L.box is not None:
@@ -440,7 +470,9 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
         certified=point.certified, point=point, n_b_grid=L.n_b,
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
         reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
-        eps_intervals_frozen=intervals)
+        eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source,
+        covered_set=loop_covered_set(L, point, pb))
+
 
 
 __all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]

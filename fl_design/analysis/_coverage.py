@@ -34,7 +34,7 @@ import numpy as np
 
 from ._analytic import modal_lyapunov
 from ._cert_results import EpsBracket
-from ._refute import Refutation, greedy_refutation, periodic_refutation
+from ._refute import Refutation, switching_refutation
 from ._search import certified_eps_star
 from ._surrogate import delta
 
@@ -67,17 +67,11 @@ def refute(L, eps: float, gamma: float, db: float | None) -> Refutation:
         return M0 + b * M1
 
     lo, hi = L.b_lo, L.b_hi
-    best = periodic_refutation(M_at(lo), M_at(hi), M_at, lo, hi, db)
-    if best.refuted:
-        return best
     mid = M_at(0.5 * (lo + hi))
     P = modal_lyapunov(delta(mid, L.T), L.T)
-    if P is None:
-        return best
     w, V = np.linalg.eig(mid)
     x0 = np.real(V[:, int(np.argmax(np.abs(w)))])
-    greedy = greedy_refutation(M_at, lo, hi, db, P, x0)
-    return greedy if greedy.refuted or not math.isfinite(best.radius) else best
+    return switching_refutation(M_at, lo, hi, db, P=P, x0=x0)
 
 
 def refuted_eps(L, gamma: float, db, start: float, frozen_bad: float | None, rtol: float,

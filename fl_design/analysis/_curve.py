@@ -18,6 +18,7 @@ from .. import _validate as V
 from ..errors import ParameterError
 from ._cert_results import EpsStarCurve
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
+from ._plant_bounds import resolve
 from ._search import certified_eps_star, frozen_bracket
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -38,11 +39,11 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     ----------
     design : Design
         An EHGO design (its structure; eps and gamma are varied).
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign.
+    b_bounds : (float, float) or PlantBounds
+        ``(b_min, b_max)`` of one strict sign, or :func:`fl_design.analysis.plant_bounds`.
     gammas : sequence of float
         Gains (> 0; magnitudes when ``b < 0``).
-    a_jacobian_bounds : sequence of (float, float), optional
+    a_jacobian_bounds : sequence of (float, float) or "plant", optional
         As in :func:`certify_eps`.
     eps_range : (float, float), optional
         Search interval of eps.
@@ -68,6 +69,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
     True
     """
+    b_bounds, _, a_jacobian_bounds, _, _, _ = resolve(b_bounds, None, a_jacobian_bounds, design.T)
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
@@ -77,7 +79,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
     for i, gamma in enumerate(g):
-        fb = frozen_bracket(lambda e, g_=gamma: L.frozen_margin(e, g_), lo, hi, n_scan,
+        fb = frozen_bracket(lambda e, g_=gamma: L.screened_margin(e, g_), lo, hi, n_scan,
                             rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
         if fb is None:
             continue

@@ -20,6 +20,7 @@ from ..errors import CertificationError, ParameterError
 from ._cert_results import GammaCertificate
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
 from ._coverage import best_margin, coverage_of
+from ._plant_bounds import resolve
 from ._search import gamma_interval
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -47,11 +48,12 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
     ----------
     design : Design
         An EHGO design.
-    b_bounds : (float, float)
-        ``(b_min, b_max)`` of one strict sign.
-    a_jacobian_bounds : sequence of (float, float), optional
+    b_bounds : (float, float) or PlantBounds
+        ``(b_min, b_max)`` of one strict sign, or :func:`fl_design.analysis.plant_bounds` over a
+        parameter box (see :func:`certify_eps`).
+    a_jacobian_bounds : sequence of (float, float) or "plant", optional
         Bounds of ``d sigma/d x_i`` (see :func:`certify_eps`).
-    b_rate : float, optional
+    b_rate : float or "plant", optional
         What is known of ``b`` in time (see :func:`certify_eps`): the coverage of ``point``.
     gamma_range : (float, float), optional
         Scan interval (default ``(1e-4 T, 4) / |b|_max``).
@@ -80,6 +82,8 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
     >>> g.certified, g.gamma_lower_bound > 1e-4
     (False, True)
     """
+    b_bounds, b_rate, a_jacobian_bounds, params, _, _ = resolve(
+        b_bounds, b_rate, a_jacobian_bounds, design.T)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     if b_rate is not None:
         b_rate = V.nonnegative("b_rate", b_rate)
@@ -111,7 +115,7 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
         gamma=float(gamma), eps=float(eps), T=design.T, b_bounds=L.signed_bounds,
         paper_bound=1.0 / L.b_hi, convergence_bound=2.0 / L.b_hi, gamma_min=g_min,
         gamma_max=g_max, gamma_lower_bound=lower, eps_grid=tuple(grid_eps.tolist()),
-        certified=certified, point=point, reason=reason)
+        certified=certified, point=point, reason=reason, params=params)
 
 
 #: Relative width of the bracket of the refined gamma lower bound.

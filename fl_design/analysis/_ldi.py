@@ -41,11 +41,12 @@ Examples
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 
-from ._cert_results import PointCertificate
+from ._cert_results import PointCertificate, _Result
 from ._lmi import RECHECK_TOL, vertex_lmi
 from ._surrogate import chain_matrices, delta, schur_margins
 
@@ -54,8 +55,33 @@ DECAY_FRACTION = 0.8
 
 
 def _vertices(L):
-    corners = L._corners()
-    return [(a, b) for a in corners for b in (L.b_lo, L.b_hi)]
+    corners = np.unique(L._corners(), axis=0)  # a degenerate range gives one corner
+    return [(a, b) for a in corners for b in sorted({L.b_lo, L.b_hi})]
+
+
+def _vertex_words(a_row, b) -> str:
+    return f"d sigma/d xi = ({', '.join(f'{v:.6g}' for v in a_row)}), b = {b:.6g}"
+
+
+def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma) -> str:
+    """Which vertex of the first-order model fails, by how much, and its exact ZOH."""
+    v = int(np.argmax(margins))
+    rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
+    rho = L.loop.rho
+    E = scipy.linalg.expm(L.T * Xs[v])
+    M0, M1 = L.loop.assemble(E[:rho, :rho], E[:rho, rho], u_row, eps, gamma)
+    zoh = float(np.max(np.abs(np.linalg.eigvals(M0 + M1))))
+    half = 0.5 * (np.max(Xs, axis=0) - np.min(Xs, axis=0))
+    stiff = L.T * float(np.max(half[rho - 1, :rho]))
+    tail = (f"its exact ZOH is Schur (spectral radius {zoh:.9f}): what fails is the model "
+            f"expm(T X_c) + T (X - X_c) around the box centre X_c, whose first-order term is too "
+            f"large (T x the half-width of the d sigma/d xi box = {stiff:.3g}); a ZOH vertex "
+            "model with a bounded remainder would be needed" if zoh < 1.0 else
+            f"its exact ZOH is not Schur either (spectral radius {zoh:.9f}): with this design the "
+            "plant frozen at that vertex is unstable")
+    return (f"LDI: the first-order vertex model is not Schur at vertex {v + 1} of {len(verts)} "
+            f"({_vertex_words(*verts[v])}): spectral radius {rad:.9f}, Schur margin "
+            f"{float(margins[v]):.3g} >= 0; {tail}")
 
 
 def _remainder_bound(Xs, T: float) -> tuple[np.ndarray, np.ndarray]:
@@ -92,21 +118,130 @@ def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
     margins = schur_margins(np.stack(D), T)
     if np.max(margins) >= 0.0:
         return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
-                                "a vertex of the LDI (Euler) is not Schur: no common P")
+                                _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma))
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
     _, (s, _) = scipy.linalg.matrix_balance(sum(np.abs(x) for x in D), permute=False,
                                             separate=True)
     Db = [x * s[None, :] / s[:, None] for x in D]
     sol = vertex_lmi(Db, T, common=True, kappa=kappa)
     if not sol.certified:
-        return PointCertificate(float(eps), False, None, 0, False, sol.solver,
-                                sol.solver_status, sol.margin, "LDI: " + sol.note)
+        v = int(np.argmax(margins))
+        return PointCertificate(
+            float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
+            f"LDI: every vertex of the first-order model is Schur (the worst, vertex {v + 1} of "
+            f"{len(verts)}, {_vertex_words(*verts[v])}, Schur margin {float(margins[v]):.3g}), "
+            f"but no common quadratic P with decay {kappa:.3g} covers them all varying in time "
+            f"({sol.note})")
     q, nu, dP = _contraction(sol.P[0], Db, s, Rbar, u_row, loop, T)
     ok = q < 1.0 - RECHECK_TOL
+    P = sol.P[0] / np.outer(s, s)  # the loop's own coordinates (x_b = x / s)
     reason = (f"LDI common P over {len(verts)} vertices: ||M||_P <= {nu:.12f} + remainder "
-              f"{dP:.3g} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)")
+              f"{dP:.3g} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)"
+              + ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
+                 f"{1.0 - nu:.3g} by {q - 1.0:.3g}"))
     return PointCertificate(float(eps), ok, "ldi" if ok else None, 1 if ok else 0, ok,
-                            sol.solver, sol.solver_status, sol.margin, reason)
+                            sol.solver, sol.solver_status, sol.margin, reason,
+                            ((L.b_lo, L.b_hi),) if ok else (), ((P, P),) if ok else ())
+
+
+@dataclass(frozen=True, repr=False)
+class CoveredSet(_Result):
+    """The initial loop states a nonlinear (LDI) certificate covers: ``V(X) <= level``.
+
+    ``X`` is the deviation of the sampled loop state (plant, estimator, ``u``, ``z``) from
+    the equilibrium, ``V(X) = X^T P X`` the certificate's function. The set is the largest
+    sublevel set of ``V`` inside the region (and the input range, when the design saturates):
+    ``level = min_i r_i^2 / (P^-1)_ii`` over the constrained coordinates, ``r_i`` their room.
+    On it every sample contracts ``V`` (the LDI holds), so it is invariant and every
+    trajectory starting in it converges. The room is checked at the sampling instants; between
+    two samples the state moves by at most ``T max|x'|`` (1 ms at the pendulum's 10 rad/s:
+    0.01 rad), which the region's own margin must absorb. Estimate clamps are not accounted
+    for.
+
+    Parameters
+    ----------
+    level : float
+        The sublevel ``c`` (0 when the equilibrium is on the region's boundary).
+    P : numpy.ndarray
+        ``V``'s matrix in the loop coordinates ``names``.
+    names : tuple of str
+        The loop coordinates.
+    half_widths : tuple of float
+        The set's extent along each coordinate, ``sqrt(c (P^-1)_jj)``.
+    x_eq : tuple of float
+        The plant's equilibrium in normal-form coordinates.
+    binding : str
+        The coordinate whose room sets the level.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> c = covered_set(np.diag([1.0, 4.0]), ("x_1", "x_2"), (0.0, 0.0), {0: 0.5, 1: 1.0})
+    >>> round(c.level, 6), [round(w, 6) for w in c.half_widths], c.binding
+    (0.25, [0.5, 0.25], 'x_1')
+    """
+
+    level: float
+    P: np.ndarray
+    names: tuple
+    half_widths: tuple
+    x_eq: tuple
+    binding: str
+
+    def contains(self, X) -> bool:
+        """``V(X) <= level`` for a loop deviation ``X`` (coordinates ``names``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> covered_set(np.eye(1), ("x_1",), (0.0,), {0: 1.0}).contains([0.5])
+        True
+        """
+        X = np.asarray(X, dtype=float)
+        return bool(X @ self.P @ X <= self.level)
+
+    def to_dict(self) -> dict:
+        out = super().to_dict()
+        out["P"] = np.asarray(self.P).tolist()
+        return out
+
+    def _repr_lines(self):
+        return [f"V(X) <= {self.level:.6g} (bound by {self.binding}); extent "
+                + ", ".join(f"{n} +-{w:.4g}" for n, w in zip(self.names, self.half_widths))]
+
+
+def covered_set(P, names, x_eq, room: dict) -> CoveredSet:
+    """The largest sublevel set of ``X^T P X`` with ``|X_i| <= room[i]`` (see CoveredSet).
+
+    Parameters
+    ----------
+    P : array_like
+        Positive definite ``V`` matrix in the loop coordinates.
+    names : sequence of str
+        The loop coordinates.
+    x_eq : sequence of float
+        The plant's equilibrium (normal-form coordinates), recorded.
+    room : dict
+        ``{index: r}``: the constrained coordinates and their room ``|X_i| <= r``.
+
+    Returns
+    -------
+    CoveredSet
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> covered_set(np.eye(2), ("a", "b"), (0.0,), {1: 2.0}).level
+    4.0
+    """
+    P = np.asarray(P, dtype=float)
+    Pi = np.linalg.inv((P + P.T) / 2)
+    levels = {i: r * r / Pi[i, i] for i, r in room.items()}
+    i = min(levels, key=levels.get)
+    level = max(0.0, float(levels[i]))
+    return CoveredSet(level, P, tuple(names), tuple(float(math.sqrt(level * Pi[j, j]))
+                                                    for j in range(P.shape[0])),
+                      tuple(float(v) for v in x_eq), str(names[i]))
 
 
 def _contraction(P, Db, s, Rbar, u_row, loop, T):
@@ -132,4 +267,21 @@ def _contraction(P, Db, s, Rbar, u_row, loop, T):
     return nu + dP, nu, dP
 
 
-__all__ = ["DECAY_FRACTION", "ldi_point"]
+def loop_covered_set(L, point, pb):
+    """The covered initial states (:class:`CoveredSet`) of a nonlinear certificate ``point`` of
+    the loop ``L``, when the plant's region is known in normal-form coordinates (``pb`` a
+    ``PlantBounds`` of a chain plant); else None."""
+    if point.kind != "ldi" or pb is None or pb.xi_region is None:
+        return None
+    rho = L.loop.rho
+    room = {i: min(pb.xi_op[i] - lo, hi - pb.xi_op[i])
+            for i, (lo, hi) in enumerate(pb.xi_region[:rho])}
+    rooms_u = [min(pb.u_eq - r[0], r[1] - pb.u_eq) for r in
+               (L.design.controller.u_range, pb.input_range) if r is not None]
+    if rooms_u:  # the saturation inactive, and u where b was enclosed
+        room[L.loop.keep.index(L.loop.names.index("u"))] = min(rooms_u)
+    names = [L.loop.names[k] for k in L.loop.keep]
+    return covered_set(point.lyapunov[0][0], names, pb.xi_op[:rho], room)
+
+
+__all__ = ["DECAY_FRACTION", "CoveredSet", "covered_set", "ldi_point", "loop_covered_set"]

@@ -19,13 +19,17 @@ Two families are searched:
 
 A spectral radius counts as a refutation only above ``1 + GROWTH_TOL``.
 
+Both families close their sequences into periods the same way (:func:`_closed`: the sequence,
+then a ramp back to its first ``b`` under a rate bound) and are one search,
+:func:`switching_refutation`: periodic first, greedy when that finds no growth.
+
 Examples
 --------
 >>> import numpy as np
->>> from fl_design.analysis._refute import periodic_refutation
+>>> from fl_design.analysis._refute import switching_refutation
 >>> A = np.array([[0.0, 2.0], [0.0, 0.0]]) * 0.9 + np.eye(2) * 0.5
 >>> B = A.T.copy()
->>> r = periodic_refutation(A, B, lambda b: A if b < 0.5 else B, 0.0, 1.0, None)
+>>> r = switching_refutation(lambda b: A if b < 0.5 else B, 0.0, 1.0, None)
 >>> r.refuted, r.radius > 1
 (True, True)
 """
@@ -113,49 +117,28 @@ def _power(sq: list[np.ndarray], n: int) -> np.ndarray:
     return acc
 
 
-def ramp(M_at, b_from: float, b_to: float, db: float | None) -> tuple[np.ndarray, int]:
-    """Product of ``M(b)`` along a ramp of slope ``db`` from ``b_from`` (excl.) to ``b_to``.
-
-    Returns the product and its length; a jump (identity, 0 samples) when ``db`` is None.
-    """
-    values = _ramp_values(b_from, b_to, db)
-    acc = np.eye(M_at(b_from).shape[0])
-    for b in values:
-        acc = M_at(b) @ acc
-    return acc, len(values)
+def _closed(part: list, db: float | None) -> list:
+    """``part`` closed into a period: a ramp of slope ``db`` back to ``part[0]`` appended."""
+    return list(part) + _ramp_values(part[-1], part[0], db)
 
 
-def periodic_refutation(M_lo, M_hi, M_at, b_lo: float, b_hi: float,
-                        db: float | None, *, top: int = DWELLS[-1]) -> Refutation:
-    """Worst period ``M_hi^n_hi R_down M_lo^n_lo R_up`` over the dwell grid (stacked eigvals).
+def _refutation(radius: float, seq: list, how: str) -> Refutation:
+    """The :class:`Refutation` of the period ``seq`` whose map has spectral radius ``radius``."""
+    return Refutation(bool(radius > 1.0 + GROWTH_TOL), float(radius), len(seq),
+                      f"{how}; spectral radius of the period {radius:.9f}", _runs(seq))
 
-    Parameters
-    ----------
-    M_lo, M_hi : numpy.ndarray
-        Loop matrices at the ends of the ``b`` interval.
-    M_at : callable
-        ``b -> M(b)`` (for the ramps).
-    b_lo, b_hi : float
-        The interval.
-    db : float or None
-        Rate bound per sample (None: jumps allowed).
-    top : int, optional
-        Longest dwell tried.
 
-    Returns
-    -------
-    Refutation
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> M = np.diag([0.5, 0.9])
-    >>> periodic_refutation(M, M, lambda b: M, 1.0, 2.0, None).refuted
-    False
-    """
-    up, n_up = ramp(M_at, b_lo, b_hi, db)
-    down, n_down = ramp(M_at, b_hi, b_lo, db)
-    sq_lo, sq_hi = _squares(M_lo, 2 * top), _squares(M_hi, 2 * top)
+def _periodic(M_at, b_lo: float, b_hi: float, db: float | None, top: int) -> Refutation:
+    """Worst period ``M_hi^c R_down M_lo^a R_up`` over the dwell grid (stacked eigvals)."""
+    n = M_at(b_lo).shape[0]
+    up_values, down_values = _ramp_values(b_lo, b_hi, db), _ramp_values(b_hi, b_lo, db)
+    up, down = np.eye(n), np.eye(n)
+    for b in up_values:
+        up = M_at(b) @ up
+    for b in down_values:
+        down = M_at(b) @ down
+    n_ramps = len(up_values) + len(down_values)
+    sq_lo, sq_hi = _squares(M_at(b_lo), 2 * top), _squares(M_at(b_hi), 2 * top)
 
     def rates(pairs):
         """Per-sample growth ``log(rho) / period`` of each dwell pair (stacked eigvals)."""
@@ -163,11 +146,11 @@ def periodic_refutation(M_lo, M_hi, M_at, b_lo: float, b_hi: float,
         C = np.stack([_power(sq_hi, c) for _, c in pairs])
         with np.errstate(all="ignore"):
             rad = np.max(np.abs(np.linalg.eigvals(C @ down @ A @ up)), axis=-1)
-            rate = np.log(rad) / np.array([a + c + n_up + n_down for a, c in pairs])
+            rate = np.log(rad) / np.array([a + c + n_ramps for a, c in pairs])
         return np.where(np.isfinite(rate), rate, -np.inf), rad
 
     pairs = [(a, c) for a in DWELLS for c in DWELLS
-             if a <= top and c <= top and a + c + n_up + n_down > 0]
+             if a <= top and c <= top and a + c + n_ramps > 0]
     rate, rad = rates(pairs)
     i = int(np.argmax(rate))
     (a, c), best, radius = pairs[i], float(rate[i]), float(rad[i])
@@ -175,55 +158,22 @@ def periodic_refutation(M_lo, M_hi, M_at, b_lo: float, b_hi: float,
     while step >= 1:  # coordinate refinement of the best dwell pair (stacked candidates)
         cand = [(a + da, c + dc) for da in (-step, 0, step) for dc in (-step, 0, step)
                 if 0 <= a + da <= 2 * top and 0 <= c + dc <= 2 * top
-                and a + da + c + dc + n_up + n_down > 0]
+                and a + da + c + dc + n_ramps > 0]
         r, rd = rates(cand)
         k = int(np.argmax(r))
         if r[k] > best:
             (a, c), best, radius = cand[k], float(r[k]), float(rd[k])
         else:
             step //= 2
-    ramps = "" if db is None else f", ramps of {n_up} samples (|db| <= {db:.4g})"
-    how = (f"periodic: {a} samples at b = {b_lo:.6g}, {c} at b = {b_hi:.6g}{ramps}; "
-           f"spectral radius of the period {radius:.9f}")
-    seq = ([b_lo] * a + _ramp_values(b_lo, b_hi, db) + [b_hi] * c
-           + _ramp_values(b_hi, b_lo, db))
-    return Refutation(bool(radius > 1.0 + GROWTH_TOL), radius, a + c + n_up + n_down, how,
-                      _runs(seq))
+    ramps = "" if db is None else f", ramps of {len(up_values)} samples (|db| <= {db:.4g})"
+    seq = [b_lo] * a + up_values + [b_hi] * c + down_values
+    return _refutation(radius, seq, f"periodic: {a} samples at b = {b_lo:.6g}, {c} at "
+                       f"b = {b_hi:.6g}{ramps}")
 
 
-def greedy_refutation(M_at, b_lo: float, b_hi: float, db: float | None, P: np.ndarray,
-                      x0: np.ndarray, *, steps: int = 6000,
-                      windows=(500, 1000, 2000, 4000)) -> Refutation:
-    """Greedy admissible sequence maximizing ``x^T P x`` each sample, closed into periods.
-
-    Parameters
-    ----------
-    M_at : callable
-        ``b -> M(b)``.
-    b_lo, b_hi : float
-        The interval.
-    db : float or None
-        Rate bound per sample (None: ``b`` jumps between the ends).
-    P : numpy.ndarray
-        The norm maximized.
-    x0 : numpy.ndarray
-        Start state.
-    steps : int, optional
-        Length of the greedy run.
-    windows : sequence of int, optional
-        Lengths of the final windows closed into periods.
-
-    Returns
-    -------
-    Refutation
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> M = np.diag([0.5, 0.9])
-    >>> greedy_refutation(lambda b: M, 1.0, 2.0, None, np.eye(2), np.ones(2)).refuted
-    False
-    """
+def _greedy(M_at, b_lo: float, b_hi: float, db: float | None, P, x0, steps: int,
+            windows) -> Refutation:
+    """Greedy admissible sequence maximizing ``x^T P x`` each sample, windows closed."""
     x, b, seq = np.asarray(x0, dtype=float), 0.5 * (b_lo + b_hi), []
     cache: dict[float, np.ndarray] = {}
 
@@ -244,22 +194,63 @@ def greedy_refutation(M_at, b_lo: float, b_hi: float, db: float | None, P: np.nd
     for w in windows:
         if w > len(seq):
             continue
-        part = seq[-w:]
+        period = _closed(seq[-w:], db)
         acc = np.eye(len(x))
-        for v in part:
+        for v in period:
             acc = mat(v) @ acc
-        back_values = _ramp_values(part[-1], part[0], db)
-        for v in back_values:
-            acc = mat(v) @ acc
-        n_back = len(back_values)
         rad = float(np.max(np.abs(np.linalg.eigvals(acc))))
         if not math.isfinite(best.radius) or rad > best.radius:
-            best = Refutation(rad > 1.0 + GROWTH_TOL, rad, w + n_back,
-                              f"greedy: a {w + n_back}-sample window of the greedy sequence, "
-                              f"repeated; spectral radius of the period {rad:.9f}",
-                              _runs(part + back_values))
+            best = _refutation(rad, period, f"greedy: a {len(period)}-sample window of the "
+                               "greedy sequence, repeated")
     return best
 
 
-__all__ = ["DWELLS", "GROWTH_TOL", "Refutation", "greedy_refutation", "periodic_refutation",
-           "ramp"]
+def switching_refutation(M_at, b_lo: float, b_hi: float, db: float | None, *, P=None,
+                         x0=None, top: int = DWELLS[-1], steps: int = 6000,
+                         windows=(500, 1000, 2000, 4000)) -> Refutation:
+    """Search an admissible periodic switching of ``b`` whose period map grows.
+
+    The periodic family (dwell pairs at the ends of the interval, ramps under a rate bound)
+    first; when it finds no growth and ``P`` and ``x0`` are given, the greedy family (each
+    sample the admissible ``b`` maximizing ``x^T P x``, windows closed into periods).
+
+    Parameters
+    ----------
+    M_at : callable
+        ``b -> M(b)``, the loop matrix at ``b``.
+    b_lo, b_hi : float
+        The interval.
+    db : float or None
+        Rate bound per sample (None: ``b`` jumps between the ends).
+    P : numpy.ndarray, optional
+        The quadratic norm the greedy family maximizes (no greedy search without it).
+    x0 : numpy.ndarray, optional
+        Start state of the greedy run (required with ``P``).
+    top : int, optional
+        Longest dwell of the periodic family.
+    steps : int, optional
+        Length of the greedy run.
+    windows : sequence of int, optional
+        Lengths of the final greedy windows closed into periods.
+
+    Returns
+    -------
+    Refutation
+        The refuting period, else the worst period found (periodic when greedy found no
+        finite radius).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> M = np.diag([0.5, 0.9])
+    >>> switching_refutation(lambda b: M, 1.0, 2.0, None, P=np.eye(2), x0=np.ones(2)).refuted
+    False
+    """
+    best = _periodic(M_at, b_lo, b_hi, db, top)
+    if best.refuted or P is None:
+        return best
+    greedy = _greedy(M_at, b_lo, b_hi, db, P, x0, steps, windows)
+    return greedy if greedy.refuted or not math.isfinite(best.radius) else best
+
+
+__all__ = ["DWELLS", "GROWTH_TOL", "Refutation", "switching_refutation"]

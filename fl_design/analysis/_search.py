@@ -48,12 +48,34 @@ def _refine(margin, good: float, m_good: float, bad: float, m_bad: float, rtol: 
     return math.exp(lg), math.exp(lb)
 
 
+class _Scan:
+    """Margins of a scan grid, evaluated on demand in stacked chunks of :data:`SCAN_CHUNK`
+    (a scan stops at its first failure: the points after it are never computed)."""
+
+    def __init__(self, grid, margin, margins):
+        self.grid, self.margin, self.margins = grid, margin, margins
+        self.values: list[float] = []
+
+    def __getitem__(self, i: int) -> float:
+        if self.margins is None:
+            return float(self.margin(self.grid[i]))
+        while len(self.values) <= i:
+            part = self.grid[len(self.values): len(self.values) + SCAN_CHUNK]
+            self.values += [float(v) for v in np.asarray(self.margins(part), dtype=float)]
+        return self.values[i]
+
+
+#: Scan points evaluated per stacked call of :func:`frozen_bracket`.
+SCAN_CHUNK = 6
+
+
 def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float, margins=None):
     """``(good, bad)``: the frozen eps* bracket of a scan + refinement (see frozen_eps_star).
 
     ``bad`` is an eps at which ``margin >= 0`` (a counterexample), None when no scan point
-    fails; None altogether when ``lo`` already fails. ``margins`` (optional) evaluates the whole
-    scan at once (``array -> array``, stacked eigenvalue problems).
+    fails; None altogether when ``lo`` already fails. ``margins`` (optional) evaluates many scan
+    points at once (``array -> array``, stacked eigenvalue problems), in chunks up to the first
+    failure.
 
     Examples
     --------
@@ -62,12 +84,12 @@ def frozen_bracket(margin, lo: float, hi: float, n_scan: int, rtol: float, margi
     (0.3, 0.3, True)
     """
     grid = np.geomspace(lo, hi, n_scan)
-    scan = (np.asarray(margins(grid), dtype=float) if margins is not None else None)
-    m_prev = margin(grid[0]) if scan is None else scan[0]
+    scan = _Scan(grid, margin, margins)
+    m_prev = scan[0]
     if not m_prev < 0.0:
         return None
     for i in range(1, n_scan):
-        m = margin(grid[i]) if scan is None else scan[i]
+        m = scan[i]
         if not m < 0.0:
             if not np.isfinite(m) or not np.isfinite(m_prev):
                 good, bad = _bracket(lambda e: margin(e) < 0.0, grid[i - 1], grid[i],

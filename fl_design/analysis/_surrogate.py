@@ -230,14 +230,45 @@ class SurrogateLoop:
     def assemble(self, Phi, Gam, u_row, eps=None, gamma=None) -> tuple[np.ndarray, np.ndarray]:
         """``(M0, M1)`` from a plant ``x+ = Phi x + b Gam u`` and the design's Jacobians."""
         Js, Jy = self._jacobians(eps, gamma)[:2]
-        rho, m = self.rho, Js.shape[0]
-        e1 = np.zeros((1, rho))
-        e1[0, 0] = 1.0
-        M0 = np.block([[Phi, np.zeros((rho, m))], [Jy @ e1, Js]])
+        M0, M1 = self._stack(Phi, Gam, Js[None], Jy[None], u_row[None])
+        return M0[0], M1[0]
+
+    def _stack(self, Phi, Gam, Js, Jy, u_rows):
+        """Stacked ``(M0, M1)`` (plain slicing, no ``np.block``), the kept states only."""
+        rho, m, k = self.rho, Js.shape[-1], Js.shape[0]
+        M0 = np.zeros((k, rho + m, rho + m))
+        M0[:, :rho, :rho] = Phi
+        M0[:, rho:, :1] = Jy.reshape(k, m, 1)
+        M0[:, rho:, rho:] = Js
         M1 = np.zeros_like(M0)
-        M1[:rho] = np.asarray(Gam)[:, None] @ u_row[None, :]
-        k = self.keep
-        return M0[np.ix_(k, k)], M1[np.ix_(k, k)]
+        M1[:, :rho] = np.asarray(Gam)[None, :, None] * u_rows[:, None, :]
+        if len(self.keep) < rho + m:
+            M0, M1 = (M[:, self.keep][:, :, self.keep] for M in (M0, M1))
+        return M0, M1
+
+    def parts_many(self, eps_values, gamma: float) -> tuple[np.ndarray, np.ndarray]:
+        """Stacked ``(M0, M1)`` at many eps (one mapped CasADi call), ``(k, n, n)`` each.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> loop = SurrogateLoop(fl.presets.paper_design())
+        >>> M0, M1 = loop.parts_many([0.02, 0.05], 3e-4)
+        >>> bool(np.array_equal(M0[1], loop.parts(0.05, 3e-4)[0]))
+        True
+        """
+        eps_values = [float(e) for e in eps_values]
+        k = len(eps_values)
+        p = np.stack([np.concatenate([self.estimator_vector(e), [float(gamma)]])
+                      for e in eps_values], axis=1)
+        Js, Jy, us, uy = (np.asarray(m, dtype=float) for m in
+                          self._jac.map(k)(np.tile(self._s0[:, None], (1, k)), 0.0, p))
+        n_s = self._s0.size
+        Js = Js.reshape(n_s, k, n_s).transpose(1, 0, 2)
+        rows = np.zeros((k, self.rho + n_s))
+        rows[:, 0], rows[:, self.rho:] = uy.ravel(), us.reshape(k, n_s)
+        Phi, Gam = chain_zoh(self.rho, self.T)
+        return self._stack(Phi, Gam, Js, Jy.T, rows)
 
 
 def delta(M: np.ndarray, T: float) -> np.ndarray:
