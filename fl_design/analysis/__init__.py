@@ -30,6 +30,7 @@ from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
 from ._margins import LoopMargins, loop_margins
+from ._noise import noise_gain
 from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
@@ -49,6 +50,7 @@ __all__ = [
     "eps_star_curve",
     "linearized_eps_star",
     "loop_margins",
+    "noise_gain",
     "sampled_linearization",
     "synthesize_gains",
     "theorem1_constants",
