@@ -10,22 +10,32 @@ comes from the plant, the certificates and a check, and is said with its reason:
 2. **T** (unless given): 100 samples per ``1/d``, rounded down to 1-2-5;
 3. **gains**: :func:`fl_design.synthesize_gains` at decay ``d`` (all poles at
    ``-(1 + spare) d``, the decay certified);
-4. **gamma**: the disturbance estimate ``5x`` the loop's rate, ``5 d T / |b|_max`` with the
-   sign of ``b``, kept inside the admissible interval of :func:`fl_design.certify_gamma` at a
-   probe eps (a factor 2 from either end; the interval's geometric centre when narrower);
-5. **eps**: the largest with a certified margin: half the smaller of the certified eps*
-   (varying ``b``, :func:`fl_design.certify_eps`) and the real plant's linearized eps*
-   (:func:`fl_design.linearized_eps_star`, which sees ``a(x)``, e.g. an unstable pole); the
-   eps is certified again at the design (the certified eps* is not an interval);
-6. **checked** by a simulation of the step (nonlinear plant, input limits) and a short sweep
-   around the design (eps ``/2, x1``, gamma ``/2, x1, x2``).
+4. **gamma** (sign of ``b``), inside the admissible interval of :func:`fl_design.certify_gamma`
+   at a probe eps (a factor 2 from either end where it can; the probe eps from ``0.2 / d``
+   down by 4 until some gamma is stable): rule ``"fast"``, the disturbance estimate ``5x`` the
+   loop's rate, ``5 d T / |b|_max``; rule ``"low"``, twice the larger of the certified lower
+   bound (below it no eps works) and the interval's lower end (the smaller gamma, the larger
+   eps* and the less noise);
+5. **eps**: a provisional eps, half the smaller of the surrogate's frozen-b eps* (eigenvalue
+   scan, :func:`fl_design.eps_star_curve`) and the real plant's linearized eps*
+   (:func:`fl_design.linearized_eps_star`, which sees ``a(x)``, e.g. an unstable pole), ranks
+   the candidates; the chosen one gets the largest eps with a certified margin: the smaller
+   of the certified eps* (varying ``b``, :func:`fl_design.certify_eps`) and the linearized
+   eps*, over :data:`EPS_MARGIN` = 1.25, certified again at the design (a certified eps* is
+   not an interval). When no LMI certifies the provisional eps, nor its half or quarter, the
+   design stays uncertified and ``Tuning.certified`` and the reasons say so;
+6. **checked** by a simulation of the step (nonlinear plant, input limits), a short sweep
+   around the design (eps ``/2, x1``, gamma ``/2, x1, x2``) and its noise gain
+   (:func:`fl_design.analysis.noise_gain`).
 
-Objectives: ``"least_noise"`` (the time scale ``d``: the largest certified eps there, least
-noise gain), ``"fastest"`` (loops at ``d``, ``2 d``, ``4 d`` up to what the whole input room
-allows, the shortest settling time wins), ``("overshoot", x)`` (loops at ``d``, ``d/2``,
-``d/4``: the least noise gain with an overshoot of at most ``x``, a fraction). A candidate
-whose gamma interval or eps* is empty, or whose check does not converge, is said in
-``tried``; when none is left :class:`~fl_design.errors.NoDesignError` says why, per candidate.
+Objectives: ``"least-noise"`` (DESIGN.md's spelling; ``"least_noise"`` too: loops at ``d``,
+``d/2``, ``d/4`` with the low gamma, the least noise gain wins), ``"fastest"`` (loops at
+``d``, ``2 d``, ``4 d`` up to what the whole input room allows, the fast gamma, the shortest
+settling time wins), ``("overshoot", x)`` (the loop at ``d`` with the fast gamma and the
+three low-gamma loops: the least noise gain with an overshoot of at most ``x``, a fraction).
+A candidate whose gamma interval or eps* is empty, or whose check does not converge, is said
+in ``tried``; when none is left :class:`~fl_design.errors.NoDesignError` says why, per
+candidate.
 
 Examples
 --------
@@ -57,7 +67,7 @@ from ._tuning import Tuning
 
 #: Candidates per objective: (loop decay over the plant's time scale, gamma rule); "fast":
 #: the disturbance estimate 5x the loop's rate, "low": twice the certified lower bound.
-CANDIDATES = {"least_noise": ((1.0, "low"), (0.5, "low"), (0.25, "low")),
+CANDIDATES = {"least-noise": ((1.0, "low"), (0.5, "low"), (0.25, "low")),
               "fastest": ((1.0, "fast"), (2.0, "fast"), (4.0, "fast")),
               "overshoot": ((1.0, "fast"), (1.0, "low"), (0.5, "low"), (0.25, "low"))}
 #: eps is the certified eps* divided by this (the certified margin).
@@ -78,12 +88,12 @@ def nice_time(x: float) -> float:
 
 
 def _objective(objective) -> tuple[str, float | None]:
-    if objective in ("least_noise", "fastest"):
-        return objective, None
+    if objective in ("least-noise", "least_noise", "fastest"):  # DESIGN.md spells least-noise
+        return objective.replace("_", "-"), None
     if (isinstance(objective, tuple) and len(objective) == 2 and objective[0] == "overshoot"):
         x = V.positive("overshoot limit", objective[1])
         return "overshoot", float(x)
-    raise ParameterError(f"objective={objective!r}: give 'least_noise', 'fastest' or "
+    raise ParameterError(f"objective={objective!r}: give 'least-noise', 'fastest' or "
                          "('overshoot', x) with x the largest overshoot as a fraction (0.1 = 10 %)")
 
 
@@ -116,7 +126,7 @@ def _b_range(plant) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def tune(plant: Plant, *, T: float | None = None, objective="least_noise",
+def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
          reference: float | None = None, u_limits=None, decays=None,
          baseline="auto") -> Tuning:
     """Propose a certified, checked design for ``plant`` (the module says how and why).
@@ -128,7 +138,8 @@ def tune(plant: Plant, *, T: float | None = None, objective="least_noise",
     T : float, optional
         Sampling time (default from the plant's time scale and the actuator, step 2).
     objective : str or tuple, optional
-        ``"least_noise"`` (default), ``"fastest"`` or ``("overshoot", x)``, ``x`` a fraction.
+        ``"least-noise"`` (default; ``"least_noise"`` too), ``"fastest"`` or
+        ``("overshoot", x)``, ``x`` a fraction.
     reference : float, optional
         The step target of the checks (default the operating output plus 5 % of the output's
         range in the region).
@@ -163,6 +174,9 @@ def tune(plant: Plant, *, T: float | None = None, objective="least_noise",
     """
     V.instance("plant", plant, Plant, "an fl.Plant (fl.Plant.from_ode or fl.plants.*)")
     kind, limit = _objective(objective)
+    if not (baseline is None or isinstance(baseline, Design) or
+            (isinstance(baseline, str) and baseline == "auto")):
+        raise ParameterError(f"baseline={baseline!r}: give a Design, None or 'auto'")
     rho = plant.relative_degree()
     lo, hi = _b_range(plant)
     u_lim = tuple(plant.input_range) if u_limits is None else V.interval("u_limits", u_limits)
@@ -212,7 +226,7 @@ def tune(plant: Plant, *, T: float | None = None, objective="least_noise",
         raise NoDesignError(f"no design for {plant.name!r} ({kind}): " + "; ".join(tried))
     key = ((lambda c: c["settling_time"]) if kind == "fastest" else (lambda c: c["noise_gain"]))
     best = min(chosen, key=key)
-    why = {"least_noise": f"the least noise gain of {len(chosen)} converging loops",
+    why = {"least-noise": f"the least noise gain of {len(chosen)} converging loops",
            "fastest": f"the shortest settling time of {len(chosen)} converging loops",
            "overshoot": (f"the least noise gain of {len(chosen)} converging loops with overshoot "
                          f"<= {100 * (limit or 0):g} %")}[kind]
@@ -258,7 +272,7 @@ def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
         probe = probe.replace(eps=max(2.0 * s.T, probe.estimator.eps / 4.0))
     g_lo, g_hi = 2.0 * gc.gamma_min, gc.gamma_max / 2.0
     if rule == "low" and gc.gamma_lower_bound is not None:
-        g_lo = max(2.0 * gc.gamma_lower_bound, gc.gamma_min * (1.0 + 1e-3))
+        g_lo = 2.0 * max(gc.gamma_lower_bound, gc.gamma_min)
         g0 = g_lo
     gamma = min(max(g0, g_lo), g_hi) if g_lo <= g_hi else math.sqrt(gc.gamma_min * gc.gamma_max)
     probe = probe.replace(gamma=s.sign * gamma)
@@ -279,7 +293,8 @@ def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
         tried.append(f"{what}, eps {eps:.3g}: the check simulation is {check['status']} "
                      f"({check['response'].verdict()})")
         return None
-    gamma_why = ("twice the certified lower bound over eps" if rule == "low" else
+    gamma_why = ("twice the larger of the certified lower bound over eps and the interval's "
+                 "lower end" if rule == "low" else
                  f"5 d T / |b|_max = {s.sign * 5.0 * d * s.T / s.bmax:.3g}, the disturbance "
                  "estimate 5x the loop's rate")
     reasons = [

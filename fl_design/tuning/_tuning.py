@@ -26,7 +26,7 @@ class Tuning:
     design : Design
         The proposed design (EHGO + dynamic controller).
     objective : str
-        ``"least_noise"``, ``"fastest"`` or ``"overshoot <= X %"``.
+        ``"least-noise"``, ``"fastest"`` or ``"overshoot <= X %"``.
     reference : float
         The step target of the check simulation and sweep (absolute, the plant's units).
     time_scale : float
