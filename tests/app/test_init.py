@@ -213,12 +213,14 @@ def test_proposed_design_for_a_user_plant_matches_its_time_scale_and_converges(s
     # time scale: |eig| of the linearization, here sqrt(9.81 - 0.25^2/...) from numpy
     A = np.array([[0.0, 1.0], [-9.81, -0.5]])
     decay = max(abs(np.linalg.eigvals(A)))
-    poles = np.roots([1.0, *reversed(d.controller.gains)])
-    assert poles == pytest.approx([-decay, -decay], rel=1e-4)
+    poles = np.roots([1.0, *reversed(d.controller.gains)])  # synthesize_gains: a 2 % spare
+    assert poles == pytest.approx([-1.02 * decay, -1.02 * decay], rel=1e-4)
     assert math.copysign(1.0, d.controller.gamma) == sign  # the sign of b
     assert d.controller.u_range == (-20.0, 20.0)
     lin = fl.linearized_eps_star(job.plant, d, eps_range=(1e-3, 1.0))
-    assert lin.value is not None and d.estimator.eps <= lin.lower / 2 * (1 + 1e-9)
+    assert lin.value is not None and d.estimator.eps <= lin.lower / 1.25 * (1 + 1e-6)
+    cert = fl.certify_eps(d, job.plant.b_bounds(), eps_range=(1e-3, 1.0))
+    assert cert.certified and d.estimator.eps <= cert.eps_star_certified
     resp = fl.simulate(job.plant, d, fl.Scenario(0.1, 10.0))
     assert resp.status == "converged"
 

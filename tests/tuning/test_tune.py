@@ -34,7 +34,9 @@ def _tank():
 @pytest.mark.parametrize("name", sorted(PLANTS))
 def test_every_library_plant_gets_a_converging_tuned_design(name):
     plant, r = PLANTS[name](), BENCH_REFERENCES[name]
-    tuned = fl.tune(plant, reference=r, decays=[1.0])
+    # one candidate loop each (time); the motor lag has no stable eps at its full time scale
+    # (3.3 rad/s: the linearized loop is unstable already at eps = T / 2), half of it works
+    tuned = fl.tune(plant, reference=r, decays=[0.5 if name == "trms-lag" else 1.0])
     d = tuned.design
     lo, _ = plant.b_bounds()
     assert d.controller.gamma * lo > 0  # the sign of b
