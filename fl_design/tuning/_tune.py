@@ -11,9 +11,9 @@ comes from the plant, the certificates and a check, and is said with its reason:
 3. **gains**: :func:`fl_design.synthesize_gains` at decay ``d`` (all poles at
    ``-(1 + spare) d``, the decay certified);
 4. **gamma** (sign of ``b``), inside the admissible interval of :func:`fl_design.certify_gamma`
-   at a probe eps (a factor 2 from either end where it can; the probe eps from ``0.2 / d``
-   down by 4 until some gamma is stable): rule ``"fast"``, the disturbance estimate ``5x`` the
-   loop's rate, ``5 d T / |b|_max``; rule ``"low"``, twice the larger of the certified lower
+   at a probe eps (a factor 2 from its lower end, 1.25 from its upper end where it can; the
+   probe eps from ``0.2 / d`` down by 4 until some gamma is stable): rule ``"fast"``, the disturbance estimate ``5x`` the
+   loop's rate for the smallest ``|b|``, ``5 d T / |b|_min``; rule ``"low"``, twice the larger of the certified lower
    bound (below it no eps works) and the interval's lower end (the smaller gamma, the larger
    eps* and the less noise);
 5. **eps**: a provisional eps, half the smaller of the surrogate's frozen-b eps* (eigenvalue
@@ -66,7 +66,7 @@ from ._check import baseline_for, check_candidate
 from ._tuning import Tuning
 
 #: Candidates per objective: (loop decay over the plant's time scale, gamma rule); "fast":
-#: the disturbance estimate 5x the loop's rate, "low": twice the certified lower bound.
+#: the disturbance estimate 5x the loop's rate, "low": near the certified lower bound.
 CANDIDATES = {"least-noise": ((1.0, "low"), (0.5, "low"), (0.25, "low")),
               "fastest": ((1.0, "fast"), (2.0, "fast"), (4.0, "fast")),
               "overshoot": ((1.0, "fast"), (1.0, "low"), (0.5, "low"), (0.25, "low"))}
@@ -246,6 +246,7 @@ class _Setup:
             plant, rho, T, b_bounds, u_lim, r)
         self.sign = math.copysign(1.0, b_bounds[0])
         self.bmax = max(abs(b) for b in b_bounds)
+        self.bmin = min(abs(b) for b in b_bounds)
 
 
 def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
@@ -256,7 +257,7 @@ def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
     searches run for the chosen candidate only (:func:`_certified_eps`).
     """
     syn = synthesize_gains(s.rho, decay=d)
-    g0 = 5.0 * d * s.T / s.bmax
+    g0 = 5.0 * d * s.T / s.bmin  # |b| gamma / T at least 5 d, for the smallest b too
     eps0, eps_hi = max(2.0 * s.T, 0.2 / d), max(10.0 / d, 20.0 * s.T)
     grid = np.geomspace(s.T / 2.0, eps_hi, 6)
     probe = Design(estimator=EHGO(rho=s.rho, eps=eps0, T=s.T),
@@ -270,7 +271,7 @@ def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
                          f"{probe.estimator.eps:.3g}: {gc.reason}")
             return None
         probe = probe.replace(eps=max(2.0 * s.T, probe.estimator.eps / 4.0))
-    g_lo, g_hi = 2.0 * gc.gamma_min, gc.gamma_max / 2.0
+    g_lo, g_hi = 2.0 * gc.gamma_min, gc.gamma_max / 1.25
     if rule == "low" and gc.gamma_lower_bound is not None:
         g_lo = 2.0 * max(gc.gamma_lower_bound, gc.gamma_min)
         g0 = g_lo
@@ -295,7 +296,7 @@ def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
         return None
     gamma_why = ("twice the larger of the certified lower bound over eps and the interval's "
                  "lower end" if rule == "low" else
-                 f"5 d T / |b|_max = {s.sign * 5.0 * d * s.T / s.bmax:.3g}, the disturbance "
+                 f"5 d T / |b|_min = {s.sign * 5.0 * d * s.T / s.bmin:.3g}, the disturbance "
                  "estimate 5x the loop's rate")
     reasons = [
         (f"gains {tuple(round(k, 6) for k in syn.gains)} (synthesize_gains at decay {d:.3g}: "
