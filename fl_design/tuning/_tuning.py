@@ -145,10 +145,6 @@ class Tuning:
                  (f"predicted: {self.status}, overshoot {_num(self.overshoot)} %, settling "
                  f"{_num(self.settling_time)} s, noise gain {_num(self.noise_gain)}"),
                  f"sweep around it: {ok}/{len(self.sweep_converged)} runs converge"]
-        if self.baseline:
-            lines.append(f"vs {self.baseline['name']}: noise gain "
-                         f"{_num(self.baseline['noise_gain'])} ({_num(self.baseline['noise_saved'])}x"
-                         f" ours), overshoot {_num(self.baseline['overshoot'])} %")
         return "\n  ".join(lines + list(self.reasons))
 
 
