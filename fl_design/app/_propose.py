@@ -2,7 +2,8 @@
 
 One way to propose: :func:`fl_design.tune` with the configured step (``[scenario]
 reference``), objective ``"fastest"`` with the loop at the plant's own time scale (one
-candidate: the report's simulation should settle within its run). The tuning says each choice
+candidate: the report's simulation should settle within its run); when that loop has no
+design, loops at half and a quarter of it (a lagging actuator), the faster settling one. The tuning says each choice
 with its number (time scale, T, gains, gamma inside the certified interval, eps the largest
 with a certified margin, the check simulation and sweep, the noise gain); those sentences
 become the config's notes, and the sweep and certificate ranges come from the tuning (T, the
@@ -63,16 +64,21 @@ def propose_design(cfg: Config, plant=None) -> Config:
     if "reference" not in cfg.scenario:
         raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
                           "step target (absolute, in the plant's units)")
+    r, first_why = float(cfg.scenario["reference"]), []
     try:
-        tuned = tune(plant, reference=float(cfg.scenario["reference"]), objective="fastest",
-                     decays=(1.0,))
-    except NoDesignError as exc:
-        raise ConfigError(f"{cfg.source}: [design] is missing and none can be proposed: {exc}; "
-                          "give [design] (`fl-design init --from-ode` shows one)") from exc
-    return _config_with(cfg, tuned)
+        tuned = tune(plant, reference=r, objective="fastest", decays=(1.0,))
+    except NoDesignError as first:
+        first_why = [f"not chosen: the loop at the plant's time scale: {first}"]
+        try:  # slower loops: what a lagging actuator may still follow
+            tuned = tune(plant, reference=r, objective="fastest", decays=(0.5, 0.25))
+        except NoDesignError as exc:
+            raise ConfigError(f"{cfg.source}: [design] is missing and none can be proposed: "
+                              f"{first}; then {exc}; give [design] (`fl-design init --from-ode` "
+                              "shows one)") from exc
+    return _config_with(cfg, tuned, first_why)
 
 
-def _config_with(cfg: Config, tuned) -> Config:
+def _config_with(cfg: Config, tuned, extra: list) -> Config:
     est, ctrl = tuned.design.estimator, tuned.design.controller
     d = {"estimator": "ehgo", "eps": float(est.eps), "T": float(est.T), "coeffs": [],
          "gains": [float(k) for k in ctrl.gains], "gamma": float(ctrl.gamma), "ki": 0.0,
@@ -85,7 +91,7 @@ def _config_with(cfg: Config, tuned) -> Config:
     certify.setdefault("eps_range", ranges["certify_eps"])
     compare = dict(cfg.compare, eps_tradeoff=[float(f"{est.eps * f:.3g}")
                                               for f in (0.5, 1.0, 2.0, 4.0)])
-    reasons = list(tuned.reasons) + [f"not chosen: {t}" for t in tuned.tried]
+    reasons = list(tuned.reasons) + [f"not chosen: {t}" for t in tuned.tried] + extra
     notes = tuple(cfg.notes) + tuple(f"[design] proposed: {r}" for r in reasons)
     return replace(cfg, design=d, sweep=sweep, certify=certify, compare=compare,
                    source=f"{cfg.source} (design proposed by fl.tune: no [design] given; see "
