@@ -93,9 +93,20 @@ def _config_with(cfg: Config, tuned, extra: list) -> Config:
                                               for f in (0.5, 1.0, 2.0, 4.0)])
     reasons = list(tuned.reasons) + [f"not chosen: {t}" for t in tuned.tried] + extra
     notes = tuple(cfg.notes) + tuple(f"[design] proposed: {r}" for r in reasons)
+    gc = tuned.gamma_certificate
+    star = "-" if tuned.eps_star_certified is None else f"{tuned.eps_star_certified:.4g} s"
+    why = (f"design proposed by fl.tune, no [design] given: loop at {tuned.time_scale:.3g} "
+           f"rad/s, T = {est.T:g} s, gamma = {ctrl.gamma:.4g} (|gamma| in the admissible "
+           f"[{_g(gc.gamma_min)}, {_g(gc.gamma_max)}]), eps = {est.eps:.4g} s "
+           f"({'certified' if tuned.certified else 'NOT certified'}, certified eps* {star}), "
+           f"check {tuned.status} with {tuned.overshoot:.3g} % overshoot; every reason in the "
+           "notes (summary.json config.notes, stderr)")
     return replace(cfg, design=d, sweep=sweep, certify=certify, compare=compare,
-                   source=f"{cfg.source} (design proposed by fl.tune: no [design] given; see "
-                          "the notes)", notes=notes)
+                   source=f"{cfg.source} ({why})", notes=notes)
+
+
+def _g(x) -> str:
+    return "-" if x is None else f"{abs(x):.4g}"
 
 
 __all__ = ["propose_design"]
