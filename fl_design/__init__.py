@@ -74,6 +74,8 @@ _LAZY = {
     "GammaCertificate": "analysis",
     "EpsCertificate": "analysis",
     "EpsStarCurve": "analysis",
+    "tune": "tuning",
+    "Tuning": "tuning",
     # sub-modules and layers
     "plants": None,
     "presets": None,
@@ -82,12 +84,13 @@ _LAZY = {
     "design": None,
     "sim": None,
     "analysis": None,
+    "tuning": None,
     "codegen": None,
     "app": None,
 }
 
 if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
-    from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic
+    from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic, tuning
     from .analysis import (
         EpsCertificate,
         EpsStarCurve,
@@ -142,6 +145,7 @@ if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on 
         approximate_extended_model,
         taylor_discretization,
     )
+    from .tuning import Tuning, tune
 
 
 def __getattr__(name: str):

@@ -152,6 +152,7 @@ __all__ = [
     "FlDesignError",
     "HurwitzError",
     "MissingDependencyError",
+    "NoDesignError",
     "NonMinimumPhaseWarning",
     "OutputExistsError",
     "OutputPathError",
@@ -177,3 +178,7 @@ class PrecisionError(ParameterError):
 
 
 __all__ += ["FloatPrecisionWarning", "PrecisionError"]
+
+
+class NoDesignError(CertificationError):
+    """No design with a certificate and a converging check exists for the data (fl.tune)."""

@@ -9,8 +9,9 @@ with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesiz
 ``_intervals`` (interval enclosures of SymPy expressions), ``_plant_bounds`` (``b``,
 ``d sigma/d xi`` and ``b``'s rate over a region and a parameter box, :func:`plant_bounds`),
 ``_margins`` (gain, phase and delay margins at the plant input,
-:func:`loop_margins`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
-(the result objects).
+:func:`loop_margins`), ``_noise`` (:func:`noise_gain`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
+(the result objects; an :class:`~fl_design.analysis._cert_results.EpsBracket`
+is returned inside them, not exported).
 
 Examples
 --------
@@ -20,7 +21,6 @@ Examples
 """
 
 from ._cert_results import (
-                            EpsBracket,
                             EpsCertificate,
                             EpsStarCurve,
                             GammaCertificate,
@@ -32,11 +32,11 @@ from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains
 from ._margins import LoopMargins, loop_margins
+from ._noise import noise_gain
 from ._plant_bounds import plant_bounds
 from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
-    "EpsBracket",
     "EpsCertificate",
     "EpsStarCurve",
     "GainSynthesis",
@@ -52,6 +52,7 @@ __all__ = [
     "eps_star_curve",
     "linearized_eps_star",
     "loop_margins",
+    "noise_gain",
     "plant_bounds",
     "sampled_linearization",
     "synthesize_gains",

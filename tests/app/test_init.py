@@ -213,12 +213,14 @@ def test_proposed_design_for_a_user_plant_matches_its_time_scale_and_converges(s
     # time scale: |eig| of the linearization, here sqrt(9.81 - 0.25^2/...) from numpy
     A = np.array([[0.0, 1.0], [-9.81, -0.5]])
     decay = max(abs(np.linalg.eigvals(A)))
-    poles = np.roots([1.0, *reversed(d.controller.gains)])
-    assert poles == pytest.approx([-decay, -decay], rel=1e-4)
+    poles = np.roots([1.0, *reversed(d.controller.gains)])  # synthesize_gains: a 2 % spare
+    assert poles == pytest.approx([-1.02 * decay, -1.02 * decay], rel=1e-4)
     assert math.copysign(1.0, d.controller.gamma) == sign  # the sign of b
     assert d.controller.u_range == (-20.0, 20.0)
     lin = fl.linearized_eps_star(job.plant, d, eps_range=(1e-3, 1.0))
-    assert lin.value is not None and d.estimator.eps <= lin.lower / 2 * (1 + 1e-9)
+    assert lin.value is not None and d.estimator.eps <= lin.lower / 1.25 * (1 + 1e-6)
+    cert = fl.certify_eps(d, job.plant.b_bounds(), eps_range=(1e-3, 1.0))
+    assert cert.certified and d.estimator.eps <= cert.eps_star_certified
     resp = fl.simulate(job.plant, d, fl.Scenario(0.1, 10.0))
     assert resp.status == "converged"
 
@@ -322,11 +324,14 @@ def _as_expressions(plant, reference: float) -> str:
             f"[scenario]\nreference = {reference!r}\n")
 
 
-@pytest.mark.parametrize("name, reference", [("trms_yaw", 0.3), ("maglev", 6.2e-3)])
+@pytest.mark.parametrize("name, reference", [("trms_yaw", 0.3), ("maglev", 6.2e-3),
+                                             ("trms_lag", 0.05)])
 def test_proposal_on_held_out_plants_converges_with_the_sign_of_b(name, reference):
+    """trms_lag: no design at its time scale (3.3 rad/s), the fallback at half of it."""
     from fl_design.app._propose import propose_design
 
-    plant = getattr(fl.plants, name)()
+    plant = (fl.plants.trms_yaw(motor_lag=True) if name == "trms_lag"
+             else getattr(fl.plants, name)())
     cfg = propose_design(parse_config(_as_expressions(plant, reference)))
     job = prepare(cfg)
     lo, _ = plant.b_bounds()
@@ -335,3 +340,5 @@ def test_proposal_on_held_out_plants_converges_with_the_sign_of_b(name, referenc
     resp = fl.simulate(job.plant, job.design, fl.Scenario(reference))
     assert resp.status == "converged", resp.verdict()
     assert resp.overshoot <= 45.0  # the paper's TRMS design overshoots 45 % (README)
+    fell_back = any("not chosen: the loop at the plant's time scale" in n for n in cfg.notes)
+    assert fell_back == (name == "trms_lag")

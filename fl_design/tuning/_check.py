@@ -1,0 +1,108 @@
+"""The checks of a tuned design (:func:`fl_design.tune`): a simulation, a short sweep, noise.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> from fl_design.tuning._check import check_candidate
+>>> c = check_candidate(fl.plants.pendulum(), fl.presets.pendulum_design(), 0.1)
+>>> c["status"], c["sweep_ok"], len(c["sweep"])
+('converged', 6, 6)
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..analysis import noise_gain
+from ..sim import Scenario, simulate, sweep
+
+#: The short sweep around a design: eps and |gamma| factors.
+SWEEP_EPS = (0.5, 1.0)
+SWEEP_GAMMA = (0.5, 1.0, 2.0)
+CONVERGENT = ("converged", "converging")
+
+
+def check_candidate(plant, design, r: float) -> dict:
+    """Simulate a step to ``r``, sweep around the design, and its noise gain.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    design : Design
+        The candidate.
+    r : float
+        Step target.
+
+    Returns
+    -------
+    dict
+        ``status``, ``overshoot`` (%), ``settling_time`` (s), ``response``, ``noise_gain``
+        (inf when the loop at ``r`` is not stable), ``sweep`` (``(eps, gamma, status)`` per run),
+        ``sweep_ok`` (how many converge).
+
+    Examples
+    --------
+    See the module.
+    """
+    resp = simulate(plant, design, Scenario(r))
+    out = {"status": resp.status, "overshoot": float(resp.overshoot),
+           "settling_time": float(resp.settling_time), "response": resp,
+           "noise_gain": math.inf, "sweep": (), "sweep_ok": 0}
+    if resp.status not in CONVERGENT:
+        return out
+    out["noise_gain"] = noise_gain(plant, design, r=r)
+    eps, gamma = design.estimator.eps, design.controller.gamma
+    smap = sweep(plant, design, Scenario(r, resp.duration), eps=[eps * f for f in SWEEP_EPS],
+                 gamma=sorted(gamma * f for f in SWEEP_GAMMA), progress=False)
+    runs = tuple((float(e), float(g), str(smap.labels[i, j]))
+                 for i, e in enumerate(smap.eps) for j, g in enumerate(smap.gamma))
+    out["sweep"], out["sweep_ok"] = runs, sum(s in CONVERGENT for *_, s in runs)
+    return out
+
+
+def baseline_for(plant, baseline, r: float) -> dict | None:
+    """The comparison design's noise gain and step response (None: no baseline).
+
+    ``"auto"``: the paper's design for the library TRMS (``trms_yaw`` without motor lag).
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+    baseline : Design, None or "auto"
+        The design to compare.
+    r : float
+        Step target.
+
+    Returns
+    -------
+    dict or None
+        ``name``, ``noise_gain``, ``overshoot`` (%), ``status``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> baseline_for(fl.plants.trms_yaw(), "auto", 0.3)["name"]
+    "the paper's design (eps 0.05, gamma 3e-4, T 1 ms)"
+    """
+    from .. import presets
+    from ..design import Design
+    from ..errors import ParameterError
+
+    if baseline is None:
+        return None
+    if isinstance(baseline, str) and baseline == "auto":
+        if plant.name != "trms_yaw" or plant.relative_degree() != 2:
+            return None
+        baseline, name = presets.paper_design(), "the paper's design (eps 0.05, gamma 3e-4, T 1 ms)"
+    elif isinstance(baseline, Design):
+        name = "the given baseline"
+    else:
+        raise ParameterError(f"baseline={baseline!r}: give a Design, None or 'auto'")
+    resp = simulate(plant, baseline, Scenario(r))
+    return {"name": name, "noise_gain": noise_gain(plant, baseline, r=r),
+            "overshoot": float(resp.overshoot), "status": resp.status}
+
+
+__all__ = ["baseline_for", "check_candidate"]
