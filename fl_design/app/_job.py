@@ -50,6 +50,8 @@ class Job:
         Stage name -> its results (certificates, StabilityMap, Responses, C package).
     timings : dict
         Stage name -> seconds.
+    cached : set
+        The stages whose results were read from the private cache (certify).
 
     Examples
     --------
@@ -65,6 +67,7 @@ class Job:
     derivation: dict = field(default_factory=dict)
     results: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
+    cached: set = field(default_factory=set)
 
 
 def note(message: str, *, enabled: bool = True) -> None:
@@ -111,12 +114,21 @@ def _derive(job: Job) -> None:
 
 
 def _certify(job: Job, quick: bool) -> None:
+    from ._certify_cache import cached_certify
+
+    job.results["certify"], hit = cached_certify(job, quick, lambda: _certify_fresh(job, quick))
+    if hit:
+        job.cached.add("certify")
+
+
+def _certify_fresh(job: Job, quick: bool) -> dict:
     from ..analysis import (
         certify_eps,
         certify_gamma,
         certify_lyapunov,
         eps_star_curve,
         linearized_eps_star,
+        loop_margins,
     )
 
     cfg, design, plant = job.config.certify, job.design, job.plant
@@ -129,13 +141,16 @@ def _certify(job: Job, quick: bool) -> None:
         out["gamma"] = certify_gamma(design, tuple(b))
         out["eps"] = certify_eps(design, tuple(b), eps_range=eps_range)
         out["curve"] = eps_star_curve(design, tuple(b), np.abs(gammas), eps_range=eps_range)  # |gamma|
+        # margins at both ends of b, as plain numbers and text (cached without python-control)
+        out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
+                          for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
         linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
         for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
     out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
-    job.results["certify"] = out
+    return out
 
 
 def _sweep(job: Job, quick: bool, executor, progress: bool) -> None:
@@ -335,7 +350,9 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         start = time.perf_counter()
         steps[stage]()
         job.timings[stage] = time.perf_counter() - start
-        note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s", enabled=progress)
+        how = " (from the cache)" if stage in job.cached else ""
+        note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s{how}",
+             enabled=progress)
     return job
 
 

@@ -158,6 +158,9 @@ class PlantStore:
     ----------
     key : str or None
         :func:`plant_key` of the plant; None disables the store (every quantity is computed).
+    prefix : str, optional
+        Start of the file names (``"plant"``); another user of the same signed store (the main
+        job's certificates) takes its own, so that keys of different kinds never meet.
 
     Examples
     --------
@@ -166,11 +169,12 @@ class PlantStore:
     2
     """
 
-    def __init__(self, key: str | None):
+    def __init__(self, key: str | None, prefix: str = "plant"):
         self.key = key
+        self.prefix = prefix
 
     def _name(self, what: str) -> str:
-        return f"plant_{self.key[:32]}_{what}.pkl"
+        return f"{self.prefix}_{self.key[:32]}_{what}.pkl"
 
     def get(self, what: str, compute, check=None):
         """The quantity ``what``: from the cache, else ``compute()`` (then stored).
@@ -194,7 +198,7 @@ class PlantStore:
             path = cache_directory() / self._name(what)
             secret = user_key(path.parent)
         except UnsafeCacheError as exc:
-            _warn_once(f"{exc}; plant derivations are computed without the cache",
+            _warn_once(f"{exc}; {self.prefix} results are computed without the cache",
                        UnsafeCacheWarning)
             return compute()
         except (OSError, ComputationError):
@@ -203,7 +207,7 @@ class PlantStore:
             value, ok = self._load(path, check, secret)
             if ok:
                 return value
-            _warn_once(f"the cached plant derivation {path} is corrupted (it does not match its "
+            _warn_once(f"the cached {self.prefix} result {path} is corrupted (it does not match its "
                        "recorded size and SHA-256 or its signature, or does not load); "
                        "recomputed and rewritten")
         value = compute()
