@@ -11,7 +11,8 @@ directory of the compiled kernels (:func:`fl_design._cache.cache_directory`,
   assumptions included), every parameter value (``float.hex``), name, input range, region and
   operating point as given;
 * the code: the SHA-256 of the sources of :mod:`fl_design.symbolic` and of fl_design's private
-  top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy;
+  top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy
+  (read from the installed packages' metadata, without importing them);
 
 with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each file starts with
 an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
@@ -67,17 +68,20 @@ def code_version() -> str:
     >>> code_version() == code_version()
     True
     """
-    import casadi
-    import numpy
-    import scipy
-    import sympy
+    from importlib import metadata
 
     from .. import __version__
 
+    def version(package: str) -> str:  # from the installed metadata: nothing is imported
+        try:
+            return metadata.version(package)
+        except metadata.PackageNotFoundError:
+            return "absent"
+
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for part in (FORMAT, __version__, sys.version, sympy.__version__, casadi.__version__,
-                 numpy.__version__, scipy.__version__):
+    for part in (FORMAT, __version__, sys.version,
+                 *(version(p) for p in ("sympy", "casadi", "numpy", "scipy"))):
         h.update(f"{part}\n".encode())
     for path in sorted([*here.glob("*.py"), *here.parent.glob("_*.py")]):
         h.update(f"{path.parent.name}/{path.name}\n".encode())
