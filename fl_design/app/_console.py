@@ -86,11 +86,10 @@ def print_sweep(job) -> None:
     ... # doctest: +ELLIPSIS
     Stability map 5 x 5...
     """
+    from ._report_sections import map_counts
+
     smap = job.results["sweep"]
-    labels = smap.labels
-    counts = ", ".join(f"{int((labels == s).sum())} {s}" for s in
-                       ("converged", "converging", "oscillating", "stalled", "undecided",
-                        "diverged", "solver_failed") if (labels == s).any())
+    counts = map_counts(smap)
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
     if smap.duration_reason != "given":

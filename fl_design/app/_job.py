@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 from ._build import build_classifier, build_design, build_plant, build_scenario
 from ._config import Config
@@ -51,7 +50,8 @@ class Job:
     timings : dict
         Stage name -> seconds.
     cached : set
-        The stages whose results were read from the private cache (certify).
+        The stages whose results were read from the private cache (derive, certify:
+        :mod:`fl_design.app._stage_cache`).
 
     Examples
     --------
@@ -90,6 +90,16 @@ def note(message: str, *, enabled: bool = True) -> None:
 
 
 def _derive(job: Job) -> None:
+    from ._stage_cache import cached_stage
+
+    job.derivation, hit = cached_stage(job, "derive", False, lambda: _derive_fresh(job))
+    if hit:
+        job.cached.add("derive")
+
+
+def _derive_fresh(job: Job) -> dict:
+    import sympy as sp
+
     from ..symbolic import taylor_discretization
     from ._report import derivation_report
 
@@ -97,7 +107,7 @@ def _derive(job: Job) -> None:
     nf = plant.normal_form()
     disc = taylor_discretization(nf.rho, order=nf.rho + 1)
     has_b = plant.region is not None and plant.input_range is not None
-    job.derivation = {
+    return {
         "plant": plant.name, "rho": nf.rho, "n": plant.n, "a": sp.sstr(nf.a), "b": sp.sstr(nf.b),
         "b_bounds": list(plant.b_bounds()) if has_b else None,
         "zero_dynamics_eigenvalues": [str(complex(z)) for z in nf.zero_dynamics_eigenvalues]
@@ -114,9 +124,10 @@ def _derive(job: Job) -> None:
 
 
 def _certify(job: Job, quick: bool) -> None:
-    from ._certify_cache import cached_certify
+    from ._stage_cache import cached_stage
 
-    job.results["certify"], hit = cached_certify(job, quick, lambda: _certify_fresh(job, quick))
+    job.results["certify"], hit = cached_stage(job, "certify", quick,
+                                               lambda: _certify_fresh(job, quick))
     if hit:
         job.cached.add("certify")
 

@@ -53,6 +53,54 @@ _MAC_BYTES = 32
 _WARNED: set = set()  # the process has warned about a bad entry
 
 
+def versions_and_sources(parts, packages, paths) -> str:
+    """SHA-256 of text ``parts``, the installed versions of ``packages`` and the source files.
+
+    Versions come from the packages' metadata (nothing is imported; ``"absent"`` when not
+    installed); each file adds its folder and name, then its bytes (``?`` when unreadable:
+    still a key, only less specific).
+
+    Parameters
+    ----------
+    parts : iterable of str
+        Format tags, versions, anything else the key depends on.
+    packages : iterable of str
+        Distribution names (``"sympy"``...).
+    paths : iterable of pathlib.Path
+        Source files, hashed in sorted order.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+
+    Examples
+    --------
+    >>> from fl_design.symbolic._derivation_cache import versions_and_sources
+    >>> a = versions_and_sources(["x"], ["numpy"], [])
+    >>> a == versions_and_sources(["x"], ["numpy"], []) != versions_and_sources(["y"], [], [])
+    True
+    """
+    from importlib import metadata
+
+    def version(package: str) -> str:
+        try:
+            return metadata.version(package)
+        except metadata.PackageNotFoundError:
+            return "absent"
+
+    h = hashlib.sha256()
+    for part in (*parts, *(f"{p} {version(p)}" for p in packages)):
+        h.update(f"{part}\n".encode())
+    for path in sorted(paths):
+        h.update(f"{path.parent.name}/{path.name}\n".encode())
+        try:
+            h.update(path.read_bytes())
+        except OSError:
+            h.update(b"?")
+    return h.hexdigest()
+
+
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
     """SHA-256 of the deriving code (sources, library versions): part of every plant key.
@@ -68,28 +116,12 @@ def code_version() -> str:
     >>> code_version() == code_version()
     True
     """
-    from importlib import metadata
-
     from .. import __version__
 
-    def version(package: str) -> str:  # from the installed metadata: nothing is imported
-        try:
-            return metadata.version(package)
-        except metadata.PackageNotFoundError:
-            return "absent"
-
     here = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for part in (FORMAT, __version__, sys.version,
-                 *(version(p) for p in ("sympy", "casadi", "numpy", "scipy"))):
-        h.update(f"{part}\n".encode())
-    for path in sorted([*here.glob("*.py"), *here.parent.glob("_*.py")]):
-        h.update(f"{path.parent.name}/{path.name}\n".encode())
-        try:
-            h.update(path.read_bytes())
-        except OSError:  # a source we cannot read: still a key, only less specific
-            h.update(b"?")
-    return h.hexdigest()
+    return versions_and_sources((FORMAT, __version__, sys.version),
+                                ("sympy", "casadi", "numpy", "scipy"),
+                                [*here.glob("*.py"), *here.parent.glob("_*.py")])
 
 
 def plant_key(states, input, rhs, output, params, name, input_range, region,
@@ -238,4 +270,4 @@ class PlantStore:
         return value, check is None or isinstance(value, check)
 
 
-__all__ = ["FORMAT", "PlantStore", "code_version", "plant_key"]
+__all__ = ["FORMAT", "PlantStore", "code_version", "plant_key", "versions_and_sources"]

@@ -1,5 +1,5 @@
-"""The main job's certify stage cached by content: same results, keyed on what they depend on,
-never loaded from a file another user could have written."""
+"""The main job's certify and derive stages cached by content: same results, keyed on what
+they depend on, never loaded from a file another user could have written."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from fl_design._cache import cache_directory
 from fl_design.app import load_config, parse_config, run_job
-from fl_design.app._certify_cache import cached_certify, certify_key
+from fl_design.app._stage_cache import cached_stage, stage_key
 from fl_design.app._job import prepare
 from fl_design.app._report_write import summary
 from fl_design.errors import CacheWarning
@@ -35,24 +35,24 @@ def _counting():
 def test_second_call_reads_the_cache_and_a_changed_table_misses(private_cache):
     job = prepare(load_config(None))
     calls, compute = _counting()
-    first, hit1 = cached_certify(job, True, compute)
-    second, hit2 = cached_certify(job, True, compute)
+    first, hit1 = cached_stage(job, "certify", True, compute)
+    second, hit2 = cached_stage(job, "certify", True, compute)
     assert (hit1, hit2, len(calls)) == (False, True, 1) and first == second
     assert any(private_cache.glob("certify_*_results.pkl"))
     # what the results depend on changes the key: quick mode, the [certify] table, the design
-    assert cached_certify(job, False, compute) == ({"skipped": "computed 2"}, False)
+    assert cached_stage(job, "certify", False, compute) == ({"skipped": "computed 2"}, False)
     other = prepare(parse_config("[certify]\npoints = 5\n"))
-    assert certify_key(other, True) != certify_key(job, True)
+    assert stage_key(other, "certify", True) != stage_key(job, "certify", True)
     gamma = prepare(parse_config("[design]\ngamma = 2e-4\n"))
-    assert certify_key(gamma, True) not in (certify_key(job, True), certify_key(other, True))
+    assert stage_key(gamma, "certify", True) not in (stage_key(job, "certify", True), stage_key(other, "certify", True))
     # the presentation's sources are not part of the key; a second job of the same config is
-    assert certify_key(prepare(load_config(None)), True) == certify_key(job, True)
+    assert stage_key(prepare(load_config(None)), "certify", True) == stage_key(job, "certify", True)
 
 
 def test_a_file_not_signed_with_the_users_key_is_recomputed(private_cache):
     job = prepare(load_config(None))
     calls, compute = _counting()
-    cached_certify(job, True, compute)
+    cached_stage(job, "certify", True, compute)
     (entry,) = [p for p in cache_directory().glob("certify_*_results.pkl")]
     # a planted pickle with a valid size/SHA-256 sidecar but no valid signature
     from fl_design._cache import write_verified
@@ -61,10 +61,10 @@ def test_a_file_not_signed_with_the_users_key_is_recomputed(private_cache):
                    cache_dir=entry.parent)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        value, hit = cached_certify(job, True, compute)
+        value, hit = cached_stage(job, "certify", True, compute)
     assert (hit, len(calls)) == (False, 2) and value == {"skipped": "computed 2"}
     assert any(issubclass(w.category, CacheWarning) for w in caught)
-    assert cached_certify(job, True, compute) == ({"skipped": "computed 2"}, True)  # rewritten
+    assert cached_stage(job, "certify", True, compute) == ({"skipped": "computed 2"}, True)  # rewritten
 
 
 def test_errors_are_not_cached(private_cache):
@@ -74,7 +74,7 @@ def test_errors_are_not_cached(private_cache):
         raise RuntimeError("solver exploded")
 
     with pytest.raises(RuntimeError, match="solver exploded"):
-        cached_certify(job, True, fail)
+        cached_stage(job, "certify", True, fail)
     assert not any(private_cache.glob("certify_*"))
 
 
@@ -89,3 +89,16 @@ def test_cached_job_equals_a_fresh_one(private_cache):
     assert all("keeps it stable" in m["text"] for m in margins)
     cert = again.results["certify"]
     assert dataclasses.is_dataclass(cert["eps"]) and cert["eps"].eps_star_certified > 0
+
+
+def test_the_derive_stage_is_cached_by_plant_only(private_cache):
+    """The derivation reads only [plant]: another design shares it, another plant does not;
+    the cached dict equals the fresh one."""
+    first = run_job(load_config(None), stages=("derive",), progress=False)
+    again = run_job(parse_config("[design]\ngamma = 2e-4\n"), stages=("derive",),
+                    progress=False)
+    assert "derive" not in first.cached and "derive" in again.cached
+    assert again.derivation == first.derivation and again.derivation["rho"] == 2
+    other = prepare(parse_config('[plant]\nlibrary = "pendulum"\n'))
+    assert stage_key(other, "derive", False) != stage_key(first, "derive", False)
+    assert stage_key(first, "derive", False) != stage_key(first, "certify", False)
