@@ -84,7 +84,8 @@ def log_axes(ax, x: bool = True, y: bool = True) -> None:
             tuple(float(k) for k in range(1, 10))
         axis.set_major_locator(LogLocator(subs=subs))
         axis.set_major_formatter(plain)
-        axis.set_minor_locator(LogLocator(subs=tuple(float(k) for k in range(2, 10))))
+        axis.set_minor_locator(LogLocator(subs=tuple(float(k) for k in range(2, 10))
+                                          if decades <= 2.5 else (2.0, 5.0)))
         axis.set_minor_formatter(NullFormatter())
 
 
