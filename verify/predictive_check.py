@@ -9,7 +9,7 @@ duration: :mod:`fl_design.sim._duration`) and again at 10 D. The classifier's pr
 * >= 95 % of the runs ``oscillating`` at D are ``oscillating`` at 10 D (the swings it measured
   are sustained);
 * ``undecided`` is at most 5 % of the runs at D; the slow ones among them (still moving
-  towards the reference at D: :func:`fl_design.app._report_sections.slow_runs`) are counted
+  towards the reference at D: :func:`fl_design.app._report_map.slow_runs`) are counted
   apart, with what they are at 10 D.
 
 A category with no run at D is reported and passes vacuously. Exit 1 when a number fails.
@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 import fl_design as fl
-from fl_design.app._report_sections import slow_runs
+from fl_design.app._report_map import slow_runs
 
 #: Grid ranges (eps0, eps1, gamma0, gamma1) and the reference step of each plant: around each
 #: design, where the adaptive duration (at most 300 s) resolves the loop's slowest mode.

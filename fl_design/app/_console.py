@@ -86,7 +86,7 @@ def print_sweep(job) -> None:
     ... # doctest: +ELLIPSIS
     Stability map 5 x 5...
     """
-    from ._report_sections import map_counts
+    from ._report_map import map_counts
 
     smap = job.results["sweep"]
     counts = map_counts(smap)

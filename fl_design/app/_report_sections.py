@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from ._report_map import map_counts
+
 
 def paper_gamma_bound(b_bounds) -> tuple[float, str]:
     """The paper's gain condition ``gamma < 1/b_max`` for a ``b`` range of either sign.
@@ -188,89 +190,6 @@ def bounded_up_to(smap, gamma: float) -> str:
     if first == 0:
         return f"< {smap.eps[0]:g}"
     return f"{smap.eps[first - 1]:g} (diverges at {smap.eps[first]:g})"
-
-
-def slow_runs(smap) -> np.ndarray:
-    """Mask of the map's ``undecided`` runs that are slow rather than ambiguous.
-
-    Slow: the run was still moving towards the reference at its end, its error envelope
-    shrinking by more than :data:`~fl_design.sim._status.MIN_CHANGE` over the window (too
-    slowly for the fit to call) or its controller still moving the input (``input_moving``):
-    a loop slower than the run length, which a longer run decides.
-
-    Parameters
-    ----------
-    smap : fl_design.StabilityMap
-        A map.
-
-    Returns
-    -------
-    numpy.ndarray of bool
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
-    >>> from fl_design.app._report_sections import slow_runs
-    >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[3, 3]]),
-    ...                  {"input_moving": np.array([[1.0, 0.0]]),
-    ...                   "envelope_change": np.array([[0.0, 0.2]])}, 1e-3, 10.0, 0.02)
-    >>> slow_runs(m).tolist()
-    [[True, False]]
-    """
-    from ..sim._status import MIN_CHANGE
-
-    shape = np.shape(smap.status)
-    moving = np.asarray(smap.metrics.get("input_moving", np.zeros(shape))) > 0
-    shrinking = np.asarray(smap.metrics.get("envelope_change", np.zeros(shape))) < -MIN_CHANGE
-    return (smap.labels == "undecided") & (moving | shrinking)
-
-
-def map_counts(smap) -> str:
-    """The stability map's runs counted by status; the undecided ones split by why.
-
-    The ``undecided`` runs that are slow (:func:`slow_runs`) are counted apart, with the range
-    of their fitted time constants (``1 / decay_rate`` where the envelope decays): loops slower
-    than the map's run length, not an ambiguous trend nor a failure.
-
-    Parameters
-    ----------
-    smap : fl_design.StabilityMap
-        A map.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
-    >>> from fl_design.app._report_sections import map_counts
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[2, 3], [3, 3]]),
-    ...                  {"input_moving": np.array([[0.0, 1.0], [1.0, 0.0]]),
-    ...                   "decay_rate": np.array([[0.0, 0.01], [0.02, 0.0]])}, 1e-3, 10.0, 0.02)
-    >>> map_counts(m)
-    '1 converged, 3 undecided (2 of them slow: still moving towards the reference at 10 s, fitted time constants 50-100 s)'
-    """
-    labels = smap.labels
-    slow = slow_runs(smap)
-    parts = []
-    for name in ("converged", "converging", "oscillating", "stalled", "undecided", "diverged",
-                 "solver_failed"):
-        n = int(np.sum(labels == name))
-        if not n:
-            continue
-        text = f"{n} {name}"
-        if name == "undecided" and slow.any():
-            rate = np.asarray(smap.metrics.get("decay_rate", np.full(slow.shape, np.nan)))[slow]
-            tau = 1.0 / rate[np.isfinite(rate) & (rate > 0)]
-            fitted = (f", fitted time constants {tau.min():.3g}-{tau.max():.3g} s" if tau.size
-                      else "")
-            text += (f" ({int(slow.sum())} of them slow: still moving towards the reference at "
-                     f"{smap.duration:g} s{fitted})")
-        parts.append(text)
-    return ", ".join(parts)
 
 
 def _sweep(job, figures) -> list:
@@ -459,4 +378,4 @@ def sections(job, figures) -> list:
             ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}.")])]
 
 
-__all__ = ["bounded_up_to", "fmt", "map_counts", "overshoot_text", "slow_runs", "sections"]
+__all__ = ["bounded_up_to", "fmt", "overshoot_text", "sections"]
