@@ -196,7 +196,9 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     A :class:`~fl_design.sim.EpsStar` inside its range is drawn at its ``lower`` end (the
     largest eps found stable/converging); one above the range (``> eps_max``) as an upward
     open triangle at the range's top, one below it (``< eps_min``) as a downward open triangle
-    at the range's bottom, each with its own legend entry: never as a value.
+    at the range's bottom, or an open diamond when the run there is ``undecided`` (a trend
+    the run is too short to call, not a failure), each with its own legend entry: never as a
+    value.
 
     Parameters
     ----------
@@ -243,13 +245,17 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     if np.any(np.isfinite(value)):
         (h,) = ax.plot(g, value, color=color, ls=ls, marker=marker, ms=4, label=label)
         handles.append(h)
-    outside = ((lambda s: s.above_range, "lower", "^", "above the range (> top)"),
-               (lambda s: s.below_range, "upper", "v", "below the range (< bottom)"))
+    undecided = [bool(getattr(s, "undecided", False)) for s in stars]
+    outside = ((lambda s, u: s.above_range, "lower", "^", "eps* above the range (> top)"),
+               (lambda s, u: s.below_range and not u, "upper", "v",
+                "eps* below the range (< bottom)"),
+               (lambda s, u: s.below_range and u, "upper", "d",
+                "undecided at the bottom (run longer)"))
     for pick, edge, mark, words in outside:
-        pts = [(gi, getattr(s, edge)) for gi, s in zip(g, stars) if pick(s)]
+        pts = [(gi, getattr(s, edge)) for gi, s, u in zip(g, stars, undecided) if pick(s, u)]
         if pts:
             (h,) = ax.plot(*zip(*pts), ls="none", marker=mark, ms=8, color=color, mfc="none",
-                           mew=1.5, label=f"{label}: eps* {words}")
+                           mew=1.5, label=f"{label}: {words}")
             handles.append(h)
     return handles
 
