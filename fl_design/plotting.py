@@ -40,6 +40,55 @@ def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
     return fig, list(axes[:, 0])
 
 
+def log_axes(ax, x: bool = True, y: bool = True) -> None:
+    """Log scale on ``ax``'s x and/or y axis, labelled in plain text (``0.01``, ``2e-05``).
+
+    matplotlib's default log labels are mathtext (``10^{-2}``): the first one drawn builds the
+    mathtext parser (about 0.4 s), and minor ticks get labels laid out, which overlap on short
+    axes. Here the labelled ticks are the decades (more than 2.5 decades shown), else 1, 2 and
+    5 per decade (more than 0.6), else every digit; the other ticks are unlabelled minor
+    ticks. Call it after the data (and any limits) are set: the choice reads the view.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    x, y : bool, optional
+        Which axes get the log scale.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from fl_design.plotting import log_axes
+    >>> fig, ax = plt.subplots()
+    >>> _ = ax.plot([0.02, 0.5], [1.0, 2.0])
+    >>> log_axes(ax, y=False)
+    >>> lo, hi = ax.get_xlim()
+    >>> [ax.xaxis.get_major_formatter()(v) for v in ax.get_xticks() if lo <= v <= hi]
+    ['0.02', '0.05', '0.1', '0.2', '0.5']
+    >>> plt.close(fig)
+    """
+    import math
+
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    plain = FuncFormatter(lambda v, _pos: f"{v:g}")
+    for on, axis, scale, view in ((x, ax.xaxis, ax.set_xscale, ax.get_xlim),
+                                  (y, ax.yaxis, ax.set_yscale, ax.get_ylim)):
+        if not on:
+            continue
+        scale("log")
+        lo, hi = sorted(abs(v) for v in view())
+        decades = math.log10(hi / lo) if lo > 0 and math.isfinite(hi / lo) else 10.0
+        subs = (1.0,) if decades > 2.5 else (1.0, 2.0, 5.0) if decades > 0.6 else \
+            tuple(float(k) for k in range(1, 10))
+        axis.set_major_locator(LogLocator(subs=subs))
+        axis.set_major_formatter(plain)
+        axis.set_minor_locator(LogLocator(subs=tuple(float(k) for k in range(2, 10))
+                                          if decades <= 2.5 else (2.0, 5.0)))
+        axis.set_minor_formatter(NullFormatter())
+
+
 def plot_response(resp, *, axes=None, title: str | None = None):
     """Output and reference, input, and ``sigma`` with its estimate, over time.
 
@@ -147,7 +196,9 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     A :class:`~fl_design.sim.EpsStar` inside its range is drawn at its ``lower`` end (the
     largest eps found stable/converging); one above the range (``> eps_max``) as an upward
     open triangle at the range's top, one below it (``< eps_min``) as a downward open triangle
-    at the range's bottom, each with its own legend entry: never as a value.
+    at the range's bottom, or an open diamond when the run there is ``undecided`` (a trend
+    the run is too short to call, not a failure), each with its own legend entry: never as a
+    value.
 
     Parameters
     ----------
@@ -194,13 +245,17 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     if np.any(np.isfinite(value)):
         (h,) = ax.plot(g, value, color=color, ls=ls, marker=marker, ms=4, label=label)
         handles.append(h)
-    outside = ((lambda s: s.above_range, "lower", "^", "above the range (> top)"),
-               (lambda s: s.below_range, "upper", "v", "below the range (< bottom)"))
+    undecided = [bool(getattr(s, "undecided", False)) for s in stars]
+    outside = ((lambda s, u: s.above_range, "lower", "^", "eps* above the range (> top)"),
+               (lambda s, u: s.below_range and not u, "upper", "v",
+                "eps* below the range (< bottom)"),
+               (lambda s, u: s.below_range and u, "upper", "d",
+                "undecided at the bottom (run longer)"))
     for pick, edge, mark, words in outside:
-        pts = [(gi, getattr(s, edge)) for gi, s in zip(g, stars) if pick(s)]
+        pts = [(gi, getattr(s, edge)) for gi, s, u in zip(g, stars, undecided) if pick(s, u)]
         if pts:
             (h,) = ax.plot(*zip(*pts), ls="none", marker=mark, ms=8, color=color, mfc="none",
-                           mew=1.5, label=f"{label}: eps* {words}")
+                           mew=1.5, label=f"{label}: {words}")
             handles.append(h)
     return handles
 
@@ -275,6 +330,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
         handles.append(h)
     ax.set_xlim(np.sort(_edges(gx)[[0, -1]]))
     ax.set_ylim(_edges(smap.eps)[[0, -1]])
+    log_axes(ax)
     _legend_outside(ax, handles=handles)
     ax.set_title(f"closed-loop runs of {smap.duration:g} s")
     return fig
@@ -310,8 +366,7 @@ def plot_eps_star_curve(curve, *, ax=None):
     ax.plot(curve.gamma, curve.eps_star_frozen, "k-", lw=1.4, label="eps* frozen b grid")
     ax.plot(curve.gamma, curve.eps_star_certified, "C2o-", ms=3, lw=1.0,
             label="eps* certified (LMI)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
+    log_axes(ax)
     ax.set_xlabel("gamma")
     ax.set_ylabel("eps")
     lo, hi = curve.b_bounds
@@ -320,5 +375,5 @@ def plot_eps_star_curve(curve, *, ax=None):
     return fig
 
 
-__all__ = ["STATUS_COLORS", "STATUS_LABELS", "plot_eps_star", "plot_eps_star_curve", "plot_response",
+__all__ = ["STATUS_COLORS", "STATUS_LABELS", "log_axes", "plot_eps_star", "plot_eps_star_curve", "plot_response",
            "plot_stability_map"]

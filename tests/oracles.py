@@ -216,7 +216,18 @@ def status_from_trajectories(resp, noise: float | None = None) -> str:
         return "oscillating"
     half = e[ev["window_start"]:]
     one_sided = half.min() > -ev["band"] or half.max() < ev["band"]
-    return "stalled" if not swinging and (flat or offset) and one_sided else "undecided"
+    # the input at rest: its mean over the window's last block against its first, beyond 10 %
+    # of its level and its spread within those blocks, unsaturated, is a loop still moving
+    kw = ev["window_start"]
+    length = (e.size - kw) / 8
+    block = np.floor((np.arange(kw, e.size) - kw) / length)
+    first, last = resp.u[kw:][block == 0], resp.u[kw:][block == 7]
+    drift = last.mean() - first.mean()
+    moving = (abs(drift) > 0.1 * max(abs(first.mean()), abs(last.mean()))
+              and abs(drift) > math.hypot(first.std(), last.std())
+              and resp.metrics["saturated_fraction"] < 0.5)
+    return ("stalled" if not swinging and (flat or offset) and one_sided and not moving
+            else "undecided")
 
 
 def region_exit_time(resp, region: dict, states) -> float:

@@ -8,7 +8,9 @@ duration: :mod:`fl_design.sim._duration`) and again at 10 D. The classifier's pr
   at 10 D (the decay it measured is real);
 * >= 95 % of the runs ``oscillating`` at D are ``oscillating`` at 10 D (the swings it measured
   are sustained);
-* ``undecided`` is at most 5 % of the runs at D.
+* ``undecided`` is at most 5 % of the runs at D; the slow ones among them (still moving
+  towards the reference at D: :func:`fl_design.app._report_map.slow_runs`) are counted
+  apart, with what they are at 10 D.
 
 A category with no run at D is reported and passes vacuously. Exit 1 when a number fails.
 ``--quick``: 6 x 6 grids (the same ranges). ``--grid NAME=eps0,eps1,gamma0,gamma1`` changes a
@@ -23,6 +25,7 @@ import time
 import numpy as np
 
 import fl_design as fl
+from fl_design.app._report_map import slow_runs
 
 #: Grid ranges (eps0, eps1, gamma0, gamma1) and the reference step of each plant: around each
 #: design, where the adaptive duration (at most 300 s) resolves the loop's slowest mode.
@@ -72,6 +75,11 @@ def check(name: str, n: int, ranges) -> tuple[bool, str]:
     ok &= good
     lines.append(f"  undecided at D: {100 * undecided:.1f} % (<= 5 %: "
                  f"{'holds' if good else 'FAILS'})")
+    slow = slow_runs(short)
+    if slow.any():  # what the slow ones (still moving towards the reference) became at 10 D
+        became = {str(s): int(np.sum(slow & (b == s))) for s in np.unique(b[slow])}
+        lines.append(f"    of which slow (still moving towards the reference at D): "
+                     f"{int(slow.sum())}; at 10 D: {became}")
     return ok, "\n".join(lines)
 
 

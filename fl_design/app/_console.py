@@ -61,11 +61,8 @@ def print_certificates(job) -> None:
         star = "none" if e.eps_star_certified is None else f"{e.eps_star_certified:.4g} s"
         print(f"eps* to use: {star}, certified for {e.covers} b (the strongest coverage these "
               "data support; the brackets above say how tight)")
-        from ..analysis import loop_margins
-
-        for b in e.b_bounds:
-            print("margins at the plant input (surrogate, b frozen): "
-                  + loop_margins(job.design, b)._repr_lines()[0])
+        for m in cert.get("margins", ()):
+            print(f"margins at the plant input (surrogate, b frozen): {m['text']}")
     print("linearized eps* at this gamma (eigenvalues of the nonlinear loop's Jacobian at rest, "
           f"not a certificate): {linearized_text(cert['linearized_design'])}")
 
@@ -89,11 +86,10 @@ def print_sweep(job) -> None:
     ... # doctest: +ELLIPSIS
     Stability map 5 x 5...
     """
+    from ._report_map import map_counts
+
     smap = job.results["sweep"]
-    labels = smap.labels
-    counts = ", ".join(f"{int((labels == s).sum())} {s}" for s in
-                       ("converged", "converging", "oscillating", "stalled", "undecided",
-                        "diverged", "solver_failed") if (labels == s).any())
+    counts = map_counts(smap)
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
     if smap.duration_reason != "given":

@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
 
 from ._build import build_classifier, build_design, build_plant, build_scenario
 from ._config import Config
@@ -51,6 +50,9 @@ class Job:
         Stage name -> its results (certificates, StabilityMap, Responses, C package).
     timings : dict
         Stage name -> seconds.
+    cached : set
+        The stages whose results were read from the private cache (derive, certify:
+        :mod:`fl_design.app._stage_cache`).
 
     Examples
     --------
@@ -66,6 +68,7 @@ class Job:
     derivation: dict = field(default_factory=dict)
     results: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
+    cached: set = field(default_factory=set)
 
 
 def note(message: str, *, enabled: bool = True) -> None:
@@ -88,6 +91,16 @@ def note(message: str, *, enabled: bool = True) -> None:
 
 
 def _derive(job: Job) -> None:
+    from ._stage_cache import cached_stage
+
+    job.derivation, hit = cached_stage(job, "derive", False, lambda: _derive_fresh(job))
+    if hit:
+        job.cached.add("derive")
+
+
+def _derive_fresh(job: Job) -> dict:
+    import sympy as sp
+
     from ..symbolic import taylor_discretization
     from ._report import derivation_report
 
@@ -95,7 +108,7 @@ def _derive(job: Job) -> None:
     nf = plant.normal_form()
     disc = taylor_discretization(nf.rho, order=nf.rho + 1)
     has_b = plant.region is not None and plant.input_range is not None
-    job.derivation = {
+    return {
         "plant": plant.name, "rho": nf.rho, "n": plant.n, "a": sp.sstr(nf.a), "b": sp.sstr(nf.b),
         "b_bounds": list(plant.b_bounds()) if has_b else None,
         "zero_dynamics_eigenvalues": [str(complex(z)) for z in nf.zero_dynamics_eigenvalues]
@@ -112,12 +125,22 @@ def _derive(job: Job) -> None:
 
 
 def _certify(job: Job, quick: bool) -> None:
+    from ._stage_cache import cached_stage
+
+    job.results["certify"], hit = cached_stage(job, "certify", quick,
+                                               lambda: _certify_fresh(job, quick))
+    if hit:
+        job.cached.add("certify")
+
+
+def _certify_fresh(job: Job, quick: bool) -> dict:
     from ..analysis import (
         certify_eps,
         certify_gamma,
         certify_lyapunov,
         eps_star_curve,
         linearized_eps_star,
+        loop_margins,
     )
 
     cfg, design, plant = job.config.certify, job.design, job.plant
@@ -130,13 +153,16 @@ def _certify(job: Job, quick: bool) -> None:
         out["gamma"] = certify_gamma(design, tuple(b))
         out["eps"] = certify_eps(design, tuple(b), eps_range=eps_range)
         out["curve"] = eps_star_curve(design, tuple(b), np.abs(gammas), eps_range=eps_range)  # |gamma|
+        # margins at both ends of b, as plain numbers and text (cached without python-control)
+        out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
+                          for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
         linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
         for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
     out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
-    job.results["certify"] = out
+    return out
 
 
 def _sweep(job: Job, quick: bool, executor, progress: bool) -> None:
@@ -340,10 +366,13 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         todo = [s for s in todo if s != "robustness"]
     for i, stage in enumerate(todo, 1):
         note(f"{i}/{len(todo)} {stage} ...", enabled=progress)
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         steps[stage]()
         job.timings[stage] = time.perf_counter() - start
-        note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s", enabled=progress)
+        # this process's CPU time beside the wall time: on a loaded machine they differ
+        how = " from the cache" if stage in job.cached else ""
+        note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s (CPU "
+             f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
     return job
 
 

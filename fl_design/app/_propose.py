@@ -18,7 +18,7 @@ Examples
 ...     'region = { th = [-3.0, 3.0], om = [-10.0, 10.0] }\\ninput_range = [-20.0, 20.0]\\n'
 ...     '[scenario]\\nreference = 0.1')
 >>> new = propose_design(cfg)
->>> new.design["gains"] != [], "design proposed" in new.source
+>>> len(new.design.gains) == 2, "design proposed" in new.source
 (True, True)
 """
 

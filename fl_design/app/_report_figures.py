@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..plotting import plot_eps_star
+from ..plotting import log_axes, plot_eps_star
 from ._report_sections import overshoot_text, paper_gamma_bound
 
 
@@ -151,8 +151,7 @@ def eps_star_figure(job):
     d = job.design
     ax.plot([d.controller.gamma], [d.estimator.eps], "k*", ms=12, mfc="yellow",
             label="this design")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
+    log_axes(ax)
     ax.set_xlabel(f"controller gain gamma ({_gamma_unit(job)})")
     ax.set_ylabel("eps* (s)")
     ax.set_title(f"{job.plant.name}: eps*(gamma)", fontsize="small")
@@ -228,8 +227,6 @@ def tradeoff_figure(job):
     import matplotlib.pyplot as plt
 
     rows = job.results["simulate"]["tradeoff"]
-    from matplotlib.ticker import LogFormatterSciNotation, NullFormatter
-
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.8))
     fig.subplots_adjust(left=0.14, right=0.96, top=0.9, bottom=0.12, hspace=0.12)
     eps = np.array([r["eps"] for r in rows])
@@ -239,11 +236,7 @@ def tradeoff_figure(job):
     axes[1].set_ylabel(f"u noise ({job.config.plant.input_unit})")
     axes[1].set_xlabel("observer time constant eps (s)")
     for ax in axes:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        for axis in (ax.xaxis, ax.yaxis):  # decade labels only: minor labels overlap
-            axis.set_major_formatter(LogFormatterSciNotation())
-            axis.set_minor_formatter(NullFormatter())
+        log_axes(ax)
     std = rows[0]["noise_std"] if rows else 0.0
     fig.suptitle(f"{job.plant.name}: noise against eps (noise std {std:.3g} {_y(job)})",
                  fontsize="small")

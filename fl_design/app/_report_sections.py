@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from ._report_map import map_counts
+
 
 def paper_gamma_bound(b_bounds) -> tuple[float, str]:
     """The paper's gain condition ``gamma < 1/b_max`` for a ``b`` range of either sign.
@@ -195,10 +197,7 @@ def _sweep(job, figures) -> list:
     if smap is None:
         return [("p", "Not run.")]
     labels = smap.labels
-    counts = ", ".join(f"{int(np.sum(labels == s))} {s}" for s in
-                       ("converged", "converging", "oscillating", "stalled", "undecided",
-                        "diverged", "solver_failed")
-                       if np.any(labels == s))
+    counts = map_counts(smap)
     cert = job.results.get("certify", {})
     rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
     blocks = [("p", (f"{smap.eps.size} x {smap.gamma.size} runs of {smap.duration:g} s "
@@ -226,7 +225,9 @@ def _sweep(job, figures) -> list:
                             "without swinging, or swings that decay too little for the fit): a "
                             "mode slower than the run. They count as not converging for eps* "
                             "(the bracket then says 'undecided at', not 'fails at'); longer "
-                            "runs decide them.")))
+                            "runs decide them. The 'slow' ones were still moving towards the "
+                            "reference at the end (envelope shrinking, or the input still "
+                            "moving): loops slower than the run, not failures.")))
     if "eps_star.png" in figures:
         blocks.append(("fig", "eps_star.png", ("eps*(gamma): certified, frozen, linearized and "
                        "empirical")))

@@ -24,9 +24,31 @@ Examples
 
 from __future__ import annotations
 
-from ._flexible_joint import flexible_joint
-from ._maglev import maglev
-from ._pendulums import cart_pendulum, pendulum
-from ._rotor import trms_yaw
+import importlib
+from typing import TYPE_CHECKING
+
+# plant -> the module defining it, imported on first use (PEP 562): building the TRMS does not
+# import the other families' modules
+_LAZY = {"trms_yaw": "_rotor", "pendulum": "_pendulums", "cart_pendulum": "_pendulums",
+         "flexible_joint": "_flexible_joint", "maglev": "_maglev"}
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from ._flexible_joint import flexible_joint
+    from ._maglev import maglev
+    from ._pendulums import cart_pendulum, pendulum
+    from ._rotor import trms_yaw
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = ["cart_pendulum", "flexible_joint", "maglev", "pendulum", "trms_yaw"]

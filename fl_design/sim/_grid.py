@@ -275,7 +275,7 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.05], [1e-2]),
     ...                kernel=fl.Kernel(compiled=False), progress=False)
     >>> acc.shape, run.loop.layout.unpack(acc)["k"].tolist()
-    ((102, 2), [500.0, 500.0])
+    ((106, 2), [500.0, 500.0])
     """
     kernel = option("kernel", kernel, Kernel)
     if executor is not None and not isinstance(executor, Executor):

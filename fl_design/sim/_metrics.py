@@ -44,6 +44,11 @@ peak-to-peak of r)``, or 1 output unit when both vanish):
                              standard error; ``envelope_change`` the fitted relative change
 ``noise_floor``              ``NOISE_P2P * noise``: the peak-to-peak of noise-level ripple
 ``saturated_fraction``       fraction of the window with ``u`` at a limit of ``u_limits``
+``input_drift``              mean ``u`` over the window's last block minus over its first: a
+                             controller still moving its input has not come to rest;
+                             ``input_moving`` 1 when it moved by more than ``U_DRIFT`` of its
+                             level and more than its spread within those blocks (noise),
+                             unsaturated (:mod:`fl_design.sim._status`)
 ``reached``                  1 if the output covered 90 % of the step at some time
 ============================ ==================================================================
 
@@ -189,10 +194,11 @@ def _on_reversal(op):
     return update_
 
 
-def _block(j, op):
+def _block(j, op, signal=lambda s: s["e"]):
+    """Update with ``op(prev, signal(s))`` on the samples of block ``j`` of the window."""
     def update_(p, s):
         inside, block = _window(s)
-        return _if(inside * (block == j), op(p, s["e"]), p)
+        return _if(inside * (block == j), op(p, signal(s)), p)
     return update_
 
 
@@ -223,6 +229,10 @@ ACCUMULATORS = (
     *(Accumulator(f"blk_max{j}", -np.inf, _block(j, _fmax)) for j in range(NBLOCKS)),
     *(Accumulator(f"blk_min{j}", np.inf, _block(j, _fmin)) for j in range(NBLOCKS)),
     Accumulator("sat_count", 0.0, _in_window(lambda p, s: p + s["saturated"])),
+    # sums of u and u^2 over the window's first and last blocks: is the input at rest?
+    *(Accumulator(f"u_{where}_{kind}", 0.0, _block(j, lambda p, x: p + x, signal))
+      for where, j in (("first", 0), ("last", NBLOCKS - 1))
+      for kind, signal in (("sum", lambda s: s["u"]), ("sq", lambda s: s["u"] * s["u"]))),
     Accumulator("rev_dir", 0.0, lambda p, s: _swing(s)[0]),
     Accumulator("rev_ext", 0.0, lambda p, s: _swing(s)[1]),
     Accumulator("reversals", 0.0, lambda p, s: p + _swing(s)[2]),
@@ -428,6 +438,8 @@ METRICS = (
     Metric("envelope_change", "fraction", lambda g, T: g["_ev"]["change"]),
     Metric("noise_floor", "output", lambda g, T: g["_ev"]["floor"]),
     Metric("saturated_fraction", "fraction", lambda g, T: g["_ev"]["saturated"]),
+    Metric("input_drift", "input", lambda g, T: g["_ev"]["u_drift"]),
+    Metric("input_moving", "bool", lambda g, T: g["_ev"]["u_moving"].astype(float)),
     Metric("reached", "bool", lambda g, T: g["_ev"]["reached"].astype(float)),
 )
 METRIC_NAMES = tuple(m.name for m in METRICS) + ("divergence_time", "region_exit_time")

@@ -213,7 +213,7 @@ class RunSetup:
         >>> d = fl.presets.pendulum_design()
         >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
         >>> run.initial_accumulator(d.parameter_vector()).shape
-        (102, 1)
+        (106, 1)
         """
         P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
         return self.loop.layout.pack(

@@ -13,7 +13,8 @@ run does); :func:`evidence` gives the measurements:
 * **the envelope's decay**: ``log`` of the largest ``|e|`` over every half period (one of
   :data:`NBLOCKS` blocks when there is no swing) fitted against time by least squares over the
   whole window: the rate, its standard error (the confidence) and the fitted change;
-* **time at the input limits** and whether the output ever covered 90 % of the step.
+* **time at the input limits**, the **input's drift** over the window (its mean over the last
+  block minus over the first) and whether the output ever covered 90 % of the step.
 
 The statuses, in this order:
 
@@ -32,9 +33,12 @@ The statuses, in this order:
   large as the first) and not growing significantly: a limit
   cycle (how an unstable loop usually looks behind input saturation);
 * ``stalled``: bounded, outside the band, no such swings, envelope flat or heading for an
-  offset: not approaching the reference (often with ``u`` at a limit);
+  offset, and the loop at rest (the input steady: drifting over the window by at most
+  :data:`U_DRIFT` of its level or by less than its noise, or pinned at a limit): not
+  approaching the reference;
 * ``undecided``: what remains is ambiguous in this run: an envelope that grows (a limit cycle
-  or a divergence to come), or swings that decay too little for the fit to tell. A longer run
+  or a divergence to come), swings that decay too little for the fit to tell, or a flat error
+  while the controller is still moving its input (a run too short to judge). A longer run
   decides.
 
 The integer codes are what a :class:`fl_design.StabilityMap` stores; ``undecided`` (3) and
@@ -136,6 +140,10 @@ MIN_REVERSALS = 2
 T_SIGNIFICANT = 4.0
 #: Relative change of the fitted envelope over the window below which it is flat.
 MIN_CHANGE = 0.05
+#: Relative change of the input's mean over the window (first block to last) above which the
+#: controller is still moving it: the loop has not come to rest, so a flat error is not a
+#: stall yet (a run too short to judge).
+U_DRIFT = 0.1
 
 
 def window_geometry(summary: dict):
@@ -255,6 +263,10 @@ def evidence(summary: dict) -> dict:
       ``curvature_t``: the ``t`` of a quadratic term in ``log`` envelope (a hump: half of a
       swing slower than the window); ``spread``: largest minus smallest block ``|e|``, ``top``
       the largest;
+    * ``u_drift``: mean ``u`` over the window's last block minus over its first;
+      ``u_moving``: that drift exceeds :data:`U_DRIFT` of the input's level and the spread of
+      ``u`` within those two blocks (root sum of their variances: noise is no drift), and
+      ``u`` is not saturated over half of the window (the loop has not come to rest);
     * ``saturated``: fraction of the window with ``u`` at a limit; ``reached``: the output
       covered 90 % of the step at some time.
 
@@ -286,7 +298,7 @@ def evidence(summary: dict) -> dict:
 def _evidence(summary: dict) -> dict:
     """:func:`evidence` without the error-state guard."""
     g = {k: np.asarray(v, dtype=float) for k, v in summary.items() if k != "est2_sum"}
-    _, length = window_geometry(g)
+    start, length = window_geometry(g)
     tol = g["tol"]
     noise = g.get("noise", np.zeros_like(tol))
     floor = NOISE_P2P * noise
@@ -319,16 +331,29 @@ def _evidence(summary: dict) -> dict:
         for out, value in zip((slope, se, level, npts, heading, curved), fit):
             out[pick] = np.broadcast_to(value, shape)[pick]
     span = np.broadcast_to(length, shape) * (NBLOCKS - width)
-    with np.errstate(over="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         change = np.expm1(slope * span)
         n_window = NBLOCKS * length
         saturated = g.get("sat_count", np.zeros_like(tol)) / n_window
+        # mean input over the window's first and last blocks (NaN without the accumulators);
+        # block j holds the samples kw + j L <= k < kw + (j + 1) L
+        n_first = np.ceil(start + length) - np.ceil(start)
+        n_last = np.ceil(start + NBLOCKS * length) - np.ceil(start + (NBLOCKS - 1) * length)
+        u_first = g.get("u_first_sum", np.nan) / n_first
+        u_last = g.get("u_last_sum", np.nan) / n_last
+        u_drift = u_last - u_first
+        # the spread of u within those blocks (noise, or the ramp itself: a steady ramp's
+        # within-block spread is 1/(7 sqrt 12) of its drift over the window)
+        spread = np.sqrt(np.maximum(g.get("u_first_sq", np.nan) / n_first - u_first ** 2, 0.0)
+                         + np.maximum(g.get("u_last_sq", np.nan) / n_last - u_last ** 2, 0.0))
+        u_moving = ((np.abs(u_drift) > U_DRIFT * np.maximum(np.abs(u_first), np.abs(u_last)))
+                    & (np.abs(u_drift) > spread))
     return {"band": tol + floor / 2, "floor": floor, "reversals": rev, "period": period,
             "amplitude": amplitude, "swing_ratio": swing_ratio, "rate": slope, "rate_se": se, "change": change,
             "level": level, "asymptote": heading, "curvature_t": curved, "fit_points": npts,
             "spread": np.fmax.reduce(block, -1) - np.fmin.reduce(block, -1),
             "top": np.fmax.reduce(block, -1),
-            "saturated": saturated,
+            "saturated": saturated, "u_drift": u_drift, "u_moving": u_moving & (saturated < 0.5),
             "reached": g.get("k90", np.zeros_like(tol)) >= 0, "window": n_window}
 
 
@@ -351,11 +376,13 @@ def classify(summary: dict) -> np.ndarray:
     * ``stalled``: bounded, outside the band, no such swings, on one side of the reference
       over the window (``e`` does not cross the band), and the envelope flat (no
       significant trend nor hump: a hump has ``|curvature_t| > T_SIGNIFICANT`` and a ``spread``
-      above both the noise floor and ``MIN_CHANGE`` of the largest ``|e|``) or heading for an offset outside the band: not approaching the
-      reference;
+      above both the noise floor and ``MIN_CHANGE`` of the largest ``|e|``) or heading for an
+      offset outside the band, and the input at rest (not drifting by more than
+      :data:`U_DRIFT` of its level over the window, or saturated over half of it): not
+      approaching the reference;
     * ``undecided``: anything else, a trend the run cannot call: a growing envelope (with or
-      without swings), or swings decaying too little for the fit to be sure (a longer run
-      decides).
+      without swings), swings decaying too little for the fit to be sure, or a flat error
+      while the input still moves (too short to judge; a longer run decides).
 
     Parameters
     ----------
@@ -425,7 +452,7 @@ def _classify(summary: dict) -> np.ndarray:
             & ~growing
     code = np.select(
         [div, converged, decaying, swinging & sustained,
-         ~swinging & (flat | offset) & one_sided],
+         ~swinging & (flat | offset) & one_sided & ~ev["u_moving"]],
         [int(Status.DIVERGED), int(Status.CONVERGED), int(Status.CONVERGING),
          int(Status.OSCILLATING), int(Status.STALLED)], int(Status.UNDECIDED))
     return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)
@@ -442,6 +469,7 @@ __all__ = [
     "STATUS_CODES",
     "STATUS_NAMES",
     "T_SIGNIFICANT",
+    "U_DRIFT",
     "Status",
     "classify",
     "evidence",

@@ -11,7 +11,8 @@ directory of the compiled kernels (:func:`fl_design._cache.cache_directory`,
   assumptions included), every parameter value (``float.hex``), name, input range, region and
   operating point as given;
 * the code: the SHA-256 of the sources of :mod:`fl_design.symbolic` and of fl_design's private
-  top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy;
+  top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy
+  (read from the installed packages' metadata, without importing them);
 
 with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each file starts with
 an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
@@ -52,6 +53,54 @@ _MAC_BYTES = 32
 _WARNED: set = set()  # the process has warned about a bad entry
 
 
+def versions_and_sources(parts, packages, paths) -> str:
+    """SHA-256 of text ``parts``, the installed versions of ``packages`` and the source files.
+
+    Versions come from the packages' metadata (nothing is imported; ``"absent"`` when not
+    installed); each file adds its folder and name, then its bytes (``?`` when unreadable:
+    still a key, only less specific).
+
+    Parameters
+    ----------
+    parts : iterable of str
+        Format tags, versions, anything else the key depends on.
+    packages : iterable of str
+        Distribution names (``"sympy"``...).
+    paths : iterable of pathlib.Path
+        Source files, hashed in sorted order.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+
+    Examples
+    --------
+    >>> from fl_design.symbolic._derivation_cache import versions_and_sources
+    >>> a = versions_and_sources(["x"], ["numpy"], [])
+    >>> a == versions_and_sources(["x"], ["numpy"], []) != versions_and_sources(["y"], [], [])
+    True
+    """
+    from importlib import metadata
+
+    def version(package: str) -> str:
+        try:
+            return metadata.version(package)
+        except metadata.PackageNotFoundError:
+            return "absent"
+
+    h = hashlib.sha256()
+    for part in (*parts, *(f"{p} {version(p)}" for p in packages)):
+        h.update(f"{part}\n".encode())
+    for path in sorted(paths):
+        h.update(f"{path.parent.name}/{path.name}\n".encode())
+        try:
+            h.update(path.read_bytes())
+        except OSError:
+            h.update(b"?")
+    return h.hexdigest()
+
+
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
     """SHA-256 of the deriving code (sources, library versions): part of every plant key.
@@ -67,25 +116,12 @@ def code_version() -> str:
     >>> code_version() == code_version()
     True
     """
-    import casadi
-    import numpy
-    import scipy
-    import sympy
-
     from .. import __version__
 
     here = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for part in (FORMAT, __version__, sys.version, sympy.__version__, casadi.__version__,
-                 numpy.__version__, scipy.__version__):
-        h.update(f"{part}\n".encode())
-    for path in sorted([*here.glob("*.py"), *here.parent.glob("_*.py")]):
-        h.update(f"{path.parent.name}/{path.name}\n".encode())
-        try:
-            h.update(path.read_bytes())
-        except OSError:  # a source we cannot read: still a key, only less specific
-            h.update(b"?")
-    return h.hexdigest()
+    return versions_and_sources((FORMAT, __version__, sys.version),
+                                ("sympy", "casadi", "numpy", "scipy"),
+                                [*here.glob("*.py"), *here.parent.glob("_*.py")])
 
 
 def plant_key(states, input, rhs, output, params, name, input_range, region,
@@ -158,6 +194,9 @@ class PlantStore:
     ----------
     key : str or None
         :func:`plant_key` of the plant; None disables the store (every quantity is computed).
+    prefix : str, optional
+        Start of the file names (``"plant"``); another user of the same signed store (the main
+        job's certificates) takes its own, so that keys of different kinds never meet.
 
     Examples
     --------
@@ -166,11 +205,12 @@ class PlantStore:
     2
     """
 
-    def __init__(self, key: str | None):
+    def __init__(self, key: str | None, prefix: str = "plant"):
         self.key = key
+        self.prefix = prefix
 
     def _name(self, what: str) -> str:
-        return f"plant_{self.key[:32]}_{what}.pkl"
+        return f"{self.prefix}_{self.key[:32]}_{what}.pkl"
 
     def get(self, what: str, compute, check=None):
         """The quantity ``what``: from the cache, else ``compute()`` (then stored).
@@ -194,7 +234,7 @@ class PlantStore:
             path = cache_directory() / self._name(what)
             secret = user_key(path.parent)
         except UnsafeCacheError as exc:
-            _warn_once(f"{exc}; plant derivations are computed without the cache",
+            _warn_once(f"{exc}; {self.prefix} results are computed without the cache",
                        UnsafeCacheWarning)
             return compute()
         except (OSError, ComputationError):
@@ -203,7 +243,7 @@ class PlantStore:
             value, ok = self._load(path, check, secret)
             if ok:
                 return value
-            _warn_once(f"the cached plant derivation {path} is corrupted (it does not match its "
+            _warn_once(f"the cached {self.prefix} result {path} is corrupted (it does not match its "
                        "recorded size and SHA-256 or its signature, or does not load); "
                        "recomputed and rewritten")
         value = compute()
@@ -230,4 +270,4 @@ class PlantStore:
         return value, check is None or isinstance(value, check)
 
 
-__all__ = ["FORMAT", "PlantStore", "code_version", "plant_key"]
+__all__ = ["FORMAT", "PlantStore", "code_version", "plant_key", "versions_and_sources"]

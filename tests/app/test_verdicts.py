@@ -76,3 +76,24 @@ def test_the_demo_map_has_no_stripes():
     undecided = [smap.eps_star(g).undecided for g in gamma]
     changes = sum(a != b for a, b in itertools.pairwise(undecided))
     assert undecided[0] and not undecided[-1] and changes == 1, brackets
+
+
+def test_a_run_too_short_to_judge_is_undecided_not_stalled():
+    """The paper's TRMS design over 0.5 s: the output has hardly moved (|e| still the whole
+    step) but the controller is ramping its input up, unsaturated: the loop has not come to
+    rest, so the flat error is no stall; the verdict asks for a longer run."""
+    resp = fl.simulate(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario(0.3, 0.5))
+    assert resp.status == "undecided" == status_from_trajectories(resp)
+    n = resp.t.size
+    kw = n // 2
+    length = (n - kw) / 8
+    block = np.floor((np.arange(kw, n) - kw) / length)
+    u = resp.u[kw:]
+    drift = u[block == 7].mean() - u[block == 0].mean()
+    assert resp.metrics["input_drift"] == pytest.approx(drift, rel=1e-9)
+    assert drift > 0.1 * abs(u[block == 7].mean())  # the input still climbing
+    assert resp.metrics["input_moving"] == 1.0
+    assert "too short to judge" in resp.verdict() and "run longer (at least 1.5 s)" in resp.verdict()
+    # the same loop, long enough, answers
+    assert fl.simulate(fl.plants.trms_yaw(), fl.presets.paper_design(),
+                       fl.Scenario(0.3, 4.0)).status == "converging"

@@ -93,7 +93,7 @@ def accumulator_layout(*, n: int, m: int, rho: int, n_p: int, n_theta: int = 0) 
     >>> from fl_design.sim.kernel._loop import accumulator_layout
     >>> lay = accumulator_layout(n=2, m=5, rho=2, n_p=28)
     >>> lay["x"], "est2_sum" in lay, lay.size
-    (slice(0, 2, None), True, 102)
+    (slice(0, 2, None), True, 106)
     """
     fields = [("x", n), ("s", m), ("u_prev", 1), ("k", 1), ("diverged", 1), ("k_div", 1)]
     fields += list(metric_layout(rho).fields)
