@@ -231,6 +231,8 @@ def _cmd_sweep(args) -> int:
     if "robust_map" in job.results:
         print()
         print_robust_map(job)
+    elif "robust_map_skipped" in job.results:
+        print(f"\n{job.results['robust_map_skipped']}")
     return 0
 
 

@@ -62,7 +62,8 @@ def run_robust_map(job, quick: bool, executor, progress: bool, *,
 
     Stores the :class:`~fl_design.sim.RobustMap` in ``job.results["robust_map"]`` and its
     seconds in ``job.timings["robust_map"]``; nothing without ``[uncertainty] params`` or
-    (``samples`` not given) with ``map_samples = 0``.
+    (``samples`` not given) with ``map_samples = 0``; for a design without eps (least
+    squares) the reason in ``job.results["robust_map_skipped"]``.
 
     Parameters
     ----------
@@ -95,6 +96,11 @@ def run_robust_map(job, quick: bool, executor, progress: bool, *,
     if samples is None:
         samples = min(QUICK_MAP_SAMPLES, table.map_samples) if quick else table.map_samples
     if not table.params or not samples:
+        return
+    if not job.design.estimator.has_time_constant:  # the map runs over eps
+        job.results["robust_map_skipped"] = (
+            f"no robust map: it runs over the observer's eps, and this design's estimator "
+            f"({type(job.design.estimator).__name__}) has none")
         return
     eps, gamma, duration = map_grid(job.config, quick)
     start = time.perf_counter()
@@ -202,7 +208,8 @@ def summary(job) -> dict:
     """
     rmap = job.results.get("robust_map")
     if rmap is None:
-        return {}
+        skipped = job.results.get("robust_map_skipped")
+        return {"skipped": skipped} if skipped else {}
     out = {k: v for k, v in rmap.to_dict().items() if k not in ("status", "metrics")}
     out["eps_star"] = [{"gamma": float(g), **{f"level_{lv:g}": rmap.eps_star(g, level=lv)
                                               .to_dict() for lv in LEVELS}}
@@ -310,7 +317,8 @@ def blocks(job, figures) -> list:
     """
     rmap = job.results.get("robust_map")
     if rmap is None:
-        return []
+        skipped = job.results.get("robust_map_skipped")
+        return [("p", skipped[0].upper() + skipped[1:] + ".")] if skipped else []
     here = at_design_gamma(job)
     seconds = job.timings.get("robust_map")
     took = f", computed in {seconds:.3g} s" if seconds is not None else ""

@@ -150,6 +150,22 @@ def _check_figure(job):
     plt.close(fig)
 
 
+def test_least_squares_design_no_robust_map_says_why(tmp_path):
+    """The robust map runs over eps: a least-squares design still gets its Monte Carlo, and
+    the report and summary say why there is no map."""
+    from fl_design.app._robust_map import blocks, summary
+
+    cfg = parse_config(TOML.replace("[uncertainty]\n", "[design]\nestimator = "
+                                    "\"least_squares\"\nT = 0.001\ngains = [1.0, 2.0]\n"
+                                    "gamma = 0.01\n[uncertainty]\n", 1))
+    job = run_job(cfg, quick=True, stages=("robustness",), progress=False)
+    assert job.results["robustness"].n == 16 and "robust_map" not in job.results
+    why = ("no robust map: it runs over the observer's eps, and this design's estimator "
+           "(LeastSquaresEstimator) has none")
+    assert summary(job) == {"skipped": why}
+    assert blocks(job, []) == [("p", "N" + why[1:] + ".")]
+
+
 def test_map_samples_zero_no_robust_map():
     cfg = parse_config(TOML.replace("duration = 5.0", "duration = 5.0\nmap_samples = 0"))
     job = run_job(cfg, quick=True, stages=("robustness",), progress=False)
