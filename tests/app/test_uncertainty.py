@@ -123,6 +123,10 @@ def test_job_robust_map_in_summary_and_report(tmp_path):
     assert "every point run against the same 8 plants drawn from c ~ Uniform(0.05, 1), " \
         "b ~ Normal(1, 0.1), seed 3 (200 runs" in md
     assert "](robust_map.png)" in md
+    import base64
+
+    png = base64.b64encode((tmp_path / "out" / "robust_map.png").read_bytes()).decode("ascii")
+    assert f'src="data:image/png;base64,{png}"' in (tmp_path / "out" / "report.html").read_text()
     _check_figure(job)
     row = f"| every sampled plant converges (8 of 8) | {direct.eps_star(g)} |"
     assert row in md
