@@ -207,6 +207,35 @@ def _cmd_stage(stage: str):
     return command
 
 
+def _cmd_sweep(args) -> int:
+    """The stability map; with ``[uncertainty] params`` also the robust map (``--samples N``
+    plants per point, default ``[uncertainty] map_samples``)."""
+    from ._console import print_sweep
+    from ._job import run_job
+    from ._robust_map import print_robust_map, run_robust_map
+    from ._uncertainty import MAX_SAMPLES
+
+    cfg, _ = _prepare(_config(args))
+    if args.samples is not None:
+        if not cfg.uncertainty.params:
+            raise ParameterError(f"--samples {args.samples} needs a family of plants: give "
+                                 "[uncertainty.params] in the config (e.g. c = [0.05, 1.0])")
+        if not 1 <= args.samples <= MAX_SAMPLES:
+            raise ParameterError(f"--samples must be in 1 .. {MAX_SAMPLES}, got {args.samples}")
+    executor = _executor(args.scheduler)
+    progress = not args.no_progress
+    job = run_job(cfg, quick=args.quick, stages=("sweep",), executor=executor,
+                  progress=progress)
+    print_sweep(job)
+    run_robust_map(job, args.quick, executor, progress, samples=args.samples)
+    if "robust_map" in job.results:
+        print()
+        print_robust_map(job)
+    elif "robust_map_skipped" in job.results:
+        print(f"\n{job.results['robust_map_skipped']}")
+    return 0
+
+
 def _cmd_codegen(args) -> int:
     from ..codegen import generate_c
     from ._build import build_design
@@ -338,9 +367,13 @@ def build_parser() -> argparse.ArgumentParser:
     simulate = sub.add_parser("simulate", help="the design and the least-squares baselines")
     _common(simulate)
     simulate.set_defaults(func=_cmd_stage("simulate"))
-    sweep = sub.add_parser("sweep", help="the empirical (eps, gamma) stability map")
+    sweep = sub.add_parser("sweep", help="the empirical (eps, gamma) stability map; with "
+                           "[uncertainty] params also the robust map")
     _common(sweep, scheduler=True)
-    sweep.set_defaults(func=_cmd_stage("sweep"))
+    sweep.add_argument("--samples", type=int, default=None, metavar="N",
+                       help="plants per grid point of the robust map (default [uncertainty] "
+                       "map_samples; needs [uncertainty.params])")
+    sweep.set_defaults(func=_cmd_sweep)
     code = sub.add_parser("codegen", help="the loop step as a C99 package (SIL, cost)")
     code.add_argument("--out", default=None, help="output folder (default c; created if "
                       "needed); must be empty or hold fl_design's own earlier output")

@@ -373,7 +373,7 @@ def sections(job, figures) -> list:
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
     from ._uncertainty import report_blocks
 
-    robust = ([("Robustness: a family of plants", report_blocks(job))]
+    robust = ([("Robustness: a family of plants", report_blocks(job, figures))]
               if "robustness" in job.results else [])
     return [("Summary", S.summary_blocks(job, figures)),
             (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),

@@ -34,6 +34,8 @@ from ._report_figures import (
     tradeoff_figure,
 )
 from ._report_sections import sections
+from ._robust_map import save_figure as save_robust_map_figure
+from ._uncertainty import summary as robustness_summary
 
 FIGURES = {"stability_map.png": stability_map_figure, "eps_star.png": eps_star_figure,
            "steps.png": step_figure, "noise_tradeoff.png": tradeoff_figure,
@@ -225,6 +227,8 @@ def summary(job) -> dict:
                            "runs": [{"design": n, "noise_std": s, **_run_row(r),
                                      **noise_levels(r)} for (n, s), r in sim["runs"].items()],
                            "noise_tradeoff": sim["tradeoff"]}
+    if "robustness" in res:
+        out["robustness"] = robustness_summary(job)
     cg = res.get("codegen")
     if cg and "package" in cg:
         out["codegen"] = {"out_dir": str(cg["package"].out_dir), "sil": cg["sil"].to_dict(),
@@ -265,7 +269,7 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
     ['csv', 'figures', 'html', 'markdown', 'summary']
     """
     folder = claim_output_folder(out_dir, force=force, what="report folder")
-    figures = _figures(job, folder)
+    figures = _figures(job, folder) + save_robust_map_figure(job, folder)
     secs = sections(job, figures)
     title = f"fl_design report: {job.plant.name}, {design_label(job.design)}"
     paths = {"html": folder / "report.html", "markdown": folder / "report.md",

@@ -1,13 +1,15 @@
 """The ``[uncertainty]`` table: the job's robustness stage and its report section.
 
 A configuration that gives parameter distributions runs the design against that family of
-plants (:func:`fl_design.monte_carlo`) after the simulations, and the report gains a
-*Robustness* section (verdict fractions, the worst samples)::
+plants (:func:`fl_design.monte_carlo`) after the simulations, then the ``[sweep]`` grid against
+``map_samples`` of them (the robust stability map, :mod:`fl_design.app._robust_map`), and the
+report gains a *Robustness* section (verdict fractions, the worst samples, the robust eps*)::
 
     [uncertainty]
     samples = 200               # plants drawn (quick mode: 16)
     seed = 0                    # the same seed gives the same plants
     duration = "adaptive"       # seconds per run, or chosen from the nominal loop
+    map_samples = 32            # plants per point of the robust map (quick mode: 8)
     [uncertainty.params]
     c = [0.05, 1.0]             # uniform on [lo, hi]
     b = { normal = [1.0, 0.1] } # normal: mean, standard deviation
@@ -76,13 +78,16 @@ class UncertaintyTable:
         The same seed gives the same plants (>= 0).
     duration : float or str, optional
         Seconds per run, or "adaptive" (chosen once on the nominal loop).
+    map_samples : int, optional
+        Plants per (eps, gamma) point of the robust map over the [sweep] grid (quick mode: 8); 0: no robust map.
 
     Raises
     ------
     ParameterError
         A value of ``params`` that is neither ``[lo, hi]`` nor ``{normal = [mu, sigma]}`` /
         ``{uniform = [lo, hi]}`` or numbers the distribution refuses, ``samples`` out of
-        ``1 .. MAX_SAMPLES``, a negative seed, a bad duration.
+        ``1 .. MAX_SAMPLES``, ``map_samples`` out of ``0 .. MAX_SAMPLES``, a negative seed, a
+        bad duration.
 
     Examples
     --------
@@ -96,6 +101,7 @@ class UncertaintyTable:
     samples: int = 200
     seed: int = 0
     duration: float | str = "adaptive"
+    map_samples: int = 32
 
     def __post_init__(self):
         params = None
@@ -108,11 +114,15 @@ class UncertaintyTable:
         samples = V.integer("samples", self.samples)
         if not 1 <= samples <= MAX_SAMPLES:
             raise ParameterError(f"samples must be in 1 .. {MAX_SAMPLES}, got {samples}")
+        map_samples = V.integer("map_samples", self.map_samples)
+        if not 0 <= map_samples <= MAX_SAMPLES:
+            raise ParameterError(f"map_samples must be in 0 .. {MAX_SAMPLES} (0: no robust "
+                                 f"map), got {map_samples}")
         seed = V.integer("seed", self.seed)
         if seed < 0:
             raise ParameterError(f"seed must be >= 0, got {seed}")
         set_fields(self, params=params or None, samples=samples, seed=seed,
-                   duration=_duration("duration", self.duration))
+                   duration=_duration("duration", self.duration), map_samples=map_samples)
 
     def distributions(self) -> dict:
         """``{name: fl.Uniform or fl.Normal}`` of :attr:`params` (empty when not set).
@@ -134,9 +144,11 @@ class UncertaintyTable:
 
 
 def run_stage(job, quick: bool, executor, progress: bool) -> None:
-    """The robustness stage: ``fl.monte_carlo`` of the job's design over the family.
+    """The robustness stage: ``fl.monte_carlo`` of the job's design over the family, then its
+    robust stability map (:func:`fl_design.app._robust_map.run_robust_map`).
 
-    Stores the :class:`~fl_design.Ensemble` in ``job.results["robustness"]``.
+    Stores the :class:`~fl_design.Ensemble` in ``job.results["robustness"]`` and the
+    :class:`~fl_design.sim.RobustMap` in ``job.results["robust_map"]``.
 
     Parameters
     ----------
@@ -157,12 +169,13 @@ def run_stage(job, quick: bool, executor, progress: bool) -> None:
     >>> job = prepare(parse_config('[plant]\\nlibrary = "pendulum"\\n'
     ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'))
     >>> run_stage(job, True, None, False)
-    >>> job.results["robustness"].n
-    16
+    >>> job.results["robustness"].n, job.results["robust_map"].n
+    (16, 8)
     """
     from ..sim import monte_carlo
     from ._build import build_classifier, build_scenario
     from ._job import QUICK
+    from ._robust_map import run_robust_map
 
     table = job.config.uncertainty
     duration = QUICK["duration"] if quick else table.duration
@@ -171,15 +184,18 @@ def run_stage(job, quick: bool, executor, progress: bool) -> None:
         job.plant, job.design, scenario, params=table.distributions(),
         n=QUICK_SAMPLES if quick else table.samples, seed=table.seed,
         classifier=build_classifier(job.config), executor=executor, progress=progress)
+    run_robust_map(job, quick, executor, progress)
 
 
-def report_blocks(job) -> list:
+def report_blocks(job, figures=()) -> list:
     """The report's *Robustness* section (blocks as :mod:`fl_design.app._report_sections`).
 
     Parameters
     ----------
     job : Job
         A finished job.
+    figures : sequence of str, optional
+        The figure files written (the robust map's is shown only if among them).
 
     Returns
     -------
@@ -193,6 +209,8 @@ def report_blocks(job) -> list:
     >>> report_blocks(Job())
     [('p', 'Not run (no [uncertainty] params).')]
     """
+    from ._robust_map import blocks as map_blocks
+
     ens = job.results.get("robustness")
     if ens is None:
         return [("p", "Not run (no [uncertainty] params).")]
@@ -212,7 +230,42 @@ def report_blocks(job) -> list:
             for w in ens.worst(5)]
     blocks.append(("table", ["sample", *names, "verdict", "tail error", "diverged at (s)"],
                    rows))
-    return blocks
+    return blocks + map_blocks(job, figures)
 
 
-__all__ = ["MAX_SAMPLES", "QUICK_SAMPLES", "UncertaintyTable", "report_blocks", "run_stage"]
+def summary(job) -> dict:
+    """``summary.json``'s ``robustness``: the Monte Carlo's fractions and the robust map.
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+
+    Returns
+    -------
+    dict
+        Empty when the robustness stage did not run.
+
+    Examples
+    --------
+    >>> from fl_design.app._uncertainty import summary
+    >>> class Job:
+    ...     results = {}
+    >>> summary(Job())
+    {}
+    """
+    from .._json import jsonable
+    from ._robust_map import summary as map_summary
+
+    ens = job.results.get("robustness")
+    if ens is None:
+        return {}
+    mc = {"n": ens.n, "seed": ens.seed, "duration": ens.duration,
+          "duration_reason": ens.duration_reason,
+          "distributions": {k: str(v) for k, v in ens.distributions.items()},
+          "fractions": dict(ens.fractions), "convergent_fraction": ens.convergent_fraction}
+    return jsonable({"monte_carlo": mc, "robust_map": map_summary(job) or None})
+
+
+__all__ = ["MAX_SAMPLES", "QUICK_SAMPLES", "UncertaintyTable", "report_blocks", "run_stage",
+           "summary"]

@@ -188,7 +188,7 @@ class FamilySetup(RunSetup):
     >>> fam = prepare_family(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0),
     ...                      {"c": [0.1, 0.2, 0.3]})
     >>> fam.initial_accumulator(fam.columns(d.parameter_vector(), 3)).shape
-    (103, 3)
+    (107, 3)
     """
 
     theta: np.ndarray = None
