@@ -133,6 +133,35 @@ def _certify(job: Job, quick: bool) -> None:
         job.cached.add("certify")
 
 
+def parameter_box(table) -> dict:
+    """The box of an ``[uncertainty]`` table: its uniform ranges, and the names with no box.
+
+    Parameters
+    ----------
+    table : UncertaintyTable
+        ``[uncertainty]``.
+
+    Returns
+    -------
+    dict
+        ``{"ranges": {name: (lo, hi)}, "unbounded": [names of normal parameters]}``.
+
+    Examples
+    --------
+    >>> from fl_design.app._job import parameter_box
+    >>> from fl_design.app._uncertainty import UncertaintyTable
+    >>> parameter_box(UncertaintyTable(params={"c": [0.1, 1.0], "b": {"normal": [1, 0.1]}}))
+    {'ranges': {'c': (0.1, 1.0)}, 'unbounded': ['b']}
+    """
+    ranges, unbounded = {}, []
+    for name, dist in table.distributions().items():
+        if hasattr(dist, "lo"):
+            ranges[name] = (float(dist.lo), float(dist.hi))
+        else:
+            unbounded.append(name)
+    return {"ranges": ranges, "unbounded": unbounded}
+
+
 def _certify_fresh(job: Job, quick: bool) -> dict:
     from ..analysis import (
         certify_eps,
@@ -146,13 +175,23 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
     cfg, design, plant = job.config.certify, job.design, job.plant
     b = job.derivation["b_bounds"]
     out = {"lyapunov": certify_lyapunov(design.controller.gains, T=design.T)}
+    box = parameter_box(job.config.uncertainty)
+    if b is not None and box["ranges"]:
+        # the family's uniform ranges: b (and the rest) enclosed over the whole box, so the
+        # certificates cover every plant of [uncertainty] (normal ones have no box: named)
+        from ..analysis import plant_bounds
+
+        b = plant_bounds(plant, params=box["ranges"])
+        out["box"] = {"params": {k: list(v) for k, v in box["ranges"].items()},
+                      "not_covered": box["unbounded"], "b_bounds": list(b.b_bounds)}
     n = QUICK["certify_points"] if quick else cfg.points
     gammas = np.geomspace(*cfg.gamma, n)
     eps_range = tuple(cfg.eps_range or job.config.sweep.eps)  # [certify] eps_range
     if b is not None and design.estimator.has_time_constant and cfg.enabled:
-        out["gamma"] = certify_gamma(design, tuple(b))
-        out["eps"] = certify_eps(design, tuple(b), eps_range=eps_range)
-        out["curve"] = eps_star_curve(design, tuple(b), np.abs(gammas), eps_range=eps_range)  # |gamma|
+        bb = b if "box" in out else tuple(b)  # a PlantBounds: results list the box they cover
+        out["gamma"] = certify_gamma(design, bb)
+        out["eps"] = certify_eps(design, bb, eps_range=eps_range)
+        out["curve"] = eps_star_curve(design, bb, np.abs(gammas), eps_range=eps_range)  # |gamma|
         # margins at both ends of b, as plain numbers and text (cached without python-control)
         out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
                           for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]

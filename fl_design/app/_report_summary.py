@@ -64,11 +64,20 @@ def _certified_text(job) -> str:
     if "eps" not in cert:
         return cert.get("skipped", "no b-range to certify")
     g, e, b = cert["gamma"], cert["eps"], job.derivation["b_bounds"]
+    box = cert.get("box")
+    if box:
+        b = box["b_bounds"]
+        ranges = ", ".join(f"{k} in [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in box["params"].items())
+        family = (f" over the [uncertainty] box {ranges}" +
+                  (f" (not {', '.join(box['not_covered'])}: a normal distribution has no box)"
+                   if box["not_covered"] else ""))
+    else:
+        family = ""
     return (f"eps* = {fmt(e.eps_star_certified, 'none in range')} s, gamma in "
             f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')}); this eps "
             f"{'certified' if e.certified else 'NOT certified'}. Covers the sampled linear "
             f"surrogate (chain of integrators, sigma = b u, b anywhere in [{b[0]:.3g}, "
-            f"{b[1]:.3g}]), not the nonlinear plant")
+            f"{b[1]:.3g}]{family}), not the nonlinear plant")
 
 
 def _comparison_text(job) -> str:

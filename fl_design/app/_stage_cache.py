@@ -45,7 +45,8 @@ _PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel")
 PRESENTATION = ("plotting.py", "app/_report*.py", "app/_console.py", "app/_cli.py")
 #: Stage -> the configuration it reads (``sweep_eps``: ``[sweep] eps``, the certificates'
 #: default range).
-TABLES = {"certify": ("plant", "design", "certify", "sweep_eps"), "derive": ("plant",)}
+TABLES = {"certify": ("plant", "design", "certify", "uncertainty", "sweep_eps"),
+          "derive": ("plant",)}
 
 
 @functools.lru_cache(maxsize=2)

@@ -216,3 +216,35 @@ def test_cli_sweep_bad_samples(tmp_path, capsys, extra, body, match):
     path.write_text(body)
     assert main(["sweep", str(path), "--quick", "--no-progress", *extra]) == 2
     assert match in capsys.readouterr().err
+
+
+def test_certificates_cover_the_uncertainty_box():
+    """[uncertainty] uniform ranges: the certify stage encloses b over the box (plant_bounds)."""
+    from fl_design.analysis import certify_eps, plant_bounds
+    from fl_design.app._report_summary import _certified_text
+
+    cfg = parse_config('[plant]\nlibrary = "pendulum"\n[uncertainty.params]\n'
+                       'c = [0.05, 1.0]\nb = [0.8, 1.2]\n')
+    job = run_job(cfg, quick=True, stages=("derive", "certify"), progress=False)
+    cert = job.results["certify"]
+    assert cert["box"]["params"] == {"c": [0.05, 1.0], "b": [0.8, 1.2]}
+    assert cert["box"]["b_bounds"] == pytest.approx([0.8, 1.2], rel=1e-9)
+    direct = certify_eps(job.design, plant_bounds(job.plant, params={"c": (0.05, 1.0),
+                                                                    "b": (0.8, 1.2)}),
+                         eps_range=tuple(cfg.certify.eps_range or cfg.sweep.eps))
+    assert cert["eps"].eps_star_certified == pytest.approx(direct.eps_star_certified, rel=1e-9)
+    assert "c in [0.05, 1]" in str(cert["eps"])
+    assert "[uncertainty] box c in [0.05, 1], b in [0.8, 1.2]" in _certified_text(job)
+    # the nominal plant (b = 1) certifies a larger eps* than the whole family
+    nominal = run_job(parse_config('[plant]\nlibrary = "pendulum"\n'), quick=True,
+                      stages=("derive", "certify"), progress=False).results["certify"]
+    assert "box" not in nominal
+    assert nominal["eps"].eps_star_certified > cert["eps"].eps_star_certified
+
+
+def test_a_normal_parameter_has_no_box_and_is_named():
+    from fl_design.app._job import parameter_box
+    from fl_design.app._uncertainty import UncertaintyTable
+
+    box = parameter_box(UncertaintyTable(params={"c": [0.05, 1.0], "b": {"normal": [1, 0.1]}}))
+    assert box == {"ranges": {"c": (0.05, 1.0)}, "unbounded": ["b"]}
