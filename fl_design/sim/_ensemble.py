@@ -201,15 +201,9 @@ class Ensemble:
         >>> frame is None or frame.shape == (2, 3)
         True
         """
-        try:
-            import pandas as pd
-        except ImportError:
-            from ..errors import MissingDependencyError
+        from .._frames import data_frame
 
-            raise MissingDependencyError(
-                "Ensemble.to_frame needs pandas, which is not installed: pip install pandas "
-                "(or use Ensemble.to_dict / Ensemble.columns, which need nothing)") from None
-        return pd.DataFrame(self.columns())
+        return data_frame(self.columns(), "Ensemble.to_frame", "Ensemble.to_dict / Ensemble.columns")
 
     def _repr_html_(self) -> str:
         """A short HTML table for Jupyter: the family, the runs, the verdict fractions."""

@@ -233,15 +233,9 @@ class Response:
         >>> frame is None or frame.shape == (50, 13)
         True
         """
-        try:
-            import pandas as pd
-        except ImportError:
-            from ..errors import MissingDependencyError
+        from .._frames import data_frame
 
-            raise MissingDependencyError(
-                "Response.to_frame needs pandas, which is not installed: pip install pandas "
-                "(or use Response.to_csv / Response.columns, which need nothing)") from None
-        return pd.DataFrame(self.columns())
+        return data_frame(self.columns(), "Response.to_frame", "Response.to_csv / Response.columns")
 
     def to_csv(self, path=None, *, overwrite: bool = False) -> str:
         """The trajectories (:meth:`columns`) as CSV: a header line, then one row per sample.
