@@ -35,6 +35,7 @@ import re
 
 import casadi as ca
 
+from .._cmath import ELEMENTARY
 from ..errors import ComputationError
 
 _ARITH = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})",
@@ -48,12 +49,7 @@ _LOGIC = {ca.OP_AND: "({0} && {1})", ca.OP_OR: "({0} || {1})"}
 _UNARY = {ca.OP_NEG: "(-{0})", ca.OP_SQ: "({0}*{0})", ca.OP_ASSIGN: "{0}",
           ca.OP_FABS: "({0} < {z} ? -{0} : {0})", ca.OP_TWICE: "({0}+{0})"}
 #: elementary functions printed as <math.h> calls (``f`` variant in float)
-MATH = {ca.OP_EXP: "exp", ca.OP_LOG: "log", ca.OP_SQRT: "sqrt", ca.OP_SIN: "sin",
-        ca.OP_COS: "cos", ca.OP_TAN: "tan", ca.OP_ASIN: "asin", ca.OP_ACOS: "acos",
-        ca.OP_ATAN: "atan", ca.OP_FLOOR: "floor", ca.OP_CEIL: "ceil", ca.OP_ERF: "erf",
-        ca.OP_SINH: "sinh", ca.OP_COSH: "cosh", ca.OP_TANH: "tanh", ca.OP_ASINH: "asinh",
-        ca.OP_ACOSH: "acosh", ca.OP_ATANH: "atanh", ca.OP_LOG1P: "log1p",
-        ca.OP_EXPM1: "expm1", ca.OP_POW: "pow", ca.OP_CONSTPOW: "pow", ca.OP_ATAN2: "atan2"}
+MATH = {**ELEMENTARY, ca.OP_POW: "pow", ca.OP_CONSTPOW: "pow", ca.OP_ATAN2: "atan2"}
 
 
 def literal(value: float, real: str) -> str:

@@ -39,6 +39,8 @@ from importlib import resources
 
 import casadi as ca
 
+from ..._cmath import ELEMENTARY
+
 _BIN = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})",
         ca.OP_DIV: "({0}/{1})", ca.OP_LT: "({0}<{1} ? 1.0 : 0.0)",
         ca.OP_LE: "({0}<={1} ? 1.0 : 0.0)", ca.OP_EQ: "({0}=={1} ? 1.0 : 0.0)",
@@ -55,12 +57,7 @@ _UN = {ca.OP_NEG: "(-{0})", ca.OP_SQ: "({0}*{0})", ca.OP_TWICE: "(2.*{0})",
        ca.OP_INV: "(1./{0})", ca.OP_NOT: "({0}==0 ? 1.0 : 0.0)",
        ca.OP_SIGN: "({0}<0 ? -1.0 : ({0}>0 ? 1.0 : {0}))", ca.OP_ASSIGN: "{0}"}
 #: C math functions printed by name (CasADi's ``casadi_fabs`` etc. are these in C99).
-MATH = {ca.OP_EXP: "exp", ca.OP_LOG: "log", ca.OP_SQRT: "sqrt", ca.OP_SIN: "sin",
-        ca.OP_COS: "cos", ca.OP_TAN: "tan", ca.OP_ASIN: "asin", ca.OP_ACOS: "acos",
-        ca.OP_ATAN: "atan", ca.OP_FLOOR: "floor", ca.OP_CEIL: "ceil", ca.OP_FABS: "fabs",
-        ca.OP_ERF: "erf", ca.OP_SINH: "sinh", ca.OP_COSH: "cosh", ca.OP_TANH: "tanh",
-        ca.OP_ASINH: "asinh", ca.OP_ACOSH: "acosh", ca.OP_ATANH: "atanh",
-        ca.OP_LOG1P: "log1p", ca.OP_EXPM1: "expm1"}
+MATH = {**ELEMENTARY, ca.OP_FABS: "fabs"}
 
 
 class LanesUnsupported(NotImplementedError):
