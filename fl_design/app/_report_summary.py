@@ -93,6 +93,31 @@ def _comparison_text(job) -> str:
     return f"at noise std {std:.3g}: " + "; ".join(parts)
 
 
+def _disturbance_text(job):
+    """The main run against ``[scenario.disturbance]``: what acted, its peak and recovery."""
+    dist = job.config.scenario.disturbance
+    sim = job.results.get("simulate")
+    if dist is None or not sim:
+        return None
+    parts = []
+    for where, spec in dist.to_dict().items():
+        if spec:
+            args = ", ".join(f"{k} {v:g}" for k, v in spec.items()
+                             if k != "kind" and isinstance(v, (int, float)))
+            parts.append(f"{where} {spec.get('kind', 'signal')} ({args})" if args else
+                         f"{where} {spec.get('kind', 'signal')}")
+    what = " and ".join(parts) or "a disturbance"
+    main = sim["main"]
+    m = main.disturbance
+    if m is None:
+        return f"{what}: did not act within this run's {main.duration:g} s (run longer)"
+    rec = m["recovery_time"]
+    back = (f"back within the band {rec:.3g} s later" if np.isfinite(rec) else
+            f"not back within the band by the end ({main.duration:g} s)")
+    return (f"{what}: from t = {m['disturbance_at']:g} s, peak |y - r| "
+            f"{m['disturbance_peak']:.3g}, {back}")
+
+
 def _code_text(job) -> str:
     cg = job.results.get("codegen")
     if not cg:
@@ -146,6 +171,8 @@ def summary_blocks(job, figures) -> list:
                      f"{smap.duration:g} s")
     rows = [("Plant", plant, DERIVATION), ("Design", _design_text(job), SIMULATIONS),
             ("Does it work? (this design's run)", verdict, SIMULATIONS),
+            *([("Disturbance", dtext, SIMULATIONS)]
+              if (dtext := _disturbance_text(job)) is not None else []),
             ("Certified", _certified_text(job), CERTIFICATES),
             ("Empirical eps*", empirical, MAP),
             ("Comparison", _comparison_text(job), SIMULATIONS),
