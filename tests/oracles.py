@@ -185,6 +185,7 @@ def evidence_from_errors(e, *, k_tail: int, tol: float, noise: float = 0.0) -> d
             "swing_ratio": swings[-1] / swings[0] if len(swings) >= 2 else math.nan,
             "rate": fit.slope, "rate_se": fit.stderr,
             "change": math.expm1(fit.slope * length * (8 - width)), "band": tol + 4 * noise,
+            "fit_points": smooth.size,
             "asymptote": heading,
             "floor": 8 * noise}
 
@@ -216,6 +217,18 @@ def status_from_trajectories(resp, noise: float | None = None) -> str:
         return "oscillating"
     half = e[ev["window_start"]:]
     one_sided = half.min() > -ev["band"] or half.max() < ev["band"]
+    # a slower decay still counts when a one-sided 95 % Student interval of the fitted slope
+    # (fit_points - 2 degrees of freedom) lies below zero, with the envelope down by more
+    # than 5 %, no offset ahead, the input off its limits for at least half the window, and
+    # the envelope a real one (e never crosses the band's far side, or two turning points)
+    # that a straight line in log |e| describes (no hump)
+    from scipy.stats import t as student
+
+    dof = ev["fit_points"] - 2
+    if (dof >= 1 and t < -student.ppf(0.95, dof) and ev["change"] < -0.05 and not offset
+            and resp.metrics["saturated_fraction"] < 0.5
+            and (one_sided or ev["reversals"] >= 2) and not hump):
+        return "converging"
     # the input at rest: its mean over the window's last block against its first, beyond 10 %
     # of its level and its spread within those blocks, unsaturated, is a loop still moving
     kw = ev["window_start"]

@@ -22,7 +22,7 @@ import numpy as np
 
 from .._json import jsonable
 from ._metrics import STATUS_NAMES, Status, metrics_from_summary
-from ._status import MIN_CHANGE
+from ._status import MIN_CHANGE, T_SIGNIFICANT
 
 
 @dataclass(frozen=True)
@@ -389,9 +389,13 @@ def _reason(status: str, m: dict, tol: float, window: float, duration: float,
         return (f"converged: mean offset {m['steady_state_error']:.2g} within +-{tol:.3g}, "
                 f"|e| up to {m['tail_error']:.3g}{ripple}")
     if status == "converging":
+        beyond = " (beyond this run)" if m["time_to_tolerance"] > duration else ""
+        confident = (f", fit t = {-rate / se:.2g}: a slow decay, confident at 95 %"
+                     if rate < T_SIGNIFICANT * se else "")
         return (f"converging: |e| = {m['tail_error']:.3g} > {band:.3g}{noisy} at the end, "
-                f"{trend} (time constant {1 / rate:.3g} s +- {100 * se / rate:.0f} %)"
-                f"{swings}; within the band at about t = {m['time_to_tolerance']:.3g} s{sat}")
+                f"{trend} (time constant {1 / rate:.3g} s +- {100 * se / rate:.0f} %"
+                f"{confident}){swings}; within the band at about t = "
+                f"{m['time_to_tolerance']:.3g} s{beyond}{sat}")
     if status == "oscillating":
         return (f"oscillating: {m['reversals']:.0f} reversals, swings of "
                 f"{m['oscillation_amplitude']:.3g} peak-to-peak (band {band:.3g}), period "
@@ -420,7 +424,8 @@ def _reason(status: str, m: dict, tol: float, window: float, duration: float,
             if m["envelope_change"] < -MIN_CHANGE and rate > 0:  # shrinking, not significantly
                 what = (f"slow: {trend} without a full swing ({n} reversal"
                         f"{'s' if n != 1 else ''}), time constant about {1 / rate:.3g} s, "
-                        f"longer than the run can confirm (fit t = {-rate / se:.2g})")
+                        f"longer than the run can confirm (fit t = {-rate / se:.2g}; a swing "
+                        f"slower than the window dips |e| where it crosses the reference)")
         return f"undecided: |e| = {m['tail_error']:.3g} > {band:.3g}, {what}; {longer}{sat}"
     if status == "diverged":
         return (f"diverged at t = {m['divergence_time']:.3g} s (left the bounds or became "

@@ -27,7 +27,15 @@ The statuses, in this order:
 * ``converging``: the envelope decays, significantly (``t = rate / se < -T_SIGNIFICANT``) and
   by more than :data:`MIN_CHANGE` over the window, towards the band: a strictly decreasing
   envelope whose successive drops, fitted as a geometric sequence, add up to an offset outside
-  the band is heading for that offset instead (``time_to_tolerance`` extrapolates the decay);
+  the band is heading for that offset instead (``time_to_tolerance`` extrapolates the decay).
+  A slow decay (a time constant comparable with the window) is converging too when its fit
+  is confident at 95 % (``t < -T_CONFIDENT[fit_points - 2]``, the one-sided Student
+  quantile), it shrinks by more than :data:`MIN_CHANGE`, heads for no offset, its swings are
+  not sustained, ``u`` is not pinned at a limit (saturated over less than half of the
+  window) and the envelope is measured: ``e`` stays on one side of the reference, or swings
+  with a known period (:data:`MIN_REVERSALS`), without a hump; a single slow crossing of the
+  reference makes the block maxima of ``|e|`` dip at the crossing (a V that depends on where
+  the window falls in the swing, not an envelope);
 * ``oscillating``: at least :data:`MIN_REVERSALS` reversals, swings larger than the band, not
   decaying (the envelope shrinks by less than :data:`MIN_CHANGE`, or the last swing is as
   large as the first) and not growing significantly: a limit
@@ -37,7 +45,8 @@ The statuses, in this order:
   :data:`U_DRIFT` of its level or by less than its noise, or pinned at a limit): not
   approaching the reference;
 * ``undecided``: what remains is ambiguous in this run: an envelope that grows (a limit cycle
-  or a divergence to come), swings that decay too little for the fit to tell, or a flat error
+  or a divergence to come), a decay the fit cannot confirm at 95 % (or with ``u`` pinned at
+  a limit), swings that decay too little for the fit to tell, or a flat error
   while the controller is still moving its input (a run too short to judge). A longer run
   decides.
 
@@ -140,6 +149,11 @@ MIN_REVERSALS = 2
 T_SIGNIFICANT = 4.0
 #: Relative change of the fitted envelope over the window below which it is flat.
 MIN_CHANGE = 0.05
+#: One-sided 95 % quantiles of Student's t with 1..6 degrees of freedom (index: degrees of
+#: freedom; the envelope fit has at most ``NBLOCKS - 2``): a slow decay whose fitted slope is
+#: below ``-T_CONFIDENT[dof]`` standard errors is converging (``scipy.stats.t.ppf(0.95, dof)``,
+#: checked by the tests; NaN for no degree of freedom).
+T_CONFIDENT = (np.nan, 6.3138, 2.9200, 2.3534, 2.1318, 2.0150, 1.9432)
 #: Relative change of the input's mean over the window (first block to last) above which the
 #: controller is still moving it: the loop has not come to rest, so a flat error is not a
 #: stall yet (a run too short to judge).
@@ -367,7 +381,11 @@ def classify(summary: dict) -> np.ndarray:
       within the larger of ``tol`` and the noise floor;
     * ``converging``: the envelope's fitted decay is significant (``t < -T_SIGNIFICANT``) and
       more than :data:`MIN_CHANGE` over the window, and not heading for an offset outside
-      the band (``asymptote``);
+      the band (``asymptote``); or, a slow decay, confident at 95 % (``t <
+      -T_CONFIDENT[fit_points - 2]``) and more than :data:`MIN_CHANGE`, heading for no offset,
+      without sustained swings (below), with ``u`` saturated over less than half of the
+      window, on one side of the reference over the window or with at least
+      :data:`MIN_REVERSALS` reversals, and no hump (below);
     * ``oscillating``: at least :data:`MIN_REVERSALS` reversals of a swing whose mean
       peak-to-peak exceeds the band (``tol`` and the noise floor), and sustained: the fitted
       envelope shrinks by less than :data:`MIN_CHANGE` over the window, or the last swing is at
@@ -381,8 +399,9 @@ def classify(summary: dict) -> np.ndarray:
       :data:`U_DRIFT` of its level over the window, or saturated over half of it): not
       approaching the reference;
     * ``undecided``: anything else, a trend the run cannot call: a growing envelope (with or
-      without swings), swings decaying too little for the fit to be sure, or a flat error
-      while the input still moves (too short to judge; a longer run decides).
+      without swings), a decay below 95 % confidence or with ``u`` pinned, swings decaying
+      too little for the fit to be sure, or a flat error while the input still moves (too
+      short to judge; a longer run decides).
 
     Parameters
     ----------
@@ -450,11 +469,21 @@ def _classify(summary: dict) -> np.ndarray:
         growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
         sustained = ((ev["change"] >= -MIN_CHANGE) | (ev["swing_ratio"] >= 1 - MIN_CHANGE)) \
             & ~growing
+        # a slow decay, confident at 95 % (one-sided), neither sustained swings nor u pinned,
+        # its envelope measured: on one side of the reference, or swings of a known period (a
+        # crossing with at most one reversal dips |e| at the crossing: a V, not an envelope),
+        # and no hump (the straight-line fit, whose confidence this is, describes it)
+        dof = np.clip(np.nan_to_num(ev["fit_points"]) - 2, 0, len(T_CONFIDENT) - 1).astype(int)
+        confident = t < -np.take(np.asarray(T_CONFIDENT), dof)
+        slow_decay = (confident & (ev["change"] < -MIN_CHANGE) & ~offset
+                      & ~(swinging & sustained) & (ev["saturated"] < 0.5)
+                      & (one_sided | (ev["reversals"] >= MIN_REVERSALS)) & ~hump)
     code = np.select(
-        [div, converged, decaying, swinging & sustained,
+        [div, converged, decaying, swinging & sustained, slow_decay,
          ~swinging & (flat | offset) & one_sided & ~ev["u_moving"]],
         [int(Status.DIVERGED), int(Status.CONVERGED), int(Status.CONVERGING),
-         int(Status.OSCILLATING), int(Status.STALLED)], int(Status.UNDECIDED))
+         int(Status.OSCILLATING), int(Status.CONVERGING), int(Status.STALLED)],
+        int(Status.UNDECIDED))
     return np.where(failed, int(Status.SOLVER_FAILED), code).astype(int)
 
 
@@ -468,6 +497,7 @@ __all__ = [
     "REVERSAL_HYSTERESIS",
     "STATUS_CODES",
     "STATUS_NAMES",
+    "T_CONFIDENT",
     "T_SIGNIFICANT",
     "U_DRIFT",
     "Status",

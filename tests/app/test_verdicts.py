@@ -97,3 +97,27 @@ def test_a_run_too_short_to_judge_is_undecided_not_stalled():
     # the same loop, long enough, answers
     assert fl.simulate(fl.plants.trms_yaw(), fl.presets.paper_design(),
                        fl.Scenario(0.3, 4.0)).status == "converging"
+
+
+def test_a_slow_decaying_swing_is_converging_with_its_time_constant():
+    """The demo map's slow corner (eps 0.12, 300 s runs): at gamma 7.54e-5 the swings (period
+    ~160 s) shrink, fit t -3.8 (short of T_SIGNIFICANT, confident at 95 %): converging, with the
+    fitted time constant and a time to the band beyond the run; 10 runs as long agree. At
+    gamma 4.75e-5 the window holds one crossing and no full swing: |e| dips at the crossing,
+    no envelope is measured, undecided. The oracle (whole record, SciPy) says the same."""
+    plant, design = fl.plants.trms_yaw(), fl.presets.paper_design()
+    slow = fl.simulate(plant, design.replace(eps=0.12, gamma=7.54e-5), fl.Scenario(0.3))
+    assert slow.duration == 300.0
+    assert slow.status == "converging" == status_from_trajectories(slow)
+    m = slow.metrics
+    assert m["reversals"] >= 2 and -4 < -m["decay_rate"] / m["decay_rate_se"] < -2.13
+    tau = 1 / m["decay_rate"]
+    end = m["time_to_tolerance"]
+    assert end == pytest.approx(300.0 + np.log(m["tail_error"] / 0.006) * tau, rel=1e-3)
+    assert f"time constant {tau:.3g} s" in slow.verdict()
+    assert f"within the band at about t = {end:.3g} s (beyond this run)" in slow.verdict()
+    assert fl.simulate(plant, design.replace(eps=0.12, gamma=7.54e-5),
+                       fl.Scenario(0.3, 3000.0)).status in ("converging", "converged")
+    crossing = fl.simulate(plant, design.replace(eps=0.12, gamma=4.75e-5), fl.Scenario(0.3))
+    assert crossing.status == "undecided" == status_from_trajectories(crossing)
+    assert crossing.metrics["reversals"] < 2

@@ -57,6 +57,14 @@ def _signals() -> dict:
         "slow sine": (0.05 * np.sin(2 * np.pi * t / 500), 0.0, "undecided"),  # rises: no swing
         "slow hump": (0.05 * np.sin(2 * np.pi * t / 300), 0.0, "undecided"),  # half a swing
         "ramp away": (0.02 + 1e-3 * t, 0.0, "undecided"),
+        # a slow decay (tau 600 s, 9 % over the window) seen through a 6 % wobble: the fit's
+        # t (-3.9) is short of T_SIGNIFICANT but confident at 95 %: converging
+        "slow wobbly decay": (0.05 * np.exp(-t / 600) * (1 + 0.06 * np.sin(2 * np.pi * t / 17)),
+                              0.0, "converging"),
+        # a decaying swing slower than the window crossing the reference once (t = -3.6): |e|
+        # dips at the crossing, a V rather than an envelope: undecided
+        "slow crossing": (0.05 * np.exp(-t / 200) * np.cos(2 * np.pi * t / 120), 0.0,
+                          "undecided"),
         "noisy offset": (0.03 + jitter, 0.0, "stalled"),
         "noise ripple": (ripple, noise, "converged"),
         "ripple at an offset": (0.3 + ripple, noise, "stalled"),
@@ -80,6 +88,42 @@ def test_accumulated_evidence_equals_the_record_s_and_names_the_status(name):
     assert Status(int(metrics_from_summary(acc, 0.05)["status"])).label == status
     # the same record negated gives the same evidence
     assert evidence(_run_table(-e, k_tail, noise))["reversals"] == want["reversals"]
+
+
+def test_the_confidence_table_is_student_s_one_sided_95_percent_quantile():
+    from scipy.stats import t as student
+
+    from fl_design.sim._status import NBLOCKS, T_CONFIDENT
+
+    assert len(T_CONFIDENT) == NBLOCKS - 1 and math.isnan(T_CONFIDENT[0])
+    for dof in range(1, NBLOCKS - 1):
+        assert T_CONFIDENT[dof] == pytest.approx(student.ppf(0.95, dof), abs=1e-4), dof
+
+
+@pytest.mark.parametrize("name, slow_tier", [("slow wobbly decay", True),
+                                             ("slow crossing", False)])
+def test_a_slow_decay_is_converging_only_when_confident_and_its_envelope_is_measured(
+        name, slow_tier):
+    """Both records have a fit t between -T_SIGNIFICANT and -T_CONFIDENT (so only the 95 %
+    rule can call them converging); the one on one side of the reference is converging, the
+    one crossing it with no reversal is not (its |e| dips at the crossing)."""
+    from fl_design.sim._status import T_CONFIDENT, T_SIGNIFICANT
+
+    e, noise, status = _signals()[name]
+    acc = _run_table(e, int(0.8 * e.size), noise)
+    ev = evidence(acc)
+    t = float(ev["rate"] / ev["rate_se"])
+    assert -T_SIGNIFICANT < t < -T_CONFIDENT[int(ev["fit_points"]) - 2]
+    assert float(ev["change"]) < -0.05
+    one_sided = acc["win_e_min"] > -float(ev["band"]) or acc["win_e_max"] < float(ev["band"])
+    assert one_sided == slow_tier and ev["reversals"] < 2
+    m = metrics_from_summary(acc, 0.05)
+    assert Status(int(m["status"])).label == status
+    if slow_tier:  # the fitted time constant and the time to the band it gives
+        tau = 1 / float(m["decay_rate"])
+        assert tau == pytest.approx(-1 / float(ev["rate"]) * 0.05, rel=1e-12)
+        more = math.log(acc["tail_abs_e_max"] / float(ev["band"])) * tau
+        assert float(m["time_to_tolerance"]) == pytest.approx(e.size * 0.05 + more, rel=1e-9)
 
 
 def test_time_at_the_input_limits_is_counted_over_the_window():
