@@ -50,3 +50,18 @@ def test_predictive_check_quick():
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.count("6 x 6 grid") == 2
     assert "predictive check: holds" in proc.stdout and "FAILS" not in proc.stdout
+
+
+def test_predictive_check_full_range_is_the_demo_map_s():
+    """``--full-range`` checks the TRMS over the ranges of the demo's map (examples/trms.toml
+    [sweep], the default configuration of ``fl-design run``)."""
+    import importlib.util
+    import tomllib
+
+    spec = importlib.util.spec_from_file_location(
+        "predictive_check", ROOT / "verify" / "predictive_check.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    with open(ROOT / "examples" / "trms.toml", "rb") as f:
+        sweep = tomllib.load(f)["sweep"]
+    assert module.FULL_RANGE == {"trms": (*sweep["eps"], *sweep["gamma"])}
