@@ -28,27 +28,22 @@ The statuses, in this order:
   by more than :data:`MIN_CHANGE` over the window, towards the band: a strictly decreasing
   envelope whose successive drops, fitted as a geometric sequence, add up to an offset outside
   the band is heading for that offset instead (``time_to_tolerance`` extrapolates the decay).
-  A slow decay (a time constant comparable with the window) is converging too when its fit
-  is confident at 95 % (``t < -T_CONFIDENT[fit_points - 2]``, the one-sided Student
-  quantile), it shrinks by more than :data:`MIN_CHANGE`, heads for no offset, its swings are
-  not sustained, ``u`` is not pinned at a limit (saturated over less than half of the
-  window) and the envelope is measured: ``e`` stays on one side of the reference, or swings
-  with a known period (:data:`MIN_REVERSALS`), without a hump; a single slow crossing of the
-  reference makes the block maxima of ``|e|`` dip at the crossing (a V that depends on where
-  the window falls in the swing, not an envelope);
+  A slow decay is converging too when its fit is confident at 95 % (:data:`T_CONFIDENT`),
+  with the envelope measured: ``e`` on one side of the reference or swings of a known period
+  (a single slow crossing dips ``|e|``: a V that depends on where the window falls in the
+  swing, not an envelope); the conditions are listed in :func:`classify`;
 * ``oscillating``: at least :data:`MIN_REVERSALS` reversals, swings larger than the band, not
   decaying (the envelope shrinks by less than :data:`MIN_CHANGE`, or the last swing is as
-  large as the first) and not growing significantly: a limit
-  cycle (how an unstable loop usually looks behind input saturation);
+  large as the first) and not growing significantly: a limit cycle (how an unstable loop
+  usually looks behind input saturation);
 * ``stalled``: bounded, outside the band, no such swings, envelope flat or heading for an
   offset, and the loop at rest (the input steady: drifting over the window by at most
   :data:`U_DRIFT` of its level or by less than its noise, or pinned at a limit): not
   approaching the reference;
 * ``undecided``: what remains is ambiguous in this run: an envelope that grows (a limit cycle
   or a divergence to come), a decay the fit cannot confirm at 95 % (or with ``u`` pinned at
-  a limit), swings that decay too little for the fit to tell, or a flat error
-  while the controller is still moving its input (a run too short to judge). A longer run
-  decides.
+  a limit), swings that decay too little for the fit to tell, or a flat error while the
+  controller is still moving its input (a run too short to judge). A longer run decides.
 
 The integer codes are what a :class:`fl_design.StabilityMap` stores; ``undecided`` (3) and
 ``stalled`` (4) were added after the others, which keep their codes: test membership with
@@ -67,6 +62,8 @@ from __future__ import annotations
 import enum
 
 import numpy as np
+
+from ._envelope import asymptote, curvature_t, fit_line
 
 
 class Status(enum.IntEnum):
@@ -149,10 +146,8 @@ MIN_REVERSALS = 2
 T_SIGNIFICANT = 4.0
 #: Relative change of the fitted envelope over the window below which it is flat.
 MIN_CHANGE = 0.05
-#: One-sided 95 % quantiles of Student's t with 1..6 degrees of freedom (index: degrees of
-#: freedom; the envelope fit has at most ``NBLOCKS - 2``): a slow decay whose fitted slope is
-#: below ``-T_CONFIDENT[dof]`` standard errors is converging (``scipy.stats.t.ppf(0.95, dof)``,
-#: checked by the tests; NaN for no degree of freedom).
+#: One-sided 95 % Student quantiles ``scipy.stats.t.ppf(0.95, dof)``, indexed by the envelope
+#: fit's degrees of freedom (at most ``NBLOCKS - 2``; NaN for none): a slow decay's confidence.
 T_CONFIDENT = (np.nan, 6.3138, 2.9200, 2.3534, 2.1318, 2.0150, 1.9432)
 #: Relative change of the input's mean over the window (first block to last) above which the
 #: controller is still moving it: the loop has not come to rest, so a flat error is not a
@@ -184,81 +179,6 @@ def window_geometry(summary: dict):
     n = 2 * np.asarray(summary["k_mid"], dtype=float) - np.asarray(summary["k_tail"], dtype=float)
     start = np.floor(n / 2)
     return start, (n - start) / NBLOCKS
-
-
-def _fit(env: np.ndarray, centres: np.ndarray):
-    """Least-squares line through ``log env`` against ``centres`` (last axis): slope, its
-    standard error and the points used (finite, positive entries only)."""
-    ok = np.isfinite(env) & (env > 0)
-    n = ok.sum(axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        y = np.where(ok, np.log(np.where(ok, env, 1.0)), 0.0)
-        x = np.where(ok, centres, 0.0)
-        xm, ym = x.sum(-1) / n, y.sum(-1) / n
-        dx = np.where(ok, x - xm[..., None], 0.0)
-        dy = np.where(ok, y - ym[..., None], 0.0)
-        sxx = (dx * dx).sum(-1)
-        slope = (dx * dy).sum(-1) / sxx
-        resid = np.where(ok, dy - slope[..., None] * dx, 0.0)
-        se = np.sqrt((resid * resid).sum(-1) / np.maximum(n - 2, 1) / sxx)
-        level = ym + slope * (np.where(ok, centres, -np.inf).max(-1) - xm)
-    enough = n >= 3
-    return (np.where(enough, slope, np.nan), np.where(enough, se, np.nan),
-            np.where(enough, np.exp(level), np.nan), n)
-
-
-def _inverse3(m: np.ndarray) -> np.ndarray:
-    """Inverses of a stack of symmetric 3 x 3 normal matrices: batched LU where they are well
-    conditioned (thousands of runs: 10x faster than ``pinv``'s SVDs), ``pinv`` for the rest."""
-    out = np.empty_like(m)
-    flat, res = m.reshape(-1, 3, 3), out.reshape(-1, 3, 3)
-    scale = np.abs(np.trace(flat, axis1=1, axis2=2)) / 3.0
-    with np.errstate(all="ignore"):
-        ok = np.abs(np.linalg.det(flat)) > 1e-12 * scale ** 3 if flat.shape[0] else \
-            np.zeros(0, bool)
-    ok &= np.all(np.isfinite(flat), axis=(1, 2))
-    if np.any(ok):
-        res[ok] = np.linalg.inv(flat[ok])
-    if np.any(~ok):
-        res[~ok] = np.linalg.pinv(flat[~ok])
-    return out
-
-
-def _curvature_t(env: np.ndarray, centres: np.ndarray) -> np.ndarray:
-    """``t`` statistic of the quadratic term of ``log env`` against ``centres`` (last axis; all
-    points finite, at least 5; NaN otherwise): a hump or a trough, half a swing slower than
-    the window, is not a flat envelope."""
-    ok = np.all(np.isfinite(env) & (env > 0), axis=-1) & (env.shape[-1] >= 5)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        y = np.log(np.where(np.isfinite(env) & (env > 0), env, 1.0))
-        x = centres - centres.mean(-1, keepdims=True)
-        x = x / np.max(np.abs(x), axis=-1, keepdims=True)
-        X = np.stack([np.ones_like(x), x, x * x], -1)
-        X = np.broadcast_to(X, (*y.shape, 3))
-        xtx = np.einsum("...ki,...kj->...ij", X, X)
-        inv = _inverse3(xtx)
-        coef = np.einsum("...ij,...kj,...k->...i", inv, X, y)
-        resid = y - np.einsum("...ki,...i->...k", X, coef)
-        # residuals below 1e-9 (relative) are rounding: a perfect exponential has no curvature
-        var = np.maximum((resid * resid).sum(-1) / max(env.shape[-1] - 3, 1), 1e-18)
-        t = coef[..., 2] / np.sqrt(var * inv[..., 2, 2])
-    return np.where(ok, t, np.nan)
-
-
-def _asymptote(env: np.ndarray) -> np.ndarray:
-    """Where a monotone decaying envelope (last axis) is heading: ``env_last - d_last q / (1 -
-    q)``, the differences ``d`` of successive values fitted as a geometric sequence of ratio
-    ``q < 1`` (``E = c + A q^i`` gives ``c``; an exponential to zero gives 0). NaN when the
-    envelope is not strictly decreasing, has fewer than 4 points, or ``q >= 1``."""
-    d = env[..., :-1] - env[..., 1:]
-    ok = np.all(np.isfinite(d) & (d > 0), axis=-1) & (env.shape[-1] >= 4)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        y = np.log(np.where(d > 0, d, 1.0))
-        x = np.arange(d.shape[-1], dtype=float)
-        xc = x - x.mean()
-        q = np.exp((y * xc).sum(-1) / (xc * xc).sum())
-        c = env[..., -1] - d[..., -1] * q / (1 - q)
-    return np.where(ok & (q < 1), c, np.nan)
 
 
 def evidence(summary: dict) -> dict:
@@ -341,7 +261,7 @@ def _evidence(summary: dict) -> dict:
         m = NBLOCKS - w + 1
         env = np.stack([np.max(block[..., i:i + w], axis=-1) for i in range(m)], -1)
         centres = (np.arange(m) + w / 2) * np.broadcast_to(length, shape)[..., None]
-        fit = (*_fit(env, centres), _asymptote(env), _curvature_t(env, centres))
+        fit = (*fit_line(env, centres), asymptote(env), curvature_t(env, centres))
         for out, value in zip((slope, se, level, npts, heading, curved), fit):
             out[pick] = np.broadcast_to(value, shape)[pick]
     span = np.broadcast_to(length, shape) * (NBLOCKS - width)
@@ -469,10 +389,7 @@ def _classify(summary: dict) -> np.ndarray:
         growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
         sustained = ((ev["change"] >= -MIN_CHANGE) | (ev["swing_ratio"] >= 1 - MIN_CHANGE)) \
             & ~growing
-        # a slow decay, confident at 95 % (one-sided), neither sustained swings nor u pinned,
-        # its envelope measured: on one side of the reference, or swings of a known period (a
-        # crossing with at most one reversal dips |e| at the crossing: a V, not an envelope),
-        # and no hump (the straight-line fit, whose confidence this is, describes it)
+        # a slow decay (rules in the docstring); no hump: the fit's line describes the envelope
         dof = np.clip(np.nan_to_num(ev["fit_points"]) - 2, 0, len(T_CONFIDENT) - 1).astype(int)
         confident = t < -np.take(np.asarray(T_CONFIDENT), dof)
         slow_decay = (confident & (ev["change"] < -MIN_CHANGE) & ~offset
