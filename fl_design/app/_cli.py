@@ -159,7 +159,7 @@ def _cmd_run(args) -> int:
     job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
                   progress=not args.no_progress, force=args.force)
     start = time.perf_counter()
-    paths = write_report(job, out, force=args.force)
+    paths = write_report(job, out, force=args.force, main_csv=args.main_csv)
     note(f"report (figures, HTML, Markdown, JSON, CSV) written in "
          f"{time.perf_counter() - start:.1f} s", enabled=not args.no_progress)
     print_job(job)
@@ -346,6 +346,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run = sub.add_parser("run", help="the main job: every stage and the report")
     _common(run, out=True, scheduler=True)
+    run.add_argument("--main-csv", action="store_true",
+                     help="also write the main run as CSV (runs/main_noise<std>.csv: every "
+                     "sample, 300 000 rows for a 300 s run); the compared runs are always written")
     run.set_defaults(func=_cmd_run)
     init = sub.add_parser("init", help="write a commented config (every table and key) to "
                           "stdout; `fl-design run` accepts it as is")

@@ -242,8 +242,9 @@ def _run_row(resp) -> dict:
             "duration_reason": resp.duration_reason, "metrics": m}
 
 
-def write_report(job, out_dir, *, force: bool = False) -> dict:
-    """Write ``report.html``, ``report.md``, the PNG figures and ``summary.json``.
+def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -> dict:
+    """Write ``report.html``, ``report.md``, the PNG figures, ``summary.json`` and the compared
+    runs as CSV (:func:`write_runs_csv`).
 
     Parameters
     ----------
@@ -254,6 +255,9 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
         (:func:`fl_design._output.claim_output_folder`).
     force : bool, optional
         Write even into a folder holding other files (they may be replaced).
+    main_csv : bool, optional
+        Also write the main run as CSV (the default 300 s run is 300 000 rows, ~73 MB and
+        ~3 s of float formatting: opt-in, ``fl-design run --main-csv``).
 
     Returns
     -------
@@ -277,7 +281,7 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
     paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
     paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
-    csv = write_runs_csv(job, folder)
+    csv = write_runs_csv(job, folder, main=main_csv)
     record_outputs(folder, [*paths.values(), *(folder / name for name in figures),
                             *(folder / name for name in csv)])
     return {**{k: str(v) for k, v in paths.items()}, "figures": figures, "csv": csv}
@@ -310,9 +314,14 @@ def run_csv_name(design: str, std: float) -> str:
     return f"runs/{safe}_noise{std:g}.csv"
 
 
-def write_runs_csv(job, folder) -> list:
-    """Write every simulated run (the compared runs and the main run) as CSV under
-    ``folder/runs`` (:meth:`fl_design.Response.to_csv`); return the relative paths.
+def write_runs_csv(job, folder, *, main: bool = False) -> list:
+    """Write the compared runs (and, with ``main``, the main run) as CSV under
+    ``folder/runs`` (:meth:`fl_design.Response.to_csv`: every sample, exact); return the
+    relative paths.
+
+    Without ``main``, a main-run CSV this folder holds from fl_design's own earlier run
+    (recorded in its marker, unchanged) is removed, so the folder never pairs this report with
+    an older main run; a file fl_design did not write is left alone.
 
     Parameters
     ----------
@@ -320,6 +329,9 @@ def write_runs_csv(job, folder) -> list:
         A job (nothing is written without its simulate stage).
     folder : str or pathlib.Path
         The report's folder.
+    main : bool, optional
+        Also write the main run (``runs/main_noise<std>.csv``; 300 000 rows for the default
+        300 s run, so opt-in).
 
     Returns
     -------
@@ -337,7 +349,11 @@ def write_runs_csv(job, folder) -> list:
     if not sim:
         return []
     runs = dict(sim["runs"])
-    runs[("main", job.config.scenario.noise_std)] = sim["main"]
+    main_key = ("main", job.config.scenario.noise_std)
+    if main:
+        runs[main_key] = sim["main"]
+    else:
+        _remove_own(Path(folder), run_csv_name(*main_key))
     out = Path(folder) / "runs"
     out.mkdir(exist_ok=True)
     names = []
@@ -346,6 +362,16 @@ def write_runs_csv(job, folder) -> list:
         resp.to_csv(Path(folder) / name, overwrite=True)  # the report's own folder
         names.append(name)
     return names
+
+
+def _remove_own(folder: Path, name: str) -> None:
+    """Delete ``folder/name`` only if the folder's marker records it with this content."""
+    from .._output import _digest, _recorded
+
+    sha = (_recorded(folder) or {}).get(name)
+    target = folder / name
+    if sha is not None and _digest(target) == sha:
+        target.unlink()
 
 
 __all__ = ["FIGURES", "render_html", "render_markdown", "run_csv_name", "summary",
