@@ -161,7 +161,9 @@ def _cmd_run(args) -> int:
     start = time.perf_counter()
     paths = write_report(job, out, force=args.force, main_csv=args.main_csv)
     note(f"report (figures, HTML, Markdown, JSON, CSV) written in "
-         f"{time.perf_counter() - start:.1f} s", enabled=not args.no_progress)
+         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s, "
+         f"{len(paths['csv'])} runs as CSV {job.timings['report_csv']:.1f} s)",
+         enabled=not args.no_progress)
     print_job(job)
     runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
     print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "

@@ -246,6 +246,9 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -
     """Write ``report.html``, ``report.md``, the PNG figures, ``summary.json`` and the compared
     runs as CSV (:func:`write_runs_csv`).
 
+    The seconds spent on the figures and on the CSV files are added to ``job.timings``
+    (``report_figures``, ``report_csv``; ``summary.json`` lists them).
+
     Parameters
     ----------
     job : Job
@@ -272,8 +275,15 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -
     >>> sorted(write_report(job, "."))
     ['csv', 'figures', 'html', 'markdown', 'summary']
     """
+    import time
+
     folder = claim_output_folder(out_dir, force=force, what="report folder")
+    start = time.perf_counter()
     figures = _figures(job, folder) + save_robust_map_figure(job, folder)
+    job.timings["report_figures"] = time.perf_counter() - start
+    start = time.perf_counter()
+    csv = write_runs_csv(job, folder, main=main_csv)
+    job.timings["report_csv"] = time.perf_counter() - start  # before summary.json: in it
     secs = sections(job, figures)
     title = f"fl_design report: {job.plant.name}, {design_label(job.design)}"
     paths = {"html": folder / "report.html", "markdown": folder / "report.md",
@@ -281,7 +291,6 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -
     paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
     paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
-    csv = write_runs_csv(job, folder, main=main_csv)
     record_outputs(folder, [*paths.values(), *(folder / name for name in figures),
                             *(folder / name for name in csv)])
     return {**{k: str(v) for k, v in paths.items()}, "figures": figures, "csv": csv}
