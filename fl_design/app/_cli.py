@@ -151,18 +151,26 @@ def _prepare(cfg):
 def _cmd_run(args) -> int:
     from ._console import print_job
     from ._job import note, run_job
-    from ._report_write import write_report
+    from ._report_write import BackgroundCsv, write_report
 
     cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
     executor = _executor(args.scheduler)
-    job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
-                  progress=not args.no_progress, force=args.force)
+    csv = BackgroundCsv(out, main=args.main_csv)
+    try:
+        job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
+                      progress=not args.no_progress, force=args.force, after=csv.after)
+    except Exception:
+        csv.wait()  # a later stage failed: no half-written CSV file left behind
+        raise
     start = time.perf_counter()
-    paths = write_report(job, out, force=args.force, main_csv=args.main_csv)
-    note(f"report (figures, HTML, Markdown, JSON, CSV) written in "
-         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s, "
-         f"{len(paths['csv'])} runs as CSV {job.timings['report_csv']:.1f} s)",
+    written = csv.result()
+    paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
+                         csv_written=written)
+    during = " during the C stage" if written is not None else ""
+    note(f"report (figures, HTML, Markdown, JSON) written in "
+         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
+         f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
          enabled=not args.no_progress)
     print_job(job)
     runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import base64
 import html
+import time
 from pathlib import Path
 
 from .._json import dumps, jsonable
@@ -242,7 +243,8 @@ def _run_row(resp) -> dict:
             "duration_reason": resp.duration_reason, "metrics": m}
 
 
-def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -> dict:
+def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
+                 csv_written: list | None = None) -> dict:
     """Write ``report.html``, ``report.md``, the PNG figures, ``summary.json`` and the compared
     runs as CSV (:func:`write_runs_csv`).
 
@@ -261,6 +263,10 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -
     main_csv : bool, optional
         Also write the main run as CSV (the default 300 s run is 300 000 rows, ~73 MB and
         ~3 s of float formatting: opt-in, ``fl-design run --main-csv``).
+    csv_written : list of str, optional
+        The CSV files the caller already wrote into this folder (:func:`write_runs_csv`'s
+        result; ``fl-design run`` writes them while the C compilers run): recorded, not
+        written again.
 
     Returns
     -------
@@ -275,15 +281,16 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False) -
     >>> sorted(write_report(job, "."))
     ['csv', 'figures', 'html', 'markdown', 'summary']
     """
-    import time
-
     folder = claim_output_folder(out_dir, force=force, what="report folder")
     start = time.perf_counter()
     figures = _figures(job, folder) + save_robust_map_figure(job, folder)
     job.timings["report_figures"] = time.perf_counter() - start
-    start = time.perf_counter()
-    csv = write_runs_csv(job, folder, main=main_csv)
-    job.timings["report_csv"] = time.perf_counter() - start  # before summary.json: in it
+    if csv_written is None:
+        start = time.perf_counter()
+        csv = write_runs_csv(job, folder, main=main_csv)
+        job.timings["report_csv"] = time.perf_counter() - start  # before summary.json: in it
+    else:
+        csv = list(csv_written)
     secs = sections(job, figures)
     title = f"fl_design report: {job.plant.name}, {design_label(job.design)}"
     paths = {"html": folder / "report.html", "markdown": folder / "report.md",
@@ -383,5 +390,95 @@ def _remove_own(folder: Path, name: str) -> None:
         target.unlink()
 
 
-__all__ = ["FIGURES", "render_html", "render_markdown", "run_csv_name", "summary",
+_CSV_TIMEOUT = 900.0  # seconds: a 300 s main run's CSV takes about 3 s
+
+
+class BackgroundCsv:
+    """Write the runs' CSV files (:func:`write_runs_csv`) in a thread started when the
+    ``simulate`` stage is done: the float formatting (seconds for the full job) runs while the
+    C stage waits for its compilers. ``fl-design run`` passes :meth:`after` to
+    :func:`~fl_design.app.run_job` and :meth:`result` to :func:`write_report`.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The report's folder (already claimed: :func:`fl_design._output.claim_output_folder`).
+    main : bool
+        Also write the main run.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job
+    >>> import tempfile
+    >>> from fl_design.app._report_write import BackgroundCsv
+    >>> w = BackgroundCsv(tempfile.mkdtemp(), main=False)  # a new, empty folder
+    >>> job = run_job(load_config(None), quick=True, stages=("derive", "simulate"),
+    ...               progress=False, after=w.after)
+    >>> len(w.result()) == len(job.results["simulate"]["runs"])
+    True
+    """
+
+    def __init__(self, out, *, main: bool):
+        self.out, self.main = out, main
+        self.thread = self.names = self.error = None
+
+    def after(self, stage: str, job) -> None:
+        """Start the thread when ``stage`` is ``simulate`` (a :func:`run_job` ``after`` hook).
+
+        Examples
+        --------
+        >>> from fl_design.app._report_write import BackgroundCsv
+        >>> w = BackgroundCsv(".", main=False)
+        >>> w.after("sweep", None); w.thread is None
+        True
+        """
+        if stage != "simulate":
+            return
+        import threading
+
+        def work():
+            start = time.perf_counter()
+            try:
+                self.names = write_runs_csv(job, self.out, main=self.main)
+            except BaseException as exc:  # noqa: BLE001 - re-raised in the main thread
+                self.error = exc
+            job.timings["report_csv"] = time.perf_counter() - start
+
+        self.thread = threading.Thread(target=work, name="fl-design-csv", daemon=True)
+        self.thread.start()
+
+    def wait(self) -> None:
+        """Wait for the thread (at most 900 s; errors stay for :meth:`result`).
+
+        Examples
+        --------
+        >>> from fl_design.app._report_write import BackgroundCsv
+        >>> BackgroundCsv(".", main=False).wait()
+        """
+        if self.thread is not None:
+            self.thread.join(timeout=_CSV_TIMEOUT)
+
+    def result(self) -> list | None:
+        """The files written (None: never started); the thread's error is raised here.
+
+        Examples
+        --------
+        >>> from fl_design.app._report_write import BackgroundCsv
+        >>> BackgroundCsv(".", main=False).result() is None
+        True
+        """
+        from ..errors import ComputationError
+
+        if self.thread is None:
+            return None
+        self.wait()
+        if self.thread.is_alive():
+            raise ComputationError(f"writing the runs' CSV files into {str(self.out)!r} took "
+                                   f"over {_CSV_TIMEOUT:.0f} s; is the folder on a slow disk?")
+        if self.error is not None:
+            raise self.error
+        return self.names
+
+
+__all__ = ["FIGURES", "BackgroundCsv", "render_html", "render_markdown", "run_csv_name", "summary",
            "write_report", "write_runs_csv"]

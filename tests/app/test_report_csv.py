@@ -33,3 +33,32 @@ def test_a_main_csv_we_did_not_write_is_left_alone(job, tmp_path):
     theirs.write_text("t,y\n0,1\n", encoding="utf-8")
     write_report(job, tmp_path, force=True)
     assert theirs.read_text(encoding="utf-8") == "t,y\n0,1\n"
+
+
+def test_background_writer_during_the_job_gives_the_same_files(tmp_path):
+    from fl_design._output import MARKER, claim_output_folder
+    from fl_design.app._report_write import BackgroundCsv
+
+    folder = claim_output_folder(tmp_path / "out")
+    writer = BackgroundCsv(folder, main=False)
+    job = run_job(load_config(None), quick=True, stages=("derive", "simulate"),
+                  progress=False, after=writer.after)
+    names = writer.result()
+    runs = job.results["simulate"]["runs"]
+    assert sorted(names) == sorted(run_csv_name(d, s) for d, s in runs)
+    for (design, std), resp in runs.items():
+        assert (folder / run_csv_name(design, std)).read_text(encoding="utf-8") == resp.to_csv()
+    stamps = {n: (folder / n).stat().st_mtime_ns for n in names}
+    paths = write_report(job, folder, csv_written=names)
+    assert paths["csv"] == names and job.timings["report_csv"] > 0
+    assert {n: (folder / n).stat().st_mtime_ns for n in names} == stamps  # not written again
+    assert all(n in (folder / MARKER).read_text(encoding="utf-8") for n in names)
+
+
+def test_background_writer_error_is_raised_in_the_caller(job, tmp_path):
+    from fl_design.app._report_write import BackgroundCsv
+
+    writer = BackgroundCsv(tmp_path / "missing" / "deeper", main=False)
+    writer.after("simulate", job)
+    with pytest.raises(OSError):
+        writer.result()
