@@ -165,9 +165,12 @@ def _cmd_run(args) -> int:
         raise
     start = time.perf_counter()
     written = csv.result()
+    waited = time.perf_counter() - start
+    start = time.perf_counter()
     paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
                          csv_written=written)
-    during = " during the C stage" if written is not None else ""
+    during = (f" (from the end of simulate; {waited:.1f} s of it after the C stage)"
+              if written is not None else "")
     note(f"report (figures, HTML, Markdown, JSON) written in "
          f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
          f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
