@@ -169,7 +169,8 @@ def _cmd_run(args) -> int:
     start = time.perf_counter()
     paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
                          csv_written=written)
-    during = (f" (from the end of simulate; {waited:.1f} s of it after the C stage)"
+    during = (f" (CPU {csv.cpu:.1f} s, also counted in the stages running beside it; from the "
+              f"end of simulate, {waited:.1f} s of it after the C stage)"
               if written is not None else "")
     note(f"report (figures, HTML, Markdown, JSON) written in "
          f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "

@@ -421,6 +421,7 @@ class BackgroundCsv:
     def __init__(self, out, *, main: bool):
         self.out, self.main = out, main
         self.thread = self.names = self.error = None
+        self.cpu = 0.0  # seconds of CPU the thread used
 
     def after(self, stage: str, job) -> None:
         """Start the thread when ``stage`` is ``simulate`` (a :func:`run_job` ``after`` hook).
@@ -437,12 +438,13 @@ class BackgroundCsv:
         import threading
 
         def work():
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.thread_time()
             try:
                 self.names = write_runs_csv(job, self.out, main=self.main)
             except BaseException as exc:  # noqa: BLE001 - re-raised in the main thread
                 self.error = exc
             job.timings["report_csv"] = time.perf_counter() - start
+            self.cpu = time.thread_time() - cpu  # also in the stages' process CPU times
 
         self.thread = threading.Thread(target=work, name="fl-design-csv", daemon=True)
         self.thread.start()
