@@ -328,9 +328,10 @@ def cost_key(pkg, *, name: str, bench_steps: int, compiler: str) -> str:
     """The content key of a package's :class:`StepCost` (:func:`compare_costs` ``cache=True``).
 
     SHA-256 of :data:`COST_FORMAT`, the row's name, the precision, the timing run's length,
-    every file the package holds (``build/`` aside), the flags, the host compiler and (for
-    ``float``) ``arm-none-eabi-gcc`` (resolved path and ``--version``), the source of
-    ``fl_design.codegen`` and this machine (host name, architecture, CPU model).
+    every file at the package's top level (not ``build/``, ``pil/`` or the output marker),
+    the flags, the host compiler and (for ``float``) ``arm-none-eabi-gcc`` (resolved path and
+    ``--version``), the source of ``fl_design.codegen`` and this machine (host name,
+    architecture, CPU model).
 
     Parameters
     ----------
@@ -369,8 +370,8 @@ def cost_key(pkg, *, name: str, bench_steps: int, compiler: str) -> str:
                  _tool(compiler), _tool("arm-none-eabi-gcc") if pkg.precision == "float"
                  else "", _machine()):
         part(item)
-    for f in sorted(Path(pkg.out_dir).iterdir()):
-        if f.is_file() and not f.is_symlink():
+    for f in sorted(Path(pkg.out_dir).iterdir()):  # the package's files (not the marker)
+        if f.is_file() and not f.is_symlink() and not f.name.startswith("."):
             part(f.name)
             part(f.read_bytes())
     for f in sorted(Path(__file__).parent.glob("*.py")):
