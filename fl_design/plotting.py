@@ -30,6 +30,75 @@ STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "conv
                  "undecided (run longer)", "stalled")
 
 
+#: Time buckets per line in the report's figures (:func:`thin_line`): more than the pixel
+#: columns of any axes it draws (at most about 700 at 100 dpi).
+REPORT_BUCKETS = 2000
+
+
+def thin_line(t, y, buckets: int | None = REPORT_BUCKETS):
+    """The samples of a line that decide its picture at ``buckets`` columns or fewer (M4).
+
+    ``t`` is cut into ``buckets`` runs of consecutive samples; each keeps its first and last
+    sample, its smallest and its largest finite value, and its first NaN (where the drawn line
+    breaks), in time order. Drawn on axes narrower than ``buckets`` pixel columns, the line
+    covers the same pixels as the full one (up to antialiasing), at a fraction of the drawing
+    time (a 300 000-sample run: 10 000 points instead). Short lines come back unchanged; so
+    does everything with ``buckets=None``. Zoomed in, the thinned line shows less: for
+    interactive figures keep every sample.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Times, increasing.
+    y : array_like, shape (n,)
+        Values (NaN allowed).
+    buckets : int or None, optional
+        Number of runs (default :data:`REPORT_BUCKETS`); None: no thinning.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        The kept times and values.
+
+    Raises
+    ------
+    ParameterError
+        ``t`` and ``y`` differ in length, or ``buckets`` is not a positive integer.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.plotting import thin_line
+    >>> t = np.arange(100_000) * 1e-3
+    >>> tt, yy = thin_line(t, np.sin(t), buckets=100)
+    >>> len(tt) <= 500, bool(yy.max() == np.sin(t).max()), bool(tt[-1] == t[-1])
+    (True, True, True)
+    """
+    t, y = np.asarray(t), np.asarray(y)
+    if t.shape != y.shape or t.ndim != 1:
+        raise ParameterError(f"t and y must be 1-D of one length, got shapes {t.shape} "
+                             f"and {y.shape}")
+    if buckets is None:
+        return t, y
+    if isinstance(buckets, bool) or not isinstance(buckets, (int, np.integer)) or buckets < 1:
+        raise ParameterError(f"buckets must be a positive integer or None, got {buckets!r}")
+    n = len(y)
+    k = -(-n // buckets)  # samples per bucket
+    if n <= 5 * buckets or k < 2:
+        return t, y
+    m = n // k * k  # whole buckets; the rest is kept as is
+    yb = y[:m].reshape(-1, k)
+    bad = np.isnan(yb)
+    base = np.arange(0, m, k)[:, None]
+    lo = np.argmin(np.where(bad, np.inf, yb), axis=1)[:, None]
+    hi = np.argmax(np.where(bad, -np.inf, yb), axis=1)[:, None]
+    first_nan = np.where(bad.any(axis=1), np.argmax(bad, axis=1), 0)[:, None]
+    idx = base + np.sort(np.hstack([np.zeros_like(lo), lo, hi, first_nan,
+                                    np.full_like(lo, k - 1)]), axis=1)
+    idx = np.concatenate([idx.ravel(), np.arange(m, n)])
+    return t[idx], y[idx]
+
+
 def _new_axes(nrows: int, sharex: bool = True, figsize=(7.0, 6.0)):
     import matplotlib.pyplot as plt
 
@@ -89,7 +158,7 @@ def log_axes(ax, x: bool = True, y: bool = True) -> None:
         axis.set_minor_formatter(NullFormatter())
 
 
-def plot_response(resp, *, axes=None, title: str | None = None):
+def plot_response(resp, *, axes=None, title: str | None = None, buckets: int | None = None):
     """Output and reference, input, and ``sigma`` with its estimate, over time.
 
     Parameters
@@ -100,6 +169,9 @@ def plot_response(resp, *, axes=None, title: str | None = None):
         Where to draw (default a new figure).
     title : str, optional
         Title (default: status and key metrics).
+    buckets : int, optional
+        Draw each line from :func:`thin_line` with this many buckets (the report: a PNG at
+        a fixed size); default every sample.
 
     Returns
     -------
@@ -121,19 +193,21 @@ def plot_response(resp, *, axes=None, title: str | None = None):
         if len(axes) != 3:
             raise ParameterError(f"axes must be 3 matplotlib Axes, got {len(axes)}")
         fig = axes[0].figure
-    t = resp.t
+    def line(y):
+        return thin_line(resp.t, y, buckets)
+
     ax = axes[0]
     if np.any(resp.ym != resp.y):
-        ax.plot(t, resp.ym, color="0.75", lw=0.6, label="measured")
-    ax.plot(t, resp.r, "k--", lw=1.0, label="reference")
-    ax.plot(t, resp.y, color="C0", lw=1.4, label="y")
-    ax.plot(t, resp.xhat[:, 0], color="C1", lw=0.8, ls=":", label="estimate")
+        ax.plot(*line(resp.ym), color="0.75", lw=0.6, label="measured")
+    ax.plot(*line(resp.r), "k--", lw=1.0, label="reference")
+    ax.plot(*line(resp.y), color="C0", lw=1.4, label="y")
+    ax.plot(*line(resp.xhat[:, 0]), color="C1", lw=0.8, ls=":", label="estimate")
     ax.set_ylabel("output y")
     _legend_outside(ax)
-    axes[1].step(t, resp.u, where="post", color="C2", lw=1.0)
+    axes[1].step(*line(resp.u), where="post", color="C2", lw=1.0)
     axes[1].set_ylabel("input u")
-    axes[2].plot(t, resp.sigma, color="C0", lw=1.2, label="sigma (true)")
-    axes[2].plot(t, resp.sigmahat, color="C1", lw=0.8, label="sigma estimate")
+    axes[2].plot(*line(resp.sigma), color="C0", lw=1.2, label="sigma (true)")
+    axes[2].plot(*line(resp.sigmahat), color="C1", lw=0.8, label="sigma estimate")
     axes[2].set_ylabel("sigma")
     axes[2].set_xlabel("time (s)")
     _legend_outside(axes[2])
@@ -375,5 +449,5 @@ def plot_eps_star_curve(curve, *, ax=None):
     return fig
 
 
-__all__ = ["STATUS_COLORS", "STATUS_LABELS", "log_axes", "plot_eps_star", "plot_eps_star_curve", "plot_response",
-           "plot_stability_map"]
+__all__ = ["REPORT_BUCKETS", "STATUS_COLORS", "STATUS_LABELS", "log_axes", "plot_eps_star",
+           "plot_eps_star_curve", "plot_response", "plot_stability_map", "thin_line"]

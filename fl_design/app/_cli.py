@@ -151,17 +151,31 @@ def _prepare(cfg):
 def _cmd_run(args) -> int:
     from ._console import print_job
     from ._job import note, run_job
-    from ._report_write import write_report
+    from ._report_write import BackgroundCsv, write_report
 
     cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
     executor = _executor(args.scheduler)
-    job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
-                  progress=not args.no_progress, force=args.force)
+    csv = BackgroundCsv(out, main=args.main_csv)
+    try:
+        job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
+                      progress=not args.no_progress, force=args.force, after=csv.after)
+    except Exception:
+        csv.wait()  # a later stage failed: no half-written CSV file left behind
+        raise
     start = time.perf_counter()
-    paths = write_report(job, out, force=args.force)
-    note(f"report (figures, HTML, Markdown, JSON, CSV) written in "
-         f"{time.perf_counter() - start:.1f} s", enabled=not args.no_progress)
+    written = csv.result()
+    waited = time.perf_counter() - start
+    start = time.perf_counter()
+    paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
+                         csv_written=written)
+    during = (f" (CPU {csv.cpu:.1f} s, also counted in the stages running beside it; from the "
+              f"end of simulate, {waited:.1f} s of it after the C stage)"
+              if written is not None else "")
+    note(f"report (figures, HTML, Markdown, JSON) written in "
+         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
+         f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
+         enabled=not args.no_progress)
     print_job(job)
     runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
     print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
@@ -346,6 +360,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run = sub.add_parser("run", help="the main job: every stage and the report")
     _common(run, out=True, scheduler=True)
+    run.add_argument("--main-csv", action="store_true",
+                     help="also write the main run as CSV (runs/main_noise<std>.csv: every "
+                     "sample, 300 000 rows for a 300 s run); the compared runs are always written")
     run.set_defaults(func=_cmd_run)
     init = sub.add_parser("init", help="write a commented config (every table and key) to "
                           "stdout; `fl-design run` accepts it as is")

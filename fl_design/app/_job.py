@@ -308,8 +308,10 @@ def _codegen(job: Job, quick: bool, out_dir: Path, force: bool = False) -> None:
         designs |= {f"LS({w})": build_design(job.config, window=int(w), rho=rho)
                     for w in job.config.compare.windows}
     steps = QUICK["bench_steps"] if quick else 1_000_000
+    # rows measured by an earlier run with the same generated files, compilers and machine
+    # are reused (codegen/_cost.py cost_key); the table counts them
     costs = compare_costs(designs, out_dir / "c_cost", precision=cfg.precision,
-                          bench_steps=steps)
+                          bench_steps=steps, cache=True)
     job.results["codegen"] = {"package": pkg, "sil": sil, "costs": costs,
                               "sil_duration": sil_t, "sil_noise_std": std}
 
@@ -359,7 +361,8 @@ def prepare(config: Config) -> Job:
 
 
 def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
-            stages=STAGES, executor=None, progress: bool = True, force: bool = False) -> Job:
+            stages=STAGES, executor=None, progress: bool = True, force: bool = False,
+            after=None) -> Job:
     """Run the main job's stages (derive, certify, sweep, simulate, robustness, codegen).
 
     ``robustness`` (:func:`fl_design.monte_carlo` over the ``[uncertainty]`` family) runs only
@@ -381,6 +384,9 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         Progress lines and the sweep's bar on stderr.
     force : bool, optional
         Write the C package into ``out_dir/c`` even if it holds files fl_design did not write.
+    after : callable, optional
+        Called as ``after(stage, job)`` when each stage is done (``fl-design run`` starts
+        writing the runs' CSV files after ``simulate``, while the C compilers run).
 
     Returns
     -------
@@ -412,6 +418,8 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         how = " from the cache" if stage in job.cached else ""
         note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s (CPU "
              f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
+        if after is not None:
+            after(stage, job)
     return job
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import base64
 import html
+import time
 from pathlib import Path
 
 from .._json import dumps, jsonable
@@ -242,8 +243,13 @@ def _run_row(resp) -> dict:
             "duration_reason": resp.duration_reason, "metrics": m}
 
 
-def write_report(job, out_dir, *, force: bool = False) -> dict:
-    """Write ``report.html``, ``report.md``, the PNG figures and ``summary.json``.
+def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
+                 csv_written: list | None = None) -> dict:
+    """Write ``report.html``, ``report.md``, the PNG figures, ``summary.json`` and the compared
+    runs as CSV (:func:`write_runs_csv`).
+
+    The seconds spent on the figures and on the CSV files are added to ``job.timings``
+    (``report_figures``, ``report_csv``; ``summary.json`` lists them).
 
     Parameters
     ----------
@@ -254,6 +260,13 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
         (:func:`fl_design._output.claim_output_folder`).
     force : bool, optional
         Write even into a folder holding other files (they may be replaced).
+    main_csv : bool, optional
+        Also write the main run as CSV (the default 300 s run is 300 000 rows, ~73 MB and
+        ~3 s of float formatting: opt-in, ``fl-design run --main-csv``).
+    csv_written : list of str, optional
+        The CSV files the caller already wrote into this folder (:func:`write_runs_csv`'s
+        result; ``fl-design run`` writes them while the C compilers run): recorded, not
+        written again.
 
     Returns
     -------
@@ -269,7 +282,15 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
     ['csv', 'figures', 'html', 'markdown', 'summary']
     """
     folder = claim_output_folder(out_dir, force=force, what="report folder")
+    start = time.perf_counter()
     figures = _figures(job, folder) + save_robust_map_figure(job, folder)
+    job.timings["report_figures"] = time.perf_counter() - start
+    if csv_written is None:
+        start = time.perf_counter()
+        csv = write_runs_csv(job, folder, main=main_csv)
+        job.timings["report_csv"] = time.perf_counter() - start  # before summary.json: in it
+    else:
+        csv = list(csv_written)
     secs = sections(job, figures)
     title = f"fl_design report: {job.plant.name}, {design_label(job.design)}"
     paths = {"html": folder / "report.html", "markdown": folder / "report.md",
@@ -277,7 +298,6 @@ def write_report(job, out_dir, *, force: bool = False) -> dict:
     paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
     paths["markdown"].write_text(f"# {title}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
-    csv = write_runs_csv(job, folder)
     record_outputs(folder, [*paths.values(), *(folder / name for name in figures),
                             *(folder / name for name in csv)])
     return {**{k: str(v) for k, v in paths.items()}, "figures": figures, "csv": csv}
@@ -310,9 +330,14 @@ def run_csv_name(design: str, std: float) -> str:
     return f"runs/{safe}_noise{std:g}.csv"
 
 
-def write_runs_csv(job, folder) -> list:
-    """Write every simulated run (the compared runs and the main run) as CSV under
-    ``folder/runs`` (:meth:`fl_design.Response.to_csv`); return the relative paths.
+def write_runs_csv(job, folder, *, main: bool = False) -> list:
+    """Write the compared runs (and, with ``main``, the main run) as CSV under
+    ``folder/runs`` (:meth:`fl_design.Response.to_csv`: every sample, exact); return the
+    relative paths.
+
+    Without ``main``, a main-run CSV this folder holds from fl_design's own earlier run
+    (recorded in its marker, unchanged) is removed, so the folder never pairs this report with
+    an older main run; a file fl_design did not write is left alone.
 
     Parameters
     ----------
@@ -320,6 +345,9 @@ def write_runs_csv(job, folder) -> list:
         A job (nothing is written without its simulate stage).
     folder : str or pathlib.Path
         The report's folder.
+    main : bool, optional
+        Also write the main run (``runs/main_noise<std>.csv``; 300 000 rows for the default
+        300 s run, so opt-in).
 
     Returns
     -------
@@ -337,7 +365,11 @@ def write_runs_csv(job, folder) -> list:
     if not sim:
         return []
     runs = dict(sim["runs"])
-    runs[("main", job.config.scenario.noise_std)] = sim["main"]
+    main_key = ("main", job.config.scenario.noise_std)
+    if main:
+        runs[main_key] = sim["main"]
+    else:
+        _remove_own(Path(folder), run_csv_name(*main_key))
     out = Path(folder) / "runs"
     out.mkdir(exist_ok=True)
     names = []
@@ -348,5 +380,107 @@ def write_runs_csv(job, folder) -> list:
     return names
 
 
-__all__ = ["FIGURES", "render_html", "render_markdown", "run_csv_name", "summary",
+def _remove_own(folder: Path, name: str) -> None:
+    """Delete ``folder/name`` only if the folder's marker records it with this content."""
+    from .._output import _digest, _recorded
+
+    sha = (_recorded(folder) or {}).get(name)
+    target = folder / name
+    if sha is not None and _digest(target) == sha:
+        target.unlink()
+
+
+_CSV_TIMEOUT = 900.0  # seconds: a 300 s main run's CSV takes about 3 s
+
+
+class BackgroundCsv:
+    """Write the runs' CSV files (:func:`write_runs_csv`) in a thread started when the
+    ``simulate`` stage is done: the float formatting (seconds for the full job) runs while the
+    C stage waits for its compilers. ``fl-design run`` passes :meth:`after` to
+    :func:`~fl_design.app.run_job` and :meth:`result` to :func:`write_report`.
+
+    Parameters
+    ----------
+    out : str or pathlib.Path
+        The report's folder (already claimed: :func:`fl_design._output.claim_output_folder`).
+    main : bool
+        Also write the main run.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job
+    >>> import tempfile
+    >>> from fl_design.app._report_write import BackgroundCsv
+    >>> w = BackgroundCsv(tempfile.mkdtemp(), main=False)  # a new, empty folder
+    >>> job = run_job(load_config(None), quick=True, stages=("derive", "simulate"),
+    ...               progress=False, after=w.after)
+    >>> len(w.result()) == len(job.results["simulate"]["runs"])
+    True
+    """
+
+    def __init__(self, out, *, main: bool):
+        self.out, self.main = out, main
+        self.thread = self.names = self.error = None
+        self.cpu = 0.0  # seconds of CPU the thread used
+
+    def after(self, stage: str, job) -> None:
+        """Start the thread when ``stage`` is ``simulate`` (a :func:`run_job` ``after`` hook).
+
+        Examples
+        --------
+        >>> from fl_design.app._report_write import BackgroundCsv
+        >>> w = BackgroundCsv(".", main=False)
+        >>> w.after("sweep", None); w.thread is None
+        True
+        """
+        if stage != "simulate":
+            return
+        import threading
+
+        def work():
+            start, cpu = time.perf_counter(), time.thread_time()
+            try:
+                self.names = write_runs_csv(job, self.out, main=self.main)
+            except BaseException as exc:  # noqa: BLE001 - re-raised in the main thread
+                self.error = exc
+            job.timings["report_csv"] = time.perf_counter() - start
+            self.cpu = time.thread_time() - cpu  # also in the stages' process CPU times
+
+        self.thread = threading.Thread(target=work, name="fl-design-csv", daemon=True)
+        self.thread.start()
+
+    def wait(self) -> None:
+        """Wait for the thread (at most 900 s; errors stay for :meth:`result`).
+
+        Examples
+        --------
+        >>> from fl_design.app._report_write import BackgroundCsv
+        >>> BackgroundCsv(".", main=False).wait()
+        """
+        if self.thread is not None:
+            self.thread.join(timeout=_CSV_TIMEOUT)
+
+    def result(self) -> list | None:
+        """The files written (None: never started); the thread's error is raised here.
+
+        Examples
+        --------
+        >>> from fl_design.app._report_write import BackgroundCsv
+        >>> BackgroundCsv(".", main=False).result() is None
+        True
+        """
+        from ..errors import ComputationError
+
+        if self.thread is None:
+            return None
+        self.wait()
+        if self.thread.is_alive():
+            raise ComputationError(f"writing the runs' CSV files into {str(self.out)!r} took "
+                                   f"over {_CSV_TIMEOUT:.0f} s; is the folder on a slow disk?")
+        if self.error is not None:
+            raise self.error
+        return self.names
+
+
+__all__ = ["FIGURES", "BackgroundCsv", "render_html", "render_markdown", "run_csv_name", "summary",
            "write_report", "write_runs_csv"]

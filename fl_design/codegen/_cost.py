@@ -8,6 +8,12 @@ and data size of the package's object (``size``); the measured time per step of 
 and, for a single-precision package when ``arm-none-eabi-gcc`` is installed, the same for a
 Cortex-M4F with the double-precision helpers (``__aeabi_d*``) it calls (must be none).
 
+:func:`compare_costs` with ``cache=True`` (the main job) reuses a row measured earlier when
+everything it depends on is the same (:func:`cost_key`): the generated files, the compilers,
+the flags, the timing run's length, fl_design's code generator and this machine. The row is
+JSON in the private cache folder (:mod:`fl_design._cache`: owned by the user, mode 0700,
+each file checked against its size and SHA-256), so a file another user wrote is never read.
+
 Examples
 --------
 >>> from fl_design import presets
@@ -19,7 +25,10 @@ True
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import platform
 import re
 import shutil
 from dataclasses import dataclass, field
@@ -238,6 +247,9 @@ class CostTable:
     ----------
     rows : tuple of StepCost
         The rows, in order.
+    cached : int, optional
+        How many rows were read from the cache (measured by an earlier run on this machine,
+        :func:`compare_costs` ``cache=True``) rather than measured now.
 
     Examples
     --------
@@ -248,17 +260,18 @@ class CostTable:
     """
 
     rows: tuple
+    cached: int = 0
 
     def to_dict(self) -> dict:
-        """``{"rows": [StepCost.to_dict(), ...]}`` (strict JSON).
+        """``{"rows": [StepCost.to_dict(), ...], "cached": n}`` (strict JSON).
 
         Examples
         --------
         >>> from fl_design.codegen import CostTable
         >>> CostTable(()).to_dict()
-        {'rows': []}
+        {'rows': [], 'cached': 0}
         """
-        return {"rows": [row.to_dict() for row in self.rows]}
+        return {"rows": [row.to_dict() for row in self.rows], "cached": self.cached}
 
     def to_markdown(self) -> str:
         """A Markdown table: flops by kind, ns per step, stack, code and state bytes.
@@ -282,8 +295,120 @@ class CostTable:
         return "\n".join(lines)
 
 
+#: Bumped when the stored row's layout or the measurement changes.
+COST_FORMAT = "fl_design step cost 1"
+
+
+def _machine() -> str:
+    """This machine's identity for timings: host, architecture and CPU model."""
+    model = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{platform.node()}|{platform.machine()}|{model or platform.processor()}"
+
+
+def _tool(cc: str | None) -> str:
+    """A compiler's resolved path and ``--version`` (empty when absent)."""
+    path = shutil.which(cc) if cc else None
+    if path is None:
+        return ""
+    try:
+        version = run_command([path, "--version"], what=f"{cc} --version")
+    except Exception:  # noqa: BLE001 - an unusable tool: a key that never matches a cache
+        version = "unusable"
+    return f"{Path(path).resolve()}\n{version}"
+
+
+def cost_key(pkg, *, name: str, bench_steps: int, compiler: str) -> str:
+    """The content key of a package's :class:`StepCost` (:func:`compare_costs` ``cache=True``).
+
+    SHA-256 of :data:`COST_FORMAT`, the row's name, the precision, the timing run's length,
+    every file at the package's top level (not ``build/``, ``pil/`` or the output marker),
+    the flags, the host compiler and (for ``float``) ``arm-none-eabi-gcc`` (resolved path and
+    ``--version``), the source of ``fl_design.codegen`` and this machine (host name,
+    architecture, CPU model).
+
+    Parameters
+    ----------
+    pkg : CPackage
+        A generated package.
+    name : str
+        Row name.
+    bench_steps : int
+        Steps of each timing run.
+    compiler : str
+        The host C compiler.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import generate_c
+    >>> from fl_design.codegen._cost import cost_key
+    >>> from fl_design.codegen._package import compiler_or_raise
+    >>> pkg, cc = generate_c(presets.paper_design(), "key"), compiler_or_raise()
+    >>> key = cost_key(pkg, name="EHGO", bench_steps=10, compiler=cc)
+    >>> len(key), key != cost_key(pkg, name="EHGO", bench_steps=20, compiler=cc)
+    (64, True)
+    """
+    h = hashlib.sha256()
+
+    def part(data) -> None:
+        data = data if isinstance(data, bytes) else str(data).encode()
+        h.update(len(data).to_bytes(8, "little") + data)
+
+    for item in (COST_FORMAT, name, pkg.precision, int(bench_steps), " ".join(pkg.flags()),
+                 _tool(compiler), _tool("arm-none-eabi-gcc") if pkg.precision == "float"
+                 else "", _machine()):
+        part(item)
+    for f in sorted(Path(pkg.out_dir).iterdir()):  # the package's files (not the marker)
+        if f.is_file() and not f.is_symlink() and not f.name.startswith("."):
+            part(f.name)
+            part(f.read_bytes())
+    for f in sorted(Path(__file__).parent.glob("*.py")):
+        part(f.name)
+        part(f.read_bytes())
+    return h.hexdigest()
+
+
+def _cached_cost(pkg, *, name: str, bench_steps: int, compiler) -> tuple[StepCost, bool]:
+    """``pkg.cost(...)`` through the private cache: (row, whether it came from the cache)."""
+    from .._cache import cache_directory, read_verified, write_verified
+    from ..errors import ComputationError
+
+    cc = compiler_or_raise(compiler)
+    file = f"cost-{cost_key(pkg, name=name, bench_steps=bench_steps, compiler=cc)}.json"
+    try:
+        data = read_verified(cache_directory() / file)
+    except (OSError, ComputationError):  # an unsafe cache folder: measure (it warned)
+        data = None
+    if data is not None:
+        try:
+            row = json.loads(data)
+            ns = row.pop("ns_per_step")
+            row.pop("flops")  # a property of the operations
+            return StepCost(**row, ns_per_step=math.nan if ns is None else ns), True
+        except (ValueError, TypeError, KeyError, AttributeError):
+            pass  # an older or malformed entry: measure again
+    cost = pkg.cost(name=name, bench_steps=bench_steps, compiler=cc)
+    try:
+        write_verified(file, json.dumps(cost.to_dict()).encode())
+    except (OSError, ComputationError):
+        pass  # no cache: the row is still measured
+    return cost, False
+
+
 def compare_costs(designs: dict, out_dir, *, precision: str = "double",
-                  bench_steps: int = 2_000_000, compiler=None) -> CostTable:
+                  bench_steps: int = 2_000_000, compiler=None, cache: bool = False) -> CostTable:
     """Generate, build and measure each design: the comparison table.
 
     Parameters
@@ -298,6 +423,10 @@ def compare_costs(designs: dict, out_dir, *, precision: str = "double",
         Steps of each timing run.
     compiler : str, optional
         C compiler.
+    cache : bool, optional
+        Reuse a row measured earlier with the same key (:func:`cost_key`: the same
+        generated files, compilers, flags, timing length, code generator and machine) and
+        store new rows; the table's ``cached`` says how many rows came from the cache.
 
     Returns
     -------
@@ -314,13 +443,18 @@ def compare_costs(designs: dict, out_dir, *, precision: str = "double",
     """
     from ._generate import generate_c
 
-    rows = []
+    rows, cached = [], 0
     for i, (name, design) in enumerate(designs.items()):
         folder = Path(out_dir) / (re.sub(r"\W+", "_", name).strip("_") or f"design{i}")
         pkg = generate_c(design, folder, precision=precision)
-        rows.append(pkg.cost(name=name, bench_steps=bench_steps, compiler=compiler))
-    return CostTable(tuple(rows))
+        if cache:
+            row, hit = _cached_cost(pkg, name=name, bench_steps=bench_steps, compiler=compiler)
+            rows.append(row)
+            cached += hit
+        else:
+            rows.append(pkg.cost(name=name, bench_steps=bench_steps, compiler=compiler))
+    return CostTable(tuple(rows), cached=cached)
 
 
-__all__ = ["ARM_FLAGS", "FLOP_KINDS", "CostTable", "StepCost", "compare_costs",
-           "operation_counts", "step_cost"]
+__all__ = ["ARM_FLAGS", "COST_FORMAT", "FLOP_KINDS", "CostTable", "StepCost", "compare_costs",
+           "cost_key", "operation_counts", "step_cost"]

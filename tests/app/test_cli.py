@@ -202,12 +202,13 @@ def test_every_library_plant_is_a_config_and_cli_name(name, capsys):
 
 
 def test_run_writes_the_compared_runs_as_csv(quick_run):
-    """Every compared run and the main run, beside the report, reading back to its summary's
-    verdicts (the CSV's last sample equals the run's final output)."""
+    """Every compared run beside the report (the main run only with --main-csv: tested in
+    tests/app/test_report_csv.py), reading back to its summary's runs."""
     out, proc = quick_run
     data = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     files = sorted((out / "runs").glob("*.csv"))
-    assert len(files) == len(data["simulate"]["runs"]) + 1
+    assert len(files) == len(data["simulate"]["runs"])
+    assert not list((out / "runs").glob("main_*.csv"))
     assert "runs as CSV under" in proc.stdout
     table = np.genfromtxt(out / "runs" / "LS9_noise0.001.csv", delimiter=",", names=True)
     assert table.dtype.names[:5] == ("t", "r", "y", "ym", "u")
