@@ -150,6 +150,7 @@ def test_no_equilibrium_input_is_named():
 def test_one_lanes_kernel_for_the_family_same_results_everywhere(setup, substeps):
     from concurrent.futures import ThreadPoolExecutor
 
+    from fl_design._isa import resolve_isa
     from fl_design._toolchain import find_compiler
     from fl_design.sim._family import prepare_family
 
@@ -158,7 +159,8 @@ def test_one_lanes_kernel_for_the_family_same_results_everywhere(setup, substeps
     rk4 = fl.RK4(substeps=substeps)
     fam = prepare_family(plant, design, scenario, {"c": [0.2, 0.4], "b": [0.9, 1.2]},
                          integrator=rk4)
-    if find_compiler() is not None:  # the lane emitter translates the parametric step
+    if find_compiler() is not None and resolve_isa().lanes:
+        # the lane emitter translates the parametric step (FL_DESIGN_ISA=scalar: no lanes)
         assert fam.loop.runner().library is not None
     kw = {"params": PARAMS, "n": 10, "seed": 1, "integrator": rk4, "progress": False}
     a = fl.monte_carlo(plant, design, scenario, **kw)
