@@ -306,9 +306,15 @@ def _run_on(executor, run, P, columns, n_runs, kernel, threads, out, bar) -> Non
     """The grid as tasks of ``executor`` (:mod:`fl_design.sim._executor`)."""
     from ._executor import KernelTask, executor_workers, run_tasks, task_columns
 
-    groups = task_columns(n_runs, executor_workers(executor), kernel.chunk_size)
+    workers = executor_workers(executor)
+    groups = task_columns(n_runs, workers, kernel.chunk_size)
     per_task = max(g.size for g in groups)
-    task = KernelTask.of(run.loop, kernel, run.D, block_length(per_task, threads,
+    # workers share this machine's cores: a block is sized for the threads a worker really
+    # gets (2 workers x 2 threads on 2 cores run at half speed), so a kernel call still
+    # returns within about BLOCK_SECONDS and Ctrl-C reaches every worker quickly
+    cores = os.cpu_count() or 1
+    effective = max(1, min(threads, cores // max(1, min(workers, cores))))
+    task = KernelTask.of(run.loop, kernel, run.D, block_length(per_task, effective,
                                                                 kernel.compiled))
     take = getattr(P, "take", None)
     if take is None:
