@@ -133,35 +133,6 @@ def _certify(job: Job, quick: bool) -> None:
         job.cached.add("certify")
 
 
-def parameter_box(table) -> dict:
-    """The box of an ``[uncertainty]`` table: its uniform ranges, and the names with no box.
-
-    Parameters
-    ----------
-    table : UncertaintyTable
-        ``[uncertainty]``.
-
-    Returns
-    -------
-    dict
-        ``{"ranges": {name: (lo, hi)}, "unbounded": [names of normal parameters]}``.
-
-    Examples
-    --------
-    >>> from fl_design.app._job import parameter_box
-    >>> from fl_design.app._uncertainty import UncertaintyTable
-    >>> parameter_box(UncertaintyTable(params={"c": [0.1, 1.0], "b": {"normal": [1, 0.1]}}))
-    {'ranges': {'c': (0.1, 1.0)}, 'unbounded': ['b']}
-    """
-    ranges, unbounded = {}, []
-    for name, dist in table.distributions().items():
-        if hasattr(dist, "lo"):
-            ranges[name] = (float(dist.lo), float(dist.hi))
-        else:
-            unbounded.append(name)
-    return {"ranges": ranges, "unbounded": unbounded}
-
-
 def _certify_fresh(job: Job, quick: bool) -> dict:
     from ..analysis import (
         certify_eps,
@@ -175,7 +146,7 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
     cfg, design, plant = job.config.certify, job.design, job.plant
     b = job.derivation["b_bounds"]
     out = {"lyapunov": certify_lyapunov(design.controller.gains, T=design.T)}
-    box = parameter_box(job.config.uncertainty)
+    box = job.config.uncertainty.box()
     if b is not None and box["ranges"]:
         # the family's uniform ranges: b (and the rest) enclosed over the whole box, so the
         # certificates cover every plant of [uncertainty] (normal ones have no box: named)

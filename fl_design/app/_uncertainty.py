@@ -124,6 +124,31 @@ class UncertaintyTable:
         set_fields(self, params=params or None, samples=samples, seed=seed,
                    duration=_duration("duration", self.duration), map_samples=map_samples)
 
+    def box(self) -> dict:
+        """The parameter box the certificates can cover: the uniform ranges of :attr:`params`,
+        and the names with no box (normal distributions).
+
+        Returns
+        -------
+        dict
+            ``{"ranges": {name: (lo, hi)}, "unbounded": [names of normal parameters]}``.
+
+        Examples
+        --------
+        >>> from fl_design.app._uncertainty import UncertaintyTable
+        >>> UncertaintyTable(params={"c": [0.1, 1.0], "b": {"normal": [1, 0.1]}}).box()
+        {'ranges': {'c': (0.1, 1.0)}, 'unbounded': ['b']}
+        """
+        from ..sim._family import Uniform
+
+        ranges, unbounded = {}, []
+        for name, dist in self.distributions().items():
+            if isinstance(dist, Uniform):
+                ranges[name] = (float(dist.lo), float(dist.hi))
+            else:
+                unbounded.append(name)
+        return {"ranges": ranges, "unbounded": unbounded}
+
     def distributions(self) -> dict:
         """``{name: fl.Uniform or fl.Normal}`` of :attr:`params` (empty when not set).
 

@@ -243,8 +243,7 @@ def test_certificates_cover_the_uncertainty_box():
 
 
 def test_a_normal_parameter_has_no_box_and_is_named():
-    from fl_design.app._job import parameter_box
     from fl_design.app._uncertainty import UncertaintyTable
 
-    box = parameter_box(UncertaintyTable(params={"c": [0.05, 1.0], "b": {"normal": [1, 0.1]}}))
+    box = UncertaintyTable(params={"c": [0.05, 1.0], "b": {"normal": [1, 0.1]}}).box()
     assert box == {"ranges": {"c": (0.05, 1.0)}, "unbounded": ["b"]}
