@@ -190,9 +190,8 @@ def _plant_code(loop: ClosedLoop, prefix: str, build) -> tuple:
     cg.add(rk4)
     cg.add(h)
     cg.generate(str(build) + "/")
-    sizes = {key: str(max(1, getattr(rk4, f"sz_{key.lower()[3:]}")(),
-                          getattr(h, f"sz_{key.lower()[3:]}")()))
-             for key in ("SZ_ARG", "SZ_RES", "SZ_IW", "SZ_W")}
+    sizes = {f"SZ_{k.upper()}": str(max(1, getattr(rk4, f"sz_{k}")(), getattr(h, f"sz_{k}")()))
+             for k in ("arg", "res", "iw", "w")}
     return build / f"{prefix}_plant.c", sizes
 
 
