@@ -16,6 +16,7 @@ Examples
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -392,10 +393,20 @@ def _reason(status: str, m: dict, tol: float, window: float, duration: float,
         beyond = " (beyond this run)" if m["time_to_tolerance"] > duration else ""
         confident = (f", fit t = {-rate / se:.2g}: a slow decay, confident at 95 %"
                      if rate < T_SIGNIFICANT * se else "")
-        return (f"converging: |e| = {m['tail_error']:.3g} > {band:.3g}{noisy} at the end, "
+        where = (f"inside the band at the end (|e| <= {m['tail_error']:.3g} <= {band:.3g}) but "
+                 f"still swinging {m['tail_amplitude']:.3g} peak-to-peak (more than "
+                 f"{tol:.3g})" if m["tail_error"] <= band else
+                 f"|e| = {m['tail_error']:.3g} > {band:.3g}{noisy} at the end")
+        if m["tail_error"] <= band:  # the swings' size decides (the converged rule)
+            limit = max(tol, m["noise_floor"])
+            when = duration + math.log(max(m["tail_amplitude"], limit) / limit) / rate
+            forecast = (f"swings within {limit:.3g} peak-to-peak at about t = {when:.3g} s"
+                        f"{' (beyond this run)' if when > duration else ''}")
+        else:
+            forecast = f"within the band at about t = {m['time_to_tolerance']:.3g} s{beyond}"
+        return (f"converging: {where}, "
                 f"{trend} (time constant {1 / rate:.3g} s +- {100 * se / rate:.0f} %"
-                f"{confident}){swings}; within the band at about t = "
-                f"{m['time_to_tolerance']:.3g} s{beyond}{sat}")
+                f"{confident}){swings}; {forecast}{sat}")
     if status == "oscillating":
         return (f"oscillating: {m['reversals']:.0f} reversals, swings of "
                 f"{m['oscillation_amplitude']:.3g} peak-to-peak (band {band:.3g}), period "

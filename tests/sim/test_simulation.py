@@ -445,3 +445,22 @@ def test_a_mode_slower_than_the_run_is_undecided_a_limit_cycle_oscillates():
     e = cycle.r[cycle.k_tail:] - cycle.y[cycle.k_tail:]
     assert np.min(e) < 0 < np.max(e)  # swings through the reference
     assert cycle.status == "oscillating" and cycle.metrics["reversals"] >= 2
+
+
+def test_converging_inside_the_band_says_so_and_forecasts_the_swings():
+    """A loop inside the band whose swings still exceed the tolerance is ``converging``; its
+    reason says it is inside the band (not "|e| > band") and when the swings will be small
+    enough, and a run twice that long is ``converged``."""
+    import re
+
+    plant, design = fl.plants.trms_yaw(), fl.presets.paper_design()
+    short = fl.simulate(plant, design, fl.Scenario(0.3, 400.0))
+    text = short.verdict()
+    assert short.status == "converging"
+    assert short.metrics["tail_error"] <= short.tol  # inside the band: the swings decide
+    assert text.startswith("converging: inside the band at the end (|e| <= 0.00427 <= 0.006) "
+                           "but still swinging 0.00765 peak-to-peak (more than 0.006)")
+    when = float(re.search(r"swings within 0.006 peak-to-peak at about t = ([0-9.]+) s", text)[1])
+    assert when > 400.0 and "(beyond this run)" in text
+    long = fl.simulate(plant, design, fl.Scenario(0.3, 2 * when))
+    assert long.status == "converged"
