@@ -1,0 +1,267 @@
+"""The largest region of a plant where the nonlinear (LDI) certificate holds, and what it covers.
+
+:func:`nonlinear_region` scales the plant's region box and input range about the equilibrium
+by a factor ``s`` in ``(0, 1]`` (every state that ``sigma`` depends on: ``x_eq + s (box -
+x_eq)``, the others keep their range; the input ``u_eq + s (range - u_eq)``), encloses ``b`` and ``d sigma/d xi`` there by interval arithmetic
+(:func:`._plant_bounds.plant_bounds`) and asks :func:`fl_design.certify_eps` for the nonlinear
+certificate at the design's own ``eps`` (:func:`._ldi.ldi_point`). It tries ``s = 1``, then
+bisects ``log s`` between the smallest scale ``s_min`` and the largest failing one (``steps``
+times). The boxes are nested, so a certificate at ``s`` covers the plant in that box; the
+bisection need not find the largest such ``s`` when the solver's success is not monotone.
+
+The covered initial states are the certificate's :class:`._ldi.CoveredSet` (the largest
+sublevel set ``V(X) <= c`` of the loop state ``X = (x - x_eq, observer, u, z)`` inside the
+region and the input range, which includes the saturation-inactive set): every trajectory
+starting in it stays in it (observer peaking included: ``V`` bounds the whole loop state)
+and converges. With the observer started as usual (at rest at the first measurement,
+``xhat = (y0, 0, ..., 0)``, ``u0 = u_eq``) the loop state is ``X0 = G (x0 - x_eq)``; the plant
+starts covered are the ellipsoid ``(x0 - x_eq)^T G^T P G (x0 - x_eq) <= c``, reported as its
+extent along each state alone and a box of starts that is covered as a whole (half-widths
+``t e_i`` with ``t^2 e^T |G^T P G| e <= c``).
+
+Plants with internal dynamics (``rho < n``) are refused by :func:`._plant_bounds.plant_bounds`
+with what would be needed; plants whose normal-form coordinates are not their states get the
+certificate but no covered set (the region is a box in ``x``, ``V`` lives in ``xi``).
+
+Examples
+--------
+>>> import fl_design as fl
+>>> r = nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), steps=2)
+>>> r.certified, r.scale, r.covered.binding   # the whole region: |theta| <= pi, |u| <= 20
+(True, 1.0, 'u')
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import ParameterError
+from ._cert_results import _Result
+from ._plant_bounds import plant_bounds
+
+
+@dataclass(frozen=True, repr=False)
+class NonlinearRegion(_Result):
+    """The region search of :func:`nonlinear_region` and the initial states it covers.
+
+    Parameters
+    ----------
+    certified : bool
+        A nonlinear certificate was found at some scale.
+    scale : float
+        The largest certified scale found (0 when none).
+    region : tuple of (str, float, float)
+        The certified state box (empty when none).
+    input_range : (float, float) or None
+        The certified input range.
+    eps, gamma : float
+        The design's observer time constant and gain.
+    covered : CoveredSet or None
+        The covered loop states ``V(X) <= c``.
+    start_extents : tuple of (str, float)
+        Largest ``|x_i - x_eq,i|`` of a covered plant start, the other states at equilibrium
+        and the observer at rest at the first measurement.
+    start_box : tuple of (str, float)
+        Half-widths of a box of plant starts covered as a whole (same observer start).
+    reason : str
+        The certificate's reason at ``scale``, or why nothing was certified.
+    whole_reason : str
+        Why the plant's whole region (scale 1) is not certified ("" when it is).
+    tried : tuple of (float, bool)
+        Every scale tried and whether it certified.
+    seconds : float
+        Wall time of the search.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> r = nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), steps=0)
+    >>> r.tried
+    ((1.0, True),)
+    """
+
+    certified: bool
+    scale: float
+    region: tuple
+    input_range: tuple | None
+    eps: float
+    gamma: float
+    covered: object
+    start_extents: tuple
+    start_box: tuple
+    reason: str
+    whole_reason: str
+    tried: tuple
+    seconds: float
+
+    def words(self) -> str:
+        """One line: ``nonlinear: certified in region ... (covered initial states ...)``.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> r = nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), steps=0)
+        >>> r.words().startswith("nonlinear: certified in region theta in [")
+        True
+        """
+        if not self.certified:
+            return f"nonlinear: not certified in any region tried: {self.reason}"
+        reg = ", ".join(f"{n} in [{lo:.4g}, {hi:.4g}]" for n, lo, hi in self.region)
+        if self.input_range is not None:
+            reg += f", u in [{self.input_range[0]:.4g}, {self.input_range[1]:.4g}]"
+        if self.covered is None:
+            return f"nonlinear: certified in region {reg} (scale {self.scale:.3g}); {self.reason}"
+        starts = ", ".join(f"|{n} - {n}_eq| <= {w:.3g}" for n, w in self.start_extents)
+        box = ", ".join(f"|{n} - {n}_eq| <= {w:.3g}" for n, w in self.start_box)
+        whole = f"; not in the whole region: {self.whole_reason}" if self.whole_reason else ""
+        return (f"nonlinear: certified in region {reg} (scale {self.scale:.3g} of the plant's) "
+                f"(covered initial states: V <= {self.covered.level:.4g}, e.g. {starts} alone, "
+                f"or the box {box}; observer at rest at the first measurement){whole}")
+
+    def _repr_lines(self):
+        return [self.words(), "tried scales: " + ", ".join(
+            f"{s:.3g} {'ok' if ok else 'no'}" for s, ok in self.tried)
+            + f" ({self.seconds:.1f} s)"]
+
+
+def _scaled(plant, s: float):
+    """The state box and input range scaled by ``s`` about the equilibrium.
+
+    States on which ``sigma = y^(rho)`` does not depend keep their whole range (they change
+    no enclosure).
+    """
+    x_eq = [float(v) for v in plant.x_op]
+    chain = plant._lie_chain()
+    used = chain.derivatives[chain.rho].free_symbols
+    region = {}
+    for st, xe in zip(plant.states, x_eq):
+        lo, hi = plant.region[st]
+        k = s if st in used else 1.0
+        region[str(st)] = (xe - k * (xe - lo), xe + k * (hi - xe))
+    ur = None
+    if plant.input_range is not None:
+        lo, hi = plant.input_range
+        ue = float(plant.u_eq)
+        ur = (ue - s * (ue - lo), ue + s * (hi - ue))
+    return region, ur
+
+
+def _try(design, plant, s, params, splits):
+    from ._certify import certify_eps
+
+    region, ur = _scaled(plant, s)
+    pb = plant_bounds(plant, params=params, region=region, T=design.T, input_range=ur,
+                      splits=splits)
+    if pb.a_jacobian_bounds is None:
+        raise ParameterError(f"no nonlinear certificate for {plant.name!r}: "
+                             f"{pb.jacobian_note}")
+    cert = certify_eps(design, pb, a_jacobian_bounds="plant", search=False)
+    return cert, pb
+
+
+def _starts(design, plant, cert):
+    """``(extents, box)`` of the plant starts covered with the observer at rest."""
+    cs, rho = cert.covered_set, design.rho
+    from ._surrogate import SurrogateLoop
+
+    keep = SurrogateLoop(design).keep
+    u_eq = float(plant.u_eq)
+    y_eq = float(plant.x_op[0])
+    s0 = design.initial_state(y0=y_eq, u0=u_eq)
+    ds = design.initial_state(y0=y_eq + 1.0, u0=u_eq) - s0  # linear in y0
+    G = np.zeros((rho + s0.size, rho))
+    G[:rho, :rho] = np.eye(rho)
+    G[rho:, 0] = ds
+    G = G[keep]
+    Q = G.T @ cs.P @ G
+    Q = (Q + Q.T) / 2
+    names = [str(v) for v in plant.states]
+    ext = [math.sqrt(cs.level / Q[i, i]) for i in range(rho)]
+    e = np.array(ext)
+    t = math.sqrt(cs.level / float(e @ np.abs(Q) @ e))
+    return tuple(zip(names, ext)), tuple(zip(names, (t * w for w in ext)))
+
+
+def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: int = 12,
+                     splits: int = 8) -> NonlinearRegion:
+    """Search the largest scaled region where the nonlinear certificate holds (module docstring).
+
+    Parameters
+    ----------
+    design : Design
+        An EHGO design (certified at its own eps and gamma).
+    plant : Plant
+        The plant (``rho = n``; its region gives every state a range).
+    params : dict, optional
+        Parameter box ``{name: (lo, hi)}`` covered as well.
+    s_min : float, optional
+        Smallest scale tried (default 1e-6).
+    steps : int, optional
+        Bisection steps of ``log s`` (default 12).
+    splits : int, optional
+        Sub-intervals per variable of the interval enclosures.
+
+    Returns
+    -------
+    NonlinearRegion
+
+    Raises
+    ------
+    ParameterError
+        A plant with internal dynamics (the reason says what would be needed), a bad scale.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> r = nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), steps=3)
+    >>> r.covered.binding in r.covered.names
+    True
+    """
+    s_min = V.positive("s_min", s_min)
+    if not s_min < 1.0:
+        raise ParameterError(f"s_min must be in (0, 1), got {s_min!r}")
+    steps = V.integer("steps", steps, minimum=0)
+    t0 = time.perf_counter()
+    tried, best, fail_reason, whole = [], None, "", ""
+    lo, hi = None, None
+    for s in (1.0, s_min):
+        cert, pb = _try(design, plant, s, params, splits)
+        tried.append((s, bool(cert.certified)))
+        if cert.certified:
+            best, lo = (s, cert, pb), s
+            break
+        hi, fail_reason = s, cert.point.reason
+        whole = whole or fail_reason
+    if best is not None and lo < 1.0:
+        for _ in range(steps):
+            mid = math.sqrt(lo * hi)
+            cert, pb = _try(design, plant, mid, params, splits)
+            tried.append((mid, bool(cert.certified)))
+            if cert.certified:
+                best, lo = (mid, cert, pb), mid
+            else:
+                hi = mid
+    eps, gamma = float(design.estimator.eps), float(design.controller.gamma)
+    if best is None:
+        return NonlinearRegion(False, 0.0, (), None, eps, gamma, None, (), (),
+                               f"at scale {s_min:g} of the plant's region: {fail_reason}",
+                               whole,
+                               tuple(tried), time.perf_counter() - t0)
+    s, cert, pb = best
+    ext, box, reason = (), (), cert.point.reason
+    if cert.covered_set is not None and cert.covered_set.level > 0:
+        ext, box = _starts(design, plant, cert)
+    elif cert.covered_set is None:
+        reason = ("no covered set: the normal-form coordinates are not the plant's states "
+                  "(the region is a box in x, V lives in xi = (y, ..., y^(rho-1)))")
+    return NonlinearRegion(True, float(s), pb.region, pb.input_range, eps, gamma,
+                           cert.covered_set, ext, box, reason, whole, tuple(tried),
+                           time.perf_counter() - t0)
+
+
+__all__ = ["NonlinearRegion", "nonlinear_region"]
