@@ -190,8 +190,8 @@ def _coordinates(D):
         yield W
 
 
-def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
-    """Common-P certificate of the sampled LDI at one eps (see the module docstring)."""
+def _vertex_loops(L, eps: float, gamma: float):
+    """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row)`` of the LDI at one eps."""
     T, rho, loop = L.T, L.loop.rho, L.loop
     u_row = loop.input_row(eps, gamma)
     verts = _vertices(L)
@@ -206,7 +206,13 @@ def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
         M0, M1 = loop.assemble(Psi[:rho, :rho], Psi[:rho, rho], u_row, eps, gamma)
         Ms.append(M0 + M1)
     D = [delta(M, T) for M in Ms]
-    margins = schur_margins(np.stack(D), T)
+    return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row
+
+
+def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
+    """Common-P certificate of the sampled LDI at one eps (see the module docstring)."""
+    T, loop = L.T, L.loop
+    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
         if Rbar is not None:
             return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
@@ -378,12 +384,8 @@ def _contraction(P, Db, W, Rbar, u_row, loop, T):
     return nu + dP, nu, dP
 
 
-def loop_covered_set(L, point, pb):
-    """The covered initial states (:class:`CoveredSet`) of a nonlinear certificate ``point`` of
-    the loop ``L``, when the plant's region is known in normal-form coordinates (``pb`` a
-    ``PlantBounds`` of a chain plant); else None."""
-    if point.kind != "ldi" or pb is None or pb.xi_region is None:
-        return None
+def _room(L, pb) -> dict:
+    """``{kept loop index: room}``: the region's room of each ``x_i``, and of ``u``."""
     rho = L.loop.rho
     room = {i: min(pb.xi_op[i] - lo, hi - pb.xi_op[i])
             for i, (lo, hi) in enumerate(pb.xi_region[:rho])}
@@ -391,8 +393,58 @@ def loop_covered_set(L, point, pb):
                (L.design.controller.u_range, pb.input_range) if r is not None]
     if rooms_u:  # the saturation inactive, and u where b was enclosed
         room[L.loop.keep.index(L.loop.names.index("u"))] = min(rooms_u)
+    return room
+
+
+def loop_covered_set(L, point, pb):
+    """The covered initial states (:class:`CoveredSet`) of a nonlinear certificate ``point`` of
+    the loop ``L``, when the plant's region is known in normal-form coordinates (``pb`` a
+    ``PlantBounds`` of a chain plant); else None."""
+    if point.kind != "ldi" or pb is None or pb.xi_region is None:
+        return None
     names = [L.loop.names[k] for k in L.loop.keep]
-    return covered_set(point.lyapunov[0][0], names, pb.xi_op[:rho], room)
+    return covered_set(point.lyapunov[0][0], names, pb.xi_op[:L.loop.rho], _room(L, pb))
 
 
-__all__ = ["DECAY_FRACTION", "CoveredSet", "covered_set", "ldi_point", "loop_covered_set"]
+def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
+    """``(CoveredSet, q)`` of a ``P`` chosen for the widest covered starts, or None.
+
+    :func:`._covered_lmi.widest_covered_p` over this LDI's vertices (balanced coordinates),
+    re-checked here as :func:`ldi_point` does (``q < 1``, remainder included), its sublevel
+    set from :func:`covered_set`. ``G`` maps a plant start to the kept loop state, ``w`` is
+    the shape of the starts sought.
+    """
+    from ._covered_lmi import widest_covered_p
+
+    if pb is None or pb.xi_region is None:
+        return None
+    T, loop = L.T, L.loop
+    _, _, _, Rbar, _, _, D, margins, u_row = _vertex_loops(L, eps, gamma)
+    if np.max(margins) >= 0.0:
+        return None
+    room, best = _room(L, pb), None
+    names = [loop.names[k] for k in loop.keep]
+    kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
+    for W in _coordinates(D):
+        Wi = np.linalg.inv(W)
+        Db = [Wi @ x @ W for x in D]
+        for k in (kappa, 0.25 * kappa, 0.02 * kappa):
+            P = widest_covered_p(Db, W, T, k, room, G, w)
+            if P is None:
+                continue
+            try:
+                q = _contraction(W.T @ P @ W, Db, W, Rbar, u_row, loop, T)[0]
+            except np.linalg.LinAlgError:
+                continue
+            if q < 1.0 - RECHECK_TOL:
+                cs = covered_set(P, names, pb.xi_op[:loop.rho], room)
+                Q = G.T @ (P / cs.level) @ G  # the starts' ellipsoid, unit level
+                size = 1.0 / float(np.max(np.linalg.eigvalsh(Q * np.outer(w, w))))
+                if best is None or size > best[0]:
+                    best = (size, cs, q)
+                break
+    return None if best is None else best[1:]
+
+
+__all__ = ["DECAY_FRACTION", "CoveredSet", "covered_set", "ldi_point", "loop_covered_set",
+           "widest_covered_set"]

@@ -6,7 +6,8 @@ x_eq)``, the others keep their range; the input ``u_eq + s (range - u_eq)``), en
 (:func:`._plant_bounds.plant_bounds`) and asks :func:`fl_design.certify_eps` for the nonlinear
 certificate at the design's own ``eps`` (:func:`._ldi.ldi_point`). It tries ``s = 1``, then
 bisects ``log s`` between the smallest scale ``s_min`` and the largest failing one (``steps``
-times). The boxes are nested, so a certificate at ``s`` covers the plant in that box; the
+times), then the input range's scale alone between ``s`` and 1 (``steps`` times, the states
+kept at ``s``: the input range sets the ``b`` interval and the saturation room). The boxes are nested, so a certificate at ``s`` covers the plant in that box; the
 bisection need not find the largest such ``s`` when the solver's success is not monotone.
 
 The covered initial states are the certificate's :class:`._ldi.CoveredSet` (the largest
@@ -44,6 +45,9 @@ from ..errors import ParameterError
 from ._cert_results import _Result
 from ._plant_bounds import plant_bounds
 
+#: Certified regions (the last found: the largest) compared for the widest covered starts.
+CANDIDATES = 4
+
 
 @dataclass(frozen=True, repr=False)
 class NonlinearRegion(_Result):
@@ -63,6 +67,11 @@ class NonlinearRegion(_Result):
         The design's observer time constant and gain.
     covered : CoveredSet or None
         The covered loop states ``V(X) <= c``.
+    q : float
+        Contraction of ``V``'s ``P`` over every sample map (``V(X+) <= q^2 V(X)``; NaN: none).
+    lyapunov_source : str
+        Which ``P`` the covered set uses: the certificate's, or one chosen for the widest
+        covered starts (:mod:`._covered_lmi`), re-checked.
     start_extents : tuple of (str, float)
         Largest ``|x_i - x_eq,i|`` of a covered plant start, the other states at equilibrium
         and the observer at rest at the first measurement.
@@ -74,6 +83,13 @@ class NonlinearRegion(_Result):
         Why the plant's whole region (scale 1) is not certified ("" when it is).
     tried : tuple of (float, bool)
         Every scale tried and whether it certified.
+    input_scale : float
+        The input range's scale (>= ``scale``: searched second, the states at ``scale``).
+    tried_input : tuple of (float, bool)
+        Every input scale tried.
+    largest : (float, float)
+        The largest certified ``(scale, input_scale)`` found; the region reported is the one
+        of the last :data:`CANDIDATES` certified whose covered starts are widest.
     seconds : float
         Wall time of the search.
 
@@ -92,12 +108,17 @@ class NonlinearRegion(_Result):
     eps: float
     gamma: float
     covered: object
+    q: float
+    lyapunov_source: str
     start_extents: tuple
     start_box: tuple
     reason: str
     whole_reason: str
     tried: tuple
     seconds: float
+    input_scale: float = 0.0
+    tried_input: tuple = ()
+    largest: tuple = ()
 
     def words(self) -> str:
         """One line: ``nonlinear: certified in region ... (covered initial states ...)``.
@@ -119,17 +140,24 @@ class NonlinearRegion(_Result):
         starts = ", ".join(f"|{n} - {n}_eq| <= {w:.3g}" for n, w in self.start_extents)
         box = ", ".join(f"|{n} - {n}_eq| <= {w:.3g}" for n, w in self.start_box)
         whole = f"; not in the whole region: {self.whole_reason}" if self.whole_reason else ""
-        return (f"nonlinear: certified in region {reg} (scale {self.scale:.3g} of the plant's) "
+        big = ("" if tuple(self.largest) == (self.scale, self.input_scale) else
+               f"; the largest certified: scale {self.largest[0]:.3g}, input "
+               f"{self.largest[1]:.3g}")
+        return (f"nonlinear: certified in region {reg} (scale {self.scale:.3g} of the plant's, "
+                f"input {self.input_scale:.3g}{big}) "
                 f"(covered initial states: V <= {self.covered.level:.4g}, e.g. {starts} alone, "
-                f"or the box {box}; observer at rest at the first measurement){whole}")
+                f"or the box {box}; observer at rest at the first measurement; V: "
+                f"{self.lyapunov_source}){whole}")
 
     def _repr_lines(self):
         return [self.words(), "tried scales: " + ", ".join(
             f"{s:.3g} {'ok' if ok else 'no'}" for s, ok in self.tried)
+            + "; input scales: " + (", ".join(
+                f"{s:.3g} {'ok' if ok else 'no'}" for s, ok in self.tried_input) or "none")
             + f" ({self.seconds:.1f} s)"]
 
 
-def _scaled(plant, s: float):
+def _scaled(plant, s: float, s_u: float):
     """The state box and input range scaled by ``s`` about the equilibrium.
 
     States on which ``sigma = y^(rho)`` does not depend keep their whole range (they change
@@ -147,14 +175,14 @@ def _scaled(plant, s: float):
     if plant.input_range is not None:
         lo, hi = plant.input_range
         ue = float(plant.u_eq)
-        ur = (ue - s * (ue - lo), ue + s * (hi - ue))
+        ur = (ue - s_u * (ue - lo), ue + s_u * (hi - ue))
     return region, ur
 
 
-def _try(design, plant, s, params, splits):
+def _try(design, plant, s, params, splits, s_u=None):
     from ._certify import certify_eps
 
-    region, ur = _scaled(plant, s)
+    region, ur = _scaled(plant, s, s if s_u is None else s_u)
     pb = plant_bounds(plant, params=params, region=region, T=design.T, input_range=ur,
                       splits=splits)
     if pb.a_jacobian_bounds is None:
@@ -164,27 +192,49 @@ def _try(design, plant, s, params, splits):
     return cert, pb
 
 
-def _starts(design, plant, cert):
-    """``(extents, box)`` of the plant starts covered with the observer at rest."""
-    cs, rho = cert.covered_set, design.rho
+def _start_map(design, plant):
+    """``G``: the kept loop state of a plant start ``x0 - x_eq``, the observer at rest."""
     from ._surrogate import SurrogateLoop
 
-    keep = SurrogateLoop(design).keep
-    u_eq = float(plant.u_eq)
-    y_eq = float(plant.x_op[0])
+    rho, keep = design.rho, SurrogateLoop(design).keep
+    u_eq, y_eq = float(plant.u_eq), float(plant.x_op[0])
     s0 = design.initial_state(y0=y_eq, u0=u_eq)
     ds = design.initial_state(y0=y_eq + 1.0, u0=u_eq) - s0  # linear in y0
     G = np.zeros((rho + s0.size, rho))
     G[:rho, :rho] = np.eye(rho)
     G[rho:, 0] = ds
-    G = G[keep]
+    return G[keep]
+
+
+def _starts(plant, cs, G):
+    """``(extents, box)`` of the plant starts covered by ``cs`` with the observer at rest."""
     Q = G.T @ cs.P @ G
     Q = (Q + Q.T) / 2
     names = [str(v) for v in plant.states]
-    ext = [math.sqrt(cs.level / Q[i, i]) for i in range(rho)]
+    ext = [math.sqrt(cs.level / Q[i, i]) for i in range(Q.shape[0])]
     e = np.array(ext)
     t = math.sqrt(cs.level / float(e @ np.abs(Q) @ e))
     return tuple(zip(names, ext)), tuple(zip(names, (t * w for w in ext)))
+
+
+def _widest(design, plant, pb, G, cs):
+    """A covered set from a P chosen for the widest starts, when wider than ``cs``'s."""
+    from ._certify import _Loop
+    from ._ldi import widest_covered_set
+
+    L = _Loop(design, pb.b_bounds, pb.a_jacobian_bounds, 41, 8)
+    w = np.array([min(xe - lo, hi - xe) for xe, (lo, hi) in zip(pb.xi_op, pb.xi_region)])
+    out = widest_covered_set(L, float(design.estimator.eps), float(design.controller.gamma),
+                             pb, G, w)
+    if out is None:
+        return None
+    new, q = out
+    if new.level <= 0:
+        return None
+
+    def size(c):
+        return min(b / wi for (_, b), wi in zip(_starts(plant, c, G)[1], w))
+    return (new, q) if size(new) > size(cs) else None
 
 
 def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: int = 12,
@@ -227,13 +277,14 @@ def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: 
         raise ParameterError(f"s_min must be in (0, 1), got {s_min!r}")
     steps = V.integer("steps", steps, minimum=0)
     t0 = time.perf_counter()
-    tried, best, fail_reason, whole = [], None, "", ""
+    tried, tried_u, best, fail_reason, whole, ok = [], [], None, "", "", []
     lo, hi = None, None
     for s in (1.0, s_min):
         cert, pb = _try(design, plant, s, params, splits)
         tried.append((s, bool(cert.certified)))
         if cert.certified:
             best, lo = (s, cert, pb), s
+            ok.append((s, s, cert, pb))
             break
         hi, fail_reason = s, cert.point.reason
         whole = whole or fail_reason
@@ -244,24 +295,56 @@ def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: 
             tried.append((mid, bool(cert.certified)))
             if cert.certified:
                 best, lo = (mid, cert, pb), mid
+                ok.append((mid, mid, cert, pb))
+            else:
+                hi = mid
+        # then the input range alone, the states kept at the scale found
+        s_x, hi = lo, 1.0
+        for _ in range(steps if plant.input_range is not None else 0):
+            mid = math.sqrt(lo * hi)
+            cert, pb = _try(design, plant, s_x, params, splits, mid)
+            tried_u.append((mid, bool(cert.certified)))
+            if cert.certified:
+                best, lo = (s_x, cert, pb), mid
+                ok.append((s_x, mid, cert, pb))
             else:
                 hi = mid
     eps, gamma = float(design.estimator.eps), float(design.controller.gamma)
     if best is None:
-        return NonlinearRegion(False, 0.0, (), None, eps, gamma, None, (), (),
+        return NonlinearRegion(False, 0.0, (), None, eps, gamma, None, math.nan, "", (), (),
                                f"at scale {s_min:g} of the plant's region: {fail_reason}",
                                whole,
-                               tuple(tried), time.perf_counter() - t0)
-    s, cert, pb = best
-    ext, box, reason = (), (), cert.point.reason
-    if cert.covered_set is not None and cert.covered_set.level > 0:
-        ext, box = _starts(design, plant, cert)
-    elif cert.covered_set is None:
-        reason = ("no covered set: the normal-form coordinates are not the plant's states "
-                  "(the region is a box in x, V lives in xi = (y, ..., y^(rho-1)))")
-    return NonlinearRegion(True, float(s), pb.region, pb.input_range, eps, gamma,
-                           cert.covered_set, ext, box, reason, whole, tuple(tried),
-                           time.perf_counter() - t0)
+                               tuple(tried), time.perf_counter() - t0, 0.0, ())
+    G = _start_map(design, plant)
+    full = [min(xe - lo_, hi_ - xe) for xe, (lo_, hi_) in
+            zip((float(v) for v in plant.x_op), (plant.region[v] for v in plant.states))]
+    picks = [_covered(design, plant, c, p, G, full) + (sx, su, p)
+             for sx, su, c, p in ok[-CANDIDATES:]]
+    _, cs, q, source, ext, box, reason, s, s_u, pb = max(picks, key=lambda r: r[0])
+    return NonlinearRegion(True, float(s), pb.region, pb.input_range, eps, gamma, cs, q,
+                           source, ext, box, reason, whole, tuple(tried),
+                           time.perf_counter() - t0, float(s_u), tuple(tried_u),
+                           (float(ok[-1][0]), float(ok[-1][1])))
+
+
+def _covered(design, plant, cert, pb, G, full):
+    """``(size, cs, q, source, extents, box, reason)`` of one certified region."""
+    cs, reason = cert.covered_set, cert.point.reason
+    q = float(reason.split(" = ")[-1].split(" ")[0])  # the certificate's contraction
+    source = "the certificate's P"
+    if cs is None or pb.xi_region is None:
+        return (-1.0, None, q, source, (), (), (
+            "no covered set: the normal-form coordinates are not the plant's states (the "
+            "region is a box in x, V lives in xi = (y, ..., y^(rho-1)))"))
+    if cs.level <= 0:
+        return 0.0, cs, q, source, (), (), reason
+    wide = _widest(design, plant, pb, G, cs)
+    if wide is not None:
+        cs, q = wide
+        source = (f"P chosen for the widest covered starts (LMI), re-checked: every sample "
+                  f"map contracts V by {q:.12f} < 1 (NumPy)")
+    ext, box = _starts(plant, cs, G)
+    return min(b / w for (_, b), w in zip(box, full)), cs, q, source, ext, box, reason
 
 
 __all__ = ["NonlinearRegion", "nonlinear_region"]

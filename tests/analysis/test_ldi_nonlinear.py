@@ -104,10 +104,10 @@ def test_covered_set_boundary_runs_stay_decrease_v_and_converge(which):
         design, plant, n_steps = fl.presets.paper_design(), fl.plants.trms_yaw(), 2000
     else:
         design, plant, n_steps = fl.presets.pendulum_design(), fl.plants.pendulum(), 8000
-    r = nonlinear_region(design, plant, steps=6)
+    r = nonlinear_region(design, plant, steps=4)
     assert r.certified and r.covered is not None and r.covered.level > 0
     assert "nonlinear: certified in region" in r.words()
-    q = float(r.reason.split("= ")[-1].split(" ")[0])  # the certificate's contraction
+    q = r.q  # the contraction of V's P, re-checked in NumPy
     assert 0.0 < q < 1.0
     cs, keep = r.covered, SurrogateLoop(design).keep
     loop = ClosedLoop(plant, design, substeps=default_substeps(plant, design.T))
