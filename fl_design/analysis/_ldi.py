@@ -409,9 +409,10 @@ def loop_covered_set(L, point, pb):
 def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
     """``(CoveredSet, q)`` of a ``P`` chosen for the widest covered starts, or None.
 
-    :func:`._covered_lmi.widest_covered_p` over this LDI's vertices (balanced coordinates),
-    re-checked here as :func:`ldi_point` does (``q < 1``, remainder included), its sublevel
-    set from :func:`covered_set`. ``G`` maps a plant start to the kept loop state, ``w`` is
+    :func:`._covered_lmi.widest_covered_p` over this LDI's vertices (balanced, else modal
+    coordinates; decay rates from the vertices' down to 2 % of it): the first ``P`` that
+    re-checks as :func:`ldi_point` does (``q < 1``, remainder included); its sublevel set from
+    :func:`covered_set`. ``G`` maps a plant start to the kept loop state, ``w`` is
     the shape of the starts sought.
     """
     from ._covered_lmi import widest_covered_p
@@ -422,7 +423,7 @@ def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
     _, _, _, Rbar, _, _, D, margins, u_row = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
         return None
-    room, best = _room(L, pb), None
+    room = _room(L, pb)
     names = [loop.names[k] for k in loop.keep]
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
     for W in _coordinates(D):
@@ -437,13 +438,8 @@ def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
             except np.linalg.LinAlgError:
                 continue
             if q < 1.0 - RECHECK_TOL:
-                cs = covered_set(P, names, pb.xi_op[:loop.rho], room)
-                Q = G.T @ (P / cs.level) @ G  # the starts' ellipsoid, unit level
-                size = 1.0 / float(np.max(np.linalg.eigvalsh(Q * np.outer(w, w))))
-                if best is None or size > best[0]:
-                    best = (size, cs, q)
-                break
-    return None if best is None else best[1:]
+                return covered_set(P, names, pb.xi_op[:loop.rho], room), q
+    return None
 
 
 __all__ = ["DECAY_FRACTION", "CoveredSet", "covered_set", "ldi_point", "loop_covered_set",

@@ -7,7 +7,10 @@ x_eq)``, the others keep their range; the input ``u_eq + s (range - u_eq)``), en
 certificate at the design's own ``eps`` (:func:`._ldi.ldi_point`). It tries ``s = 1``, then
 bisects ``log s`` between the smallest scale ``s_min`` and the largest failing one (``steps``
 times), then the input range's scale alone between ``s`` and 1 (``steps`` times, the states
-kept at ``s``: the input range sets the ``b`` interval and the saturation room). The boxes are nested, so a certificate at ``s`` covers the plant in that box; the
+kept at ``s``: the input range sets the ``b`` interval and the saturation room), and again
+with the states at ``s/10`` and ``s/100`` (at most 6 steps each: a smaller state box admits a
+wider input range). Of the widest input range certified at each state scale, the region
+reported is the one whose covered starts are widest (relative to the plant's region). The boxes are nested, so a certificate at ``s`` covers the plant in that box; the
 bisection need not find the largest such ``s`` when the solver's success is not monotone.
 
 The covered initial states are the certificate's :class:`._ldi.CoveredSet` (the largest
@@ -45,8 +48,8 @@ from ..errors import ParameterError
 from ._cert_results import _Result
 from ._plant_bounds import plant_bounds
 
-#: Certified regions (the last found: the largest) compared for the widest covered starts.
-CANDIDATES = 4
+#: State scales ``s, s/10, ...`` at which the input range is searched (widest starts kept).
+STATE_TRIES = 3
 
 
 @dataclass(frozen=True, repr=False)
@@ -85,11 +88,12 @@ class NonlinearRegion(_Result):
         Every scale tried and whether it certified.
     input_scale : float
         The input range's scale (>= ``scale``: searched second, the states at ``scale``).
-    tried_input : tuple of (float, bool)
-        Every input scale tried.
+    tried_input : tuple of (float, float, bool)
+        Every ``(scale, input_scale)`` tried and whether it certified.
     largest : (float, float)
-        The largest certified ``(scale, input_scale)`` found; the region reported is the one
-        of the last :data:`CANDIDATES` certified whose covered starts are widest.
+        The largest certified state scale found, and the widest input scale with it; the
+        region reported is the one (the widest input range certified at each state scale
+        tried) whose covered starts are widest.
     seconds : float
         Wall time of the search.
 
@@ -152,8 +156,9 @@ class NonlinearRegion(_Result):
     def _repr_lines(self):
         return [self.words(), "tried scales: " + ", ".join(
             f"{s:.3g} {'ok' if ok else 'no'}" for s, ok in self.tried)
-            + "; input scales: " + (", ".join(
-                f"{s:.3g} {'ok' if ok else 'no'}" for s, ok in self.tried_input) or "none")
+            + "; (scale, input scale): " + (", ".join(
+                f"({s:.3g}, {u:.3g}) {'ok' if ok else 'no'}" for s, u, ok in self.tried_input)
+                or "none")
             + f" ({self.seconds:.1f} s)"]
 
 
@@ -298,17 +303,23 @@ def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: 
                 ok.append((mid, mid, cert, pb))
             else:
                 hi = mid
-        # then the input range alone, the states kept at the scale found
-        s_x, hi = lo, 1.0
-        for _ in range(steps if plant.input_range is not None else 0):
-            mid = math.sqrt(lo * hi)
-            cert, pb = _try(design, plant, s_x, params, splits, mid)
-            tried_u.append((mid, bool(cert.certified)))
-            if cert.certified:
-                best, lo = (s_x, cert, pb), mid
-                ok.append((s_x, mid, cert, pb))
-            else:
-                hi = mid
+        # then the input range alone, the states kept at the scale found, and at smaller
+        # state scales (a smaller state box admits a wider input range)
+        largest_x, s_u0 = lo, lo
+        for k, s_x in enumerate(largest_x / 10.0 ** i for i in range(STATE_TRIES)):
+            if s_x < s_min or plant.input_range is None:
+                break
+            lo_u, hi_u = s_u0, 1.0
+            for _ in range(steps if k == 0 else min(steps, 6)):
+                mid = math.sqrt(lo_u * hi_u)
+                cert, pb = _try(design, plant, s_x, params, splits, mid)
+                tried_u.append((s_x, mid, bool(cert.certified)))
+                if cert.certified:
+                    lo_u = mid
+                    ok.append((s_x, mid, cert, pb))
+                else:
+                    hi_u = mid
+            s_u0 = lo_u
     eps, gamma = float(design.estimator.eps), float(design.controller.gamma)
     if best is None:
         return NonlinearRegion(False, 0.0, (), None, eps, gamma, None, math.nan, "", (), (),
@@ -318,13 +329,16 @@ def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: 
     G = _start_map(design, plant)
     full = [min(xe - lo_, hi_ - xe) for xe, (lo_, hi_) in
             zip((float(v) for v in plant.x_op), (plant.region[v] for v in plant.states))]
+    last = {}  # the widest input range certified at each state scale, and the largest region
+    for sx, su, c, p in ok:
+        last[sx] = (sx, su, c, p)
     picks = [_covered(design, plant, c, p, G, full) + (sx, su, p)
-             for sx, su, c, p in ok[-CANDIDATES:]]
+             for sx, su, c, p in {id(v): v for v in [*last.values(), ok[-1]]}.values()]
     _, cs, q, source, ext, box, reason, s, s_u, pb = max(picks, key=lambda r: r[0])
     return NonlinearRegion(True, float(s), pb.region, pb.input_range, eps, gamma, cs, q,
                            source, ext, box, reason, whole, tuple(tried),
                            time.perf_counter() - t0, float(s_u), tuple(tried_u),
-                           (float(ok[-1][0]), float(ok[-1][1])))
+                           max((float(a), float(b)) for a, b, _, _ in ok))
 
 
 def _covered(design, plant, cert, pb, G, full):

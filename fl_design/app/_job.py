@@ -183,7 +183,7 @@ def _nonlinear(design, plant, ranges, quick: bool) -> str:
 
     try:
         return nonlinear_region(design, plant, params=ranges or None,
-                                steps=2 if quick else 12).words()
+                                steps=2 if quick else 5).words()
     except ParameterError as err:
         return f"nonlinear: not certified: {err}"
 
