@@ -23,9 +23,10 @@ starts covered are the ellipsoid ``(x0 - x_eq)^T G^T P G (x0 - x_eq) <= c``, rep
 extent along each state alone and a box of starts that is covered as a whole (half-widths
 ``t e_i`` with ``t^2 e^T |G^T P G| e <= c``).
 
-Plants with internal dynamics (``rho < n``) are refused by :func:`._plant_bounds.plant_bounds`
-with what would be needed; plants whose normal-form coordinates are not their states get the
-certificate but no covered set (the region is a box in ``x``, ``V`` lives in ``xi``).
+Plants with internal dynamics (``rho < n``) are refused with what would be needed, and so are
+plants whose normal-form coordinates are not their states (the TRMS with motor lag: ``xi =
+(phi, phi', phi'')``): the region is a box in ``x``, ``V`` and the covered set live in ``xi``,
+and each enclosure goes through ``(d xi/d x)^-1`` (a single one took minutes).
 
 Examples
 --------
@@ -184,6 +185,28 @@ def _scaled(plant, s: float, s_u: float):
     return region, ur
 
 
+def _check_chain(plant) -> None:
+    """Refuse, saying why, a plant whose normal-form coordinates are not its states."""
+    chain = plant._lie_chain()
+    if chain.rho != plant.n:
+        raise ParameterError(
+            f"no nonlinear certificate for {plant.name!r}: it has internal dynamics (rho = "
+            f"{chain.rho} < n = {plant.n}); the LDI certificate covers rho = n only. Needed: "
+            f"the normal form (xi, eta) with the {plant.n - chain.rho} internal states eta' = "
+            "q(xi, eta) and interval bounds on the Jacobian of q, added to the loop (the "
+            "surrogate models only the chain of rho integrators), and a region in those "
+            "coordinates")
+    if any(d != x for d, x in zip(chain.derivatives[: chain.rho], plant.states)):
+        raise ParameterError(
+            f"no nonlinear region search for {plant.name!r}: its normal-form coordinates xi = "
+            f"({', '.join(str(d) for d in chain.derivatives[: chain.rho])}) are not its "
+            "states, so a box of states is not a box of xi (where V and the covered set live) "
+            "and the enclosures of d sigma/d xi go through (d xi/d x)^-1 (slow). Needed: a "
+            "region given in xi (or an inner xi-box of the state box); certify_eps with "
+            "plant_bounds(..., region=...) and a_jacobian_bounds='plant' still certifies one "
+            "region")
+
+
 def _try(design, plant, s, params, splits, s_u=None):
     from ._certify import certify_eps
 
@@ -268,7 +291,8 @@ def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: 
     Raises
     ------
     ParameterError
-        A plant with internal dynamics (the reason says what would be needed), a bad scale.
+        A plant with internal dynamics or whose normal-form coordinates are not its states
+        (the reason says what would be needed), a bad scale.
 
     Examples
     --------
@@ -281,6 +305,7 @@ def nonlinear_region(design, plant, *, params=None, s_min: float = 1e-6, steps: 
     if not s_min < 1.0:
         raise ParameterError(f"s_min must be in (0, 1), got {s_min!r}")
     steps = V.integer("steps", steps, minimum=0)
+    _check_chain(plant)
     t0 = time.perf_counter()
     tried, tried_u, best, fail_reason, whole, ok = [], [], None, "", "", []
     lo, hi = None, None

@@ -146,5 +146,8 @@ def test_internal_dynamics_are_refused_with_what_is_needed():
                        controller=fl.DynamicController((2, 4), 1e-2))
     with pytest.raises(ParameterError, match=r"rho = 2 < n = 4.*eta' = q\(xi, eta\)"):
         nonlinear_region(design, plant)
+    lag = fl.plants.trms_yaw(motor_lag=True)  # rho = n = 3, xi = (phi, phi', phi'') != x
+    with pytest.raises(ParameterError, match=r"are not its states.*region given in xi"):
+        nonlinear_region(fl.presets.trms_lag_design(), lag)
     with pytest.raises(ParameterError, match="s_min"):
         nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), s_min=2.0)
