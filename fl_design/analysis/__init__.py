@@ -8,7 +8,8 @@ CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_ep
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
 ``_intervals`` (interval enclosures of SymPy expressions), ``_plant_bounds`` (``b``,
 ``d sigma/d xi`` and ``b``'s rate over a region and a parameter box, :func:`plant_bounds`),
-``_margins`` (gain, phase and delay margins at the plant input,
+``_region`` (the largest region where the nonlinear certificate holds and the initial states
+it covers, :func:`nonlinear_region`), ``_margins`` (gain, phase and delay margins at the plant input,
 :func:`loop_margins`), ``_noise`` (:func:`noise_gain`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
 (the result objects; an :class:`~fl_design.analysis._cert_results.EpsBracket`
 is returned inside them, not exported).
@@ -34,6 +35,7 @@ from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, syn
 from ._margins import LoopMargins, loop_margins
 from ._noise import noise_gain
 from ._plant_bounds import plant_bounds
+from ._region import NonlinearRegion, nonlinear_region
 from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [
@@ -43,6 +45,7 @@ __all__ = [
     "GammaCertificate",
     "LoopMargins",
     "LyapunovCertificate",
+    "NonlinearRegion",
     "PointCertificate",
     "SampledLinearization",
     "Theorem1Constants",
@@ -53,6 +56,7 @@ __all__ = [
     "linearized_eps_star",
     "loop_margins",
     "noise_gain",
+    "nonlinear_region",
     "plant_bounds",
     "sampled_linearization",
     "synthesize_gains",

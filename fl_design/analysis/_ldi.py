@@ -11,21 +11,44 @@ with ``abar_i(t)`` in ``[min_R, max_R] of d sigma(., u_eq)/dx_i`` (``a_jacobian_
 ``b(x) in b_bounds``: the continuous plant is *exactly* a member of the LDI
 ``x' = A(theta(t)) x + e_rho b(t) u``, ``theta(t)`` anywhere in the box, varying in time.
 
-**Certificate.** Over one sample the plant-plus-hold transition of the LDI is a Peano-Baker
-series ``Psi = expm(T X_c) + T (X(thetabar) - X_c) + R`` (``X_c`` the box's center,
-``thetabar`` the time average of ``theta(t)``, inside the box; ``|R| <= Rbar`` entrywise,
-:func:`_remainder_bound`). One common ``P`` satisfies the delta-form vertex LMI for the loops
-``M_v`` of the affine model at the box's vertices with a decay rate, and NumPy checks
-``max_v ||M_v||_P + || |L^T E| Rbar |J L^-T| ||_2 < 1`` (``P = L L^T``, ``J`` the map of the
-loop state to ``(x, u_k)``): every sample map of the LDI contracts ``V``.
+**Sample maps.** Over one sample (``u`` held) the augmented state ``z = (x, u)`` obeys
+``z' = X(t) z`` with ``X(t) = [[chain(abar(t)), e_rho bbar(t)], [0, 0]]``, every entry inside
+the box spanned by the vertex matrices ``X_v`` (``X_lo <= X(t) <= X_hi`` entrywise). Its
+transition ``Psi`` is enclosed in one of two ways:
+
+* **Interval ZOH model** (exact for stiff entries, no remainder), when ``X_lo`` is Metzler
+  (off-diagonal entries >= 0: ``d sigma/d xi_i >= 0`` for ``i < rho`` and ``b > 0``; the
+  diagonal ``d sigma/d xi_rho``, e.g. a friction slope of any stiffness, is free). Then
+  ``expm(T X_lo) <= Psi <= expm(T X_hi)`` entrywise, for every measurable ``X(t)`` in the box.
+  *Argument:* ``X(t) >= X_lo`` off the diagonal, so ``X(t)`` is Metzler and ``Psi(t) >= 0``
+  (a Metzler system keeps the non-negative orthant). ``E = expm(t X_hi) - Psi(t)`` obeys
+  ``E' = X_hi E + (X_hi - X(t)) Psi(t)``, ``E(0) = 0``: the forcing is ``>= 0`` and ``X_hi``
+  is Metzler, so ``E(t) = int expm((t - s) X_hi) (X_hi - X(s)) Psi(s) ds >= 0``; likewise
+  ``Psi(t) - expm(t X_lo) >= 0``. Both ends are moved outward by ``8 ulp`` for the rounding of
+  ``expm``. The loop matrix ``M(Psi)`` is affine in ``Psi`` and ``||M||_P`` convex in it, so the
+  corners of the box (``2^k``, ``k`` the entries with ``lo < hi``, at most
+  :data:`MAX_BOX_CORNERS`) are the vertices to check; no remainder.
+* **First-order model** otherwise (e.g. the pendulum's ``-g cos theta < 0``): the Peano-Baker
+  series ``Psi = expm(T X_c) + T (X(thetabar) - X_c) + R`` (``X_c`` the box's center,
+  ``thetabar`` the time average of ``theta(t)``, inside the box; ``|R| <= Rbar`` entrywise,
+  :func:`_remainder_bound`): the vertices are the affine model's, plus the remainder.
+
+**Certificate.** One common ``P`` satisfies the delta-form vertex LMI for the loops ``M_v`` of
+the vertices with a decay rate (coordinates: balanced, else a real modal basis), and NumPy
+checks ``max_v ||M_v||_P (+ || |L^T W^-1 E| Rbar |J W L^-T| ||_2`` for the first-order model)
+``< 1`` (``P = L L^T`` in the LMI's coordinates ``X = W X_b``, ``J`` the map of the loop state
+to ``(x, u_k)``): every sample map of the LDI contracts ``V``.
 
 **What it guarantees for the nonlinear plant.** With ``V(X) = X^T P X`` on the sampled loop
 state (plant deviation, observer, ``u``, ``z``), ``V(X_(k+1)) <= q^2 V(X_k)`` with ``q < 1``
 (``q`` stored in the reason) for every sample at which the plant state stays in ``R`` over the
 sample and the clamps and input saturation are inactive: any sublevel set of ``V`` on which
 those hold is invariant and the sampled loop converges to the equilibrium exponentially. The
-bounds themselves come from :meth:`fl_design.Plant.jacobian_bounds` (dense sampling, not
-interval arithmetic). Nothing is claimed outside ``R`` or with saturation active.
+bounds are the caller's: by interval arithmetic from
+:func:`fl_design.analysis._plant_bounds.plant_bounds` (``a_jacobian_bounds="plant"``, an
+enclosure) or given (e.g. :meth:`fl_design.Plant.jacobian_bounds`, dense sampling: not an
+enclosure). Nothing is claimed outside ``R`` or with saturation active;
+:mod:`._region` searches the region and reports the covered initial states.
 
 Examples
 --------
@@ -40,6 +63,7 @@ Examples
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -52,6 +76,8 @@ from ._surrogate import chain_matrices, delta, schur_margins
 
 #: Fraction of the slowest vertex decay rate asked of the common ``P``.
 DECAY_FRACTION = 0.8
+#: Most corners of the interval ZOH model (else the first-order model is used).
+MAX_BOX_CORNERS = 256
 
 
 def _vertices(L):
@@ -98,8 +124,74 @@ def _remainder_bound(Xs, T: float) -> tuple[np.ndarray, np.ndarray]:
     return Xc, np.maximum(R, 0.0)
 
 
-def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
-    """Common-P certificate of the sampled LDI at one eps (see the module docstring)."""
+def _metzler_box(Xs, T: float):
+    """Entrywise enclosure ``(lo, hi)`` of every LDI sample map, or None when not Metzler.
+
+    ``lo = expm(T X_lo)``, ``hi = expm(T X_hi)`` (``X_lo``, ``X_hi`` the entrywise ends of the
+    vertex matrices), each end moved outward by ``8 ulp |value| + 1e-300`` for the rounding of
+    ``expm`` (see the module docstring for the comparison argument).
+    """
+    Xlo, Xhi = np.min(Xs, axis=0), np.max(Xs, axis=0)
+    off = ~np.eye(Xlo.shape[0], dtype=bool)
+    if np.any(Xlo[off] < 0.0):
+        return None
+    lo, hi = scipy.linalg.expm(T * Xlo), scipy.linalg.expm(T * Xhi)
+    pad = 8.0 * np.finfo(float).eps * np.maximum(np.abs(lo), np.abs(hi)) + 1e-300
+    lo, hi = np.where(lo == hi, lo, lo - pad), np.where(lo == hi, hi, hi + pad)
+    if np.any(lo > hi):
+        raise AssertionError("the Metzler comparison gave lo > hi")  # pragma: no cover
+    return lo, hi
+
+
+def _box_corners(lo, hi):
+    """Every corner of the matrix box ``[lo, hi]`` (entries with ``lo < hi`` take either end)."""
+    var = np.argwhere(hi > lo)
+    out = []
+    for bits in itertools.product((0, 1), repeat=len(var)):
+        Psi = lo.copy()
+        for (i, j), bit in zip(var, bits):
+            if bit:
+                Psi[i, j] = hi[i, j]
+        out.append(Psi)
+    return out, len(var)
+
+
+def _sample_maps(L, Xs):
+    """``(maps, Rbar, model words)``: the matrices whose loops must contract, and the remainder.
+
+    The interval ZOH model (exact enclosure, no remainder) when the vertex matrices are Metzler
+    and the box has at most :data:`MAX_BOX_CORNERS` corners; else the first-order model.
+    """
+    T = L.T
+    box = _metzler_box(Xs, T)
+    if box is not None:
+        maps, k = _box_corners(*box)
+        if len(maps) <= MAX_BOX_CORNERS:
+            return maps, None, (f"interval ZOH model (Metzler comparison, {k} varying entries of "
+                                f"the sample map, {len(maps)} corners, no remainder)")
+    Xc, Rbar = _remainder_bound(Xs, T)
+    Ec = scipy.linalg.expm(T * Xc)
+    why = ("the vertex matrices are not Metzler (an off-diagonal d sigma/d xi_i can be "
+           "negative)" if box is None else f"the Metzler box has more than {MAX_BOX_CORNERS} "
+           "corners")
+    return ([Ec + T * (X - Xc) for X in Xs], Rbar,
+            f"first-order model expm(T X_c) + T (X - X_c) + remainder: {why}")
+
+
+def _coordinates(D):
+    """Similarity transforms to try for the common-P LMI: balancing, then a real modal basis."""
+    _, (s, _) = scipy.linalg.matrix_balance(sum(np.abs(x) for x in D), permute=False,
+                                            separate=True)
+    yield np.diag(s)
+    from ._analytic import real_modal_basis
+
+    W = real_modal_basis(sum(D) / len(D))
+    if np.linalg.cond(W) < 1e8:
+        yield W
+
+
+def _vertex_loops(L, eps: float, gamma: float):
+    """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row)`` of the LDI at one eps."""
     T, rho, loop = L.T, L.loop.rho, L.loop
     u_row = loop.input_row(eps, gamma)
     verts = _vertices(L)
@@ -108,35 +200,54 @@ def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
         X = chain_matrices(rho, a_row)
         X[:, rho] *= b
         Xs.append(X)
-    Xc, Rbar = _remainder_bound(np.stack(Xs), T)
-    Ec, Ms = scipy.linalg.expm(T * Xc), []
-    for X in Xs:
-        Psi = Ec + T * (X - Xc)
+    maps, Rbar, model = _sample_maps(L, np.stack(Xs))
+    Ms = []
+    for Psi in maps:
         M0, M1 = loop.assemble(Psi[:rho, :rho], Psi[:rho, rho], u_row, eps, gamma)
         Ms.append(M0 + M1)
     D = [delta(M, T) for M in Ms]
-    margins = schur_margins(np.stack(D), T)
+    return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row
+
+
+def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
+    """Common-P certificate of the sampled LDI at one eps (see the module docstring)."""
+    T, loop = L.T, L.loop
+    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
-        return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
-                                _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma))
+        if Rbar is not None:
+            return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
+                                    _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma))
+        v = int(np.argmax(margins))
+        rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
+        return PointCertificate(
+            float(eps), False, None, 0, False, None, "not solved", None,
+            f"LDI ({model}): the loop of corner {v + 1} of {len(maps)} of the enclosure is not "
+            f"Schur (spectral radius {rad:.9f}): no common P; a smaller region narrows the box")
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
-    _, (s, _) = scipy.linalg.matrix_balance(sum(np.abs(x) for x in D), permute=False,
-                                            separate=True)
-    Db = [x * s[None, :] / s[:, None] for x in D]
-    sol = vertex_lmi(Db, T, common=True, kappa=kappa)
+    notes = []
+    for W in _coordinates(D):
+        Wi = np.linalg.inv(W)
+        Db = [Wi @ x @ W for x in D]
+        for k in (kappa, 0.0):
+            sol = vertex_lmi(Db, T, common=True, kappa=k)
+            if sol.certified:
+                break
+        if sol.certified:
+            break
+        notes.append(sol.note)
     if not sol.certified:
         v = int(np.argmax(margins))
         return PointCertificate(
             float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
-            f"LDI: every vertex of the first-order model is Schur (the worst, vertex {v + 1} of "
-            f"{len(verts)}, {_vertex_words(*verts[v])}, Schur margin {float(margins[v]):.3g}), "
-            f"but no common quadratic P with decay {kappa:.3g} covers them all varying in time "
-            f"({sol.note})")
-    q, nu, dP = _contraction(sol.P[0], Db, s, Rbar, u_row, loop, T)
+            f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
+            f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them all "
+            f"varying in time ({'; '.join(notes)}); a smaller region narrows the Jacobian box")
+    q, nu, dP = _contraction(sol.P[0], Db, W, Rbar, u_row, loop, T)
     ok = q < 1.0 - RECHECK_TOL
-    P = sol.P[0] / np.outer(s, s)  # the loop's own coordinates (x_b = x / s)
-    reason = (f"LDI common P over {len(verts)} vertices: ||M||_P <= {nu:.12f} + remainder "
-              f"{dP:.3g} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)"
+    P = Wi.T @ sol.P[0] @ Wi  # the loop's own coordinates (X = W X_b)
+    rem = "" if Rbar is None else f" + remainder {dP:.3g}"
+    reason = (f"LDI ({model}), common P over {len(maps)} sample maps: ||M||_P <= {nu:.12f}"
+              f"{rem} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)"
               + ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
                  f"{1.0 - nu:.3g} by {q - 1.0:.3g}"))
     return PointCertificate(float(eps), ok, "ldi" if ok else None, 1 if ok else 0, ok,
@@ -244,8 +355,12 @@ def covered_set(P, names, x_eq, room: dict) -> CoveredSet:
                       tuple(float(v) for v in x_eq), str(names[i]))
 
 
-def _contraction(P, Db, s, Rbar, u_row, loop, T):
-    """``(nu + delta_P, nu, delta_P)``: P-norm bound of every LDI sample map (NumPy)."""
+def _contraction(P, Db, W, Rbar, u_row, loop, T):
+    """``(nu + delta_P, nu, delta_P)``: P-norm bound of every LDI sample map (NumPy).
+
+    ``Db`` are the delta matrices in the coordinates ``X_b = W^-1 X``; ``Rbar`` None: no
+    remainder (the maps are an enclosure).
+    """
     n, rho = P.shape[0], loop.rho
     Lc = np.linalg.cholesky((P + P.T) / 2)
     Linv = np.linalg.inv(Lc)
@@ -254,6 +369,8 @@ def _contraction(P, Db, s, Rbar, u_row, loop, T):
         Q = Dv.T @ P + P @ Dv + T * Dv.T @ P @ Dv
         nu2 = max(nu2, 1.0 + T * float(np.linalg.eigvalsh(Linv @ ((Q + Q.T) / 2) @ Linv.T)[-1]))
     nu = math.sqrt(max(nu2, 0.0))
+    if Rbar is None:
+        return nu, nu, 0.0
     keep = loop.keep
     Jp = np.zeros((rho + 1, len(u_row)))
     Jp[:rho, :rho] = np.eye(rho)
@@ -261,10 +378,22 @@ def _contraction(P, Db, s, Rbar, u_row, loop, T):
     Jp = Jp[:, keep]
     E = np.zeros((n, rho + 1))
     E[:rho, :rho] = np.eye(rho)
-    left = np.abs(Lc.T @ (E / s[:, None]))
-    right = np.abs((Jp * s[None, :]) @ Linv.T)
+    left = np.abs(Lc.T @ np.linalg.solve(W, E))
+    right = np.abs(Jp @ W @ Linv.T)
     dP = float(np.linalg.norm(left @ Rbar @ right, 2))
     return nu + dP, nu, dP
+
+
+def _room(L, pb) -> dict:
+    """``{kept loop index: room}``: the region's room of each ``x_i``, and of ``u``."""
+    rho = L.loop.rho
+    room = {i: min(pb.xi_op[i] - lo, hi - pb.xi_op[i])
+            for i, (lo, hi) in enumerate(pb.xi_region[:rho])}
+    rooms_u = [min(pb.u_eq - r[0], r[1] - pb.u_eq) for r in
+               (L.design.controller.u_range, pb.input_range) if r is not None]
+    if rooms_u:  # the saturation inactive, and u where b was enclosed
+        room[L.loop.keep.index(L.loop.names.index("u"))] = min(rooms_u)
+    return room
 
 
 def loop_covered_set(L, point, pb):
@@ -273,15 +402,45 @@ def loop_covered_set(L, point, pb):
     ``PlantBounds`` of a chain plant); else None."""
     if point.kind != "ldi" or pb is None or pb.xi_region is None:
         return None
-    rho = L.loop.rho
-    room = {i: min(pb.xi_op[i] - lo, hi - pb.xi_op[i])
-            for i, (lo, hi) in enumerate(pb.xi_region[:rho])}
-    rooms_u = [min(pb.u_eq - r[0], r[1] - pb.u_eq) for r in
-               (L.design.controller.u_range, pb.input_range) if r is not None]
-    if rooms_u:  # the saturation inactive, and u where b was enclosed
-        room[L.loop.keep.index(L.loop.names.index("u"))] = min(rooms_u)
     names = [L.loop.names[k] for k in L.loop.keep]
-    return covered_set(point.lyapunov[0][0], names, pb.xi_op[:rho], room)
+    return covered_set(point.lyapunov[0][0], names, pb.xi_op[:L.loop.rho], _room(L, pb))
 
 
-__all__ = ["DECAY_FRACTION", "CoveredSet", "covered_set", "ldi_point", "loop_covered_set"]
+def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
+    """``(CoveredSet, q)`` of a ``P`` chosen for the widest covered starts, or None.
+
+    :func:`._covered_lmi.widest_covered_p` over this LDI's vertices (balanced, else modal
+    coordinates; decay rates from the vertices' down to 2 % of it): the first ``P`` that
+    re-checks as :func:`ldi_point` does (``q < 1``, remainder included); its sublevel set from
+    :func:`covered_set`. ``G`` maps a plant start to the kept loop state, ``w`` is
+    the shape of the starts sought.
+    """
+    from ._covered_lmi import widest_covered_p
+
+    if pb is None or pb.xi_region is None:
+        return None
+    T, loop = L.T, L.loop
+    _, _, _, Rbar, _, _, D, margins, u_row = _vertex_loops(L, eps, gamma)
+    if np.max(margins) >= 0.0:
+        return None
+    room = _room(L, pb)
+    names = [loop.names[k] for k in loop.keep]
+    kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
+    for W in _coordinates(D):
+        Wi = np.linalg.inv(W)
+        Db = [Wi @ x @ W for x in D]
+        for k in (kappa, 0.25 * kappa, 0.02 * kappa):
+            P = widest_covered_p(Db, W, T, k, room, G, w)
+            if P is None:
+                continue
+            try:
+                q = _contraction(W.T @ P @ W, Db, W, Rbar, u_row, loop, T)[0]
+            except np.linalg.LinAlgError:
+                continue
+            if q < 1.0 - RECHECK_TOL:
+                return covered_set(P, names, pb.xi_op[:loop.rho], room), q
+    return None
+
+
+__all__ = ["DECAY_FRACTION", "CoveredSet", "covered_set", "ldi_point", "loop_covered_set",
+           "widest_covered_set"]

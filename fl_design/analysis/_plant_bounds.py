@@ -151,8 +151,12 @@ def _jacobian(plant, box, splits):
 
     chain = plant._lie_chain()
     if chain.rho != plant.n:
-        return None, (f"none: the plant has internal dynamics (rho = {chain.rho} < n = "
-                      f"{plant.n}); the LDI certificate needs rho = n")
+        return None, (
+            f"none: the plant has internal dynamics (rho = {chain.rho} < n = {plant.n}); the "
+            f"LDI certificate covers rho = n only. Needed: the normal form (xi, eta) with the "
+            f"{plant.n - chain.rho} internal states eta' = q(xi, eta) and interval bounds on the "
+            "Jacobian of q, added to the loop (the surrogate models only the chain of rho "
+            "integrators), and a region in those coordinates")
     x = sp.Matrix(list(plant.states))
     xi = sp.Matrix(list(chain.derivatives[: chain.rho]))
     Jx = xi.jacobian(x)
@@ -187,11 +191,11 @@ def _rate(plant, b, box, T, du, splits) -> tuple[float, str]:
         lo, hi = interval_range(dbu, box, splits=splits)
         g = max(abs(lo), abs(hi))
         if du is None:
-            if plant.input_range is None:
+            if u not in box:
                 raise ParameterError(
                     f"b of {plant.name!r} depends on the input and the plant has no "
                     "input_range: give du (the largest change of u per sample)")
-            du_v = float(plant.input_range[1] - plant.input_range[0])
+            du_v = float(box[u][1] - box[u][0])
             why = ("the width of the input range: the plant does not bound u's change per "
                    "sample; give du for a tighter rate")
         else:
@@ -201,7 +205,7 @@ def _rate(plant, b, box, T, du, splits) -> tuple[float, str]:
     return float(total), " + ".join(terms) + f" = {total:.6g} per sample"
 
 
-def plant_bounds(plant, *, params=None, region=None, T=None, du=None,
+def plant_bounds(plant, *, params=None, region=None, T=None, du=None, input_range=None,
                  splits: int = 8) -> PlantBounds:
     """Enclose ``b``, ``d sigma/d xi`` and ``b``'s rate over the region and a parameter box.
 
@@ -218,6 +222,8 @@ def plant_bounds(plant, *, params=None, region=None, T=None, du=None,
         Sampling time: gives ``b_rate`` (per sample).
     du : float, optional
         Largest change of the input in one sample (default: the input range's width).
+    input_range : (float, float), optional
+        The inputs covered, instead of the plant's ``input_range`` (e.g. a smaller region).
     splits : int, optional
         Sub-intervals per variable of each enclosure (at most 4096 sub-boxes; default 8).
 
@@ -246,8 +252,12 @@ def plant_bounds(plant, *, params=None, region=None, T=None, du=None,
     box = _param_box(plant, params)
     states = _state_box(plant, region)
     box.update(states)
-    if plant.input_range is not None:
-        box[plant.input] = tuple(float(v) for v in plant.input_range)
+    if input_range is not None:
+        input_range = V.interval("input_range", input_range, allow_none=False)
+    else:
+        input_range = None if plant.input_range is None else tuple(map(float, plant.input_range))
+    if input_range is not None:
+        box[plant.input] = input_range
     b = plant.normal_form().b
     lo, hi = interval_range(b, box, splits=splits)
     if lo <= 0.0 <= hi:
@@ -266,7 +276,7 @@ def plant_bounds(plant, *, params=None, region=None, T=None, du=None,
                      if s in plant.params),
         region=tuple((str(s), float(states[s][0]), float(states[s][1])) for s in plant.states
                      if s in states),
-        input_range=None if plant.input_range is None else tuple(map(float, plant.input_range)),
+        input_range=input_range,
         T=T, method=(f"interval arithmetic (mpmath iv, outward rounding) on the symbolic "
                      f"expressions, each variable split in up to {splits} sub-intervals"),
         xi_region=(tuple(tuple(float(v) for v in states[s_]) for s_ in plant.states)

@@ -63,6 +63,8 @@ def print_certificates(job) -> None:
               "data support; the brackets above say how tight)")
         for m in cert.get("margins", ()):
             print(f"margins at the plant input (surrogate, b frozen): {m['text']}")
+        if "nonlinear" in cert:
+            print(cert["nonlinear"])
     print("linearized eps* at this gamma (eigenvalues of the nonlinear loop's Jacobian at rest, "
           f"not a certificate): {linearized_text(cert['linearized_design'])}")
 

@@ -166,6 +166,7 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
         # margins at both ends of b, as plain numbers and text (cached without python-control)
         out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
                           for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
+        out["nonlinear"] = _nonlinear(design, plant, box["ranges"], quick)
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
@@ -173,6 +174,18 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
         for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
     out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
     return out
+
+
+def _nonlinear(design, plant, ranges, quick: bool) -> str:
+    """The nonlinear certificate's line (:func:`fl_design.analysis.nonlinear_region`)."""
+    from ..analysis import nonlinear_region
+    from ..errors import ParameterError
+
+    try:
+        return nonlinear_region(design, plant, params=ranges or None,
+                                steps=2 if quick else 5).words()
+    except ParameterError as err:
+        return f"nonlinear: not certified: {err}"
 
 
 def _sweep(job: Job, quick: bool, executor, progress: bool) -> None:

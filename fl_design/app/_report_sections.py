@@ -120,6 +120,8 @@ def _certificates(job) -> list:
                             "the trajectory (varying, the paper's b(w(k), x(k))); not the "
                             "nonlinear plant. Refuted: a constant or periodically switched b "
                             "found that makes the surrogate grow.")))
+        if "nonlinear" in cert:
+            blocks.append(("p", cert["nonlinear"] + "."))
     elif "skipped" in cert:
         blocks.append(("p", f"Certificates of gamma and eps* skipped: {cert['skipped']}."))
     blocks.append(("p", (f"Linearized nonlinear loop at the equilibrium, this gamma: eps* = "

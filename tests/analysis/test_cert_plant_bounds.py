@@ -177,37 +177,6 @@ def test_plant_bounds_and_plant_options_refuse_bad_input(pendulum_box):
         fl.certify_eps(design, plant_bounds(plant, params=BOX, T=2e-3), b_rate="plant")
 
 
-def test_trms_nonlinear_certificate_says_which_vertex_fails_and_by_how_much():
-    """The paper's TRMS with its exact friction slope range: not certified, and why, in numbers
-    that an independent eigenvalue computation reproduces."""
-    import re
-
-    import scipy.linalg
-
-    design = fl.presets.paper_design()
-    pb = plant_bounds(fl.plants.trms_yaw(), T=design.T)
-    c = fl.certify_eps(design, pb, a_jacobian_bounds="plant", search=False)
-    assert not c.certified and c.covers == "nonlinear"
-    why = c.point.reason
-    m = re.search(r"d sigma/d xi = \(0, (-?[\d.]+)\), b = ([\d.]+)\): spectral radius ([\d.]+)",
-                  why)
-    assert m and "exact ZOH is Schur" in why, why
-    a, b, rad = (float(v) for v in m.groups())
-    # the first-order model at that vertex: expm(T X_c) + T (X_v - X_c), X = [[0,1,0],[0,a,b],0]
-    X = lambda av, bv: np.array([[0.0, 1.0, 0.0], [0.0, av, bv], [0.0, 0.0, 0.0]])
-    Xc = 0.5 * (X(-505.0, 3.6) + X(-5.0, 6.8))
-    Psi = scipy.linalg.expm(design.T * Xc) + design.T * (X(a, b) - Xc)
-    M = surrogate_loop_matrix(design.estimator, (2.0, 4.0), design.controller.gamma, 1e-3, 1.0)
-    # plant rows: x+ = Phi x + Gam u_k, u_k the oracle's input row M[5] (b is in Gam)
-    M[:2] = np.hstack([Psi[:2, :2], np.zeros((2, 5))]) + np.outer(Psi[:2, 2], M[5])
-    assert np.max(np.abs(np.linalg.eigvals(M))) == pytest.approx(rad, abs=2e-9)
-    # a narrow friction range: every vertex fine, the remainder bound is what fails, by a number
-    narrow = fl.certify_eps(design, pb, a_jacobian_bounds=[(0.0, 0.0), (-6.0, -5.0)],
-                            search=False)
-    assert not narrow.certified and "the remainder bound exceeds the contraction" in \
-        narrow.point.reason
-
-
 def test_gamma_interval_and_curve_over_the_box_match_the_plain_b_interval(pendulum_box):
     design = fl.presets.pendulum_design()
     g_box = fl.certify_gamma(design, pendulum_box)
