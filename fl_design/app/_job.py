@@ -177,13 +177,20 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
 
 
 def _nonlinear(design, plant, ranges, quick: bool) -> str:
-    """The nonlinear certificate's line (:func:`fl_design.analysis.nonlinear_region`)."""
+    """The nonlinear certificate's line (:func:`fl_design.analysis.nonlinear_region`).
+
+    Not searched in ``--quick``: the region search solves tens of LMIs (15-40 s on the TRMS on
+    a 2-core machine) and the quick job is for tests and a first look (target 5 s); the full
+    job searches it once and the stage cache keeps it.
+    """
     from ..analysis import nonlinear_region
     from ..errors import ParameterError
 
+    if quick:
+        return ("nonlinear: not searched in --quick (the region search takes tens of seconds; "
+                "the full job or `fl-design certify` without --quick searches it)")
     try:
-        return nonlinear_region(design, plant, params=ranges or None,
-                                steps=2 if quick else 5).words()
+        return nonlinear_region(design, plant, params=ranges or None, steps=5).words()
     except ParameterError as err:
         return f"nonlinear: not certified: {err}"
 
