@@ -10,8 +10,6 @@ Examples
 
 from __future__ import annotations
 
-import sympy as sp
-
 from ..errors import ParameterError
 from ._config import Config, ConfigError
 
@@ -61,7 +59,9 @@ def build_plant(cfg: Config):
 
     p = cfg.plant
     if not p.expression:
-        return _library(p.library, p.motor_lag)
+        return _library(p.library, p.motor_lag)  # known by its recipe: no SymPy when cached
+    import sympy as sp  # here only: a cached library plant's run never imports it
+
     states = [sp.Symbol(str(s), real=True) for s in p.states]
     u = sp.Symbol(p.input, real=True)
     names = {s.name: s for s in states} | {u.name: u}

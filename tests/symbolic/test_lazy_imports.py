@@ -17,6 +17,17 @@ import json, sys
 import fl_design as fl
 plant = fl.plants.trms_yaw()
 plant.relative_degree(), plant.b_bounds(), plant.casadi()
+import pickle
+again = pickle.loads(pickle.dumps(plant))  # a recipe plant pickles as its recipe
+assert again.relative_degree() == 2 and repr(again) == repr(plant)
+assert again.with_params(B1=0.2).b_bounds() == plant.b_bounds()  # cached from the first run
+for bad in ({"I2": -1.0}, {"input_range": (1.0, -1.0)}):  # validated without SymPy
+    try:
+        fl.plants.trms_yaw(**bad)
+    except fl.errors.ParameterError:
+        pass
+    else:
+        raise AssertionError(f"trms_yaw(**{bad}) was accepted")
 print(json.dumps(sorted(m for m in sys.modules if m.split(".")[0] in
                         ("fl_design", "sympy", "cvxpy", "matplotlib", "control", "jax"))))
 """
