@@ -239,8 +239,8 @@ def _y_op(plant) -> float:
 
 
 def _check_gamma_sign(cfg: Config, plant) -> None:
-    if plant.region is None or plant.input_range is None:
-        return
+    if not any(plant._state_ranges()[0].values()) or plant.input_range is None:
+        return  # no region (read without SymPy) or no input range: b is not bounded
     lo, hi = plant.b_bounds(allow_sign_change=True)
     g = cfg.design.gamma
     if lo * hi > 0 and g * lo < 0:
@@ -251,10 +251,9 @@ def _check_gamma_sign(cfg: Config, plant) -> None:
 
 
 def _check_reference(cfg: Config, plant) -> None:
-    region = plant.region or {}
-    y = plant.output
-    if y in region:
-        lo, hi = region[y]
+    ranges, y = plant._state_ranges()  # no SymPy for a cached library plant
+    if y is not None and ranges[y] is not None:
+        lo, hi = ranges[y]
         r = cfg.scenario.reference
         if not lo <= r <= hi:
             raise ConfigError(f"{cfg.source}: [scenario] reference = {r:g} is outside the "

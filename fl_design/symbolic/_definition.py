@@ -278,5 +278,12 @@ def operating_point_and_input(point, by_name, rhs, input, region, input_range,
     return x_op, u_eq
 
 
-__all__ = ["Definition", "check_params", "define", "check_symbols", "equilibrium_input", "operating_point_and_input",
-           "parse_operating_point"]
+__all__ = [
+    "Definition",
+    "check_params",
+    "check_symbols",
+    "define",
+    "equilibrium_input",
+    "operating_point_and_input",
+    "parse_operating_point",
+]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,6 +32,9 @@ from ._casadi_functions import PlantFunctions
 from ._derivation_cache import PlantStore
 from ._plant_derived import Derivations
 from ._recipe import Recipe
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only (the module imports SymPy)
+    from ._equilibrium import Equilibrium
 
 # SymPy and the derivations are imported on first use (a plant whose quantities are all in the
 # cache never imports SymPy); a module-level name, so that tests can watch it.
@@ -127,23 +131,27 @@ class Plant(Derivations):
         set_(self, "_input_range", input_range)
         set_(self, "_store", PlantStore(key))
         set_(self, "_cache", {})
-        x_op, u_eq, names, u_name, y_text = self._store.get("header", self._header, check=tuple)
+        x_op, u_eq, names, u_name, y_text, ranges = self._store.get("header", self._header,
+                                                                     check=tuple)
         x_op = np.array(x_op, dtype=float)
         x_op.setflags(write=False)
         set_(self, "_x_op", x_op)
         set_(self, "_u_eq", float(u_eq))
         set_(self, "_names", (tuple(names), u_name, y_text))
+        set_(self, "_ranges", tuple(None if r is None else tuple(r) for r in ranges))
         _ = self._fh  # every function has a CasADi translation, or a PlantDefinitionError now
 
     def _header(self) -> tuple:
-        """``(x_op, u_eq, state names, input name, output text)``: the plant without SymPy."""
+        """``(x_op, u_eq, state names, input name, output text, state ranges)``: what the
+        plant shows without SymPy."""
         d = self._sym()
         by_name = {s.name: s for s in d.states}
         x_op, u_eq = operating_point_and_input(
             d.operating_point, by_name, d.rhs.subs(d.params_map), d.input, d.region,
             self._input_range, self._solve)
+        region = d.region or {}
         return (tuple(float(v) for v in x_op), float(u_eq), tuple(by_name), d.input.name,
-                str(d.output))
+                str(d.output), tuple(region.get(s) for s in d.states))
 
     def _sym(self):
         """The SymPy definition (:class:`~fl_design.symbolic._definition.Definition`), built from
@@ -253,6 +261,20 @@ class Plant(Derivations):
                       doc="{state Symbol: (lo, hi)} or None.")
     x_op = property(lambda self: self._x_op, doc="Operating point (read-only array of n floats).")
     u_eq = property(lambda self: self._u_eq, doc="Equilibrium input at the operating point.")
+
+    def _state_ranges(self) -> tuple[dict, str | None]:
+        """``({state name: (lo, hi) or None}`` in state order, ``output name)``, read without
+        SymPy (:attr:`region` builds a library plant's definition); the output's name is None
+        when the output is not a state.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.plants.pendulum()._state_ranges()
+        ({'theta': (-3.14159..., 3.14159...), 'theta_dot': (-10.0, 10.0)}, 'theta')
+        """
+        names, _, y_text = self._names
+        return dict(zip(names, self._ranges)), (y_text if y_text in names else None)
 
     def __repr__(self) -> str:
         names, u_name, y_text = self._names

@@ -15,12 +15,16 @@ from __future__ import annotations
 
 import warnings
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import _validate as V
 from ..errors import PoorlyScaledWarning
 from ._casadi_functions import PlantFunctions
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only (the module imports SymPy)
+    from ._normal_form import LieChain, NormalForm
 
 # The derivations are imported on first use: a plant whose quantities are all in the cache (and
 # a library plant, known by its recipe) never imports SymPy. Module-level names, so that tests

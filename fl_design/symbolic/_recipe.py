@@ -44,7 +44,7 @@ def _text(value) -> str:
     return repr(value)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def package_version(folder: str) -> str:
     """SHA-256 of the ``*.py`` sources in ``folder`` (the package defining a plant).
 

@@ -7,8 +7,8 @@ import dataclasses
 import math
 import pickle
 
-import numpy as np
 import pytest
+import sympy
 
 import fl_design as fl
 from fl_design.errors import ParameterError, PlantDefinitionError
@@ -45,7 +45,8 @@ def _quantities(plant) -> dict:
            "params": plant.params, "region": plant.region, "input_range": plant.input_range,
            "states": plant.states, "rhs": plant.rhs, "output": plant.output,
            "derivatives": plant.output_derivatives(rho), "casadi": plant.casadi(),
-           "linearization": plant.linearization(), "nf": plant.normal_form()}
+           "linearization": plant.linearization(), "nf": plant.normal_form(),
+           "ranges": plant._state_ranges()}
     if plant.name != "cart_pendulum_inverted":  # b has a known sign on the others' regions
         out["bounds"] = plant.b_bounds()
     return out
@@ -61,6 +62,20 @@ def test_a_recipe_plant_derives_what_its_eager_twin_derives(name, cache):
     loaded = LIBRARY[name]()  # from the cache this time: nothing built, the same quantities
     assert loaded._def is None
     _same(_quantities(eager), _quantities(loaded))
+
+
+@pytest.mark.parametrize("name", sorted(LIBRARY))
+def test_the_state_ranges_read_without_sympy_are_the_region(name, cache):
+    LIBRARY[name]()
+    plant = LIBRARY[name]()  # loaded: the ranges come from the cache, nothing built
+    ranges, y = plant._state_ranges()
+    assert plant._def is None
+    region = plant.region
+    assert ranges == {s.name: region.get(s) for s in plant.states}
+    assert y == str(plant.output) and plant.output in plant.states
+    x, u = sympy.symbols("x u")
+    user = fl.Plant.from_ode([x], u, [-x + u], 2 * x, region={x: (-1, 1)})
+    assert user._state_ranges() == ({"x": (-1.0, 1.0)}, None)  # the output is not a state
 
 
 def test_with_params_of_a_recipe_plant_is_the_eager_with_params(cache):
