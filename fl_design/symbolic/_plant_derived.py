@@ -229,6 +229,28 @@ class Derivations:
             self._cache["casadi"] = PlantFunctions(f=f, h=h, sigma=sigma, b=b)
         return self._cache["casadi"]
 
+    def _coordinates_function(self, order: int):
+        """``fl_coords(x) -> [y, y', ..., y^(order-1)]`` as a CasADi function (cached on disk).
+
+        The normal-form coordinates when ``order`` is the relative degree (the compiled loop's
+        ``coordinates``); read from the cache without SymPy.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.plants.pendulum()._coordinates_function(2)([0.1, 0.2]).full().ravel().tolist()
+        [0.1, 0.2]
+        """
+        def translate():
+            coords = list(self.output_derivatives(order - 1))
+            return to_casadi(coords, [list(self._states)], "fl_coords", subs=self._params_map,
+                             input_names=["x"], output_name="coords")
+
+        order = V.integer("order", order, minimum=1)
+        import casadi as ca
+
+        return self._derived(f"coords{order}", translate, ca.Function)
+
     def b_bounds(self, *, allow_sign_change: bool = False) -> tuple[float, float]:
         """Bounds ``(b_min, b_max)`` of ``b = d y^(rho)/du`` over ``region x input_range``.
 

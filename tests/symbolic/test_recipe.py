@@ -7,6 +7,7 @@ import dataclasses
 import math
 import pickle
 
+import numpy as np
 import pytest
 import sympy
 
@@ -151,3 +152,18 @@ def test_a_recipe_names_a_function_of_fl_design(definition, match):
 def test_a_recipe_holds_plain_values_only():
     with pytest.raises(PlantDefinitionError, match="plain value"):
         Recipe("fl_design.plants._rotor:trms_yaw_definition", (("I2", object()),))
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_the_cached_coordinate_function_is_the_output_derivatives(order, cache):
+    plant = fl.plants.trms_yaw(motor_lag=True)  # rho = 3: orders below it are unmodeled views
+    fn = plant._coordinates_function(order)
+    again = fl.plants.trms_yaw(motor_lag=True)._coordinates_function(order)  # from the cache
+    rng = np.random.default_rng(3)
+    for point in rng.uniform(-2, 2, (10, 3)):
+        expected = [float(sympy.N(d.subs(plant.params).subs(dict(zip(plant.states, point)))))
+                    for d in plant.output_derivatives(order - 1)]
+        np.testing.assert_allclose(fn(point).full().ravel(), expected, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(fn(point).full(), again(point).full())
+    with pytest.raises(ParameterError):
+        plant._coordinates_function(0)

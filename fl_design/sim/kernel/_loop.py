@@ -347,14 +347,7 @@ class ClosedLoop:
         ``rho`` is the design's: with unmodeled dynamics the plant's first ``rho`` output
         derivatives (Lie derivatives of ``h`` along ``f``).
         """
-        from ...symbolic._bridge import to_casadi
-
-        if self.plant.relative_degree() == self.rho:
-            coords = list(self.plant.normal_form().coordinates)
-        else:
-            coords = list(self.plant.output_derivatives(self.rho - 1))
-        return to_casadi(coords, [list(self.plant.states)], "fl_coords",
-                         subs=self.plant.params, input_names=["x"], output_name="coords")
+        return self.plant._coordinates_function(self.rho)  # cached: no SymPy when loaded
 
     @functools.cached_property
     def true_sigma(self) -> ca.Function:
