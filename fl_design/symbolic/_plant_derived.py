@@ -251,6 +251,23 @@ class Derivations:
 
         return self._derived(f"coords{order}", translate, ca.Function)
 
+    def _zero_dynamics(self) -> tuple[bool, np.ndarray]:
+        """``(minimum_phase, zero-dynamics eigenvalues)`` of :meth:`normal_form` (cached on
+        disk: read without SymPy).
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> ok, eig = fl.plants.cart_pendulum(inverted=True)._zero_dynamics()
+        >>> ok, eig.real.round(2).tolist()
+        (False, [-7.46, 3.29])
+        """
+        def derive() -> tuple:
+            nf = self.normal_form()
+            return bool(nf.minimum_phase), np.asarray(nf.zero_dynamics_eigenvalues)
+
+        return self._derived("zero_dynamics", derive, tuple)
+
     def b_bounds(self, *, allow_sign_change: bool = False) -> tuple[float, float]:
         """Bounds ``(b_min, b_max)`` of ``b = d y^(rho)/du`` over ``region x input_range``.
 

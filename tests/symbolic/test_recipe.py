@@ -47,7 +47,7 @@ def _quantities(plant) -> dict:
            "states": plant.states, "rhs": plant.rhs, "output": plant.output,
            "derivatives": plant.output_derivatives(rho), "casadi": plant.casadi(),
            "linearization": plant.linearization(), "nf": plant.normal_form(),
-           "ranges": plant._state_ranges()}
+           "ranges": plant._state_ranges(), "zero_dynamics": plant._zero_dynamics()}
     if plant.name != "cart_pendulum_inverted":  # b has a known sign on the others' regions
         out["bounds"] = plant.b_bounds()
     return out

@@ -153,10 +153,9 @@ def resolve_substeps(plant, T: float, substeps: int | None) -> int:
 
 def _warn_if_not_minimum_phase(plant) -> None:
     """A :class:`~fl_design.errors.NonMinimumPhaseWarning` naming the unstable zero dynamics."""
-    nf = plant.normal_form()
-    if nf.minimum_phase:
+    minimum_phase, eig = plant._zero_dynamics()  # cached: no SymPy when loaded
+    if minimum_phase:
         return
-    eig = nf.zero_dynamics_eigenvalues
     listed = ", ".join(f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j"
                        for z in eig)
     warnings.warn(
