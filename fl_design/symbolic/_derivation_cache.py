@@ -14,8 +14,10 @@ directory of the compiled kernels (:func:`fl_design._cache.cache_directory`,
   top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy
   (read from the installed packages' metadata, without importing them);
 
-with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each file starts with
-an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
+(a library plant, known before SymPy by its recipe, is keyed by
+:meth:`~fl_design.symbolic._recipe.Recipe.key` instead: its values, this code version and its
+package's sources), with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each
+file starts with an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
 (:func:`fl_design._cache.user_key`, mode 0600). Nothing is unpickled unless its signature
 verifies, so a file written by anyone who cannot read that key (a planted pickle, an entry
 copied from another machine or user) is never loaded. A quantity read from the cache is
