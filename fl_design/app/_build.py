@@ -10,8 +10,6 @@ Examples
 
 from __future__ import annotations
 
-import sympy as sp
-
 from ..errors import ParameterError
 from ._config import Config, ConfigError
 
@@ -61,7 +59,9 @@ def build_plant(cfg: Config):
 
     p = cfg.plant
     if not p.expression:
-        return _library(p.library, p.motor_lag)
+        return _library(p.library, p.motor_lag)  # known by its recipe: no SymPy when cached
+    import sympy as sp  # here only: a cached library plant's run never imports it
+
     states = [sp.Symbol(str(s), real=True) for s in p.states]
     u = sp.Symbol(p.input, real=True)
     names = {s.name: s for s in states} | {u.name: u}
@@ -239,8 +239,8 @@ def _y_op(plant) -> float:
 
 
 def _check_gamma_sign(cfg: Config, plant) -> None:
-    if plant.region is None or plant.input_range is None:
-        return
+    if not any(plant._state_ranges()[0].values()) or plant.input_range is None:
+        return  # no region (read without SymPy) or no input range: b is not bounded
     lo, hi = plant.b_bounds(allow_sign_change=True)
     g = cfg.design.gamma
     if lo * hi > 0 and g * lo < 0:
@@ -251,10 +251,9 @@ def _check_gamma_sign(cfg: Config, plant) -> None:
 
 
 def _check_reference(cfg: Config, plant) -> None:
-    region = plant.region or {}
-    y = plant.output
-    if y in region:
-        lo, hi = region[y]
+    ranges, y = plant._state_ranges()  # no SymPy for a cached library plant
+    if y is not None and ranges[y] is not None:
+        lo, hi = ranges[y]
         r = cfg.scenario.reference
         if not lo <= r <= hi:
             raise ConfigError(f"{cfg.source}: [scenario] reference = {r:g} is outside the "

@@ -11,12 +11,12 @@ True
 
 from __future__ import annotations
 
-import sympy as sp
-
 from ._report_sections import paper_gamma_bound
 
 
 def _fmt(expr, latex: bool) -> str:
+    import sympy as sp  # here only: a run whose derivation is cached never imports SymPy
+
     return sp.latex(expr) if latex else sp.sstr(expr)
 
 
@@ -44,6 +44,8 @@ def derivation_report(plant, *, latex: bool = False) -> str:
     >>> print(derivation_report(fl.plants.pendulum()).splitlines()[0])
     Plant: pendulum
     """
+    import sympy as sp
+
     from ..symbolic._discretization import taylor_discretization
 
     nf = plant.normal_form()

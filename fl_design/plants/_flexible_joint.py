@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import math
 
-import sympy as sp
-
 from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import positive_params
+from ._common import library_plant, positive_params
 
 
 def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h: float = 0.155,
@@ -63,16 +61,41 @@ def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h
     """
     vals = positive_params(Jm=Jm, Jl=Jl, m=m, h=h, k=k, Ktau=Ktau, g=g)
     vals["B"] = V.nonnegative("B", B)
-    s = {name: sp.Symbol(name, positive=True) for name in vals}
+    return library_plant(flexible_joint_definition, params=vals, name="flexible_joint",
+                         input_range=input_range)
+
+
+def flexible_joint_definition(params: dict) -> dict:
+    """The SymPy definition of :func:`flexible_joint` (validated ``params``; see there).
+
+    Parameters
+    ----------
+    params : dict
+        ``{name: float}`` as :func:`flexible_joint` validated them.
+
+    Returns
+    -------
+    dict
+        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.plants._flexible_joint import flexible_joint_definition
+    >>> flexible_joint_definition(dict(fl.plants.flexible_joint()._recipe.params))["states"]
+    [q1, q1_dot, q2, q2_dot]
+    """
+    import sympy as sp
+
+    s = {name: sp.Symbol(name, positive=True) for name in params}
     q1, w1, q2, w2, u = sp.symbols("q1 q1_dot q2 q2_dot u", real=True)
     spring = s["k"] * (q1 - q2)
     rhs = [w1, (-s["m"] * s["g"] * s["h"] * sp.sin(q1) - spring) / s["Jl"],
            w2, (s["Ktau"] * u - s["B"] * w2 + spring) / s["Jm"]]
-    return Plant.from_ode([q1, w1, q2, w2], u, rhs, q1,
-                          params={s[name]: v for name, v in vals.items()},
-                          name="flexible_joint", input_range=input_range,
-                          region={q1: (-math.pi, math.pi), w1: (-10.0, 10.0),
-                                  q2: (-math.pi, math.pi), w2: (-10.0, 10.0)})
+    return {"states": [q1, w1, q2, w2], "input": u, "rhs": rhs, "output": q1,
+            "params": {s[name]: v for name, v in params.items()},
+            "region": {q1: (-math.pi, math.pi), w1: (-10.0, 10.0),
+                       q2: (-math.pi, math.pi), w2: (-10.0, 10.0)}}
 
 
 __all__ = ["flexible_joint"]

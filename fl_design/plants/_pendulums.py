@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import math
 
-import sympy as sp
-
 from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import positive_params
+from ._common import library_plant, positive_params
 
 
 def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
@@ -52,12 +50,38 @@ def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
     """
     vals = positive_params(g=g, l=l, b=b)
     vals["c"] = V.nonnegative("c", c)
-    s = {k: sp.Symbol(k, positive=True) for k in vals}
+    return library_plant(pendulum_definition, params=vals, name="pendulum",
+                         input_range=input_range)
+
+
+def pendulum_definition(params: dict) -> dict:
+    """The SymPy definition of :func:`pendulum` (validated ``params``; see there).
+
+    Parameters
+    ----------
+    params : dict
+        ``{name: float}`` as :func:`pendulum` validated them.
+
+    Returns
+    -------
+    dict
+        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.plants._pendulums import pendulum_definition
+    >>> pendulum_definition(dict(fl.plants.pendulum()._recipe.params))["states"]
+    [theta, theta_dot]
+    """
+    import sympy as sp
+
+    s = {k: sp.Symbol(k, positive=True) for k in params}
     th, om, u = sp.symbols("theta theta_dot u", real=True)
     rhs = [om, -(s["g"] / s["l"]) * sp.sin(th) - s["c"] * om + s["b"] * u]
-    return Plant.from_ode([th, om], u, rhs, th, params={s[k]: v for k, v in vals.items()},
-                          name="pendulum", input_range=input_range,
-                          region={th: (-math.pi, math.pi), om: (-10.0, 10.0)})
+    return {"states": [th, om], "input": u, "rhs": rhs, "output": th,
+            "params": {s[k]: v for k, v in params.items()},
+            "region": {th: (-math.pi, math.pi), om: (-10.0, 10.0)}}
 
 
 
@@ -138,7 +162,36 @@ def cart_pendulum(inverted: bool = False, *, M: float = 1.0, m: float = 0.2, l: 
     inverted = V.boolean("inverted", inverted)
     vals = positive_params(M=M, m=m, l=l, J=J, g=g)
     vals.update({k: V.nonnegative(k, v) for k, v in {"c": c, "gamma_p": gamma_p}.items()})
-    s = {k: sp.Symbol(k, positive=True) for k in vals}
+    return library_plant(cart_pendulum_definition, params=vals, input_range=input_range,
+                         name="cart_pendulum_inverted" if inverted else "cart_pendulum",
+                         inverted=inverted)
+
+
+def cart_pendulum_definition(params: dict, *, inverted: bool) -> dict:
+    """The SymPy definition of :func:`cart_pendulum` (validated ``params``; see there).
+
+    Parameters
+    ----------
+    params : dict
+        ``{name: float}`` as :func:`cart_pendulum` validated them.
+    inverted : bool
+        Balance the pendulum upright.
+
+    Returns
+    -------
+    dict
+        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.plants._pendulums import cart_pendulum_definition
+    >>> cart_pendulum_definition(dict(fl.plants.cart_pendulum()._recipe.params), inverted=False)["states"]
+    [p, p_dot, theta, theta_dot]
+    """
+    import sympy as sp
+
+    s = {k: sp.Symbol(k, positive=True) for k in params}
     p, v, th, om, F = sp.symbols("p p_dot theta theta_dot F", real=True)
     sgn = 1 if inverted else -1
     ml, Jt = s["m"] * s["l"], s["J"] + s["m"] * s["l"] ** 2
@@ -148,12 +201,9 @@ def cart_pendulum(inverted: bool = False, *, M: float = 1.0, m: float = 0.2, l: 
     det = (s["M"] + s["m"]) * Jt - cos ** 2  # > 0: (M + m) J_t > m^2 l^2 since J_t > m l^2
     acc_p = (Jt * f_cart + cos * f_pend) / det  # Cramer's rule on the 2 x 2 mass matrix
     acc_th = (cos * f_cart + (s["M"] + s["m"]) * f_pend) / det
-    return Plant.from_ode([p, v, th, om], F, [v, acc_p, om, acc_th], p,
-                          params={s[k]: val for k, val in vals.items()},
-                          name="cart_pendulum_inverted" if inverted else "cart_pendulum",
-                          input_range=input_range,
-                          region={p: (-0.5, 0.5), v: (-2.0, 2.0), th: (-0.6, 0.6),
-                                  om: (-5.0, 5.0)})
+    return {"states": [p, v, th, om], "input": F, "rhs": [v, acc_p, om, acc_th], "output": p,
+            "params": {s[k]: val for k, val in params.items()},
+            "region": {p: (-0.5, 0.5), v: (-2.0, 2.0), th: (-0.6, 0.6), om: (-5.0, 5.0)}}
 
 
 __all__ = ["cart_pendulum", "pendulum"]

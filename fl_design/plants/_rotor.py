@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import math
 
-import sympy as sp
-
 from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import positive_params
+from ._common import library_plant, positive_params
 
 
 def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2: float = 0.09,
@@ -90,9 +88,37 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
     t21 = V.positive("T21", T21)  # checked even when unused: a typo is never silently ignored
     if motor_lag:
         vals["T21"] = t21
-    sym = {k: sp.Symbol(k, positive=True) for k in vals}
+    return library_plant(trms_yaw_definition, params=vals,
+                         name="trms_yaw_motor_lag" if motor_lag else "trms_yaw",
+                         input_range=input_range, motor_lag=motor_lag)
+
+
+def trms_yaw_definition(params: dict, *, motor_lag: bool) -> dict:
+    """The SymPy definition of :func:`trms_yaw` (validated ``params``; see there).
+
+    Parameters
+    ----------
+    params : dict
+        ``{name: float}`` as :func:`trms_yaw` validated them (``T21`` only with the motor lag).
+    motor_lag : bool
+        Include the tail-motor state ``tau``.
+
+    Returns
+    -------
+    dict
+        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+
+    Examples
+    --------
+    >>> from fl_design.plants._rotor import trms_yaw_definition
+    >>> trms_yaw_definition({"I2": 0.02, "delta": 1e-3, "k2": 0.8, "T20": 1.0, "b2": 0.09,
+    ...                      "a2": 0.02, "B1": 0.1, "B2": 0.01}, motor_lag=False)["states"]
+    [phi, phi_dot]
+    """
+    import sympy as sp
+
+    s = {k: sp.Symbol(k, positive=True) for k in params}
     phi, w, tau, u = sp.symbols("phi phi_dot tau u", real=True)
-    s = sym
     torque = lambda t: s["a2"] * t * sp.Abs(t) + s["b2"] * t
     friction = s["B1"] * w + s["B2"] * sp.tanh(w / s["delta"])
     region = {phi: (-math.pi, math.pi), w: (-3.0, 3.0)}
@@ -103,9 +129,8 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
     else:
         rhs = [w, (torque(s["k2"] * u / s["T20"]) - friction) / s["I2"]]
         states = [phi, w]
-    return Plant.from_ode(states, u, rhs, phi, params={sym[k]: v for k, v in vals.items()},
-                          name="trms_yaw_motor_lag" if motor_lag else "trms_yaw",
-                          input_range=input_range, region=region)
+    return {"states": states, "input": u, "rhs": rhs, "output": phi,
+            "params": {s[k]: v for k, v in params.items()}, "region": region}
 
 
 __all__ = ["trms_yaw"]

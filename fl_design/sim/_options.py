@@ -104,9 +104,8 @@ class Classifier:
         """
         bound = self.divergence_bound
         if bound is None:
-            region = plant.region or {}
-            return np.array([10.0 * (region[s][1] - region[s][0]) if s in region else 1e6
-                             for s in plant.states])
+            ranges = plant._state_ranges()[0].values()  # without SymPy (a cached plant)
+            return np.array([1e6 if r is None else 10.0 * (r[1] - r[0]) for r in ranges])
         if np.ndim(bound) == 0:
             return np.full(plant.n, float(bound))
         return V.real_vector("divergence_bound", bound, length=plant.n)

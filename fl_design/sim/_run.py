@@ -441,9 +441,9 @@ def check_gamma_sign(plant, gamma) -> None:
 
 
 def _region(plant) -> np.ndarray:
-    region = plant.region or {}
-    return np.array([[region[s][0] if s in region else -np.inf for s in plant.states],
-                     [region[s][1] if s in region else np.inf for s in plant.states]])
+    ranges = list(plant._state_ranges()[0].values())  # without SymPy (a cached plant)
+    return np.array([[-np.inf if r is None else r[0] for r in ranges],
+                     [np.inf if r is None else r[1] for r in ranges]])
 
 
 __all__ = ["RunSetup", "b_sign", "check_gamma_sign", "default_divergence_bound", "prepare_run"]

@@ -11,18 +11,47 @@ Examples
 (3, 3)
 """
 
-from ._bridge import to_casadi
-from ._discretization import (
-    Discretization,
-    approximate_extended_model,
-    chain_states,
-    lie_series_terms,
-    sigma_symbol,
-    taylor_discretization,
-)
-from ._equilibrium import Equilibrium
-from ._normal_form import InternalDynamics, NormalForm
-from ._plant import Plant, PlantFunctions
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+# public name -> the module defining it, imported on first use (PEP 562): a process that only
+# loads a cached library plant needs ``_plant`` (no SymPy), not the derivation modules
+_LAZY = {"to_casadi": "_bridge", "Discretization": "_discretization",
+         "approximate_extended_model": "_discretization", "chain_states": "_discretization",
+         "lie_series_terms": "_discretization", "sigma_symbol": "_discretization",
+         "taylor_discretization": "_discretization", "Equilibrium": "_equilibrium",
+         "InternalDynamics": "_normal_form", "NormalForm": "_normal_form", "Plant": "_plant",
+         "PlantFunctions": "_casadi_functions"}
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from ._bridge import to_casadi
+    from ._casadi_functions import PlantFunctions
+    from ._discretization import (
+        Discretization,
+        approximate_extended_model,
+        chain_states,
+        lie_series_terms,
+        sigma_symbol,
+        taylor_discretization,
+    )
+    from ._equilibrium import Equilibrium
+    from ._normal_form import InternalDynamics, NormalForm
+    from ._plant import Plant
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "Discretization",

@@ -14,6 +14,7 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -123,6 +124,68 @@ def check_symbols(f, h, sts, u, pars) -> None:
         )
 
 
+class Definition(NamedTuple):
+    """A plant's checked SymPy definition (what :func:`define` returns)."""
+
+    states: tuple
+    input: sp.Symbol
+    rhs: sp.ImmutableMatrix
+    output: sp.Expr
+    params_map: dict
+    region: dict | None
+    operating_point: object = None  # as given: checked with the equilibrium
+
+
+def define(states, input, rhs, output, params=None, region=None,
+           operating_point=None) -> Definition:
+    """The checked definition of :class:`fl_design.Plant` (its arguments; see its Raises).
+
+    Parameters
+    ----------
+    states, input, rhs, output, params, region, operating_point
+        As :class:`fl_design.Plant` takes them.
+
+    Returns
+    -------
+    Definition
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from fl_design.symbolic._definition import define
+    >>> x, u = sp.symbols("x u")
+    >>> define([x], u, [-x + u], x, region={"x": (-1, 1)}).region
+    {x: (-1.0, 1.0)}
+    """
+    sts = _symbols("states", states)
+    if not isinstance(input, sp.Symbol):
+        raise PlantDefinitionError(f"input must be a sympy Symbol, got {input!r}")
+    if input.name in {s.name for s in sts}:
+        raise PlantDefinitionError(f"the input {input} is also listed among the states {sts}")
+    rows = list(rhs) if isinstance(rhs, (sp.MatrixBase, Sequence, np.ndarray)) and \
+        not isinstance(rhs, str) else None
+    if rows is None:
+        raise PlantDefinitionError(f"rhs must be a sequence of {len(sts)} expressions, got {rhs!r}")
+    if len(rows) != len(sts):
+        raise PlantDefinitionError(
+            f"rhs has {len(rows)} entries but there are {len(sts)} states {list(sts)}; give one "
+            "derivative per state"
+        )
+    names = declared_names(sts, input, params)
+    f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e, names) for i, e in enumerate(rows)])
+    h = _sympify("output", output, names)
+    pars = check_params(params, f, h, sts, input)
+    check_symbols(f, h, sts, input, pars)
+    by_name = {s.name: s for s in sts}
+    reg = None
+    if region is not None:
+        if not isinstance(region, Mapping):
+            raise PlantDefinitionError(f"region must be a dict {{state: (lo, hi)}}, got {region!r}")
+        reg = {_key("region", k, by_name): V.interval(f"region[{k}]", v, allow_none=False)
+               for k, v in region.items()}
+    return Definition(sts, input, f, h, pars, reg, operating_point)
+
+
 def equilibrium_input(rhs, states, input, x_op, input_range) -> float:
     """``u_eq`` with ``f(x_op, u_eq) = 0`` (least squares from a few starts), or a clear error."""
     at_op = list(rhs.subs(
@@ -215,5 +278,12 @@ def operating_point_and_input(point, by_name, rhs, input, region, input_range,
     return x_op, u_eq
 
 
-__all__ = ["check_params", "check_symbols", "equilibrium_input", "operating_point_and_input",
-           "parse_operating_point"]
+__all__ = [
+    "Definition",
+    "check_params",
+    "check_symbols",
+    "define",
+    "equilibrium_input",
+    "operating_point_and_input",
+    "parse_operating_point",
+]

@@ -14,8 +14,10 @@ directory of the compiled kernels (:func:`fl_design._cache.cache_directory`,
   top-level modules, and the versions of fl_design, Python, SymPy, CasADi, NumPy and SciPy
   (read from the installed packages' metadata, without importing them);
 
-with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each file starts with
-an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
+(a library plant, known before SymPy by its recipe, is keyed by
+:meth:`~fl_design.symbolic._recipe.Recipe.key` instead: its values, this code version and its
+package's sources), with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each
+file starts with an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
 (:func:`fl_design._cache.user_key`, mode 0600). Nothing is unpickled unless its signature
 verifies, so a file written by anyone who cannot read that key (a planted pickle, an entry
 copied from another machine or user) is never loaded. A quantity read from the cache is
@@ -177,6 +179,24 @@ def plant_key(states, input, rhs, output, params, name, input_range, region,
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
+def _as_stored(value) -> tuple[object, bytes | None]:
+    """``(value as a later process reads it, its pickle)``; ``(value, None)`` if unpicklable.
+
+    A fresh result goes through the same pickle round trip as a cached one, so the two are
+    identical whether or not a cache is in use: SymPy rebuilds an expression from its arguments
+    when unpickling, which may regroup it (``-(c*w + g)`` becomes ``-c*w - g``, equal but not the
+    same tree).
+    """
+    try:
+        data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, TypeError, AttributeError, RecursionError, RuntimeError):
+        return value, None  # not stored: computed each time, as without a cache
+    try:
+        return pickle.loads(data), data
+    except Exception:  # noqa: BLE001 (what does not load back is not stored)
+        return value, None
+
+
 def _warn_once(message: str, category=CacheWarning) -> None:
     if category not in _WARNED:
         _WARNED.add(category)
@@ -229,16 +249,16 @@ class PlantStore:
         object
         """
         if self.key is None:
-            return compute()
+            return _as_stored(compute())[0]
         try:
             path = cache_directory() / self._name(what)
             secret = user_key(path.parent)
         except UnsafeCacheError as exc:
             _warn_once(f"{exc}; {self.prefix} results are computed without the cache",
                        UnsafeCacheWarning)
-            return compute()
+            return _as_stored(compute())[0]
         except (OSError, ComputationError):
-            return compute()
+            return _as_stored(compute())[0]
         if path.exists():
             value, ok = self._load(path, check, secret)
             if ok:
@@ -246,13 +266,13 @@ class PlantStore:
             _warn_once(f"the cached {self.prefix} result {path} is corrupted (it does not match its "
                        "recorded size and SHA-256 or its signature, or does not load); "
                        "recomputed and rewritten")
-        value = compute()
-        try:
-            data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
-            write_verified(path.name, _mac(secret, path.name, data) + data, cache_dir=path.parent)
-        except (OSError, ComputationError, pickle.PicklingError, TypeError, AttributeError,
-                RecursionError, RuntimeError):
-            pass  # unwritable cache or unpicklable value: computed each time, as without a cache
+        value, data = _as_stored(compute())
+        if data is not None:
+            try:
+                write_verified(path.name, _mac(secret, path.name, data) + data,
+                               cache_dir=path.parent)
+            except (OSError, ComputationError):
+                pass  # unwritable cache: computed each time, as without a cache
         return value
 
     @staticmethod

@@ -20,40 +20,45 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 import functools
-from collections.abc import Mapping, Sequence
-from functools import cached_property
+from typing import TYPE_CHECKING
 
-import casadi as ca
 import numpy as np
-import sympy as sp
 
 from .. import _validate as V
 from ..errors import PlantDefinitionError
-from ._bridge import to_casadi
 from ._casadi_functions import PlantFunctions
-from ._definition import (
-    _key,
-    _symbols,
-    _sympify,
-    check_params,
-    check_symbols,
-    declared_names,
-    operating_point_and_input,
-)
-from ._derivation_cache import PlantStore, plant_key
-from ._equilibrium import Equilibrium, solve_equilibrium
-from ._normal_form import LieChain, NormalForm, b_bounds, derive_normal_form, lie_chain
-from ._probe import warn_notes
+from ._derivation_cache import PlantStore
+from ._plant_derived import Derivations
+from ._recipe import Recipe
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only (the module imports SymPy)
+    from ._equilibrium import Equilibrium
+
+# SymPy and the derivations are imported on first use (a plant whose quantities are all in the
+# cache never imports SymPy); a module-level name, so that tests can watch it.
+def operating_point_and_input(*args):
+    from ._definition import operating_point_and_input as solve
+    return solve(*args)
 
 
-class Plant:
+def _from_recipe(recipe: Recipe) -> Plant:
+    """The library plant of ``recipe`` (what :meth:`Plant.__reduce__` of such a plant calls)."""
+    self = object.__new__(Plant)
+    self._setup(None, recipe, recipe.name, recipe.input_range, recipe.key())
+    return self
+
+
+class Plant(Derivations):
     """A SISO plant ``x' = f(x, u)``, ``y = h(x)`` defined by SymPy expressions.
 
     Validated on construction and immutable; derived results (relative degree, normal form,
     CasADi functions, bounds) are computed on first use and cached, in memory and on disk by
     content (:mod:`fl_design.symbolic._derivation_cache`, beside the compiled kernels). Build it with
-    :meth:`Plant.from_ode` (same arguments) or take one from :mod:`fl_design.plants`.
+    :meth:`Plant.from_ode` (same arguments) or take one from :mod:`fl_design.plants`: a library
+    plant is known by its recipe (:mod:`fl_design.symbolic._recipe`) and builds its SymPy
+    expressions only when something not in the cache needs them.
 
     Parameters
     ----------
@@ -105,54 +110,67 @@ class Plant:
 
     def __init__(self, states, input, rhs, output, *, params=None, name=None, input_range=None,
                  region=None, operating_point=None):
-        sts = _symbols("states", states)
-        if not isinstance(input, sp.Symbol):
-            raise PlantDefinitionError(f"input must be a sympy Symbol, got {input!r}")
-        if input.name in {s.name for s in sts}:
-            raise PlantDefinitionError(f"the input {input} is also listed among the states {sts}")
-        rows = list(rhs) if isinstance(rhs, (sp.MatrixBase, Sequence, np.ndarray)) and \
-            not isinstance(rhs, str) else None
-        if rows is None:
-            raise PlantDefinitionError(f"rhs must be a sequence of {len(sts)} expressions, got {rhs!r}")
-        if len(rows) != len(sts):
-            raise PlantDefinitionError(
-                f"rhs has {len(rows)} entries but there are {len(sts)} states {list(sts)}; give one "
-                "derivative per state"
-            )
-        names = declared_names(sts, input, params)
-        f = sp.ImmutableMatrix([_sympify(f"rhs[{i}]", e, names) for i, e in enumerate(rows)])
-        h = _sympify("output", output, names)
-        pars = check_params(params, f, h, sts, input)
-        check_symbols(f, h, sts, input, pars)
-        set_ = object.__setattr__
-        set_(self, "_states", sts)
-        set_(self, "_input", input)
-        set_(self, "_rhs", f)
-        set_(self, "_output", h)
-        set_(self, "_params_map", pars)
+        from ._definition import define
+        from ._derivation_cache import plant_key
+
+        d = define(states, input, rhs, output, params, region, operating_point)
         if name is not None and not isinstance(name, str):
             raise PlantDefinitionError(f"name must be a string, got {name!r}")
-        set_(self, "_name", name or "plant")
-        set_(self, "_input_range", V.interval("input_range", input_range))
-        by_name = {s.name: s for s in sts}
-        reg = None
-        if region is not None:
-            if not isinstance(region, Mapping):
-                raise PlantDefinitionError(f"region must be a dict {{state: (lo, hi)}}, got {region!r}")
-            reg = {_key("region", k, by_name): V.interval(f"region[{k}]", v, allow_none=False)
-                   for k, v in region.items()}
-        set_(self, "_region", reg)
-        set_(self, "_store", PlantStore(plant_key(sts, input, f, h, pars, self._name,
-                                                  self._input_range, reg, operating_point)))
-        x_op, u_eq = self._store.get("op", lambda: operating_point_and_input(
-            operating_point, by_name, self._rhs.subs(pars), self._input, self._region,
-            self._input_range, self._solve), check=tuple)
+        name = name or "plant"
+        input_range = V.interval("input_range", input_range)
+        self._setup(d, None, name, input_range, plant_key(
+            d.states, d.input, d.rhs, d.output, d.params_map, name, input_range, d.region,
+            operating_point))
+
+    def _setup(self, definition, recipe, name, input_range, key) -> None:
+        """Fill a new plant: its definition (or recipe), then the operating point, checked."""
+        set_ = object.__setattr__
+        set_(self, "_def", definition)
+        set_(self, "_recipe", recipe)
+        set_(self, "_name", name)
+        set_(self, "_input_range", input_range)
+        set_(self, "_store", PlantStore(key))
+        set_(self, "_cache", {})
+        x_op, u_eq, names, u_name, y_text, ranges = self._store.get("header", self._header,
+                                                                     check=tuple)
         x_op = np.array(x_op, dtype=float)
         x_op.setflags(write=False)
         set_(self, "_x_op", x_op)
         set_(self, "_u_eq", float(u_eq))
-        set_(self, "_cache", {})
+        set_(self, "_names", (tuple(names), u_name, y_text))
+        set_(self, "_ranges", tuple(None if r is None else tuple(r) for r in ranges))
         _ = self._fh  # every function has a CasADi translation, or a PlantDefinitionError now
+
+    def _header(self) -> tuple:
+        """``(x_op, u_eq, state names, input name, output text, state ranges)``: what the
+        plant shows without SymPy."""
+        d = self._sym()
+        by_name = {s.name: s for s in d.states}
+        x_op, u_eq = operating_point_and_input(
+            d.operating_point, by_name, d.rhs.subs(d.params_map), d.input, d.region,
+            self._input_range, self._solve)
+        region = d.region or {}
+        return (tuple(float(v) for v in x_op), float(u_eq), tuple(by_name), d.input.name,
+                str(d.output), tuple(region.get(s) for s in d.states))
+
+    def _sym(self):
+        """The SymPy definition (:class:`~fl_design.symbolic._definition.Definition`), built from
+        the recipe on first use."""
+        if self._def is None:
+            from ._definition import define
+
+            kw = self._recipe.build()
+            object.__setattr__(self, "_def", define(
+                kw["states"], kw["input"], kw["rhs"], kw["output"], kw.get("params"),
+                kw.get("region"), kw.get("operating_point")))
+        return self._def
+
+    _states = property(lambda self: self._sym().states)
+    _input = property(lambda self: self._sym().input)
+    _rhs = property(lambda self: self._sym().rhs)
+    _output = property(lambda self: self._sym().output)
+    _params_map = property(lambda self: self._sym().params_map)
+    _region = property(lambda self: self._sym().region)
 
     @classmethod
     def from_ode(cls, states, input, rhs, output, *, params=None, name=None, input_range=None,
@@ -188,6 +206,8 @@ class Plant:
                    region=region, operating_point=operating_point)
 
     def _solve(self, fixed: dict, y: float | None) -> Equilibrium:
+        from ._equilibrium import solve_equilibrium
+
         return solve_equilibrium(
             states=self._states, input=self._input, rhs=list(self._rhs), output=self._output,
             params=self._params_map, region=self._region, input_range=self._input_range,
@@ -220,6 +240,8 @@ class Plant:
         >>> eq.x.tolist(), eq.u
         ([0.2, 0.0], 0.0)
         """
+        from ._definition import _key
+
         by_name = {s.name: s for s in self._states}
         fixed = {_key("equilibrium", k, by_name): V.real_scalar(k, v) for k, v in states.items()}
         return self._solve(fixed, None if y is None else V.real_scalar("y", y))
@@ -233,18 +255,35 @@ class Plant:
     output = property(lambda self: self._output, doc="h(x), a sympy expression.")
     params = property(lambda self: dict(self._params_map), doc="{Symbol: float} parameter values.")
     name = property(lambda self: self._name, doc="Label of the plant.")
-    n = property(lambda self: len(self._states), doc="Number of states.")
+    n = property(lambda self: len(self._x_op), doc="Number of states.")
     input_range = property(lambda self: self._input_range, doc="(lo, hi) or None.")
     region = property(lambda self: None if self._region is None else dict(self._region),
                       doc="{state Symbol: (lo, hi)} or None.")
     x_op = property(lambda self: self._x_op, doc="Operating point (read-only array of n floats).")
     u_eq = property(lambda self: self._u_eq, doc="Equilibrium input at the operating point.")
 
+    def _state_ranges(self) -> tuple[dict, str | None]:
+        """``({state name: (lo, hi) or None}`` in state order, ``output name)``, read without
+        SymPy (:attr:`region` builds a library plant's definition); the output's name is None
+        when the output is not a state.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> fl.plants.pendulum()._state_ranges()
+        ({'theta': (-3.14159..., 3.14159...), 'theta_dot': (-10.0, 10.0)}, 'theta')
+        """
+        names, _, y_text = self._names
+        return dict(zip(names, self._ranges)), (y_text if y_text in names else None)
+
     def __repr__(self) -> str:
-        return (f"Plant(name={self._name!r}, states={list(self._states)}, input={self._input}, "
-                f"output={self._output})")
+        names, u_name, y_text = self._names
+        return (f"Plant(name={self._name!r}, states=[{', '.join(names)}], input={u_name}, "
+                f"output={y_text})")
 
     def __reduce__(self):
+        if self._recipe is not None:
+            return (_from_recipe, (self._recipe,))
         kw = {"params": self._params_map, "name": self._name, "input_range": self._input_range,
                   "region": self._region, "operating_point": dict(zip(self._states, self._x_op.tolist()))}
         return (functools.partial(Plant, **kw),
@@ -269,232 +308,20 @@ class Plant:
         >>> {str(k): v for k, v in p.params.items()}["c"]
         0.1
         """
-        names = {s.name: s for s in self._params_map}
+        names = {k: k for k, _ in self._recipe.params} if self._recipe is not None else \
+            {s.name: s for s in self._params_map}
         unknown = sorted(set(values) - set(names))
         if unknown:
             raise PlantDefinitionError(f"unknown parameter(s) {unknown}; the plant has {sorted(names)}")
+        if self._recipe is not None:  # checked as Plant checks params, then a new recipe
+            new = dict(self._recipe.params)
+            new.update({k: V.real_scalar(f"params[{k}]", v) for k, v in values.items()})
+            return _from_recipe(dataclasses.replace(
+                self._recipe, params=tuple(new.items()),
+                operating_point=tuple(zip(self._names[0], self._x_op.tolist()))))
         new = {**self._params_map, **{names[k]: v for k, v in values.items()}}
         return Plant(self._states, self._input, list(self._rhs), self._output, params=new,
                      name=self._name, input_range=self._input_range, region=self._region,
                      operating_point=dict(zip(self._states, self._x_op.tolist())))
-
-    def _derived(self, what: str, compute, check=None):
-        """``what``, computed once per process and cached on disk by content (:mod:`._derivation_cache`)."""
-        if what not in self._cache:
-            self._cache[what] = self._store.get(what, compute, check)
-        return self._cache[what]
-
-    def _lie_chain(self) -> LieChain:
-        if "chain" not in self._cache:
-            warn_notes(self._derived("chain", lambda: lie_chain(self), LieChain).notes)
-        return self._cache["chain"]
-
-    def relative_degree(self) -> int:
-        """The relative degree rho, by Lie derivatives along ``f(x, u)`` with u held constant.
-
-        rho is the first i for which ``d y^(i)/du`` is not identically zero (checked at random
-        points of the region, then symbolically); the input may enter non-affinely.
-
-        Returns
-        -------
-        int
-
-        Raises
-        ------
-        RelativeDegreeError
-            If the input does not appear up to ``y^(n)``, or ``b = d y^(rho)/du`` vanishes at the
-            operating point ``(x_op, u_eq)`` (the message names the point and ``b``).
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> fl.plants.flexible_joint().relative_degree()
-        4
-        """
-        return self._lie_chain().rho
-
-    def output_derivatives(self, order: int) -> tuple:
-        """``(y, y', ..., y^(order))`` as SymPy expressions (Lie derivatives along ``f``).
-
-        Parameters
-        ----------
-        order : int
-            Highest derivative, ``0 <= order <= rho``; below ``rho`` none depends on the input.
-
-        Returns
-        -------
-        tuple of sympy.Expr
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> fl.plants.pendulum().output_derivatives(1)
-        (theta, theta_dot)
-        """
-        chain = self._lie_chain()
-        order = V.integer("order", order, minimum=0, maximum=chain.rho)
-        return tuple(chain.derivatives[: order + 1])
-
-    def normal_form(self) -> NormalForm:
-        """The normal form: rho, ``sigma = y^(rho)``, ``a``, ``b``, coordinates, zero dynamics.
-
-        Returns
-        -------
-        NormalForm
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> nf = fl.plants.trms_yaw().normal_form()
-        >>> nf.rho, nf.minimum_phase
-        (2, True)
-        """
-        return self._derived("nf", lambda: derive_normal_form(self), NormalForm)
-
-    @cached_property
-    def _fh(self) -> tuple[ca.Function, ca.Function]:
-        return self._store.get("fh", self._translate_fh, tuple)
-
-    def _translate_fh(self) -> tuple[ca.Function, ca.Function]:
-        args = [list(self._states), [self._input]]
-        f = to_casadi(self._rhs, args, "f", subs=self._params_map, input_names=["x", "u"],
-                      output_name="xdot")
-        h = to_casadi(self._output, [list(self._states)], "h", subs=self._params_map,
-                      input_names=["x"], output_name="y")
-        return f, h
-
-    def linearization(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Jacobians ``(A, B, C, D)`` at the operating point ``(x_op, u_eq)``.
-
-        Returns
-        -------
-        A : numpy.ndarray, shape (n, n)
-        B : numpy.ndarray, shape (n, 1)
-        C : numpy.ndarray, shape (1, n)
-        D : numpy.ndarray, shape (1, 1)
-            Always zero (the output does not depend on the input).
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> A, B, C, D = fl.plants.pendulum().linearization()
-        >>> A.round(3).tolist(), B.ravel().tolist()
-        ([[0.0, 1.0], [-9.81, -0.5]], [0.0, 1.0])
-        """
-        f, h = self._fh
-        x, u = ca.SX.sym("x", self.n), ca.SX.sym("u")
-        jac = ca.Function("lin", [x, u], [ca.jacobian(f(x, u), x), ca.jacobian(f(x, u), u),
-                                          ca.jacobian(h(x), x)])
-        A, B, C = (np.array(m.full(), dtype=float) for m in jac(self._x_op, self._u_eq))
-        return A, B.reshape(self.n, 1), C.reshape(1, self.n), np.zeros((1, 1))
-
-    def casadi(self) -> PlantFunctions:
-        """CasADi SX functions ``f, h, sigma, b`` with numeric parameters (cached).
-
-        Returns
-        -------
-        PlantFunctions
-
-        Raises
-        ------
-        RelativeDegreeError
-            If the relative degree is not defined (``sigma`` and ``b`` need it).
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> fns = fl.plants.trms_yaw().casadi()
-        >>> fns.f
-        Function(f:(x[2],u)->(xdot[2]) SXFunction)
-        """
-        def translate():
-            chain = self._lie_chain()
-            args = [list(self._states), [self._input]]
-            kw = {"subs": self._params_map, "input_names": ["x", "u"]}
-            sigma = to_casadi(chain.derivatives[chain.rho], args, "sigma", output_name="sigma", **kw)
-            return sigma, to_casadi(chain.b, args, "b", output_name="b", **kw)
-
-        if "casadi" not in self._cache:
-            sigma, b = self._derived("sigma_b", translate, tuple)
-            f, h = self._fh
-            self._cache["casadi"] = PlantFunctions(f=f, h=h, sigma=sigma, b=b)
-        return self._cache["casadi"]
-
-    def b_bounds(self, *, allow_sign_change: bool = False) -> tuple[float, float]:
-        """Bounds ``(b_min, b_max)`` of ``b = d y^(rho)/du`` over ``region x input_range``.
-
-        Method: ``b`` is evaluated (NumPy) on a dense tensor grid over the box of the variables
-        it actually depends on (at most ~2e5 points: 2001 per axis in 1-D, 447 in 2-D, 58 in 3-D;
-        each axis also contains 0 and the operating point when inside; beyond 7 variables a
-        scrambled Sobol sample of 2^16 points), then the 4 best grid points of each extreme are
-        refined by bounded L-BFGS-B. A constant ``b`` is returned exactly; extremes on the box's
-        faces, edges, corners or at 0 (kinks of ``|x|``) are found exactly.
-
-        Parameters
-        ----------
-        allow_sign_change : bool, optional
-            The method needs a known sign of b: by default a range containing 0 raises
-            RelativeDegreeError; True returns the bounds anyway.
-
-        Returns
-        -------
-        (float, float)
-
-        Raises
-        ------
-        ParameterError
-            ``b`` depends on a state without a range in ``region`` (named) or on the input and
-            ``input_range`` is missing.
-        RelativeDegreeError
-            ``b`` changes sign or vanishes on the region (unless ``allow_sign_change``).
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> fl.plants.trms_yaw().b_bounds()
-        (3.6..., 6.8...)
-        """
-        flag = bool(allow_sign_change)
-        return self._derived(f"bounds{int(flag)}", lambda: b_bounds(self, allow_sign_change=flag),
-                             tuple)
-
-    def jacobian_bounds(self, *, region=None, margin: float = 0.05,
-                        points: int = 200_000) -> tuple[tuple[float, float], ...]:
-        """Bounds of ``d sigma/d xi_i`` (normal-form coordinates, ``u = u_eq``) over the region.
-
-        The ``a_jacobian_bounds`` of :func:`fl_design.certify_eps`; computed by
-        :func:`fl_design.symbolic._jacobian.jacobian_bounds` (dense grid, widened by ``margin``).
-
-        Parameters
-        ----------
-        region : dict, optional
-            ``{state: (lo, hi)}`` overriding the plant's region (e.g. a smaller one).
-        margin : float, optional
-            Relative widening of each range (default 0.05).
-        points : int, optional
-            Grid size (default 2e5).
-
-        Returns
-        -------
-        tuple of (float, float)
-
-        Raises
-        ------
-        RelativeDegreeError
-            The plant has internal dynamics (``rho < n``).
-        ParameterError
-            A state has no range.
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> b = fl.plants.pendulum().jacobian_bounds(region={"theta": (-0.5, 0.5)}, margin=0)
-        >>> [round(v, 2) for v in b[0]]
-        [-9.81, -8.61]
-        """
-        from ._jacobian import jacobian_bounds
-
-        return jacobian_bounds(self, region=region, margin=margin, points=points)
-
 
 __all__ = ["Plant", "PlantFunctions"]

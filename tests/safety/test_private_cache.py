@@ -24,7 +24,7 @@ from fl_design._cache import (
 )
 from fl_design.errors import CacheWarning, UnsafeCacheError, UnsafeCacheWarning
 from fl_design.symbolic import _derivation_cache as _stored
-from fl_design.symbolic import _plant
+from fl_design.symbolic import _plant_derived as _plant  # where the derivations are called
 
 
 @pytest.fixture

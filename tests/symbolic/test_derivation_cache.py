@@ -17,9 +17,9 @@ import fl_design as fl
 from fl_design._cache import SIDECAR_SUFFIX, write_verified
 from fl_design.errors import CacheWarning
 from fl_design.symbolic import _derivation_cache as _stored
-from fl_design.symbolic import _normal_form, _plant
+from fl_design.symbolic import _normal_form, _plant, _plant_derived
 
-QUANTITIES = ("op", "fh", "chain", "sigma_b", "bounds0", "nf")
+QUANTITIES = ("header", "fh", "rho", "chain", "sigma_b", "bounds0", "nf")
 
 
 def _internal():
@@ -30,7 +30,8 @@ def _internal():
 
 
 PLANTS = {"trms_lag": lambda: fl.plants.trms_yaw(motor_lag=True),
-          "flexible_joint": fl.plants.flexible_joint, "internal": _internal}
+          "flexible_joint": fl.plants.flexible_joint, "internal": _internal,
+          "pendulum": fl.plants.pendulum}  # its a = -(c w + g sin(th)/l) regroups when unpickled
 
 
 def _derive_all(plant) -> dict:
@@ -84,9 +85,9 @@ def cache(tmp_path, monkeypatch) -> Path:
 def _forbid_derivation(monkeypatch) -> None:
     def fail(*a, **k):
         pytest.fail("derived again although cached")
-    for name in ("lie_chain", "derive_normal_form", "b_bounds", "operating_point_and_input",
-                 "to_casadi"):
-        monkeypatch.setattr(_plant, name, fail)
+    monkeypatch.setattr(_plant, "operating_point_and_input", fail)
+    for name in ("lie_chain", "derive_normal_form", "b_bounds", "to_casadi"):
+        monkeypatch.setattr(_plant_derived, name, fail)
 
 
 @pytest.mark.parametrize("name", sorted(PLANTS))
@@ -142,8 +143,8 @@ def test_a_corrupted_entry_is_recomputed_with_one_warning(damage, cache, monkeyp
     for q in ("chain", "bounds0"):
         damage(next(cache.glob(f"plant_*_{q}.pkl")))
     calls = []
-    original = _plant.lie_chain
-    monkeypatch.setattr(_plant, "lie_chain", lambda p: calls.append(1) or original(p))
+    original = _plant_derived.lie_chain
+    monkeypatch.setattr(_plant_derived, "lie_chain", lambda p: calls.append(1) or original(p))
     with pytest.warns(CacheWarning, match="corrupted") as record:
         again = _derive_all(fl.plants.trms_yaw())
     assert len([w for w in record if w.category is CacheWarning]) == 1  # once per process
@@ -151,7 +152,7 @@ def test_a_corrupted_entry_is_recomputed_with_one_warning(damage, cache, monkeyp
     _same(reference, again)
     with warnings.catch_warnings():  # rewritten: a new process reads it again
         warnings.simplefilter("error")
-        monkeypatch.setattr(_plant, "lie_chain", lambda p: pytest.fail("not rewritten"))
+        monkeypatch.setattr(_plant_derived, "lie_chain", lambda p: pytest.fail("not rewritten"))
         monkeypatch.setattr(_normal_form, "_refine", lambda *a: pytest.fail("not rewritten"))
         _same(reference, _derive_all(fl.plants.trms_yaw()))
 

@@ -153,10 +153,9 @@ def resolve_substeps(plant, T: float, substeps: int | None) -> int:
 
 def _warn_if_not_minimum_phase(plant) -> None:
     """A :class:`~fl_design.errors.NonMinimumPhaseWarning` naming the unstable zero dynamics."""
-    nf = plant.normal_form()
-    if nf.minimum_phase:
+    minimum_phase, eig = plant._zero_dynamics()  # cached: no SymPy when loaded
+    if minimum_phase:
         return
-    eig = nf.zero_dynamics_eigenvalues
     listed = ", ".join(f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j"
                        for z in eig)
     warnings.warn(
@@ -347,14 +346,7 @@ class ClosedLoop:
         ``rho`` is the design's: with unmodeled dynamics the plant's first ``rho`` output
         derivatives (Lie derivatives of ``h`` along ``f``).
         """
-        from ...symbolic._bridge import to_casadi
-
-        if self.plant.relative_degree() == self.rho:
-            coords = list(self.plant.normal_form().coordinates)
-        else:
-            coords = list(self.plant.output_derivatives(self.rho - 1))
-        return to_casadi(coords, [list(self.plant.states)], "fl_coords",
-                         subs=self.plant.params, input_names=["x"], output_name="coords")
+        return self.plant._coordinates_function(self.rho)  # cached: no SymPy when loaded
 
     @functools.cached_property
     def true_sigma(self) -> ca.Function:
