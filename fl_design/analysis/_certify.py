@@ -446,12 +446,11 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
             if f is not None:
                 c_head = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
         else:
-            found = coverage_brackets(
+            found, c_common = coverage_brackets(
                 L, gamma, lo, fb, rtol, b_rate,
                 None if not b_rate else (lambda e: L.frozen_ok(e, gamma) and
                                          L.rate_point(e, gamma, b_rate).certified))
             brackets = tuple(found.values())
-            c_common = found["varying"].certified
             c_head = found[covers].certified
     reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
               if point.certified else
