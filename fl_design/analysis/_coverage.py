@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from ._analytic import modal_lyapunov
-from ._cert_results import EpsBracket
+from ._cert_results import EpsBracket, PointCertificate
 from ._refute import Refutation, switching_refutation
 from ._search import certified_eps_star
 from ._sos import SOSSolution, sos_certificate
@@ -84,6 +84,30 @@ def sos_point(L, eps: float, gamma: float) -> SOSSolution:
         return SOSSolution(False, "not solved", None, (), None, "a frozen loop is not Schur")
     D, _ = L._deltas(eps, gamma, (L.b_lo, L.b_hi))
     return sos_certificate(D, L.T)
+
+
+def varying_point(L, eps: float, gamma: float, failed):
+    """The varying certificate at one eps when common P ``failed``: quartic SOS, else ``failed``.
+
+    Tried only on loops of at most :data:`SOS_MAX_STATES` states (no Jacobian box).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.analysis._certify import _Loop
+    >>> L = _Loop(fl.presets.paper_design(), (3.6, 6.8), None, 41, 8)
+    >>> failed = L.point(0.1, 3e-4, common_only=True)
+    >>> failed.certified, varying_point(L, 0.1, 3e-4, failed).kind
+    (False, 'SOS degree 4')
+    """
+    if failed.certified or L.box is not None or L.loop.size > SOS_MAX_STATES:
+        return failed
+    sol = sos_point(L, eps, gamma)
+    if not sol.certified:
+        return failed
+    return PointCertificate(
+        float(eps), True, "SOS degree 4", 1, True, "CLARABEL", sol.status, sol.margin,
+        f"{sol.note}; common P: {failed.reason}", ((L.b_lo, L.b_hi),), (), covers="varying")
 
 
 def varying_certified(L, gamma: float, lo: float, c_common, top: float, rtol: float,
@@ -254,6 +278,6 @@ def coverage_brackets(L, gamma: float, lo: float, frozen, rtol: float, b_rate,
     return out, c_common
 
 
-__all__ = ["COMMON_HOW", "COVERAGES", "SOS_HOW", "SOS_MAX_SOLVES", "SOS_MAX_STATES", "best_margin", "bracket",
-           "coverage_brackets", "coverage_of", "gamma_fix", "refute", "refuted_eps", "sos_point",
-           "varying_certified"]
+__all__ = ["COMMON_HOW", "COVERAGES", "SOS_HOW", "SOS_MAX_SOLVES", "SOS_MAX_STATES", "best_margin",
+           "bracket", "coverage_brackets", "coverage_of", "gamma_fix", "refute", "refuted_eps",
+           "sos_point", "varying_certified", "varying_point"]

@@ -44,7 +44,7 @@ Examples
 from __future__ import annotations
 
 import functools
-import math
+import itertools
 import warnings
 from dataclasses import dataclass
 
@@ -124,7 +124,7 @@ def gram_slack_basis(n: int) -> np.ndarray:
             groups.setdefault(key, []).append((a, b))
     out = []
     for prods in groups.values():
-        for (a0, b0), (a1, b1) in zip(prods, prods[1:]):
+        for (a0, b0), (a1, b1) in itertools.pairwise(prods):
             N = np.zeros((m, m))
             for (a, b), s in (((a0, b0), 1.0), ((a1, b1), -1.0)):
                 if a == b:
@@ -275,7 +275,10 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
     Lyapunov matrix of the middle vertex (:func:`~._analytic.modal_lyapunov`), in which the
     quadratic candidate is ``|x|^2``: ``Delta_v -> R Delta_v R^-1``. A similarity: the
     certificate found (and re-checked) for these matrices is ``V(R S^-1 x)`` for the
-    originals (``S`` the balancing).
+    originals (``S`` the balancing). The re-check is made on ``R Delta_v R^-1`` as formed in
+    floating point (relative rounding ~1e-16, as for the modal basis of :mod:`._certify`):
+    mapped back to the balanced coordinates the Gram matrices are too ill-conditioned for a
+    meaningful eigenvalue margin (TRMS at eps = 0.1: ``cond L(R) = 4.8e5``, margin 7e-13).
 
     Examples
     --------

@@ -6,8 +6,12 @@ import numpy as np
 import pytest
 
 import fl_design as fl
-from fl_design.analysis._refute import (common_modes, guide_rate, pontryagin_period,
-                                        switching_refutation)
+from fl_design.analysis._refute import (
+    common_modes,
+    guide_rate,
+    pontryagin_period,
+    switching_refutation,
+)
 from tests.oracles import surrogate_loop_matrix
 
 B_TRMS = (3.6, 6.8)

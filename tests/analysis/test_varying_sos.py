@@ -12,8 +12,15 @@ import fl_design as fl
 from fl_design.analysis._certify import _Loop
 from fl_design.analysis._lmi import vertex_lmi
 from fl_design.analysis._refute import switching_refutation
-from fl_design.analysis._sos import (gram_slack_basis, lift, lift_delta, pairs, recheck_sos,
-                                     sos_certificate, sos_lyapunov)
+from fl_design.analysis._sos import (
+    gram_slack_basis,
+    lift,
+    lift_delta,
+    pairs,
+    recheck_sos,
+    sos_certificate,
+    sos_lyapunov,
+)
 from tests.oracles import surrogate_loop_matrix
 
 B_TRMS = (3.6, 6.8)
@@ -124,26 +131,35 @@ def _oracle(eps, b):
     return surrogate_loop_matrix(ehgo, GAINS, 3e-4, KI, b)
 
 
-def _greedy_windows_radius(eps, steps=6000, windows=(1000, 2000, 4000)):
-    """Independent greedy attack (oracle matrices): each sample the end of b maximizing the
-    Euclidean norm of the next state in the modal coordinates, windows closed into periods."""
+def _dense_dwell_radius(eps, step=8, top=1600):
+    """Independent attack (oracle matrices): every dwell pair (a, c) on a uniform grid, the
+    period ``M_hi^c M_lo^a``'s spectral radius, worst over the grid."""
     Ms = [_oracle(eps, b) for b in B_TRMS]
-    w, V = np.linalg.eig(0.5 * (Ms[0] + Ms[1]))
-    Vi = np.linalg.inv(V)
-    x = np.real(V[:, int(np.argmax(np.abs(w)))])
-    seq = []
-    for _ in range(steps):
-        cand = [M @ x for M in Ms]
-        k = int(np.argmax([np.linalg.norm(Vi @ c) for c in cand]))
-        x = cand[k] / np.linalg.norm(cand[k])
-        seq.append(k)
-    worst = 0.0
-    for n in windows:
-        acc = np.eye(7)
-        for k in seq[-n:]:
-            acc = Ms[k] @ acc
-        worst = max(worst, float(np.max(np.abs(np.linalg.eigvals(acc)))))
-    return worst
+    grid = range(step, top, step)
+
+    def powers(M):
+        out, acc, k = [], np.eye(7), 0
+        for a in grid:
+            while k < a:
+                acc, k = M @ acc, k + 1
+            out.append(acc.copy())
+        return np.stack(out)
+
+    P_lo, P_hi = powers(Ms[0]), powers(Ms[1])
+    prod = np.einsum("cij,ajk->acik", P_hi, P_lo)
+    return float(np.abs(np.linalg.eigvals(prod)).max())
+
+
+def test_dense_dwell_attack_has_power():
+    """The attack used below finds growth just above the refuted end (0.1214)."""
+    assert _dense_dwell_radius(0.1215) > 1.001
+
+
+def test_design_eps_between_common_p_and_sos_is_certified():
+    c = fl.certify_eps(fl.presets.paper_design(eps=0.1), B_TRMS, search=False)
+    assert c.certified and c.point.kind == "SOS degree 4" and c.point.covers == "varying"
+    assert "common P" in c.point.reason
+    assert _dense_dwell_radius(0.1) < 1.0
 
 
 @pytest.fixture(scope="module")
@@ -151,7 +167,7 @@ def trms_loop():
     return _Loop(fl.presets.paper_design(gamma=3e-4), B_TRMS, None, 41, 8)
 
 
-def test_trms_sos_certifies_beyond_common_p_and_survives_greedy_attack(trms_loop):
+def test_trms_sos_certifies_beyond_common_p_and_survives_a_dwell_attack(trms_loop):
     from fl_design.analysis._coverage import sos_point
 
     L = trms_loop
@@ -159,7 +175,7 @@ def test_trms_sos_certifies_beyond_common_p_and_survives_greedy_attack(trms_loop
     assert not L.point(eps, 3e-4, common_only=True).certified
     sol = sos_point(L, eps, 3e-4)
     assert sol.certified and "quartic SOS" in sol.note
-    assert _greedy_windows_radius(0.99 * eps) < 1.0
+    assert _dense_dwell_radius(0.99 * eps) < 1.0
 
 
 def test_trms_sos_refuses_a_refuted_eps(trms_loop):
