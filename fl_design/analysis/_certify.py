@@ -64,7 +64,7 @@ from .._blas import serial_blas
 from ..errors import CertificationError, ParameterError
 from ._analytic import piecewise_modal, real_modal_basis
 from ._cert_results import EpsCertificate, PointCertificate
-from ._coverage import coverage_brackets, coverage_of, gamma_fix
+from ._coverage import coverage_brackets, coverage_of, gamma_fix, varying_point
 from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
 from ._plant_bounds import resolve
@@ -199,7 +199,7 @@ class _Loop:
                       b_rate: float | None = None) -> PointCertificate:
         """The certificate of coverage ``covers`` at one eps (a stronger one counts)."""
         if covers in ("varying", "rate-bounded"):
-            pc = self.point(eps, gamma, common_only=True)
+            pc = varying_point(self, eps, gamma, self.point(eps, gamma, common_only=True))
             if pc.certified or covers == "varying" or not self.frozen_ok(eps, gamma):
                 return pc
             return self.rate_point(eps, gamma, b_rate)
@@ -446,12 +446,11 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
             if f is not None:
                 c_head = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
         else:
-            found = coverage_brackets(
+            found, c_common = coverage_brackets(
                 L, gamma, lo, fb, rtol, b_rate,
                 None if not b_rate else (lambda e: L.frozen_ok(e, gamma) and
                                          L.rate_point(e, gamma, b_rate).certified))
             brackets = tuple(found.values())
-            c_common = found["varying"].certified
             c_head = found[covers].certified
     reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
               if point.certified else

@@ -6,8 +6,10 @@ What each coverage means for the surrogate loop ``X_(k+1) = M(b_k) X_k``:
   (closed-form modal or vertex LMIs); refuted by a frozen loop with an eigenvalue outside the
   unit circle (the bad end of the frozen scan).
 * ``"varying"``: ``b_k`` anywhere in the interval, changing arbitrarily from sample to sample.
-  Certified by one common quadratic ``P``; refuted by a periodic or greedy switching sequence
-  whose period map has spectral radius > 1 (:mod:`._refute`), or by a frozen counterexample.
+  Certified by one common quadratic ``P`` (the fast first try), then, between that and the
+  refuted end, by a quartic sum-of-squares Lyapunov function (:mod:`._sos`, loops of at most
+  :data:`SOS_MAX_STATES` states); refuted by a periodic or greedy switching sequence whose
+  period map has spectral radius > 1 (:mod:`._refute`), or by a frozen counterexample.
 * ``"rate-bounded"``: ``|b_(k+1) - b_k| <= db``. Certified by a ``P(b)`` affine in ``b`` with
   the rate bound (:mod:`._rate`), or by a varying certificate (which covers it); refuted by
   switching with ramps of slope ``db``, or a frozen counterexample.
@@ -33,12 +35,22 @@ import math
 import numpy as np
 
 from ._analytic import modal_lyapunov
-from ._cert_results import EpsBracket
+from ._cert_results import EpsBracket, PointCertificate
 from ._refute import Refutation, switching_refutation
 from ._search import certified_eps_star
+from ._sos import SOSSolution, sos_certificate
 from ._surrogate import delta
 
 COVERAGES = ("frozen", "varying", "rate-bounded", "nonlinear")
+#: Largest loop (states) the quartic SOS certificate is tried on (8 states: a 36 x 36 Gram
+#: matrix, about 2 s per eps with Clarabel; 11 states would be 66 x 66).
+SOS_MAX_STATES = 8
+#: Most quartic SOS programs one varying eps* search solves (the bisection stops there).
+SOS_MAX_SOLVES = 8
+COMMON_HOW = "one common quadratic P (delta-form LMI), re-checked in NumPy"
+SOS_HOW = ("SOS degree 4: a quartic sum-of-squares V(x) common to both ends of b (Gram matrix and "
+           "slack SDP, delta form, every T term kept), re-checked in NumPy; the joint spectral "
+           "radius of the ends < 1 covers every b of the interval varying arbitrarily")
 
 
 def coverage_of(b_rate, box) -> str:
@@ -54,6 +66,75 @@ def coverage_of(b_rate, box) -> str:
     if b_rate is None:
         return "varying"
     return "frozen" if b_rate == 0.0 else "rate-bounded"
+
+
+def sos_point(L, eps: float, gamma: float) -> SOSSolution:
+    """Quartic SOS certificate of the varying coverage at one eps (:func:`._sos.sos_certificate`
+    of the two ends of ``b``); not tried when a frozen loop is not Schur.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.analysis._certify import _Loop
+    >>> L = _Loop(fl.presets.paper_design(), (3.6, 6.8), None, 41, 8)
+    >>> sos_point(L, 0.1, 3e-4).certified  # common P fails at 0.1
+    True
+    """
+    if not L.frozen_ok(eps, gamma):
+        return SOSSolution(False, "not solved", None, (), None, "a frozen loop is not Schur")
+    D, _ = L._deltas(eps, gamma, (L.b_lo, L.b_hi))
+    return sos_certificate(D, L.T)
+
+
+def varying_point(L, eps: float, gamma: float, failed):
+    """The varying certificate at one eps when common P ``failed``: quartic SOS, else ``failed``.
+
+    Tried only on loops of at most :data:`SOS_MAX_STATES` states (no Jacobian box).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.analysis._certify import _Loop
+    >>> L = _Loop(fl.presets.paper_design(), (3.6, 6.8), None, 41, 8)
+    >>> failed = L.point(0.1, 3e-4, common_only=True)
+    >>> failed.certified, varying_point(L, 0.1, 3e-4, failed).kind
+    (False, 'SOS degree 4')
+    """
+    if failed.certified or L.box is not None or L.loop.size > SOS_MAX_STATES:
+        return failed
+    sol = sos_point(L, eps, gamma)
+    if not sol.certified:
+        return failed
+    return PointCertificate(
+        float(eps), True, "SOS degree 4", 1, True, "CLARABEL", sol.status, sol.margin,
+        f"{sol.note}; common P: {failed.reason}", ((L.b_lo, L.b_hi),), (), covers="varying")
+
+
+def varying_certified(L, gamma: float, lo: float, c_common, top: float, rtol: float,
+                      sos: bool = True):
+    """``(eps, how)``: the varying certificate, common P's ``c_common`` or higher with SOS.
+
+    The quartic SOS search runs (when ``sos`` and the loop has at most
+    :data:`SOS_MAX_STATES` states) between ``c_common`` (``lo`` when None) and ``top`` (the
+    refuted end): ``0.9 top`` first, steps of 0.9 down (0.5 without a common P), then
+    bisection to ``rtol``, at most :data:`SOS_MAX_SOLVES` SDPs in all (about 2 s each).
+    """
+    if not sos or L.loop.size > SOS_MAX_STATES or L.box is not None:
+        return c_common, COMMON_HOW
+    base = lo if c_common is None else c_common
+    if top / base - 1.0 <= rtol:
+        return c_common, COMMON_HOW
+    budget = [SOS_MAX_SOLVES]
+
+    def pred(e):  # past the budget an eps counts as not certified (sound: never certifies)
+        budget[0] -= 1
+        return budget[0] >= 0 and sos_point(L, e, gamma).certified
+
+    c_sos = certified_eps_star(pred, base, top, rtol, hint=0.9,
+                               step=0.5 if c_common is None else 0.9)
+    if c_sos is not None and (c_common is None or c_sos > c_common):
+        return c_sos, SOS_HOW
+    return c_common, COMMON_HOW
 
 
 def refute(L, eps: float, gamma: float, db: float | None) -> Refutation:
@@ -162,8 +243,9 @@ def gamma_fix(L, gamma: float, lo: float, hi: float, n: int = 40) -> str:
 
 
 def coverage_brackets(L, gamma: float, lo: float, frozen, rtol: float, b_rate,
-                      rate_point=None) -> dict:
-    """The brackets of every coverage the data allows, keyed by coverage name.
+                      rate_point=None, sos: bool = True) -> tuple[dict, float | None]:
+    """The brackets of every coverage the data allows, keyed by coverage name, and the
+    common-P eps* (the varying bracket may be higher: quartic SOS, ``sos``).
 
     ``frozen`` is ``(good, bad)`` of the frozen scan (None when ``lo`` already fails);
     ``rate_point(eps) -> bool`` certifies the rate-bounded case at one eps (optional).
@@ -172,15 +254,16 @@ def coverage_brackets(L, gamma: float, lo: float, frozen, rtol: float, b_rate,
     out = {}
     if good is None:
         b = bracket("frozen", None, lo, "no eps of the range", None, lo)
-        return {"frozen": b, "varying": bracket("varying", None, lo, "-", None, lo)}
+        return {"frozen": b, "varying": bracket("varying", None, lo, "-", None, lo)}, None
     c_frozen = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, good, rtol)
     out["frozen"] = bracket("frozen", c_frozen, bad, "P(b) on pieces of the interval (modal "
                             "closed form or vertex LMIs), re-checked in NumPy", None, bad)
-    c_var = certified_eps_star(lambda e: L.point(e, gamma, common_only=True).certified,
-                               lo, good, rtol)
-    r_var, ref = refuted_eps(L, gamma, None, c_var or lo, bad, rtol, good)
-    out["varying"] = bracket("varying", c_var, r_var, "one common quadratic P (delta-form LMI),"
-                             " re-checked in NumPy", ref, bad)
+    c_common = certified_eps_star(lambda e: L.point(e, gamma, common_only=True).certified,
+                                  lo, good, rtol)
+    r_var, ref = refuted_eps(L, gamma, None, c_common or lo, bad, rtol, good)
+    c_var, how = varying_certified(L, gamma, lo, c_common, good if r_var is None else r_var,
+                                   rtol, sos and b_rate != 0.0)  # frozen b: not the headline
+    out["varying"] = bracket("varying", c_var, r_var, how, ref, bad)
     if b_rate is not None and b_rate > 0.0:
         c_rate, how = c_var, "the varying certificate (covers every rate)"
         if rate_point is not None:
@@ -192,8 +275,9 @@ def coverage_brackets(L, gamma: float, lo: float, frozen, rtol: float, b_rate,
                                    "per piece (delta-form LMI), re-checked in NumPy")
         r_rate, ref = refuted_eps(L, gamma, b_rate, c_rate or lo, bad, rtol, good)
         out["rate-bounded"] = bracket("rate-bounded", c_rate, r_rate, how, ref, bad, b_rate)
-    return out
+    return out, c_common
 
 
-__all__ = ["COVERAGES", "best_margin", "bracket", "coverage_brackets", "coverage_of",
-           "gamma_fix", "refute", "refuted_eps"]
+__all__ = ["COMMON_HOW", "COVERAGES", "SOS_HOW", "SOS_MAX_SOLVES", "SOS_MAX_STATES", "best_margin",
+           "bracket", "coverage_brackets", "coverage_of", "gamma_fix", "refute", "refuted_eps",
+           "sos_point", "varying_certified", "varying_point"]
