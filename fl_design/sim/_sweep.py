@@ -88,7 +88,8 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
           integrator: RK4 | None = None, classifier: Classifier | None = None,
           kernel: Kernel | None = None, executor: Executor | None = None, progress: bool = True,
           allow_unmodeled: bool = False, params: dict | None = None, samples: int = 32,
-          seed: int = 0) -> StabilityMap | RobustMap:
+          seed: int = 0, extend: float | None = None,
+          max_duration: float | None = None) -> StabilityMap | RobustMap:
     """Run and classify the closed loop on every (eps, gamma) pair of a grid.
 
     With ``params`` the map is *robust*: every grid point runs against the same ``samples``
@@ -135,6 +136,15 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
         Plants drawn for a robust map (default 32); ignored without ``params``.
     seed : int, optional
         Seed of the draw (default 0).
+    extend : float, optional
+        Factor (>= 1) by which the runs ``undecided`` at the map's duration ``D`` are re-run
+        longer (module text: an adaptive map): ``extend * D``, then ``extend`` times that for
+        the ones still undecided, up to ``max_duration``. Default 4 when the scenario has no
+        duration (the adaptive length), none (1) when it gives one: a given duration is kept
+        unless ``extend`` is given too. Not for robust maps.
+    max_duration : float, optional
+        Longest re-run (s, > 0; default ``extend * D``: one re-run). Each point's own length
+        is in :attr:`StabilityMap.durations`.
 
     Returns
     -------
@@ -145,7 +155,8 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     ------
     ParameterError
         A grid value <= 0 or not finite, an empty grid, bad options, an estimator
-        without ``eps``, negative gammas on a plant with ``b > 0``.
+        without ``eps``, negative gammas on a plant with ``b > 0``, ``extend < 1``,
+        ``max_duration <= 0``, ``extend`` or ``max_duration`` with ``params``.
     DimensionError
         Reference of the wrong length.
     DesignMismatchError
@@ -163,6 +174,7 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     _require_eps(design)
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
     gammas = signed_gammas(plant, gamma_grid)
+    extend, max_duration = _extension(scenario, extend, max_duration, params)
     if params is not None:
         return _robust_sweep(plant, design, scenario, eps_grid, gamma_grid, gammas,
                              params=params, samples=samples, seed=seed, integrator=integrator,
@@ -170,12 +182,138 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                              progress=progress, allow_unmodeled=allow_unmodeled)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
-    acc = run_grid(run, _Columns(design, eps_grid, gammas), kernel=kernel,
-                   executor=executor, progress=progress)
+    columns = _Columns(design, eps_grid, gammas)
+    acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
     status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
+    durations = np.full(status.shape, run.duration)
+    cap = math.nan
+    if extend > 1.0:
+        cap = _cap(run, extend, max_duration)
+        _rerun_undecided(run, columns, status, metrics, durations, extend, cap,
+                         lambda scenario_: prepare_run(
+                             plant, design, scenario_, integrator=integrator,
+                             classifier=classifier, gammas=gammas,
+                             allow_unmodeled=allow_unmodeled),
+                         kernel=kernel, executor=executor, progress=progress)
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
-                        T=run.T, duration=run.N * run.T, tol=run.tol,
-                        duration_reason=run.duration_reason)
+                        T=run.T, duration=run.duration, tol=run.tol,
+                        duration_reason=run.duration_reason, durations=durations,
+                        max_duration=cap if np.any(durations > run.duration) else math.nan)
+
+
+# --- the adaptive map: undecided points re-run longer -----------------------------------------
+#: Default factor of the re-runs of an adaptive map's undecided points.
+EXTEND = 4.0
+
+
+def _extension(scenario, extend, max_duration, params) -> tuple[float, float | None]:
+    """Validated ``(extend, max_duration)``; ``extend`` defaults to :data:`EXTEND` for an
+    adaptive duration and to 1 (no re-run) for a given one."""
+    if params is not None:
+        if extend is not None or max_duration is not None:
+            raise ParameterError("extend= and max_duration= re-run a nominal map's undecided "
+                                 "points; a robust map (params=) runs every point at one "
+                                 "duration: give Scenario(duration=...) instead")
+        return 1.0, None
+    if extend is None:
+        extend = EXTEND if scenario.duration is None else 1.0
+    extend = V.real_scalar("extend", extend)
+    if not extend >= 1.0:
+        raise ParameterError(f"extend must be >= 1 (the factor by which undecided runs are "
+                             f"re-run longer; 1: none), got {extend!r}")
+    if max_duration is not None:
+        max_duration = V.positive("max_duration", max_duration)
+    return extend, max_duration
+
+
+def _cap(run: RunSetup, extend: float, max_duration: float | None) -> float:
+    """The longest re-run: ``max_duration`` (default ``extend * D``), within the per-run
+    sample limit (:func:`fl_design.sim._scenario.max_samples`)."""
+    from ._scenario import max_samples
+
+    wanted = extend * run.duration if max_duration is None else max_duration
+    return min(wanted, max_samples() * run.T)
+
+
+def _rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepare, *,
+                     kernel, executor, progress) -> None:
+    """Re-run the ``undecided`` points ``extend`` times longer, again while some stay
+    undecided, up to ``cap`` seconds; write their status, metrics and length in place.
+
+    Why re-run rather than judge the short run harder: an ``undecided`` run is bounded and
+    its envelope's trend cannot be called over the analysis window (the run's second half),
+    typically a loop whose slowest mode (a swing of period 170-230 s at the TRMS's smallest
+    gains) is slower than the window the map's one duration gives it. A control engineer
+    would look at a longer record; ``extend`` times the length gives the window ``extend``
+    times the swings, at the cost of those points only. Each re-run is classified on its own
+    tail window, as a run of that length would be; what stays undecided at ``cap`` is
+    ambiguous evidence, and its reason says what would decide it.
+    """
+    todo = np.flatnonzero(status == int(Status.UNDECIDED))
+    length = run.duration
+    while todo.size and length < cap * (1 - 1e-9):
+        length = min(length * extend, cap)
+        longer = prepare(run.scenario.replace(duration=length))
+        s, m = _run_points(longer, columns, todo, kernel=kernel, executor=executor,
+                           progress=progress, desc=f"re-run {todo.size} undecided at {length:g} s")
+        at = np.unravel_index(todo, status.shape)
+        status[at] = s
+        for k, v in m.items():
+            metrics[k][at] = v
+        durations[at] = longer.duration
+        todo = todo[s == int(Status.UNDECIDED)]
+
+
+def _run_points(run, columns, idx, *, kernel, executor, progress, desc):
+    """Status and metrics of the grid points ``idx`` (flat indices) under ``run``."""
+    acc = run_grid(run, columns.take(idx), kernel=kernel, executor=executor,
+                   progress=progress, desc=desc)
+    return _assemble(run, acc, (idx.size,))
+
+
+def sweep_points(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma, points,
+                 integrator: RK4 | None = None, classifier: Classifier | None = None,
+                 kernel: Kernel | None = None, executor: Executor | None = None,
+                 allow_unmodeled: bool = False) -> tuple[np.ndarray, dict]:
+    """Some points of an (eps, gamma) grid, run under ``scenario`` as :func:`sweep` runs them.
+
+    For checks that re-run part of a map (``verify/predictive_check.py`` runs each point of
+    an adaptive map at 10 times its own length); no re-runs of undecided points here.
+
+    Parameters
+    ----------
+    plant, design, scenario, eps, gamma, integrator, classifier, kernel, executor, allow_unmodeled
+        As for :func:`sweep`.
+    points : array_like of bool
+        ``(n_e, n_g)`` mask of the points to run.
+
+    Returns
+    -------
+    (numpy.ndarray, dict)
+        Status codes and metrics of the chosen points, in the mask's (row-major) order.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._sweep import sweep_points
+    >>> status, m = sweep_points(fl.plants.pendulum(), fl.presets.pendulum_design(),
+    ...                          fl.Scenario(0.05, 6.0), eps=[0.02, 0.2], gamma=[0.01],
+    ...                          points=[[False], [True]], kernel=fl.Kernel(compiled=False))
+    >>> status.tolist(), round(float(m["divergence_time"][0]), 3)
+    ([-1], 4.06)
+    """
+    _require_eps(design)
+    eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
+    gammas = signed_gammas(plant, gamma_grid)
+    mask = np.asarray(points, dtype=bool)
+    if mask.shape != (eps_grid.size, gamma_grid.size):
+        raise ParameterError(f"points must be an (eps, gamma) mask of shape "
+                             f"{(eps_grid.size, gamma_grid.size)}, got {mask.shape}")
+    run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
+                      gammas=gammas, allow_unmodeled=allow_unmodeled)
+    return _run_points(run, _Columns(design, eps_grid, gammas), np.flatnonzero(mask),
+                       kernel=option("kernel", kernel, Kernel), executor=executor,
+                       progress=False, desc="points")
 
 
 class _FamilyGridColumns:

@@ -1,0 +1,126 @@
+"""The adaptive map: points ``undecided`` at the map's duration are re-run longer.
+
+The pendulum bench design (input limits +-2) at eps = 0.5, gamma = 1e-3 is undecided at its
+adaptive 17.55 s (a swing slower than the window) and oscillating at 4 times that; its
+neighbour eps = 0.144 is decided at once.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import fl_design as fl
+from fl_design.errors import ParameterError
+from fl_design.sim import StabilityMap, Status
+from fl_design.sim._sweep import EXTEND, sweep_points
+
+EPS, GAMMA = [0.14426999, 0.5], [1e-3]
+REF = 0.1
+
+
+@pytest.fixture(scope="module")
+def design():
+    return fl.presets.pendulum_design(u_limits=(-2.0, 2.0))
+
+
+@pytest.fixture(scope="module")
+def maps(pendulum, design):
+    adaptive = fl.sweep(pendulum, design, fl.Scenario(REF), eps=EPS, gamma=GAMMA,
+                        progress=False)
+    plain = fl.sweep(pendulum, design, fl.Scenario(REF), eps=EPS, gamma=GAMMA, extend=1,
+                     progress=False)
+    return adaptive, plain
+
+
+def test_undecided_point_is_rerun_longer_and_equals_its_own_simulation(pendulum, design,
+                                                                        maps):
+    adaptive, plain = maps
+    D = adaptive.duration
+    assert plain.labels.tolist() == [["oscillating"], ["undecided"]]
+    assert np.array_equal(plain.durations, [[D], [D]])
+    # only the undecided point is re-run, EXTEND times longer (the default cap: one re-run)
+    assert adaptive.extended.tolist() == [[False], [True]]
+    assert adaptive.durations[1, 0] == pytest.approx(EXTEND * D, abs=1e-3)
+    assert adaptive.max_duration == pytest.approx(EXTEND * D)
+    assert adaptive.status[0, 0] == plain.status[0, 0]
+    for name, value in plain.metrics.items():  # the point not re-run keeps its run's numbers
+        np.testing.assert_array_equal(adaptive.metrics[name][0], value[0])
+    # the re-run point is what an independent single run of that length says, metric by metric
+    long = float(adaptive.durations[1, 0])
+    resp = fl.simulate(pendulum, design.replace(eps=EPS[1], gamma=GAMMA[0]),
+                       fl.Scenario(REF, long))
+    assert resp.status == adaptive.labels[1, 0] == "oscillating"
+    for name, value in resp.metrics.items():
+        if name != "status":
+            np.testing.assert_allclose(adaptive.metrics[name][1, 0], value, rtol=1e-9,
+                                       atol=1e-12, err_msg=name)
+
+
+def test_map_says_what_was_rerun(maps):
+    adaptive, plain = maps
+    text = adaptive.extension_text()
+    assert text == (f"1 run undecided at {adaptive.duration:g} s re-run at "
+                    f"{adaptive.durations[1, 0]:g} s: now 1 oscillating")
+    assert plain.extension_text() == "" and math.isnan(plain.max_duration)
+    d = json.loads(json.dumps(adaptive.to_dict()))
+    assert d["durations"] == adaptive.durations.tolist() and d["extension"] == text
+    from fl_design.app._report_map import map_counts
+
+    assert map_counts(adaptive).endswith("; " + text)
+    assert "re-runs" in adaptive._repr_html_()
+
+
+def test_given_duration_is_kept_unless_extend_is_given(pendulum, design, maps):
+    adaptive, _ = maps
+    D = adaptive.duration
+    given = fl.sweep(pendulum, design, fl.Scenario(REF, D), eps=EPS, gamma=GAMMA,
+                     progress=False)
+    assert given.labels[1, 0] == "undecided" and not given.extended.any()
+    asked = fl.sweep(pendulum, design, fl.Scenario(REF, D), eps=EPS, gamma=GAMMA, extend=1.25,
+                     max_duration=4 * D, progress=False)
+    # x1.25 each time while undecided, up to the cap: 1.25 D was not enough, 1.5625 D is
+    once = fl.simulate(pendulum, design.replace(eps=EPS[1], gamma=GAMMA[0]),
+                       fl.Scenario(REF, 1.25 * D))
+    assert once.status == "undecided"
+    assert asked.durations[1, 0] == pytest.approx(1.25 ** 2 * D, abs=1e-3)
+    assert asked.labels[1, 0] == "oscillating" and asked.max_duration == pytest.approx(4 * D)
+    assert not asked.extended[0, 0]
+    capped = fl.sweep(pendulum, design, fl.Scenario(REF, D), eps=EPS, gamma=GAMMA, extend=2,
+                      max_duration=1.2 * D, progress=False)  # the cap stops it undecided
+    assert capped.labels[1, 0] == "undecided"
+    assert capped.durations[1, 0] == pytest.approx(1.2 * D, abs=1e-3)
+    assert capped.extension_text().endswith(
+        f"now 1 still undecided (at the longest re-run, {1.2 * D:g} s)")
+
+
+def test_sweep_points_runs_only_the_mask(pendulum, design, maps):
+    adaptive, _ = maps
+    codes, metrics = sweep_points(pendulum, design, fl.Scenario(REF, adaptive.durations[1, 0]),
+                                  eps=EPS, gamma=GAMMA, points=[[False], [True]])
+    assert codes.tolist() == [int(Status.OSCILLATING)]
+    assert metrics["overshoot"][0] == adaptive.metrics["overshoot"][1, 0]
+    with pytest.raises(ParameterError, match=r"points must be an \(eps, gamma\) mask"):
+        sweep_points(pendulum, design, fl.Scenario(REF, 1.0), eps=EPS, gamma=GAMMA,
+                     points=[True, False])
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"extend": 0.5}, r"extend must be >= 1.*got 0\.5"),
+    ({"extend": float("nan")}, "extend"),
+    ({"max_duration": -1.0}, "max_duration"),
+    ({"extend": 4, "params": {"l": (0.9, 1.1)}}, "robust map"),
+])
+def test_bad_extension_options(pendulum, design, kw, match):
+    with pytest.raises(ParameterError, match=match):
+        fl.sweep(pendulum, design, fl.Scenario(REF, 1.0), eps=EPS, gamma=GAMMA,
+                 progress=False, **kw)
+
+
+def test_durations_must_match_the_grid():
+    with pytest.raises(ParameterError, match=r"durations must have the status' shape \(1, 2\)"):
+        StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 1]]), {}, 1e-3, 1.0,
+                     0.1, durations=np.array([1.0, 1.0]))
