@@ -174,14 +174,18 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     _require_eps(design)
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
     gammas = signed_gammas(plant, gamma_grid)
-    extend, max_duration = _extension(scenario, extend, max_duration, params)
     if params is not None:
+        if extend is not None or max_duration is not None:
+            raise ParameterError("extend= and max_duration= re-run a nominal map's undecided "
+                                 "points; a robust map (params=) runs every point at one "
+                                 "duration: give Scenario(duration=...) instead")
         return _robust_sweep(plant, design, scenario, eps_grid, gamma_grid, gammas,
                              params=params, samples=samples, seed=seed, integrator=integrator,
                              classifier=classifier, kernel=kernel, executor=executor,
                              progress=progress, allow_unmodeled=allow_unmodeled)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
+    extend, max_duration = _extension(scenario, extend, max_duration)  # scenario validated
     columns = _Columns(design, eps_grid, gammas)
     acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
     status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
@@ -206,15 +210,9 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
 EXTEND = 4.0
 
 
-def _extension(scenario, extend, max_duration, params) -> tuple[float, float | None]:
+def _extension(scenario, extend, max_duration) -> tuple[float, float | None]:
     """Validated ``(extend, max_duration)``; ``extend`` defaults to :data:`EXTEND` for an
     adaptive duration and to 1 (no re-run) for a given one."""
-    if params is not None:
-        if extend is not None or max_duration is not None:
-            raise ParameterError("extend= and max_duration= re-run a nominal map's undecided "
-                                 "points; a robust map (params=) runs every point at one "
-                                 "duration: give Scenario(duration=...) instead")
-        return 1.0, None
     if extend is None:
         extend = EXTEND if scenario.duration is None else 1.0
     extend = V.real_scalar("extend", extend)
