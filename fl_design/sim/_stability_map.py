@@ -194,7 +194,7 @@ class StabilityMap:
         ...                  {}, 1e-3, 10.0, 0.02, durations=np.array([[10.0, 40.0, 40.0]]),
         ...                  max_duration=40.0)
         >>> m.extension_text()
-        '2 runs undecided at 10 s re-run at 40 s: now 1 converging, 1 still undecided (at the longest re-run, 40 s)'
+        '2 runs undecided at 10 s re-run at 40 s: now 1 converging, 1 still undecided (at the longest re-run, 40 s: a longer max_duration decides)'
         """
         ext = self.extended
         if not ext.any():
@@ -207,7 +207,8 @@ class StabilityMap:
                            for name, c in sorted(zip(names, n),
                                                  key=lambda t: t[0] == "undecided"))
         if "undecided" in names and math.isfinite(self.max_duration):
-            became += f" (at the longest re-run, {self.max_duration:g} s)"
+            became += (f" (at the longest re-run, {self.max_duration:g} s: a longer "
+                       "max_duration decides)")
         runs = "run" if ext.sum() == 1 else "runs"
         return (f"{int(ext.sum())} {runs} undecided at {self.duration:g} s re-run {to}: "
                 f"now {became}")

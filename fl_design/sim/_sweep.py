@@ -31,12 +31,12 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import ParameterError
-from ._disturbance import summary_metrics
+from ._adaptive import assemble, extension_options, longest_rerun, rerun_undecided, run_points
 from ._grid import _Columns, run_grid
-from ._metrics import Status, metrics_from_summary
+from ._metrics import Status
 from ._options import RK4, Classifier, Kernel, Scenario, option
 from ._robust_map import RobustMap
-from ._run import RunSetup, prepare_run, signed_gammas
+from ._run import prepare_run, signed_gammas
 from ._stability_map import EpsStarEstimate, StabilityMap
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -60,18 +60,6 @@ def _grid(name: str, values, *, signed: bool = False) -> np.ndarray:
     if np.any(np.diff(arr) == 0):
         raise ParameterError(f"{name} has repeated values: {arr.tolist()}")
     return arr
-
-
-def _assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, dict]:
-    info = run.loop.layout.unpack(acc)
-    info["est2_sum"] = np.asarray(info["est2_sum"]).T
-    m = metrics_from_summary(info, run.T)
-    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
-        m.update(summary_metrics(info, run.T, run.disturbance_start))
-    status = m.pop("status").reshape(shape)
-    metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
-               for k, v in m.items()}
-    return status, metrics
 
 
 def _require_eps(design) -> None:
@@ -185,88 +173,24 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                              progress=progress, allow_unmodeled=allow_unmodeled)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
-    extend, max_duration = _extension(scenario, extend, max_duration)  # scenario validated
+    extend, max_duration = extension_options(scenario, extend, max_duration)  # scenario validated
     columns = _Columns(design, eps_grid, gammas)
     acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
-    status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
+    status, metrics = assemble(run, acc, (eps_grid.size, gamma_grid.size))
     durations = np.full(status.shape, run.duration)
     cap = math.nan
     if extend > 1.0:
-        cap = _cap(run, extend, max_duration)
-        _rerun_undecided(run, columns, status, metrics, durations, extend, cap,
-                         lambda scenario_: prepare_run(
-                             plant, design, scenario_, integrator=integrator,
-                             classifier=classifier, gammas=gammas,
-                             allow_unmodeled=allow_unmodeled),
-                         kernel=kernel, executor=executor, progress=progress)
+        cap = longest_rerun(run, extend, max_duration)
+        rerun_undecided(run, columns, status, metrics, durations, extend, cap,
+                        lambda longer: prepare_run(
+                            plant, design, longer, integrator=integrator,
+                            classifier=classifier, gammas=gammas,
+                            allow_unmodeled=allow_unmodeled),
+                        kernel=kernel, executor=executor, progress=progress)
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
                         T=run.T, duration=run.duration, tol=run.tol,
                         duration_reason=run.duration_reason, durations=durations,
                         max_duration=cap if np.any(durations > run.duration) else math.nan)
-
-
-# --- the adaptive map: undecided points re-run longer -----------------------------------------
-#: Default factor of the re-runs of an adaptive map's undecided points.
-EXTEND = 4.0
-
-
-def _extension(scenario, extend, max_duration) -> tuple[float, float | None]:
-    """Validated ``(extend, max_duration)``; ``extend`` defaults to :data:`EXTEND` for an
-    adaptive duration and to 1 (no re-run) for a given one."""
-    if extend is None:
-        extend = EXTEND if scenario.duration is None else 1.0
-    extend = V.real_scalar("extend", extend)
-    if not extend >= 1.0:
-        raise ParameterError(f"extend must be >= 1 (the factor by which undecided runs are "
-                             f"re-run longer; 1: none), got {extend!r}")
-    if max_duration is not None:
-        max_duration = V.positive("max_duration", max_duration)
-    return extend, max_duration
-
-
-def _cap(run: RunSetup, extend: float, max_duration: float | None) -> float:
-    """The longest re-run: ``max_duration`` (default ``extend * D``), within the per-run
-    sample limit (:func:`fl_design.sim._scenario.max_samples`)."""
-    from ._scenario import max_samples
-
-    wanted = extend * run.duration if max_duration is None else max_duration
-    return min(wanted, max_samples() * run.T)
-
-
-def _rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepare, *,
-                     kernel, executor, progress) -> None:
-    """Re-run the ``undecided`` points ``extend`` times longer, again while some stay
-    undecided, up to ``cap`` seconds; write their status, metrics and length in place.
-
-    Why re-run rather than judge the short run harder: an ``undecided`` run is bounded and
-    its envelope's trend cannot be called over the analysis window (the run's second half),
-    typically a loop whose slowest mode (a swing of period 170-230 s at the TRMS's smallest
-    gains) is slower than the window the map's one duration gives it. A control engineer
-    would look at a longer record; ``extend`` times the length gives the window ``extend``
-    times the swings, at the cost of those points only. Each re-run is classified on its own
-    tail window, as a run of that length would be; what stays undecided at ``cap`` is
-    ambiguous evidence, and its reason says what would decide it.
-    """
-    todo = np.flatnonzero(status == int(Status.UNDECIDED))
-    length = run.duration
-    while todo.size and length < cap * (1 - 1e-9):
-        length = min(length * extend, cap)
-        longer = prepare(run.scenario.replace(duration=length))
-        s, m = _run_points(longer, columns, todo, kernel=kernel, executor=executor,
-                           progress=progress, desc=f"re-run {todo.size} undecided at {length:g} s")
-        at = np.unravel_index(todo, status.shape)
-        status[at] = s
-        for k, v in m.items():
-            metrics[k][at] = v
-        durations[at] = longer.duration
-        todo = todo[s == int(Status.UNDECIDED)]
-
-
-def _run_points(run, columns, idx, *, kernel, executor, progress, desc):
-    """Status and metrics of the grid points ``idx`` (flat indices) under ``run``."""
-    acc = run_grid(run, columns.take(idx), kernel=kernel, executor=executor,
-                   progress=progress, desc=desc)
-    return _assemble(run, acc, (idx.size,))
 
 
 def sweep_points(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma, points,
@@ -309,7 +233,7 @@ def sweep_points(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma
                              f"{(eps_grid.size, gamma_grid.size)}, got {mask.shape}")
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
-    return _run_points(run, _Columns(design, eps_grid, gammas), np.flatnonzero(mask),
+    return run_points(run, _Columns(design, eps_grid, gammas), np.flatnonzero(mask),
                        kernel=option("kernel", kernel, Kernel), executor=executor,
                        progress=False, desc="points")
 
@@ -424,7 +348,7 @@ def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_r
     def stable(e: float) -> bool:
         p = design.replace(eps=e).parameter_vector()
         acc = runner.run(run.initial_accumulator(p), run.D, threads=1)
-        status, metrics = _assemble(run, acc, (1,))
+        status, metrics = assemble(run, acc, (1,))
         history.append((float(e), Status(int(status[0])).label,
                         float(metrics["divergence_time"][0])))
         return Status(int(status[0])).convergent

@@ -16,7 +16,8 @@ import pytest
 import fl_design as fl
 from fl_design.errors import ParameterError
 from fl_design.sim import StabilityMap, Status
-from fl_design.sim._sweep import EXTEND, sweep_points
+from fl_design.sim._adaptive import EXTEND
+from fl_design.sim._sweep import sweep_points
 
 EPS, GAMMA = [0.14426999, 0.5], [1e-3]
 REF = 0.1
@@ -94,7 +95,8 @@ def test_given_duration_is_kept_unless_extend_is_given(pendulum, design, maps):
     assert capped.labels[1, 0] == "undecided"
     assert capped.durations[1, 0] == pytest.approx(1.2 * D, abs=1e-3)
     assert capped.extension_text().endswith(
-        f"now 1 still undecided (at the longest re-run, {1.2 * D:g} s)")
+        f"now 1 still undecided (at the longest re-run, {1.2 * D:g} s: a longer max_duration "
+        "decides)")
 
 
 def test_sweep_points_runs_only_the_mask(pendulum, design, maps):

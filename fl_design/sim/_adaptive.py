@@ -1,0 +1,271 @@
+"""The adaptive stability map: the points ``undecided`` at the map's duration are re-run longer.
+
+A sweep runs every grid point for one duration ``D`` (given, or chosen once at the design
+point: :mod:`fl_design.sim._duration`). Where the map's gains make a loop much slower than the
+design's, that one length is too short: the TRMS's smallest gains swing with periods of
+170-230 s while a 300 s run gives the classifier a 150 s window, and those runs are
+``undecided`` (bounded, a trend the window cannot call). A control engineer would look at a
+longer record of those runs only; so does :func:`fl_design.sweep` (``extend``, default
+:data:`EXTEND` for an adaptive duration): the undecided points are re-run ``extend * D``, again
+``extend`` times longer while some stay undecided, up to ``max_duration`` (default ``extend *
+D``: one re-run, at most ``1 + extend`` times the map's cost, for those points only). Each
+re-run is classified on its own tail window, exactly as a run of that length would be (the
+same kernel and accumulators), and its length is kept (:attr:`StabilityMap.durations`). What
+stays undecided at the cap is ambiguous evidence at that length, said as such.
+
+Why not track swings longer than the window in the accumulators instead: a swing half as
+long as the run shows at most one reversal in the run's second half whatever is accumulated,
+and the classifier's decisions (decay, sustained swing) need several; a longer record is the
+evidence that decides, and its cost is paid only where the short one was not enough.
+
+Examples
+--------
+>>> import fl_design as fl
+>>> from fl_design.sim._adaptive import extension_options
+>>> extension_options(fl.Scenario(0.1), None, None), extension_options(fl.Scenario(0.1, 5.0), None, None)
+((4.0, None), (1.0, None))
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import _validate as V
+from ..errors import ParameterError
+from ._disturbance import summary_metrics
+from ._grid import run_grid
+from ._metrics import metrics_from_summary
+from ._run import RunSetup
+from ._status import Status
+
+
+def assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, dict]:
+    """Status codes and metrics, shaped ``shape``, from the final accumulators of the runs.
+
+    Parameters
+    ----------
+    run : RunSetup
+        The runs' samples and constants.
+    acc : numpy.ndarray
+        ``(nacc, n)`` final accumulators (:func:`fl_design.sim._grid.run_grid`).
+    shape : tuple
+        Shape of the ``n`` runs (``(n_e, n_g)`` for a map).
+
+    Returns
+    -------
+    (numpy.ndarray, dict)
+        Status codes and ``{metric: array of shape shape}`` (``estimation_rms``: one more
+        axis).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import assemble
+    >>> from fl_design.sim._grid import parameter_columns, run_grid
+    >>> from fl_design.sim._run import prepare_run
+    >>> d = fl.presets.pendulum_design()
+    >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 6.0))
+    >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.2], [1e-2]),
+    ...                kernel=fl.Kernel(compiled=False), progress=False)
+    >>> status, metrics = assemble(run, acc, (2, 1))
+    >>> status.tolist(), metrics["estimation_rms"].shape
+    ([[1], [-1]], (2, 1, 3))
+    """
+    info = run.loop.layout.unpack(acc)
+    info["est2_sum"] = np.asarray(info["est2_sum"]).T
+    m = metrics_from_summary(info, run.T)
+    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
+        m.update(summary_metrics(info, run.T, run.disturbance_start))
+    status = m.pop("status").reshape(shape)
+    metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
+               for k, v in m.items()}
+    return status, metrics
+
+
+#: Default factor of the re-runs of an adaptive map's undecided points.
+EXTEND = 4.0
+
+
+def extension_options(scenario, extend, max_duration) -> tuple[float, float | None]:
+    """Validated ``(extend, max_duration)`` of :func:`fl_design.sweep`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The sweep's scenario (validated): ``duration`` None is the adaptive length.
+    extend : float or None
+        Factor >= 1 of the re-runs; None: :data:`EXTEND` for an adaptive duration, 1 (no
+        re-run) for a given one.
+    max_duration : float or None
+        Longest re-run (s, > 0), or None (``extend`` times the map's duration).
+
+    Returns
+    -------
+    (float, float or None)
+
+    Raises
+    ------
+    ParameterError
+        ``extend`` not a real number >= 1, ``max_duration`` not > 0.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import extension_options
+    >>> extension_options(fl.Scenario(0.1, 5.0), 2, 60.0)
+    (2.0, 60.0)
+    """
+    if extend is None:
+        extend = EXTEND if scenario.duration is None else 1.0
+    extend = V.real_scalar("extend", extend)
+    if not extend >= 1.0:
+        raise ParameterError(f"extend must be >= 1 (the factor by which undecided runs are "
+                             f"re-run longer; 1: none), got {extend!r}")
+    if max_duration is not None:
+        max_duration = V.positive("max_duration", max_duration)
+    return extend, max_duration
+
+
+def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> float:
+    """The longest re-run (s): ``max_duration`` (default ``extend * D``), within the per-run
+    sample limit (:func:`fl_design.sim._scenario.max_samples`).
+
+    Parameters
+    ----------
+    run : RunSetup
+        The map's runs (``run.duration`` is ``D``).
+    extend : float
+        Factor of the re-runs.
+    max_duration : float or None
+        As given to :func:`fl_design.sweep`.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import longest_rerun
+    >>> from fl_design.sim._run import prepare_run
+    >>> run = prepare_run(fl.plants.pendulum(), fl.presets.pendulum_design(),
+    ...                   fl.Scenario(0.05, 10.0))
+    >>> longest_rerun(run, 4.0, None), longest_rerun(run, 4.0, 25.0)
+    (40.0, 25.0)
+    """
+    from ._scenario import max_samples
+
+    wanted = extend * run.duration if max_duration is None else max_duration
+    return min(wanted, max_samples() * run.T)
+
+
+def rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepare, *,
+                    kernel, executor, progress) -> None:
+    """Re-run the ``undecided`` points ``extend`` times longer, again while some stay
+    undecided, up to ``cap`` seconds; write their status, metrics and length in place.
+
+    Why re-run rather than judge the short run harder: an ``undecided`` run is bounded and
+    its envelope's trend cannot be called over the analysis window (the run's second half),
+    typically a loop whose slowest mode (a swing of period 170-230 s at the TRMS's smallest
+    gains) is slower than the window the map's one duration gives it. A control engineer
+    would look at a longer record; ``extend`` times the length gives the window ``extend``
+    times the swings, at the cost of those points only. Each re-run is classified on its own
+    tail window, as a run of that length would be; what stays undecided at ``cap`` is
+    ambiguous evidence at that length (:meth:`StabilityMap.extension_text` says so: a longer
+    ``max_duration`` decides).
+
+    Parameters
+    ----------
+    run : RunSetup
+        The map's runs, of length ``D``.
+    columns : fl_design.sim._grid._Columns
+        The grid's parameter columns (``take(idx)``).
+    status, metrics, durations : numpy.ndarray, dict
+        The map's status codes, metrics and run lengths, written in place.
+    extend, cap : float
+        Factor of each re-run, longest re-run (s).
+    prepare : callable
+        ``prepare(scenario) -> RunSetup``: the runs under a longer scenario.
+    kernel, executor, progress
+        As for :func:`fl_design.sweep`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import rerun_undecided
+    >>> from fl_design.sim._grid import _Columns
+    >>> from fl_design.sim._run import prepare_run
+    >>> plant, d = fl.plants.pendulum(), fl.presets.pendulum_design(u_limits=(-2.0, 2.0))
+    >>> smap = fl.sweep(plant, d, fl.Scenario(0.1, 17.549), eps=[0.5], gamma=[1e-3],
+    ...                 progress=False)
+    >>> smap.labels.tolist()  # a swing slower than the window
+    [['undecided']]
+    >>> status, metrics, durations = smap.status.copy(), dict(smap.metrics), smap.durations.copy()
+    >>> prepare = lambda scenario: prepare_run(plant, d, scenario)
+    >>> rerun_undecided(prepare(fl.Scenario(0.1, 17.549)), _Columns(d, [0.5], [1e-3]), status,
+    ...                 metrics, durations, 4.0, 4 * 17.549, prepare, kernel=None,
+    ...                 executor=None, progress=False)
+    >>> status.tolist(), durations.tolist()
+    ([[0]], [[70.196]])
+    """
+    todo = np.flatnonzero(status == int(Status.UNDECIDED))
+    length = run.duration
+    while todo.size and length < cap * (1 - 1e-9):
+        length = min(length * extend, cap)
+        longer = prepare(run.scenario.replace(duration=length))
+        s, m = run_points(longer, columns, todo, kernel=kernel, executor=executor,
+                          progress=progress, desc=f"re-run {todo.size} undecided at {length:g} s")
+        at = np.unravel_index(todo, status.shape)
+        status[at] = s
+        for k, v in m.items():
+            metrics[k][at] = v
+        durations[at] = longer.duration
+        todo = todo[s == int(Status.UNDECIDED)]
+
+
+def run_points(run, columns, idx, *, kernel, executor, progress, desc):
+    """Status and metrics of the grid points ``idx`` (flat indices) under ``run``.
+
+    Parameters
+    ----------
+    run : RunSetup
+        Samples and constants of the runs.
+    columns : fl_design.sim._grid._Columns
+        The grid's parameter columns.
+    idx : numpy.ndarray
+        Flat (row-major) indices of the points.
+    kernel, executor, progress
+        As for :func:`fl_design.sweep`.
+    desc : str
+        Label of the progress bar.
+
+    Returns
+    -------
+    (numpy.ndarray, dict)
+        As :func:`assemble`, of shape ``(idx.size,)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import run_points
+    >>> from fl_design.sim._grid import _Columns
+    >>> from fl_design.sim._run import prepare_run
+    >>> d = fl.presets.pendulum_design()
+    >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 6.0))
+    >>> status, _ = run_points(run, _Columns(d, [0.02, 0.2], [1e-2]), np.array([1]),
+    ...                        kernel=fl.Kernel(compiled=False), executor=None,
+    ...                        progress=False, desc="points")
+    >>> status.tolist()
+    [-1]
+    """
+    acc = run_grid(run, columns.take(idx), kernel=kernel, executor=executor,
+                   progress=progress, desc=desc)
+    return assemble(run, acc, (idx.size,))
+
+
+__all__ = ["EXTEND", "assemble", "extension_options", "longest_rerun", "rerun_undecided",
+           "run_points"]
