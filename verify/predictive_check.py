@@ -2,8 +2,8 @@
 
 For the TRMS yaw (the paper's design) and the pendulum (its bench design), over 12 x 12
 (eps, gamma) grids, every run is classified at its adaptive duration D (the scenario gives no
-duration: :mod:`fl_design.sim._duration`; the map's one length, and 4 times it for the points
-undecided at it, which :func:`fl_design.sweep` re-runs longer) and again at 10 times its own
+duration: :mod:`fl_design.sim._duration`; the map's one length, and 2 or 4 times it for the
+points undecided at it, which :func:`fl_design.sweep` re-runs longer) and again at 10 times its own
 D. The classifier's promises:
 
 * >= 95 % of the runs ``converging`` or ``converged`` at D are ``converging`` or ``converged``

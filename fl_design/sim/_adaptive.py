@@ -6,24 +6,29 @@ design's, that one length is too short: the TRMS's smallest gains swing with per
 170-230 s while a 300 s run gives the classifier a 150 s window, and those runs are
 ``undecided`` (bounded, a trend the window cannot call). A control engineer would look at a
 longer record of those runs only; so does :func:`fl_design.sweep` (``extend``, default
-:data:`EXTEND` for an adaptive duration): the undecided points are re-run ``extend * D``, again
-``extend`` times longer while some stay undecided, up to ``max_duration`` (default ``extend *
-D``: one re-run, at most ``1 + extend`` times the map's cost, for those points only). Each
-re-run is classified on its own tail window, exactly as a run of that length would be (the
-same kernel and accumulators), and its length is kept (:attr:`StabilityMap.durations`). What
-stays undecided at the cap is ambiguous evidence at that length, said as such.
+:data:`EXTEND` = 2 for an adaptive duration): the undecided points are re-run ``extend * D``,
+again ``extend`` times longer while some stay undecided, up to ``max_duration`` (default
+``max(extend, MAX_EXTENSION) * D`` = 4 D: at most two doublings). Each re-run is classified on
+its own tail window, exactly as a run of that length would be (the same kernel and
+accumulators), and its length is kept (:attr:`StabilityMap.durations`). What stays undecided
+at the cap is ambiguous evidence at that length, said as such.
 
-Why not track swings longer than the window in the accumulators instead: a swing half as
-long as the run shows at most one reversal in the run's second half whatever is accumulated,
-and the classifier's decisions (decay, sustained swing) need several; a longer record is the
-evidence that decides, and its cost is paid only where the short one was not enough.
+Why doubling: it doubles the analysis window (the run's second half) at the least cost, and
+repeating it stops at the first length that decides (the demo map's 37 undecided runs at
+300 s are all decided at 600 s, a window of 1.3-1.8 of their swings; x4 at once would cost
+twice as much for the same verdicts). The cap bounds the cost: a point undecided at every
+length costs ``2 D + 4 D`` on top of its first run. Why not track swings longer than the
+window in the accumulators instead: a swing half as long as the run shows at most one
+reversal in the run's second half whatever is accumulated, and the classifier's decisions
+(decay, sustained swing) need several; a longer record is the evidence that decides, and its
+cost is paid only where the short one was not enough.
 
 Examples
 --------
 >>> import fl_design as fl
 >>> from fl_design.sim._adaptive import extension_options
 >>> extension_options(fl.Scenario(0.1), None, None), extension_options(fl.Scenario(0.1, 5.0), None, None)
-((4.0, None), (1.0, None))
+((2.0, None), (1.0, None))
 """
 
 from __future__ import annotations
@@ -84,8 +89,10 @@ def assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, 
     return status, metrics
 
 
-#: Default factor of the re-runs of an adaptive map's undecided points.
-EXTEND = 4.0
+#: Default factor of the re-runs of an adaptive map's undecided points (a doubling).
+EXTEND = 2.0
+#: Default longest re-run, in map durations ``D`` (or ``extend``, when larger).
+MAX_EXTENSION = 4.0
 
 
 def extension_options(scenario, extend, max_duration) -> tuple[float, float | None]:
@@ -99,7 +106,8 @@ def extension_options(scenario, extend, max_duration) -> tuple[float, float | No
         Factor >= 1 of the re-runs; None: :data:`EXTEND` for an adaptive duration, 1 (no
         re-run) for a given one.
     max_duration : float or None
-        Longest re-run (s, > 0), or None (``extend`` times the map's duration).
+        Longest re-run (s, > 0), or None (``max(extend, MAX_EXTENSION)`` times the map's
+        duration).
 
     Returns
     -------
@@ -129,7 +137,8 @@ def extension_options(scenario, extend, max_duration) -> tuple[float, float | No
 
 
 def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> float:
-    """The longest re-run (s): ``max_duration`` (default ``extend * D``), within the per-run
+    """The longest re-run (s): ``max_duration`` (default ``max(extend, MAX_EXTENSION) * D``),
+    within the per-run
     sample limit (:func:`fl_design.sim._scenario.max_samples`).
 
     Parameters
@@ -152,12 +161,13 @@ def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> f
     >>> from fl_design.sim._run import prepare_run
     >>> run = prepare_run(fl.plants.pendulum(), fl.presets.pendulum_design(),
     ...                   fl.Scenario(0.05, 10.0))
-    >>> longest_rerun(run, 4.0, None), longest_rerun(run, 4.0, 25.0)
-    (40.0, 25.0)
+    >>> longest_rerun(run, 2.0, None), longest_rerun(run, 8.0, None), longest_rerun(run, 2.0, 25.0)
+    (40.0, 80.0, 25.0)
     """
     from ._scenario import max_samples
 
-    wanted = extend * run.duration if max_duration is None else max_duration
+    wanted = (max(extend, MAX_EXTENSION) * run.duration if max_duration is None
+              else max_duration)
     return min(wanted, max_samples() * run.T)
 
 
@@ -267,5 +277,5 @@ def run_points(run, columns, idx, *, kernel, executor, progress, desc):
     return assemble(run, acc, (idx.size,))
 
 
-__all__ = ["EXTEND", "assemble", "extension_options", "longest_rerun", "rerun_undecided",
+__all__ = ["EXTEND", "MAX_EXTENSION", "assemble", "extension_options", "longest_rerun", "rerun_undecided",
            "run_points"]

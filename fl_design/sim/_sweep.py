@@ -126,13 +126,13 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
         Seed of the draw (default 0).
     extend : float, optional
         Factor (>= 1) by which the runs ``undecided`` at the map's duration ``D`` are re-run
-        longer (module text: an adaptive map): ``extend * D``, then ``extend`` times that for
-        the ones still undecided, up to ``max_duration``. Default 4 when the scenario has no
-        duration (the adaptive length), none (1) when it gives one: a given duration is kept
-        unless ``extend`` is given too. Not for robust maps.
+        longer (an adaptive map, :mod:`fl_design.sim._adaptive`): ``extend * D``, then
+        ``extend`` times that for the ones still undecided, up to ``max_duration``. Default 2
+        when the scenario has no duration (the adaptive length), none (1) when it gives one:
+        a given duration is kept unless ``extend`` is given too. Not for robust maps.
     max_duration : float, optional
-        Longest re-run (s, > 0; default ``extend * D``: one re-run). Each point's own length
-        is in :attr:`StabilityMap.durations`.
+        Longest re-run (s, > 0; default ``max(extend, 4) * D``). Each point's own length is
+        in :attr:`StabilityMap.durations`.
 
     Returns
     -------
