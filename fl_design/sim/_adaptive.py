@@ -172,7 +172,7 @@ def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> f
 
 
 def rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepare, *,
-                    kernel, executor, progress) -> None:
+                    kernel, executor, progress, acc=None) -> None:
     """Re-run the ``undecided`` points ``extend`` times longer, again while some stay
     undecided, up to ``cap`` seconds; write their status, metrics and length in place.
 
@@ -200,6 +200,10 @@ def rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepa
         ``prepare(scenario) -> RunSetup``: the runs under a longer scenario.
     kernel, executor, progress
         As for :func:`fl_design.sweep`.
+    acc : numpy.ndarray, optional
+        ``(nacc, n_e * n_g)`` final accumulators of the map's runs: in this process (no
+        ``executor``) a re-run then continues its shorter run (:func:`continue_runs`) instead
+        of starting again, with the same result.
 
     Examples
     --------
@@ -223,17 +227,104 @@ def rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepa
     """
     todo = np.flatnonzero(status == int(Status.UNDECIDED))
     length = run.duration
+    last = None if acc is None or executor is not None else acc[:, todo]
     while todo.size and length < cap * (1 - 1e-9):
         length = min(length * extend, cap)
         longer = prepare(run.scenario.replace(duration=length))
-        s, m = run_points(longer, columns, todo, kernel=kernel, executor=executor,
-                          progress=progress, desc=f"re-run {todo.size} undecided at {length:g} s")
+        desc = f"re-run {todo.size} undecided at {length:g} s"
+        done = (None if last is None else
+                continue_runs(run, longer, last, kernel=kernel, progress=progress, desc=desc))
+        if done is None:  # start again from the first sample
+            done = run_grid(longer, columns.take(todo), kernel=kernel, executor=executor,
+                            progress=progress, desc=desc)
+        s, m = assemble(longer, done, (todo.size,))
+        run, last = longer, (None if executor is not None else done[:, s == int(Status.UNDECIDED)])
         at = np.unravel_index(todo, status.shape)
         status[at] = s
         for k, v in m.items():
             metrics[k][at] = v
         durations[at] = longer.duration
         todo = todo[s == int(Status.UNDECIDED)]
+
+
+def continue_runs(run, longer, acc, *, kernel=None, progress=False,
+                  desc="continue") -> np.ndarray | None:
+    """The final accumulators of ``longer``, continuing the finished runs ``acc`` of ``run``.
+
+    A run's state and its whole-run accumulators (:data:`~fl_design.sim._metrics.WHOLE_RUN`:
+    extremes, sums, first times) do not depend on its length; the others are gated by the
+    tail and the analysis window, which a run at least twice as long starts no earlier than
+    the shorter run's end. So the longer run equals the shorter one continued: the state and
+    whole-run values kept, the windowed ones restarted, the longer run's constants set, and
+    only its remaining samples run (a doubling costs one more ``D``, not two). The result is
+    the same as a run from the first sample (same kernel, same arithmetic in the same order:
+    ``tests/sim/test_sweep_adaptive.py`` checks equality to the last bit).
+
+    Parameters
+    ----------
+    run, longer : RunSetup
+        The finished runs' setup and the longer one.
+    acc : numpy.ndarray
+        ``(nacc, m)`` final accumulators of ``run``.
+    kernel : Kernel, optional
+        As for :func:`fl_design.sweep` (runs in this process).
+    progress : bool, optional
+        Progress bar.
+    desc : str, optional
+        Its label.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``(nacc, m)``; None when ``longer`` cannot continue ``run``: its window or tail starts
+        before ``run``'s end, its first samples or its constants differ (a time-varying
+        reference whose step changes with the length).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import continue_runs
+    >>> from fl_design.sim._grid import parameter_columns, run_grid
+    >>> from fl_design.sim._run import prepare_run
+    >>> plant, d = fl.plants.pendulum(), fl.presets.pendulum_design()
+    >>> short, long = (prepare_run(plant, d, fl.Scenario(0.05, t)) for t in (5.0, 10.0))
+    >>> P = parameter_columns(d, [0.02, 0.05], [1e-2])
+    >>> acc = continue_runs(short, long, run_grid(short, P, progress=False))
+    >>> np.array_equal(acc, run_grid(long, P, progress=False))
+    True
+    >>> continue_runs(long, short, acc) is None  # not longer
+    True
+    """
+    from ._grid import _cores, _Progress, _runner, block_length
+    from ._metrics import ACCUMULATORS, RUN_CONSTANTS, WHOLE_RUN
+    from ._options import Kernel, option
+
+    start = run.N
+    window = (2 * longer.k_mid - longer.k_tail) // 2  # the kernel's window start
+    same = ("y0", "step", "tol", "noise", "k_dist")
+    if (min(window, longer.k_tail) < start
+            or any(run.constants()[c] != longer.constants()[c] for c in same)
+            or run.q != longer.q or not np.array_equal(longer.D[:, :start], run.D)):
+        return None
+    lay = longer.loop.layout
+    restart = {a.name for a in ACCUMULATORS} - set(WHOLE_RUN) | set(RUN_CONSTANTS)
+    out = longer.initial_accumulator(lay.unpack(acc)["p"])
+    for name, _ in lay.fields:
+        if name not in restart:
+            out[lay[name]] = acc[lay[name]]
+    kernel = option("kernel", kernel, Kernel)
+    threads = kernel.threads if kernel.threads is not None else _cores()
+    runner = _runner(longer, kernel)
+    block = block_length(out.shape[1], threads, kernel.compiled)
+    bar = _Progress(out.shape[1], bool(progress), desc)
+    try:
+        for a in range(start, longer.N, block):
+            out = runner.run(out, longer.D[:, a:a + block], threads=threads)
+        bar.update(out.shape[1])
+    finally:
+        bar.close()
+    return out
 
 
 def run_points(run, columns, idx, *, kernel, executor, progress, desc):
@@ -277,5 +368,5 @@ def run_points(run, columns, idx, *, kernel, executor, progress, desc):
     return assemble(run, acc, (idx.size,))
 
 
-__all__ = ["EXTEND", "MAX_EXTENSION", "assemble", "extension_options", "longest_rerun", "rerun_undecided",
+__all__ = ["EXTEND", "MAX_EXTENSION", "assemble", "continue_runs", "extension_options", "longest_rerun", "rerun_undecided",
            "run_points"]

@@ -186,7 +186,7 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                             plant, design, longer, integrator=integrator,
                             classifier=classifier, gammas=gammas,
                             allow_unmodeled=allow_unmodeled),
-                        kernel=kernel, executor=executor, progress=progress)
+                        kernel=kernel, executor=executor, progress=progress, acc=acc)
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
                         T=run.T, duration=run.duration, tol=run.tol,
                         duration_reason=run.duration_reason, durations=durations,

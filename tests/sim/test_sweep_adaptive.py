@@ -126,3 +126,49 @@ def test_durations_must_match_the_grid():
     with pytest.raises(ParameterError, match=r"durations must have the status' shape \(1, 2\)"):
         StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 1]]), {}, 1e-3, 1.0,
                      0.1, durations=np.array([1.0, 1.0]))
+
+
+@pytest.mark.parametrize("case", ["pendulum, noise, quantization, input step", "trms demo corner"])
+def test_continued_runs_equal_runs_from_the_start_to_the_last_bit(case, pendulum, design):
+    """A re-run continues its shorter run (state and whole-run accumulators kept, windowed ones
+    restarted): every accumulator equals a run of the longer length from the first sample."""
+    from fl_design.sim._adaptive import continue_runs
+    from fl_design.sim._grid import parameter_columns, run_grid
+    from fl_design.sim._run import prepare_run
+
+    if case.startswith("pendulum"):
+        plant, d, D = pendulum, design, 17.549
+        scenario = fl.Scenario(REF, noise=fl.Noise(std=1e-3, seed=3), quantization=1e-4,
+                               disturbance=fl.Disturbance(input=fl.Step(at=2.0, size=0.3)))
+        P = parameter_columns(d, [0.02, 0.5], [1e-3, 0.1])
+    else:
+        plant, d, D = fl.plants.trms_yaw(), fl.presets.paper_design(), 300.0
+        scenario = fl.Scenario(0.3)
+        P = parameter_columns(d, [1.0], [3e-5, 7.5e-5])
+    short = prepare_run(plant, d, scenario.replace(duration=D))
+    long = prepare_run(plant, d, scenario.replace(duration=2 * D))
+    first = run_grid(short, P, progress=False)
+    continued = continue_runs(short, long, first)
+    fresh = run_grid(long, P, progress=False)
+    assert continued is not None
+    np.testing.assert_array_equal(continued, fresh)
+    # the windowed accumulators were restarted, not carried: the short run's differ
+    lay = long.loop.layout
+    assert not np.array_equal(first[lay["blk_max0"]], fresh[lay["blk_max0"]])
+    # a longer run whose window starts before the short run's end cannot continue it
+    assert continue_runs(short, prepare_run(plant, d, scenario.replace(duration=1.5 * D)),
+                         first) is None
+
+
+def test_executor_map_equals_in_process_map(pendulum, design, maps):
+    """With an executor the re-runs start from the first sample: the same map."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    adaptive, _ = maps
+    with ThreadPoolExecutor(2) as pool:
+        other = fl.sweep(pendulum, design, fl.Scenario(REF), eps=EPS, gamma=GAMMA,
+                         executor=pool, progress=False)
+    np.testing.assert_array_equal(other.status, adaptive.status)
+    np.testing.assert_array_equal(other.durations, adaptive.durations)
+    for name, value in adaptive.metrics.items():
+        np.testing.assert_array_equal(other.metrics[name], value, err_msg=name)
