@@ -103,8 +103,8 @@ def extension_options(scenario, extend, max_duration) -> tuple[float, float | No
     scenario : Scenario
         The sweep's scenario (validated): ``duration`` None is the adaptive length.
     extend : float or None
-        Factor >= 1 of the re-runs; None: :data:`EXTEND` for an adaptive duration, 1 (no
-        re-run) for a given one.
+        Factor >= 1 of the re-runs; None: :data:`EXTEND` for an adaptive duration or when
+        ``max_duration`` is given, else 1 (no re-run: a given duration is kept).
     max_duration : float or None
         Longest re-run (s, > 0), or None (``max(extend, MAX_EXTENSION)`` times the map's
         duration).
@@ -116,7 +116,8 @@ def extension_options(scenario, extend, max_duration) -> tuple[float, float | No
     Raises
     ------
     ParameterError
-        ``extend`` not a real number >= 1, ``max_duration`` not > 0.
+        ``extend`` not a real number >= 1, ``max_duration`` not > 0, or given with
+        ``extend=1`` (no re-run to bound).
 
     Examples
     --------
@@ -124,22 +125,27 @@ def extension_options(scenario, extend, max_duration) -> tuple[float, float | No
     >>> from fl_design.sim._adaptive import extension_options
     >>> extension_options(fl.Scenario(0.1, 5.0), 2, 60.0)
     (2.0, 60.0)
+    >>> extension_options(fl.Scenario(0.1, 5.0), None, 60.0)  # a cap asks for re-runs
+    (2.0, 60.0)
     """
     if extend is None:
-        extend = EXTEND if scenario.duration is None else 1.0
+        extend = EXTEND if scenario.duration is None or max_duration is not None else 1.0
     extend = V.real_scalar("extend", extend)
     if not extend >= 1.0:
         raise ParameterError(f"extend must be >= 1 (the factor by which undecided runs are "
                              f"re-run longer; 1: none), got {extend!r}")
     if max_duration is not None:
         max_duration = V.positive("max_duration", max_duration)
+        if extend == 1.0:
+            raise ParameterError(f"max_duration={max_duration!r} bounds the re-runs of "
+                                 "undecided points, but extend=1 makes none; give extend > 1 "
+                                 "or leave max_duration out")
     return extend, max_duration
 
 
 def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> float:
     """The longest re-run (s): ``max_duration`` (default ``max(extend, MAX_EXTENSION) * D``),
-    within the per-run
-    sample limit (:func:`fl_design.sim._scenario.max_samples`).
+    within the per-run sample limit (:func:`fl_design.sim._scenario.max_samples`).
 
     Parameters
     ----------
@@ -154,6 +160,11 @@ def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> f
     -------
     float
 
+    Raises
+    ------
+    ParameterError
+        ``max_duration`` not longer than the map's duration ``D`` (nothing to re-run).
+
     Examples
     --------
     >>> import fl_design as fl
@@ -165,6 +176,10 @@ def longest_rerun(run: RunSetup, extend: float, max_duration: float | None) -> f
     (40.0, 80.0, 25.0)
     """
     from ._scenario import max_samples
+
+    if max_duration is not None and max_duration <= run.duration * (1 + 1e-9):
+        raise ParameterError(f"max_duration={max_duration!r} s must exceed the map's duration "
+                             f"{run.duration:g} s (the re-runs are longer); give a larger one")
 
     wanted = (max(extend, MAX_EXTENSION) * run.duration if max_duration is None
               else max_duration)

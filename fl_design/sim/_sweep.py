@@ -128,11 +128,12 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
         Factor (>= 1) by which the runs ``undecided`` at the map's duration ``D`` are re-run
         longer (an adaptive map, :mod:`fl_design.sim._adaptive`): ``extend * D``, then
         ``extend`` times that for the ones still undecided, up to ``max_duration``. Default 2
-        when the scenario has no duration (the adaptive length), none (1) when it gives one:
-        a given duration is kept unless ``extend`` is given too. Not for robust maps.
+        when the scenario has no duration (the adaptive length) or ``max_duration`` is given,
+        else none (1): a given duration is kept unless ``extend`` or ``max_duration`` is
+        given too. Not for robust maps.
     max_duration : float, optional
-        Longest re-run (s, > 0; default ``max(extend, 4) * D``). Each point's own length is
-        in :attr:`StabilityMap.durations`.
+        Longest re-run (s, > ``D``; default ``max(extend, 4) * D``). Each point's own length
+        is in :attr:`StabilityMap.durations`.
 
     Returns
     -------
@@ -144,7 +145,8 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     ParameterError
         A grid value <= 0 or not finite, an empty grid, bad options, an estimator
         without ``eps``, negative gammas on a plant with ``b > 0``, ``extend < 1``,
-        ``max_duration <= 0``, ``extend`` or ``max_duration`` with ``params``.
+        ``max_duration <= D`` or with ``extend=1``, ``extend`` or ``max_duration`` with
+        ``params``.
     DimensionError
         Reference of the wrong length.
     DesignMismatchError

@@ -90,6 +90,9 @@ def test_given_duration_is_kept_unless_extend_is_given(pendulum, design, maps):
     assert asked.durations[1, 0] == pytest.approx(1.25 ** 2 * D, abs=1e-3)
     assert asked.labels[1, 0] == "oscillating" and asked.max_duration == pytest.approx(4 * D)
     assert not asked.extended[0, 0]
+    capped_only = fl.sweep(pendulum, design, fl.Scenario(REF, D), eps=EPS, gamma=GAMMA,
+                           max_duration=4 * D, progress=False)  # a cap asks for re-runs (x2)
+    assert capped_only.durations[1, 0] == pytest.approx(EXTEND * D, abs=1e-3)
     capped = fl.sweep(pendulum, design, fl.Scenario(REF, D), eps=EPS, gamma=GAMMA, extend=2,
                       max_duration=1.2 * D, progress=False)  # the cap stops it undecided
     assert capped.labels[1, 0] == "undecided"
@@ -114,6 +117,8 @@ def test_sweep_points_runs_only_the_mask(pendulum, design, maps):
     ({"extend": 0.5}, r"extend must be >= 1.*got 0\.5"),
     ({"extend": float("nan")}, "extend"),
     ({"max_duration": -1.0}, "max_duration"),
+    ({"max_duration": 0.5}, r"max_duration=0\.5 s must exceed the map's duration 1 s"),
+    ({"extend": 1, "max_duration": 4.0}, "extend=1 makes none"),
     ({"extend": 4, "params": {"l": (0.9, 1.1)}}, "robust map"),
 ])
 def test_bad_extension_options(pendulum, design, kw, match):
