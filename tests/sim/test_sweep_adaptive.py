@@ -177,3 +177,26 @@ def test_executor_map_equals_in_process_map(pendulum, design, maps):
     np.testing.assert_array_equal(other.durations, adaptive.durations)
     for name, value in adaptive.metrics.items():
         np.testing.assert_array_equal(other.metrics[name], value, err_msg=name)
+
+
+def test_demo_map_slow_corner_is_decided_without_stripes():
+    """The demo map's slowest gains (examples/trms.toml [sweep]: gamma from 3e-5): at the map's
+    300 s their swings outlast the window (undecided, and eps* brackets 'undecided at' that
+    alternated between columns); re-run at 600 s they are converging, and eps* is '> 1' in
+    every column; at 4 times that (2400 s) they are converged or converging (10 times:
+    verify/predictive_check.py --full-range)."""
+    plant, design = fl.plants.trms_yaw(), fl.presets.paper_design()
+    eps, gamma = [0.005, 0.7024, 1.0], np.geomspace(3e-5, 1.2e-4, 4)
+    kw = {"eps": eps, "gamma": gamma, "progress": False}
+    plain = fl.sweep(plant, design, fl.Scenario(0.3), extend=1, **kw)
+    smap = fl.sweep(plant, design, fl.Scenario(0.3), **kw)
+    assert smap.duration == 300.0
+    assert np.sum(plain.labels == "undecided") >= 6, plain.labels
+    assert not np.any(smap.labels == "undecided")
+    assert np.all(np.isin(smap.labels, ["converging", "converged"]))
+    assert np.array_equal(smap.extended, plain.labels == "undecided")
+    assert np.all(smap.durations[smap.extended] == 600.0)
+    assert [str(smap.eps_star(g)) for g in gamma] == ["> 1"] * 4
+    codes, _ = sweep_points(plant, design, fl.Scenario(0.3, 2400.0), eps=eps, gamma=gamma,
+                            points=smap.extended)  # the re-run ones at 4 times their length
+    assert set(codes.tolist()) <= {int(Status.CONVERGING), int(Status.CONVERGED)}
