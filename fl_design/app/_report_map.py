@@ -58,7 +58,10 @@ def map_counts(smap) -> str:
 
     The ``undecided`` runs that are slow (:func:`slow_runs`) are counted apart, with the range
     of their fitted time constants (``1 / decay_rate`` where the envelope decays): loops slower
-    than the map's run length, not an ambiguous trend nor a failure.
+    than their run, not an ambiguous trend nor a failure. An adaptive map re-runs the points
+    undecided at its duration longer (:func:`fl_design.sweep`'s ``extend``): the counts are
+    those of each point's own run, and how many were re-run, to how long, follows
+    (:meth:`~fl_design.StabilityMap.extension_text`).
 
     Parameters
     ----------
@@ -79,6 +82,10 @@ def map_counts(smap) -> str:
     ...                   "decay_rate": np.array([[0.0, 0.01], [0.02, 0.0]])}, 1e-3, 10.0, 0.02)
     >>> map_counts(m)
     '1 converged, 3 undecided (2 of them slow: still moving towards the reference at 10 s, fitted time constants 50-100 s)'
+    >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 1]]), {}, 1e-3,
+    ...                  10.0, 0.02, durations=np.array([[10.0, 40.0]]), max_duration=40.0)
+    >>> map_counts(m)
+    '1 converged, 1 converging; 1 run undecided at 10 s re-run at 40 s: now 1 converging'
     """
     labels = smap.labels
     slow = slow_runs(smap)
@@ -94,10 +101,13 @@ def map_counts(smap) -> str:
             tau = 1.0 / rate[np.isfinite(rate) & (rate > 0)]
             fitted = (f", fitted time constants {tau.min():.3g}-{tau.max():.3g} s" if tau.size
                       else "")
+            ends = np.unique(np.asarray(smap.durations)[slow])
+            at = " and ".join(f"{d:g}" for d in ends)
             text += (f" ({int(slow.sum())} of them slow: still moving towards the reference at "
-                     f"{smap.duration:g} s{fitted})")
+                     f"{at} s{fitted})")
         parts.append(text)
-    return ", ".join(parts)
+    extension = smap.extension_text()
+    return ", ".join(parts) + (f"; {extension}" if extension else "")
 
 
 __all__ = ["map_counts", "slow_runs"]

@@ -316,9 +316,11 @@ def _run_on(executor, run, P, columns, n_runs, kernel, threads, out, bar) -> Non
     effective = max(1, min(threads, cores // max(1, min(workers, cores))))
     task = KernelTask.of(run.loop, kernel, run.D, block_length(per_task, effective,
                                                                 kernel.compiled))
-    take = getattr(P, "take", None)
-    if take is None:
-        take = (lambda idx: P[:, idx]) if not callable(P) else (
+    if not callable(P):  # an array's columns (ndarray.take would flatten it)
+        def take(idx):
+            return P[:, idx]
+    else:
+        take = getattr(P, "take", None) or (
             lambda idx: np.concatenate([columns(int(i), int(i) + 1) for i in idx], axis=1))
     run_tasks(executor, task, lambda idx: run.initial_accumulator(take(idx)), groups,
               threads, out, bar)

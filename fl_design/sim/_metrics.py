@@ -252,6 +252,12 @@ ACCUMULATORS = (
                 lambda p, s: _if(s["after_dist"] * (s["abs_e"] > s["tol"]), s["k"], p)),
 )
 
+#: The accumulators whose update never reads the run's length (no tail, window or swing
+#: gating): a run continued to a longer length keeps them, the others restart with the longer
+#: run's window (:func:`fl_design.sim._adaptive.continue_runs`).
+WHOLE_RUN = ("e_max", "e_min", "abs_e_sum", "u2_sum", "du_sum", "est2_sum", "k10", "k90",
+             "k_out", "k_exit", "dist_peak", "k_dist_out")
+
 #: Constants of a run stored with its accumulators (inputs of the finalization).
 RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol", "noise", "k_dist")
 
@@ -514,6 +520,7 @@ __all__ = [
     "RUN_CONSTANTS",
     "STATUS_CODES",
     "STATUS_NAMES",
+    "WHOLE_RUN",
     "Accumulator",
     "Metric",
     "Status",

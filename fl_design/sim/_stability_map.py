@@ -126,6 +126,12 @@ class StabilityMap:
     duration_reason : str, optional
         ``"given"``, or how the sweep chose its run length (once, at the design's own
         ``(eps, gamma)``: :mod:`fl_design.sim._duration`).
+    durations : numpy.ndarray, optional
+        ``(n_e, n_g)`` length of each point's own run (s): ``duration``, or longer where the
+        sweep re-ran an ``undecided`` point (:func:`fl_design.sweep`'s ``extend``); default
+        ``duration`` everywhere. Each point is classified on its own run's tail window.
+    max_duration : float, optional
+        The longest a re-run could be (s; NaN: no point was re-run, or not recorded).
 
     Examples
     --------
@@ -146,6 +152,66 @@ class StabilityMap:
     duration: float
     tol: float
     duration_reason: str = "given"
+    durations: np.ndarray | None = field(default=None, repr=False)
+    max_duration: float = math.nan
+
+    def __post_init__(self) -> None:
+        shape = np.shape(self.status)
+        if self.durations is None:
+            object.__setattr__(self, "durations", np.full(shape, float(self.duration)))
+        elif np.shape(self.durations) != shape:
+            raise ParameterError(f"durations must have the status' shape {shape}, got "
+                                 f"{np.shape(self.durations)}")
+
+    @property
+    def extended(self) -> np.ndarray:
+        """Mask of the points whose run is longer than :attr:`duration` (re-run because
+        ``undecided`` at ``duration``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from fl_design.sim import StabilityMap
+        >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 1]]), {},
+        ...                  1e-3, 10.0, 0.02, durations=np.array([[10.0, 40.0]]))
+        >>> m.extended.tolist()
+        [[False, True]]
+        """
+        return np.asarray(self.durations) > self.duration * (1 + 1e-9)
+
+    def extension_text(self) -> str:
+        """How many points were re-run longer, to how long, and what they became ("" if none).
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from fl_design.sim import StabilityMap
+        >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0, 3.0]), np.array([[2, 1, 3]]),
+        ...                  {}, 1e-3, 10.0, 0.02, durations=np.array([[10.0, 40.0, 40.0]]),
+        ...                  max_duration=40.0)
+        >>> m.extension_text()
+        '2 runs undecided at 10 s re-run at 40 s: now 1 converging, 1 still undecided (at the longest re-run, 40 s: a longer max_duration decides)'
+        """
+        ext = self.extended
+        if not ext.any():
+            return ""
+        lengths, counts = np.unique(np.asarray(self.durations)[ext], return_counts=True)
+        to = (f"at {lengths[0]:g} s" if lengths.size == 1 else
+              "longer (" + ", ".join(f"{c} at {d:g} s" for d, c in zip(lengths, counts)) + ")")
+        names, n = np.unique(self.labels[ext], return_counts=True)
+        became = ", ".join(f"{c} {'still ' if name == 'undecided' else ''}{name}"
+                           for name, c in sorted(zip(names, n),
+                                                 key=lambda t: t[0] == "undecided"))
+        if "undecided" in names and math.isfinite(self.max_duration):
+            became += (f" (at the longest re-run, {self.max_duration:g} s: a longer "
+                       "max_duration decides)")
+        runs = "run" if ext.sum() == 1 else "runs"
+        return (f"{int(ext.sum())} {runs} undecided at {self.duration:g} s re-run {to}: "
+                f"now {became}")
 
     @property
     def labels(self) -> np.ndarray:
@@ -257,6 +323,8 @@ class StabilityMap:
         return jsonable({"eps": self.eps, "gamma": self.gamma, "status": self.labels.tolist(),
                          "T": self.T, "duration": self.duration,
                          "duration_reason": self.duration_reason, "tol": self.tol,
+                         "durations": self.durations, "max_duration": self.max_duration,
+                         "extension": self.extension_text(),
                          "eps_star": [self.eps_star(g) for g in self.gamma],
                          "metrics": self.metrics})
 
@@ -270,6 +338,8 @@ class StabilityMap:
         rows = [("grid", grid),
                 ("runs", f"{self.duration:g} s each, T = {self.T:g} s, tolerance {self.tol:g}"),
                 ("run length", self.duration_reason)]
+        if self.extended.any():
+            rows.append(("re-runs", self.extension_text()))
         return _html_table(rows + [(f"{n}", f"{c} runs") for n, c in zip(names, counts)])
 
     def plot(self, *, ax=None, curves=None, show_eps_star: bool = True):

@@ -31,12 +31,12 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import ParameterError
-from ._disturbance import summary_metrics
+from ._adaptive import assemble, extension_options, longest_rerun, rerun_undecided, run_points
 from ._grid import _Columns, run_grid
-from ._metrics import Status, metrics_from_summary
+from ._metrics import Status
 from ._options import RK4, Classifier, Kernel, Scenario, option
 from ._robust_map import RobustMap
-from ._run import RunSetup, prepare_run, signed_gammas
+from ._run import prepare_run, signed_gammas
 from ._stability_map import EpsStarEstimate, StabilityMap
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -62,18 +62,6 @@ def _grid(name: str, values, *, signed: bool = False) -> np.ndarray:
     return arr
 
 
-def _assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, dict]:
-    info = run.loop.layout.unpack(acc)
-    info["est2_sum"] = np.asarray(info["est2_sum"]).T
-    m = metrics_from_summary(info, run.T)
-    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
-        m.update(summary_metrics(info, run.T, run.disturbance_start))
-    status = m.pop("status").reshape(shape)
-    metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
-               for k, v in m.items()}
-    return status, metrics
-
-
 def _require_eps(design) -> None:
     from ..design import Design
 
@@ -88,7 +76,8 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
           integrator: RK4 | None = None, classifier: Classifier | None = None,
           kernel: Kernel | None = None, executor: Executor | None = None, progress: bool = True,
           allow_unmodeled: bool = False, params: dict | None = None, samples: int = 32,
-          seed: int = 0) -> StabilityMap | RobustMap:
+          seed: int = 0, extend: float | None = None,
+          max_duration: float | None = None) -> StabilityMap | RobustMap:
     """Run and classify the closed loop on every (eps, gamma) pair of a grid.
 
     With ``params`` the map is *robust*: every grid point runs against the same ``samples``
@@ -135,6 +124,16 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
         Plants drawn for a robust map (default 32); ignored without ``params``.
     seed : int, optional
         Seed of the draw (default 0).
+    extend : float, optional
+        Factor (>= 1) by which the runs ``undecided`` at the map's duration ``D`` are re-run
+        longer (an adaptive map, :mod:`fl_design.sim._adaptive`): ``extend * D``, then
+        ``extend`` times that for the ones still undecided, up to ``max_duration``. Default 2
+        when the scenario has no duration (the adaptive length) or ``max_duration`` is given,
+        else none (1): a given duration is kept unless ``extend`` or ``max_duration`` is
+        given too. Not for robust maps.
+    max_duration : float, optional
+        Longest re-run (s, > ``D``; default ``max(extend, 4) * D``). Each point's own length
+        is in :attr:`StabilityMap.durations`.
 
     Returns
     -------
@@ -145,7 +144,9 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     ------
     ParameterError
         A grid value <= 0 or not finite, an empty grid, bad options, an estimator
-        without ``eps``, negative gammas on a plant with ``b > 0``.
+        without ``eps``, negative gammas on a plant with ``b > 0``, ``extend < 1``,
+        ``max_duration <= D`` or with ``extend=1``, ``extend`` or ``max_duration`` with
+        ``params``.
     DimensionError
         Reference of the wrong length.
     DesignMismatchError
@@ -164,18 +165,79 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
     gammas = signed_gammas(plant, gamma_grid)
     if params is not None:
+        if extend is not None or max_duration is not None:
+            raise ParameterError("extend= and max_duration= re-run a nominal map's undecided "
+                                 "points; a robust map (params=) runs every point at one "
+                                 "duration: give Scenario(duration=...) instead")
         return _robust_sweep(plant, design, scenario, eps_grid, gamma_grid, gammas,
                              params=params, samples=samples, seed=seed, integrator=integrator,
                              classifier=classifier, kernel=kernel, executor=executor,
                              progress=progress, allow_unmodeled=allow_unmodeled)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
                       gammas=gammas, allow_unmodeled=allow_unmodeled)
-    acc = run_grid(run, _Columns(design, eps_grid, gammas), kernel=kernel,
-                   executor=executor, progress=progress)
-    status, metrics = _assemble(run, acc, (eps_grid.size, gamma_grid.size))
+    extend, max_duration = extension_options(scenario, extend, max_duration)  # scenario validated
+    columns = _Columns(design, eps_grid, gammas)
+    acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
+    status, metrics = assemble(run, acc, (eps_grid.size, gamma_grid.size))
+    durations = np.full(status.shape, run.duration)
+    cap = math.nan
+    if extend > 1.0:
+        cap = longest_rerun(run, extend, max_duration)
+        rerun_undecided(run, columns, status, metrics, durations, extend, cap,
+                        lambda longer: prepare_run(
+                            plant, design, longer, integrator=integrator,
+                            classifier=classifier, gammas=gammas,
+                            allow_unmodeled=allow_unmodeled),
+                        kernel=kernel, executor=executor, progress=progress, acc=acc)
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
-                        T=run.T, duration=run.N * run.T, tol=run.tol,
-                        duration_reason=run.duration_reason)
+                        T=run.T, duration=run.duration, tol=run.tol,
+                        duration_reason=run.duration_reason, durations=durations,
+                        max_duration=cap if np.any(durations > run.duration) else math.nan)
+
+
+def sweep_points(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma, points,
+                 integrator: RK4 | None = None, classifier: Classifier | None = None,
+                 kernel: Kernel | None = None, executor: Executor | None = None,
+                 allow_unmodeled: bool = False) -> tuple[np.ndarray, dict]:
+    """Some points of an (eps, gamma) grid, run under ``scenario`` as :func:`sweep` runs them.
+
+    For checks that re-run part of a map (``verify/predictive_check.py`` runs each point of
+    an adaptive map at 10 times its own length); no re-runs of undecided points here.
+
+    Parameters
+    ----------
+    plant, design, scenario, eps, gamma, integrator, classifier, kernel, executor, allow_unmodeled
+        As for :func:`sweep`.
+    points : array_like of bool
+        ``(n_e, n_g)`` mask of the points to run.
+
+    Returns
+    -------
+    (numpy.ndarray, dict)
+        Status codes and metrics of the chosen points, in the mask's (row-major) order.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._sweep import sweep_points
+    >>> status, m = sweep_points(fl.plants.pendulum(), fl.presets.pendulum_design(),
+    ...                          fl.Scenario(0.05, 6.0), eps=[0.02, 0.2], gamma=[0.01],
+    ...                          points=[[False], [True]], kernel=fl.Kernel(compiled=False))
+    >>> status.tolist(), round(float(m["divergence_time"][0]), 3)
+    ([-1], 4.06)
+    """
+    _require_eps(design)
+    eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
+    gammas = signed_gammas(plant, gamma_grid)
+    mask = np.asarray(points, dtype=bool)
+    if mask.shape != (eps_grid.size, gamma_grid.size):
+        raise ParameterError(f"points must be an (eps, gamma) mask of shape "
+                             f"{(eps_grid.size, gamma_grid.size)}, got {mask.shape}")
+    run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
+                      gammas=gammas, allow_unmodeled=allow_unmodeled)
+    return run_points(run, _Columns(design, eps_grid, gammas), np.flatnonzero(mask),
+                       kernel=option("kernel", kernel, Kernel), executor=executor,
+                       progress=False, desc="points")
 
 
 class _FamilyGridColumns:
@@ -288,7 +350,7 @@ def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_r
     def stable(e: float) -> bool:
         p = design.replace(eps=e).parameter_vector()
         acc = runner.run(run.initial_accumulator(p), run.D, threads=1)
-        status, metrics = _assemble(run, acc, (1,))
+        status, metrics = assemble(run, acc, (1,))
         history.append((float(e), Status(int(status[0])).label,
                         float(metrics["divergence_time"][0])))
         return Status(int(status[0])).convergent
