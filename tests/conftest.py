@@ -36,3 +36,15 @@ def pendulum_design():
                          controller=fl.DynamicController((2, 4), gamma, **kw))
 
     return make
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    """Close the pyplot figures a test opened (plot functions return pyplot figures, as a
+    notebook user expects; the suite must not accumulate them: matplotlib warns past 20)."""
+    yield
+    import sys
+
+    plt = sys.modules.get("matplotlib.pyplot")  # only when the test imported it
+    if plt is not None:
+        plt.close("all")

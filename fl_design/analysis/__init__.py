@@ -12,7 +12,11 @@ with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesiz
 it covers, :func:`nonlinear_region`), ``_margins`` (gain, phase and delay margins at the plant input,
 :func:`loop_margins`), ``_noise`` (:func:`noise_gain`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
 (the result objects; an :class:`~fl_design.analysis._cert_results.EpsBracket`
-is returned inside them, not exported).
+is returned inside them, not exported), ``_sos`` (the quartic SOS certificate for b varying in
+time), ``_covered_lmi`` (the P chosen for the widest covered initial states). A layer exports
+at most 20 names: :class:`PointCertificate` (inside every eps and gamma certificate's
+``point``) and :class:`NonlinearRegion` (what :func:`nonlinear_region` returns) stay importable
+from here but are not in ``__all__``.
 
 Examples
 --------
@@ -45,8 +49,6 @@ __all__ = [
     "GammaCertificate",
     "LoopMargins",
     "LyapunovCertificate",
-    "NonlinearRegion",
-    "PointCertificate",
     "SampledLinearization",
     "Theorem1Constants",
     "certify_eps",
