@@ -38,13 +38,14 @@ def pendulum_design():
     return make
 
 
-@pytest.fixture(autouse=True)
+@pytest.fixture(autouse=True, scope="module")
 def _close_figures():
-    """Close the pyplot figures a test opened (plot functions return pyplot figures, as a
-    notebook user expects; the suite must not accumulate them: matplotlib warns past 20)."""
+    """Close the pyplot figures a test module opened (plot functions return pyplot figures,
+    as a notebook user expects; the suite must not accumulate them: matplotlib warns past 20).
+    Per module, not per test: module-scoped fixtures hold figures across their tests."""
     yield
     import sys
 
-    plt = sys.modules.get("matplotlib.pyplot")  # only when the test imported it
+    plt = sys.modules.get("matplotlib.pyplot")  # only when the tests imported it
     if plt is not None:
         plt.close("all")

@@ -154,6 +154,31 @@ class NonlinearRegion(_Result):
                 f"or the box {box}; observer at rest at the first measurement; V: "
                 f"{self.lyapunov_source}){whole}")
 
+    def summary(self) -> str:
+        """A few words for a report's summary: where it holds and which plant starts it covers.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> r = nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), steps=0)
+        >>> r.summary().startswith("certified in the plant's whole region; covered starts")
+        True
+        """
+        if not self.certified:
+            return "not certified in any region tried"
+        whole = self.scale >= 1.0 and (self.input_range is None or self.input_scale >= 1.0)
+        if whole:
+            where = "in the plant's whole region"
+        else:
+            parts = [f"{n} in [{lo:.3g}, {hi:.3g}]" for n, lo, hi in self.region]
+            if self.input_range is not None:
+                parts.append(f"u in [{self.input_range[0]:.3g}, {self.input_range[1]:.3g}]")
+            where = f"only in the region {', '.join(parts)}"
+        if not self.start_extents:
+            return f"certified {where}"
+        starts = ", ".join(f"|{n} - {n}_eq| <= {w:.2g}" for n, w in self.start_extents)
+        return f"certified {where}; covered starts {starts} (each alone, observer at rest)"
+
     def _repr_lines(self):
         return [self.words(), "tried scales: " + ", ".join(
             f"{s:.3g} {'ok' if ok else 'no'}" for s, ok in self.tried)

@@ -166,7 +166,8 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
         # margins at both ends of b, as plain numbers and text (cached without python-control)
         out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
                           for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
-        out["nonlinear"] = _nonlinear(design, plant, box["ranges"], quick)
+        out["nonlinear"], out["nonlinear_summary"] = _nonlinear(design, plant, box["ranges"],
+                                                                quick)
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
@@ -176,8 +177,8 @@ def _certify_fresh(job: Job, quick: bool) -> dict:
     return out
 
 
-def _nonlinear(design, plant, ranges, quick: bool) -> str:
-    """The nonlinear certificate's line (:func:`fl_design.analysis.nonlinear_region`).
+def _nonlinear(design, plant, ranges, quick: bool) -> tuple[str, str]:
+    """The nonlinear certificate's line and summary words (``analysis.nonlinear_region``).
 
     Not searched in ``--quick``: the region search solves tens of LMIs and the quick job is for
     tests and a first look (target 5 s); the full job searches it once (3 bisection steps of
@@ -190,11 +191,13 @@ def _nonlinear(design, plant, ranges, quick: bool) -> str:
 
     if quick:
         return ("nonlinear: not searched in --quick (the region search takes tens of seconds; "
-                "the full job or `fl-design certify` without --quick searches it)")
+                "the full job or `fl-design certify` without --quick searches it)",
+                "not searched in --quick")
     try:
-        return nonlinear_region(design, plant, params=ranges or None, steps=3).words()
+        region = nonlinear_region(design, plant, params=ranges or None, steps=3)
     except ParameterError as err:
-        return f"nonlinear: not certified: {err}"
+        return f"nonlinear: not certified: {err}", "not certified (see Certificates)"
+    return region.words(), region.summary()
 
 
 def _sweep(job: Job, quick: bool, executor, progress: bool) -> None:

@@ -77,7 +77,8 @@ def _certified_text(job) -> str:
             f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')}); this eps "
             f"{'certified' if e.certified else 'NOT certified'}. Covers the sampled linear "
             f"surrogate (chain of integrators, sigma = b u, b anywhere in [{b[0]:.3g}, "
-            f"{b[1]:.3g}]{family}), not the nonlinear plant")
+            f"{b[1]:.3g}]{family}). The nonlinear plant: "
+            f"{cert.get('nonlinear_summary', 'no certificate (the plant gives no region)')}")
 
 
 def _comparison_text(job) -> str:
