@@ -60,9 +60,9 @@ import numpy as np
 import fl_design as fl
 from fl_design._toolchain import build
 from fl_design.sim import Status
+from fl_design.sim._adaptive import assemble as _assemble
 from fl_design.sim._grid import _Columns, _runner, parameter_columns
 from fl_design.sim._run import prepare_run
-from fl_design.sim._adaptive import assemble as _assemble
 
 HERE = Path(__file__).resolve().parent
 REFERENCE = 0.3

@@ -43,7 +43,7 @@ def run(eps: float, clamp: bool):
     z = T * np.cumsum(r.xhat[:, 0] - r.r)
     v = -c.gains[0] * (r.xhat[:, 0] - r.r) - c.gains[1] * r.xhat[:, 1] - c.ki * z
     e_u = v - r.sigma
-    k = int(round(10 * eps / T))
+    k = round(10 * eps / T)
     return {"peak_x2": np.max(np.abs(r.xhat[:k, 1] - r.x[:k, 1])),
             "peak_sigma": np.max(np.abs(r.sigmahat[:k] - r.sigma[:k])),
             "peak_eu": np.max(np.abs(e_u[:k])),

@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 import fl_design as fl
 
 CONVERGES = ("converged", "converging")

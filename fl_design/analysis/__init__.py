@@ -25,12 +25,8 @@ Examples
 ('SampledLinearization', 'certify_eps')
 """
 
-from ._cert_results import (
-                            EpsCertificate,
-                            EpsStarCurve,
-                            GammaCertificate,
-                            PointCertificate,
-)
+from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate
+from ._cert_results import PointCertificate as PointCertificate  # importable, not in __all__
 from ._certify import certify_eps
 from ._curve import eps_star_curve
 from ._gamma import certify_gamma
@@ -39,7 +35,8 @@ from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, syn
 from ._margins import LoopMargins, loop_margins
 from ._noise import noise_gain
 from ._plant_bounds import plant_bounds
-from ._region import NonlinearRegion, nonlinear_region
+from ._region import NonlinearRegion as NonlinearRegion  # importable, not in __all__
+from ._region import nonlinear_region
 from ._theorem1 import Theorem1Constants, theorem1_constants
 
 __all__ = [

@@ -190,8 +190,8 @@ def _nonlinear(design, plant, ranges, quick: bool) -> tuple[str, str]:
     from ..errors import ParameterError
 
     if quick:
-        return ("nonlinear: not searched in --quick (the region search takes tens of seconds; "
-                "the full job or `fl-design certify` without --quick searches it)",
+        return (("nonlinear: not searched in --quick (the region search takes tens of seconds; "
+                 "the full job or `fl-design certify` without --quick searches it)"),
                 "not searched in --quick")
     try:
         region = nonlinear_region(design, plant, params=ranges or None, steps=3)

@@ -134,7 +134,7 @@ def test_certificate_over_the_pendulum_box_covers_every_sampled_plant(pendulum_b
     design = fl.presets.pendulum_design()
     cert = fl.certify_eps(design, pendulum_box, b_rate="plant")
     assert cert.covers == "frozen" and cert.certified
-    assert dict((n, (lo, hi)) for n, lo, hi in cert.params if lo != hi) == BOX
+    assert {n: (lo, hi) for n, lo, hi in cert.params if lo != hi} == BOX
     assert cert.b_rate == 0.0 and cert.b_rate_source.startswith("the plant")
     assert "covers every plant with b in [0.8, 1.2], c in [0.05, 1]" in repr(cert)
     # every constant b of the box: the surrogate at the certified eps* is Schur (oracle; with

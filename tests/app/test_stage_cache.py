@@ -10,9 +10,9 @@ import pytest
 
 from fl_design._cache import cache_directory
 from fl_design.app import load_config, parse_config, run_job
-from fl_design.app._stage_cache import cached_stage, stage_key
 from fl_design.app._job import prepare
 from fl_design.app._report_write import summary
+from fl_design.app._stage_cache import cached_stage, stage_key
 from fl_design.errors import CacheWarning
 
 
