@@ -291,7 +291,8 @@ class EpsCertificate(_Result):
                  (f"certified for {self.covers} b: {self.certified} "
                   f"({self.point.kind or '-'}); eps* certified "
                   f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
-        lines += [str(b) + ("  <- headline" if b.covers == self.covers else "")
+        lines += [str(b) + (f"  <- headline (certified by {b.how_certified.split(':')[0]})"
+                            if b.covers == self.covers else "")
                   for b in self.brackets]
         ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
         if ranges:
