@@ -24,9 +24,10 @@ Examples
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
+
+from ._lmi import solve_quietly
 
 
 def widest_covered_p(Db, W, T: float, kappa: float, room: dict, G, w):
@@ -86,12 +87,8 @@ def widest_covered_p(Db, W, T: float, kappa: float, room: dict, G, w):
     Q = Gb.T @ P @ Gb
     cons.append(t * np.diag(1.0 / w ** 2) - (Q + Q.T) / 2 >> 0)
     prob = cp.Problem(cp.Minimize(t), cons)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except Exception:  # noqa: BLE001 - a solver failure is "no candidate"
-            return None
+    if solve_quietly(prob) is not None:  # a solver failure is "no candidate"
+        return None
     if prob.status not in ("optimal", "optimal_inaccurate") or P.value is None:
         return None
     Pb = (P.value + P.value.T) / 2

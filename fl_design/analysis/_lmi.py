@@ -167,6 +167,7 @@ def recheck_stack(P, G, D, T: float, kappa: float = 0.0) -> np.ndarray:
 
 
 def _solve(problem, solver: str) -> str:
+    """Solve ``problem`` with ``solver``, its warnings silenced; the CVXPY status."""
     import cvxpy as cp
 
     with warnings.catch_warnings():
@@ -176,6 +177,27 @@ def _solve(problem, solver: str) -> str:
         else:
             problem.solve(solver=cp.CLARABEL)
     return str(problem.status)
+
+
+def solve_quietly(problem, solver: str = "CLARABEL") -> Exception | None:
+    """Solve ``problem`` (warnings silenced); the exception a solver raised, else None.
+
+    A solver failure is a value for a certificate (no certificate, with the reason), never an
+    error: every LMI and SOS program of the package is solved through here or :func:`_solve`.
+
+    Examples
+    --------
+    >>> import cvxpy as cp
+    >>> x = cp.Variable()
+    >>> p = cp.Problem(cp.Minimize(x), [x >= 1])
+    >>> solve_quietly(p) is None, round(float(x.value), 6)
+    (True, 1.0)
+    """
+    try:
+        _solve(problem, solver)
+    except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
+        return err
+    return None
 
 
 def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0) -> LMISolution:
@@ -210,12 +232,12 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0) ->
     kap.value = float(kappa) if common else 0.0
     notes, last = [], "not solved"
     for solver in ("CLARABEL", "SCS"):
-        try:
-            last = _solve(problem, solver)
-        except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
+        err = solve_quietly(problem, solver)
+        if err is not None:
             last = f"{type(err).__name__}: {err}".splitlines()[0][:120]
             notes.append(f"{solver} failed ({last})")
             continue
+        last = str(problem.status)
         if last in ("infeasible", "infeasible_inaccurate") or (
                 eta.value is not None and eta.value <= 0.0):
             return LMISolution(False, solver, last, (), None, None,

@@ -33,12 +33,11 @@ from __future__ import annotations
 
 import functools
 import math
-import warnings
 
 import numpy as np
 
 from ._analytic import modal_lyapunov
-from ._lmi import RECHECK_TOL
+from ._lmi import RECHECK_TOL, solve_quietly
 
 
 def cell_vertices(a0: float, a1: float, c0: float, c1: float, db: float) -> list:
@@ -178,14 +177,9 @@ def rate_lmi(delta_at, b_lo: float, b_hi: float, T: float, db: float, pieces: in
     prob, E_par, Ps, G, eta = _problem(E[0].shape[0], knots, float(T), float(db))
     for par, Ek in zip(E_par, E):
         par.value = Ek
-    import cvxpy as cp
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except Exception as err:  # noqa: BLE001 - a solver failure is a value
-            return False, None, f"CLARABEL failed ({type(err).__name__})"
+    err = solve_quietly(prob)
+    if err is not None:
+        return False, None, f"CLARABEL failed ({type(err).__name__})"
     if eta.value is None or Ps[0].value is None or eta.value <= 0.0:
         return False, None, f"no strictly feasible P(b) (status {prob.status})"
     Pv = [np.array(P.value) for P in Ps]

@@ -45,12 +45,11 @@ from __future__ import annotations
 
 import functools
 import itertools
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ._lmi import RECHECK_TOL
+from ._lmi import RECHECK_TOL, solve_quietly
 
 
 def pairs(n: int) -> list:
@@ -235,21 +234,16 @@ def sos_lyapunov(deltas, T: float) -> SOSSolution:
     >>> sos_lyapunov([np.array([[1.0]])], 1e-3).certified  # unstable
     False
     """
-    import cvxpy as cp
-
     deltas = [np.asarray(D, dtype=float) for D in deltas]
     n = deltas[0].shape[0]
     prob, E, Q, ys, eta = _problem(n, len(deltas), float(T))
     Es = [lift_delta(D, T) for D in deltas]
     for par, Ev in zip(E, Es):
         par.value = Ev
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except Exception as err:  # noqa: BLE001 - a solver failure is a value
-            return SOSSolution(False, f"{type(err).__name__}", None, (), None,
-                               f"CLARABEL failed ({type(err).__name__})")
+    err = solve_quietly(prob)
+    if err is not None:
+        return SOSSolution(False, f"{type(err).__name__}", None, (), None,
+                           f"CLARABEL failed ({type(err).__name__})")
     status = str(prob.status)
     if eta.value is None or Q.value is None or eta.value <= 0.0:
         return SOSSolution(False, status, None, (), None,
