@@ -182,9 +182,9 @@ def _nonlinear(design, plant, ranges, quick: bool) -> tuple[str, str]:
 
     Not searched in ``--quick``: the region search solves tens of LMIs and the quick job is for
     tests and a first look (target 5 s); the full job searches it once (3 bisection steps of
-    the scale: 18 s on the TRMS on a 2-core machine, against 42 s for 5 steps, whose region is
-    at most a few times wider) and the stage cache keeps it. ``nonlinear_region`` itself
-    searches finer (12 steps by default).
+    the scale: 17.8 s on the TRMS on a 2-core machine, against 41.7 s for 5 steps under
+    cProfile and 50 s on a loaded machine; the 5-step region is at most a few times wider)
+    and the stage cache keeps it. ``nonlinear_region`` itself searches finer (12 steps).
     """
     from ..analysis import nonlinear_region
     from ..errors import ParameterError
