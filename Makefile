@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-dev
 
-.PHONY: demo test verify venv derive bench clean arm-toolchain
+.PHONY: demo test verify venv derive bench clean arm-toolchain docs
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,13 @@ derive: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q
 
+# The documentation site: Sphinx with warnings as errors (-W), from a clean tree (-E); the pages
+# under docs/_generated are written by `make docs-data` (each names the command that wrote it).
+docs: $(STAMP)
+	rm -rf docs/_build docs/generated
+	MPLBACKEND=Agg $(PY) -m sphinx -b html -E -W --keep-going -q docs docs/_build/html
+	@echo "docs: open docs/_build/html/index.html"
+
 bench: $(STAMP)
 	$(PY) verify/bench_sweep.py
 
@@ -44,4 +51,4 @@ arm-toolchain:
 	else echo "no apt-get: install gcc-arm-none-eabi, newlib and qemu-system-arm for your system" >&2; exit 1; fi
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache docs/_build docs/generated

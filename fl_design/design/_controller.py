@@ -294,7 +294,9 @@ def _checked_estimate_limits(limits, rho: int) -> tuple[Interval | None, ...]:
 
 
 def gains_from_poles(poles: Sequence[complex]) -> tuple[float, ...]:
-    """Gains ``(k_1, ..., k_rho)`` placing the roots of ``s^rho + k_rho s^(rho-1) + ... + k_1``.
+    """Controller gains that place the closed-loop poles (the roots of ``p(s)`` below).
+
+    ``p(s) = s^rho + k_rho s^(rho-1) + ... + k_1``.
 
     Closed form: the coefficients of ``prod_i (s - p_i)``, so repeated poles are exact (no
     ``place``).

@@ -108,7 +108,7 @@ class EHGO(Estimator, EHGOViews):
     Attributes
     ----------
     alphas : tuple of float
-        The coefficients ``(alpha_1, ..., alpha_(rho+1))`` in use (``coeffs`` stays as given:
+        The coefficients in use, ``alpha_1`` to ``alpha_(rho+1)`` (``coeffs`` stays as given:
         None means the default binomial ones).
     alpha : float
         ``T / eps``, the step in normalized time.
@@ -318,7 +318,7 @@ class EHGO(Estimator, EHGOViews):
 
     @property
     def unscaling(self) -> np.ndarray:
-        """Diagonal of ``D^-1 = diag(1, 1/eps, ..., 1/eps^rho)`` (``xhat = D^-1 q``)."""
+        """Diagonal of the unscaling ``D^-1`` (entries ``1/eps^i``, i = 0..rho; ``xhat = D^-1 q``)."""
         return 1.0 / self.scaling
 
     @property

@@ -140,12 +140,12 @@ class Response:
     settling_time = property(lambda self: self.metrics["settling_time"], doc="Settling time (s).")
     steady_state_error = property(lambda self: self.metrics["steady_state_error"],
                                   doc="Mean error over the tail.")
-    iae = property(lambda self: self.metrics["iae"], doc="Integral of |e|.")
+    iae = property(lambda self: self.metrics["iae"], doc="Integral of ``|e|``.")
     input_rms = property(lambda self: self.metrics["input_rms"], doc="RMS of u.")
     input_tv = property(lambda self: self.metrics["input_tv"], doc="Total variation of u.")
     estimation_rms = property(lambda self: self.metrics["estimation_rms"],
                               doc="RMS estimation errors (rho + 1,).")
-    tail_error = property(lambda self: self.metrics["tail_error"], doc="max |e| on the tail.")
+    tail_error = property(lambda self: self.metrics["tail_error"], doc="max ``|e|`` on the tail.")
     tail_amplitude = property(lambda self: self.metrics["tail_amplitude"],
                               doc="Peak-to-peak of e on the tail.")
     status = property(lambda self: self.metrics["status"],
@@ -158,7 +158,7 @@ class Response:
     stable = property(lambda self: Status.from_label(self.status).convergent,
                       doc="Converging or converged: bounded with a shrinking error (Theorem 1).")
     time_to_tolerance = property(lambda self: self.metrics["time_to_tolerance"],
-                                 doc="Estimated time until |e| <= tol (converging runs).")
+                                 doc="Estimated time until ``|e| <= tol`` (converging runs).")
     region_exit_time = property(lambda self: self.metrics["region_exit_time"],
                                 doc="First time outside the plant's region (NaN if never).")
     diverged = property(lambda self: self.divergence_index is not None, doc="Run diverged.")

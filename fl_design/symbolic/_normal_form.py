@@ -332,7 +332,7 @@ class NormalForm:
     zero_dynamics_eigenvalues : numpy.ndarray
         Eigenvalues of the linearized zero dynamics (the invariant zeros); empty if n == rho.
     minimum_phase : bool
-        All of them have real part < -1e-9 max(1, |A|); True if n == rho.
+        All of them have real part ``< -1e-9 max(1, |A|)``; True if n == rho.
     internal_dynamics : InternalDynamics or None, optional
         Symbolic ``eta' = f0(eta, xi)`` when ``eta`` can be chosen among the original states
         and the coordinates are linear in the others; otherwise None.
