@@ -330,6 +330,26 @@ def _template() -> str:
     return resources.files(__package__).joinpath("templates/lanes_driver.c.in").read_text()
 
 
+def fill_template(text: str, values: dict) -> str:
+    """Replace every ``@NAME@`` in ``text`` by ``values[NAME]``; unknown names are an error.
+
+    Examples
+    --------
+    >>> from fl_design.sim.kernel._emit import fill_template
+    >>> fill_template("int n = @N@;", {"N": 3})
+    'int n = 3;'
+    """
+    import re
+
+    def sub(match):
+        key = match.group(1)
+        if key not in values:
+            raise KeyError(f"template placeholder @{key}@ has no value")
+        return str(values[key])
+
+    return re.sub(r"@([A-Z_][A-Z0-9_]*)@", sub, text)
+
+
 def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
                  vector_math: tuple[str, ...] = ()) -> str:
     """C source of the lane step and its driver ``fl_lanes_run`` (see the module docstring).
@@ -364,8 +384,6 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     >>> "#define FL_V 8" in src
     True
     """
-    from ._runners import fill_template
-
     rk4, substeps = rk4_fold(accumulate)
     decls = "".join(f"#pragma omp declare simd notinbranch\ndouble {name}(double);\n"
                     for name in vector_math)
@@ -377,4 +395,4 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
         "STEP_BODY": step})
 
 
-__all__ = ["LanesUnsupported", "lanes_source", "rk4_fold"]
+__all__ = ["LanesUnsupported", "fill_template", "lanes_source", "rk4_fold"]

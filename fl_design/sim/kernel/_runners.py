@@ -55,6 +55,7 @@ from ..._toolchain import (
     open_verified,
 )
 from ...errors import CompilationWarning, ComputationError
+from ._emit import fill_template
 
 
 @functools.lru_cache(maxsize=32)
@@ -261,26 +262,6 @@ def runner_source(accumulate: ca.Function, record: ca.Function, indices: dict) -
 @functools.lru_cache(maxsize=1)
 def _driver_template() -> str:
     return resources.files(__package__).joinpath("templates/kernel_driver.c.in").read_text()
-
-
-def fill_template(text: str, values: dict) -> str:
-    """Replace every ``@NAME@`` in ``text`` by ``values[NAME]``; unknown names are an error.
-
-    Examples
-    --------
-    >>> from fl_design.sim.kernel._runners import fill_template
-    >>> fill_template("int n = @N@;", {"N": 3})
-    'int n = 3;'
-    """
-    import re
-
-    def sub(match):
-        key = match.group(1)
-        if key not in values:
-            raise KeyError(f"template placeholder @{key}@ has no value")
-        return str(values[key])
-
-    return re.sub(r"@([A-Z_][A-Z0-9_]*)@", sub, text)
 
 
 def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
