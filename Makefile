@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-dev
 
-.PHONY: demo test verify venv derive bench clean arm-toolchain docs
+.PHONY: demo test verify venv derive bench clean arm-toolchain docs docs-data
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,11 @@ docs: $(STAMP)
 	rm -rf docs/_build docs/generated
 	MPLBACKEND=Agg $(PY) -m sphinx -b html -E -W --keep-going -q docs docs/_build/html
 	@echo "docs: open docs/_build/html/index.html"
+
+# The numbers and outputs the documentation pages include (docs/_generated/*.txt, each naming the
+# command, machine and date that wrote it). Slow (every claim and benchmark): run before a release.
+docs-data: $(STAMP)
+	$(PY) docs/generate.py
 
 bench: $(STAMP)
 	$(PY) verify/bench_sweep.py
