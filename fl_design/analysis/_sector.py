@@ -56,8 +56,9 @@ import scipy.linalg
 
 from ..errors import ParameterError
 
-#: Relative margin every re-checked inequality must clear (floating-point error is ~1e-14).
-RECHECK_MARGIN = 1e-8
+#: Relative margin every re-checked inequality must clear: 1000 x the rounding of forming
+#: and factoring the matrices (~n eps ||A|| ~ 1e-14 ||A||).
+RECHECK_MARGIN = 1e-11
 
 
 @dataclass(frozen=True)

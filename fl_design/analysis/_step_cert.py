@@ -45,8 +45,8 @@ from ..errors import ParameterError
 from ._cert_results import _Result
 
 #: Scales of the plant's region (about the target) tried in turn.
-REGION_SCALES = ((1.0, 1.0), (0.1, 1.0), (0.1, 0.1), (1e-2, 1e-2), (1e-3, 1e-3),
-                 (1e-4, 1e-3), (1e-4, 1e-4))
+REGION_SCALES = ((1.0, 1.0), (0.1, 0.1), (1e-2, 1e-2), (1e-3, 1e-3), (1e-4, 1e-3),
+                 (3e-5, 1e-3))
 
 
 @dataclass(frozen=True, repr=False)
@@ -209,8 +209,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
             if best is None or best[0] is None:
                 best = (None, out, scale)
             continue
-        if best is None or best[0] is None or out[1] > best[0][1]:
-            best = (out, "", scale)
+        if best is not None and best[0] is not None and out[1] <= best[0][1]:
+            break  # a smaller region certifies a smaller step: stop
+        best = (out, "", scale)
         if out[4] <= 1.0:
             break
     res, why, scale = best if best is not None else (None, "no region tried", 1.0)
@@ -261,7 +262,9 @@ def _plant_tries(plant, design, x_eq, u_eq, scales):
                 rooms[i] = w - T * abs(nxt)
             else:
                 rooms[i] = w if top_only else w - T * sig
-        if ur is not None and s_u < 1.0:  # the input inside the scaled range (b's bounds)
+        lim = design.controller.u_range
+        if ur is not None and (lim is None or lim[0] < ur[0] or lim[1] > ur[1]):
+            # b's bounds hold on the input range: keep u inside it (saturation does not)
             rooms[rho + design.state_layout["u"].start] = min(u_eq - ur[0], ur[1] - u_eq)
         words = (f"the plant {plant.name!r} in the region "
                  + ", ".join(f"{n} in [{lo:.4g}, {hi:.4g}]" for n, lo, hi in pb.region)
@@ -286,21 +289,35 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     pc = ldi_point(L, eps, gamma)
     if not pc.certified:
         return f"at scales {scale}: {pc.reason}"
-    P = np.asarray(pc.lyapunov[0][0], float)
-    q = float(pc.reason.split(" = ")[-1].split(" ")[0])
-    kappa = 0.25 * (1.0 - q * q) / design.T
     ch = loop_channels(design, b, box, u_eq=u_eq)
     keep = L.loop.keep
     Xk = X0[keep]
-    if ch.K.shape[0] == 0 and not rooms and nbar == 0:
-        from ._sector import Ellipsoid
+    cands = [("the LDI certificate's", np.asarray(pc.lyapunov[0][0], float))]
+    wide = _widest_p(L, ch, eps, gamma, rooms, Xk)
+    if wide is not None:
+        cands.append(("chosen for this start (LMI)", wide))
+    best, notes = None, []
+    for src, P in cands:
+        q = _contraction(ch, P)
+        if not q < 1.0:
+            notes.append(f"P {src}: ||M||_P = {q:.12f} >= 1 on the corners")
+            continue
+        kappa = 0.25 * (1.0 - q * q) / design.T
+        if ch.K.shape[0] == 0 and not rooms and nbar == 0:
+            from ._sector import Ellipsoid
 
-        return (Ellipsoid(P, math.inf, kappa, 0.0, 0.0, -1.0), math.inf,
-                f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
-                f"global on {words}", "every start, every plant of the class, no noise", 0.0)
-    E, ratio, note = solve_ellipsoid(ch, P, Xk, kappa=kappa, nbar=nbar, rooms=rooms)
-    if E is None:
-        return f"at scales {scale}: {note}"
+            return (Ellipsoid(P, math.inf, kappa, 0.0, 0.0, -1.0), math.inf,
+                    f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
+                    f"global on {words}", "every start, every plant of the class, no noise",
+                    0.0)
+        E, ratio, note = solve_ellipsoid(ch, P, Xk, kappa=kappa, nbar=nbar, rooms=rooms)
+        notes.append(f"P {src}: {note}")
+        if E is not None and (best is None or ratio < best[1]):
+            best = (E, ratio, note, q, src)
+    if best is None:
+        return f"at scales {scale}: " + "; ".join(notes)
+    E, ratio, note, q, src = best
+    kappa = E.kappa
     # the largest step: same target, start y0 = r - s (the start's other parts fixed)
     d = np.zeros_like(Xk)
     d0 = X0.copy()
@@ -310,8 +327,8 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     d = (Xk - Xc) / max(abs(X0[0]), 1e-300)
     largest = _largest(E, Xc, d, 1.0)
     ult = E.ultimate_level()
-    argument = (f"invariant ellipsoid V = X^T P X <= {E.level:.4g} (P: the LDI certificate's, "
-                f"||M||_P <= {q:.12f}; decay kappa = {kappa:.3g} 1/s; sector multipliers for "
+    argument = (f"invariant ellipsoid V = X^T P X <= {E.level:.4g} (P {src}, "
+                f"||M||_P <= {q:.12f} over the corners; decay kappa = {kappa:.3g} 1/s; sector multipliers for "
                 f"{', '.join(ch.psi_names) or 'no limits'}; {note}) on {words}; "
                 f"V(start)/level = {ratio:.4g}")
     covered = (f"every plant whose d sigma/d xi and b stay in the stated box, starts with "
@@ -320,6 +337,58 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
                + (f", sensor noise |n| <= {nbar:g} (ultimate V <= {ult:.3g})" if nbar > 0
                   else ", no sensor noise"))
     return (E, largest, argument, covered, ratio)
+
+
+def _contraction(ch, P) -> float:
+    """``max_v ||M_v||_P`` over the corners (NumPy)."""
+    Lc = np.linalg.cholesky((P + P.T) / 2)
+    Li = np.linalg.inv(Lc)
+    return max(float(np.linalg.norm(Lc.T @ M @ Li.T, 2)) for M in ch.Ms)
+
+
+def _widest_p(L, ch, eps, gamma, rooms, Xk):
+    """A ``P`` whose unit set covers ``Xk`` best inside the rooms and the limits' linear
+    regions (one LMI, as :func:`._covered_lmi.widest_covered_p` with general rows): a candidate
+    that :func:`._sector.solve_ellipsoid` re-checks, or None."""
+    import cvxpy as cp
+
+    from ._ldi import DECAY_FRACTION, _coordinates, _vertex_loops
+    from ._lmi import solve_quietly
+
+    D, margins = (lambda o: (o[6], o[7]))(_vertex_loops(L, eps, gamma))
+    if np.max(margins) >= 0.0 or not np.any(Xk):
+        return None
+    n = Xk.size
+    rows = [(np.eye(n)[i], r) for i, r in rooms.items()]
+    rows += [(ch.K[j], ch.room[j]) for j in range(ch.K.shape[0])]
+    if not rows:
+        return None
+    kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
+    sT = math.sqrt(L.T)
+    for W in _coordinates(D):
+        Wi = np.linalg.inv(W)
+        Db = [Wi @ x @ W for x in D]
+        x0 = Wi @ Xk
+        for k in (0.25 * kappa, 0.02 * kappa):
+            P = cp.Variable((n, n), symmetric=True)
+            t = cp.Variable()
+            cons = []
+            for Dv in Db:
+                S = cp.bmat([[-(P @ Dv + Dv.T @ P) - 2.0 * k * P, sT * Dv.T @ P],
+                             [sT * P @ Dv, P]])
+                cons.append((S + S.T) / 2 >> 0)
+            for c, r in rows:
+                cw = (c @ W).reshape(n, 1)
+                B = cp.bmat([[P, cw], [cw.T, np.array([[r * r]])]])
+                cons.append((B + B.T) / 2 >> 0)
+            cons.append(cp.quad_form(x0, P) <= t)
+            prob = cp.Problem(cp.Minimize(t), cons)
+            if solve_quietly(prob) is not None or P.value is None:
+                continue
+            Pb = (P.value + P.value.T) / 2
+            if np.linalg.eigvalsh(Pb)[0] > 0.0:
+                return Wi.T @ Pb @ Wi
+    return None
 
 
 __all__ = ["StepCertificate", "certify_step"]
