@@ -384,12 +384,14 @@ def _feasible(ch, Pt, Kt, kappa, beta, nbar, rooms_t, cp):
 
 
 def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
-                    steps: int = 14):
+                    steps: int = 8):
     """The largest re-checked level of ``V = X^T P X`` (``P`` fixed) with multipliers.
 
-    Bisects ``log level`` (``steps`` times, between the room's and a 10^-8 of it); each
-    level's multipliers (``S``, ``G``, the noise gain) come from one small SDP, and the best
-    level found passes :func:`recheck`.
+    Tries the largest level the rooms allow (at most 10^6 times the saturation-free one), then
+    levels a decade apart down to 10^-4 of the saturation-free one (with noise the certified
+    levels are a band), then bisects ``log level`` ``steps`` times above the first that holds;
+    each level's multipliers (``S``, ``G``, the noise gain) come from one small SDP, and the
+    level kept passes :func:`recheck` (else it is halved, at most 8 times).
 
     Parameters
     ----------
@@ -431,15 +433,23 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
                for j in range(ch.K.shape[0])] or [math.inf])  # the limits inactive
     if not math.isfinite(min(room, lin)):
         return None, math.inf, "nothing bounds the ellipsoid (no room, no limits): give a region"
-    lo, hi = None, math.log(min(room, 1e6 * lin))
+    hi = math.log(min(room, 1e6 * lin))
+    bottom = math.log(min(room, lin)) - math.log(1e4)
+    lo = None
     if _feasible(ch, Pt, Kt, kappa, math.exp(-hi / 2), nbar, rooms_t, cp) is not None:
         lo = hi
     else:
-        low = math.log(min(room, lin)) - math.log(1e4)
-        if _feasible(ch, Pt, Kt, kappa, math.exp(-low / 2), nbar, rooms_t, cp) is None:
-            return None, math.inf, ("no level is certified (not even 1e-4 of the largest "
-                                    "saturation-free one)")
-        lo = low
+        # downward by decades (with noise the feasible levels are a band: not too small
+        # either), then bisect between the first feasible level and the decade above it
+        level = hi
+        while level > bottom:
+            level -= math.log(10.0)
+            if _feasible(ch, Pt, Kt, kappa, math.exp(-level / 2), nbar, rooms_t, cp) is not None:
+                lo, hi = level, level + math.log(10.0)
+                break
+        if lo is None:
+            return None, math.inf, ("no level is certified (from the largest the room allows "
+                                    "down to 1e-4 of the largest saturation-free one)")
         for _ in range(steps):
             mid = 0.5 * (lo + hi)
             if _feasible(ch, Pt, Kt, kappa, math.exp(-mid / 2), nbar, rooms_t, cp) is not None:
