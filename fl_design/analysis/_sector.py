@@ -336,13 +336,17 @@ def recheck(ch, E: Ellipsoid, S, Z, rooms, X0) -> tuple[float, float]:
     return worst + RECHECK_MARGIN, float(X0 @ P @ X0) / c
 
 
-def _feasible(ch, Pt, Kt, kappa, beta, nbar, rooms_t, cp):
-    """Multipliers for ``V <= 1/beta^2`` in the ``P = I`` coordinates, or None."""
+def _program(ch, Pt, Kt, kappa, nbar, cp):
+    """The multipliers' SDP in the ``P = I`` coordinates, ``beta = level^-1/2`` a parameter.
+
+    Built once per ``P`` (CVXPY compiles it once; each level re-solves it); returns
+    ``feasible(beta) -> (s, Z, mu) or None``.
+    """
     from ._lmi import solve_quietly
 
     T, n, m = ch.T, Pt["n"], ch.K.shape[0]
-    if any(1.0 / beta ** 2 > r ** 2 for r in rooms_t.values()):
-        return None
+    beta = cp.Parameter(nonneg=True)
+    beta2 = cp.Parameter(nonneg=True)
     s = cp.Variable(m) if m else None
     Z = cp.Variable((m, n)) if m else None
     mu = cp.Variable(nonneg=True)
@@ -368,19 +372,22 @@ def _feasible(ch, Pt, Kt, kappa, beta, nbar, rooms_t, cp):
         cons.append((A + A.T) / 2 << -1e-7 * np.eye(k))
     for j in range(m):
         lim = ch.room[j] - abs(ch.kn[j]) * nbar
-        if lim <= 0:
-            return None
-        cons.append(cp.norm(s[j] * Kt[j] - Z[j]) <= beta * lim * s[j] * (1 - 1e-6))
+        cons.append(cp.norm(s[j] * Kt[j] - Z[j]) <= lim * (1 - 1e-6) * (beta * s[j]))
     if nbar > 0:
-        cons.append(mu * nbar ** 2 * beta ** 2 <= kappa * (1 - 1e-6))
+        cons.append(mu * nbar ** 2 * beta2 <= kappa * (1 - 1e-6))
     else:
         cons.append(mu == 0)
     prob = cp.Problem(cp.Minimize(0), cons)
-    err = solve_quietly(prob)
-    if err is not None or prob.status != "optimal":
-        return None
-    return (np.asarray(s.value) if m else np.zeros(0),
-            np.asarray(Z.value) if m else np.zeros((0, n)), float(mu.value or 0.0))
+
+    def feasible(b: float):
+        beta.value, beta2.value = float(b), float(b) ** 2
+        err = solve_quietly(prob)
+        if err is not None or prob.status != "optimal":
+            return None
+        return (np.asarray(s.value) if m else np.zeros(0),
+                np.asarray(Z.value) if m else np.zeros((0, n)), float(mu.value or 0.0))
+
+    return feasible
 
 
 def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
@@ -433,6 +440,15 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
                for j in range(ch.K.shape[0])] or [math.inf])  # the limits inactive
     if not math.isfinite(min(room, lin)):
         return None, math.inf, "nothing bounds the ellipsoid (no room, no limits): give a region"
+    if any(ch.room[j] - abs(ch.kn[j]) * nbar <= 0 for j in range(ch.K.shape[0])):
+        return None, math.inf, f"the noise bound {nbar:g} leaves a limit no room"
+    prog = _program(ch, Pt, Kt, kappa, nbar, cp)
+
+    def _feasible(_ch, _Pt, _Kt, _kappa, beta, _nbar, rooms_t, _cp):
+        if any(1.0 / beta ** 2 > r ** 2 * (1 + 1e-12) for r in rooms_t.values()):
+            return None
+        return prog(beta)
+
     hi = math.log(min(room, 1e6 * lin))
     bottom = math.log(min(room, lin)) - math.log(1e4)
     lo = None

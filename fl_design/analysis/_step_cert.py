@@ -202,10 +202,11 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     uncovered.append("input delay, b's rate limits (b may vary arbitrarily: conservative), "
                      "and windup beyond the ellipsoid")
     step = r - float(X0[0] + r)
-    best = None
+    best, fails = None, []
     for scale, b, box, ueq, rooms_fn, words in tries:
         out = _one(design, b, box, ueq, rooms_fn, X0, nbar, words, scale)
         if isinstance(out, str):
+            fails.append(out)
             if best is None or best[0] is None:
                 best = (None, out, scale)
             continue
@@ -220,6 +221,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
         return StepCertificate(False, step, 0.0, f"no certificate: {why}", "nothing",
                                "; ".join(uncovered), math.inf, scale, secs)
     E, largest, argument, covered, ratio = res
+    if fails and ratio > 1.0:
+        uncovered.insert(0, f"the larger regions ({len(fails)} tried; the smallest of them "
+                            f"{fails[-1]})")
     ok = ratio <= 1.0 and not (scenario.noise.std > 0 and noise_bound is None) \
         and scenario.disturbance is None
     return StepCertificate(bool(ok), step, largest, argument, covered, "; ".join(uncovered),
