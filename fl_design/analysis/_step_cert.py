@@ -70,8 +70,9 @@ class StepCertificate(_Result):
         What it does not cover.
     start_ratio : float
         ``V(X0) / level`` (<= 1: covered).
-    region_scale : float
-        Scale of the plant's region used (1 for a class).
+    region_scale : (float, float)
+        Scales of the plant's state region and input range about the target used ((1, 1) for
+        a class).
     seconds : float
         Wall time.
     """
@@ -83,7 +84,7 @@ class StepCertificate(_Result):
     covered: str
     uncovered: str
     start_ratio: float
-    region_scale: float
+    region_scale: tuple
     seconds: float
 
     def _repr_lines(self):
@@ -167,7 +168,8 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     if scenario.quantization:
         nbar += 0.5 * float(scenario.quantization)
     uncovered = []
-    if scenario.noise.std > 0 and noise_bound is None:
+    cls_bound = getattr(plant_or_class, "noise_bound", None)
+    if scenario.noise.std > 0 and noise_bound is None and cls_bound is None:
         uncovered.append(f"the scenario's Gaussian noise (std {scenario.noise.std:g}) is "
                          "unbounded: give noise_bound to cover a bounded noise")
     if scenario.disturbance is not None:
@@ -176,12 +178,26 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
         cls = plant_or_class
         if cls.rho != design.rho:
             raise ParameterError(f"the class has rho = {cls.rho}, the design rho = {design.rho}")
+        if cls.delay or cls.zero_dynamics != "none":
+            why = (f"an input delay of {cls.delay} samples" if cls.delay else
+                   f"internal dynamics ({cls.zero_dynamics})")
+            return StepCertificate(False, r - (0.0 if scenario.x0 is None else float(
+                np.ravel(scenario.x0)[0])), 0.0, f"no certificate: the class has {why}, which "
+                "the step certificate does not model (rho = n, no delay)", "nothing",
+                f"{why}", math.inf, (1.0, 1.0), time.perf_counter() - t0)
         u_eq = float(cls.u_eq) if cls.u_eq is not None else 0.0
         if cls.a_slopes is not None and cls.u_eq is None:
             uncovered.append("u_eq of the class is unknown: taken as 0")
+        if noise_bound is None and cls.noise_bound is not None:
+            nbar += float(cls.noise_bound)  # the class's own peak bound of the noise
+        lim = design.controller.u_range
+        if cls.u_limits is not None and (lim is None or lim[0] < cls.u_limits[0]
+                                         or lim[1] > cls.u_limits[1]):
+            uncovered.append(f"the actuator's own limits {tuple(cls.u_limits)} (the design "
+                             f"does not saturate inside them: {lim})")
         y0 = 0.0 if scenario.x0 is None else float(np.ravel(scenario.x0)[0])
         X0 = _start(design, y0, r, u_eq, u_eq, scenario.initial_estimate)
-        tries = [(1.0, cls.b, cls.a_slopes, u_eq, {}, cls.describe())]
+        tries = [((1.0, 1.0), cls.b, cls.a_slopes, u_eq, {}, cls.describe())]
         uncovered.append("plants outside the class (its slope box and b range are assumed to "
                          "hold along every trajectory)")
     elif isinstance(plant_or_class, Plant):
@@ -199,8 +215,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     else:
         raise ParameterError(f"plant_or_class must be a fl.Plant or a fl.PlantClass, got "
                              f"{type(plant_or_class).__name__}")
-    uncovered.append("input delay, b's rate limits (b may vary arbitrarily: conservative), "
-                     "and windup beyond the ellipsoid")
+    uncovered.append("starts outside the ellipsoid (the saturated loop's larger region of "
+                     "attraction is not claimed); b's rate limits are not used (b varies "
+                     "arbitrarily in its range: conservative)")
     step = r - float(X0[0] + r)
     best, fails = None, []
     for scale, b, box, ueq, rooms_fn, words in tries:
@@ -215,7 +232,7 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
         best = (out, "", scale)
         if out[4] <= 1.0:
             break
-    res, why, scale = best if best is not None else (None, "no region tried", 1.0)
+    res, why, scale = best if best is not None else (None, "no region tried", (1.0, 1.0))
     secs = time.perf_counter() - t0
     if res is None:
         return StepCertificate(False, step, 0.0, f"no certificate: {why}", "nothing",
@@ -224,8 +241,8 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     if fails and ratio > 1.0:
         uncovered.insert(0, f"the larger regions ({len(fails)} tried; the smallest of them "
                             f"{fails[-1]})")
-    ok = ratio <= 1.0 and not (scenario.noise.std > 0 and noise_bound is None) \
-        and scenario.disturbance is None
+    ok = ratio <= 1.0 and not (scenario.noise.std > 0 and noise_bound is None
+                               and cls_bound is None) and scenario.disturbance is None
     return StepCertificate(bool(ok), step, largest, argument, covered, "; ".join(uncovered),
                            ratio, scale, secs)
 

@@ -147,3 +147,22 @@ def test_result_is_strict_json(chain_cert):
 
     d = json.loads(json.dumps(chain_cert.to_dict(), allow_nan=False))
     assert d["certified"] is False and math.isclose(d["step"], 0.3)
+
+
+def test_class_with_delay_is_not_certified_and_says_why():
+    cls = fl.PlantClass(rho=2, T=1e-3, b=(1.0, 1.0), delay=2)
+    c = fl.certify_step(cls, fl.presets.pendulum_design(), fl.Scenario(0.1))
+    assert not c.certified and "delay of 2 samples" in c.argument
+
+
+def test_stated_slope_class_agrees_with_a_member_in_simulation():
+    # sigma = -9 y - 0.5 y' + u (a member of the class: a linear pendulum-like plant)
+    cls = fl.PlantClass(rho=2, T=1e-3, b=(1.0, 1.0), a_slopes=((-9.81, -9.0), (-0.5, -0.5)),
+                        u_eq=0.0)
+    design = fl.presets.pendulum_design()
+    c = fl.certify_step(cls, design, fl.Scenario(0.1))
+    assert c.certified and math.isinf(c.largest_step)  # no limits, no region: global
+    y, v, u = sp.symbols("y v u", real=True)
+    member = fl.Plant.from_ode([y, v], u, [v, -9.0 * y - 0.5 * v + u], y, name="member",
+                               region={y: (-10.0, 10.0), v: (-50.0, 50.0)})
+    assert fl.simulate(member, design, fl.Scenario(0.1, 20.0)).converged
