@@ -17,25 +17,32 @@ observer's output matrices; nothing of the step is re-implemented.
 **Multipliers (generalized sector condition, Gomes da Silva & Tarbouriech 2005).** For a
 dead-zone with room ``[lo, hi]`` (``lo < 0 < hi``), ``dz(s) (dz(s) - w) <= 0`` whenever
 ``lo <= s - w <= hi``, for any ``w``. With ``w_j = G_j X + (H psi)_j`` (``H`` carries the
-clamps into ``nu``) and an ellipsoid ``E = {X^T W^-1 X <= 1}`` inside ``|(K_j - G_j) X| <=
-l_j - |k_n,j| nbar`` (``l_j = min(-lo, hi)``), the S-procedure with diagonal ``S > 0`` gives,
-in the delta form ``X+ = X + T (D X + Bt psi + Et n)`` (``D = (M - I)/T``) and after the
-congruence ``diag(W, U = S^-1, 1)`` with ``Y = G W``, the LMI (one per corner of the box)::
+clamps into ``nu``) and the ellipsoid ``E = {V(X) = X^T P X <= c}`` inside ``|(K_j - G_j) X|
+<= l_j - |k_n,j| nbar`` (``l_j = min(-lo, hi)``), the S-procedure with diagonal ``S > 0``
+asks, in the delta form ``X+ = X + T (D X + Bt psi + Et n)`` (``D = (M - I)/T``), at every
+corner of the box (the form is convex in ``Psi``, so the corners suffice)::
 
-    [[D W + W D^T + kappa W,  Bt U + Y^T,          Et ],
-     [U Bt^T + Y,             H U + U H^T - 2 U,   0  ],    + T R^T W^-1 R  <=  0,
-     [Et^T,                   0,                   -mu]]       R = [D W, Bt U, Et]
+    [[P D + D^T P + kappa P,  P Bt + G^T S,        P Et],
+     [.,                      S H + H^T S - 2 S,   0   ],    + T R^T P R  <=  0,
+     [.,                      .,                   -mu ]]       R = [D, Bt, Et]
 
-i.e. ``V(X+) <= (1 - T kappa) V(X) + T mu n^2`` on ``E`` (``V = X^T W^-1 X``). With
-``mu nbar^2 <= kappa`` the ellipsoid is invariant; without noise ``V`` contracts every sample
-(exponential convergence), with noise the loop enters ``V <= mu nbar^2 / kappa``. Saturation
-and clamps may be active inside ``E``: this is the region of the saturated loop's convergence
-that the sector argument can prove, not the saturation-free set of :class:`._ldi.CoveredSet`.
+i.e. ``V(X+) <= (1 - T kappa) V(X) + T mu n^2`` on ``E``. With ``mu nbar^2 <= kappa c`` the
+ellipsoid is invariant; without noise ``V`` contracts every sample (exponential convergence),
+with noise the loop enters ``V <= mu nbar^2 / kappa``. Saturation and clamps may be active
+inside ``E``: the certified set reaches beyond the saturation-free one of
+:class:`._ldi.CoveredSet`.
 
-**Re-check.** :func:`recheck` rebuilds every matrix above in NumPy from ``W, U, Y`` (not the
-solver's duals) and asks ``lambda_max < -tol ||.||`` of each corner's matrix (the LMI was
-solved with slack: ``2 kappa`` for ``kappa``, ``1.9 U`` for ``2 U``), ``W_ii <= room_i^2``,
-``(K_j - G_j) W (K_j - G_j)^T <= (l_j - |k_n,j| nbar)^2`` and the start inside ``E``.
+**Solution.** ``P`` is fixed (the LDI certificate's, or one chosen to cover the start: the
+joint problem in ``(P, S, G)`` is bilinear); in the coordinates where ``P = I`` the corner
+conditions are LMIs in ``(S, Z = S G, mu)`` and the validity region is a second-order cone in
+``(s_j, Z_j)`` for a given level: :func:`solve_ellipsoid` compiles that SDP once and searches the
+level (``beta = c^-1/2`` a parameter).
+
+**Re-check.** :func:`recheck` rebuilds every matrix in NumPy from ``P, c, S, G, mu`` and asks
+``lambda_max < -tol ||.||_F`` of each corner's form (the SDP was solved with slack: ``2 kappa``
+for ``kappa``, ``1.9 S`` for ``2 S``, ``mu / 1.1`` for ``mu``), ``c (P^-1)_ii <= room_i^2``,
+``c (K_j - G_j) P^-1 (K_j - G_j)^T <= (l_j - |k_n,j| nbar)^2`` and ``mu nbar^2 <= kappa c``,
+each with the margin :data:`RECHECK_MARGIN`.
 
 Examples
 --------
@@ -444,15 +451,13 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
         return None, math.inf, f"the noise bound {nbar:g} leaves a limit no room"
     prog = _program(ch, Pt, Kt, kappa, nbar, cp)
 
-    def _feasible(_ch, _Pt, _Kt, _kappa, beta, _nbar, rooms_t, _cp):
-        if any(1.0 / beta ** 2 > r ** 2 * (1 + 1e-12) for r in rooms_t.values()):
-            return None
-        return prog(beta)
+    def feas(log_level):  # multipliers for V <= exp(log_level), or None
+        return None if log_level > math.log(room) + 1e-12 else prog(math.exp(-log_level / 2))
 
     hi = math.log(min(room, 1e6 * lin))
     bottom = math.log(min(room, lin)) - math.log(1e4)
     lo = None
-    if _feasible(ch, Pt, Kt, kappa, math.exp(-hi / 2), nbar, rooms_t, cp) is not None:
+    if feas(hi) is not None:
         lo = hi
     else:
         # downward by decades (with noise the feasible levels are a band: not too small
@@ -460,7 +465,7 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
         level = hi
         while level > bottom:
             level -= math.log(10.0)
-            if _feasible(ch, Pt, Kt, kappa, math.exp(-level / 2), nbar, rooms_t, cp) is not None:
+            if feas(level) is not None:
                 lo, hi = level, level + math.log(10.0)
                 break
         if lo is None:
@@ -468,14 +473,14 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
                                     "down to 1e-4 of the largest saturation-free one)")
         for _ in range(steps):
             mid = 0.5 * (lo + hi)
-            if _feasible(ch, Pt, Kt, kappa, math.exp(-mid / 2), nbar, rooms_t, cp) is not None:
+            if feas(mid) is not None:
                 lo = mid
             else:
                 hi = mid
     note = ""
     for back in range(8):  # a solver's "optimal" is not a certificate: step down until it holds
         level = math.exp(lo - back * math.log(2.0))
-        sol = _feasible(ch, Pt, Kt, kappa, level ** -0.5, nbar, rooms_t, cp)
+        sol = feas(math.log(level))
         if sol is None:
             continue
         s, Zt, mu = sol

@@ -237,7 +237,7 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     if res is None:
         return StepCertificate(False, step, 0.0, f"no certificate: {why}", "nothing",
                                "; ".join(uncovered), math.inf, scale, secs)
-    E, largest, argument, covered, ratio = res
+    _E, largest, argument, covered, ratio = res
     if fails and ratio > 1.0:
         uncovered.insert(0, f"the larger regions ({len(fails)} tried; the smallest of them "
                             f"{fails[-1]})")
@@ -328,8 +328,8 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
             from ._sector import Ellipsoid
 
             return (Ellipsoid(P, math.inf, kappa, 0.0, 0.0, -1.0), math.inf,
-                    f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
-                    f"global on {words}", "every start, every plant of the class, no noise",
+                    (f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
+                    f"global on {words}"), "every start, every plant of the class, no noise",
                     0.0)
         E, ratio, note = solve_ellipsoid(ch, P, Xk, kappa=kappa, nbar=nbar, rooms=rooms)
         notes.append(f"P {src}: {note}")
@@ -376,7 +376,8 @@ def _widest_p(L, ch, eps, gamma, rooms, Xk):
     from ._ldi import DECAY_FRACTION, _coordinates, _vertex_loops
     from ._lmi import solve_quietly
 
-    D, margins = (lambda o: (o[6], o[7]))(_vertex_loops(L, eps, gamma))
+    out = _vertex_loops(L, eps, gamma)
+    D, margins = out[6], out[7]
     if np.max(margins) >= 0.0 or not np.any(Xk):
         return None
     n = Xk.size

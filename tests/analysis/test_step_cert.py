@@ -130,13 +130,13 @@ def test_bounded_noise_gives_an_ultimate_bound():
 
 
 @pytest.mark.parametrize("bad, match", [
-    (dict(scenario=fl.Scenario(lambda t: 0.1, 1.0)), "constant reference"),
-    (dict(noise_bound=-1.0), "noise_bound"),
-    (dict(plant_or_class="pendulum"), "fl.Plant or a fl.PlantClass"),
+    ({"scenario": fl.Scenario(lambda t: 0.1, 1.0)}, "constant reference"),
+    ({"noise_bound": -1.0}, "noise_bound"),
+    ({"plant_or_class": "pendulum"}, "fl.Plant or a fl.PlantClass"),
 ])
 def test_bad_input(bad, match):
-    args = dict(plant_or_class=fl.PlantClass.chain(2, b=(1.0, 2.0), T=1e-3),
-                design=fl.presets.pendulum_design(), scenario=fl.Scenario(0.1))
+    args = {"plant_or_class": fl.PlantClass.chain(2, b=(1.0, 2.0), T=1e-3),
+                "design": fl.presets.pendulum_design(), "scenario": fl.Scenario(0.1)}
     args.update(bad)
     with pytest.raises(ParameterError, match=match):
         fl.certify_step(**args)
