@@ -166,3 +166,12 @@ def test_stated_slope_class_agrees_with_a_member_in_simulation():
     member = fl.Plant.from_ode([y, v], u, [v, -9.0 * y - 0.5 * v + u], y, name="member",
                                region={y: (-10.0, 10.0), v: (-50.0, 50.0)})
     assert fl.simulate(member, design, fl.Scenario(0.1, 20.0)).converged
+
+
+@pytest.mark.slow
+def test_unstable_design_is_not_certified():
+    # pendulum(c=0.05): the linearized loop is unstable above eps = 0.04003 (issue 29)
+    plant = fl.plants.pendulum(c=0.05)
+    c = fl.certify_step(plant, fl.presets.pendulum_design(eps=0.0405), fl.Scenario(0.1))
+    assert not c.certified and c.largest_step == 0.0
+    assert "not Schur" in c.argument
