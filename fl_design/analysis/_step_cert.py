@@ -24,6 +24,16 @@ depends on the states only through ``x_rho`` (checked symbolically: a scalar aut
 over the sample, so ``x_rho(t)`` is monotone between two samples, both in the ellipsoid), else
 ``T sup|sigma - sigma_eq|`` (mean-value bound). A class's slopes hold by assumption everywhere.
 
+**Measured** (``verify/claim_12_step_certified.py``, 2 shared cores at load ~10):
+the pendulum's 0.1 rad step is certified (largest certified step 0.28 rad, ~5 s; the plant's
+region |theta - r| <= 3.04, the slopes by interval arithmetic); the paper's design on the class
+``y'' = b u``, ``b in [3.6, 6.8]``, ``|u| <= 2.5``, ``|xhat_2| <= 0.05`` is NOT certified for
+0.3 rad (``V(start)/level = 27``; largest certified step 0.058 rad, which converges in
+``fl.simulate`` for b = 3.6 and 6.8; 0.3 rad diverges on ``y'' = 5 u``); the TRMS's 0.3 rad
+step is NOT certified: the largest certified step is 4.4e-5 rad (region ``|phi'| <= 3e-4``,
+``|u| <= 2.5e-3``, slopes [-505, -462.6], 13 s), every larger region tried has no common
+quadratic (at ``|phi'| <= 6e-4``, slopes [-505, -350], already none).
+
 Examples
 --------
 >>> import fl_design as fl
@@ -135,8 +145,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
         class); the noise must be bounded (``noise_bound``) to be covered.
     noise_bound : float, optional
         Peak of the sensor noise covered (quantization adds half its step).
-    region_scales : sequence of float, optional
-        Scales of the plant's region about the target tried in turn.
+    region_scales : sequence of (float, float), optional
+        Scales in (0, 1] of the plant's state region and input range about the target, tried
+        in turn until the start is covered (default :data:`REGION_SCALES`).
 
     Returns
     -------
@@ -145,7 +156,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     Raises
     ------
     ParameterError
-        A non-constant reference, a design/class mismatch, a negative noise bound.
+        A non-constant reference, a design/class mismatch, a negative noise bound, bad region
+        scales, a plant with internal dynamics or whose normal-form coordinates are not its
+        states (the reason says what would be needed).
 
     Examples
     --------
@@ -165,6 +178,14 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     nbar = 0.0 if noise_bound is None else float(noise_bound)
     if not (math.isfinite(nbar) and nbar >= 0):
         raise ParameterError(f"noise_bound must be a finite number >= 0, got {noise_bound!r}")
+    try:
+        region_scales = tuple((float(a), float(b_)) for a, b_ in region_scales)
+    except (TypeError, ValueError):
+        raise ParameterError(f"region_scales must be pairs (state scale, input scale), got "
+                             f"{region_scales!r}") from None
+    if not region_scales or not all(0 < a <= 1 and 0 < b_ <= 1 for a, b_ in region_scales):
+        raise ParameterError(f"region_scales must be non-empty pairs in (0, 1], got "
+                             f"{region_scales!r}")
     if scenario.quantization:
         nbar += 0.5 * float(scenario.quantization)
     uncovered = []

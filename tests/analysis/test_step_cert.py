@@ -175,3 +175,10 @@ def test_unstable_design_is_not_certified():
     c = fl.certify_step(plant, fl.presets.pendulum_design(eps=0.0405), fl.Scenario(0.1))
     assert not c.certified and c.largest_step == 0.0
     assert "not Schur" in c.argument
+
+
+@pytest.mark.parametrize("scales", [(), ((0.0, 1.0),), ((1.0, 2.0),), "x"])
+def test_bad_region_scales(scales):
+    with pytest.raises(ParameterError, match="region_scales"):
+        fl.certify_step(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1),
+                        region_scales=scales)
