@@ -85,6 +85,12 @@ class StepCertificate(_Result):
         a class).
     seconds : float
         Wall time.
+    P : numpy.ndarray or None
+        ``V``'s matrix over the loop coordinates ``names`` (None: no certificate).
+    level : float
+        The certified sublevel of ``V`` (the covered loop states ``V(X) <= level``).
+    names : tuple of str
+        The loop coordinates of ``P`` (deviations from the target equilibrium).
     """
 
     certified: bool
@@ -96,6 +102,9 @@ class StepCertificate(_Result):
     start_ratio: float
     region_scale: tuple
     seconds: float
+    P: object = None
+    level: float = math.nan
+    names: tuple = ()
 
     def _repr_lines(self):
         head = "certified" if self.certified else "NOT certified"
@@ -258,14 +267,18 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     if res is None:
         return StepCertificate(False, step, 0.0, f"no certificate: {why}", "nothing",
                                "; ".join(uncovered), math.inf, scale, secs)
-    _E, largest, argument, covered, ratio = res
+    E, largest, argument, covered, ratio = res
     if fails and ratio > 1.0:
         uncovered.insert(0, f"the larger regions ({len(fails)} tried; the smallest of them "
                             f"{fails[-1]})")
     ok = ratio <= 1.0 and not (scenario.noise.std > 0 and noise_bound is None
                                and cls_bound is None) and scenario.disturbance is None
+    from ._surrogate import SurrogateLoop
+
+    loop = SurrogateLoop(design)
     return StepCertificate(bool(ok), step, largest, argument, covered, "; ".join(uncovered),
-                           ratio, scale, secs)
+                           ratio, scale, secs, E.P, float(E.level),
+                           tuple(loop.names[i] for i in loop.keep))
 
 
 def _plant_tries(plant, design, x_eq, u_eq, scales):

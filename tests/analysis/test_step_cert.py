@@ -182,3 +182,38 @@ def test_bad_region_scales(scales):
     with pytest.raises(ParameterError, match="region_scales"):
         fl.certify_step(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1),
                         region_scales=scales)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1])
+def test_certified_set_is_invariant_under_switching_b_with_limits_active(chain_cert, seed):
+    """Independent of the LMI: the real loop step (clamp, saturation) and the exact ZOH of
+    y'' = b_k u with b_k switching at random between 3.6 and 6.8 keep V <= level from starts
+    on the certified set's boundary, and V shrinks."""
+    rng = np.random.default_rng(seed)
+    design = fl.presets.paper_design()
+    P, level = np.asarray(chain_cert.P), chain_cert.level
+    assert chain_cert.names == ("x_1", "x_2", "xi_0", "xi_1", "xi_2", "u", "z")
+    s_eq = design.initial_state(y0=0.0, u0=0.0)
+    Phis = {b: scipy.linalg.expm(1e-3 * np.array([[0, 1, 0], [0, 0, b], [0, 0, 0.0]]))
+            for b in (3.6, 6.8)}
+    step = design.step
+    ch = loop_channels(design, (3.6, 6.8), None)
+    active = 0
+    Pi = np.linalg.inv(P)
+    far = Pi @ ch.K[0]  # the start of the set with the largest xhat_2: the clamp acts
+    for d in (far, -far, rng.normal(size=7)):
+        X = d * math.sqrt(0.999 * level / float(d @ P @ d))
+        x, s = X[:2].copy(), s_eq + X[2:]
+        v0, vmax = float(X @ P @ X), 0.0
+        for _k in range(4000):
+            arg = ch.K @ np.concatenate([x, s - s_eq])
+            active += int(np.any((arg < ch.low) | (arg > ch.high)))
+            s, u = (np.asarray(a, float).ravel() for a in step(s, x[0], 0.0))
+            Phi = Phis[3.6 if rng.random() < 0.5 else 6.8]
+            x = Phi[:2, :2] @ x + Phi[:2, 2] * u[0]
+            Xk = np.concatenate([x, s - s_eq])
+            vmax = max(vmax, float(Xk @ P @ Xk))
+        assert vmax <= level * (1 + 1e-9)
+        assert float(Xk @ P @ Xk) < v0
+    assert active > 0  # the clamp or the saturation acted inside the certified set
