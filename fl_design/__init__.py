@@ -26,6 +26,7 @@ __version__ = "0.1.0"
 
 # public name -> module that defines it (None: the sub-module or sub-package itself)
 _LAZY = {
+    "certify_step": "analysis._step_cert",
     "Plant": "symbolic",
     "Equilibrium": "symbolic",
     "NormalForm": "symbolic",

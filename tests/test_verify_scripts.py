@@ -14,7 +14,7 @@ SCRIPTS = sorted((ROOT / "verify").glob("claim_*.py"))
 
 
 def test_there_is_a_script_per_claim():
-    assert len(SCRIPTS) == 11
+    assert len(SCRIPTS) == 12
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=[s.stem for s in SCRIPTS])
