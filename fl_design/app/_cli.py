@@ -11,6 +11,8 @@ Sub-commands
     with its bench design, :func:`fl_design.presets.bench_design`).
 ``init [--plant P | --from-ode]``
     Write a commented configuration (every table and key) to stdout.
+``ui [CONFIG.toml | --plant P] [--port N] [--out DIR] [--open]``
+    The tuner page on 127.0.0.1 (:mod:`fl_design.ui`); prints its URL (with its token).
 
 Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
 checked before the work starts; a closed pipe (``| head``) too.
@@ -408,7 +410,36 @@ def build_parser() -> argparse.ArgumentParser:
                       help="also run the step on a Cortex-M4F model (arm-none-eabi-gcc, QEMU)")
     _common(code)
     code.set_defaults(func=_cmd_codegen)
+    _ui_parser(sub)
     return parser
+
+
+# --- `fl-design ui`: the tuner page (fl_design.ui; nothing else imports that package) ----------
+def _ui_parser(sub) -> None:
+    ui = sub.add_parser("ui", help="the tuner page on 127.0.0.1: sliders redraw the response, "
+                        "the verdict, the map and the certificates")
+    ui.add_argument("config", nargs="?", default=None, help="TOML configuration")
+    ui.add_argument("--plant", choices=PLANT_CHOICES, default=None,
+                    help="a library plant with its bench design instead of a config")
+    ui.add_argument("--class", dest="plant_class", default=None, metavar="SPEC",
+                    help="a plant class (rho, T, b range, noise) instead of a plant")
+    ui.add_argument("--port", type=int, default=0, help="TCP port (default: a free one)")
+    ui.add_argument("--out", default="ui_out", help="where the page's buttons write (default "
+                    "ui_out; must be empty or hold fl_design's own output)")
+    ui.add_argument("--open", action="store_true", help="open the page in a browser")
+    ui.add_argument("--no-background", action="store_true",
+                    help="no stability map, certificates, margins or C cost")
+    ui.set_defaults(func=_cmd_ui)
+
+
+def _cmd_ui(args) -> int:
+    if args.plant_class is not None:
+        raise ParameterError("fl-design ui --class needs fl.PlantClass, which this build does "
+                             "not have yet: give a config with [plant] or --plant P")
+    from ..ui import serve
+
+    return serve(_config(args), port=args.port, out=args.out, open_browser=args.open,
+                 background=not args.no_background)
 
 
 def _closed_pipe() -> int:

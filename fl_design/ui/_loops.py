@@ -1,0 +1,125 @@
+"""One compiled closed loop per loop structure, kept while the page's sliders move.
+
+:func:`fl_design.simulate` builds a :class:`fl_design.sim.ClosedLoop` and asks for its runner
+on every call: for a 20 s TRMS run that is about 60 ms of graph building and source hashing
+around 20 ms of compiled loop. The design enters the compiled loop in two ways: its structure
+(the gains, ``ki``, the limits, ``T``, the observer polynomial: baked into the C code) and its
+parameter vector (:meth:`fl_design.Design.parameter_vector`: the discretized observer of
+``eps`` and ``T``, and ``gamma``), an input of every run, which is how :func:`fl_design.sweep`
+runs a whole grid on one compiled loop. :class:`LoopCache` does what ``simulate`` does, step
+for step, with the loop and runner of the last few structures kept: moving eps, gamma, the
+reference, the noise or the run length reuses them; a new structure (gains, T, limits) builds
+and compiles its loop once (a few seconds the first time, then the kernel cache). The result is
+the :class:`fl_design.Response` that ``simulate`` returns, bit for bit
+(``tests/ui/test_model.py`` compares them).
+
+Examples
+--------
+>>> import fl_design as fl
+>>> from fl_design.ui._loops import LoopCache
+>>> cache = LoopCache()
+>>> d = fl.presets.pendulum_design()
+>>> r = cache.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 2.0))
+>>> bool((r.y == fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 2.0)).y).all())
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+from collections import OrderedDict
+
+import numpy as np
+
+#: Loop structures kept (each holds a compiled runner).
+MAX_LOOPS = 8
+
+
+def structure_key(design, substeps: int) -> str:
+    """What of ``design`` is baked into the compiled loop (everything but eps and gamma).
+
+    Parameters
+    ----------
+    design : fl_design.Design
+        The design.
+    substeps : int
+        RK4 steps per sample.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.ui._loops import structure_key
+    >>> d = fl.presets.paper_design()
+    >>> structure_key(d, 1) == structure_key(d.replace(eps=0.1, gamma=1e-3), 1)
+    True
+    """
+    est = design.estimator.replace(eps=1.0)
+    ctrl = design.controller.replace(gamma=math.copysign(1.0, design.controller.gamma))
+    return repr((est, ctrl, int(substeps)))
+
+
+class LoopCache:
+    """Compiled loops per structure (module docstring); thread-safe.
+
+    Parameters
+    ----------
+    size : int, optional
+        Structures kept (least recently used dropped).
+    """
+
+    def __init__(self, size: int = MAX_LOOPS) -> None:
+        self.size = size
+        self._loops: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+
+    def simulate(self, plant, design, scenario, *, classifier=None):
+        """As :func:`fl_design.simulate` (RK4, compiled kernel, default options).
+
+        Parameters
+        ----------
+        plant : fl_design.Plant
+            The plant (the same object on every call: the key does not include it).
+        design : fl_design.Design
+            The design.
+        scenario : fl_design.Scenario
+            The scenario (a duration given).
+        classifier : fl_design.Classifier, optional
+            The classifier.
+
+        Returns
+        -------
+        fl_design.Response
+        """
+        from .._limits import check_memory
+        from ..sim._run import prepare_run
+        from ..sim._options import Kernel
+        from ..sim._simulate import _response
+
+        run = prepare_run(plant, design, scenario, classifier=classifier)
+        check_memory(8.0 * run.N * (run.loop.record_layout.size + 4),
+                     f"recording a run of {run.N:.3g} samples",
+                     "shorten the run length or sample slower (a larger T)")
+        key = (id(plant), structure_key(design, run.loop.substeps))
+        with self._lock:
+            entry = self._loops.pop(key, None)
+            if entry is None:
+                entry = (run.loop, run.loop.runner(kernel=Kernel()))
+            self._loops[key] = entry
+            while len(self._loops) > self.size:
+                self._loops.popitem(last=False)
+        loop, runner = entry
+        run = dataclasses.replace(run, loop=loop)
+        p = design.parameter_vector()
+        acc, out = runner.record(run.initial_accumulator(p)[:, 0], run.D)
+        summary = {k: np.asarray(v).copy() for k, v in loop.layout.unpack(acc).items()}
+        summary["solver_failed"] = 0.0
+        return _response(run, out, summary, "rk4")
+
+
+__all__ = ["LoopCache", "structure_key"]
