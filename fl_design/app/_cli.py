@@ -432,13 +432,32 @@ def _ui_parser(sub) -> None:
     ui.set_defaults(func=_cmd_ui)
 
 
+def ui_setup(cfg):
+    """The tuner's :class:`fl_design.ui.TunerSetup` of a config (checked as ``run`` checks it).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
+    >>> ui_setup(load_config(None)).design.estimator.eps
+    0.05
+    """
+    from ..ui import TunerSetup
+    from ._plant_table import LIBRARY
+    from ._template import render
+
+    cfg, job = _prepare(cfg)
+    return TunerSetup(config=cfg, plant=job.plant, design=job.design, render=render,
+                      library=LIBRARY)
+
+
 def _cmd_ui(args) -> int:
     if args.plant_class is not None:
         raise ParameterError("fl-design ui --class needs fl.PlantClass, which this build does "
                              "not have yet: give a config with [plant] or --plant P")
     from ..ui import serve
 
-    return serve(_config(args), port=args.port, out=args.out, open_browser=args.open,
+    return serve(ui_setup(_config(args)), port=args.port, out=args.out, open_browser=args.open,
                  background=not args.no_background)
 
 

@@ -25,7 +25,9 @@ The computation stays in the library (:func:`fl_design.simulate`, :func:`fl_desi
 :func:`fl_design.certify_gamma`, :func:`fl_design.certify_eps`,
 :func:`fl_design.eps_star_curve`, :func:`fl_design.analysis.loop_margins`,
 :func:`fl_design.analysis.noise_gain`, :meth:`fl_design.CPackage.cost`); the page only binds
-controls to it. Nothing in the library imports this package; only the command line does.
+controls to it. Nothing in the library imports this package; only the command line does, and
+this package does not import ``app``: the command line hands it a :class:`TunerSetup` (the
+config with its plant and design, the TOML writer, the plant library's table).
 
 Modules: ``_model`` (:class:`Tuner`: controls -> one redraw), ``_background`` (the slow
 results in a child process), ``_export`` (the buttons: TOML, C package, snippet, under the
@@ -34,12 +36,13 @@ no-overwrite rule), ``_server`` (HTTP, token, :func:`serve`), ``static/`` (the p
 Examples
 --------
 >>> from fl_design.app import load_config
+>>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui import Tuner
->>> Tuner(load_config(None)).defaults()["eps"]
+>>> Tuner(ui_setup(load_config(None))).defaults()["eps"]
 0.05
 """
 
-from ._model import Tuner
+from ._model import Tuner, TunerSetup
 from ._server import TunerApp, make_server, serve, url_of
 
-__all__ = ["Tuner", "TunerApp", "make_server", "serve", "url_of"]
+__all__ = ["Tuner", "TunerApp", "TunerSetup", "make_server", "serve", "url_of"]

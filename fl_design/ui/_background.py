@@ -7,9 +7,10 @@ step's cost take from a second to a minute each. :class:`Background` runs them i
 process (``spawn``: no fork of a process holding CasADi and server threads), in its own process
 group, cheapest first, and posts each result as soon as it is ready. Each stage is keyed by the
 controls it depends on (:func:`stage_keys`): a result stays valid while its key does; when the
-controls move on, the process still working on stale keys is ended (its whole group: the
-sweep's pool and compilers too) and a new one starts after the controls have been still for
-:data:`QUIET_S` seconds. A stage's failure is a value (its message), never a crash.
+controls move, the process is paused at once (SIGSTOP to its group: the page's redraws get
+the cores); once they have been still for :data:`QUIET_S` seconds it resumes if it still
+computes what is needed, else it is ended (its whole group: the sweep's pool and compilers
+too) and a new one starts. A stage's failure is a value (its message), never a crash.
 
 Examples
 --------
@@ -90,8 +91,8 @@ def class_words(b_bounds, rho: int, T: float, covers: str) -> str:
     Examples
     --------
     >>> from fl_design.ui._background import class_words
-    >>> class_words((3.6, 6.8), 2, 1e-3, "varying")[:60]
-    'every plant of relative degree 2 sampled at T = 0.001 s whose'
+    >>> class_words((3.6, 6.8), 2, 1e-3, "varying").split(" (")[0]
+    'every plant of relative degree 2 sampled at T = 0.001 s whose b may vary in time, anywhere in [3.6, 6.8]'
     """
     how = {"frozen": "b is any constant in", "varying": "b may vary in time, anywhere in",
            "rate-bounded": "b varies at a bounded rate in"}.get(covers, f"b ({covers}) in")
@@ -200,7 +201,7 @@ _RUN = {"margins": _margins, "gamma": _gamma, "cost": _cost, "map": _map, "curve
         "eps": _eps}
 
 
-def _work(config, values: dict, todo: list, conn) -> None:  # pragma: no cover (child process)
+def _work(setup, values: dict, todo: list, conn) -> None:  # pragma: no cover (child process)
     """The child process: each stage of ``todo`` in turn, each result sent when ready."""
     os.setsid()  # its own group: ended whole (sweep pools, compilers) when the controls move
     import warnings
@@ -210,7 +211,7 @@ def _work(config, values: dict, todo: list, conn) -> None:  # pragma: no cover (
     from ._model import Tuner
 
     try:
-        tuner = Tuner(config)
+        tuner = Tuner(setup)
         design = tuner.design_for(values)
     except FlDesignError as err:
         for stage, key in todo:
@@ -237,23 +238,24 @@ class Background:
 
     Parameters
     ----------
-    config : fl_design.app.Config
-        The tuner's config (sent to the child process).
+    setup : fl_design.ui.TunerSetup
+        The tuner's setup (pickled to the child process).
     enabled : bool, optional
         False: nothing is computed (tests of the page alone).
 
     Examples
     --------
     >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
     >>> from fl_design.ui._background import Background
-    >>> bg = Background(load_config(None), enabled=False)
+    >>> bg = Background(ui_setup(load_config(None)), enabled=False)
     >>> bg.snapshot()["map"]["state"]
     'waiting'
     >>> bg.close()
     """
 
-    def __init__(self, config, *, enabled: bool = True) -> None:
-        self.config, self.enabled = config, enabled
+    def __init__(self, setup, *, enabled: bool = True) -> None:
+        self.setup, self.enabled = setup, enabled
         self._lock = threading.Lock()
         self._results: dict = {}  # stage -> (key, data, seconds)
         self._keys: dict = {}
@@ -261,6 +263,7 @@ class Background:
         self._todo: list = []
         self._timer = None
         self._closed = False
+        self._paused = False
 
     def submit(self, values: dict) -> None:
         """The controls moved: compute what their keys lack, once they stay still."""
@@ -271,6 +274,7 @@ class Background:
                 self._timer.cancel()
             if not self.enabled or self._closed:
                 return
+            self._signal_locked(signal.SIGSTOP)  # the page's redraws first: paused, not lost
             self._timer = threading.Timer(QUIET_S, self._start)
             self._timer.daemon = True
             self._timer.start()
@@ -283,13 +287,14 @@ class Background:
                     if self._results.get(s, (None,))[0] != k]
             running = self._proc is not None and self._proc.is_alive()
             if running and all(item in self._todo for item in todo):
+                self._signal_locked(signal.SIGCONT)
                 return  # the running process already computes these keys
             self._stop_locked()
             if not todo:
                 return
             ctx = multiprocessing.get_context("spawn")
             parent, child = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_work, args=(self.config, self._values, todo, child),
+            proc = ctx.Process(target=_work, args=(self.setup, self._values, todo, child),
                                daemon=True, name="fl-design-ui-background")
             proc.start()
             child.close()
@@ -310,17 +315,33 @@ class Background:
                 self._results[stage] = (key, data, seconds)
         conn.close()
 
+    def _signal_locked(self, sig) -> None:
+        """Send ``sig`` to the background process's group (SIGSTOP pauses, SIGCONT resumes)."""
+        proc = self._proc
+        if proc is None or not proc.is_alive() or self._paused == (sig == signal.SIGSTOP):
+            return
+        try:
+            os.killpg(proc.pid, sig)
+        except (ProcessLookupError, PermissionError):  # before its setsid: the process alone
+            try:
+                os.kill(proc.pid, sig)
+            except ProcessLookupError:
+                return
+        self._paused = sig == signal.SIGSTOP
+
     def _stop_locked(self) -> None:
-        proc, self._proc, self._todo = self._proc, None, []
+        proc = self._proc
         if proc is not None and proc.is_alive():
             try:
                 os.killpg(proc.pid, signal.SIGTERM)
             except (ProcessLookupError, PermissionError):
                 proc.terminate()
+            self._signal_locked(signal.SIGCONT)  # a paused process must run to end
             proc.join(timeout=5)
             if proc.is_alive():
                 proc.kill()
                 proc.join(timeout=5)
+        self._proc, self._todo, self._paused = None, [], False
 
     def snapshot(self) -> dict:
         """Each stage's state (ready, computing, waiting, stale) and its data when ready.

@@ -9,9 +9,10 @@ unchanged output) at each write, and every file gets a new numbered name (``desi
 Examples
 --------
 >>> from fl_design.app import load_config
+>>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui._model import Tuner
 >>> from fl_design.ui._export import save_toml
->>> tuner = Tuner(load_config(None))
+>>> tuner = Tuner(ui_setup(load_config(None)))
 >>> save_toml(tuner, tuner.defaults() | {"gamma": 1e-3}, "tuned").name
 'design_1.toml'
 """
@@ -51,9 +52,7 @@ def toml_text(tuner, values: dict) -> str:
     str
         Text that :func:`fl_design.app.parse_config` reads back to the same design.
     """
-    from ..app._template import render
-
-    return render(tuner.config_for(values),
+    return tuner.setup.render(tuner.config_for(values),
                   f"fl_design configuration saved by `fl-design ui` from {tuner.config.source}")
 
 
@@ -133,14 +132,13 @@ def snippet_text(tuner, values: dict) -> str:
     Examples
     --------
     >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
     >>> from fl_design.ui._model import Tuner
     >>> from fl_design.ui._export import snippet_text
-    >>> t = Tuner(load_config(None))
+    >>> t = Tuner(ui_setup(load_config(None)))
     >>> print(snippet_text(t, t.defaults()).splitlines()[2])
     plant = fl.plants.trms_yaw()
     """
-    from ..app._plant_table import LIBRARY
-
     v = tuner.check(values)
     p = tuner.config.plant
     if p.expression or tuner.config.scenario.disturbance is not None:
@@ -152,7 +150,7 @@ def snippet_text(tuner, values: dict) -> str:
                 "scenario = fl.app.build_scenario(cfg)\n"
                 "resp = fl.simulate(plant, design, scenario, classifier=cfg.classifier)\n"
                 "print(resp.verdict())\nresp.plot()\n")
-    factory, kwargs = LIBRARY[p.library]
+    factory, kwargs = tuner.setup.library[p.library]
     kw = ({"motor_lag": True} if p.motor_lag else {}) | kwargs
     args = ", ".join(f"{k}={val!r}" for k, val in kw.items())
     d = tuner.design_for(v)

@@ -97,8 +97,8 @@ class LoopCache:
         fl_design.Response
         """
         from .._limits import check_memory
-        from ..sim._run import prepare_run
         from ..sim._options import Kernel
+        from ..sim._run import prepare_run
         from ..sim._simulate import _response
 
         run = prepare_run(plant, design, scenario, classifier=classifier)

@@ -12,8 +12,9 @@ gain. The computation is the library's (:func:`fl_design.simulate`, the compiled
 Examples
 --------
 >>> from fl_design.app import load_config
+>>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui._model import Tuner
->>> tuner = Tuner(load_config(None))
+>>> tuner = Tuner(ui_setup(load_config(None)))
 >>> view = tuner.redraw(tuner.defaults() | {"duration": 2.0})
 >>> view["verdict"]["status"] in ("converged", "converging", "undecided", "oscillating")
 True
@@ -24,6 +25,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -103,43 +106,78 @@ def _number(name: str, value) -> float:
     return float(value)
 
 
+@dataclass(frozen=True)
+class TunerSetup:
+    """What the tuner starts from, made by the command line (the tuner never imports ``app``).
+
+    Parameters
+    ----------
+    config : fl_design.app.Config
+        The validated configuration (read by attribute: ``design``, ``scenario``, ``sweep``,
+        ``certify``, ``codegen``, ``classifier``, ``plant``, ``source``).
+    plant : fl_design.Plant
+        Its plant.
+    design : fl_design.Design
+        Its design (an EHGO under the dynamic controller).
+    render : callable
+        ``render(config, header) -> str``: a config as commented TOML (the "save" button).
+    library : mapping
+        Library plant key -> ``(factory name in fl.plants, keyword arguments)`` (the snippet).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
+    >>> ui_setup(load_config(None)).plant.name
+    'trms_yaw'
+    """
+
+    config: object
+    plant: object
+    design: object
+    render: Callable
+    library: Mapping
+
+
 class Tuner:
     """The tuner's state: a config's plant, design and scenario (read once).
 
     Parameters
     ----------
-    config : fl_design.app.Config
-        A validated configuration with ``[design]`` and a ``[scenario] reference``.
+    setup : TunerSetup
+        The configuration with its plant and design
+        (:func:`fl_design.app._cli.ui_setup` makes one).
 
     Raises
     ------
     ParameterError
-        The config has no design or no reference (the page needs both), or the plant and design
-        do not fit (the config's own messages).
+        The config has no design, a least-squares design (the tuner moves eps), or no
+        reference.
 
     Examples
     --------
     >>> from fl_design.app import load_config
-    >>> from fl_design.ui._model import Tuner
-    >>> Tuner(load_config(None)).defaults()["gamma"]
+    >>> from fl_design.app._cli import ui_setup
+    >>> from fl_design.ui import Tuner
+    >>> Tuner(ui_setup(load_config(None))).defaults()["gamma"]
     0.0003
     """
 
-    def __init__(self, config) -> None:
-        from ..app._build import build_classifier, check_fit
-        from ..app._job import prepare
-
-        if config.design is None:
+    def __init__(self, setup: TunerSetup) -> None:
+        config = setup.config
+        if config.design is None or setup.design is None:
             raise ParameterError(f"{config.source}: the tuner needs a [design] (gains, gamma, eps, "
                                  "T): add one, or run `fl-design run` to have one proposed")
         if config.design.estimator != "ehgo":
             raise ParameterError(f"{config.source}: the tuner tunes an EHGO design; [design] "
                                  f"estimator = {config.design.estimator!r}: use estimator = "
                                  '"ehgo"')
-        job = prepare(config)
-        self.warnings = check_fit(config, job.plant)
-        self.config, self.plant, self.design = config, job.plant, job.design
-        self.classifier = build_classifier(config)
+        if config.scenario.reference is None:
+            raise ParameterError(f"{config.source}: the tuner needs [scenario] reference (the "
+                                 "output's step target)")
+        self.setup = setup
+        self.config, self.plant, self.design = config, setup.plant, setup.design
+        self.classifier = config.classifier
         self.rho = self.plant.relative_degree()
         self.b_bounds = self._b_bounds()
         self.loops = LoopCache()
@@ -164,8 +202,9 @@ class Tuner:
         Examples
         --------
         >>> from fl_design.app import load_config
+        >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> Tuner(load_config(None)).defaults()["gains"]
+        >>> Tuner(ui_setup(load_config(None))).defaults()["gains"]
         [2.0, 4.0]
         """
         d, s = self.config.design, self.config.scenario
@@ -185,8 +224,9 @@ class Tuner:
         Examples
         --------
         >>> from fl_design.app import load_config
+        >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> [c["name"] for c in Tuner(load_config(None)).controls()][:3]
+        >>> [c["name"] for c in Tuner(ui_setup(load_config(None))).controls()][:3]
         ['gamma', 'eps', 'k1']
         """
         v, cfg = self.defaults(), self.config
@@ -247,8 +287,9 @@ class Tuner:
         Examples
         --------
         >>> from fl_design.app import load_config
+        >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> Tuner(load_config(None)).check({"eps": "x"})
+        >>> Tuner(ui_setup(load_config(None))).check({"eps": "x"})
         Traceback (most recent call last):
         ...
         fl_design.errors.ParameterError: eps must be a finite number, got 'x'
@@ -285,8 +326,9 @@ class Tuner:
         Examples
         --------
         >>> from fl_design.app import load_config
+        >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> t = Tuner(load_config(None))
+        >>> t = Tuner(ui_setup(load_config(None)))
         >>> t.design_for(t.defaults() | {"gamma": 1e-3}).controller.gamma
         0.001
         """
@@ -376,4 +418,4 @@ def _num(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
-__all__ = ["CONTROL_NAMES", "MAX_POINTS", "Tuner", "decimate"]
+__all__ = ["CONTROL_NAMES", "MAX_POINTS", "Tuner", "TunerSetup", "decimate"]

@@ -30,7 +30,6 @@ import secrets
 import sys
 import threading
 import time
-from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from pathlib import Path
@@ -109,7 +108,7 @@ class TunerApp:
 
         self.tuner, self.out = tuner, Path(out)
         self.token = token or secrets.token_urlsafe(24)
-        self.background = Background(tuner.config, enabled=background)
+        self.background = Background(tuner.setup, enabled=background)
         self._lock = threading.Lock()  # one simulation at a time (the kernel's buffers)
         self.assets = {"tuner.js": _static("tuner.js"), "tuner.css": _static("tuner.css"),
                        "plotly.min.js": plotly_js()}
@@ -118,7 +117,7 @@ class TunerApp:
     def init(self) -> dict:
         t = self.tuner
         return {"controls": t.controls(), "plant": t.plant.name, "source": t.config.source,
-                "rho": t.rho, "b_bounds": t.b_bounds, "warnings": list(t.warnings),
+                "rho": t.rho, "b_bounds": t.b_bounds,
                 "out": str(self.out), "defaults": t.defaults()}
 
     def redraw(self, values) -> dict:
@@ -131,7 +130,8 @@ class TunerApp:
     def save(self, body) -> dict:
         from . import _export
 
-        if not isinstance(body, dict) or body.get("what") not in ("toml", "c", "snippet"):
+        if not isinstance(body, dict) or body.get("what") not in ("toml", "c", "snippet") \
+                or set(body) - {"what", "values"}:
             raise ParameterError('save takes {"what": "toml" | "c" | "snippet", "values": '
                                  "{...}}; no path: files go to the folder given with --out")
         values = body.get("values", {})
@@ -158,7 +158,7 @@ class _Handler(BaseHTTPRequestHandler):
     app: TunerApp = None  # set per server (a subclass)
     hosts: tuple = ()
 
-    def log_message(self, format, *args):  # noqa: A002 (the base class's name)
+    def log_message(self, format, *args):
         pass  # quiet: the terminal shows the URL and errors only
 
     def _send(self, code: int, body: bytes, ctype: str) -> None:
@@ -192,7 +192,7 @@ class _Handler(BaseHTTPRequestHandler):
             return None
         return "/" + path.split("/", 2)[2]
 
-    def do_GET(self):  # noqa: N802 (the base class's name)
+    def do_GET(self):
         route = self._route()
         if route is None:
             return
@@ -207,7 +207,7 @@ class _Handler(BaseHTTPRequestHandler):
         else:
             self._refuse(404, "not found")
 
-    def do_POST(self):  # noqa: N802
+    def do_POST(self):
         route = self._route()
         if route is None:
             return
@@ -277,14 +277,14 @@ def url_of(httpd, app: TunerApp) -> str:
     return f"http://127.0.0.1:{httpd.server_address[1]}/{app.token}/"
 
 
-def serve(config, *, port: int = 0, out="ui_out", open_browser: bool = False,
+def serve(setup, *, port: int = 0, out="ui_out", open_browser: bool = False,
           background: bool = True) -> int:
     """Serve the tuner of ``config`` until Ctrl-C (or SIGTERM); print its URL first.
 
     Parameters
     ----------
-    config : fl_design.app.Config
-        A validated configuration with a ``[design]`` (:func:`fl_design.app.load_config`).
+    setup : fl_design.ui.TunerSetup
+        A configuration with its plant and design (``fl_design.app._cli.ui_setup``).
     port : int, optional
         TCP port on 127.0.0.1 (0: a free one).
     out : path-like, optional
@@ -312,13 +312,12 @@ def serve(config, *, port: int = 0, out="ui_out", open_browser: bool = False,
     from ._model import Tuner
 
     start = time.perf_counter()
-    tuner = Tuner(config)
+    tuner = Tuner(setup)
+    config = setup.config
     app = TunerApp(tuner, out, background=background)
     httpd = make_server(app, port)
     app.redraw({})  # compile the loop once before the page asks (the first page is then fast)
     url = url_of(httpd, app)
-    for w in tuner.warnings:
-        print(f"fl-design: warning: {w}", file=sys.stderr)
     print(f"fl-design ui: {tuner.plant.name} from {config.source}, ready in "
           f"{time.perf_counter() - start:.1f} s\n  {url}\n(Ctrl-C stops it; only this "
           "machine can reach it, and only with the token in the URL)", flush=True)

@@ -52,7 +52,12 @@
       Object.assign(input, { type: 'range', min: 0, max: N, step: 1, id: 'slider-' + c.name,
                              value: toPos(c, c.value) });
       input.setAttribute('aria-label', c.label);
-      input.addEventListener('input', () => { S.lastInput = performance.now(); request(); });
+      c.current = c.value;  // the exact value until the slider moves (positions are rounded)
+      input.addEventListener('input', () => {
+        S.lastInput = performance.now();
+        c.current = toValue(c, +input.value);
+        request();
+      });
       div.appendChild(label);
       div.appendChild(input);
       box.appendChild(div);
@@ -63,7 +68,7 @@
   function collect() {
     const v = { gains: [] };
     S.controls.forEach((c) => {
-      let x = toValue(c, +c.input.value);
+      let x = c.current;
       if (c.name === 'gamma') x *= c.sign;
       if (/^k\d+$/.test(c.name)) v.gains.push(x); else v[c.name] = x;
     });
@@ -96,6 +101,7 @@
             line(d.sigma, 'sigma', 'y3', { line: { color: '#2a8a2a' } }),
             line(d.sigmahat, 'sigmahat', 'y3', { line: { color: '#a02090', width: 1 } })];
   }
+  const PLOT_CONFIG = { displayModeBar: false, responsive: true, scrollZoom: true };
   const responseLayout = {
     margin: { l: 55, r: 10, t: 10, b: 35 }, showlegend: true,
     legend: { orientation: 'h', y: 1.04 }, hovermode: 'x unified',
@@ -108,7 +114,7 @@
 
   function draw(d, since) {
     return Plotly.react('plot-response', responseTraces(d), responseLayout,
-                        { displaylogo: false, responsive: true }).then(() => {
+                        PLOT_CONFIG).then(() => {
       const v = d.verdict;
       $('verdict').className = 'verdict ' + v.status;
       $('status').textContent = v.status;
@@ -158,16 +164,18 @@
     const traces = [];
     const m = bg && bg.map;
     if (usable(m) && !m.data.error) {
-      const byStatus = {};
-      m.data.eps.forEach((e, i) => m.data.gamma.forEach((g, j) => {
-        const name = m.data.labels[m.data.status[i][j]] || 'undecided';
-        (byStatus[name] = byStatus[name] || { x: [], y: [] }).x.push(g);
-        byStatus[name].y.push(e);
-      }));
-      Object.keys(byStatus).forEach((name) => traces.push({ x: byStatus[name].x,
-        y: byStatus[name].y, name, type: 'scatter', mode: 'markers', opacity: m.state === 'stale' ? 0.35 : 0.9,
-        marker: { symbol: 'square', size: 14, color: COLORS[name] || '#999' },
-        hovertemplate: name + '<br>gamma %{x:.3g}<br>eps %{y:.3g}<extra></extra>' }));
+      // one heatmap (a single image: a light DOM) coloured by status, on log axes
+      const names = Object.keys(COLORS);
+      const z = m.data.status.map((row) => row.map((code) => names.indexOf(m.data.labels[code] || 'undecided')));
+      const scale = [];
+      names.forEach((n, i) => { scale.push([i / names.length, COLORS[n]]); scale.push([(i + 1) / names.length, COLORS[n]]); });
+      traces.push({ type: 'heatmap', x: m.data.gamma, y: m.data.eps, z, zmin: -0.5, zmax: names.length - 0.5,
+                    colorscale: scale, showscale: false, opacity: m.state === 'stale' ? 0.35 : 0.85, xgap: 1, ygap: 1,
+                    customdata: m.data.status.map((row) => row.map((code) => m.data.labels[code])),
+                    hovertemplate: '%{customdata}<br>gamma %{x:.3g}<br>eps %{y:.3g}<extra></extra>' });
+      const seen = new Set(m.data.status.flat().map((code) => m.data.labels[code]));
+      names.filter((n) => seen.has(n)).forEach((n) => traces.push({ x: [null], y: [null], name: n,
+        type: 'scatter', mode: 'markers', marker: { symbol: 'square', size: 12, color: COLORS[n] } }));
       const star = m.data.eps_star.map((s) => s.lower);
       traces.push({ x: m.data.gamma, y: star, name: 'empirical eps*', type: 'scatter',
                     mode: 'lines', line: { color: '#000', width: 2 } });
@@ -190,7 +198,7 @@
     Plotly.react('plot-map', traces, {
       margin: { l: 55, r: 10, t: 10, b: 40 }, showlegend: true, legend: { font: { size: 10 } },
       xaxis: { type: 'log', title: { text: '|gamma|' } }, yaxis: { type: 'log', title: { text: 'eps (s)' } },
-      uirevision: 'keep' }, { displaylogo: false, responsive: true });
+      uirevision: 'keep' }, PLOT_CONFIG);
   }
 
   function text(id, stage, render) {
