@@ -35,7 +35,7 @@ from ..errors import FlDesignError, ParameterError
 from ._loops import LoopCache
 
 #: Most points per trace sent to the page (min and max of each bucket).
-MAX_POINTS = 2000
+MAX_POINTS = 1200
 #: Longest run the page may ask for (seconds of simulated time).
 MAX_DURATION = 600.0
 #: Default run length when the config's is "adaptive" (s).
@@ -400,10 +400,8 @@ class Tuner:
         return out
 
     def _noise_gain(self, design, v) -> dict:
-        from ..analysis import noise_gain
-
         try:
-            g = noise_gain(self.plant, design, r=v["reference"])
+            g = self.loops.noise_gain(self.plant, design, r=v["reference"])
         except FlDesignError as err:
             return {"value": None, "text": f"no noise gain: {err}"}
         if not math.isfinite(g):

@@ -8,6 +8,13 @@ import time
 
 import pytest
 
+
+def _state(pid: int) -> str:
+    """The process's state letter from /proc (R, S, T stopped, Z zombie, ...)."""
+    from pathlib import Path
+
+    return Path(f"/proc/{pid}/stat").read_text().split()[2]
+
 from fl_design.analysis import loop_margins
 from fl_design.ui._background import STAGES, Background, stage_keys
 
@@ -49,7 +56,7 @@ def test_margins_arrive_from_the_child_and_match_the_library(trms_setup, trms_tu
         pid = bg._proc.pid if bg._proc is not None else None
         bg.submit(trms_tuner.check({"gamma": 6e-4}))  # moving: paused at once, then restarted
         if pid is not None and os.path.exists(f"/proc/{pid}"):
-            state = open(f"/proc/{pid}/stat").read().split()[2]
+            state = _state(pid)
             assert state in ("T", "t", "Z"), state  # stopped (or already finished)
         assert bg.snapshot()["margins"]["state"] in ("stale", "computing")
     finally:
@@ -57,4 +64,4 @@ def test_margins_arrive_from_the_child_and_match_the_library(trms_setup, trms_tu
     assert bg._proc is None
     if pid is not None:
         assert not os.path.exists(f"/proc/{pid}") or \
-            open(f"/proc/{pid}/stat").read().split()[2] == "Z"
+            _state(pid) == "Z"

@@ -15,6 +15,13 @@ import urllib.request
 
 import pytest
 
+
+def _state(pid: int) -> str:
+    """The process's state letter from /proc (R, S, T stopped, Z zombie, ...)."""
+    from pathlib import Path
+
+    return Path(f"/proc/{pid}/stat").read_text().split()[2]
+
 from fl_design.app import main
 
 
@@ -70,7 +77,7 @@ def test_serves_refuses_without_token_and_stops_cleanly(sig, tmp_path):
         assert "stopped" in proc.stderr.read()
         for k in kids:  # the background process and its group are gone too
             assert not os.path.exists(f"/proc/{k}") or \
-                open(f"/proc/{k}/stat").read().split()[2] == "Z"
+                _state(k) == "Z"
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)

@@ -34,6 +34,16 @@ def test_cached_loop_gives_simulate_bit_for_bit(trms_tuner, changes):
     assert got.metrics["overshoot"] == ref.metrics["overshoot"]
 
 
+@pytest.mark.parametrize("changes", [{}, {"eps": 0.1, "gamma": 1e-3}, {"reference": 0.5},
+                                     {"gamma": 3e-3, "eps": 0.02}])
+def test_cached_noise_gain_equals_the_library(trms_tuner, changes):
+    v = trms_tuner.check(changes)
+    design = trms_tuner.design_for(v)
+    got = trms_tuner.loops.noise_gain(trms_tuner.plant, design, r=v["reference"])
+    want = fl.analysis.noise_gain(trms_tuner.plant, design, r=v["reference"])
+    assert got == pytest.approx(want, rel=1e-12)
+
+
 def test_structure_key_separates_what_is_compiled():
     d = fl.presets.paper_design()
     same = d.replace(eps=0.2, gamma=1e-3)
