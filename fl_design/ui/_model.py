@@ -147,6 +147,9 @@ class Tuner:
     setup : TunerSetup
         The configuration with its plant and design
         (:func:`fl_design.app._cli.ui_setup` makes one).
+    compile_aside : bool, optional
+        New gains, T or limits run first in the interpreter while their C kernel compiles in
+        a child process (:class:`fl_design.ui._loops.LoopCache`); the server turns it on.
 
     Raises
     ------
@@ -163,7 +166,7 @@ class Tuner:
     0.0003
     """
 
-    def __init__(self, setup: TunerSetup) -> None:
+    def __init__(self, setup: TunerSetup, *, compile_aside: bool = False) -> None:
         config = setup.config
         if config.design is None or setup.design is None:
             raise ParameterError(f"{config.source}: the tuner needs a [design] (gains, gamma, eps, "
@@ -180,7 +183,7 @@ class Tuner:
         self.classifier = config.classifier
         self.rho = self.plant.relative_degree()
         self.b_bounds = self._b_bounds()
-        self.loops = LoopCache()
+        self.loops = LoopCache(compile_aside=compile_aside)
 
     def _b_bounds(self):
         p = self.plant
@@ -357,6 +360,20 @@ class Tuner:
         return dataclasses.replace(self.config, design=design, scenario=scenario)
 
     # --- the fast path ----------------------------------------------------------------------
+    def warm_up(self) -> dict:
+        """The defaults' redraw with their kernel compiled here (before the page asks).
+
+        Returns
+        -------
+        dict
+            As :meth:`redraw`.
+        """
+        aside, self.loops.compile_aside = self.loops.compile_aside, False
+        try:
+            return self.redraw({})
+        finally:
+            self.loops.compile_aside = aside
+
     def redraw(self, values: dict) -> dict:
         """Simulate the controls' loop: traces, verdict, noise gain, the time it took.
 
@@ -394,6 +411,8 @@ class Tuner:
                           "settling_time": _num(resp.settling_time),
                           "steady_state_error": _num(resp.steady_state_error),
                           "text": resp.verdict(), "duration": float(resp.duration)}
+        out["kernel"] = "compiled" if self.loops.last_compiled else \
+            "interpreted (the C kernel of these gains, T or limits is compiling)"
         out["noise_gain"] = self._noise_gain(design, v)
         out["values"] = v
         out["compute_ms"] = 1e3 * (time.perf_counter() - start)

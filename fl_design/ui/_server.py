@@ -147,6 +147,7 @@ class TunerApp:
 
     def close(self) -> None:
         self.background.close()
+        self.tuner.loops.close()
 
 
 def _static(name: str) -> bytes:
@@ -312,11 +313,12 @@ def serve(setup, *, port: int = 0, out="ui_out", open_browser: bool = False,
     from ._model import Tuner
 
     start = time.perf_counter()
-    tuner = Tuner(setup)
+    tuner = Tuner(setup, compile_aside=True)
     config = setup.config
     app = TunerApp(tuner, out, background=background)
     httpd = make_server(app, port)
-    app.redraw({})  # compile the loop once before the page asks (the first page is then fast)
+    tuner.warm_up()  # the defaults' kernel compiled before the page asks: the first page is fast
+    app.background.submit(tuner.check({}))
     url = url_of(httpd, app)
     print(f"fl-design ui: {tuner.plant.name} from {config.source}, ready in "
           f"{time.perf_counter() - start:.1f} s\n  {url}\n(Ctrl-C stops it; only this "

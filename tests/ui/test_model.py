@@ -65,6 +65,30 @@ def test_loop_cache_keeps_a_bounded_number_of_loops(pendulum):
     assert len(cache._loops) == 2
 
 
+def test_a_new_structure_runs_interpreted_while_its_kernel_compiles_aside(pendulum):
+    base = fl.presets.pendulum_design()
+    design = fl.Design(estimator=base.estimator, controller=base.controller.replace(
+        gains=(2.345, 4.0)))
+    scenario = fl.Scenario(0.1, 1.0)
+    cache = LoopCache(compile_aside=True)
+    try:
+        first = cache.simulate(pendulum, design, scenario)
+        assert cache.last_compiled is False
+        ref = fl.simulate(pendulum, design, scenario)
+        np.testing.assert_allclose(first.y, ref.y, rtol=1e-12, atol=1e-15)
+        assert first.status == ref.status
+        proc = next(iter(cache._compiling.values()))
+        proc.join(timeout=120)
+        assert proc.exitcode == 0
+        second = cache.simulate(pendulum, design.replace(gamma=2e-2), scenario)
+        assert cache.last_compiled is True
+        np.testing.assert_array_equal(
+            second.y, fl.simulate(pendulum, design.replace(gamma=2e-2), scenario).y)
+    finally:
+        cache.close()
+    assert not cache._compiling
+
+
 def test_redraw_shows_the_library_verdict_and_noise_gain(trms_tuner):
     view = trms_tuner.redraw({"gamma": 3e-3, "duration": 20.0})
     v = view["values"]

@@ -131,7 +131,7 @@
       S.lastRedrawMs = since === null ? null : performance.now() - since;
       $('timing').textContent = (S.lastRedrawMs === null ? 'drawn' :
         'redrawn in ' + S.lastRedrawMs.toFixed(0) + ' ms') + ' (server ' +
-        d.compute_ms.toFixed(0) + ' ms)';
+        d.compute_ms.toFixed(0) + ' ms' + (d.kernel === 'compiled' ? ')' : ', ' + d.kernel + ')');
       window.requestAnimationFrame(drawMap);
     });
   }
