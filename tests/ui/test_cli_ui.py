@@ -12,6 +12,7 @@ import sys
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 
@@ -75,9 +76,12 @@ def test_serves_refuses_without_token_and_stops_cleanly(sig, tmp_path):
         os.kill(proc.pid, sig)
         assert proc.wait(timeout=30) == 0
         assert "stopped" in proc.stderr.read()
-        for k in kids:  # the background process and its group are gone too
-            assert not os.path.exists(f"/proc/{k}") or \
-                _state(k) == "Z"
+        end = time.time() + 15  # the background process and its group are gone too
+        alive = kids  # (multiprocessing's resource tracker leaves once its pipe closes)
+        while alive and time.time() < end:
+            alive = [k for k in kids if os.path.exists(f"/proc/{k}") and _state(k) != "Z"]
+            time.sleep(0.2)
+        assert not alive, [Path(f"/proc/{k}/cmdline").read_bytes() for k in alive]
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
