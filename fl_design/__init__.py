@@ -74,6 +74,7 @@ _LAZY = {
     "GammaCertificate": "analysis",
     "EpsCertificate": "analysis",
     "EpsStarCurve": "analysis",
+    "PlantClass": "analysis._plant_class",
     "tune": "tuning",
     "Tuning": "tuning",
     # sub-modules and layers
@@ -91,6 +92,7 @@ _LAZY = {
 
 if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
     from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic, tuning
+    from .analysis._plant_class import PlantClass
     from .analysis import (
         EpsCertificate,
         EpsStarCurve,
