@@ -11,7 +11,7 @@ Sub-commands
     with its bench design, :func:`fl_design.presets.bench_design`).
 ``init [--plant P | --from-ode]``
     Write a commented configuration (every table and key) to stdout.
-``ui [CONFIG.toml | --plant P] [--port N] [--out DIR] [--open]``
+``ui [CONFIG.toml | --plant P | --class SPEC] [--port N] [--out DIR] [--open]``
     The tuner page on 127.0.0.1 (:mod:`fl_design.ui`); prints its URL (with its token).
 
 Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
@@ -422,7 +422,8 @@ def _ui_parser(sub) -> None:
     ui.add_argument("--plant", choices=PLANT_CHOICES, default=None,
                     help="a library plant with its bench design instead of a config")
     ui.add_argument("--class", dest="plant_class", default=None, metavar="SPEC",
-                    help="a plant class (rho, T, b range, noise) instead of a plant")
+                    help="a plant class instead of a plant, e.g. rho=2,T=1e-3,b=1:50,"
+                    "noise_std=1e-3 (keys rho, T, b, b_rate, noise_std, delay)")
     ui.add_argument("--port", type=int, default=0, help="TCP port (default: a free one)")
     ui.add_argument("--out", default="ui_out", help="where the page's buttons write (default "
                     "ui_out; must be empty or hold fl_design's own output)")
@@ -432,7 +433,7 @@ def _ui_parser(sub) -> None:
     ui.set_defaults(func=_cmd_ui)
 
 
-def ui_setup(cfg):
+def ui_setup(cfg, *, plant_class=None):
     """The tuner's :class:`fl_design.ui.TunerSetup` of a config (checked as ``run`` checks it).
 
     Examples
@@ -448,16 +449,22 @@ def ui_setup(cfg):
 
     cfg, job = _prepare(cfg)
     return TunerSetup(config=cfg, plant=job.plant, design=job.design, render=render,
-                      library=LIBRARY)
+                      library=LIBRARY, plant_class=plant_class)
 
 
 def _cmd_ui(args) -> int:
-    if args.plant_class is not None:
-        raise ParameterError("fl-design ui --class needs fl.PlantClass, which this build does "
-                             "not have yet: give a config with [plant] or --plant P")
     from ..ui import serve
+    from ..ui._class_mode import class_toml, parse_class_spec
 
-    return serve(ui_setup(_config(args)), port=args.port, out=args.out, open_browser=args.open,
+    if args.plant_class is None:
+        setup = ui_setup(_config(args))
+    elif args.config is not None or args.plant:
+        raise ParameterError("give a config, --plant or --class, not two of them")
+    else:  # the class's simulated member and a starting design (fl_design.ui._class_mode)
+        cls = parse_class_spec(args.plant_class)
+        cfg = parse_config(class_toml(cls), source=f"--class {args.plant_class}")
+        setup = ui_setup(cfg, plant_class=cls)
+    return serve(setup, port=args.port, out=args.out, open_browser=args.open,
                  background=not args.no_background)
 
 

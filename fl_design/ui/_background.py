@@ -25,14 +25,18 @@ True
 
 from __future__ import annotations
 
+import copyreg
+import io
 import json
 import math
 import multiprocessing
 import os
+import pickle
 import signal
 import tempfile
 import threading
 import time
+from types import MappingProxyType
 
 #: Stages, cheapest first, and the controls each depends on.
 STAGES = {
@@ -53,6 +57,34 @@ CURVE_POINTS = 6
 BENCH_STEPS = 200_000
 
 
+def read_only(d: dict) -> MappingProxyType:
+    """A read-only view of ``d`` (what unpickling a pickled read-only mapping makes)."""
+    return MappingProxyType(d)
+
+
+class _Pickler(pickle.Pickler):
+    """Pickles read-only mappings (the config's tables hold some) as themselves."""
+
+    dispatch_table = copyreg.dispatch_table.copy()
+    dispatch_table[MappingProxyType] = lambda m: (read_only, (dict(m),))
+
+
+def dumps(obj) -> bytes:
+    """``obj`` pickled for a child process (read-only mappings included).
+
+    Examples
+    --------
+    >>> import pickle
+    >>> from types import MappingProxyType
+    >>> from fl_design.ui._background import dumps
+    >>> pickle.loads(dumps({"t": MappingProxyType({"b": 2.0})}))["t"]["b"]
+    2.0
+    """
+    buf = io.BytesIO()
+    _Pickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump(obj)
+    return buf.getvalue()
+
+
 def stage_keys(values: dict) -> dict:
     """Each stage's key: the JSON of the controls it depends on.
 
@@ -68,6 +100,13 @@ def stage_keys(values: dict) -> dict:
     """
     v = dict(values) | {"limited": values.get("u_min") is not None}
     return {s: json.dumps([v[k] for k in keys]) for s, keys in STAGES.items()}
+
+
+def _words(tuner, v, covers: str) -> str:
+    cls = tuner.plant_class
+    if cls is None:
+        return class_words(tuner.b_bounds, tuner.rho, v["T"], covers)
+    return f"{cls.describe()}; not covered: {', '.join(cls.uncovered())} ({covers} b)"
 
 
 def class_words(b_bounds, rho: int, T: float, covers: str) -> str:
@@ -124,8 +163,8 @@ def _margins(tuner, design, v):
 def _gamma(tuner, design, v):
     from ..analysis import certify_gamma
 
-    c = certify_gamma(design, tuner.b_bounds)
-    return {"text": str(c), "words": class_words(tuner.b_bounds, tuner.rho, v["T"], "varying")}
+    c = certify_gamma(design, tuner.cert_target)
+    return {"text": str(c), "words": _words(tuner, v, "varying")}
 
 
 def _cost(tuner, design, v):
@@ -175,35 +214,36 @@ def _curve(tuner, design, v):
 
     cfg = tuner.config.certify
     lo, hi = sorted(abs(x) for x in (cfg.gamma or tuner.config.sweep.gamma))
-    c = eps_star_curve(design, tuner.b_bounds, np.geomspace(lo, hi, CURVE_POINTS),
+    c = eps_star_curve(design, tuner.cert_target, np.geomspace(lo, hi, CURVE_POINTS),
                        eps_range=tuple(cfg.eps_range or tuner.config.sweep.eps))
     return {"gamma": [float(g) for g in c.gamma],
             "frozen": [_num(x) for x in c.eps_star_frozen],
             "certified": [_num(x) for x in c.eps_star_certified], "covers": c.covers,
-            "words": class_words(tuner.b_bounds, tuner.rho, v["T"], c.covers)}
+            "words": _words(tuner, v, c.covers)}
 
 
 def _eps(tuner, design, v):
     from ..analysis import certify_eps
 
     cfg = tuner.config
-    c = certify_eps(design, tuner.b_bounds,
+    c = certify_eps(design, tuner.cert_target,
                     eps_range=tuple(cfg.certify.eps_range or cfg.sweep.eps))
     brackets = [{"covers": b.covers, "certified": _num(b.certified), "refuted": _num(b.refuted),
-                 "words": class_words(tuner.b_bounds, tuner.rho, v["T"], b.covers)}
+                 "words": _words(tuner, v, b.covers)}
                 for b in c.brackets]
     return {"text": str(c), "certified": bool(c.certified), "covers": c.covers,
             "eps_star_certified": _num(c.eps_star_certified), "brackets": brackets,
-            "words": class_words(tuner.b_bounds, tuner.rho, v["T"], c.covers)}
+            "words": _words(tuner, v, c.covers)}
 
 
 _RUN = {"margins": _margins, "gamma": _gamma, "cost": _cost, "map": _map, "curve": _curve,
         "eps": _eps}
 
 
-def _work(setup, values: dict, todo: list, conn) -> None:  # pragma: no cover (child process)
+def _work(blob: bytes, values: dict, todo: list, conn) -> None:  # pragma: no cover (child)
     """The child process: each stage of ``todo`` in turn, each result sent when ready."""
     os.setsid()  # its own group: ended whole (sweep pools, compilers) when the controls move
+    setup = pickle.loads(blob)  # our own parent's bytes (dumps), through a pipe
     import warnings
 
     warnings.simplefilter("ignore")
@@ -294,7 +334,7 @@ class Background:
                 return
             ctx = multiprocessing.get_context("spawn")
             parent, child = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_work, args=(self.setup, self._values, todo, child),
+            proc = ctx.Process(target=_work, args=(dumps(self.setup), self._values, todo, child),
                                daemon=True, name="fl-design-ui-background")
             proc.start()
             child.close()

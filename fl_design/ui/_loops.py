@@ -65,14 +65,16 @@ def structure_key(design, substeps: int) -> str:
     return repr((est, ctrl, int(substeps)))
 
 
-def _compile_kernel(plant, design, substeps: int) -> None:  # pragma: no cover (child)
+def _compile_kernel(blob: bytes, substeps: int) -> None:  # pragma: no cover (child)
     """Child process: build and compile the loop's kernel (cached on disk for the parent)."""
+    import pickle
     import warnings
 
     from ..sim._options import Kernel
     from ..sim.kernel._loop import ClosedLoop
 
     warnings.simplefilter("ignore")
+    plant, design = pickle.loads(blob)  # our own parent's bytes, through a pipe
     ClosedLoop(plant, design, substeps=substeps).runner(kernel=Kernel())
 
 
@@ -108,8 +110,11 @@ class LoopCache:
 
     def _compile(self, key, plant, design, substeps: int) -> None:
         """Compile a structure's kernel in a child process (into the kernel cache)."""
+        from ._background import dumps
+
         ctx = multiprocessing.get_context("spawn")
-        proc = ctx.Process(target=_compile_kernel, args=(plant, design, substeps), daemon=True,
+        proc = ctx.Process(target=_compile_kernel, args=(dumps((plant, design)), substeps),
+                           daemon=True,
                            name="fl-design-ui-compile")
         proc.start()
         with self._lock:

@@ -123,6 +123,9 @@ class TunerSetup:
         ``render(config, header) -> str``: a config as commented TOML (the "save" button).
     library : mapping
         Library plant key -> ``(factory name in fl.plants, keyword arguments)`` (the snippet).
+    plant_class : fl_design.PlantClass, optional
+        The class mode (``--class``): ``plant`` is one member of it (simulated) and the
+        certificates are computed for the whole class.
 
     Examples
     --------
@@ -137,6 +140,7 @@ class TunerSetup:
     design: object
     render: Callable
     library: Mapping
+    plant_class: object = None
 
 
 class Tuner:
@@ -182,7 +186,11 @@ class Tuner:
         self.config, self.plant, self.design = config, setup.plant, setup.design
         self.classifier = config.classifier
         self.rho = self.plant.relative_degree()
-        self.b_bounds = self._b_bounds()
+        self.plant_class = setup.plant_class
+        self.b_bounds = self._b_bounds() if self.plant_class is None else \
+            tuple(float(x) for x in self.plant_class.b)
+        #: what the certificates cover: the class, or the plant's b range
+        self.cert_target = self.plant_class or self.b_bounds
         self.loops = LoopCache(compile_aside=compile_aside)
 
     def _b_bounds(self):

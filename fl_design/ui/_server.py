@@ -118,6 +118,7 @@ class TunerApp:
         t = self.tuner
         return {"controls": t.controls(), "plant": t.plant.name, "source": t.config.source,
                 "rho": t.rho, "b_bounds": t.b_bounds,
+                "plant_class": None if t.plant_class is None else t.plant_class.describe(),
                 "out": str(self.out), "defaults": t.defaults()}
 
     def redraw(self, values) -> dict:

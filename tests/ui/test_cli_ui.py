@@ -1,6 +1,6 @@
 """``fl-design ui`` from the command line: prints its URL, refuses a request without the token,
 stops cleanly on Ctrl-C (SIGINT) and on SIGTERM, ending its background process too; the class
-mode says clearly that it is not there yet."""
+mode is tested in test_class_mode.py."""
 
 from __future__ import annotations
 
@@ -24,12 +24,6 @@ def _state(pid: int) -> str:
     return Path(f"/proc/{pid}/stat").read_text().split()[2]
 
 from fl_design.app import main
-
-
-def test_class_mode_is_a_clear_error(capsys):
-    assert main(["ui", "--class", "rho=2"]) == 2
-    err = capsys.readouterr().err
-    assert "--class needs fl.PlantClass" in err and "--plant" in err
 
 
 def test_config_and_plant_together_are_refused(capsys, tmp_path):

@@ -262,6 +262,8 @@
       S.controls = j.controls;
       $('plant').textContent = j.plant + ' (' + j.source + '), relative degree ' + j.rho +
         (j.b_bounds ? ', b in [' + fmt(j.b_bounds[0]) + ', ' + fmt(j.b_bounds[1]) + ']' : '');
+      if (j.plant_class) $('plant').textContent = 'class mode: ' + j.plant_class +
+        ' | simulated: ' + j.plant;
       $('out').textContent = j.out;
       buildSliders(j.controls);
       $('save-toml').addEventListener('click', () => save('toml'));
