@@ -161,6 +161,11 @@
   function drawMap() {
     const bg = S.bg, v = S.drawn;
     if (!v) return;
+    // redraw only when something it shows changed (the poll comes every 0.8 s)
+    const part = (s) => s ? [s.state, s.seconds] : null;
+    const sig = JSON.stringify([v.eps, v.gamma, bg && [part(bg.map), part(bg.curve), part(bg.eps)]]);
+    if (sig === S.mapSig) return;
+    S.mapSig = sig;
     const traces = [];
     const m = bg && bg.map;
     if (usable(m) && !m.data.error) {
@@ -209,6 +214,9 @@
   }
 
   function showBackground(bg) {
+    const sig = JSON.stringify(Object.values(bg).map((s) => [s.state, s.seconds]));
+    if (sig === S.bgSig) return;  // nothing new since the last poll
+    S.bgSig = sig;
     S.bg = bg;
     $('state-map').textContent = stateText(bg.map);
     $('state-cert').textContent = stateText(bg.eps.state === 'ready' ? bg.eps : bg.gamma);
