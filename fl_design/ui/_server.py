@@ -170,9 +170,10 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_header("Cache-Control", "no-store")
         self.send_header("X-Content-Type-Options", "nosniff")
         self.send_header("Referrer-Policy", "no-referrer")
-        self.send_header("Content-Security-Policy", "default-src 'self'; script-src 'self' "
-                         "'unsafe-eval'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
-                         "connect-src 'self'")
+        # Plotly sets inline styles (style-src 'unsafe-inline'); no script but ours and Plotly.js
+        self.send_header("Content-Security-Policy", "default-src 'self'; script-src 'self'; "
+                         "style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
+                         "connect-src 'self'; frame-ancestors 'none'")
         self.end_headers()
         self.wfile.write(body)
 

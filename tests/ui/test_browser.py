@@ -117,6 +117,13 @@ def test_quick_moves_end_on_the_last_value(page):
     assert math.isclose(drawn["gamma"], 6e-4, rel_tol=0.01)
 
 
+def test_no_error_in_the_console(page):
+    """No script error, no refused resource, no policy violation (the page's CSP is strict)."""
+    drv, _ = page
+    severe = [e["message"] for e in drv.get_log("browser") if e["level"] == "SEVERE"]
+    assert not severe, severe
+
+
 def test_every_resource_came_from_the_tuner(page):
     drv, app = page
     urls = drv.execute_script("return performance.getEntriesByType('resource')"
