@@ -109,9 +109,22 @@ class LoopCache:
         self.last_compiled = True
 
     def _compile(self, key, plant, design, substeps: int) -> None:
-        """Compile a structure's kernel in a child process (into the kernel cache)."""
+        """Compile a structure's kernel in a child process (into the kernel cache).
+
+        One compilation at a time, the latest structure's: a slider dragged over many gains
+        does not start a compiler per position (an unfinished one is ended; its structure
+        stays interpreted and is compiled again if it is asked for again).
+        """
         from ._background import dumps
 
+        with self._lock:
+            stale = [(k, p) for k, p in self._compiling.items() if p.is_alive()]
+            for k, _ in stale:
+                del self._compiling[k]
+                self._loops.pop(k, None)  # its interpreted loop: rebuilt (and compiled) if asked
+        for _, proc in stale:
+            proc.terminate()
+            proc.join(timeout=10)
         ctx = multiprocessing.get_context("spawn")
         proc = ctx.Process(target=_compile_kernel, args=(dumps((plant, design)), substeps),
                            daemon=True,

@@ -89,6 +89,20 @@ def test_a_new_structure_runs_interpreted_while_its_kernel_compiles_aside(pendul
     assert not cache._compiling
 
 
+def test_one_compilation_at_a_time_the_latest(pendulum):
+    base = fl.presets.pendulum_design()
+    cache = LoopCache(compile_aside=True)
+    try:
+        for k in (2.11, 2.12, 2.13):
+            d = fl.Design(estimator=base.estimator, controller=base.controller.replace(
+                gains=(k, 4.0)))
+            cache.simulate(pendulum, d, fl.Scenario(0.1, 0.2))
+            assert cache.last_compiled is False
+        assert len(cache._compiling) == 1 and len(cache._loops) == 1
+    finally:
+        cache.close()
+
+
 def test_redraw_shows_the_library_verdict_and_noise_gain(trms_tuner):
     view = trms_tuner.redraw({"gamma": 3e-3, "duration": 20.0})
     v = view["values"]
