@@ -101,6 +101,16 @@ class TunerApp:
         Compute the slow results (False: the page alone, for tests).
     token : str, optional
         Default: 32 random URL-safe characters (:func:`secrets.token_urlsafe`).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
+    >>> from fl_design.ui import Tuner, TunerApp
+    >>> app = TunerApp(Tuner(ui_setup(load_config(None))), "ui_out", background=False)
+    >>> len(app.token) >= 32, app.init()["plant"]
+    (True, 'trms_yaw')
+    >>> app.close()
     """
 
     def __init__(self, tuner, out, *, background: bool = True, token: str | None = None):
@@ -259,6 +269,24 @@ def make_server(app: TunerApp, port: int = 0) -> ThreadingHTTPServer:
     ------
     ParameterError
         A port outside 0..65535, or one that is taken.
+
+    Examples
+    --------
+    >>> import threading, urllib.request, urllib.error
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
+    >>> from fl_design.ui import Tuner, TunerApp, make_server, url_of
+    >>> app = TunerApp(Tuner(ui_setup(load_config(None))), "ui_out", background=False)
+    >>> httpd = make_server(app, 0)
+    >>> _ = threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    >>> urllib.request.urlopen(url_of(httpd, app), timeout=30).status
+    200
+    >>> try:
+    ...     urllib.request.urlopen(url_of(httpd, app).replace(app.token, "guess"), timeout=30)
+    ... except urllib.error.HTTPError as err:
+    ...     print(err.code)
+    403
+    >>> httpd.shutdown(); httpd.server_close(); app.close()
     """
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
         raise ParameterError(f"--port must be an integer in 0..65535 (0: a free port), got "
@@ -276,7 +304,20 @@ def make_server(app: TunerApp, port: int = 0) -> ThreadingHTTPServer:
 
 
 def url_of(httpd, app: TunerApp) -> str:
-    """The page's URL (with the token)."""
+    """The page's URL (with the token).
+
+    Parameters
+    ----------
+    httpd : http.server.ThreadingHTTPServer
+        A server of :func:`make_server`.
+    app : TunerApp
+        Its app.
+
+    Returns
+    -------
+    str
+        ``http://127.0.0.1:PORT/TOKEN/``.
+    """
     return f"http://127.0.0.1:{httpd.server_address[1]}/{app.token}/"
 
 
@@ -309,6 +350,14 @@ def serve(setup, *, port: int = 0, out="ui_out", open_browser: bool = False,
         A config the tuner cannot use, or a port that cannot be had.
     MissingDependencyError
         ``plotly`` is not installed.
+
+    Examples
+    --------
+    From the command line (it serves until Ctrl-C)::
+
+        fl-design ui --plant trms            # prints http://127.0.0.1:PORT/TOKEN/
+        fl-design ui my_rig.toml --port 8765 --out tuned --open
+        fl-design ui --class rho=2,T=1e-3,b=1:50,noise_std=1e-3
     """
     import signal
 

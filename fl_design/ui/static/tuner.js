@@ -202,7 +202,8 @@
                   marker: { symbol: 'star', size: 16, color: '#ffd000', line: { color: '#000', width: 1 } } });
     Plotly.react('plot-map', traces, {
       margin: { l: 55, r: 10, t: 10, b: 40 }, showlegend: true, legend: { font: { size: 10 } },
-      xaxis: { type: 'log', title: { text: '|gamma|' } }, yaxis: { type: 'log', title: { text: 'eps (s)' } },
+      xaxis: { type: 'log', title: { text: '|gamma|' }, dtick: 1, showgrid: false },
+      yaxis: { type: 'log', title: { text: 'eps (s)' }, dtick: 1, showgrid: false },
       uirevision: 'keep' }, PLOT_CONFIG);
   }
 
