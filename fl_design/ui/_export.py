@@ -111,6 +111,16 @@ def write_c(tuner, values: dict, out):
     return generate_c(tuner.design_for(v), target, precision=cg.precision, prefix=cg.prefix)
 
 
+def _constructor(obj) -> str:
+    """``fl.Name(field=value, ...)`` of a frozen dataclass, every number to its last digit
+    (the objects' own reprs round for reading)."""
+    import dataclasses
+
+    args = ", ".join(f"{f.name}={getattr(obj, f.name)!r}" for f in dataclasses.fields(obj)
+                     if f.init)
+    return f"fl.{type(obj).__name__}({args})"
+
+
 def snippet_text(tuner, values: dict) -> str:
     """Python that reproduces the page's response (plant, design, scenario, simulate, plot).
 
@@ -158,11 +168,11 @@ def snippet_text(tuner, values: dict) -> str:
     c = tuner.classifier
     return ("# the view of `fl-design ui`, reproduced\nimport fl_design as fl\n"
             f"plant = fl.plants.{factory}({args})\n"
-            f"design = fl.Design(estimator=fl.{d.estimator!r},\n"
-            f"                   controller=fl.{d.controller!r})\n"
+            f"design = fl.Design(estimator={_constructor(d.estimator)},\n"
+            f"                   controller={_constructor(d.controller)})\n"
             f"scenario = fl.Scenario({s.reference!r}, {s.duration!r}, "
             f"noise=fl.Noise(std={s.noise.std!r}, seed={s.noise.seed!r}))\n"
-            f"resp = fl.simulate(plant, design, scenario, classifier=fl.{c!r})\n"
+            f"resp = fl.simulate(plant, design, scenario, classifier={_constructor(c)})\n"
             "print(resp.verdict())\nresp.plot()\n")
 
 

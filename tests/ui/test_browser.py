@@ -117,6 +117,20 @@ def test_quick_moves_end_on_the_last_value(page):
     assert math.isclose(drawn["gamma"], 6e-4, rel_tol=0.01)
 
 
+def test_buttons_write_into_the_out_folder_only(page):
+    drv, app = page
+    for button, name in (("save-toml", "design_1.toml"), ("copy-snippet", "snippet_1.py")):
+        drv.find_element("id", button).click()
+        _wait(drv, "return document.getElementById('written').textContent.startsWith('wrote')",
+              60)
+        assert (app.out / name).is_file()
+        assert str(app.out / name) in drv.find_element("id", "written").text
+    snippet = drv.find_element("id", "snippet").get_attribute("value")
+    assert snippet == (app.out / "snippet_1.py").read_text()
+    drawn = drv.execute_script("return window.flTuner.drawn")
+    assert f"gamma={drawn['gamma']!r}" in snippet  # the view's numbers, as drawn
+
+
 def test_no_error_in_the_console(page):
     """No script error, no refused resource, no policy violation (the page's CSP is strict)."""
     drv, _ = page

@@ -38,7 +38,7 @@ def test_c_package_goes_into_a_new_folder(trms_tuner, tmp_path):
 
 
 def test_snippet_reproduces_the_page_verdict(trms_tuner, tmp_path):
-    v = {"gamma": 3e-3, "duration": 6.0}
+    v = {"gamma": 0.0006013416082095486, "eps": 0.0512345678901, "duration": 6.0}
     view = trms_tuner.redraw(v)
     path, text = save_snippet(trms_tuner, v, tmp_path)
     assert path.read_text() == text
@@ -46,3 +46,4 @@ def test_snippet_reproduces_the_page_verdict(trms_tuner, tmp_path):
     out = subprocess.run([sys.executable, "-c", run], capture_output=True, text=True,
                          timeout=240, check=True, cwd=tmp_path)
     assert out.stdout.strip() == view["verdict"]["text"]
+    assert "gamma=0.0006013416082095486" in text  # every digit: the same run, not a rounding
