@@ -399,7 +399,8 @@ class Background:
             for s in STAGES:
                 key, data, sec = self._results.get(s, (None, None, None))
                 fresh = key is not None and key == self._keys.get(s)
-                state = "ready" if fresh else ("computing" if s in running else
+                busy = "paused while the controls move" if self._paused else "computing"
+                state = "ready" if fresh else (busy if s in running else
                                                ("stale" if key is not None else "waiting"))
                 out[s] = {"state": state, "data": data, "seconds": sec}
             return out

@@ -36,6 +36,9 @@ import numpy as np
 
 #: Loop structures kept (each holds a compiled runner).
 MAX_LOOPS = 8
+#: Longest run (samples) worth interpreting while its kernel compiles; longer ones compile
+#: here (the interpreter takes about 25 us a sample: 40 000 samples, about 1 s).
+MAX_INTERPRETED = 40_000
 
 
 def structure_key(design, substeps: int) -> str:
@@ -247,7 +250,7 @@ class LoopCache:
                 self._loops.pop(key)
         if entry is None:
             if self.compile_aside and not compiled_aside and key not in self._compiling \
-                    and not self._closed:
+                    and not self._closed and run.N <= MAX_INTERPRETED:
                 entry = (run.loop, run.loop.runner(kernel=Kernel(compiled=False)), False)
                 self._compile(key, plant, design, run.loop.substeps)
             else:
@@ -262,4 +265,4 @@ class LoopCache:
         return _response(run, out, summary, "rk4")
 
 
-__all__ = ["LoopCache", "structure_key"]
+__all__ = ["MAX_INTERPRETED", "LoopCache", "structure_key"]

@@ -247,6 +247,12 @@ class _Handler(BaseHTTPRequestHandler):
         except FlDesignError as err:
             self._json(400, {"error": str(err)})
             return
+        except Exception as err:  # noqa: BLE001 (one line to the page and the terminal)
+            msg = f"{type(err).__name__}: {err}"
+            print(f"fl-design ui: {route} failed: {msg}", file=sys.stderr, flush=True)
+            self._json(500, {"error": f"the tuner failed on this request ({msg}); the "
+                             "terminal says the same"})
+            return
         self._json(200, data)
 
 

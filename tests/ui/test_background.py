@@ -58,7 +58,8 @@ def test_margins_arrive_from_the_child_and_match_the_library(trms_setup, trms_tu
         if pid is not None and os.path.exists(f"/proc/{pid}"):
             state = _state(pid)
             assert state in ("T", "t", "Z"), state  # stopped (or already finished)
-        assert bg.snapshot()["margins"]["state"] in ("stale", "computing")
+        state = bg.snapshot()["margins"]["state"]
+        assert state in ("stale", "computing", "paused while the controls move"), state
     finally:
         bg.close()
     assert bg._proc is None

@@ -115,6 +115,18 @@ def test_bad_requests_are_refused_with_a_reason(served, body, headers, code):
     assert _request(port, "POST", f"/{app.token}/api/redraw", body, headers)[0] == code
 
 
+def test_an_unexpected_failure_is_one_line_not_a_traceback(served, monkeypatch, capsys):
+    app, port = served
+
+    def broken(values):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(app.tuner, "redraw", broken)
+    status, body, _ = _request(port, "POST", f"/{app.token}/api/redraw", {})
+    assert status == 500 and "RuntimeError: boom" in json.loads(body)["error"]
+    assert "Traceback" not in capsys.readouterr().err
+
+
 def test_save_takes_no_path_from_the_browser(served):
     app, port = served
     status, body, _ = _request(port, "POST", f"/{app.token}/api/save",

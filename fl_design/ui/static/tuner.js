@@ -154,6 +154,7 @@
     if (!s) return '';
     if (s.state === 'ready') return '(ready, ' + fmt(s.seconds, ' s') + ')';
     if (s.state === 'stale') return '(for earlier controls; waiting to recompute)';
+    if (s.state.startsWith('paused')) return '(' + s.state + ')';
     return '(' + s.state + '...)';
   }
   function usable(s) { return s && s.data && (s.state === 'ready' || s.state === 'stale'); }
