@@ -26,6 +26,19 @@ def _state(pid: int) -> str:
 from fl_design.app import main
 
 
+def test_a_config_file_from_init_is_tuned(capsys, tmp_path):
+    from fl_design.app import load_config
+    from fl_design.app._cli import ui_setup
+    from fl_design.ui import Tuner
+
+    assert main(["init", "--plant", "pendulum"]) == 0
+    path = tmp_path / "rig.toml"
+    path.write_text(capsys.readouterr().out)
+    tuner = Tuner(ui_setup(load_config(path)))
+    assert tuner.config.source == str(path) and tuner.plant.name == "pendulum"
+    assert tuner.redraw({"duration": 2.0})["verdict"]["status"]
+
+
 def test_config_and_plant_together_are_refused(capsys, tmp_path):
     assert main(["ui", str(tmp_path / "x.toml"), "--plant", "trms"]) == 2
     assert "not both" in capsys.readouterr().err
