@@ -71,7 +71,7 @@ def main(argv=None) -> int:
         Path(tempfile.mkdtemp(prefix="fl-ui-")) / "ui.png" if args.quick
         else ROOT / "docs" / "img" / "ui.png")
     cfg = parse_config(f'[plant]\nlibrary = "{args.plant}"', source=f"--plant {args.plant}")
-    app = TunerApp(Tuner(ui_setup(cfg)), tempfile.mkdtemp(prefix="fl-ui-out-"),
+    app = TunerApp(Tuner(ui_setup(cfg)), "ui_out",  # shown on the page; nothing is written
                    background=not args.quick)
     httpd = make_server(app, 0)
     thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1},
