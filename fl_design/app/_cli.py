@@ -11,6 +11,8 @@ Sub-commands
     with its bench design, :func:`fl_design.presets.bench_design`).
 ``init [--plant P | --from-ode]``
     Write a commented configuration (every table and key) to stdout.
+``ui [CONFIG.toml | --plant P | --class SPEC] [--port N] [--out DIR] [--open]``
+    The tuner page on 127.0.0.1 (:mod:`fl_design.ui`); prints its URL (with its token).
 
 Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
 checked before the work starts; a closed pipe (``| head``) too.
@@ -408,7 +410,62 @@ def build_parser() -> argparse.ArgumentParser:
                       help="also run the step on a Cortex-M4F model (arm-none-eabi-gcc, QEMU)")
     _common(code)
     code.set_defaults(func=_cmd_codegen)
+    _ui_parser(sub)
     return parser
+
+
+# --- `fl-design ui`: the tuner page (fl_design.ui; nothing else imports that package) ----------
+def _ui_parser(sub) -> None:
+    ui = sub.add_parser("ui", help="the tuner page on 127.0.0.1: sliders redraw the response, "
+                        "the verdict, the map and the certificates")
+    ui.add_argument("config", nargs="?", default=None, help="TOML configuration")
+    ui.add_argument("--plant", choices=PLANT_CHOICES, default=None,
+                    help="a library plant with its bench design instead of a config")
+    ui.add_argument("--class", dest="plant_class", default=None, metavar="SPEC",
+                    help="a plant class instead of a plant, e.g. rho=2,T=1e-3,b=1:50,"
+                    "noise_std=1e-3 (keys rho, T, b, b_rate, noise_std, delay)")
+    ui.add_argument("--port", type=int, default=0, help="TCP port (default: a free one)")
+    ui.add_argument("--out", default="ui_out", help="where the page's buttons write (default "
+                    "ui_out; must be empty or hold fl_design's own output)")
+    ui.add_argument("--open", action="store_true", help="open the page in a browser")
+    ui.add_argument("--no-background", action="store_true",
+                    help="no stability map, certificates, margins or C cost")
+    ui.set_defaults(func=_cmd_ui)
+
+
+def ui_setup(cfg, *, plant_class=None):
+    """The tuner's :class:`fl_design.ui.TunerSetup` of a config (checked as ``run`` checks it).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._cli import ui_setup
+    >>> ui_setup(load_config(None)).design.estimator.eps
+    0.05
+    """
+    from ..ui import TunerSetup
+    from ._plant_table import LIBRARY
+    from ._template import render
+
+    cfg, job = _prepare(cfg)
+    return TunerSetup(config=cfg, plant=job.plant, design=job.design, render=render,
+                      library=LIBRARY, plant_class=plant_class)
+
+
+def _cmd_ui(args) -> int:
+    from ..ui import serve
+    from ..ui._class_mode import class_toml, parse_class_spec
+
+    if args.plant_class is None:
+        setup = ui_setup(_config(args))
+    elif args.config is not None or args.plant:
+        raise ParameterError("give a config, --plant or --class, not two of them")
+    else:  # the class's simulated member and a starting design (fl_design.ui._class_mode)
+        cls = parse_class_spec(args.plant_class)
+        cfg = parse_config(class_toml(cls), source=f"--class {args.plant_class}")
+        setup = ui_setup(cfg, plant_class=cls)
+    return serve(setup, port=args.port, out=args.out, open_browser=args.open,
+                 background=not args.no_background)
 
 
 def _closed_pipe() -> int:
