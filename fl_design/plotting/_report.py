@@ -95,9 +95,9 @@ class FigureContext:
         """The paper's ``|gamma| < 1/max|b|``, a dotted vertical line (if inside the view)."""
         if not math.isfinite(self.gamma_bound):
             return
-        where = "" if right is None or self.gamma_bound <= right else " (right of the map)"
+        where = "" if right is None or self.gamma_bound <= right else " (off the map)"
         ax.axvline(self.gamma_bound, color="k", ls=":", lw=1.2,
-                   label=f"paper's {literal(self.gamma_bound_text)}{where}")
+                   label=f"paper's bound |gamma| < {self.gamma_bound:.3g}{where}")
 
 
 def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
@@ -137,7 +137,7 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
     new, _ = ax.get_legend_handles_labels()
     known = {h.get_label() for h in handles}
     handles += [h for h in new if h.get_label() not in known]
-    legend_below(ax, ncol=3, handles=handles)
+    legend_below(ax, ncol=2, handles=handles)
     ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
     ax.set_ylabel("observer time constant eps (s)")
     ax.set_title(f"{ctx.name}: stability map, noise-free runs of {smap.duration:g} s",
@@ -231,8 +231,8 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
 
     n = len(stds)
     fig, axes = plt.subplots(n, 1, sharex=True, figsize=(8.0, 1.1 + 2.3 * n), squeeze=False)
-    fig.subplots_adjust(left=0.1, right=0.97, top=1 - 0.45 / fig.get_figheight(),
-                        bottom=0.55 / fig.get_figheight(), hspace=0.3)
+    fig.subplots_adjust(left=0.1, right=0.97, top=1 - 0.6 / fig.get_figheight(),
+                        bottom=0.55 / fig.get_figheight(), hspace=0.35)
     r = None
     for ax, std in zip(axes[:, 0], stds):
         for i, name in enumerate(designs):
@@ -242,9 +242,9 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
         if r is not None:
             ax.plot(*thin_line(r.t, r.r), "k--", lw=0.9, label="reference")
         ax.set_ylabel(ctx.y_label("y"))
-        ax.text(0.01, 0.04, f"noise std {std:.3g} {literal(ctx.y_unit)}" if std else
-                "noise-free", transform=ax.transAxes, fontsize="small", va="bottom")
-        legend_inside(ax)
+        ax.set_title(f"sensor noise std {std:.3g} {literal(ctx.y_unit)}" if std else
+                     "noise-free", loc="left", fontsize="small")
+        ax.legend(loc="lower right", fontsize="small", framealpha=0.9)
     axes[-1, 0].set_xlabel("time (s)")
     head = f"{ctx.name}: compared estimators under one controller"
     fig.suptitle(head + (f", {literal(window)}" if window else ""), fontsize="medium")
