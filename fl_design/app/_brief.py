@@ -174,12 +174,42 @@ def cert_brief(cert: dict | None) -> Brief:
         return Brief("not certified", "warn", cert.get("skipped", "no b-range to certify"))
     g, e = cert["gamma"], cert["eps"]
     star = fmt(e.eps_star_certified, "none")
+    b = cert["box"]["b_bounds"] if cert.get("box") else list(e.b_bounds)
     detail = (f"eps* {star} s ({e.covers} b), this eps {'inside' if e.certified else 'outside'}"
               f"; gamma in ({fmt(g.gamma_min, 'none', 3)}, {fmt(g.gamma_max, 'none', 3)})")
     if cert.get("box"):
         detail += "; over the [uncertainty] box"
     return Brief("certified" if e.certified else "NOT certified",
-                 "good" if e.certified else "bad", detail)
+                 "good" if e.certified else "bad", detail, cert_long(cert, b))
+
+
+def cert_long(cert: dict, b_bounds=None) -> str:
+    """The certificates in full sentences: what is certified and which plants it covers.
+
+    Examples
+    --------
+    >>> from fl_design.app._brief import cert_long
+    >>> cert_long({"skipped": "no b-range"})
+    'no b-range'
+    """
+    if "eps" not in cert:
+        return cert.get("skipped", "no b-range to certify")
+    g, e = cert["gamma"], cert["eps"]
+    box = cert.get("box")
+    family = ""
+    if box:
+        b_bounds = box["b_bounds"]
+        ranges = ", ".join(f"{k} in [{lo:.4g}, {hi:.4g}]" for k, (lo, hi) in box["params"].items())
+        family = (f" over the [uncertainty] box {ranges}" +
+                  (f" (not {', '.join(box['not_covered'])}: a normal distribution has no box)"
+                   if box["not_covered"] else ""))
+    b = (f", b anywhere in [{b_bounds[0]:.3g}, {b_bounds[1]:.3g}]" if b_bounds is not None
+         else "")
+    return (f"eps* = {fmt(e.eps_star_certified, 'none in range')} s, gamma in "
+            f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')}); this eps "
+            f"{'certified' if e.certified else 'NOT certified'}. Covers the sampled linear "
+            f"surrogate (chain of integrators, sigma = b u{b}{family}). The nonlinear plant: "
+            f"{cert.get('nonlinear_summary', 'no certificate (the plant gives no region)')}")
 
 
 def nonlinear_brief(cert: dict | None) -> Brief:
@@ -297,5 +327,5 @@ def _reach(resp) -> float:
     return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
 
 
-__all__ = ["DASH", "MAX_WORDS", "Brief", "cert_brief", "clip", "code_brief", "compare_brief",
+__all__ = ["DASH", "MAX_WORDS", "Brief", "cert_brief", "cert_long", "clip", "code_brief", "compare_brief",
            "design_brief", "map_brief", "nonlinear_brief", "run_brief", "window_brief"]

@@ -250,21 +250,21 @@ def report_blocks(job, figures=()) -> list:
         return [("p", "Not run (no [uncertainty] params).")]
     dists = ", ".join(f"{k} ~ {v}" for k, v in ens.distributions.items())
     verdicts = ", ".join(f"{100 * v:.1f} % {k}" for k, v in ens.fractions.items() if v > 0)
-    blocks = [("p", (f"The design against {ens.n} plants drawn from {dists} (seed {ens.seed}; "
+    out = [("p", (f"The design against {ens.n} plants drawn from {dists} (seed {ens.seed}; "
                     f"each the plant with those parameter values, its own equilibrium input), "
                     f"noise-free runs of {ens.duration:g} s classified as the simulations: "
                     f"{verdicts} ({100 * ens.convergent_fraction:.1f} % converge: converging "
                     f"or converged)."))]
     if ens.duration_reason != "given":
-        blocks.append(("p", f"Run length chosen on the nominal plant: {ens.duration_reason}."))
+        out.append(("p", f"Run length chosen on the nominal plant: {ens.duration_reason}."))
     names = list(ens.params)
     rows = [[str(w["index"]), *(f"{w[k]:.4g}" for k in names), w["status"],
              f"{w['tail_error']:.3g}" if math.isfinite(w["tail_error"]) else "-",
              f"{w['divergence_time']:.3g}" if math.isfinite(w["divergence_time"]) else "-"]
             for w in ens.worst(5)]
-    blocks.append(("table", ["sample", *names, "verdict", "tail error", "diverged at (s)"],
+    out.append(("table", ["sample", *names, "verdict", "tail error", "diverged at (s)"],
                    rows))
-    return blocks + blocks(job, figures)
+    return out + blocks(job, figures)
 
 
 def summary(job) -> dict:

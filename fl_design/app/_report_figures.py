@@ -115,8 +115,11 @@ def _response(job, ctx):
     from ..plotting._report import response_figure
 
     resp = job.results["simulate"]["main"]
-    return response_figure(resp, ctx, title=f"{ctx.plant}: this design, "
-                           f"{str(run_brief(resp))}"[:110])
+    title = f"{ctx.plant}: {str(run_brief(resp)).replace(' (beyond the run)', '')}"
+    while len(title) > 88 and " " in title:  # one line: whole words
+        title = title.rsplit(" ", 1)[0].rstrip(",;") + " …"
+        title = title.replace(" … …", " …")
+    return response_figure(resp, ctx, title=title)
 
 
 def _robust(job, ctx):

@@ -176,11 +176,11 @@ def eps_star_figure(ctx: FigureContext, *, curve=None, linearized=None, smap=Non
     fig.subplots_adjust(left=0.1, right=0.97, top=0.93, bottom=0.3)
     if curve is not None:
         ax.plot(np.abs(curve.gamma), curve.eps_star_frozen, "k-", lw=1.4,
-                label="frozen b grid (surrogate)")
+                label="frozen b (surrogate)")
         ax.plot(np.abs(curve.gamma), curve.eps_star_certified, "C2o-", ms=4,
                 label="certified (LMI)")
     if linearized is not None:
-        plot_eps_star(ax, *linearized, label="linearized nonlinear loop", color="C0", ls="--")
+        plot_eps_star(ax, *linearized, label="linearized loop", color="C0", ls="--")
     if smap is not None:
         plot_eps_star(ax, smap.gamma, [smap.eps_star(g) for g in smap.gamma],
                       label="empirical (sweep)", color="C3", ls="none", marker="o")
@@ -210,7 +210,8 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
     ctx : FigureContext
         Names and units.
     labels : dict, optional
-        ``{(name, std): legend text}`` (default: the name and the status).
+        ``{(name, std): legend text}`` (default: the name and the status); the legends sit
+        below each panel, the reference is the black dashed line.
     window : str, optional
         Which window the runs show and why (the title's second half).
 
@@ -230,21 +231,23 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
     import matplotlib.pyplot as plt
 
     n = len(stds)
-    fig, axes = plt.subplots(n, 1, sharex=True, figsize=(8.0, 1.1 + 2.3 * n), squeeze=False)
-    fig.subplots_adjust(left=0.1, right=0.97, top=1 - 0.6 / fig.get_figheight(),
-                        bottom=0.55 / fig.get_figheight(), hspace=0.35)
+    fig, axes = plt.subplots(n, 1, sharex=True, figsize=(8.0, 1.0 + 2.7 * n), squeeze=False)
+    fig.subplots_adjust(left=0.1, right=0.97, top=1 - 0.55 / fig.get_figheight(),
+                        bottom=1.0 / fig.get_figheight(), hspace=0.5)
     r = None
-    for ax, std in zip(axes[:, 0], stds):
+    for k, (ax, std) in enumerate(zip(axes[:, 0], stds)):
         for i, name in enumerate(designs):
             r = runs[(name, std)]
             text = (labels or {}).get((name, std), f"{name}: {r.status}")
             ax.plot(*thin_line(r.t, r.y), color=f"C{i}", lw=1.1, label=literal(text))
         if r is not None:
-            ax.plot(*thin_line(r.t, r.r), "k--", lw=0.9, label="reference")
+            ax.plot(*thin_line(r.t, r.r), "k--", lw=0.9)  # the reference (the caption says)
         ax.set_ylabel(ctx.y_label("y"))
         ax.set_title(f"sensor noise std {std:.3g} {literal(ctx.y_unit)}" if std else
                      "noise-free", loc="left", fontsize="small")
-        ax.legend(loc="lower right", fontsize="small", framealpha=0.9)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.34 if k == n - 1 else -0.07),
+                  ncol=min(3, len(designs)), fontsize="small", frameon=False,
+                  borderaxespad=0.0, handlelength=1.5, columnspacing=1.2)
     axes[-1, 0].set_xlabel("time (s)")
     head = f"{ctx.name}: compared estimators under one controller"
     fig.suptitle(head + (f", {literal(window)}" if window else ""), fontsize="medium")
