@@ -67,7 +67,7 @@ def _md_answer(answer) -> str:
         text = str(answer)
         word = answer.word
         rest = text[len(word):]
-        return f"**{md(word)}**{md(rest)}" if text.startswith(word) else md(text)
+        return f"**{md(word)}** {md(rest)}".rstrip() if text.startswith(word) else md(text)
     return md(answer)
 
 

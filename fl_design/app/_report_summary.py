@@ -91,9 +91,12 @@ def _plant_brief(job) -> Brief:
     b = d.get("b_bounds")
     bb = f", b in [{b[0]:.3g}, {b[1]:.3g}]" if b else ""
     mp = d.get("minimum_phase", True)
+    op = ", ".join(f"{s} = {v:.4g}" for s, v in zip(d.get("states", []), d.get("x_op", [])))
     return Brief(f"rho = {d.get('rho')}", "good" if mp else "bad",
                  f"{'minimum phase' if mp else 'NOT minimum phase'}{bb}, u_eq = "
-                 f"{d.get('u_eq', float('nan')):.4g}")
+                 f"{d.get('u_eq', float('nan')):.4g}",
+                 f"{job.plant.name}: relative degree {d.get('rho')}, operating point x_op = "
+                 f"({op}), u_eq = {d.get('u_eq', float('nan')):.4g}")
 
 
 def summary_rows(job) -> list:
