@@ -115,11 +115,12 @@ def _response(job, ctx):
     from ..plotting._report import response_figure
 
     resp = job.results["simulate"]["main"]
-    title = f"{ctx.plant}: {str(run_brief(resp)).replace(' (beyond the run)', '')}"
-    while len(title) > 88 and " " in title:  # one line: whole words
-        title = title.rsplit(" ", 1)[0].rstrip(",;") + " …"
-        title = title.replace(" … …", " …")
-    return response_figure(resp, ctx, title=title)
+    title = " ".join(f"{ctx.plant}: {run_brief(resp)}".replace(" (beyond the run)", "").split())
+    words = title.split(" ")
+    while len(" ".join(words)) > 86 and len(words) > 1:  # one line: whole words
+        words.pop()
+    cut = " ".join(words)
+    return response_figure(resp, ctx, title=cut if cut == title else cut.rstrip(",;") + " …")
 
 
 def _robust(job, ctx):

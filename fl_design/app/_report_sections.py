@@ -31,6 +31,8 @@ from ._text import (
 
 def _derivation(job) -> list:
     d = job.derivation
+    if not d:
+        return [("p", "Not run.")]
     blocks = [("p", f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with"),
               ("math", "a =", d["a_mathml"], d["a_latex"]),
               ("math", "b =", d["b_mathml"], d["b_latex"])]

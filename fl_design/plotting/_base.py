@@ -189,8 +189,9 @@ def edges(values: np.ndarray) -> np.ndarray:
 
 
 def literal(text) -> str:
-    r"""``text`` drawn as written: every ``$`` escaped, so a user's name or unit is never
-    parsed as mathtext (``"$\foo{$"`` would make matplotlib raise when the figure is drawn).
+    r"""``text`` drawn as written, on one line: every ``$`` escaped, so a user's name or unit is
+    never parsed as mathtext (``"$\foo{$"`` would make matplotlib raise when the figure is
+    drawn); newlines become spaces.
 
     Parameters
     ----------
@@ -207,7 +208,8 @@ def literal(text) -> str:
     >>> print(literal("m/s$^2$"))
     m/s\$^2\$
     """
-    return str(text).replace("\\$", "$").replace("$", "\\$")
+    one_line = " ".join(str(text).split())  # a newline would make a second title line
+    return one_line.replace("\\$", "$").replace("$", "\\$")
 
 
 def legend_below(ax, ncol: int = 3, **kwargs):
