@@ -50,7 +50,7 @@ def derive(setup: Setup) -> dict:
     >>> from fl_design.app import load_config
     >>> from fl_design.app._build import build_setup
     >>> from fl_design.app._stages import derive
-    >>> derive(build_setup(load_config(None)))["b_bounds"]
+    >>> [round(b, 9) for b in derive(build_setup(load_config(None)))["b_bounds"]]
     [3.6, 6.8]
     """
     import sympy as sp
