@@ -149,10 +149,10 @@ def _module_graph() -> dict[str, set[str]]:
 def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
     """Strongly connected components of more than one module (Tarjan, iterative)."""
     index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
-    for root in graph:
+    for root, targets in graph.items():
         if root in index:
             continue
-        work = [(root, iter(sorted(graph[root])))]
+        work = [(root, iter(sorted(targets)))]
         index[root] = low[root] = counter[0]
         counter[0] += 1
         stack.append(root)
@@ -225,7 +225,7 @@ def test_matplotlib_only_in_the_plotting_package():
     import re
 
     users = sorted(str(p.relative_to(ROOT)) for p in ROOT.rglob("*.py")
-                   if re.search(r"^\s*(import matplotlib|from matplotlib)", p.read_text(), re.M))
+                   if re.search(r"^\s*(import matplotlib|from matplotlib)", p.read_text(), re.MULTILINE))
     assert users and all(u.startswith("plotting/") for u in users), users
 
 

@@ -19,6 +19,8 @@ import math
 import re
 from dataclasses import dataclass
 
+import numpy as np
+
 from ._text import fmt
 
 #: Most words of a short form (the summary's cells).
@@ -149,8 +151,6 @@ def window_brief(resp, window: float) -> str:
     if resp.status == "diverged":
         return f"diverged at {_n(m['divergence_time'])} s"
     step = max(abs(resp.step), 1e-300)
-    import numpy as np
-
     reach = float(np.nanmax(np.abs(resp.y - resp.y0))) / step
     if reach < 0.9:
         return f"never reaches r (peak {100 * reach:.0f} % of the step)"
@@ -247,8 +247,6 @@ def map_brief(smap, gamma: float) -> Brief:
     >>> str(map_brief(m, 1.0))
     'eps* 0.1 s — at gamma 1, 2 x 1 noise-free runs of 1 s'
     """
-    import numpy as np
-
     if smap is None:
         return Brief("not run", "info")
     g = float(smap.gamma[np.argmin(np.abs(np.log(smap.gamma / gamma)))])
@@ -322,8 +320,6 @@ def compare_brief(sim: dict | None) -> Brief:
 
 
 def _reach(resp) -> float:
-    import numpy as np
-
     return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
 
 

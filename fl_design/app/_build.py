@@ -314,7 +314,20 @@ class Setup:
 
     def run_scenario(self, *, duration=None, noise_std: float | None = None,
                      seed: int | None = None):
-        """The configured scenario with another length, noise level or seed.
+        """The configured scenario with another length, noise level or seed (a copy).
+
+        Parameters
+        ----------
+        duration : float or str, optional
+            Seconds, or ``"adaptive"`` (the run chooses); default as configured.
+        noise_std : float, optional
+            Sensor noise; default as configured.
+        seed : int, optional
+            Noise seed; default as configured.
+
+        Returns
+        -------
+        fl_design.Scenario
 
         Examples
         --------
@@ -323,7 +336,19 @@ class Setup:
         >>> build_setup(load_config(None)).run_scenario(duration=2.0, noise_std=0.1).noise.std
         0.1
         """
-        return build_scenario(self.config, duration=duration, noise_std=noise_std, seed=seed)
+        from ..sim import Noise
+
+        if self.scenario is None:  # no reference: build_scenario says what to add
+            return build_scenario(self.config, duration=duration, noise_std=noise_std,
+                                  seed=seed)
+        changes = {}
+        if duration is not None:
+            changes["duration"] = None if duration == "adaptive" else float(duration)
+        if noise_std is not None or seed is not None:
+            old = self.scenario.noise
+            changes["noise"] = Noise(old.std if noise_std is None else noise_std,
+                                     seed=old.seed if seed is None else seed)
+        return self.scenario.replace(**changes) if changes else self.scenario
 
 
 def build_setup(cfg: Config) -> Setup:

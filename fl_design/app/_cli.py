@@ -177,15 +177,23 @@ def _cmd_run(args) -> int:
          f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
          f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
          enabled=not args.no_progress)
-    print_job(job, verbose=args.verbose)
-    runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
-    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
-          f"{len(paths['figures'])} figures{runs}")
-    if paths["failed_figures"]:
-        print("figures not drawn (named in the report): "
-              + "; ".join(f"{k}: {v}" for k, v in paths["failed_figures"].items()))
-    if not args.verbose:
-        print("(--verbose: every stage's detail)")
+    try:  # the report is written: a terminal that fails now loses only the console copy
+        print_job(job, verbose=args.verbose)
+        runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
+        print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
+              f"{len(paths['figures'])} figures{runs}")
+        if paths["failed_figures"]:
+            print("figures not drawn (named in the report): "
+                  + "; ".join(f"{k}: {v}" for k, v in paths["failed_figures"].items()))
+        if not args.verbose:
+            print("(--verbose: every stage's detail)")
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except (OSError, ValueError) as err:  # stdout full or closed
+        print(f"fl-design: error: the report is written ({paths['html']}) but stdout "
+              f"failed: {getattr(err, 'strerror', None) or err}", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -29,6 +29,7 @@ from ._config import Config
 from ._stage_cache import cached_stage
 from ._stages import QUICK, STAGES, noise_levels
 
+
 @dataclass
 class Job:
     """Everything the main job computed (filled stage by stage).

@@ -125,7 +125,6 @@ def _response(job, ctx):
 
 def _robust(job, ctx):
     from ..plotting._report import robust_map_figure
-
     from ._report_family import LEVELS
 
     return robust_map_figure(job.results["robust_map"], ctx, level=LEVELS[0])

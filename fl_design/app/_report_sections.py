@@ -114,8 +114,8 @@ def _sweep(job, figures) -> list:
     blocks.append(("table", ["gamma", "empirical eps* (s)"]
                    + ([] if same else ["every run bounded up to eps (s)"]), rows))
     if same:
-        blocks.append(("p", f"Every run bounded (not diverged) up to eps: {bounded[0]} s at "
-                            "every gamma of the map."))
+        blocks.append(("p", (f"Every run bounded (not diverged) up to eps: {bounded[0]} s at "
+                             "every gamma of the map.")))
     if np.mean(labels == "oscillating") > 0.3:
         blocks.append(("p", ("Most runs are 'oscillating': bounded, but their error does not "
                             "settle inside the band (on the TRMS, a slow limit cycle against the "

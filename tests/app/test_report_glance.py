@@ -62,7 +62,7 @@ def test_every_summary_cell_is_at_most_25_words(report):
 def test_the_page_is_styled_with_badges_that_carry_a_word(report):
     _, out, _ = report
     html = (out / "report.html").read_text()
-    css = " ".join(re.findall(r"<style[^>]*>(.*?)</style>", html, re.S))
+    css = " ".join(re.findall(r"<style[^>]*>(.*?)</style>", html, re.DOTALL))
     assert len(re.findall(r"\{[^{}]*\}", css)) >= 15
     assert "@media print" in css and "<script" not in html and "http" not in css
     badges = re.findall(r'<span class="badge (good|warn|bad|info)">([^<]+)</span>', html)
@@ -135,10 +135,10 @@ def test_what_a_user_names_is_literal_everywhere(tmp_path):
     assert paths["failed_figures"] == {}  # the mathtext unit is drawn literally
     assert {"response.png", "steps.png"} <= set(paths["figures"])
     md = (tmp_path / "report.md").read_text()
-    fences = re.findall(r"^(`{3,})$", md, re.M)
+    fences = re.findall(r"^(`{3,})$", md, re.MULTILINE)
     assert len(fences) % 2 == 0
     # code blocks show their text literally (a fence longer than any backtick run inside)
-    md = re.sub(r"^(`{3,})\n.*?\n\1$", "", md, flags=re.M | re.S)
+    md = re.sub(r"^(`{3,})\n.*?\n\1$", "", md, flags=re.MULTILINE | re.DOTALL)
     assert "<img" not in md.replace("\\<img", "") and "<b>" not in md.replace("\\<b\\>", "")
     assert not any(line.startswith("# owned") for line in md.splitlines())
     assert not re.search(r"(?<!\\)\]\(javascript", md) and not re.search(r"(?<!\\)`code", md)
@@ -185,8 +185,8 @@ def test_csv_files_are_bounded_and_full_on_request():
 
 
 def test_adaptive_compared_runs_last_a_multiple_of_this_designs_rise_time():
-    from fl_design.app._stages import COMPARE_RISE_TIMES, simulate
     from fl_design.app._build import build_setup
+    from fl_design.app._stages import COMPARE_RISE_TIMES, simulate
 
     cfg = parse_config('[plant]\nlibrary = "pendulum"\n[compare]\nduration = "adaptive"\n'
                        'noise_std = [0.001]\neps_tradeoff = [0.02]\n')
