@@ -103,10 +103,15 @@ def print_sweep(job) -> None:
     if smap.duration_reason != "given":
         print(f"  run length chosen from the loop: {smap.duration_reason}")
     brackets = [str(smap.eps_star(g)) for g in smap.gamma]
+    bounded = [bounded_up_to(smap, g) for g in smap.gamma]
     width = max([18, *map(len, brackets)])
-    print(f"  {'gamma':<10} {'empirical eps* (s)':<{width}} every run bounded up to eps (s)")
-    for g, text in zip(smap.gamma, brackets):
-        print(f"  {g:<10.3g} {text:<{width}} {bounded_up_to(smap, g)}")
+    same = len(set(bounded)) == 1  # a column that says the same on every row: one line
+    print(f"  {'gamma':<10} {'empirical eps* (s)':<{width}}"
+          + ("" if same else " every run bounded up to eps (s)"))
+    for g, text, b in zip(smap.gamma, brackets, bounded):
+        print(f"  {g:<10.3g} {text:<{width}}" + ("" if same else f" {b}"))
+    if same:
+        print(f"  every run bounded (not diverged) up to eps {bounded[0]} s at every gamma")
 
 
 def print_simulate(job) -> None:
