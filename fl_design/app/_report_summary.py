@@ -99,6 +99,24 @@ def _plant_brief(job) -> Brief:
                  f"({op}), u_eq = {d.get('u_eq', float('nan')):.4g}")
 
 
+def assumptions_fail(job) -> str:
+    """Why the method's assumptions fail for this plant (empty when they hold or are unknown).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from fl_design.app._report_summary import assumptions_fail
+    >>> assumptions_fail(SimpleNamespace(derivation={"minimum_phase": False,
+    ...                                              "zero_dynamics_eigenvalues": ["(1+0j)"]}))
+    'NOT minimum phase (zero dynamics eigenvalues (1+0j)): no certificate covers this plant'
+    """
+    d = job.derivation or {}
+    if d.get("minimum_phase", True):
+        return ""
+    eig = ", ".join(d.get("zero_dynamics_eigenvalues", [])[:3])
+    return f"NOT minimum phase (zero dynamics eigenvalues {eig}): no certificate covers this plant"
+
+
 def summary_rows(job) -> list:
     """The summary's rows: ``(question, Brief or str, section title)``.
 
@@ -122,14 +140,19 @@ def summary_rows(job) -> list:
     sim = job.results.get("simulate")
     verdict = run_brief(sim["main"]) if sim else Brief("not run", "info")
     dtext = _disturbance_text(job)
+    cert = cert_brief(job.results.get("certify"))
+    nonlinear = nonlinear_brief(job.results.get("certify"))
+    why = assumptions_fail(job)
+    if why:  # no cell says "certified" for a plant outside the method's assumptions
+        cert = Brief("assumptions fail", "bad", why, cert.long)
+        nonlinear = Brief("assumptions fail", "bad", why, nonlinear.long)
     return [(f"Plant {job.plant.name}", _plant_brief(job) if job.derivation else "not derived",
              DERIVATION),
             ("Design", design_brief(job.design), SIMULATIONS),
             ("Does it work?", verdict, SIMULATIONS),
             *([("Disturbance", dtext, SIMULATIONS)] if dtext is not None else []),
-            ("Certified (linear surrogate)", cert_brief(job.results.get("certify")),
-             CERTIFICATES),
-            ("Nonlinear plant", nonlinear_brief(job.results.get("certify")), CERTIFICATES),
+            ("Certified (linear surrogate)", cert, CERTIFICATES),
+            ("Nonlinear plant", nonlinear, CERTIFICATES),
             ("Empirical eps*", map_brief(job.results.get("sweep"),
                                          job.design.controller.gamma), MAP),
             ("Estimators compared", compare_brief(sim), SIMULATIONS),
@@ -156,10 +179,14 @@ def summary_blocks(job, figures) -> list:
     >>> from fl_design.app import load_config, run_job
     >>> from fl_design.app._report_summary import summary_blocks
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
-    >>> [row[0] for row in summary_blocks(job, [])[0][1]][:2]
+    >>> [row[0] for row in summary_blocks(job, [])[-1][1]][:2]
     ['Plant trms_yaw', 'Design']
     """
-    blocks = [("links", summary_rows(job))]
+    why = assumptions_fail(job)
+    blocks = ([("p", f"The method's assumptions fail for this plant: {why}; the runs below "
+                     "show the output only, its internal states may leave the region.")]
+              if why else [])
+    blocks.append(("links", summary_rows(job)))
     sim = job.results.get("simulate")
     if "response.png" in figures:
         blocks.append(("fig", "response.png", (
@@ -169,4 +196,4 @@ def summary_blocks(job, figures) -> list:
 
 
 __all__ = ["CERTIFICATES", "CODE", "DERIVATION", "MAP", "SIMULATIONS", "anchor",
-           "summary_blocks", "summary_rows"]
+           "assumptions_fail", "summary_blocks", "summary_rows"]

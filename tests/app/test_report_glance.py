@@ -199,3 +199,24 @@ def test_adaptive_compared_runs_last_a_multiple_of_this_designs_rise_time():
     assert "rise time" in sim["compare_reason"]
     assert all(r.duration == pytest.approx(sim["compare_duration"], abs=2 * main.T)
                for r in sim["runs"].values())
+
+
+def test_no_cell_says_certified_for_a_non_minimum_phase_plant():
+    """w' = w + x1, x1' = x2, x2' = u, y = x1 (issue 31): the zero dynamics w' = w are unstable
+    (eigenvalue 1, SymPy's normal form agrees), so the summary says the assumptions fail."""
+    cfg = parse_config('[plant]\nname = "nmp"\nstates = ["w", "x1", "x2"]\ninput = "u"\n'
+                       'rhs = ["w + x1", "x2", "u"]\noutput = "x1"\n'
+                       'region = { w = [-10.0, 10.0], x1 = [-2.0, 2.0], x2 = [-5.0, 5.0] }\n'
+                       'input_range = [-20.0, 20.0]\n[design]\neps = 0.02\nT = 0.001\n'
+                       'gains = [1.0, 2.0]\ncoeffs = [3.0, 3.0, 1.0]\ngamma = 0.01\n'
+                       '[scenario]\nreference = 0.1\n')
+    job = run_job(cfg, quick=True, stages=("derive",), progress=False)
+    assert job.derivation["minimum_phase"] is False
+    assert complex(job.derivation["zero_dynamics_eigenvalues"][0]) == pytest.approx(1.0)
+    rows = {q: a for q, a, _ in summary_rows(job)}
+    for question in ("Certified (linear surrogate)", "Nonlinear plant"):
+        assert rows[question].word == "assumptions fail" and rows[question].level == "bad"
+    assert not any(str(a).startswith("certified") for a in rows.values())
+    from fl_design.app._report_summary import summary_blocks
+
+    assert summary_blocks(job, [])[0][1].startswith("The method's assumptions fail")
