@@ -172,6 +172,7 @@ details.why>div{font-size:.88rem;color:var(--info);margin:.25rem 0 .1rem}
 pre{background:var(--bg2);padding:.6rem .8rem;overflow-x:auto;white-space:pre-wrap;
 font-size:.82rem;border-radius:4px}
 div.math{overflow-x:auto;margin:.4rem 0}
+math{font-size:1.35em}
 figure{margin:1.2rem 0;text-align:center}
 img{max-width:100%;height:auto;border:1px solid var(--line)}
 figcaption{font-size:.86rem;color:var(--info);margin-top:.3rem}

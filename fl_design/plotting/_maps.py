@@ -153,7 +153,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     from matplotlib.patches import Patch
 
     if ax is None:
-        fig, (ax,) = new_axes(1, figsize=(8.0, 6.0), bottom=0.34)
+        fig, (ax,) = new_axes(1, figsize=(8.0, 5.6), bottom=0.31)
     fig = ax.figure
     cmap = ListedColormap(list(STATUS_COLORS))
     norm = BoundaryNorm(np.arange(-2.5, 5.0), cmap.N)
