@@ -175,6 +175,10 @@ def print_codegen(job) -> None:
     print(cg["costs"].to_markdown())
 
 
+#: Most compared runs listed by the default console output (more: the noisiest level only).
+MAX_COMPARED_LINES = 18
+
+
 def _dash() -> str:
     """The short forms' dash, or ``-`` on a terminal that cannot print it."""
     try:
@@ -221,10 +225,16 @@ def print_summary(job) -> None:
         names = max(len(n) for n in sim["designs"])
         print(f"  {'design':<{names}}  {'noise std':>9}  {'overshoot %':>11}  "
               f"first {window:g} s show")
-        for (name, std), r in sim["runs"].items():
+        runs = list(sim["runs"].items())
+        if len(runs) > MAX_COMPARED_LINES:  # one screen: the noisiest level only
+            top = max(sim["stds"])
+            runs = [(k, r) for k, r in runs if k[1] == top]
+        for (name, std), r in runs:
             over = overshoot_text(r)
             print(f"  {name:<{names}}  {std:>9.3g}  {over if over[:1].isdigit() else 'n/a':>11}"
                   f"  {window_brief(r, window)}")
+        if len(runs) < len(sim["runs"]):
+            print(f"  ({len(sim['runs']) - len(runs)} quieter runs: the report, or --verbose)")
 
 
 def print_job(job, *, verbose: bool = False) -> None:
