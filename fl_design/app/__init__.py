@@ -6,11 +6,15 @@ report (:func:`write_report`, :func:`summary`, :func:`render_html`, :func:`rende
 :func:`derivation_report`) and the builders from config tables. Helpers (console printers,
 figures, report sections) are imported from their modules.
 
-Library layers never import this package. Modules: ``_config`` (the TOML file -> :class:`Config`),
-``_tables``, ``_plant_table``, ``_design_table`` (one frozen dataclass per table), ``_build``
-(config -> plant, design, scenario), ``_job`` (the stages), ``_console`` (stdout tables),
-``_report`` (derivation text), ``_report_figures``, ``_report_sections``, ``_report_write``
-(HTML, Markdown, summary.json), ``_cli``.
+Library layers never import this package. Modules, each importing only those before it:
+``_tables``, ``_plant_table``, ``_design_table``, ``_uncertainty`` (one frozen dataclass per
+table), ``_config`` (the TOML file -> :class:`Config`), ``_build`` (config -> ``Setup``: plant,
+design, scenario, classifier, compared designs, built once), ``_stages`` and ``_stage_family``
+(each stage a function of the setup and earlier results), ``_job`` (the pipeline), then the
+readers of a finished job: ``_text`` and ``_brief`` (numbers and short forms in words),
+``_report_summary``, ``_report_sections``, ``_report_family``, ``_report_figures`` (which
+figures; drawn by :mod:`fl_design.plotting`), ``_report_render`` (HTML, Markdown),
+``_report_csv``, ``_report_write``, ``_console``; ``_cli`` on top.
 
 Examples
 --------

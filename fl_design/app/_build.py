@@ -10,6 +10,8 @@ Examples
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 from ..errors import ParameterError
 from ._config import Config, ConfigError
 
@@ -261,4 +263,135 @@ def _check_reference(cfg: Config, plant) -> None:
                               "inside it (or widen [plant] region)")
 
 
-__all__ = ["build_classifier", "build_design", "build_plant", "build_scenario", "check_fit"]
+def design_name(design) -> str:
+    """The short name of a design in tables and file names: ``EHGO eps=0.05`` or ``LS(9)``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.app._build import design_name
+    >>> design_name(fl.presets.paper_design()), design_name(fl.presets.least_squares_design(9))
+    ('EHGO eps=0.05', 'LS(9)')
+    """
+    est = design.estimator
+    return f"EHGO eps={est.eps:g}" if est.has_time_constant else f"LS({est.window})"
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The config turned into objects once: every stage is a function of these.
+
+    Parameters
+    ----------
+    config : Config
+        The validated configuration.
+    plant : fl_design.Plant
+        ``[plant]``.
+    design : fl_design.Design
+        ``[design]``.
+    scenario : fl_design.Scenario
+        ``[scenario]`` as given (stages change its length and noise with ``replace``).
+    classifier : fl_design.Classifier
+        ``[classifier]``.
+    compared : dict
+        Design name -> design of the comparison (this design first, then the least-squares
+        baselines of ``[compare] windows`` when this design has an eps).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> list(build_setup(load_config(None)).compared)
+    ['EHGO eps=0.05', 'LS(9)', 'LS(26)']
+    """
+
+    config: Config
+    plant: object
+    design: object
+    scenario: object
+    classifier: object
+    compared: dict = field(default_factory=dict)
+
+    def run_scenario(self, *, duration=None, noise_std: float | None = None,
+                     seed: int | None = None):
+        """The configured scenario with another length, noise level or seed (a copy).
+
+        Parameters
+        ----------
+        duration : float or str, optional
+            Seconds, or ``"adaptive"`` (the run chooses); default as configured.
+        noise_std : float, optional
+            Sensor noise; default as configured.
+        seed : int, optional
+            Noise seed; default as configured.
+
+        Returns
+        -------
+        fl_design.Scenario
+
+        Examples
+        --------
+        >>> from fl_design.app import load_config
+        >>> from fl_design.app._build import build_setup
+        >>> build_setup(load_config(None)).run_scenario(duration=2.0, noise_std=0.1).noise.std
+        0.1
+        """
+        from ..sim import Noise
+
+        if self.scenario is None:  # no reference: build_scenario says what to add
+            return build_scenario(self.config, duration=duration, noise_std=noise_std,
+                                  seed=seed)
+        changes = {}
+        if duration is not None:
+            changes["duration"] = None if duration == "adaptive" else float(duration)
+        if noise_std is not None or seed is not None:
+            old = self.scenario.noise
+            changes["noise"] = Noise(old.std if noise_std is None else noise_std,
+                                     seed=old.seed if seed is None else seed)
+        return self.scenario.replace(**changes) if changes else self.scenario
+
+
+def build_setup(cfg: Config) -> Setup:
+    """Plant, design, scenario, classifier and the compared designs of ``cfg``, built once.
+
+    Parameters
+    ----------
+    cfg : Config
+        A validated configuration.
+
+    Returns
+    -------
+    Setup
+
+    Raises
+    ------
+    DesignMismatchError
+        The design's relative degree (its number of gains) differs from the plant's.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> build_setup(load_config(None)).design.controller.gamma
+    0.0003
+    """
+    from ..errors import DesignMismatchError
+
+    plant = build_plant(cfg)
+    rho = plant.relative_degree()
+    if cfg.design is not None and len(cfg.design.gains) != rho:
+        raise DesignMismatchError(
+            f"[design] gains has {len(cfg.design.gains)} entries but the plant "
+            f"{plant.name!r} has relative degree {rho}: give {rho} gains (and "
+            f"{rho + 1} coeffs)")
+    design = build_design(cfg, rho=rho)
+    compared = {design_name(design): design}
+    if design.estimator.has_time_constant:
+        compared |= {f"LS({w})": build_design(cfg, window=int(w), rho=rho)
+                     for w in cfg.compare.windows}
+    scenario = build_scenario(cfg) if cfg.scenario.reference is not None else None
+    return Setup(cfg, plant, design, scenario, build_classifier(cfg), compared)
+
+
+__all__ = ["Setup", "build_classifier", "build_design", "build_plant", "build_scenario",
+           "build_setup", "check_fit", "design_name"]

@@ -153,12 +153,13 @@ def _prepare(cfg):
 def _cmd_run(args) -> int:
     from ._console import print_job
     from ._job import note, run_job
-    from ._report_write import BackgroundCsv, write_report
+    from ._report_csv import BackgroundCsv
+    from ._report_write import write_report
 
     cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
     executor = _executor(args.scheduler)
-    csv = BackgroundCsv(out, main=args.main_csv)
+    csv = BackgroundCsv(out, main=args.main_csv, full=args.full_csv)
     try:
         job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
                       progress=not args.no_progress, force=args.force, after=csv.after)
@@ -170,7 +171,7 @@ def _cmd_run(args) -> int:
     waited = time.perf_counter() - start
     start = time.perf_counter()
     paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
-                         csv_written=written)
+                         csv_written=written, full_csv=args.full_csv)
     during = (f" (CPU {csv.cpu:.1f} s, also counted in the stages running beside it; from the "
               f"end of simulate, {waited:.1f} s of it after the C stage)"
               if written is not None else "")
@@ -178,10 +179,23 @@ def _cmd_run(args) -> int:
          f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
          f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
          enabled=not args.no_progress)
-    print_job(job)
-    runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
-    print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
-          f"{len(paths['figures'])} figures{runs}")
+    try:  # the report is written: a terminal that fails now loses only the console copy
+        print_job(job, verbose=args.verbose)
+        runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
+        print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
+              f"{len(paths['figures'])} figures{runs}")
+        if paths["failed_figures"]:
+            print("figures not drawn (named in the report): "
+                  + "; ".join(f"{k}: {v}" for k, v in paths["failed_figures"].items()))
+        if not args.verbose:
+            print("(--verbose: every stage's detail)")
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except (OSError, ValueError) as err:  # stdout full or closed
+        print(f"fl-design: error: the report is written ({paths['html']}) but stdout "
+              f"failed: {getattr(err, 'strerror', None) or err}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -228,7 +242,8 @@ def _cmd_sweep(args) -> int:
     plants per point, default ``[uncertainty] map_samples``)."""
     from ._console import print_sweep
     from ._job import run_job
-    from ._robust_map import print_robust_map, run_robust_map
+    from ._report_family import print_robust_map
+    from ._stage_family import robust_map
     from ._uncertainty import MAX_SAMPLES
 
     cfg, _ = _prepare(_config(args))
@@ -243,7 +258,10 @@ def _cmd_sweep(args) -> int:
     job = run_job(cfg, quick=args.quick, stages=("sweep",), executor=executor,
                   progress=progress)
     print_sweep(job)
-    run_robust_map(job, args.quick, executor, progress, samples=args.samples)
+    out = robust_map(job.setup, args.quick, executor, progress, samples=args.samples)
+    if "robust_map_seconds" in out:
+        job.timings["robust_map"] = out.pop("robust_map_seconds")
+    job.results.update(out)
     if "robust_map" in job.results:
         print()
         print_robust_map(job)
@@ -363,8 +381,13 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="the main job: every stage and the report")
     _common(run, out=True, scheduler=True)
     run.add_argument("--main-csv", action="store_true",
-                     help="also write the main run as CSV (runs/main_noise<std>.csv: every "
-                     "sample, 300 000 rows for a 300 s run); the compared runs are always written")
+                     help="also write the main run as CSV (runs/main_noise<std>.csv); the "
+                     "compared runs are always written")
+    run.add_argument("--full-csv", action="store_true",
+                     help="every sample in the CSV files (default at most 10 000 rows each: "
+                     "every k-th sample and the last)")
+    run.add_argument("--verbose", action="store_true",
+                     help="print every stage's detail (default: the summary, one screen)")
     run.set_defaults(func=_cmd_run)
     init = sub.add_parser("init", help="write a commented config (every table and key) to "
                           "stdout; `fl-design run` accepts it as is")
@@ -475,6 +498,16 @@ def _closed_pipe() -> int:
     return 2
 
 
+def _tolerant_stdout() -> None:
+    """A terminal that cannot print a character (a non-ASCII plant name on an ASCII stdout)
+    gets a backslash escape instead of a UnicodeEncodeError after all the work."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors="backslashreplace")
+        except (AttributeError, ValueError, OSError):  # a replaced or closed stream
+            pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code (2 on a bad input).
 
@@ -497,6 +530,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     0
     """
     args = build_parser().parse_args(argv)
+    _tolerant_stdout()
     try:
         code = args.func(args)
         sys.stdout.flush()

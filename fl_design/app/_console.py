@@ -1,4 +1,8 @@
-"""What the CLI prints on stdout: short tables of each stage (progress goes to stderr).
+"""What the CLI prints on stdout (progress goes to stderr).
+
+``fl-design run`` prints :func:`print_job`: by default one screen (the summary's short answers
+and the compared runs, under 60 lines); ``--verbose`` adds every stage's detail (the
+``print_<stage>`` functions, which the single-stage subcommands print).
 
 Examples
 --------
@@ -11,8 +15,12 @@ Plant: trms_yaw...
 
 from __future__ import annotations
 
-from ._report_figures import design_label
-from ._report_sections import bounded_up_to, fmt, linearized_text
+import sys
+
+from ._brief import DASH, Brief, window_brief
+from ._report_map import map_counts
+from ._report_summary import summary_rows
+from ._text import bounded_up_to, design_label, fmt, linearized_text, overshoot_text
 
 
 def print_derive(job) -> None:
@@ -88,8 +96,6 @@ def print_sweep(job) -> None:
     ... # doctest: +ELLIPSIS
     Stability map 5 x 5...
     """
-    from ._report_map import map_counts
-
     smap = job.results["sweep"]
     counts = map_counts(smap)
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
@@ -97,10 +103,15 @@ def print_sweep(job) -> None:
     if smap.duration_reason != "given":
         print(f"  run length chosen from the loop: {smap.duration_reason}")
     brackets = [str(smap.eps_star(g)) for g in smap.gamma]
+    bounded = [bounded_up_to(smap, g) for g in smap.gamma]
     width = max([18, *map(len, brackets)])
-    print(f"  {'gamma':<10} {'empirical eps* (s)':<{width}} every run bounded up to eps (s)")
-    for g, text in zip(smap.gamma, brackets):
-        print(f"  {g:<10.3g} {text:<{width}} {bounded_up_to(smap, g)}")
+    same = len(set(bounded)) == 1  # a column that says the same on every row: one line
+    print(f"  {'gamma':<10} {'empirical eps* (s)':<{width}}"
+          + ("" if same else " every run bounded up to eps (s)"))
+    for g, text, b in zip(smap.gamma, brackets, bounded):
+        print(f"  {g:<10.3g} {text:<{width}}" + ("" if same else f" {b}"))
+    if same:
+        print(f"  every run bounded (not diverged) up to eps {bounded[0]} s at every gamma")
 
 
 def print_simulate(job) -> None:
@@ -119,12 +130,11 @@ def print_simulate(job) -> None:
     ...                        progress=False))  # doctest: +ELLIPSIS
     This design (EHGO eps = 0.05 s...
     """
-    from ._report_sections import overshoot_text
-
     sim = job.results["simulate"]
     main = sim["main"]
     print(f"This design ({design_label(job.design)}), {sim['duration']:g} s: {main.verdict()}")
-    print(f"\n  compared runs, {sim['compare_duration']:g} s each:")
+    print(f"\n  compared runs, the first {sim['compare_duration']:g} s (the transient; "
+          f"{sim.get('compare_reason', 'given')}):")
     print(f"  {'design':<16}{'noise std':>10}  {'verdict':<12}{'overshoot %':>14}  "
           f"{'tail |e|':>9}")
     for (name, std), r in sim["runs"].items():
@@ -165,8 +175,28 @@ def print_codegen(job) -> None:
     print(cg["costs"].to_markdown())
 
 
-def print_job(job) -> None:
-    """Print every stage's summary (what ``fl-design run`` shows).
+#: Most compared runs listed by the default console output (more: the noisiest level only).
+MAX_COMPARED_LINES = 18
+
+
+def _dash() -> str:
+    """The short forms' dash, or ``-`` on a terminal that cannot print it."""
+    try:
+        DASH.encode(getattr(sys.stdout, "encoding", None) or "ascii")
+    except (UnicodeEncodeError, LookupError):
+        return "-"
+    return DASH
+
+
+def _line(answer) -> str:
+    text = str(answer)
+    if isinstance(answer, Brief):
+        text = text.replace(f" {DASH} ", f" {_dash()} ", 1)
+    return text
+
+
+def print_summary(job) -> None:
+    """Print the summary's short answers and the compared runs (one screen).
 
     Parameters
     ----------
@@ -176,19 +206,65 @@ def print_job(job) -> None:
     Examples
     --------
     >>> from fl_design.app import load_config, run_job
+    >>> from fl_design.app._console import print_summary
+    >>> print_summary(run_job(load_config(None), quick=True, stages=("derive",),
+    ...                       progress=False))  # doctest: +ELLIPSIS
+    trms_yaw: EHGO eps = 0.05 s, gamma = 0.0003, ... (quick mode)
+    ...
+    """
+    mode = " (quick mode)" if job.quick else ""
+    print(f"{job.plant.name}: {design_label(job.design)}{mode}")
+    rows = summary_rows(job)
+    width = max(len(q) for q, _, _ in rows)
+    for question, answer, _ in rows:
+        print(f"  {question:<{width}}  {_line(answer)}")
+    sim = job.results.get("simulate")
+    if sim:
+        window = sim["compare_duration"]
+        print(f"\nCompared runs, the first {window:g} s (the transient: overshoot, noise):")
+        names = max(len(n) for n in sim["designs"])
+        print(f"  {'design':<{names}}  {'noise std':>9}  {'overshoot %':>11}  "
+              f"first {window:g} s show")
+        runs = list(sim["runs"].items())
+        if len(runs) > MAX_COMPARED_LINES:  # one screen: the noisiest level only
+            top = max(sim["stds"])
+            runs = [(k, r) for k, r in runs if k[1] == top]
+        for (name, std), r in runs:
+            over = overshoot_text(r)
+            print(f"  {name:<{names}}  {std:>9.3g}  {over if over[:1].isdigit() else 'n/a':>11}"
+                  f"  {window_brief(r, window)}")
+        if len(runs) < len(sim["runs"]):
+            print(f"  ({len(sim['runs']) - len(runs)} quieter runs: the report, or --verbose)")
+
+
+def print_job(job, *, verbose: bool = False) -> None:
+    """Print what ``fl-design run`` shows: the summary; with ``verbose`` every stage's detail.
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+    verbose : bool, optional
+        Also every stage's tables (the derivation, the certificates, the map, the runs, C).
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config, run_job
     >>> from fl_design.app._console import print_job
-    >>> print_job(run_job(load_config(None), quick=True, stages=("derive",), progress=False))
-    ... # doctest: +ELLIPSIS
+    >>> print_job(run_job(load_config(None), quick=True, stages=("derive",), progress=False),
+    ...           verbose=True)  # doctest: +ELLIPSIS
     Plant: trms_yaw...
     """
-    printers = (("derive", print_derive), ("certify", print_certificates),
-                ("sweep", print_sweep), ("simulate", print_simulate),
-                ("codegen", print_codegen))
-    for stage, printer in printers:
-        if stage == "derive" and job.derivation or stage in job.results:
-            printer(job)
-            print()
+    if verbose:
+        printers = (("derive", print_derive), ("certify", print_certificates),
+                    ("sweep", print_sweep), ("simulate", print_simulate),
+                    ("codegen", print_codegen))
+        for stage, printer in printers:
+            if stage == "derive" and job.derivation or stage in job.results:
+                printer(job)
+                print()
+    print_summary(job)
 
 
 __all__ = ["print_certificates", "print_certify", "print_codegen", "print_derive", "print_job",
-           "print_simulate", "print_sweep"]
+           "print_simulate", "print_summary", "print_sweep"]

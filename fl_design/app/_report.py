@@ -11,7 +11,7 @@ True
 
 from __future__ import annotations
 
-from ._report_sections import paper_gamma_bound
+from ._text import paper_gamma_bound
 
 
 def _fmt(expr, latex: bool) -> str:

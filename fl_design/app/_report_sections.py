@@ -1,5 +1,9 @@
 """The report's sections: what a control engineer reads, in order, with honest verdicts.
 
+Blocks as :mod:`fl_design.app._report_write` renders them; every number in words comes from
+:mod:`fl_design.app._text` and :mod:`fl_design.app._brief` (re-exported here: ``fmt``,
+``overshoot_text``, ...).
+
 Examples
 --------
 >>> from fl_design.app._report_sections import fmt
@@ -9,71 +13,26 @@ Examples
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from . import _report_summary as S
+from ._brief import window_brief
+from ._report_family import report_blocks
 from ._report_map import map_counts
-
-
-def paper_gamma_bound(b_bounds) -> tuple[float, str]:
-    """The paper's gain condition ``gamma < 1/b_max`` for a ``b`` range of either sign.
-
-    ``gamma`` takes the sign of ``b``, so the bound is on ``|gamma|``: ``1 / max|b|``.
-
-    Parameters
-    ----------
-    b_bounds : (float, float)
-        ``b`` over the plant's region.
-
-    Returns
-    -------
-    (float, str)
-        The bound on ``|gamma|`` (NaN when ``b`` changes sign) and the condition in words.
-
-    Examples
-    --------
-    >>> from fl_design.app._report_sections import paper_gamma_bound
-    >>> paper_gamma_bound((3.6, 6.8))[1], paper_gamma_bound((-174.6, -18.19))[1]
-    ('gamma < 1/b_max = 0.1471', '|gamma| < 1/max|b| = 0.005727 (gamma < 0, as b)')
-    """
-    lo, hi = (float(v) for v in b_bounds)
-    if lo > 0:
-        return 1.0 / hi, f"gamma < 1/b_max = {1.0 / hi:.4g}"
-    if hi < 0:
-        return 1.0 / abs(lo), f"|gamma| < 1/max|b| = {1.0 / abs(lo):.4g} (gamma < 0, as b)"
-    return math.nan, "b changes sign over the region: the paper's gamma bound does not apply"
-
-
-def fmt(value, missing: str = "-", digits: int = 4) -> str:
-    """A number with ``digits`` significant digits, or ``missing`` (with its reason) for None/NaN.
-
-    Parameters
-    ----------
-    value : float or None
-        The number.
-    missing : str, optional
-        What to print instead of None or NaN (say why).
-    digits : int, optional
-        Significant digits.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from fl_design.app._report_sections import fmt
-    >>> fmt(None, "not certified")
-    'not certified'
-    """
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return missing
-    return f"{value:.{digits}g}"
+from ._text import (
+    bounded_up_to,
+    design_label,
+    fmt,
+    linearized_text,
+    overshoot_text,
+    paper_gamma_bound,
+)
 
 
 def _derivation(job) -> list:
     d = job.derivation
+    if not d:
+        return [("p", "Not run.")]
     blocks = [("p", f"Relative degree rho = {d['rho']} (n = {d['n']}); sigma = a + b u with"),
               ("math", "a =", d["a_mathml"], d["a_latex"]),
               ("math", "b =", d["b_mathml"], d["b_latex"])]
@@ -129,71 +88,6 @@ def _certificates(job) -> list:
     return blocks
 
 
-def linearized_text(star) -> str:
-    """A linearized eps* bracket in words, saying when the boundary lies outside the range.
-
-    Parameters
-    ----------
-    star : fl_design.sim.EpsStar
-        The result of :func:`fl_design.linearized_eps_star`.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from fl_design.sim import EpsStar
-    >>> from fl_design.app._report_sections import linearized_text
-    >>> linearized_text(EpsStar(1.0, float("inf")))
-    '> 1 s (stable on the whole scanned range: no boundary found up to 1 s)'
-    >>> linearized_text(EpsStar(0.0417, 0.0418))
-    '0.0417 s (unstable at 0.0418 s)'
-    """
-    if star.above_range:
-        return (f"> {star.lower:g} s (stable on the whole scanned range: no boundary found up "
-                f"to {star.lower:g} s)")
-    if star.below_range:
-        return f"< {star.upper:g} s (unstable already at the smallest eps scanned)"
-    lower, upper = str(star).removesuffix(")").split(" (fails at ")  # the digits it needs
-    return f"{lower} s (unstable at {upper} s)"
-
-
-def bounded_up_to(smap, gamma: float) -> str:
-    """Largest grid eps below which every run at ``gamma`` stays bounded (not diverged).
-
-    Parameters
-    ----------
-    smap : fl_design.StabilityMap
-        A sweep.
-    gamma : float
-        A grid gamma.
-
-    Returns
-    -------
-    str
-        ``"> eps_max"`` when no run diverged, ``"< eps_min"`` when the first did.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
-    >>> from fl_design.app._report_sections import bounded_up_to
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
-    >>> bounded_up_to(m, 1.0)
-    '0.1 (diverges at 0.2)'
-    """
-    j = int(np.argmin(np.abs(np.log(smap.gamma / gamma))))
-    ok = np.asarray(smap.status)[:, j] >= 0
-    if ok.all():
-        return f"> {smap.eps[-1]:g}"
-    first = int(np.argmin(ok))
-    if first == 0:
-        return f"< {smap.eps[0]:g}"
-    return f"{smap.eps[first - 1]:g} (diverges at {smap.eps[first]:g})"
-
-
 def _sweep(job, figures) -> list:
     smap = job.results.get("sweep")
     if smap is None:
@@ -201,7 +95,10 @@ def _sweep(job, figures) -> list:
     labels = smap.labels
     counts = map_counts(smap)
     cert = job.results.get("certify", {})
-    rows = [[f"{g:.3g}", str(smap.eps_star(g)), bounded_up_to(smap, g)] for g in smap.gamma]
+    bounded = [bounded_up_to(smap, g) for g in smap.gamma]
+    same = len(set(bounded)) == 1
+    rows = [[f"{g:.3g}", str(smap.eps_star(g))] + ([] if same else [b])
+            for g, b in zip(smap.gamma, bounded)]
     blocks = [("p", (f"{smap.eps.size} x {smap.gamma.size} runs of {smap.duration:g} s "
                     f"(noise-free): {counts}. Empirical eps* at each gamma: the largest grid eps "
                     f"below which every run converges (converging or converged); '> x' means "
@@ -214,12 +111,15 @@ def _sweep(job, figures) -> list:
             f"Stability map, {job.plant.name}: {smap.duration:g} s noise-free runs to the "
             f"reference {_reference_text(job)}; the star is this design ({design_label(job.design)}), "
             "the dotted line the paper's gamma < 1/b_max")))
-    blocks.append(("table", ["gamma", "empirical eps* (s)", "every run bounded up to eps (s)"],
-                   rows))
+    blocks.append(("table", ["gamma", "empirical eps* (s)"]
+                   + ([] if same else ["every run bounded up to eps (s)"]), rows))
+    if same:
+        blocks.append(("p", (f"Every run bounded (not diverged) up to eps: {bounded[0]} s at "
+                             "every gamma of the map.")))
     if np.mean(labels == "oscillating") > 0.3:
         blocks.append(("p", ("Most runs are 'oscillating': bounded, but their error does not "
                             "settle inside the band (on the TRMS, a slow limit cycle against the "
-                            "Coulomb friction). Those runs count as failures for eps*; the last "
+                            "Coulomb friction). Those runs count as failures for eps*; the bounded "
                             "column counts them as bounded, the practical stability of Theorem 1.")))
     if np.any(labels == "undecided"):
         blocks.append(("p", ("'undecided' runs are bounded and outside the band, and the last "
@@ -242,45 +142,46 @@ def _sweep(job, figures) -> list:
 
 
 def _simulations(job, figures) -> list:
-    from ._job import noise_levels
-
     sim = job.results.get("simulate")
     if not sim:
         return [("p", "Not run.")]
     main = sim["main"]
     tol = main.tol
+    window = sim["compare_duration"]
     blocks = [("p", f"This design, {sim['duration']:g} s step: {main.verdict()}."),
               ("p", "The figure of this run is in the summary above.")]
     rows, reasons = [], []
     for (name, std), r in sim["runs"].items():
-        lv = noise_levels(r)
-        rows.append([name, f"{std:.3g}", r.status, overshoot_text(r), fmt(r.tail_error),
-                     fmt(lv["u_noise"], "n/a")])
+        lv = sim["levels"][(name, std)]
+        over = overshoot_text(r)
+        rows.append([name, f"{std:.3g}", over if over[:1].isdigit() else "n/a",
+                     window_brief(r, window), fmt(lv["u_noise"], "n/a")])
         reasons.append(f"{name}, noise std {std:.3g}: {r.verdict()}")
-    blocks.append(("p", (f"The compared runs, {sim['compare_duration']:g} s each "
-                         "(the transient: overshoot and noise):")))
-    blocks.append(("table", ["design", "noise std", "verdict", "overshoot %", "tail max |e|",
+    blocks.append(("p", (f"The compared runs measure the transient: each lasts the first "
+                         f"{window:g} s ({sim.get('compare_reason', 'given')}), long enough for "
+                         "the overshoot and the noise of u, not always for a verdict on the "
+                         "slow approach (this design's own run above decides that). The "
+                         f"window column says what {window:g} s show.")))
+    blocks.append(("table", ["design", "noise std", "overshoot %", f"first {window:g} s show",
                              "u noise"], rows))
-    blocks.append(("list", reasons))
+    blocks.append(("details", "Each compared run's full verdict", "\n".join(reasons)))
     if "steps.png" in figures:
         ctrl = job.design.controller
         blocks.append(("fig", "steps.png", (
             "Step responses, EHGO and least squares under one controller (gamma = "
             f"{ctrl.gamma:g}, K = {tuple(float(k) for k in ctrl.gains)}), with and without "
-            "sensor noise; the legend gives each run's verdict and overshoot")))
+            "sensor noise; the legend gives each run's overshoot and what its window shows")))
     if sim["tradeoff"]:
-        blocks.append(("table", ["eps (s)", "sigmahat noise", "u noise", "verdict",
-                                 "overshoot %"],
+        blocks.append(("table", ["eps (s)", "sigmahat noise", "u noise", "overshoot %"],
                        [[f"{r['eps']:g}", fmt(r["sigmahat_noise"], "n/a"),
-                         fmt(r["u_noise"], "n/a"), r["status"], fmt(r["overshoot_%"], "n/a",
-                                                                    3)]
+                         fmt(r["u_noise"], "n/a"), fmt(r["overshoot_%"], "n/a", 3)]
                         for r in sim["tradeoff"]]))
     if "noise_tradeoff.png" in figures:
         blocks.append(("fig", "noise_tradeoff.png", (
             "Noise of sigmahat and u against eps (std(diff)/sqrt(2) over the tail), gamma = "
             f"{job.design.controller.gamma:g}")))
-    blocks.append(("p", (f"Settling band: |e| <= {tol:.3g} (the [scenario] tolerance times the "
-                        "step).")))
+    blocks.append(("p", (f"Settling band: |e| <= {tol:.3g} (the [classifier] tolerance times "
+                        "the step).")))
     return blocks
 
 
@@ -292,40 +193,6 @@ def _reference_text(job) -> str:
         return f"r = {ref:g} {unit}".rstrip()
     main = sim["main"]
     return f"r = {ref:g} {unit} (a step of {main.step:.3g} from y0 = {main.y0:.3g})"
-
-
-def design_label(design) -> str:
-    from ._report_figures import design_label as label
-
-    return label(design)
-
-
-def overshoot_text(resp) -> str:
-    """Overshoot in %, or why it is not one (diverged; does not track).
-
-    Parameters
-    ----------
-    resp : fl_design.Response
-        A run.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> from fl_design.app._report_sections import overshoot_text
-    >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
-    >>> overshoot_text(r)
-    '0'
-    """
-    if resp.status == "diverged":
-        return "n/a (diverged)"
-    reach = np.nanmax(np.abs(resp.y - resp.y0)) / max(abs(resp.step), 1e-300)
-    if reach < 0.9:
-        return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
-    return f"{resp.overshoot:.3g}"
 
 
 def _codegen(job) -> list:
@@ -347,7 +214,7 @@ def _codegen(job) -> list:
                   f"{sil.tail_rel_error:.3g}: {'PASSED' if sil.passed else 'FAILED'}."))]
 
 
-def sections(job, figures) -> list:
+def sections(job, figures, failed=None) -> list:
     """The report's sections from a finished job (see :mod:`fl_design.app._report_write`).
 
     Parameters
@@ -356,6 +223,8 @@ def sections(job, figures) -> list:
         A finished job.
     figures : sequence of str
         The figure files written (sections refer only to those).
+    failed : dict, optional
+        ``{file: reason}`` of the figures that could not be drawn (said in *Run*).
 
     Returns
     -------
@@ -369,19 +238,32 @@ def sections(job, figures) -> list:
     >>> [title for title, _ in sections(job, [])][:3]
     ['Summary', "Simulations: this design and the paper's comparison", 'Stability map and eps*']
     """
-    from . import _report_summary as S
-
     timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
-    from ._uncertainty import report_blocks
-
     robust = ([("Robustness: a family of plants", report_blocks(job, figures))]
               if "robustness" in job.results else [])
     return [("Summary", S.summary_blocks(job, figures)),
             (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),
             *robust, (S.CERTIFICATES, _certificates(job)), (S.CODE, _codegen(job)),
             (S.DERIVATION, _derivation(job)),
-            ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}.")])]
+            ("Run", [("p", f"Config {job.config.source}, {mode}; {timing}."),
+                     *failed_figures_block(failed or {})])]
 
 
-__all__ = ["bounded_up_to", "fmt", "overshoot_text", "sections"]
+def failed_figures_block(failed: dict) -> list:
+    """A paragraph naming the figures that could not be drawn, and why (empty if none).
+
+    Examples
+    --------
+    >>> from fl_design.app._report_sections import failed_figures_block
+    >>> failed_figures_block({"steps.png": "ValueError: bad"})
+    [('p', 'Figures not drawn: steps.png (ValueError: bad).')]
+    """
+    if not failed:
+        return []
+    return [("p", "Figures not drawn: " + "; ".join(f"{k} ({v})" for k, v in failed.items())
+             + ".")]
+
+
+__all__ = ["bounded_up_to", "design_label", "failed_figures_block", "fmt", "linearized_text",
+           "overshoot_text", "paper_gamma_bound", "sections"]

@@ -1,8 +1,9 @@
-"""The ``[uncertainty]`` table: the job's robustness stage and its report section.
+"""The ``[uncertainty]`` table: a family of plants (the stage: :mod:`fl_design.app._stage_family`;
+its report section: :mod:`fl_design.app._report_family`).
 
 A configuration that gives parameter distributions runs the design against that family of
 plants (:func:`fl_design.monte_carlo`) after the simulations, then the ``[sweep]`` grid against
-``map_samples`` of them (the robust stability map, :mod:`fl_design.app._robust_map`), and the
+``map_samples`` of them (the robust stability map), and the
 report gains a *Robustness* section (verdict fractions, the worst samples, the robust eps*)::
 
     [uncertainty]
@@ -168,129 +169,4 @@ class UncertaintyTable:
         return out
 
 
-def run_stage(job, quick: bool, executor, progress: bool) -> None:
-    """The robustness stage: ``fl.monte_carlo`` of the job's design over the family, then its
-    robust stability map (:func:`fl_design.app._robust_map.run_robust_map`).
-
-    Stores the :class:`~fl_design.Ensemble` in ``job.results["robustness"]`` and the
-    :class:`~fl_design.sim.RobustMap` in ``job.results["robust_map"]``.
-
-    Parameters
-    ----------
-    job : Job
-        A prepared job whose config has ``[uncertainty] params``.
-    quick : bool
-        :data:`QUICK_SAMPLES` plants and the quick run length.
-    executor : concurrent.futures.Executor or None
-        Runs chunks of samples.
-    progress : bool
-        Progress bar.
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config
-    >>> from fl_design.app._job import prepare
-    >>> from fl_design.app._uncertainty import run_stage
-    >>> job = prepare(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'))
-    >>> run_stage(job, True, None, False)
-    >>> job.results["robustness"].n, job.results["robust_map"].n
-    (16, 8)
-    """
-    from ..sim import monte_carlo
-    from ._build import build_classifier, build_scenario
-    from ._job import QUICK
-    from ._robust_map import run_robust_map
-
-    table = job.config.uncertainty
-    duration = QUICK["duration"] if quick else table.duration
-    scenario = build_scenario(job.config, duration=duration, noise_std=0.0)
-    job.results["robustness"] = monte_carlo(
-        job.plant, job.design, scenario, params=table.distributions(),
-        n=QUICK_SAMPLES if quick else table.samples, seed=table.seed,
-        classifier=build_classifier(job.config), executor=executor, progress=progress)
-    run_robust_map(job, quick, executor, progress)
-
-
-def report_blocks(job, figures=()) -> list:
-    """The report's *Robustness* section (blocks as :mod:`fl_design.app._report_sections`).
-
-    Parameters
-    ----------
-    job : Job
-        A finished job.
-    figures : sequence of str, optional
-        The figure files written (the robust map's is shown only if among them).
-
-    Returns
-    -------
-    list
-
-    Examples
-    --------
-    >>> from fl_design.app._uncertainty import report_blocks
-    >>> class Job:
-    ...     results = {}
-    >>> report_blocks(Job())
-    [('p', 'Not run (no [uncertainty] params).')]
-    """
-    from ._robust_map import blocks as map_blocks
-
-    ens = job.results.get("robustness")
-    if ens is None:
-        return [("p", "Not run (no [uncertainty] params).")]
-    dists = ", ".join(f"{k} ~ {v}" for k, v in ens.distributions.items())
-    verdicts = ", ".join(f"{100 * v:.1f} % {k}" for k, v in ens.fractions.items() if v > 0)
-    blocks = [("p", (f"The design against {ens.n} plants drawn from {dists} (seed {ens.seed}; "
-                    f"each the plant with those parameter values, its own equilibrium input), "
-                    f"noise-free runs of {ens.duration:g} s classified as the simulations: "
-                    f"{verdicts} ({100 * ens.convergent_fraction:.1f} % converge: converging "
-                    f"or converged)."))]
-    if ens.duration_reason != "given":
-        blocks.append(("p", f"Run length chosen on the nominal plant: {ens.duration_reason}."))
-    names = list(ens.params)
-    rows = [[str(w["index"]), *(f"{w[k]:.4g}" for k in names), w["status"],
-             f"{w['tail_error']:.3g}" if math.isfinite(w["tail_error"]) else "-",
-             f"{w['divergence_time']:.3g}" if math.isfinite(w["divergence_time"]) else "-"]
-            for w in ens.worst(5)]
-    blocks.append(("table", ["sample", *names, "verdict", "tail error", "diverged at (s)"],
-                   rows))
-    return blocks + map_blocks(job, figures)
-
-
-def summary(job) -> dict:
-    """``summary.json``'s ``robustness``: the Monte Carlo's fractions and the robust map.
-
-    Parameters
-    ----------
-    job : Job
-        A finished job.
-
-    Returns
-    -------
-    dict
-        Empty when the robustness stage did not run.
-
-    Examples
-    --------
-    >>> from fl_design.app._uncertainty import summary
-    >>> class Job:
-    ...     results = {}
-    >>> summary(Job())
-    {}
-    """
-    from .._json import jsonable
-    from ._robust_map import summary as map_summary
-
-    ens = job.results.get("robustness")
-    if ens is None:
-        return {}
-    mc = {"n": ens.n, "seed": ens.seed, "duration": ens.duration,
-          "duration_reason": ens.duration_reason,
-          "distributions": {k: str(v) for k, v in ens.distributions.items()},
-          "fractions": dict(ens.fractions), "convergent_fraction": ens.convergent_fraction}
-    return jsonable({"monte_carlo": mc, "robust_map": map_summary(job) or None})
-
-
-__all__ = ["MAX_SAMPLES", "QUICK_SAMPLES", "UncertaintyTable", "report_blocks", "run_stage",
-           "summary"]
+__all__ = ["MAX_SAMPLES", "QUICK_SAMPLES", "UncertaintyTable"]

@@ -244,7 +244,7 @@ class Ensemble:
         >>> len(ens.plot(metrics=("tail_error",)).axes)
         2
         """
-        from ._family_plots import plot_ensemble
+        from ..plotting import plot_ensemble
 
         return plot_ensemble(self, metrics=metrics, x=x, y=y)
 

@@ -214,7 +214,7 @@ class RobustMap:
         >>> m.plot().axes[0].get_ylabel()
         'observer time constant eps (s)'
         """
-        from ._family_plots import plot_robust_map
+        from ..plotting import plot_robust_map
 
         return plot_robust_map(self, ax=ax, level=level)
 

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from fl_design.app import main
+from fl_design.app._report_render import md as escaped
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -55,7 +56,7 @@ def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
         assert f"]({name})" in md
     assert html.count('src="data:image/png;base64,') == 5
     assert "<img" in html and 'src="stability_map.png"' not in html  # self-contained
-    assert "P_x =" in md and "eps* for varying b (s): [certified, refuted]" in md
+    assert "P_x =" in md and escaped("eps* for varying b (s): [certified, refuted]") in md
     assert "Software in the loop" in md
 
 
@@ -86,7 +87,28 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
 def test_progress_goes_to_stderr_only(quick_run):
     _, proc = quick_run
     assert "[fl-design]" in proc.stderr and "[fl-design]" not in proc.stdout
-    assert "This design (EHGO eps = 0.05 s" in proc.stdout
+    assert "trms_yaw: EHGO eps = 0.05 s" in proc.stdout and "Does it work?" in proc.stdout
+
+
+def test_default_console_fits_one_screen_and_verbose_gives_the_detail(quick_run, capsys):
+    """The default stdout is the summary (<= 60 lines, each answer <= 25 words); --verbose
+    adds every stage's detail (the derivation, the certificates, the map)."""
+    _, proc = quick_run
+    lines = proc.stdout.splitlines()
+    assert len(lines) <= 60, len(lines)
+    answers = lines[1:lines.index("")]
+    assert len(answers) >= 7 and all(len(line.split()) <= 2 + 25 + 4 for line in answers)
+    assert "LyapunovCertificate" not in proc.stdout and "--verbose" in proc.stdout
+    from fl_design.app import load_config, run_job
+    from fl_design.app._console import print_job
+
+    job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
+    print_job(job, verbose=True)
+    verbose = capsys.readouterr().out
+    print_job(job)
+    short = capsys.readouterr().out
+    assert "LyapunovCertificate" in verbose and "Plant: trms_yaw" in verbose
+    assert verbose.endswith(short) and len(verbose) > 2 * len(short)
 
 
 @pytest.mark.parametrize("text,needle", [

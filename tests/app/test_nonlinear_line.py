@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import fl_design as fl
-from fl_design.app._job import _nonlinear
+from fl_design.app._stages import nonlinear_line as _nonlinear
 
 
 def test_full_job_certifies_the_pendulum_in_its_whole_region():

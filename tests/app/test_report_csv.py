@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from fl_design.app import load_config, run_job, write_report
-from fl_design.app._report_write import run_csv_name
+from fl_design.app._report_csv import run_csv_name
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def test_a_main_csv_we_did_not_write_is_left_alone(job, tmp_path):
 
 def test_background_writer_during_the_job_gives_the_same_files(tmp_path):
     from fl_design._output import MARKER, claim_output_folder
-    from fl_design.app._report_write import BackgroundCsv
+    from fl_design.app._report_csv import BackgroundCsv
 
     folder = claim_output_folder(tmp_path / "out")
     writer = BackgroundCsv(folder, main=False)
@@ -56,7 +56,7 @@ def test_background_writer_during_the_job_gives_the_same_files(tmp_path):
 
 
 def test_background_writer_error_is_raised_in_the_caller(job, tmp_path):
-    from fl_design.app._report_write import BackgroundCsv
+    from fl_design.app._report_csv import BackgroundCsv
 
     writer = BackgroundCsv(tmp_path / "missing" / "deeper", main=False)
     writer.after("simulate", job)

@@ -29,16 +29,18 @@ def test_summary_gives_peak_and_recovery_of_the_main_run():
                                      disturbance=fl.Disturbance(input=fl.Step(10.0, 0.5))))
     m = direct.disturbance
     assert job.results["simulate"]["main"].disturbance == pytest.approx(m, rel=1e-9)
-    text = _row(job)
-    assert text.startswith("input step (at 10, size 0.5): from t = 10 s")
+    brief = _row(job)
+    text = str(brief)
+    assert brief.word == "recovered" and brief.level == "good" and len(text.split()) <= 25
+    assert brief.detail.startswith("input step (at 10, size 0.5) at 10 s")
     assert f"peak |y - r| {m['disturbance_peak']:.3g}" in text
-    assert f"back within the band {m['recovery_time']:.3g} s later" in text
+    assert f"back in the band {m['recovery_time']:.3g} s later" in text
 
 
 def test_a_run_that_ends_before_the_disturbance_says_so_and_none_without_one():
     quick = run_job(parse_config(TOML), quick=True, stages=("derive", "simulate"),
                     progress=False)
-    assert "did not act within this run's" in _row(quick)
+    assert _row(quick).word == "did not act" and "after this run's 4 s" in str(_row(quick))
     plain = run_job(parse_config('[plant]\nlibrary = "pendulum"\n'), quick=True,
                     stages=("derive", "simulate"), progress=False)
     assert _row(plain) is None

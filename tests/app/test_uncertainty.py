@@ -119,18 +119,21 @@ def test_job_robust_map_in_summary_and_report(tmp_path):
                                                       for x in direct.gamma]
     assert rm["covers"] == "8 plants drawn from c ~ Uniform(0.05, 1), b ~ Normal(1, 0.1), seed 3"
     assert rm["seconds"] == job.timings["robust_map"] > 0
+    from fl_design.app._report_render import md as escaped
+
     md = (tmp_path / "out" / "report.md").read_text()
-    assert "every point run against the same 8 plants drawn from c ~ Uniform(0.05, 1), " \
-        "b ~ Normal(1, 0.1), seed 3 (200 runs" in md
+    assert escaped("every point run against the same 8 plants drawn from c ~ Uniform(0.05, 1), "
+                   "b ~ Normal(1, 0.1), seed 3 (200 runs") in md
     assert "](robust_map.png)" in md
     import base64
 
     png = base64.b64encode((tmp_path / "out" / "robust_map.png").read_bytes()).decode("ascii")
     assert f'src="data:image/png;base64,{png}"' in (tmp_path / "out" / "report.html").read_text()
     _check_figure(job)
-    row = f"| every sampled plant converges (8 of 8) | {direct.eps_star(g)} |"
+    row = f"| every sampled plant converges (8 of 8) | {escaped(direct.eps_star(g))} |"
     assert row in md
-    assert f"| the nominal plant (the stability map above) | {smap.eps_star(g)} |" in md
+    assert (f"| the nominal plant (the stability map above) | {escaped(smap.eps_star(g))} |"
+            in md)
 
 
 def _check_figure(job):
@@ -138,9 +141,9 @@ def _check_figure(job):
     legend off the data and the colour bar, a short title, the design's point drawn."""
     import matplotlib.pyplot as plt
 
-    from fl_design.app._robust_map import figure
+    from fl_design.app._report_figures import FIGURES, figure_context
 
-    fig = figure(job)
+    fig = FIGURES["robust_map.png"][0](job, figure_context(job))
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     legend = fig.axes[0].get_legend().get_window_extent(renderer)
@@ -148,7 +151,7 @@ def _check_figure(job):
         box = ax.get_window_extent(renderer)
         assert not (legend.x0 < box.x1 and box.x0 < legend.x1 and legend.y0 < box.y1
                     and box.y0 < legend.y1)
-    assert fig.axes[0].get_title() == "Robust stability map: 8 plants, seed 3"
+    assert fig.axes[0].get_title() == f"{job.plant.name}: robust stability map, 8 plants, seed 3"
     (star,) = [line for line in fig.axes[0].lines if line.get_label() == "this design"]
     assert star.get_xydata().tolist() == [[0.01, job.design.estimator.eps]]
     plt.close(fig)
@@ -157,7 +160,8 @@ def _check_figure(job):
 def test_least_squares_design_no_robust_map_says_why(tmp_path):
     """The robust map runs over eps: a least-squares design still gets its Monte Carlo, and
     the report and summary say why there is no map."""
-    from fl_design.app._robust_map import blocks, summary
+    from fl_design.app._report_family import blocks
+    from fl_design.app._report_family import map_summary as summary
 
     cfg = parse_config(TOML.replace("[uncertainty]\n", "[design]\nestimator = "
                                     "\"least_squares\"\nT = 0.001\ngains = [1.0, 2.0]\n"
@@ -221,7 +225,7 @@ def test_cli_sweep_bad_samples(tmp_path, capsys, extra, body, match):
 def test_certificates_cover_the_uncertainty_box():
     """[uncertainty] uniform ranges: the certify stage encloses b over the box (plant_bounds)."""
     from fl_design.analysis import certify_eps, plant_bounds
-    from fl_design.app._report_summary import _certified_text
+    from fl_design.app._brief import cert_brief
 
     cfg = parse_config('[plant]\nlibrary = "pendulum"\n[uncertainty.params]\n'
                        'c = [0.05, 1.0]\nb = [0.8, 1.2]\n')
@@ -234,7 +238,8 @@ def test_certificates_cover_the_uncertainty_box():
                          eps_range=tuple(cfg.certify.eps_range or cfg.sweep.eps))
     assert cert["eps"].eps_star_certified == pytest.approx(direct.eps_star_certified, rel=1e-9)
     assert "c in [0.05, 1]" in str(cert["eps"])
-    assert "[uncertainty] box c in [0.05, 1], b in [0.8, 1.2]" in _certified_text(job)
+    assert "[uncertainty] box c in [0.05, 1], b in [0.8, 1.2]" in cert_brief(cert).long
+    assert "over the [uncertainty] box" in str(cert_brief(cert))
     # the nominal plant (b = 1) certifies a larger eps* than the whole family
     nominal = run_job(parse_config('[plant]\nlibrary = "pendulum"\n'), quick=True,
                       stages=("derive", "certify"), progress=False).results["certify"]

@@ -1,115 +1,24 @@
-"""The job's robust stability map: the ``[sweep]`` grid run against the ``[uncertainty]`` family.
-
-With ``[uncertainty] params`` (and ``map_samples`` > 0) the robustness stage also runs
-``fl.sweep(..., params=..., samples=map_samples, seed=seed)`` on the grid of the nominal
-stability map (the same eps and gamma points, run length, scenario and classifier; quick mode:
-:data:`QUICK_MAP_SAMPLES` plants), so the robust eps* stands beside the nominal eps* at the
-same gamma. ``fl-design sweep`` prints it; the report's *Robustness* section shows it.
+"""The report's words on a family of plants: the Monte Carlo (``[uncertainty]``) and the robust
+stability map (tables, ``summary.json``, the console); the stage is
+:mod:`fl_design.app._stage_family`, the figure :func:`fl_design.plotting._report.robust_map_figure`.
 
 Examples
 --------
->>> from fl_design.app._robust_map import LEVELS, QUICK_MAP_SAMPLES
->>> LEVELS, QUICK_MAP_SAMPLES
-((1.0, 0.9), 8)
+>>> from fl_design.app._report_family import LEVELS
+>>> LEVELS
+(1.0, 0.9)
 """
 
 from __future__ import annotations
 
-import time
-from pathlib import Path
+import math
 
 import numpy as np
 
-#: Plants per grid point in quick mode.
-QUICK_MAP_SAMPLES = 8
+from .._json import jsonable
+
 #: Fractions of converging plants the robust eps* is given for (every plant; 90 %).
 LEVELS = (1.0, 0.9)
-
-
-def map_grid(config, quick: bool) -> tuple:
-    """``(eps, gamma, duration)`` of the nominal stability map (``[sweep]``, as its stage).
-
-    Parameters
-    ----------
-    config : Config
-        The job's configuration.
-    quick : bool
-        The quick grid and run length.
-
-    Returns
-    -------
-    tuple
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config
-    >>> from fl_design.app._robust_map import map_grid
-    >>> eps, gamma, duration = map_grid(load_config(None), True)
-    >>> eps.size, gamma.size, duration
-    (5, 5, 3.0)
-    """
-    from ._job import QUICK
-
-    cfg = config.sweep
-    n = QUICK["sweep_points"] if quick else cfg.points
-    duration = QUICK["sweep_duration"] if quick else cfg.duration
-    return np.geomspace(*cfg.eps, n), np.geomspace(*cfg.gamma, n), duration
-
-
-def run_robust_map(job, quick: bool, executor, progress: bool, *,
-                   samples: int | None = None) -> None:
-    """``fl.sweep(..., params=...)`` of the job's design on the ``[sweep]`` grid.
-
-    Stores the :class:`~fl_design.sim.RobustMap` in ``job.results["robust_map"]`` and its
-    seconds in ``job.timings["robust_map"]``; nothing without ``[uncertainty] params`` or
-    (``samples`` not given) with ``map_samples = 0``; for a design without eps (least
-    squares) the reason in ``job.results["robust_map_skipped"]``.
-
-    Parameters
-    ----------
-    job : Job
-        A prepared job.
-    quick : bool
-        The quick grid and at most :data:`QUICK_MAP_SAMPLES` plants.
-    executor : concurrent.futures.Executor or None
-        Runs chunks of the grid.
-    progress : bool
-        Progress bar.
-    samples : int, optional
-        Plants per point instead of ``map_samples`` (or the quick mode's; ``--samples``).
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config
-    >>> from fl_design.app._job import prepare
-    >>> from fl_design.app._robust_map import run_robust_map
-    >>> job = prepare(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'))
-    >>> run_robust_map(job, True, None, False)
-    >>> job.results["robust_map"].status.shape
-    (5, 5, 8)
-    """
-    from ..sim import sweep
-    from ._build import build_classifier, build_scenario
-
-    table = job.config.uncertainty
-    if samples is None:
-        samples = min(QUICK_MAP_SAMPLES, table.map_samples) if quick else table.map_samples
-    if not table.params or not samples:
-        return
-    if not job.design.estimator.has_time_constant:  # the map runs over eps
-        job.results["robust_map_skipped"] = (
-            f"no robust map: it runs over the observer's eps, and this design's estimator "
-            f"({type(job.design.estimator).__name__}) has none")
-        return
-    eps, gamma, duration = map_grid(job.config, quick)
-    start = time.perf_counter()
-    job.results["robust_map"] = sweep(
-        job.plant, job.design, build_scenario(job.config, duration=duration, noise_std=0.0),
-        eps=eps, gamma=gamma, classifier=build_classifier(job.config), executor=executor,
-        progress=progress, params=table.distributions(),
-        samples=samples, seed=table.seed)
-    job.timings["robust_map"] = time.perf_counter() - start
 
 
 def _nearest(grid, gamma: float) -> float:
@@ -123,7 +32,7 @@ def at_design_gamma(job) -> dict:
     Parameters
     ----------
     job : Job
-        After :func:`run_robust_map` (the nominal map only if the sweep stage ran).
+        After the robustness stage (the nominal map only if the sweep stage ran).
 
     Returns
     -------
@@ -135,7 +44,7 @@ def at_design_gamma(job) -> dict:
     --------
     >>> import numpy as np
     >>> from fl_design.sim._robust_map import RobustMap
-    >>> from fl_design.app._robust_map import at_design_gamma
+    >>> from fl_design.app._report_family import at_design_gamma
     >>> class Job:
     ...     class design:
     ...         class controller:
@@ -173,7 +82,7 @@ def covers(rmap) -> str:
     >>> import numpy as np
     >>> import fl_design as fl
     >>> from fl_design.sim._robust_map import RobustMap
-    >>> from fl_design.app._robust_map import covers
+    >>> from fl_design.app._report_family import covers
     >>> covers(RobustMap(np.array([0.1]), np.array([1.0]), np.array([[[2, 2]]]), {},
     ...                  {"b": np.ones(2)}, 1e-3, 1.0, {"b": fl.Uniform(0.5, 2.0)}, 3))
     '2 plants drawn from b ~ Uniform(0.5, 2), seed 3'
@@ -182,7 +91,7 @@ def covers(rmap) -> str:
     return f"{rmap.n} plants drawn from {dists}, seed {rmap.seed}"
 
 
-def summary(job) -> dict:
+def map_summary(job) -> dict:
     """The robust map's numbers for ``summary.json`` (empty without a robust map).
 
     Grid, plants, fraction converging per point, robust eps* per gamma at each of
@@ -200,10 +109,10 @@ def summary(job) -> dict:
 
     Examples
     --------
-    >>> from fl_design.app._robust_map import summary
+    >>> from fl_design.app._report_family import map_summary
     >>> class Job:
     ...     results = {}
-    >>> summary(Job())
+    >>> map_summary(Job())
     {}
     """
     rmap = job.results.get("robust_map")
@@ -224,75 +133,6 @@ def summary(job) -> dict:
     return out
 
 
-def figure(job):
-    """The report's ``robust_map.png``: :meth:`RobustMap.plot` with this design's point.
-
-    Parameters
-    ----------
-    job : Job
-        After :func:`run_robust_map`.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config
-    >>> from fl_design.app._job import prepare
-    >>> from fl_design.app._robust_map import figure, run_robust_map
-    >>> job = prepare(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'))
-    >>> run_robust_map(job, True, None, False)
-    >>> figure(job).axes[0].get_ylabel()
-    'observer time constant eps (s)'
-    """
-    fig = job.results["robust_map"].plot(level=LEVELS[0])
-    ax = fig.axes[0]
-    ax.plot([abs(job.design.controller.gamma)], [job.design.estimator.eps], marker="*",
-            color="black", markersize=14, linestyle="none", label="this design")
-    rmap = job.results["robust_map"]
-    ax.set_title(f"Robust stability map: {rmap.n} plants, seed {rmap.seed}")
-    fig.set_size_inches(10.0, 5.0)  # the legend right of the colour bar and its label
-    ax.legend(loc="upper left", bbox_to_anchor=(0.77, ax.get_position().y1),
-              bbox_transform=fig.transFigure, borderaxespad=0.0, fontsize="small")
-    return fig
-
-
-def save_figure(job, folder) -> list:
-    """Write ``robust_map.png`` (:func:`figure`) into the report's folder if the job has a
-    robust map; return the names written.
-
-    Parameters
-    ----------
-    job : Job
-        A finished job.
-    folder : pathlib.Path
-        The report's folder.
-
-    Returns
-    -------
-    list of str
-        ``["robust_map.png"]`` or empty.
-
-    Examples
-    --------
-    >>> from fl_design.app._robust_map import save_figure
-    >>> class Job:
-    ...     results = {}
-    >>> save_figure(Job(), ".")
-    []
-    """
-    import matplotlib.pyplot as plt
-
-    if "robust_map" not in job.results:
-        return []
-    fig = figure(job)
-    fig.savefig(Path(folder) / "robust_map.png", dpi=100)
-    plt.close(fig)
-    return ["robust_map.png"]
-
-
 def blocks(job, figures) -> list:
     """The robust map's part of the report's *Robustness* section (empty without one).
 
@@ -309,7 +149,7 @@ def blocks(job, figures) -> list:
 
     Examples
     --------
-    >>> from fl_design.app._robust_map import blocks
+    >>> from fl_design.app._report_family import blocks
     >>> class Job:
     ...     results = {}
     >>> blocks(Job(), [])
@@ -351,16 +191,15 @@ def print_robust_map(job) -> None:
     Parameters
     ----------
     job : Job
-        After :func:`run_robust_map` (and the sweep stage for the nominal column).
+        After the robustness stage (and the sweep stage for the nominal column).
 
     Examples
     --------
-    >>> from fl_design.app import parse_config
-    >>> from fl_design.app._job import prepare
-    >>> from fl_design.app._robust_map import print_robust_map, run_robust_map
-    >>> job = prepare(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'))
-    >>> run_robust_map(job, True, None, False)
+    >>> from fl_design.app import parse_config, run_job
+    >>> from fl_design.app._report_family import print_robust_map
+    >>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
+    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
+    ...               stages=("robustness",), progress=False)
     >>> print_robust_map(job)  # doctest: +ELLIPSIS
     Robust stability map 5 x 5 (eps x gamma), 3 s runs, 8 plants drawn from c ~ ...
     """
@@ -384,5 +223,81 @@ def print_robust_map(job) -> None:
               + f" {nom:<{nom_w}} {100 * f:.0f} %")
 
 
-__all__ = ["LEVELS", "QUICK_MAP_SAMPLES", "at_design_gamma", "blocks", "covers", "figure",
-           "map_grid", "print_robust_map", "run_robust_map", "save_figure", "summary"]
+def report_blocks(job, figures=()) -> list:
+    """The report's *Robustness* section (blocks as :mod:`fl_design.app._report_sections`).
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+    figures : sequence of str, optional
+        The figure files written (the robust map's is shown only if among them).
+
+    Returns
+    -------
+    list
+
+    Examples
+    --------
+    >>> from fl_design.app._report_family import report_blocks
+    >>> class Job:
+    ...     results = {}
+    >>> report_blocks(Job())
+    [('p', 'Not run (no [uncertainty] params).')]
+    """
+    ens = job.results.get("robustness")
+    if ens is None:
+        return [("p", "Not run (no [uncertainty] params).")]
+    dists = ", ".join(f"{k} ~ {v}" for k, v in ens.distributions.items())
+    verdicts = ", ".join(f"{100 * v:.1f} % {k}" for k, v in ens.fractions.items() if v > 0)
+    out = [("p", (f"The design against {ens.n} plants drawn from {dists} (seed {ens.seed}; "
+                    f"each the plant with those parameter values, its own equilibrium input), "
+                    f"noise-free runs of {ens.duration:g} s classified as the simulations: "
+                    f"{verdicts} ({100 * ens.convergent_fraction:.1f} % converge: converging "
+                    f"or converged)."))]
+    if ens.duration_reason != "given":
+        out.append(("p", f"Run length chosen on the nominal plant: {ens.duration_reason}."))
+    names = list(ens.params)
+    rows = [[str(w["index"]), *(f"{w[k]:.4g}" for k in names), w["status"],
+             f"{w['tail_error']:.3g}" if math.isfinite(w["tail_error"]) else "-",
+             f"{w['divergence_time']:.3g}" if math.isfinite(w["divergence_time"]) else "-"]
+            for w in ens.worst(5)]
+    out.append(("table", ["sample", *names, "verdict", "tail error", "diverged at (s)"],
+                   rows))
+    return out + blocks(job, figures)
+
+
+def summary(job) -> dict:
+    """``summary.json``'s ``robustness``: the Monte Carlo's fractions and the robust map.
+
+    Parameters
+    ----------
+    job : Job
+        A finished job.
+
+    Returns
+    -------
+    dict
+        Empty when the robustness stage did not run.
+
+    Examples
+    --------
+    >>> from fl_design.app._report_family import summary
+    >>> class Job:
+    ...     results = {}
+    >>> summary(Job())
+    {}
+    """
+
+    ens = job.results.get("robustness")
+    if ens is None:
+        return {}
+    mc = {"n": ens.n, "seed": ens.seed, "duration": ens.duration,
+          "duration_reason": ens.duration_reason,
+          "distributions": {k: str(v) for k, v in ens.distributions.items()},
+          "fractions": dict(ens.fractions), "convergent_fraction": ens.convergent_fraction}
+    return jsonable({"monte_carlo": mc, "robust_map": map_summary(job) or None})
+
+
+__all__ = ["LEVELS", "at_design_gamma", "blocks", "covers", "map_summary", "print_robust_map",
+           "report_blocks", "summary"]

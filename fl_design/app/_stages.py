@@ -1,0 +1,375 @@
+"""The main job's stages: each a function of the :class:`~fl_design.app._build.Setup` (the
+config's objects, built once) and of earlier stages' results, returning its own results.
+
+``derive(setup)``, ``certify(setup, derivation, quick)``, ``sweep(setup, quick, executor,
+progress)``, ``simulate(setup, quick)``, ``codegen(setup, quick, out_dir, force)``; the family
+stages are in :mod:`fl_design.app._stage_family`. :mod:`fl_design.app._job` runs them in order.
+
+Examples
+--------
+>>> from fl_design.app import load_config
+>>> from fl_design.app._build import build_setup
+>>> from fl_design.app._stages import derive
+>>> derive(build_setup(load_config(None)))["rho"]
+2
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ._build import Setup, design_name
+
+STAGES = ("derive", "certify", "sweep", "simulate", "robustness", "codegen")
+QUICK = {"duration": 4.0, "sweep_points": 5, "sweep_duration": 3.0, "certify_points": 3,
+         "bench_steps": 20_000, "sil_duration": 1.0}
+#: ``[compare] duration = "adaptive"``: the compared runs last this many rise times (10-90 %)
+#: of this design's run: the transient (overshoot, noise), not the slow final approach.
+COMPARE_RISE_TIMES = 15.0
+#: Most samples of one compared run (a run of a fast loop stays small on disk and in memory).
+COMPARE_MAX_SAMPLES = 60_000
+
+
+def derive(setup: Setup) -> dict:
+    """Relative degree, ``a``, ``b``, b-range, zero dynamics, ``F^a`` and the text.
+
+    Parameters
+    ----------
+    setup : Setup
+        The config's objects.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> from fl_design.app._stages import derive
+    >>> [round(b, 9) for b in derive(build_setup(load_config(None)))["b_bounds"]]
+    [3.6, 6.8]
+    """
+    import sympy as sp
+
+    from ..symbolic import taylor_discretization
+    from ._report import derivation_report
+
+    plant = setup.plant
+    nf = plant.normal_form()
+    disc = taylor_discretization(nf.rho, order=nf.rho + 1)
+    has_b = plant.region is not None and plant.input_range is not None
+    return {
+        "plant": plant.name, "rho": nf.rho, "n": plant.n, "a": sp.sstr(nf.a), "b": sp.sstr(nf.b),
+        "b_bounds": list(plant.b_bounds()) if has_b else None,
+        "zero_dynamics_eigenvalues": [str(complex(z)) for z in nf.zero_dynamics_eigenvalues]
+        if plant.n > nf.rho else [],
+        "minimum_phase": bool(nf.minimum_phase) if plant.n > nf.rho else True,
+        "F_a": sp.sstr(disc.approx), "residual_orders": disc.residual_order_table(),
+        "a_latex": sp.latex(nf.a), "b_latex": sp.latex(nf.b),
+        "a_mathml": sp.mathml(nf.a, printer="presentation"),
+        "b_mathml": sp.mathml(nf.b, printer="presentation"),
+        "x_op": [float(v) for v in plant.x_op], "u_eq": float(plant.u_eq),
+        "states": [str(s) for s in plant.states],
+        "text": derivation_report(plant),
+    }
+
+
+def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
+    """Lyapunov, gamma and eps* certificates, margins, the nonlinear region, linearized eps*.
+
+    Parameters
+    ----------
+    setup : Setup
+        The config's objects.
+    derivation : dict
+        :func:`derive`'s results (its b-range).
+    quick : bool
+        Fewer gamma points; no nonlinear region search.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> from fl_design.app._stages import certify, derive
+    >>> s = build_setup(load_config(None))
+    >>> certify(s, derive(s), True)["eps"].certified
+    True
+    """
+    from ..analysis import (
+        certify_eps,
+        certify_gamma,
+        certify_lyapunov,
+        eps_star_curve,
+        linearized_eps_star,
+        loop_margins,
+    )
+
+    cfg, design, plant = setup.config.certify, setup.design, setup.plant
+    b = derivation["b_bounds"]
+    out = {"lyapunov": certify_lyapunov(design.controller.gains, T=design.T)}
+    box = setup.config.uncertainty.box()
+    if b is not None and box["ranges"]:
+        # the family's uniform ranges: b (and the rest) enclosed over the whole box, so the
+        # certificates cover every plant of [uncertainty] (normal ones have no box: named)
+        from ..analysis import plant_bounds
+
+        b = plant_bounds(plant, params=box["ranges"])
+        out["box"] = {"params": {k: list(v) for k, v in box["ranges"].items()},
+                      "not_covered": box["unbounded"], "b_bounds": list(b.b_bounds)}
+    n = QUICK["certify_points"] if quick else cfg.points
+    gammas = np.geomspace(*cfg.gamma, n)
+    eps_range = tuple(cfg.eps_range or setup.config.sweep.eps)  # [certify] eps_range
+    if b is not None and design.estimator.has_time_constant and cfg.enabled:
+        bb = b if "box" in out else tuple(b)  # a PlantBounds: results list the box they cover
+        out["gamma"] = certify_gamma(design, bb)
+        out["eps"] = certify_eps(design, bb, eps_range=eps_range)
+        out["curve"] = eps_star_curve(design, bb, np.abs(gammas), eps_range=eps_range)  # |gamma|
+        # margins at both ends of b, as plain numbers and text (cached without python-control)
+        out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
+                          for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
+        out["nonlinear"], out["nonlinear_summary"] = nonlinear_line(design, plant,
+                                                                    box["ranges"], quick)
+    elif b is None:
+        out["skipped"] = "the plant declares no region and input range: no b-range to certify"
+    out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
+        linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
+        for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
+    out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
+    return out
+
+
+def nonlinear_line(design, plant, ranges, quick: bool) -> tuple[str, str]:
+    """The nonlinear certificate's line and summary words (``analysis.nonlinear_region``).
+
+    Not searched in ``--quick``: the region search solves tens of LMIs and the quick job is for
+    tests and a first look (target 5 s); the full job searches it once (3 bisection steps of
+    the scale: 17.8 s on the TRMS on a 2-core machine, against 41.7 s for 5 steps under
+    cProfile and 50 s on a loaded machine; the 5-step region is at most a few times wider)
+    and the stage cache keeps it. ``nonlinear_region`` itself searches finer (12 steps).
+
+    Examples
+    --------
+    >>> from fl_design.app._stages import nonlinear_line
+    >>> nonlinear_line(None, None, {}, True)[1]
+    'not searched in --quick'
+    """
+    from ..analysis import nonlinear_region
+    from ..errors import ParameterError
+
+    if quick:
+        return (("nonlinear: not searched in --quick (the region search takes tens of seconds; "
+                 "the full job or `fl-design certify` without --quick searches it)"),
+                "not searched in --quick")
+    try:
+        region = nonlinear_region(design, plant, params=ranges or None, steps=3)
+    except ParameterError as err:
+        return f"nonlinear: not certified: {err}", "not certified (see Certificates)"
+    return region.words(), region.summary()
+
+
+def sweep(setup: Setup, quick: bool, executor=None, progress: bool = False):
+    """The noise-free stability map over the ``[sweep]`` grid.
+
+    Returns
+    -------
+    fl_design.StabilityMap
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> from fl_design.app._stages import sweep
+    >>> sweep(build_setup(load_config(None)), True).status.shape
+    (5, 5)
+    """
+    from ..sim import sweep as run_sweep
+
+    cfg = setup.config.sweep
+    n = QUICK["sweep_points"] if quick else cfg.points
+    duration = QUICK["sweep_duration"] if quick else cfg.duration
+    eps, gamma = np.geomspace(*cfg.eps, n), np.geomspace(*cfg.gamma, n)
+    return run_sweep(setup.plant, setup.design, setup.run_scenario(duration=duration,
+                                                                   noise_std=0.0),
+                     eps=eps, gamma=gamma, classifier=setup.classifier, executor=executor,
+                     progress=progress)
+
+
+def noise_levels(resp) -> dict:
+    """High-frequency noise of ``sigmahat`` and ``u`` over a run's tail.
+
+    The level is ``std(diff(x)) / sqrt(2)`` on the tail window: the sample-to-sample jitter,
+    which a slow limit cycle or the transient does not inflate.
+
+    Parameters
+    ----------
+    resp : fl_design.Response
+        A run.
+
+    Returns
+    -------
+    dict
+        ``sigmahat_noise`` and ``u_noise`` (NaN for a diverged run).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.app._stages import noise_levels
+    >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
+    >>> noise_levels(r)["u_noise"] < 1e-3
+    True
+    """
+    k = resp.k_tail
+    out = {}
+    for name, x in (("sigmahat_noise", resp.sigmahat), ("u_noise", resp.u)):
+        d = np.diff(np.asarray(x[k:], dtype=float))
+        out[name] = float(np.std(d) / math.sqrt(2)) if np.all(np.isfinite(d)) else math.nan
+    return out
+
+
+def compare_window(setup: Setup, main, quick: bool) -> tuple[float, str]:
+    """Length of the compared runs and why: given, or from this design's own run.
+
+    ``[compare] duration = "adaptive"``: :data:`COMPARE_RISE_TIMES` rise times of the main
+    run (the transient: overshoot and noise), at least 1000 samples, at most the main run and
+    :data:`COMPARE_MAX_SAMPLES` samples.
+
+    Parameters
+    ----------
+    setup : Setup
+        The config's objects.
+    main : fl_design.Response
+        This design's run.
+    quick : bool
+        The quick length.
+
+    Returns
+    -------
+    (float, str)
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> from fl_design.app._stages import compare_window
+    >>> s = build_setup(load_config(None))
+    >>> compare_window(s, None, False)
+    (30.0, 'given by [compare] duration')
+    """
+    given = setup.config.compare.duration
+    if quick:
+        return QUICK["duration"], "quick mode"
+    T = setup.design.T
+    hi = min(main.duration if main is not None else math.inf, COMPARE_MAX_SAMPLES * T)
+    if given != "adaptive":
+        if float(given) <= hi:
+            return float(given), "given by [compare] duration"
+        return hi, (f"[compare] duration {float(given):g} s capped at {hi:g} s "
+                    f"({COMPARE_MAX_SAMPLES} samples or this design's run)")
+    rise = main.rise_time
+    if not math.isfinite(rise) or rise <= 0:
+        return hi, "this design's run length (it has no 10-90 % rise time)"
+    want = max(COMPARE_RISE_TIMES * rise, 1000 * T)
+    d = min(want, hi)
+    return d, (f"{COMPARE_RISE_TIMES:g} x this design's rise time {rise:.3g} s: the transient"
+               + ("" if d == want else f", capped at {d:g} s"))
+
+
+def simulate(setup: Setup, quick: bool) -> dict:
+    """This design's run, the compared runs (every design x noise level) and the eps trade-off.
+
+    Returns
+    -------
+    dict
+        ``main``, ``runs`` ({(name, std): Response}), ``levels`` (their noise levels),
+        ``stds``, ``designs``, ``duration``, ``duration_reason``, ``compare_duration``,
+        ``compare_reason``, ``tradeoff``.
+
+    Examples
+    --------
+    >>> from fl_design.app import load_config
+    >>> from fl_design.app._build import build_setup
+    >>> from fl_design.app._stages import simulate
+    >>> sim = simulate(build_setup(load_config(None)), True)
+    >>> len(sim["runs"]), sim["compare_duration"]
+    (9, 4.0)
+    """
+    from ..sim import simulate as run
+
+    cfg = setup.config
+    seed = cfg.compare.seed
+
+    def one(design, duration, std):
+        return run(setup.plant, design, setup.run_scenario(duration=duration, noise_std=std,
+                                                           seed=seed),
+                   classifier=setup.classifier)
+
+    main = one(setup.design, QUICK["duration"] if quick else cfg.scenario.duration,
+               cfg.scenario.noise_std)
+    window, why = compare_window(setup, main, quick)
+    stds = [0.0] + [float(s) for s in cfg.compare.noise_std]
+    runs = {(name, std): one(d, window, std) for std in stds
+            for name, d in setup.compared.items()}
+    tradeoff = []
+    if setup.design.estimator.has_time_constant:
+        std = stds[-1]
+        for e in cfg.compare.eps_tradeoff:
+            resp = one(setup.design.replace(eps=float(e)), window, std)
+            tradeoff.append({"eps": float(e), "noise_std": std, **noise_levels(resp),
+                             "status": resp.status, "overshoot_%": resp.overshoot})
+    return {"main": main, "runs": runs, "levels": {k: noise_levels(r) for k, r in runs.items()},
+            "stds": stds, "duration": main.duration, "compare_duration": float(window),
+            "compare_reason": why, "duration_reason": main.duration_reason,
+            "designs": list(setup.compared), "tradeoff": tradeoff}
+
+
+def codegen(setup: Setup, quick: bool, out_dir, force: bool = False) -> dict:
+    """The C package of this design, its software-in-the-loop test and the cost table.
+
+    Returns
+    -------
+    dict
+        ``package``, ``sil``, ``costs``, ``sil_duration``, ``sil_noise_std``; or ``skipped``.
+
+    Examples
+    --------
+    >>> from fl_design.app import parse_config
+    >>> from fl_design.app._build import build_setup
+    >>> from fl_design.app._stages import codegen
+    >>> codegen(build_setup(parse_config("[codegen]\\nenabled = false")), True, ".")
+    {'skipped': '[codegen] enabled = false'}
+    """
+    from ..codegen import compare_costs, generate_c
+    from ..sim import Noise, Scenario
+
+    cfg = setup.config.codegen
+    if not cfg.enabled:
+        return {"skipped": "[codegen] enabled = false"}
+    out_dir = Path(out_dir)
+    pkg = generate_c(setup.design, out_dir / "c", precision=cfg.precision, prefix=cfg.prefix,
+                     force=force)
+    sil_t = QUICK["sil_duration"] if quick else cfg.sil_duration
+    std = float(setup.config.compare.noise_std[0]) if setup.config.compare.noise_std else 0.0
+    sc = setup.config.scenario
+    sil = pkg.verify(setup.plant, Scenario(sc.reference, sil_t, noise=Noise(std, seed=1),
+                                           disturbance=sc.disturbance))
+    steps = QUICK["bench_steps"] if quick else 1_000_000
+    # rows measured by an earlier run with the same generated files, compilers and machine
+    # are reused (codegen/_cost.py cost_key); the table counts them
+    costs = compare_costs(setup.compared, out_dir / "c_cost", precision=cfg.precision,
+                          bench_steps=steps, cache=True)
+    return {"package": pkg, "sil": sil, "costs": costs, "sil_duration": sil_t,
+            "sil_noise_std": std}
+
+
+__all__ = ["COMPARE_MAX_SAMPLES", "COMPARE_RISE_TIMES", "QUICK", "STAGES", "certify",
+           "codegen", "compare_window", "derive", "design_name", "noise_levels",
+           "nonlinear_line", "simulate", "sweep"]

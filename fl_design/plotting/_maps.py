@@ -1,0 +1,290 @@
+"""Maps over (gamma, eps): the stability map, eps*(gamma) brackets and curves, the robust map.
+
+Examples
+--------
+>>> import numpy as np
+>>> from fl_design.sim import StabilityMap
+>>> from fl_design.plotting import plot_stability_map
+>>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
+...                  {}, 1e-3, 1.0, 0.1)
+>>> fig = plot_stability_map(m, curves={"theory": (np.array([1.0, 2.0]), np.array([0.2, 0.1]))})
+>>> fig.axes[0].get_xscale(), fig.axes[0].get_yscale()
+('log', 'log')
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ._base import STATUS_COLORS, STATUS_LABELS, edges, legend_below, literal, log_axes, new_axes
+
+
+def _curve_points(curve, gamma: np.ndarray):
+    if callable(curve):
+        g = np.geomspace(gamma[0], gamma[-1], 200) if gamma.size > 1 else gamma
+        return g, np.asarray(curve(g), dtype=float) * np.ones_like(g)
+    try:
+        g, e = (np.asarray(a, dtype=float) for a in curve)
+    except (TypeError, ValueError):
+        raise ParameterError("a curve must be a callable gamma -> eps or a pair "
+                             f"(gamma_values, eps_values), got {curve!r}") from None
+    if g.shape != e.shape:
+        raise ParameterError(f"a curve's gamma and eps arrays differ in shape: {g.shape} vs "
+                             f"{e.shape}")
+    return g, e
+
+
+def _is_bracket(obj) -> bool:
+    """Anything shaped like :class:`~fl_design.sim.EpsStar` (a protocol, not an import of
+    ``sim``: results are drawn here, the simulation layer draws with this module)."""
+    return all(hasattr(obj, name) for name in ("lower", "upper", "upper_status"))
+
+
+def _holds_eps_stars(curve) -> bool:
+    """A pair ``(gamma_values, [EpsStar, ...])``."""
+    return (isinstance(curve, (tuple, list)) and len(curve) == 2
+            and not callable(curve) and np.ndim(curve[1]) == 1 and len(curve[1]) > 0
+            and all(_is_bracket(s) for s in curve[1]))
+
+
+def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = "-",
+                  marker: str = "s") -> list:
+    """Draw ``eps*(gamma)`` brackets: values as a line, boundaries outside the range as such.
+
+    A :class:`~fl_design.sim.EpsStar` inside its range is drawn at its ``lower`` end (the
+    largest eps found stable/converging); one above the range (``> eps_max``) as an upward
+    open triangle at the range's top, one below it (``< eps_min``) as a downward open triangle
+    at the range's bottom, or an open diamond when the run there is ``undecided`` (a trend
+    the run is too short to call, not a failure), each with its own legend entry: never as a
+    value.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        Where to draw.
+    gamma : array_like
+        ``(n,)`` controller gains.
+    stars : sequence of EpsStar
+        ``n`` brackets (:func:`fl_design.linearized_eps_star`,
+        :meth:`fl_design.StabilityMap.eps_star`).
+    label : str
+        Legend text of the curve.
+    color, ls, marker : str, optional
+        Line colour, line style (``"none"``: markers only) and marker of the values.
+
+    Returns
+    -------
+    list
+        The legend handles drawn.
+
+    Raises
+    ------
+    ParameterError
+        ``gamma`` and ``stars`` of different lengths.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from fl_design.sim import EpsStar
+    >>> from fl_design.plotting import plot_eps_star
+    >>> fig, ax = plt.subplots()
+    >>> hs = plot_eps_star(ax, [1e-3, 1e-2], [EpsStar(1.0, float("inf")), EpsStar(0.1, 0.2)],
+    ...                    label="linearized")
+    >>> [h.get_label() for h in hs]
+    ['linearized', 'linearized: eps* above the range (> top)']
+    """
+    g = np.abs(np.asarray(gamma, dtype=float).ravel())  # gamma < 0 (b < 0): at |gamma|
+    stars = list(stars)
+    if len(stars) != g.size:
+        raise ParameterError(f"gamma has {g.size} values but {len(stars)} eps* brackets were "
+                             "given; give one bracket per gamma")
+    value = np.array([s.lower if s.value is not None else np.nan for s in stars])
+    handles = []
+    if np.any(np.isfinite(value)):
+        (h,) = ax.plot(g, value, color=color, ls=ls, marker=marker, ms=4, label=label)
+        handles.append(h)
+    undecided = [bool(getattr(s, "undecided", False)) for s in stars]
+    outside = ((lambda s, u: s.above_range, "lower", "^", "eps* above the range (> top)"),
+               (lambda s, u: s.below_range and not u, "upper", "v",
+                "eps* below the range (< bottom)"),
+               (lambda s, u: s.below_range and u, "upper", "d",
+                "undecided at the bottom (run longer)"))
+    for pick, edge, mark, words in outside:
+        pts = [(gi, getattr(s, edge)) for gi, s, u in zip(g, stars, undecided) if pick(s, u)]
+        if pts:
+            (h,) = ax.plot(*zip(*pts), ls="none", marker=mark, ms=8, color=color, mfc="none",
+                           mew=1.5, label=f"{label}: {words}")
+            handles.append(h)
+    return handles
+
+
+def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True):
+    """Heat map of a :class:`~fl_design.sim.StabilityMap` over (gamma, eps), log axes.
+
+    Parameters
+    ----------
+    smap : StabilityMap
+        The sweep result.
+    ax : Axes, optional
+        Where to draw (default a new figure).
+    curves : dict, optional
+        ``{label: callable gamma -> eps, or (gamma_values, eps_values)}`` overlaid as lines;
+        ``eps_values`` may be :class:`~fl_design.sim.EpsStar` brackets (drawn by
+        :func:`plot_eps_star`: outside-the-range ones as triangles at the edge).
+    show_eps_star : bool, optional
+        Draw the map's empirical ``eps_star(gamma)`` (white markers).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim import StabilityMap
+    >>> from fl_design.plotting import plot_stability_map
+    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                  1e-3, 1.0, 0.1)
+    >>> plot_stability_map(m).axes[0].get_xlabel()
+    'controller gain gamma'
+    """
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    if ax is None:
+        fig, (ax,) = new_axes(1, figsize=(8.0, 5.6), bottom=0.31)
+    fig = ax.figure
+    cmap = ListedColormap(list(STATUS_COLORS))
+    norm = BoundaryNorm(np.arange(-2.5, 5.0), cmap.N)
+    gx = np.abs(np.asarray(smap.gamma, dtype=float))  # gamma < 0 (b < 0): plotted as |gamma|
+    negative = bool(np.any(np.asarray(smap.gamma) < 0))
+    ax.pcolormesh(edges(gx), edges(smap.eps), np.asarray(smap.status), cmap=cmap,
+                  norm=norm, shading="flat")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("controller gain |gamma| (gamma < 0, as b)" if negative
+                  else "controller gain gamma")
+    ax.set_ylabel("observer time constant eps (s)")
+    present = set(np.unique(np.asarray(smap.status)).tolist())
+    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 5), STATUS_COLORS,
+                                                              STATUS_LABELS) if code in present]
+    if show_eps_star:
+        stars = [smap.eps_star(g) for g in smap.gamma]
+        inside = [(g, b.lower) for g, b in zip(gx, stars) if b.value is not None]
+        above = [(g, b.lower) for g, b in zip(gx, stars) if b.above_range]
+        if inside:
+            (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6, label="eps* (this map)")
+            handles.append(h)
+        if above:
+            (h,) = ax.plot(*zip(*above), "w^", mec="k", ms=6, alpha=0.5,
+                           label="eps* > largest eps scanned")
+            handles.append(h)
+    for i, (label, curve) in enumerate((curves or {}).items()):
+        if _holds_eps_stars(curve):
+            handles += plot_eps_star(ax, *curve, label=str(label), color=f"C{i % 10}")
+            continue
+        g, e = _curve_points(curve, np.asarray(smap.gamma))
+        (h,) = ax.plot(np.abs(g), e, color=f"C{i % 10}", lw=1.8, label=str(label))
+        handles.append(h)
+    ax.set_xlim(np.sort(edges(gx)[[0, -1]]))
+    ax.set_ylim(edges(smap.eps)[[0, -1]])
+    log_axes(ax)
+    legend_below(ax, ncol=2, handles=handles)
+    ax.set_title(f"closed-loop runs of {smap.duration:g} s")
+    return fig
+
+
+def plot_eps_star_curve(curve, *, ax=None):
+    """Frozen and certified ``eps*`` against ``gamma`` (an :class:`~fl_design.EpsStarCurve`).
+
+    Parameters
+    ----------
+    curve : EpsStarCurve
+        The result of :func:`fl_design.eps_star_curve`.
+    ax : Axes, optional
+        Where to draw (default a new figure).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.analysis import EpsStarCurve
+    >>> from fl_design.plotting import plot_eps_star_curve
+    >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
+    ...                  np.array([0.09, np.nan]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
+    >>> [l.get_label() for l in plot_eps_star_curve(c).axes[0].get_lines()]
+    ['eps* frozen b grid', 'eps* certified (LMI)']
+    """
+    if ax is None:
+        fig, (ax,) = new_axes(1, figsize=(7.0, 5.0))
+    fig = ax.figure
+    ax.plot(curve.gamma, curve.eps_star_frozen, "k-", lw=1.4, label="eps* frozen b grid")
+    ax.plot(curve.gamma, curve.eps_star_certified, "C2o-", ms=3, lw=1.0,
+            label="eps* certified (LMI)")
+    log_axes(ax)
+    ax.set_xlabel("gamma")
+    ax.set_ylabel("eps")
+    lo, hi = curve.b_bounds
+    ax.set_title(f"linear surrogate, b in [{lo:g}, {hi:g}], T = {curve.T:g} s")
+    ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+
+def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
+    """Heat map of the fraction of plants that converge over (gamma, eps), log axes, with the
+    robust eps*(gamma) (at least ``level`` of the plants converge below it).
+
+    Parameters
+    ----------
+    rmap : RobustMap
+        A robust sweep's result.
+    ax : Axes, optional
+        Where to draw (default a new figure).
+    level : float, optional
+        The fraction the marked eps* requires (default 1).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim._robust_map import RobustMap
+    >>> from fl_design.plotting import plot_robust_map
+    >>> m = RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
+    ...               {}, {"b": np.ones(2)}, 1e-3, 1.0)
+    >>> plot_robust_map(m).axes[0].get_xlabel()
+    'controller gain gamma'
+    """
+    if ax is None:
+        fig, (ax,) = new_axes(1, figsize=(8.0, 5.6), bottom=0.26)
+    fig = ax.figure
+    gx = np.abs(np.asarray(rmap.gamma, dtype=float))
+    mesh = ax.pcolormesh(edges(gx), edges(rmap.eps), rmap.fraction, cmap="RdYlGn",
+                         vmin=0.0, vmax=1.0, shading="flat")
+    fig.colorbar(mesh, ax=ax, label=f"fraction of {rmap.n} plants converging")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("controller gain |gamma| (gamma < 0, as b)" if np.any(rmap.gamma < 0)
+                  else "controller gain gamma")
+    ax.set_ylabel("observer time constant eps (s)")
+    stars = [rmap.eps_star(g, level=level) for g in rmap.gamma]
+    inside = [(g, b.lower) for g, b in zip(gx, stars) if b.value is not None or b.above_range]
+    handles = []
+    if inside:
+        (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6,
+                       label=f"robust eps* ({100 * level:g}% of plants)")
+        handles.append(h)
+        legend_below(ax, ncol=2, handles=handles)
+    ax.set_title(f"{rmap.n} plants ({literal(', '.join(rmap.params))}), runs of "
+                 f"{rmap.duration:g} s")
+    return fig
+
+
+__all__ = ["plot_eps_star", "plot_eps_star_curve", "plot_robust_map", "plot_stability_map"]
