@@ -156,7 +156,7 @@ class Rig:
         n, d = len(self.x0), int(self.delay)
         m = int(np.asarray(controller.initial_state(y0=0.0)).size)
         X = ca.SX.sym("X", n + m + d)
-        w, r, p = ca.SX.sym("w"), ca.SX.sym("r"), ca.SX.sym("p")
+        w, r, p, e = ca.SX.sym("w"), ca.SX.sym("r"), ca.SX.sym("p"), ca.SX.sym("e")
         x, s, buf = X[:n], X[n:n + m], X[n + m:]
         h = (lambda v: v[0]) if self.output is None else self.output
         y_true = h(x)
@@ -164,7 +164,8 @@ class Rig:
         if self.quantization is not None:
             q = float(self.quantization)
             y = q * ca.floor(y / q + 0.5)
-        s_next, u = controller.step(s, y, r)
+        s_next, u_c = controller.step(s, y, r)
+        u = u_c + e  # the excitation added to the controller's input: what is applied
         u_plant = buf[d - 1] if d else u
         buf_next = ca.vertcat(u, buf[:d - 1]) if d else ca.SX(0, 1)
         dt = self.T / self.substeps
@@ -180,14 +181,14 @@ class Rig:
             k4 = f(xn + dt * k3)
             xn = xn + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         b = self.b(x, p) if self.b is not None else ca.SX(math.nan)
-        F = ca.Function("rig_step", [X, w, r, p],
+        F = ca.Function("rig_step", [X, w, r, p, e],
                         [ca.vertcat(xn, s_next, buf_next), ca.vertcat(y, u, y_true, b)])
         # keep the controller alive with its step: the cache key is its step's id
         self._cache[key] = (controller, F)
         return F
 
     def run(self, controller, reference, duration: float, *, p=None, seed: int = 0,
-            u0: float = 0.0) -> RigLog:
+            u0: float = 0.0, excitation=None) -> RigLog:
         """Run the closed loop and return its log.
 
         Parameters
@@ -204,6 +205,9 @@ class Rig:
             Noise seed.
         u0 : float, optional
             The controller's initial input (bumpless start at the first measurement).
+        excitation : float, callable or array_like, optional
+            A signal added to the controller's input (an identification experiment: a square
+            wave, a PRBS); the log's ``u`` is the sum, what was applied.
 
         Returns
         -------
@@ -223,13 +227,15 @@ class Rig:
         t = np.arange(N) * T
         r = _samples("reference", reference, t)
         pk = _samples("p", 0.0 if p is None else p, t)
+        ek = _samples("excitation", 0.0 if excitation is None else excitation, t)
         w = float(self.noise_std) * np.random.default_rng(int(seed)).standard_normal(N)
         F = self._loop(controller)
         y0 = float(((lambda v: v[0]) if self.output is None else self.output)(
             np.asarray(self.x0)))
         s0 = np.asarray(controller.initial_state(y0=y0, u0=u0), dtype=float).ravel()
         X0 = np.concatenate([self.x0, s0, np.full(self.delay, float(u0))])
-        _, out = F.mapaccum("rig_run", N)(X0, w[None, :], r[None, :], pk[None, :])
+        _, out = F.mapaccum("rig_run", N)(X0, w[None, :], r[None, :], pk[None, :],
+                                                   ek[None, :])
         out = np.asarray(out, dtype=float)
         with np.errstate(invalid="ignore"):
             bad = ~np.all(np.isfinite(out[:3]), axis=0)
