@@ -278,8 +278,9 @@ def read_log(log, *, bad_rows: str = "error", T: float | None = None) -> Log:
     if T is not None and abs(Tm - float(T)) > 0.01 * float(T):
         raise LogError(f"{where}: the time stamps step by {Tm:.6g} s, not the T = {T:g} s you "
                        f"gave: mixed units (ms and s) or another rate? give t in seconds")
-    off = np.flatnonzero((dt > GAP_FACTOR * Tm) | (dt < Tm / GAP_FACTOR))
-    cuts = []
+    consecutive = np.diff(idx) == 1  # a skipped row cuts the log there (already counted)
+    off = np.flatnonzero(((dt > GAP_FACTOR * Tm) | (dt < Tm / GAP_FACTOR)) & consecutive)
+    cuts = sorted(set(np.flatnonzero(~consecutive) + 1))
     if off.size:
         i = int(idx[off[0] + 1])
         if bad_rows == "error":
@@ -289,7 +290,7 @@ def read_log(log, *, bad_rows: str = "error", T: float | None = None) -> Log:
                            f"sampled log in seconds, or bad_rows='skip' to cut it into segments")
         skipped["a time step off the median (segment cut, no row dropped)"] = int(off.size)
         first["a time step off the median (segment cut, no row dropped)"] = _where(i, csv_file)
-        cuts = list(off + 1)
+        cuts = sorted(set(cuts) | set(off + 1))
     keep = idx
     bounds = [0] + cuts + [keep.size]
     segments = tuple((a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b - a >= 2)
