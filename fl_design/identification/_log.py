@@ -269,7 +269,7 @@ def read_log(log, *, bad_rows: str = "error", T: float | None = None) -> Log:
         raise LogError(f"{where}: {idx.size} usable samples (of {n0} rows); at least "
                        f"{MIN_SAMPLES} are needed (a few seconds at the loop's rate)")
     dt = np.diff(t[idx])
-    Tm = float(np.median(dt))
+    Tm = float(f"{float(np.median(dt)):.9g}")  # time stamps carry no more digits than this
     if not T_PLAUSIBLE[0] <= Tm <= T_PLAUSIBLE[1]:
         raise LogError(f"{where}: the median time step is {Tm:.6g}, an implausible sampling "
                        f"time in seconds (plausible: {T_PLAUSIBLE[0]:g} to {T_PLAUSIBLE[1]:g} s)"

@@ -167,7 +167,7 @@ class Rig:
         s_next, u_c = controller.step(s, y, r)
         u = u_c + e  # the excitation added to the controller's input: what is applied
         u_plant = buf[d - 1] if d else u
-        buf_next = ca.vertcat(u, buf[:d - 1]) if d else ca.SX(0, 1)
+        buf_next = (ca.vertcat(u, buf[:d - 1]) if d > 1 else u) if d else ca.SX(0, 1)
         dt = self.T / self.substeps
 
         def f(v):
