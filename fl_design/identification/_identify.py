@@ -238,7 +238,13 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
 
     Examples
     --------
-    See the module.
+    >>> import numpy as np, fl_design as fl
+    >>> t = np.arange(4000) * 1e-3
+    >>> try:  # a log whose input never moves says nothing about b
+    ...     fl.identify({"t": t, "y": np.sin(t), "u": np.ones_like(t)}, rho=2)
+    ... except fl.errors.ExcitationError as err:
+    ...     print(str(err)[:58])
+    <columns>: the column 'u' is constant (1) over the whole log
     """
     rho = V.integer("rho", rho, minimum=1, maximum=8)
     if b_sign not in (None, 1, -1):

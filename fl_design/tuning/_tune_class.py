@@ -79,7 +79,7 @@ def _candidate(cls: PlantClass, c: float, u_lim) -> dict:
     syn = synthesize_gains(cls.rho, decay=d)
     probe = Design(estimator=EHGO(rho=cls.rho, eps=max(0.2 / d, 2 * T), T=T),
                    controller=DynamicController(syn.gains, gamma, u_limits=u_lim))
-    curve = eps_star_curve(probe, cls.b, [gamma], a_jacobian_bounds=cls.a_slopes,
+    curve = eps_star_curve(probe, cls.b, [abs(gamma)], a_jacobian_bounds=cls.a_slopes,
                            eps_range=(T / 4.0, max(10.0 / d, 20.0 * T)), certified=False)
     frozen = float(curve.eps_star_frozen[0])
     out = dict(c=c, gamma=gamma, inner=inner, decay=d, gains=syn, frozen=frozen)
