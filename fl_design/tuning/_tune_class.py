@@ -11,13 +11,14 @@ limits (:class:`fl_design.PlantClass`), not a model. Each number comes from thos
 2. **loop decay** ``d``: a fifth of that slowest inner rate (the loop must be slower than the
    input catching up, the certified lower bound of :func:`fl_design.certify_gamma`), at most
    ``0.05 / T``; **gains** :func:`fl_design.synthesize_gains` at ``d`` (decay certified);
-3. **eps**: half the class's frozen-``b`` eps* (an eigenvalue scan over ``b``'s range and
-   ``a``'s slope box, :func:`fl_design.eps_star_curve`), certified for the class by
+3. **eps**: a quarter of the class's frozen-``b`` eps* (an eigenvalue scan over ``b``'s range
+   and ``a``'s slope box, :func:`fl_design.eps_star_curve`), certified for the class by
    :func:`fl_design.certify_eps` (``b`` varying arbitrarily unless the class bounds its rate);
-   if not certified there, eps/2 and eps/4 are tried;
 4. **objective**: ``"least-noise"`` ranks the candidates by the class's noise gain (rms ``u``
-   per rms sensor noise, the worse end of ``b``), ``"fastest"`` by ``d``; the first candidate
-   in that order whose eps is certified is chosen (none: the best stays, NOT certified, said);
+   per rms sensor noise, the worse end of ``b``, at that eps), ``"fastest"`` by ``d``; the
+   first candidate in that order whose eps is certified is chosen, and half its frozen eps*
+   (less noise) replaces it when that is certified too and the search took less than
+   :data:`UPGRADE_BUDGET` (no candidate certified: the best stays, NOT certified, said);
 5. **checked**: margins at the plant input at both ends of ``b``, the noise gain, and runs on
    class members in the virtual rig (:mod:`fl_design.tuning._class_checks`).
 
@@ -49,6 +50,10 @@ from ._class_tuning import ClassTuning
 GAMMA_FRACTIONS = (0.5, 0.25, 0.1)
 #: The loop decay is the slowest inner rate divided by this.
 INNER_OVER_LOOP = 5.0
+#: eps is first tried at this fraction of the class's frozen eps*, then at the bolder one.
+SAFE_FRACTION, BOLD_FRACTION = 0.25, 0.5
+#: The bolder eps is tried only when the search so far took less than this [s].
+UPGRADE_BUDGET = 4.0
 
 
 def _objective(objective) -> str:
@@ -70,7 +75,7 @@ def _reference(cls: PlantClass, reference) -> float:
 
 
 def _candidate(cls: PlantClass, c: float, u_lim) -> dict:
-    """One loop: gamma = sign c / |b|_max, decay, gains, frozen eps*, noise gain at eps*/2."""
+    """One loop: gamma = sign c / |b|_max, decay, gains, frozen eps*, noise gain at eps*/4."""
     T, sign = float(cls.T), cls.sign
     bmin, bmax = sorted(abs(b) for b in cls.b)
     gamma = sign * c / bmax
@@ -87,7 +92,7 @@ def _candidate(cls: PlantClass, c: float, u_lim) -> dict:
         out.update(design=None, noise=math.inf)
         return out
     design = probe.replace(eps=frozen)
-    ng = [surrogate_noise_gain(design.replace(eps=frozen / 2.0), b) for b in cls.b]
+    ng = [surrogate_noise_gain(design.replace(eps=frozen * SAFE_FRACTION), b) for b in cls.b]
     out.update(design=design, noise=max(g["u"] for g in ng), noise_y=max(g["y"] for g in ng))
     return out
 
@@ -153,27 +158,33 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
     key = (lambda x: x["noise"]) if kind == "least-noise" else (lambda x: -x["decay"])
     cands.sort(key=key)
     chosen, cert, eps_why = None, None, ""
-    for cand in cands:
-        base = cand["design"]
-        for f in (0.5, 0.25):
-            trial = base.replace(eps=base.estimator.eps * f)
-            ec = certify_eps(trial, cls, search=False)
-            if ec.certified:
-                chosen, cert = dict(cand, design=trial), ec
-                eps_why = (f"eps = {trial.estimator.eps:.4g} s ({f:g} x the class's frozen-b "
-                           f"eps* {cand['frozen']:.4g} s; certified for {ec.covers} b)")
-                break
-            tried.append(f"|gamma| |b|_max = {cand['c']:g}, eps = {trial.estimator.eps:.4g} s: "
-                         f"not certified ({ec.reason})")
-        if chosen is not None:
+    for cand in cands:  # a quarter of the frozen eps* first: the likely certificate
+        trial = cand["design"].replace(eps=cand["frozen"] * SAFE_FRACTION)
+        ec = certify_eps(trial, cls, search=False)
+        if ec.certified:
+            chosen, cert = dict(cand, design=trial), ec
+            eps_why = (f"eps = {trial.estimator.eps:.4g} s ({SAFE_FRACTION:g} x the class's "
+                       f"frozen-b eps* {cand['frozen']:.4g} s; certified for {ec.covers} b)")
             break
+        tried.append(f"|gamma| |b|_max = {cand['c']:g}, eps = {trial.estimator.eps:.4g} s: "
+                     f"not certified ({ec.reason})")
+    if chosen is not None and time.perf_counter() - start < UPGRADE_BUDGET:
+        trial = chosen["design"].replace(eps=chosen["frozen"] * BOLD_FRACTION)
+        ec = certify_eps(trial, cls, search=False)  # twice the eps: less noise, if certified
+        if ec.certified:
+            chosen, cert = dict(chosen, design=trial), ec
+            eps_why = (f"eps = {trial.estimator.eps:.4g} s ({BOLD_FRACTION:g} x the class's "
+                       f"frozen-b eps* {chosen['frozen']:.4g} s; certified for {ec.covers} b)")
+        else:
+            tried.append(f"|gamma| |b|_max = {chosen['c']:g}, eps = "
+                         f"{trial.estimator.eps:.4g} s: not certified ({ec.reason})")
     if chosen is None:
         chosen = dict(cands[0], design=cands[0]["design"].replace(
-            eps=cands[0]["frozen"] / 2.0))
+            eps=cands[0]["frozen"] * SAFE_FRACTION))
         cert = certify_eps(chosen["design"], cls, search=False)
-        eps_why = (f"eps = {chosen['design'].estimator.eps:.4g} s (half the class's frozen-b "
-                   f"eps* {chosen['frozen']:.4g} s); NOT certified for the class there nor at "
-                   f"eps/2, eps/4: {cert.reason}")
+        eps_why = (f"eps = {chosen['design'].estimator.eps:.4g} s ({SAFE_FRACTION:g} x the "
+                   f"class's frozen-b eps* {chosen['frozen']:.4g} s); NOT certified for the "
+                   f"class there: {cert.reason}")
     design = chosen["design"]
     ng = {f"{b:.6g}": surrogate_noise_gain(design, b) for b in cls.b}
     margins = class_margins(design, cls)
