@@ -243,7 +243,7 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
     >>> try:  # a log whose input never moves says nothing about b
     ...     fl.identify({"t": t, "y": np.sin(t), "u": np.ones_like(t)}, rho=2)
     ... except fl.errors.ExcitationError as err:
-    ...     print(str(err)[:58])
+    ...     print(str(err)[:60])
     <columns>: the column 'u' is constant (1) over the whole log
     """
     rho = V.integer("rho", rho, minimum=1, maximum=8)

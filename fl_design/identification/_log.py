@@ -3,7 +3,9 @@
 A log is a CSV file with a header row (any controller's log: ``u`` is what was applied) or a
 mapping of column arrays (e.g. :func:`fl_design.read_telemetry`'s columns, a
 :class:`fl_design.sim._rig.RigLog`'s :meth:`columns`). Column names are matched without case
-and surrounding spaces; other columns are kept aside and listed.
+and surrounding spaces; other columns are kept aside and listed. A log without ``t`` but with a
+sample index (``k``, ``sample``, ``sample_index`` or ``index``, as a telemetry frame carries)
+is dated ``t = k T`` when ``T`` is given.
 
 Nothing is dropped silently. Rows with a missing or non-finite value, a repeated time stamp, or
 a time step that breaks the sampling are errors naming the first such row (its line in the CSV
@@ -40,6 +42,8 @@ from ..errors import LogError
 #: Required and optional columns.
 REQUIRED = ("t", "y", "u")
 OPTIONAL = ("r",)
+#: Sample-index columns that date a log without ``t`` when ``T`` is given (telemetry frames).
+INDEX_NAMES = ("k", "sample", "sample_index", "index")
 #: Fewest usable samples.
 MIN_SAMPLES = 200
 #: A time step off the median by more than this factor breaks the sampling.
@@ -153,8 +157,20 @@ def _is_number(s: str) -> bool:
         return False
 
 
-def _pick(cols: dict, where: str) -> tuple[dict, tuple]:
+def _pick(cols: dict, where: str, T: float | None = None) -> tuple[dict, tuple]:
     names = {str(k).strip().lower(): k for k in cols}
+    index = next((k for k in INDEX_NAMES if k in names), None)
+    if "t" not in names and index is not None:  # a telemetry frame: sample index, no clock
+        if T is None:
+            raise LogError(f"{where}: the log has a sample index {index!r} but no time column "
+                           f"'t': give T=... (the sampling time) to date its samples")
+        try:
+            k = np.asarray(cols[names[index]], dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise LogError(f"{where}: the column {index!r} is not numbers") from None
+        cols = dict(cols)
+        cols["t"] = k * float(T)
+        names["t"] = "t"
     missing = [c for c in REQUIRED if c not in names]
     if missing:
         found = sorted(names)
@@ -179,7 +195,7 @@ def _pick(cols: dict, where: str) -> tuple[dict, tuple]:
     sizes = {c: a.size for c, a in out.items()}
     if len(set(sizes.values())) > 1:
         raise LogError(f"{where}: the columns have different lengths {sizes}")
-    extra = tuple(sorted(n for n in names if n not in REQUIRED + OPTIONAL))
+    extra = tuple(sorted(n for n in names if n not in REQUIRED + OPTIONAL + INDEX_NAMES))
     return out, extra
 
 
@@ -221,10 +237,10 @@ def read_log(log, *, bad_rows: str = "error", T: float | None = None) -> Log:
     if isinstance(log, (str, Path)):
         path = Path(log)
         where, csv_file = str(path), True
-        cols, extra = _pick(_columns_from_csv(path), where)
+        cols, extra = _pick(_columns_from_csv(path), where, T)
     elif hasattr(log, "keys"):
         where, csv_file = "<columns>", False
-        cols, extra = _pick(log, where)
+        cols, extra = _pick(log, where, T)
     else:
         raise LogError(f"log must be a CSV file path or a mapping of columns t, y, u (r "
                        f"optional), got {type(log).__name__}")

@@ -74,3 +74,16 @@ def test_evidence_is_strict_json(chain_log):
     d = fl.identify(chain_log.columns(), rho=2).to_dict()
     back = json.loads(json.dumps(d, allow_nan=False))
     assert back["source"] == "log" and back["evidence"]["delay"] == 3
+
+
+@pytest.mark.parametrize("rho, b, T", [(1, -3.0, 5e-3), (2, -20.0, 2e-3)])
+def test_any_controllers_log_works_rho_sign_and_rate(rho, b, T):
+    """An ADRC (not fl's design) wrote the log: the u column is what was applied."""
+    from fl_design.design._adrc import LinearADRC
+
+    adrc = LinearADRC(rho=rho, T=T, b0=b * 1.5, wc=3.0, wo=30.0, u_limits=(-50.0, 50.0))
+    rig = chain_rig(rho, b=b, T=T, noise_std=5e-4)
+    log = rig.run(adrc, steps(2.0), 40.0, seed=5, excitation=square(0.5, 0.3))
+    cls = fl.identify(log.columns(), rho=rho, b_sign=-1)
+    assert cls.b[0] <= b <= cls.b[1] < 0 and cls.T == pytest.approx(T)
+    assert cls.evidence.agreement, cls.evidence.agreement_text

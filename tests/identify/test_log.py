@@ -126,3 +126,13 @@ def test_a_log_without_excitation_says_which_experiment_would_do():
     c["u"] = 1e-6 * np.random.default_rng(1).standard_normal(5000)
     with pytest.raises(ExcitationError, match="square wave on u of amplitude"):
         fl.identify(c, rho=2)
+
+
+def test_a_telemetry_frame_with_a_sample_index_is_dated_by_T():
+    c = cols()
+    frame = {"sample_index": np.arange(1000, 2000), "y": c["y"], "u": c["u"], "sigmahat": c["u"]}
+    with pytest.raises(LogError, match="sample index 'sample_index' but no time column"):
+        read_log(frame)
+    log = read_log(frame, T=2e-3)
+    assert log.T == pytest.approx(2e-3) and log.t[0] == pytest.approx(2.0)
+    assert log.extra == ("sigmahat",)
