@@ -330,7 +330,10 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
     op = float(np.median(L.r)) if L.r is not None else float(np.median(L.y))
     notes = (f"b over the visited states y in [{y_range[0]:.4g}, {y_range[1]:.4g}] by local-ls "
              f"and ehgo-sigmahat (union, +-{CONFIDENCE:g} se, x{MARGIN:g} margin)",
-             text, exc)
+             text, exc,
+             "a (the drift of y^(rho)) is not bounded from the log: the class is the chain's "
+             "(a = 0, no slope box); a certificate of it does not cover the plant's a(x), the "
+             "member runs and the rig check it empirically")
     return IdentifiedClass(rho=rho, T=L.T, b=b_cls, delay=int(delay), noise_std=sigma,
                            u_limits=u_lim, y_range=y_range, source="log", name=stem,
                            notes=notes, operating_point=op, evidence=ev)
