@@ -36,7 +36,7 @@ FACTORS = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
 
 def _run(ctrl, b, dur, r=1.0, switching=False):
     rig = chain_rig(2, b=None if switching else b, T=1e-3, noise_std=1e-3)
-    N = int(round(dur / 1e-3))
+    N = round(dur / 1e-3)
     p = None
     if switching:
         rng = np.random.default_rng(0)

@@ -33,8 +33,8 @@ from .._json import jsonable
 def _adrc_runs(tuned, quick: bool) -> list:
     """The baseline on the same members: linear ADRC, b0 the geometric mean of the range."""
     from ..design._adrc import LinearADRC
-    from ..tuning._class_checks import _metrics
     from ..sim._rig import chain_rig
+    from ..tuning._class_checks import _metrics
 
     cls, design = tuned.plant_class, tuned.design
     lo, hi = cls.b
@@ -103,11 +103,11 @@ def class_report_lines(tuned, adrc, cmap, pkg_dir) -> list:
         out.append(f"| {b:.4g} | " + " | ".join(f"{v[i]:.6f}" for v in cmap["radius"].values())
                    + " |")
     out += ["", "## Member runs", ""] + [f"- {m.line()}" for m in tuned.members]
-    out += ["", "## Comparison: the practitioner's baseline", "", f"- {adrc[0]} (b0 the "
-            "geometric mean of the class's range, w_c the design's loop decay, w_o = 10 w_c)"]
+    out += ["", "## Comparison: the practitioner's baseline", "", (f"- {adrc[0]} (b0 the "
+            "geometric mean of the class's range, w_c the design's loop decay, w_o = 10 w_c)")]
     out += [f"- {m.line()}" for m in adrc[1:]]
-    out += ["", "`verify/adrc_b0_sweep.py` measures what not needing b0 buys over a b0-error "
-            "sweep.", ""]
+    out += ["", ("`verify/adrc_b0_sweep.py` measures what not needing b0 buys over a b0-error "
+            "sweep."), ""]
     return out
 
 

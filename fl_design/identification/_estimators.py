@@ -151,7 +151,7 @@ def ehgo_filter(x: np.ndarray, rho: int, T: float, eps: float, segments) -> np.n
 
 def ehgo_sigmahat(y, U, segments, n_win: int, rho: int, T: float, eps: float) -> WindowEstimates:
     """Estimator ``"ehgo-sigmahat"`` (module)."""
-    skip = int(math.ceil(15.0 * eps / T))
+    skip = math.ceil(15.0 * eps / T)
     starts = _windows(segments, n_win, skip=skip)
     if not starts.size:
         return WindowEstimates("ehgo-sigmahat", starts, *(np.zeros(0),) * 5, n_win)

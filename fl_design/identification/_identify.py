@@ -252,7 +252,7 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
     L = read_log(log, bad_rows=bad_rows, T=T)
     u_lim = None if u_limits is None else V.interval("u_limits", u_limits, allow_none=False)
     _check_input(L.u, L.source, u_lim)
-    n_win = int(round((0.25 if window is None else V.positive("window", window)) / L.T))
+    n_win = round((0.25 if window is None else V.positive("window", window)) / L.T)
     n_win = max(n_win, 20 * (rho + 3))
     if L.n < 2 * n_win:
         raise LogError(f"{L.source}: {L.n} samples make fewer than two windows of {n_win} "
@@ -328,12 +328,12 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
                   u_range=(float(L.u.min()), float(L.u.max())), y_range=y_range,
                   command=cmd, warnings=tuple(warns), log=L)
     op = float(np.median(L.r)) if L.r is not None else float(np.median(L.y))
-    notes = (f"b over the visited states y in [{y_range[0]:.4g}, {y_range[1]:.4g}] by local-ls "
-             f"and ehgo-sigmahat (union, +-{CONFIDENCE:g} se, x{MARGIN:g} margin)",
+    notes = ((f"b over the visited states y in [{y_range[0]:.4g}, {y_range[1]:.4g}] by local-ls "
+             f"and ehgo-sigmahat (union, +-{CONFIDENCE:g} se, x{MARGIN:g} margin)"),
              text, exc,
-             "a (the drift of y^(rho)) is not bounded from the log: the class is the chain's "
+             ("a (the drift of y^(rho)) is not bounded from the log: the class is the chain's "
              "(a = 0, no slope box); a certificate of it does not cover the plant's a(x), the "
-             "member runs and the rig check it empirically")
+             "member runs and the rig check it empirically"))
     return IdentifiedClass(rho=rho, T=L.T, b=b_cls, delay=int(delay), noise_std=sigma,
                            u_limits=u_lim, y_range=y_range, source="log", name=stem,
                            notes=notes, operating_point=op, evidence=ev)

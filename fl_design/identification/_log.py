@@ -31,7 +31,7 @@ from __future__ import annotations
 import csv
 import difflib
 import io
-import math
+import itertools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -309,7 +309,7 @@ def read_log(log, *, bad_rows: str = "error", T: float | None = None) -> Log:
         cuts = sorted(set(cuts) | set(off + 1))
     keep = idx
     bounds = [0] + cuts + [keep.size]
-    segments = tuple((a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b - a >= 2)
+    segments = tuple((a, b) for a, b in itertools.pairwise(bounds) if b - a >= 2)
     inside = np.concatenate([np.diff(t[keep][a:b]) for a, b in segments]) if segments else dt
     r = cols.get("r")
     if r is not None and not np.all(np.isfinite(r[keep])):

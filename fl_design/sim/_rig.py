@@ -28,9 +28,9 @@ Examples
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
 
 import numpy as np
 
@@ -223,7 +223,7 @@ class Rig:
         if not math.isclose(float(getattr(controller, "T", T)), T, rel_tol=1e-9):
             raise ParameterError(f"the controller samples at T = {controller.T:g} s, the rig at "
                                  f"T = {T:g} s: use one sampling time")
-        N = int(round(duration / T))
+        N = round(duration / T)
         t = np.arange(N) * T
         r = _samples("reference", reference, t)
         pk = _samples("p", 0.0 if p is None else p, t)

@@ -52,7 +52,7 @@ def surrogate_noise_gain(design, b: float, a_row=None) -> dict:
     M = M0 + float(b) * M1
     if max(abs(np.linalg.eigvals(M))) >= 1.0:
         return {"u": math.inf, "y": math.inf}
-    Js, Jy, us, uy = loop._jacobians(None, None)
+    Js, Jy, _us, uy = loop._jacobians(None, None)
     rho = design.rho
     N = np.zeros(rho + Js.shape[0])
     N[rho:] = np.asarray(Jy).ravel()
@@ -119,8 +119,8 @@ def member_runs(design, cls, r: float, duration: float, *, seed: int = 0) -> tup
     lo, hi = cls.b
     y0 = 0.0 if cls.operating_point is None else float(cls.operating_point)
     duration = min(MAX_RUN, max(duration, 2000 * T))
-    N = int(round(duration / T))
-    kw = dict(T=T, noise_std=cls.noise_std, delay=cls.delay, x0=(y0,) + (0.0,) * (rho - 1))
+    N = round(duration / T)
+    kw = {"T": T, "noise_std": cls.noise_std, "delay": cls.delay, "x0": (y0,) + (0.0,) * (rho - 1)}
     u0 = 0.0 if cls.u_eq is None else float(cls.u_eq)
     runs = []
 

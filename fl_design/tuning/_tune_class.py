@@ -36,8 +36,6 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
-
 from .. import _validate as V
 from ..analysis import certify_eps, eps_star_curve, synthesize_gains
 from ..analysis._plant_class import PlantClass
@@ -87,7 +85,7 @@ def _candidate(cls: PlantClass, c: float, u_lim) -> dict:
     curve = eps_star_curve(probe, cls.b, [abs(gamma)], a_jacobian_bounds=cls.a_slopes,
                            eps_range=(T / 4.0, max(10.0 / d, 20.0 * T)), certified=False)
     frozen = float(curve.eps_star_frozen[0])
-    out = dict(c=c, gamma=gamma, inner=inner, decay=d, gains=syn, frozen=frozen)
+    out = {"c": c, "gamma": gamma, "inner": inner, "decay": d, "gains": syn, "frozen": frozen}
     if not math.isfinite(frozen) or frozen <= 0:
         out.update(design=None, noise=math.inf)
         return out
@@ -205,8 +203,8 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
           f"phase {m.phase_margin:.3g} deg, delay {m.delay_margin:.3g} s" for m in margins),
         (f"members: {sum(m.converged for m in runs)}/{len(runs)} runs converge"
          if runs else "members: not run"),
-        f"chosen: {kind}: {len(cands)} candidate loop(s) ranked by "
-        f"{'noise gain' if kind == 'least-noise' else 'decay'}",
+        (f"chosen: {kind}: {len(cands)} candidate loop(s) ranked by "
+        f"{'noise gain' if kind == 'least-noise' else 'decay'}"),
         f"tuned in {time.perf_counter() - start:.1f} s")
     return ClassTuning(design=design, plant_class=cls, objective=kind, reference=r,
                        time_scale=chosen["decay"], eps_certificate=cert,

@@ -74,7 +74,7 @@ def test_noise_gain_equals_the_impulse_response_sum():
     loop = SurrogateLoop(d)
     M0, M1 = loop.parts()
     M = M0 + 10.0 * M1
-    Js, Jy, us, uy = loop._jacobians(None, None)
+    Js, Jy, _us, uy = loop._jacobians(None, None)
     N = np.zeros(2 + Js.shape[0]); N[2:] = np.asarray(Jy).ravel(); N = N[loop.keep]
     row = loop.input_row()[loop.keep]
     x, total = N.copy(), float(uy.item()) ** 2
