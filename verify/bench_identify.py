@@ -7,7 +7,9 @@ noise, delay search, both estimators; the page is written untimed) and ``fl.tune
 class ``rho = 2, T = 1 ms, b in [1, 50], noise 1e-3``. Also checked: the identified class holds
 the true ``b`` range of the visited states, and the tuned design is certified.
 
-Targets: identify <= 5 s, tune(class) <= 10 s (2 cores). Exits with status 1 on a miss.
+Also timed: the command ``fl-design identify LOG.csv`` end to end (wall and CPU: start-up,
+CSV, identify, page). Targets: identify <= 5 s, tune(class) <= 10 s (2 cores), on the API
+calls' wall time. Exits with status 1 on a miss.
 ``--quick``: a 10 s log and a narrow class, no time target (the tests run it).
 
     python verify/bench_identify.py [--quick]
@@ -17,6 +19,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
+import subprocess
 import sys
 import tempfile
 import time
@@ -68,6 +72,19 @@ def main(argv=None) -> int:
           f"{'inside' if inside else 'NOT inside'} the class; delay {cls.delay} (true 1)")
     fl.identification.write_page(cls, tmp / "page")
     ok &= inside
+    exe = Path(sys.executable).parent / "fl-design"
+    if exe.exists():  # the command end to end: start-up, CSV, identify, page, class.toml
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        proc = subprocess.run([str(exe), "identify", str(tmp / "rig.csv"), "--rho", "2",
+                               "--out", str(tmp / "cli")], capture_output=True, text=True,
+                              timeout=300, check=False)
+        t_cli = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        print(f"`fl-design identify` end to end: {t_cli:.2f} s wall, {cpu:.2f} s CPU "
+              f"(exit {proc.returncode})")
+        ok &= proc.returncode == 0
     wide = (1.0, 50.0) if not args.quick else (2.0, 10.0)
     c = fl.PlantClass(rho=2, T=1e-3, b=wide, noise_std=1e-3, u_limits=(-10.0, 10.0))
     t0 = time.perf_counter()

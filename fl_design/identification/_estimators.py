@@ -31,6 +31,7 @@ array([0. , 0.5, 2. , 4.5])
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -45,9 +46,15 @@ NAMES = ("local-ls", "ehgo-sigmahat")
 
 def chain_response(u: np.ndarray, T: float, rho: int, delay: int) -> np.ndarray:
     """Exact ZOH response (zero initial state) of ``y^(rho) = u(k - delay)``, sampled."""
-    num, den, _ = scipy.signal.cont2discrete(([1.0], [1.0] + [0.0] * rho), T, method="zoh")
+    num, den = _chain_tf(float(T), int(rho))
     ud = np.concatenate([np.zeros(delay), u[:u.size - delay]]) if delay else u
-    return scipy.signal.lfilter(np.ravel(num), den, ud)
+    return scipy.signal.lfilter(num, den, ud)
+
+
+@functools.lru_cache(maxsize=32)
+def _chain_tf(T: float, rho: int):
+    num, den, _ = scipy.signal.cont2discrete(([1.0], [1.0] + [0.0] * rho), T, method="zoh")
+    return np.ravel(num), np.asarray(den, dtype=float)
 
 
 def _windows(segments, n_win: int, skip: int = 0) -> np.ndarray:

@@ -130,6 +130,12 @@ def _columns_from_csv(path: Path) -> dict:
     if len(rows) > MAX_ROWS:
         raise LogError(f"the log has {len(rows)} rows, above {MAX_ROWS}: split it")
     keep = {n: i for i, n in enumerate(names)}
+    try:  # the fast path: every cell a number, every row complete
+        block = np.array(rows, dtype=float)
+        if block.ndim == 2 and block.shape[1] == len(names):
+            return {name: block[:, j] for name, j in keep.items()}
+    except ValueError:
+        pass  # a missing or bad cell: found below, with its line
     cols = {}
     for name, j in keep.items():
         col = np.full(len(rows), np.nan)
