@@ -24,7 +24,7 @@ from ..errors import ParameterError
 
 #: The keys of ``[class]``: the stated fields of a PlantClass.
 CLASS_KEYS = ("rho", "T", "b", "noise_std", "noise_bound", "u_limits", "b_rate", "a_slopes",
-              "delay", "y_range", "operating_point", "u_eq", "name")
+              "delay", "y_range", "operating_point", "u_eq", "name", "source")
 
 #: What ``fl-design init --class`` writes.
 CLASS_TOML = """\
@@ -49,6 +49,7 @@ u_limits = [-10.0, 10.0]   # actuator limits
 # operating_point = 0.0    # the output where it is held
 # u_eq = 0.0               # the input holding it there
 # name = "my rig"
+# source = "stated"        # or "log" (fl-design identify writes it): where the numbers come from
 
 [tune]
 objective = "least-noise"  # or "fastest"
@@ -116,7 +117,10 @@ def _table(cls, name: str, body, source: str):
                               f"{', '.join(keys)}")
     try:
         if cls is PlantClass:
-            return PlantClass(**{k: _tuples(v) for k, v in body.items()} | {"source": "stated"})
+            if body.get("source", "stated") not in ("stated", "log"):
+                raise ConfigError(f"{source}: [class] source must be 'stated' or 'log' (where "
+                                  f"the numbers come from), got {body['source']!r}")
+            return PlantClass(**{"source": "stated"} | {k: _tuples(v) for k, v in body.items()})
         return cls(**{k: _tuples(v) for k, v in body.items()})
     except ParameterError as err:
         raise ConfigError(f"{source}: [{name}] {err}") from None
@@ -187,7 +191,8 @@ def class_toml(cls: PlantClass, *, comment: str = "") -> str:
     lines = [f"# {c}" for c in comment.splitlines()] + ["[class]"]
     for k in CLASS_KEYS:
         v = getattr(cls, k)
-        if v is None or (k == "delay" and v == 0) or (k == "name" and not v):
+        if v is None or (k == "delay" and v == 0) or (k == "name" and not v) or \
+                (k == "source" and v not in ("stated", "log")):
             continue
         lines.append(f"{k} = {val(v)}")
     if cls.u_limits is None:

@@ -66,7 +66,7 @@ def test_identify_cli_writes_page_and_class_and_prints_the_command(tmp_path, cap
     assert f"fl-design run {out / 'class.toml'}" in printed
     cfg = parse_class_config((out / "class.toml").read_text())
     assert cfg.plant_class.b[0] <= 4.0 <= cfg.plant_class.b[1]
-    assert cfg.plant_class.u_limits == (-20.0, 20.0)
+    assert cfg.plant_class.u_limits == (-20.0, 20.0) and cfg.plant_class.source == "log"
     assert (out / "identify.html").is_file()
 
 
