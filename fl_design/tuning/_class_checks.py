@@ -12,8 +12,9 @@ on class members (:func:`fl_design.tune` with a :class:`fl_design.PlantClass`).
   delay): chains at ``b_min``, ``b_max`` and their geometric mean, ``b`` switching between its
   extremes at random dwell times and at every sample, and, when the class has a slope box for
   ``a``, the box's corners at both ends of ``b``. Each run is a step from the operating point
-  to the reference; it converges when the tail's mean error is within 2 % of the step plus
-  three noise standard deviations.
+  to the reference; it converges when, over the last fifth of the run, the mean error is within
+  2 % of the step plus three noise standard deviations and the largest error within 10 % of the
+  step plus six.
 
 Examples
 --------
