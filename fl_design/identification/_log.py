@@ -12,9 +12,11 @@ a time step that breaks the sampling are errors naming the first such row (its l
 file, header = line 1) and how many there are; with ``bad_rows="skip"`` they are skipped,
 counted with their reason, and the log is cut into contiguous segments there (no estimate spans
 a cut). Time going backwards is always an error. The sampling time is the median time step; a
-time step off the median by more than :data:`GAP_FACTOR` is a gap (or mixed units) and a
+time step longer than :data:`GAP_FACTOR` times the median is a gap, one shorter than the median over
+:data:`SHORT_FACTOR` is another unit (mixed units), and a
 median step outside :data:`T_PLAUSIBLE` is refused as implausible (milliseconds given as
-seconds, or the reverse).
+seconds, or the reverse); so is a log whose time stamps are whole numbers stepping by one or more
+(a millisecond counter) unless ``T`` says so.
 
 Examples
 --------
@@ -46,8 +48,9 @@ OPTIONAL = ("r",)
 INDEX_NAMES = ("k", "sample", "sample_index", "index")
 #: Fewest usable samples.
 MIN_SAMPLES = 200
-#: A time step off the median by more than this factor breaks the sampling.
-GAP_FACTOR = 1.5
+#: A time step longer than this factor times the median is a gap; shorter than the median over
+#: SHORT_FACTOR, another unit (jitter in between is measured, not refused).
+GAP_FACTOR, SHORT_FACTOR = 1.5, 10.0
 #: Plausible sampling times [s].
 T_PLAUSIBLE = (1e-6, 1.0)
 #: Largest log accepted (rows).
@@ -297,11 +300,15 @@ def read_log(log, *, bad_rows: str = "error", T: float | None = None) -> Log:
                        f"time in seconds (plausible: {T_PLAUSIBLE[0]:g} to {T_PLAUSIBLE[1]:g} s)"
                        f": is t in {'milliseconds or microseconds' if Tm > 1 else 'another unit'}"
                        f"? give t in seconds")
+    if T is None and Tm >= 0.5 and np.all(t[idx] == np.round(t[idx])):
+        raise LogError(f"{where}: the time stamps are whole numbers stepping by {Tm:g}: a "
+                       f"millisecond (or sample) counter read as seconds? give t in seconds, "
+                       f"or T={Tm:g} if the loop really samples every {Tm:g} s")
     if T is not None and abs(Tm - float(T)) > 0.01 * float(T):
         raise LogError(f"{where}: the time stamps step by {Tm:.6g} s, not the T = {T:g} s you "
                        f"gave: mixed units (ms and s) or another rate? give t in seconds")
     consecutive = np.diff(idx) == 1  # a skipped row cuts the log there (already counted)
-    off = np.flatnonzero(((dt > GAP_FACTOR * Tm) | (dt < Tm / GAP_FACTOR)) & consecutive)
+    off = np.flatnonzero(((dt > GAP_FACTOR * Tm) | (dt < Tm / SHORT_FACTOR)) & consecutive)
     cuts = sorted(set(np.flatnonzero(~consecutive) + 1))
     if off.size:
         i = int(idx[off[0] + 1])

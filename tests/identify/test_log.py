@@ -136,3 +136,19 @@ def test_a_telemetry_frame_with_a_sample_index_is_dated_by_T():
     log = read_log(frame, T=2e-3)
     assert log.T == pytest.approx(2e-3) and log.t[0] == pytest.approx(2.0)
     assert log.extra == ("sigmahat",)
+
+
+def test_a_millisecond_counter_read_as_seconds_is_flagged():
+    c = cols()
+    c["t"] = np.arange(1000, 2000, dtype=float)  # 1 kHz in ms: T would read 1 s
+    with pytest.raises(LogError, match="whole numbers stepping by 1: a millisecond"):
+        read_log(c)
+    assert read_log(c, T=1.0).T == 1.0  # said on purpose: a loop sampled every second
+
+
+def test_jittery_time_stamps_give_T_and_the_jitter():
+    c = cols(n=4000)
+    c["t"] = c["t"] + np.random.default_rng(3).uniform(-2e-4, 2e-4, 4000)
+    log = read_log(c)
+    assert log.T == pytest.approx(1e-3, rel=0.02)
+    assert 1e-4 < log.jitter < 2.5e-4 and log.jitter_max < 4e-4
