@@ -52,6 +52,9 @@ REL_SE = 0.1
 CONFIDENCE = 3.0
 #: The class's b range is the estimators' union divided / multiplied by this.
 MARGIN = 1.25
+#: Default window [s] for rho <= 2 (doubled per order above: the input's trace in y shrinks
+#: as (window)^rho).
+WINDOW = 0.25
 #: Fewest informative windows.
 MIN_INFORMATIVE = 4
 #: A fraction of samples at one value of u above this is "saturated throughout".
@@ -215,7 +218,8 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
     b_sign : {+1, -1}, optional
         The sign of ``b`` you know; a log saying otherwise is an error.
     window : float, optional
-        Window length [s] (default 0.25 s, at least ``20 (rho + 3)`` samples).
+        Window length [s] (default :data:`WINDOW` = 0.25 s, doubled per order above 2; at
+        least ``20 (rho + 3)`` samples).
     max_delay : int, optional
         Largest input delay searched [samples] (default 20).
     u_limits : (float, float), optional
@@ -252,7 +256,8 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
     L = read_log(log, bad_rows=bad_rows, T=T)
     u_lim = None if u_limits is None else V.interval("u_limits", u_limits, allow_none=False)
     _check_input(L.u, L.source, u_lim)
-    n_win = round((0.25 if window is None else V.positive("window", window)) / L.T)
+    win_s = WINDOW * 2.0 ** max(rho - 2, 0) if window is None else V.positive("window", window)
+    n_win = round(win_s / L.T)
     n_win = max(n_win, 20 * (rho + 3))
     if L.n < 2 * n_win:
         raise LogError(f"{L.source}: {L.n} samples make fewer than two windows of {n_win} "
