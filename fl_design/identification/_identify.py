@@ -103,7 +103,7 @@ class Evidence:
         else:
             out.append("skipped: none")
         q = f", quantization step {self.quantization:.3g}" if self.quantization else ""
-        out.append(f"sensor noise std {self.noise_std:.3g} (from the ({'rho+1'})-th difference "
+        out.append(f"sensor noise std {self.noise_std:.3g} (from the high-order differences "
                    f"of y{q}); spectrum whiteness {self.spectrum.get('whiteness', math.nan):.2f}"
                    " (1 = white)")
         out.append(f"input delay {self.delay} sample(s) (least-squares cross-correlation; the "
