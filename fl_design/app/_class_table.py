@@ -133,6 +133,22 @@ def is_class_text(text: str) -> bool:
     return any(line.strip().startswith("[class]") for line in text.splitlines())
 
 
+def is_class_config(path) -> bool:
+    """Whether ``path`` names a readable TOML file with a ``[class]`` table (False otherwise).
+
+    Examples
+    --------
+    >>> is_class_config(None), is_class_config("no-such-file.toml")
+    (False, False)
+    """
+    if path is None or not Path(path).is_file():
+        return False
+    try:
+        return is_class_text(Path(path).read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
 def parse_class_config(text: str, *, source: str = "<string>") -> ClassConfig:
     """Validate a class config (see the module); ConfigError names the table and key.
 
@@ -200,5 +216,5 @@ def class_toml(cls: PlantClass, *, comment: str = "") -> str:
     return "\n".join(lines) + "\n\n[tune]\nobjective = \"least-noise\"\n"
 
 
-__all__ = ["CLASS_TOML", "ClassConfig", "class_toml", "is_class_text", "load_class_config",
-           "parse_class_config"]
+__all__ = ["CLASS_TOML", "ClassConfig", "class_toml", "is_class_config", "is_class_text",
+           "load_class_config", "parse_class_config"]

@@ -38,7 +38,7 @@ from .. import __version__
 from .._output import claim_output_folder
 from ..errors import FlDesignError, OutputPathError, ParameterError
 from ._class_run import add_identify_parser, run_class
-from ._class_table import CLASS_TOML, is_class_text
+from ._class_table import CLASS_TOML, is_class_config
 from ._config import LIBRARY, load_config, parse_config
 
 #: ``--plant`` choices: the library plants of the config.
@@ -155,7 +155,7 @@ def _cmd_run(args) -> int:
     from ._job import note, run_job
     from ._report_write import BackgroundCsv, write_report
 
-    if _class_route(args):  # a [class] config: the model-free route (_class_run)
+    if is_class_config(args.config):  # a [class] config: the model-free route (_class_run)
         return run_class(args, args.config)
     cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
@@ -185,17 +185,6 @@ def _cmd_run(args) -> int:
     print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
           f"{len(paths['figures'])} figures{runs}")
     return 0
-
-
-def _class_route(args) -> bool:
-    """A config file with a ``[class]`` table goes to the model-free route."""
-    path = getattr(args, "config", None)
-    if path is None or not Path(path).is_file():
-        return False
-    try:
-        return is_class_text(Path(path).read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError):
-        return False
 
 
 def _cmd_derive(args) -> int:
