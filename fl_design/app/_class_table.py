@@ -18,8 +18,8 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
-from ..analysis._plant_class import PlantClass
 from ..errors import ParameterError
 
 #: The keys of ``[class]``: the stated fields of a PlantClass.
@@ -95,7 +95,7 @@ class ClassCodegen:
 class ClassConfig:
     """A validated class config: the class, ``[tune]``, ``[codegen]``, where it came from."""
 
-    plant_class: PlantClass
+    plant_class: Any
     tune: TuneTable = field(default_factory=TuneTable)
     codegen: ClassCodegen = field(default_factory=ClassCodegen)
     source: str = "<string>"
@@ -106,6 +106,7 @@ def _tuples(v):
 
 
 def _table(cls, name: str, body, source: str):
+    from ..analysis._plant_class import PlantClass
     from ._config import ConfigError
 
     if not isinstance(body, dict):
@@ -172,6 +173,8 @@ def parse_class_config(text: str, *, source: str = "<string>") -> ClassConfig:
                               f"[codegen]; [{t}] belongs to a model config ([plant])")
     if "class" not in data:
         raise ConfigError(f"{source}: no [class] table")
+    from ..analysis._plant_class import PlantClass  # imported on use: the CLI starts fast
+
     return ClassConfig(plant_class=_table(PlantClass, "class", data["class"], source),
                        tune=_table(TuneTable, "tune", data.get("tune", {}), source),
                        codegen=_table(ClassCodegen, "codegen", data.get("codegen", {}), source),
@@ -190,12 +193,13 @@ def load_class_config(path) -> ClassConfig:
     return parse_class_config(text, source=str(path))
 
 
-def class_toml(cls: PlantClass, *, comment: str = "") -> str:
+def class_toml(cls, *, comment: str = "") -> str:
     """A ``[class]`` config of ``cls`` (what ``fl-design identify`` writes).
 
     Examples
     --------
-    >>> print(class_toml(PlantClass(rho=1, T=1e-3, b=(1, 2))).splitlines()[1])
+    >>> import fl_design as fl
+    >>> print(class_toml(fl.PlantClass(rho=1, T=1e-3, b=(1, 2))).splitlines()[1])
     rho = 1
     """
     def val(v):
