@@ -16,9 +16,10 @@ limits (:class:`fl_design.PlantClass`), not a model. Each number comes from thos
    :func:`fl_design.certify_eps` (``b`` varying arbitrarily unless the class bounds its rate);
 4. **objective**: ``"least-noise"`` ranks the candidates by the class's noise gain (rms ``u``
    per rms sensor noise, the worse end of ``b``, at that eps), ``"fastest"`` by ``d``; the
-   first candidate in that order whose eps is certified is chosen, and half its frozen eps*
-   (less noise) replaces it when that is certified too and the search took less than
-   :data:`UPGRADE_BUDGET` (no candidate certified: the best stays, NOT certified, said);
+   first candidate in that order whose eps is certified is chosen; then a larger eps (less
+   noise) up to half the frozen eps* is searched by bisection on the fraction
+   (:data:`UPGRADE_STEPS` certificates within :data:`UPGRADE_BUDGET` s of CPU), the largest
+   certified kept (no candidate certified: the best stays, NOT certified, said);
 5. **checked**: margins at the plant input at both ends of ``b``, the noise gain, and runs on
    class members in the virtual rig (:mod:`fl_design.tuning._class_checks`).
 
@@ -50,8 +51,8 @@ GAMMA_FRACTIONS = (0.5, 0.25, 0.1)
 INNER_OVER_LOOP = 5.0
 #: eps is first tried at this fraction of the class's frozen eps*, then at the bolder one.
 SAFE_FRACTION, BOLD_FRACTION = 0.25, 0.5
-#: The bolder eps is tried only when the search so far took less than this [s].
-UPGRADE_BUDGET = 4.0
+#: Bisection steps on the fraction between them, within this CPU time [s].
+UPGRADE_STEPS, UPGRADE_BUDGET = 3, 3.0
 
 
 def _objective(objective) -> str:
@@ -166,16 +167,25 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
             break
         tried.append(f"|gamma| |b|_max = {cand['c']:g}, eps = {trial.estimator.eps:.4g} s: "
                      f"not certified ({ec.reason})")
-    if chosen is not None and time.perf_counter() - start < UPGRADE_BUDGET:
-        trial = chosen["design"].replace(eps=chosen["frozen"] * BOLD_FRACTION)
-        ec = certify_eps(trial, cls, search=False)  # twice the eps: less noise, if certified
-        if ec.certified:
-            chosen, cert = dict(chosen, design=trial), ec
-            eps_why = (f"eps = {trial.estimator.eps:.4g} s ({BOLD_FRACTION:g} x the class's "
-                       f"frozen-b eps* {chosen['frozen']:.4g} s; certified for {ec.covers} b)")
-        else:
-            tried.append(f"|gamma| |b|_max = {chosen['c']:g}, eps = "
-                         f"{trial.estimator.eps:.4g} s: not certified ({ec.reason})")
+    if chosen is not None:  # larger eps (less noise) while certified: bisection on the fraction
+        lo, hi, cpu0 = SAFE_FRACTION, BOLD_FRACTION, time.process_time()
+        for step in range(UPGRADE_STEPS):
+            if time.process_time() - cpu0 > UPGRADE_BUDGET:
+                break
+            f = BOLD_FRACTION if step == 0 else math.sqrt(lo * hi)
+            trial = chosen["design"].replace(eps=chosen["frozen"] * f)
+            ec = certify_eps(trial, cls, search=False)
+            if ec.certified:
+                lo, chosen, cert = f, dict(chosen, design=trial), ec
+                eps_why = (f"eps = {trial.estimator.eps:.4g} s ({f:.3g} x the class's "
+                           f"frozen-b eps* {chosen['frozen']:.4g} s, the largest fraction "
+                           f"certified of those tried; certified for {ec.covers} b)")
+                if f == BOLD_FRACTION:
+                    break
+            else:
+                hi = f
+                tried.append(f"|gamma| |b|_max = {chosen['c']:g}, eps = "
+                             f"{trial.estimator.eps:.4g} s: not certified ({ec.reason})")
     if chosen is None:
         chosen = dict(cands[0], design=cands[0]["design"].replace(
             eps=cands[0]["frozen"] * SAFE_FRACTION))
