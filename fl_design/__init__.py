@@ -77,6 +77,7 @@ _LAZY = {
     "EpsStarCurve": "analysis",
     "PlantClass": "analysis._plant_class",
     "tune": "tuning",
+    "identify": "identification._identify",
     "Tuning": "tuning",
     # sub-modules and layers
     "plants": None,

@@ -182,3 +182,14 @@ __all__ += ["FloatPrecisionWarning", "PrecisionError"]
 
 class NoDesignError(CertificationError):
     """No design with a certificate and a converging check exists for the data (fl.tune)."""
+
+
+class LogError(ParameterError):
+    """A rig's log that cannot be used as given (names the row or column and what is needed)."""
+
+
+class ExcitationError(LogError):
+    """A log that does not excite the loop enough to bound ``b`` (says which experiment would)."""
+
+
+__all__ += ["ExcitationError", "LogError"]

@@ -39,6 +39,8 @@ from pathlib import Path
 from .. import __version__
 from .._output import claim_output_folder
 from ..errors import FlDesignError, OutputPathError, ParameterError
+from ._class_run import add_identify_parser, run_class
+from ._class_table import CLASS_TOML, is_class_config
 from ._config import LIBRARY, load_config, parse_config
 
 #: ``--plant`` choices: the library plants of the config.
@@ -156,6 +158,8 @@ def _cmd_run(args) -> int:
     from ._report_csv import BackgroundCsv
     from ._report_write import write_report
 
+    if is_class_config(args.config):  # a [class] config: the model-free route (_class_run)
+        return run_class(args, args.config)
     cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
     out = check_out_dir(args.out, force=args.force)
     executor = _executor(args.scheduler)
@@ -322,6 +326,9 @@ def _cmd_init(args) -> int:
 
     if args.from_ode and args.plant:
         raise ParameterError("give --plant P or --from-ode, not both")
+    if args.class_:  # what a rig owner knows, no model (_class_table)
+        sys.stdout.write(CLASS_TOML)
+        return 0
     sys.stdout.write(config_toml(args.plant or "trms", from_ode=args.from_ode))
     return 0
 
@@ -396,7 +403,10 @@ def build_parser() -> argparse.ArgumentParser:
     init.add_argument("--from-ode", action="store_true",
                       help="a plant written as expressions (states, rhs, output, params, "
                       "region, input range, operating point) to replace by yours")
+    init.add_argument("--class", dest="class_", action="store_true", help="a [class] config: "
+                      "what you know of a rig (rho, T, b range, noise, limits), no model")
     init.set_defaults(func=_cmd_init)
+    add_identify_parser(sub)  # `fl-design identify LOG.csv` (_class_run)
     derive = sub.add_parser("derive", help="relative degree, a, b, b-range, F^a, residuals")
     _common(derive)
     derive.add_argument("--latex", action="store_true", help="also print LaTeX")

@@ -311,6 +311,9 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
         notes = _deprecated(data) if isinstance(data.get("scenario"), dict) else ()
     except ConfigError as err:
         raise ConfigError(f"{source}: {err}") from None
+    if "class" in data:  # a [class] config: only `fl-design run` takes it (_class_table)
+        raise ConfigError(f"{source}: a [class] config (no model): `fl-design run` designs from "
+                          "it; the other commands need a [plant] model")
     _check_tables(data, source)
     try:
         plant = data.get("plant", {})

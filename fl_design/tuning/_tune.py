@@ -63,6 +63,7 @@ from ..design import EHGO, Design, DynamicController
 from ..errors import NoDesignError, ParameterError, RelativeDegreeError
 from ..symbolic import Plant
 from ._check import baseline_for, check_candidate
+from ._tune_class import PlantClass, tune_class
 from ._tuning import Tuning
 
 #: Candidates per objective: (loop decay over the plant's time scale, gamma rule); "fast":
@@ -172,6 +173,8 @@ def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
     >>> tuned.certified, tuned.status, [round(k, 4) for k in tuned.design.controller.gains]
     (True, 'converged', [10.2063, 6.3895])
     """
+    if isinstance(plant, PlantClass):  # what a rig owner knows: designed for every member
+        return tune_class(plant, T=T, objective=objective, reference=reference, u_limits=u_limits)
     V.instance("plant", plant, Plant, "an fl.Plant (fl.Plant.from_ode or fl.plants.*)")
     kind, limit = _objective(objective)
     if not (baseline is None or isinstance(baseline, Design) or

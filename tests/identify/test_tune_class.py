@@ -1,0 +1,103 @@
+"""fl.tune(plant_class): a design certified for the whole class, checked independently: the
+noise gain against a brute-force impulse sum, the frozen loop against an independent NumPy/SciPy
+construction over b, the member runs."""
+import json
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.signal
+
+import fl_design as fl
+from fl_design.errors import ParameterError
+from fl_design.tuning._class_checks import surrogate_noise_gain
+from fl_design.tuning._tune_class import tune_class
+
+
+def independent_radius(design, b):
+    """Sampled loop (exact ZOH chain, bilinear scaled EHGO, dynamic law), written apart."""
+    est, ctrl = design.estimator, design.controller
+    rho, T, eps = est.rho, est.T, est.eps
+    a = np.asarray(est.alphas, float)
+    F = np.diag(np.ones(rho), 1)
+    F[:, 0] -= a
+    Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete((F, a.reshape(-1, 1), np.eye(rho + 1),
+                                                    np.zeros((rho + 1, 1))), T / eps,
+                                                   method="bilinear")
+    Dinv = np.diag([eps ** -i for i in range(rho + 1)])
+    Ac = np.diag(np.ones(rho - 1), 1)
+    E = scipy.linalg.expm(np.block([[Ac, np.eye(rho)[:, -1:]], [np.zeros((1, rho + 1))]]) * T)
+    Ap, Bp = E[:rho, :rho], E[:rho, rho:]
+    n = rho + 1 + rho + 1  # x, u, xi
+    Cy = np.zeros((1, n)); Cy[0, 0] = 1
+    Sxi = np.zeros((rho + 1, n)); Sxi[:, rho + 1:] = np.eye(rho + 1)
+    Xh = Dinv @ (Cd @ Sxi + Dd @ Cy)
+    U = np.zeros((1, n)); U[0, rho] = 1
+    v = -sum(k * Xh[i:i + 1] for i, k in enumerate(ctrl.gains))
+    un = U + ctrl.gamma * (v - Xh[rho:rho + 1])
+    M = np.zeros((n, n))
+    Sx = np.zeros((rho, n)); Sx[:, :rho] = np.eye(rho)
+    M[:rho] = Ap @ Sx + b * Bp @ un
+    M[rho] = un
+    M[rho + 1:] = Ad @ Sxi + Bd @ Cy
+    return max(abs(np.linalg.eigvals(M)))
+
+
+@pytest.fixture(scope="module")
+def wide():
+    cls = fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0), noise_std=1e-3, u_limits=(-10.0, 10.0))
+    return fl.tune(cls)
+
+
+def test_wide_class_is_certified_and_the_independent_loop_agrees(wide):
+    assert wide.certified, wide.eps_certificate.reason
+    worst = max(independent_radius(wide.design, b) for b in np.geomspace(1, 50, 30))
+    assert worst < 1.0
+    assert wide.converged and len(wide.members) == 5
+    assert {m.b_lo for m in wide.members} >= {1.0, 50.0}
+
+
+def test_margins_at_both_ends_and_noise_gain(wide):
+    assert [m.b for m in wide.margins] == [1.0, 50.0]
+    for m in wide.margins:
+        assert m.gain_margins[0] < 1 < m.gain_margins[1] and m.phase_margin > 0
+    ng = wide.noise_gain["50"]
+    assert ng["u"] > 0 and math.isfinite(ng["u"])
+
+
+def test_noise_gain_equals_the_impulse_response_sum():
+    cls = fl.PlantClass(rho=2, T=1e-3, b=(2.0, 10.0))
+    d = tune_class(cls, reference=1.0, members=False).design
+    from fl_design.analysis._surrogate import SurrogateLoop
+
+    loop = SurrogateLoop(d)
+    M0, M1 = loop.parts()
+    M = M0 + 10.0 * M1
+    Js, Jy, _us, uy = loop._jacobians(None, None)
+    N = np.zeros(2 + Js.shape[0]); N[2:] = np.asarray(Jy).ravel(); N = N[loop.keep]
+    row = loop.input_row()[loop.keep]
+    x, total = N.copy(), float(uy.item()) ** 2
+    for _ in range(200000):
+        total += float(row @ x) ** 2
+        x = M @ x
+    assert surrogate_noise_gain(d, 10.0)["u"] == pytest.approx(math.sqrt(total), rel=1e-6)
+
+
+@pytest.mark.slow
+def test_negative_b_class_with_slopes_and_delay_runs_its_corners():
+    cls = fl.PlantClass(rho=2, T=1e-3, b=(-8.0, -2.0), a_slopes=((-1.0, 1.0), (-0.2, 0.2)),
+                        noise_std=1e-4, u_limits=(-20.0, 20.0), delay=2)
+    t = tune_class(cls, reference=0.5)
+    assert "the 2-sample input delay" in t.uncovered
+    assert t.design.controller.gamma < 0
+    corners = [m for m in t.members if "corner" in m.member]
+    assert len(corners) == 8 and t.converged, repr(t)
+    assert json.loads(json.dumps(t.to_dict(), allow_nan=False))["plant_class"]["b"] == [-8, -2]
+
+
+def test_a_class_without_T_or_a_bad_objective_is_refused():
+    with pytest.raises(ParameterError, match="the class has no T"):
+        tune_class(fl.PlantClass(rho=2, T=None, b=(1, 2)))
+    with pytest.raises(ParameterError, match="objective='overshoot'"):
+        fl.tune(fl.PlantClass(rho=2, T=1e-3, b=(1, 2)), objective="overshoot")
