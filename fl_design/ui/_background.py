@@ -25,8 +25,6 @@ True
 
 from __future__ import annotations
 
-import copyreg
-import io
 import json
 import math
 import multiprocessing
@@ -36,7 +34,8 @@ import signal
 import tempfile
 import threading
 import time
-from types import MappingProxyType
+
+from ._pickle import dumps
 
 #: Stages, cheapest first, and the controls each depends on.
 STAGES = {
@@ -55,34 +54,6 @@ MAP_POINTS = 12
 CURVE_POINTS = 6
 #: Steps of the C step's timing run.
 BENCH_STEPS = 200_000
-
-
-def read_only(d: dict) -> MappingProxyType:
-    """A read-only view of ``d`` (what unpickling a pickled read-only mapping makes)."""
-    return MappingProxyType(d)
-
-
-class _Pickler(pickle.Pickler):
-    """Pickles read-only mappings (the config's tables hold some) as themselves."""
-
-    dispatch_table = copyreg.dispatch_table.copy()
-    dispatch_table[MappingProxyType] = lambda m: (read_only, (dict(m),))
-
-
-def dumps(obj) -> bytes:
-    """``obj`` pickled for a child process (read-only mappings included).
-
-    Examples
-    --------
-    >>> import pickle
-    >>> from types import MappingProxyType
-    >>> from fl_design.ui._background import dumps
-    >>> pickle.loads(dumps({"t": MappingProxyType({"b": 2.0})}))["t"]["b"]
-    2.0
-    """
-    buf = io.BytesIO()
-    _Pickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump(obj)
-    return buf.getvalue()
 
 
 def stage_keys(values: dict) -> dict:
