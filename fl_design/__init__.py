@@ -94,7 +94,6 @@ _LAZY = {
 
 if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on first use
     from . import analysis, app, codegen, design, plants, plotting, presets, sim, symbolic, tuning
-    from .analysis._plant_class import PlantClass
     from .analysis import (
         EpsCertificate,
         EpsStarCurve,
@@ -110,6 +109,7 @@ if TYPE_CHECKING:  # what IDEs and type checkers see; at run time names load on 
         sampled_linearization,
         synthesize_gains,
     )
+    from .analysis._plant_class import PlantClass
     from .codegen import CPackage, generate_c
     from .design import (
         EHGO,

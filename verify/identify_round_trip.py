@@ -66,7 +66,7 @@ def main(argv=None) -> int:
                            reference=r_hi, members=False).design
         log = rig.run(first, lambda t, a=r_lo, b=r_hi: a + (b - a) * ((t // 3.0) % 2),
                       duration, seed=1, u0=0.0,
-                      excitation=lambda t, A=amp, P=0.125 * 2.0 ** max(rho - 2, 0):
+                      excitation=lambda t, A=amp, P=0.125 * 2.0 ** (rho - 2 if rho > 2 else 0):
                       A * np.sign(np.sin(2 * np.pi * t / P) + 1e-12))
         if not np.all(np.isfinite(log.y)):
             print(f"{name}: the first design's experiment diverged (a rough guess): skipped")

@@ -18,7 +18,6 @@ Examples
 
 from __future__ import annotations
 
-import html
 import json
 import math
 import sys
@@ -70,73 +69,121 @@ def _map(tuned) -> dict:
     return {"b": [float(b) for b in bs], "radius": rows}
 
 
-def class_report_lines(tuned, adrc, cmap, pkg_dir) -> list:
-    """The report as Markdown lines (the summary first)."""
+def class_sections(tuned, adrc, cmap, pkg_dir, fig_name: str | None = None) -> list:
+    """The report as sections for the shared renderers (:mod:`._report_render`): summary first.
+
+    Parameters
+    ----------
+    tuned : ClassTuning
+        The design for the class.
+    adrc : list
+        The baseline's description, then its member runs.
+    cmap : dict
+        The class map (:func:`_map`).
+    pkg_dir : str or pathlib.Path
+        The C package's folder.
+    fig_name : str, optional
+        The class map's PNG file name.
+
+    Returns
+    -------
+    list of (str, list)
+    """
+    from ._brief import Brief
+
     cls, d = tuned.plant_class, tuned.design
     ctrl, est = d.controller, d.estimator
+    cert = tuned.eps_certificate
     n_ok = sum(m.converged for m in tuned.members)
-    verdict = ("certified for every plant of the class" if tuned.certified else
-               "NOT certified for the class (see the certificate)")
     a_ok = sum(m.converged for m in adrc[1:])
-    out = ["# fl-design: a design for a plant class", "", "## Summary", "",
-           f"- **{verdict}**: {tuned.eps_certificate.reason}",
-           f"- class: {cls.describe()}",
-           (f"- design: EHGO eps = {est.eps:.4g} s, T = {est.T:g} s; gains "
-            f"{tuple(round(k, 6) for k in ctrl.gains)}, gamma = {ctrl.gamma:.4g}, u limits "
-            f"{ctrl.u_limits}"),
-           f"- member runs: {n_ok}/{len(tuned.members)} converge",
-           f"- baseline {adrc[0]}: {a_ok}/{len(adrc) - 1} member runs converge",
-           f"- outside the certificate: {', '.join(tuned.uncovered) or 'nothing'}",
-           f"- C package: {pkg_dir}", "", "## How it was chosen", ""]
-    out += [f"- {r}" for r in tuned.reasons] + [f"- tried: {t}" for t in tuned.tried]
-    out += ["", "## Margins at the class's extremes", "",
-            "| b | gain margins | phase margin [deg] | delay margin [s] |", "|---|---|---|---|"]
-    out += [f"| {m.b:.4g} | ({m.gain_margins[0]:.3g}, {m.gain_margins[1]:.3g}) | "
-            f"{m.phase_margin:.3g} | {m.delay_margin:.3g} |" for m in tuned.margins]
-    out += ["", "## Noise gain", ""] + [f"- b = {b}: rms u {g['u']:.4g}, rms y {g['y']:.4g} "
-                                        "per rms sensor noise" for b, g in
-                                        tuned.noise_gain.items()]
-    out += ["", "## Map over class members (surrogate spectral radius)", "",
-            "| b | " + " | ".join(f"eps {e}" for e in cmap["radius"]) + " |",
-            "|---|" + "---|" * len(cmap["radius"])]
-    for i, b in enumerate(cmap["b"]):
-        out.append(f"| {b:.4g} | " + " | ".join(f"{v[i]:.6f}" for v in cmap["radius"].values())
-                   + " |")
-    out += ["", "## Member runs", ""] + [f"- {m.line()}" for m in tuned.members]
-    out += ["", "## Comparison: the practitioner's baseline", "", (f"- {adrc[0]} (b0 the "
-            "geometric mean of the class's range, w_c the design's loop decay, w_o = 10 w_c)")]
-    out += [f"- {m.line()}" for m in adrc[1:]]
-    out += ["", ("`verify/adrc_b0_sweep.py` measures what not needing b0 buys over a b0-error "
-            "sweep."), ""]
-    return out
+    star = cert.eps_star_certified
+    cert_brief = (Brief("certified", "good", f"eps = {est.eps:.4g} s for every plant of the "
+                        f"class; certified eps* {star:.4g} s" if star else
+                        f"eps = {est.eps:.4g} s for every plant of the class", cert.reason)
+                  if tuned.certified else
+                  Brief("NOT certified", "bad", f"eps = {est.eps:.4g} s: no certificate "
+                        "for the class", cert.reason))
+    runs = Brief("converging" if n_ok == len(tuned.members) else "failing",
+                 "good" if n_ok == len(tuned.members) else "bad",
+                 f"{n_ok}/{len(tuned.members)} member runs converge")
+    base = Brief("baseline", "info", f"{a_ok}/{len(adrc) - 1} ADRC runs converge (b0 guessed)")
+    design_text = (f"EHGO eps = {est.eps:.4g} s, T = {est.T:g} s; gamma = {ctrl.gamma:.4g}, "
+                   f"gains {tuple(round(k, 4) for k in ctrl.gains)}")
+    summary = [("Is it certified?", cert_brief, "Certificate"),
+               ("For which plants?", Brief("class", "info", cls.describe(), cls.describe()),
+                "Certificate"),
+               ("Which design?", design_text, "How it was chosen"),
+               ("Does it work on members?", runs, "Member runs"),
+               ("Against ADRC?", base, "Comparison with ADRC"),
+               ("Not covered", ", ".join(tuned.uncovered) or "nothing", "Certificate"),
+               ("C package", str(pkg_dir), "Certificate")]
+    secs = [("Summary", [("links", summary)]),
+            ("Certificate", [("p", f"Class: {cls.describe()}"), ("p", cert.reason),
+                             ("p", "Not covered by the certificate: "
+                              + (", ".join(tuned.uncovered) or "nothing"))]),
+            ("How it was chosen", [("list", list(tuned.reasons)
+                                    + [f"tried: {t}" for t in tuned.tried])]),
+            ("Margins at the class's extremes", [("table", [
+                "b", "gain margins", "phase margin [deg]", "delay margin [s]"], [
+                [f"{m.b:.4g}", f"({m.gain_margins[0]:.3g}, {m.gain_margins[1]:.3g})",
+                 f"{m.phase_margin:.3g}", f"{m.delay_margin:.3g}"] for m in tuned.margins])]),
+            ("Noise gain", [("list", [f"b = {b}: rms u {g['u']:.4g}, rms y {g['y']:.4g} per "
+                                      "rms sensor noise" for b, g in tuned.noise_gain.items()])]),
+            ("Map over class members", [("table", ["b"] + [f"eps {e}" for e in cmap["radius"]],
+                                         [[f"{b:.4g}"] + [f"{v[i]:.6f}" for v in
+                                                          cmap["radius"].values()]
+                                          for i, b in enumerate(cmap["b"])])]
+             + ([("fig", fig_name, ("stability margin of the surrogate loop over the class's "
+                  "b range (frozen members) at eps/2, eps and 2 eps"))] if fig_name else [])),
+            ("Member runs", [("list", [m.line() for m in tuned.members])]),
+            ("Comparison with ADRC", [
+                ("p", (f"{adrc[0]} (b0 the geometric mean of the class's range, w_c the "
+                 "design's loop decay, w_o = 10 w_c); verify/adrc_b0_sweep.py measures what "
+                 "not needing b0 buys over a b0-error sweep.")),
+                ("list", [m.line() for m in adrc[1:]])])]
+    return secs
+
+
+def class_report_lines(tuned, adrc, cmap, pkg_dir) -> list:
+    """The report as Markdown lines (the summary first), for the console and tests.
+
+    Parameters
+    ----------
+    tuned, adrc, cmap, pkg_dir
+        As :func:`class_sections`.
+
+    Returns
+    -------
+    list of str
+    """
+    from ._report_render import render_markdown
+
+    return ["# fl-design: a design for a plant class", ""] + render_markdown(
+        class_sections(tuned, adrc, cmap, pkg_dir)).splitlines()
 
 
 def _figure(tuned, out: Path) -> Path:
-    import matplotlib
+    from ..plotting import save_figure
+    from ..plotting._identify import plot_class_map
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    cmap = _map(tuned)
-    fig, ax = plt.subplots(figsize=(7, 3))
-    for e, v in cmap["radius"].items():
-        ax.semilogx(np.abs(cmap["b"]), 1.0 - np.asarray(v), label=f"eps {e}")
-    ax.set_xlabel("|b|")
-    ax.set_ylabel("1 - spectral radius")
-    ax.legend()
-    fig.tight_layout()
     path = out / "class_map.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(plot_class_map(_map(tuned)), path, dpi=90)
     return path
+
+
+def cls_name(plant_class) -> str:
+    """A short name of the class for titles."""
+    return plant_class.name or f"{plant_class.source} class, rho = {plant_class.rho}"
 
 
 def run_class(args, config_path) -> int:
     """``fl-design run CLASS.toml``."""
+    from .._output import record_outputs
     from ..codegen import generate_c
     from ..tuning._tune_class import tune_class
     from ._class_table import load_class_config
     from ._cli import check_out_dir
+    from ._report_render import md, render_html, render_markdown
 
     cfg = load_class_config(config_path)
     out = check_out_dir(args.out, force=args.force)
@@ -150,19 +197,19 @@ def run_class(args, config_path) -> int:
     pkg = generate_c(tuned.design, out / "c", precision=cfg.codegen.precision,
                      prefix=cfg.codegen.prefix, force=args.force)
     fig = _figure(tuned, out)
-    lines = class_report_lines(tuned, adrc, cmap, pkg.out_dir)
-    lines += ["## Figures", "", f"![map]({fig.name})", ""]
-    (out / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    body = "\n".join(f"<p>{html.escape(x)}</p>" if x else "" for x in lines)
-    (out / "report.html").write_text("<!doctype html><meta charset='utf-8'><title>fl-design "
-                                     f"class</title>{body}<img src='{fig.name}'>",
-                                     encoding="utf-8")
+    secs = class_sections(tuned, adrc, cmap, pkg.out_dir, fig.name)
+    title = f"fl_design report: {cls_name(cfg.plant_class)}"
+    paths = [out / "report.md", out / "report.html", out / "summary.json"]
+    paths[0].write_text(f"# {md(title)}\n\n" + render_markdown(secs) + "\n", encoding="utf-8")
+    paths[1].write_text(render_html(secs, out, title=title), encoding="utf-8")
     summary = {"route": "class", "tuning": tuned.to_dict(), "map": cmap,
                "baseline": [adrc[0]] + [m.to_dict() for m in adrc[1:]],
                "c_package": str(pkg.out_dir), "seconds": time.perf_counter() - start}
-    (out / "summary.json").write_text(json.dumps(jsonable(summary), allow_nan=False,
-                                                 indent=1), encoding="utf-8")
-    print("\n".join(lines[:11]))
+    paths[2].write_text(json.dumps(jsonable(summary), allow_nan=False, indent=1),
+                        encoding="utf-8")
+    record_outputs(out, [*paths, fig])
+    lines = render_markdown(secs[:1]).splitlines()
+    print("\n".join(lines))
     print(f"\nwrote {out / 'report.html'}, {out / 'report.md'}, {out / 'summary.json'}, "
           f"{fig.name}; C package in {pkg.out_dir}")
     return 0

@@ -183,8 +183,8 @@ def summary_blocks(job, figures) -> list:
     ['Plant trms_yaw', 'Design']
     """
     why = assumptions_fail(job)
-    blocks = ([("p", f"The method's assumptions fail for this plant: {why}; the runs below "
-                     "show the output only, its internal states may leave the region.")]
+    blocks = ([("p", (f"The method's assumptions fail for this plant: {why}; the runs below "
+                     "show the output only, its internal states may leave the region."))]
               if why else [])
     blocks.append(("links", summary_rows(job)))
     sim = job.results.get("simulate")

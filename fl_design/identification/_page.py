@@ -22,66 +22,15 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
-import numpy as np
-
-from ._estimators import _poly_basis, chain_response
-
 
 def _figures(cls, out: Path) -> dict:
-    import matplotlib
+    from ..plotting import save_figure
+    from ..plotting._identify import plot_identification
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    ev, L = cls.evidence, cls.evidence.log
-    est = ev.windows["local-ls"]
     paths = {}
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6))
-    ok = est.informative(0.1)
-    if ok.any():
-        i = int(np.argmin(np.where(ok, est.se / np.abs(est.b), np.inf)))
-        a, n = int(est.start[i]), est.n_win
-        U = chain_response(L.u, L.T, cls.rho, ev.delay)[a:a + n]
-        y = L.y[a:a + n]
-        Q = _poly_basis(n, cls.rho + 1)
-        fit = Q @ (Q.T @ (y - est.b[i] * U)) + est.b[i] * U
-        t = L.t[a:a + n]
-        ax1.plot(t, y, ".", ms=2, label="y (log)")
-        ax1.plot(t, fit, "-", label=f"local fit, b = {est.b[i]:.4g}")
-        ax1.set_xlabel("t [s]")
-        ax1.legend()
-        ax1.set_title("the most informative window")
-    for name, e in ev.windows.items():
-        m = e.informative(0.1)
-        ax2.errorbar(e.y_mid[m], e.b[m], yerr=3 * e.se[m], fmt="o", ms=3, label=name)
-    lo, hi = cls.b
-    ax2.axhspan(lo, hi, alpha=0.15, label="class b range")
-    ax2.set_xlabel("mean y over the window")
-    ax2.set_ylabel("b (+-3 se)")
-    ax2.legend()
-    fig.tight_layout()
-    paths["fit"] = out / "identify_fit.png"
-    fig.savefig(paths["fit"], dpi=90)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(8, 3))
-    ax.plot(L.t[est.start], est.residual, ".", ms=3, label="local-ls residual rms")
-    ax.axhline(ev.noise_std, color="k", lw=1, label=f"noise std {ev.noise_std:.3g}")
-    ax.set_xlabel("window start [s]")
-    ax.legend()
-    fig.tight_layout()
-    paths["residuals"] = out / "identify_residuals.png"
-    fig.savefig(paths["residuals"], dpi=90)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(8, 3))
-    f, p = np.asarray(ev.spectrum["f"]), np.asarray(ev.spectrum["psd"])
-    if f.size:
-        ax.loglog(f[1:], p[1:])
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("PSD of the residual")
-    fig.tight_layout()
-    paths["noise"] = out / "identify_noise.png"
-    fig.savefig(paths["noise"], dpi=90)
-    plt.close(fig)
+    for key, fig in plot_identification(cls).items():
+        paths[key] = out / f"identify_{key}.png"
+        save_figure(fig, paths[key], dpi=90)
     return paths
 
 

@@ -45,7 +45,8 @@ def test_run_class_gives_report_certified_and_c_package(tmp_path, capsys):
     assert main(["run", str(p), "--quick", "--no-progress", "--out", str(out)]) == 0
     md = (out / "report.md").read_text()
     summary = md.split("\n## ")[1]
-    assert "certified for every plant of the class" in summary and "NOT" not in summary
+    assert "**certified**" in summary and "for every plant of the class" in summary
+    assert "NOT" not in summary
     assert any(out.rglob("*.h")) and (out / "class_map.png").is_file()
     s = json.loads((out / "summary.json").read_text())
     assert s["tuning"]["certified"] and s["tuning"]["plant_class"]["b"] == [2, 10]
