@@ -36,7 +36,7 @@ def _monotone(fn, x, increasing=True):
         lo, hi = fn(mp.mpf(a)), fn(mp.mpf(b))
     if not increasing:
         lo, hi = hi, lo
-    pad = lambda v: abs(v) * 2.0 ** (-_PREC) + 1e-300  # noqa: E731
+    pad = lambda v: abs(v) * 2.0 ** (-_PREC) + 1e-300
     return iv.mpf([lo - pad(lo), hi + pad(hi)])
 
 
