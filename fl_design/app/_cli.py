@@ -430,10 +430,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     Plant: pendulum...
     0
     """
-    args = build_parser().parse_args(argv)
+    from .._streams import guard_streams
+
+    saved = sys.stdout, sys.stderr
+    out, _ = guard_streams()  # closed, full or ASCII-only streams never break a command
     try:
+        args = build_parser().parse_args(argv)
         code = args.func(args)
         sys.stdout.flush()
+        if out.failed is not None and code == 0:
+            out.silence()
+            print(f"fl-design: error: standard output could not be written ({out.failed}): "
+                  "the printed text was lost; the command's files were written",
+                  file=sys.stderr)
+            return 2
         return code
     except FlDesignError as err:
         lines = str(err).splitlines() or [type(err).__name__]  # the whole message
@@ -444,6 +454,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fl-design: interrupted", file=sys.stderr)
         return 130
+    finally:
+        sys.stdout, sys.stderr = saved
 
 
 if __name__ == "__main__":  # pragma: no cover
