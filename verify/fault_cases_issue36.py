@@ -132,12 +132,12 @@ def cases() -> list[tuple]:
         ("output: a hard link in the folder", _GEN + "fl.generate_c(d, TMP / 'c')\n"
          "(TMP / 'c' / 'fl.c').unlink(); os.link(VICTIM, TMP / 'c' / 'fl.c')\n"
          "fl.generate_c(d, TMP / 'c')", "env", {}, False, "error"),
-        ("output: a FIFO named report.html", "from fl_design._output import claim_output_folder\n"
+        ("output: a FIFO named report.html", ("from fl_design._output import claim_output_folder\n"
          "(TMP / 'o').mkdir(); os.mkfifo(TMP / 'o' / 'report.html')\n"
-         "claim_output_folder(TMP / 'o')", "env", {}, False, "error"),
-        ("output: planted marker in a project", "(PROJECT / '.fl_design_output.json').write_text("
+         "claim_output_folder(TMP / 'o')"), "env", {}, False, "error"),
+        ("output: planted marker in a project", ("(PROJECT / '.fl_design_output.json').write_text("
          "json.dumps({'format': 'fl_design output 1', 'files': {}}))\n"
-         "os.chdir(PROJECT); cli('codegen', '.')", "env", {}, True, "error"),
+         "os.chdir(PROJECT); cli('codegen', '.')"), "env", {}, True, "error"),
         ("output: a second concurrent run", _HOLDER, "env", {}, False, "error"),
         ("output: prefix='main'", _GEN + "fl.generate_c(d, TMP / 'c', prefix='main')", "env", {},
          False, "error"),
@@ -155,13 +155,13 @@ def cases() -> list[tuple]:
          "env", {}, False, "error"),
         ("waits: a Dask cluster whose workers all die", _WORKERLESS, "env", {}, False, "error"),
         ("structure: -x1 + u + u**40 on input_range (-2, 2)",
-         "assert fl.Plant.from_ode([x1], u, ['-x1 + u + u**40'], x1, input_range=(-2, 2))"
-         ".relative_degree() == 1", "input", {}, True, "result"),
+         ("assert fl.Plant.from_ode([x1], u, ['-x1 + u + u**40'], x1, input_range=(-2, 2))"
+          ".relative_degree() == 1"), "input", {}, True, "result"),
         ("structure: states h and the Planck-constant h",
-         "cli('derive', toml('[plant]\\nstates = [\"h\", \"\\u210e\"]\\ninput = \"u\"\\n"
-         "rhs = [\"\\u210e\", \"u\"]\\noutput = \"h\"\\n'))", "input", {}, True, "error"),
-        ("structure: a state named sin", "cli('derive', toml('[plant]\\nstates = [\"sin\", "
-         "\"x2\"]\\ninput = \"u\"\\nrhs = [\"x2\", \"u\"]\\noutput = \"sin\"\\n'))", "input",
+         ("cli('derive', toml('[plant]\\nstates = [\"h\", \"\\u210e\"]\\ninput = \"u\"\\n"
+          "rhs = [\"\\u210e\", \"u\"]\\noutput = \"h\"\\n'))"), "input", {}, True, "error"),
+        ("structure: a state named sin", ("cli('derive', toml('[plant]\\nstates = [\"sin\", "
+         "\"x2\"]\\ninput = \"u\"\\nrhs = [\"x2\", \"u\"]\\noutput = \"sin\"\\n'))"), "input",
          {}, False, "error"),
         ("raw: stdout closed", _stream(">&-", {}), "env", {}, True, "error"),
         ("raw: stdout full", _stream("> /dev/full", {}), "env", {}, False, "error"),
