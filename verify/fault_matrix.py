@@ -100,7 +100,7 @@ def a_file(name="file"):
     return p
 PWNED = TMP / "pwned"
 PROJECT = TMP / "project"
-VICTIM = TMP / "victim.txt"  # a user's file outside every output folder: must never change
+VICTIM = TMP / "outside_victim.txt"  # a user's file outside every output folder: must never change
 def cli(*args):
     """The command line in-process; exit 2 (one line on stderr) counts as a clear error."""
     from fl_design.app import main
@@ -514,7 +514,7 @@ def run_case(case: Case, timeout: float) -> dict:
         for name, text in PROJECT_FILES.items():
             with open(os.path.join(project, name), "w") as fh:
                 fh.write(text)
-        with open(os.path.join(tmp, "victim.txt"), "w") as fh:
+        with open(os.path.join(tmp, "outside_victim.txt"), "w") as fh:
             fh.write(VICTIM_TEXT)
         env = dict(os.environ, FAULT_TMP=tmp, FL_DESIGN_CACHE=os.path.join(tmp, "default"),
                    XDG_CONFIG_HOME=os.path.join(tmp, "config"))  # each case its own user key
@@ -535,8 +535,8 @@ def run_case(case: Case, timeout: float) -> dict:
             return {"cls": "exec", "detail": "the payload's marker file appeared",
                     "seconds": seconds}
         lost = [n for n, t in PROJECT_FILES.items() if not _same_text(os.path.join(project, n), t)]
-        if not _same_text(os.path.join(tmp, "victim.txt"), VICTIM_TEXT):
-            lost.append("victim.txt (outside the output folder)")
+        if not _same_text(os.path.join(tmp, "outside_victim.txt"), VICTIM_TEXT):
+            lost.append("outside_victim.txt (outside the output folder)")
         if lost:
             return {"cls": "lost", "detail": f"the user's {', '.join(lost)} changed",
                     "seconds": seconds}
