@@ -101,6 +101,28 @@ def _executor(address: str | None):
     return connect_scheduler(address).get_executor()
 
 
+def _run_guarded(args) -> int:
+    """``args.func(args)`` with standard streams that cannot break it
+    (:func:`fl_design._streams.guard_streams`: closed, full or ASCII-only); exit 2 with one
+    line when the printed text was lost, the command's files written."""
+    from .._streams import guard_streams
+
+    saved = sys.stdout, sys.stderr
+    out, _ = guard_streams()
+    try:
+        code = args.func(args)
+        sys.stdout.flush()
+        if out.failed is not None and code == 0:
+            out.silence()
+            print(f"fl-design: error: standard output could not be written ({out.failed}): "
+                  "the printed text was lost; the command's files were written",
+                  file=sys.stderr)
+            return 2
+        return code
+    finally:
+        sys.stdout, sys.stderr = saved
+
+
 def _config(args):
     """The config of any subcommand: a TOML file (positional) or ``--plant P``, not both."""
     path, plant = getattr(args, "config", None), getattr(args, "plant", None)
@@ -430,20 +452,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     Plant: pendulum...
     0
     """
-    from .._streams import guard_streams
-
-    saved = sys.stdout, sys.stderr
-    out, _ = guard_streams()  # closed, full or ASCII-only streams never break a command
+    args = build_parser().parse_args(argv)
     try:
-        args = build_parser().parse_args(argv)
-        code = args.func(args)
+        code = _run_guarded(args)
         sys.stdout.flush()
-        if out.failed is not None and code == 0:
-            out.silence()
-            print(f"fl-design: error: standard output could not be written ({out.failed}): "
-                  "the printed text was lost; the command's files were written",
-                  file=sys.stderr)
-            return 2
         return code
     except FlDesignError as err:
         lines = str(err).splitlines() or [type(err).__name__]  # the whole message
@@ -454,8 +466,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("fl-design: interrupted", file=sys.stderr)
         return 130
-    finally:
-        sys.stdout, sys.stderr = saved
 
 
 if __name__ == "__main__":  # pragma: no cover

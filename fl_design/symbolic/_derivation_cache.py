@@ -176,8 +176,8 @@ def plant_key(states, input, rhs, output, params, name, input_range, region,
                      (sym(k), tuple(num(v) for v in lohi)) for k, lohi in region.items())),
                  repr(None if operating_point is None else sorted(
                      (sym(k), num(v)) for k, v in dict(operating_point).items()))]
-    except (TypeError, ValueError, AttributeError, OverflowError):
-        return None
+    except (TypeError, ValueError, AttributeError, OverflowError, RecursionError):
+        return None  # a very deep expression: not cached (computed, as without a cache)
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
