@@ -119,8 +119,9 @@ def _run_guarded(args) -> int:
                   file=sys.stderr)
             return 2
         return code
-    finally:
-        sys.stdout, sys.stderr = saved
+    finally:  # a stream closed from the start stays the tolerant one (writes nowhere)
+        sys.stdout = saved[0] if saved[0] is not None else sys.stdout
+        sys.stderr = saved[1] if saved[1] is not None else sys.stderr
 
 
 def _config(args):
