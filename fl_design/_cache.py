@@ -3,11 +3,14 @@
 Shared by every layer that caches work across processes: compiled kernels
 (:func:`fl_design.codegen.build`) and plant derivations (:mod:`fl_design.symbolic._derivation_cache`).
 Each file is written atomically (a ``mkstemp`` temporary file, created with ``O_EXCL`` and mode
-0600 in the same folder, then ``os.replace``), then a sidecar ``<file>.json`` records its size
-and SHA-256, also written atomically. A cached file is used only when it matches its sidecar
-(:func:`verified`, :func:`read_verified`) and is a regular file owned by the user: a
-truncated, empty, overwritten, foreign or symlinked file, a missing or disagreeing sidecar,
-counts as absent.
+0600 in the same folder, then ``os.replace``), then a sidecar ``<file>.json`` records its size,
+SHA-256 and an HMAC-SHA256 of its name, size and hash under the per-user key
+(:func:`user_key`), also written atomically. A cached file is used only when it matches its
+sidecar and the sidecar's HMAC verifies (:func:`verified`, :func:`read_verified`) and it is a
+regular file owned by the user: a truncated, empty, overwritten, foreign or symlinked file, a
+missing, disagreeing or unsigned sidecar, counts as absent. So every entry that can run code
+(a pickled derivation, a compiled kernel ``dlopen``-ed) was written by someone holding the
+key.
 
 Location, in order: the ``cache_dir`` argument, ``$FL_DESIGN_CACHE``,
 ``$XDG_CACHE_HOME/fl_design`` (only when absolute, as the XDG specification says; a relative
@@ -15,8 +18,11 @@ value is ignored with one :class:`~fl_design.errors.UnsafeCacheWarning`),
 ``~/.cache/fl_design`` (:func:`cache_directory`). The folder is created with mode 0700 and,
 like ``ssh`` with its keys, refused (:class:`~fl_design.errors.UnsafeCacheError`; callers
 then compute without the cache, with one warning) when it is not owned by the user or is
-group- or world-writable. :func:`user_key` is a per-user secret kept in that folder
-(mode 0600) that signs entries which must not be forged.
+group- or world-writable. :func:`user_key` is a per-user secret kept OUTSIDE that folder, in
+the user's config folder (``$XDG_CONFIG_HOME/fl_design/cache.key`` or
+``~/.config/fl_design/cache.key``, mode 0600, folder 0700: :func:`key_path`): a cache folder
+copied from someone else, or unpacked from an archive, carries no signing power, and every
+entry in it is recomputed.
 
 Examples
 --------
@@ -29,6 +35,7 @@ b'payload'
 from __future__ import annotations
 
 import hashlib
+import hmac
 import json
 import os
 import secrets
@@ -41,9 +48,11 @@ from .errors import ComputationError, UnsafeCacheError, UnsafeCacheWarning
 
 #: Suffix of the sidecar recording a cached file's size and SHA-256.
 SIDECAR_SUFFIX = ".json"
-#: Name of the per-user secret inside the cache folder (:func:`user_key`).
-KEY_NAME = ".fl_design_key"
+#: Name of the per-user secret in the user's config folder (:func:`key_path`, :func:`user_key`).
+KEY_NAME = "cache.key"
 _KEY_BYTES = 32
+_MAC_FORMAT = "fl_design cache entry 2"
+_PROCESS_KEY = secrets.token_bytes(_KEY_BYTES)  # when the user's key cannot be used
 _WARNED: set = set()  # messages already warned in this process
 
 
@@ -209,7 +218,8 @@ def verified(path: str | os.PathLike) -> bool:
     path = Path(path)
     record = _record(path)
     try:
-        if record is None or os.stat(path).st_size != record.get("size"):
+        if record is None or os.stat(path).st_size != record.get("size") \
+                or not _signed(path, record):
             return False
         return digest(path) == {"size": record["size"], "sha256": record.get("sha256")}
     except OSError:
@@ -227,7 +237,7 @@ def read_verified(path: str | os.PathLike) -> bytes | None:
     """
     path = Path(path)
     record = _record(path)
-    if record is None:
+    if record is None or not _signed(path, record):
         return None
     try:
         data = path.read_bytes()
@@ -264,16 +274,47 @@ def _replace_bytes(path: Path, data: bytes) -> None:
             os.unlink(tmp)
 
 
-def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
-    """The per-user secret (32 bytes) of the cache folder, created once with mode 0600.
+def key_path() -> Path:
+    """Where the per-user signing key lives: outside every cache folder, in the user's config.
 
-    Entries that must not be forged (plant derivations) are signed with it (HMAC-SHA256): only
-    someone who can read the private folder can sign.
+    ``$XDG_CONFIG_HOME/fl_design/cache.key`` when ``$XDG_CONFIG_HOME`` is absolute, else
+    ``~/.config/fl_design/cache.key``. Copying or unpacking a cache folder never copies it.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Examples
+    --------
+    >>> from fl_design._cache import key_path
+    >>> key_path().name
+    'cache.key'
+    """
+    xdg = os.environ.get("XDG_CONFIG_HOME", "")
+    base = xdg if xdg and os.path.isabs(xdg) else os.path.join(os.path.expanduser("~"), ".config")
+    return Path(base) / "fl_design" / KEY_NAME
+
+
+def _inside(inner: Path, outer: Path) -> bool:
+    try:
+        inner.resolve().relative_to(outer.resolve())
+    except (ValueError, OSError):
+        return False
+    return True
+
+
+def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
+    """The per-user secret (32 bytes) that signs the cache, created once with mode 0600.
+
+    It is kept in the user's config folder (:func:`key_path`, folder 0700), never inside the
+    cache folder it protects: a cache folder copied from someone else (or unpacked from an
+    archive) carries no signing power, and its entries are recomputed.
 
     Parameters
     ----------
     cache_dir : path-like, optional
-        See :func:`cache_directory`.
+        The cache folder the key will sign (see :func:`cache_directory`); the key is refused
+        when it would lie inside it.
 
     Returns
     -------
@@ -282,10 +323,10 @@ def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
     Raises
     ------
     UnsafeCacheError
-        The key file exists but is not a regular 32-byte file of the user readable by no one
-        else (it may have been planted or exposed).
-    OSError, ComputationError
-        The folder cannot be used.
+        The key file is not a regular 32-byte file of the user readable by no one else, its
+        folder is not private, or it lies inside the cache folder.
+    OSError
+        The config folder cannot be created or read.
 
     Examples
     --------
@@ -294,10 +335,15 @@ def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
     >>> len(key), key == user_key("kernels")
     (32, True)
     """
-    directory = cache_directory(cache_dir)
-    path = directory / KEY_NAME
+    path = key_path()
+    if cache_dir is not None and _inside(path, Path(cache_dir)):
+        raise UnsafeCacheError(
+            f"the cache key {str(path)!r} lies inside the cache folder {str(cache_dir)!r}: a copy "
+            "of the folder would carry it; set $FL_DESIGN_CACHE or $XDG_CONFIG_HOME apart")
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    check_private(path.parent)
     if not os.path.lexists(path):
-        fd, tmp = tempfile.mkstemp(prefix=".key.", dir=directory)
+        fd, tmp = tempfile.mkstemp(prefix=".key.", dir=path.parent)
         try:
             with os.fdopen(fd, "wb") as fh:
                 fh.write(secrets.token_bytes(_KEY_BYTES))
@@ -307,14 +353,69 @@ def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
                 pass
         finally:
             os.unlink(tmp)
-    st = os.lstat(path)
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    try:
+        st = os.fstat(fd)
+        data = os.read(fd, _KEY_BYTES + 1)
+    finally:
+        os.close(fd)
     if not stat.S_ISREG(st.st_mode) or st.st_uid != os.geteuid() or st.st_mode & 0o077 \
-            or st.st_size != _KEY_BYTES:
+            or len(data) != _KEY_BYTES:
         raise UnsafeCacheError(
             f"the cache key {str(path)!r} is not a private 32-byte file of yours (mode "
             f"{stat.S_IMODE(st.st_mode):04o}, uid {st.st_uid}): signed cache entries are not "
             "used; delete it to make a new one")
-    return path.read_bytes()
+    return data
+
+
+def signing_key(cache_dir: str | os.PathLike | None = None) -> bytes:
+    """:func:`user_key`, or, when it cannot be used, a key of this process only (one warning).
+
+    With the process key, entries written by other processes never verify (they are
+    recomputed) and nothing is lost but speed.
+
+    Examples
+    --------
+    >>> from fl_design._cache import signing_key
+    >>> len(signing_key())
+    32
+    """
+    try:
+        return user_key(cache_dir)
+    except (OSError, UnsafeCacheError) as exc:
+        _warn_once(f"{exc}; the cache is signed with a key of this process only (entries of "
+                   "other processes are recomputed)")
+        return _PROCESS_KEY
+
+
+def _mac(key: bytes, name: str, record: dict) -> str:
+    text = f"{_MAC_FORMAT}\0{name}\0{record.get('size')}\0{record.get('sha256')}"
+    return hmac.new(key, text.encode(), hashlib.sha256).hexdigest()
+
+
+def signed_record(path: str | os.PathLike, record: dict, cache_dir=None) -> dict:
+    """``record`` (``{"size", "sha256"}`` of ``path``) with its HMAC under :func:`signing_key`.
+
+    The MAC binds the file name, size and SHA-256: a file is trusted only if whoever wrote its
+    sidecar held this user's key (:func:`verified`).
+
+    Examples
+    --------
+    >>> from fl_design._cache import signed_record
+    >>> sorted(signed_record("a.so", {"size": 1, "sha256": "00"}))
+    ['mac', 'sha256', 'size']
+    """
+    key = signing_key(cache_dir if cache_dir is not None else Path(path).parent)
+    return {"size": record["size"], "sha256": record["sha256"],
+            "mac": _mac(key, Path(path).name, record)}
+
+
+def _signed(path: Path, record: dict) -> bool:
+    mac = record.get("mac")
+    if not isinstance(mac, str):
+        return False
+    key = signing_key(path.parent)
+    return hmac.compare_digest(mac, _mac(key, path.name, record))
 
 
 def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
@@ -346,10 +447,11 @@ def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
     """
     out = cache_directory(cache_dir) / name
     _replace_bytes(out, data)
-    replace_text(Path(str(out) + SIDECAR_SUFFIX),
-                 json.dumps({"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}))
+    record = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+    replace_text(Path(str(out) + SIDECAR_SUFFIX), json.dumps(signed_record(out, record)))
     return out
 
 
 __all__ = ["KEY_NAME", "SIDECAR_SUFFIX", "cache_directory", "check_private", "digest",
-           "read_verified", "replace_text", "user_key", "verified", "write_verified"]
+           "key_path", "read_verified", "replace_text", "signed_record", "signing_key",
+           "user_key", "verified", "write_verified"]

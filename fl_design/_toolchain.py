@@ -8,8 +8,10 @@ is never compiled twice (across processes and sessions).
 
 The cache heals itself. Each file is written atomically (temporary name, then
 ``os.replace``), then a sidecar ``<file>.json`` records its size and SHA-256, also written
-atomically. A cached file is used only when it matches its sidecar (:func:`verified`); a
-truncated, empty or overwritten library, a missing or disagreeing sidecar, is rebuilt. Never
+atomically, signed with the per-user key kept outside the cache (:func:`fl_design._cache.user_key`).
+A cached file is used only when it matches its sidecar and the signature verifies
+(:func:`verified`); a truncated, empty, overwritten or planted library (even with a matching
+size/SHA-256 sidecar), a missing, disagreeing or unsigned sidecar, is rebuilt. Never
 is an unverified file loaded (:mod:`fl_design.sim.kernel._runners` checks again before ``dlopen``).
 The directory, sidecars and atomic writes are those of :mod:`fl_design._cache`, shared with the
 cache of plant derivations (:mod:`fl_design.symbolic._derivation_cache`).
@@ -54,7 +56,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from ._cache import SIDECAR_SUFFIX, cache_directory, replace_text, verified
+from ._cache import SIDECAR_SUFFIX, cache_directory, replace_text, signed_record, verified
 from ._cache import digest as _digest
 from .errors import CompilationWarning, ComputationError
 
@@ -223,7 +225,7 @@ def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: l
             error = str(exc)
         if error is not None:
             raise _CompileFailed(error)
-        record = json.dumps(_digest(Path(tmp) / out_name))
+        record = json.dumps(signed_record(out, _digest(Path(tmp) / out_name), directory))
         os.replace(Path(tmp) / out_name, out)
     replace_text(Path(str(out) + SIDECAR_SUFFIX), record)
     return out
@@ -234,7 +236,7 @@ class UnverifiedLibrary(ComputationError):
 
 
 def open_verified(path) -> ctypes.CDLL:
-    """``dlopen`` a cached library, only if it matches its recorded size and SHA-256.
+    """``dlopen`` a cached library, only if it matches its recorded, signed size and SHA-256.
 
     The one rule of every loader of compiled kernels: never load a file that is not the one
     built (a truncated or replaced library could SIGBUS or run someone else's code).

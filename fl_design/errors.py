@@ -88,6 +88,10 @@ class WorkerLostError(ComputationError):
         self.partial = partial
 
 
+class DerivationTimeoutError(ComputationError):
+    """A symbolic derivation ran past its time budget (``$FL_DESIGN_DERIVE_SECONDS``)."""
+
+
 class MissingDependencyError(FlDesignError, RuntimeError):
     """An optional dependency needed for the requested feature is not installed."""
 
@@ -146,6 +150,7 @@ __all__ = [
     "CompilationWarning",
     "CompilerNotFoundError",
     "ComputationError",
+    "DerivationTimeoutError",
     "DesignMismatchError",
     "DimensionError",
     "ExpressionError",

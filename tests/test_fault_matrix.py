@@ -31,3 +31,10 @@ def test_fault_matrix_quick_has_no_exec_loss_false_diagnosis_raw_crash_or_hang(t
     assert re.search(r"clear\s+input\s+string rhs: __import__ os.system", proc.stdout)
     assert re.search(r"clear\s+env\s+output: codegen \. in a project", proc.stdout)
     assert re.search(r"result\s+env\s+cache: planted pickles", proc.stdout)
+    # issue 36: a cache folder carrying its own key, write-through, bounds, streams
+    assert re.search(r"result\s+env\s+cache: a folder carrying its own key", proc.stdout)
+    assert re.search(r"clear\s+env\s+output: symlink at c/build/sil.c", proc.stdout)
+    assert re.search(r"clear\s+env\s+output: planted marker in a project", proc.stdout)
+    assert re.search(r"clear\s+input\s+bounds: \(x1 \+ x2 \+ u\)\*\*1000 - x1", proc.stdout)
+    assert re.search(r"result\s+input\s+structure: -x1 \+ u \+ u\*\*40", proc.stdout)
+    assert re.search(r"clear\s+env\s+raw: stdout closed", proc.stdout)

@@ -21,6 +21,7 @@ lost, falsediag, silent, raw, crash and hang are all zero. ``--quick`` runs a re
 subset (the tests run it); ``-v`` prints every case.
 
     python verify/fault_matrix.py [--quick] [-v] [--timeout SECONDS] [--jobs N]
+                                  [--match REGEX] [--issue36]
 """
 
 from __future__ import annotations
@@ -99,6 +100,7 @@ def a_file(name="file"):
     return p
 PWNED = TMP / "pwned"
 PROJECT = TMP / "project"
+VICTIM = TMP / "outside_victim.txt"  # a user's file outside every output folder: must never change
 def cli(*args):
     """The command line in-process; exit 2 (one line on stderr) counts as a clear error."""
     from fl_design.app import main
@@ -141,6 +143,7 @@ print("@@FAULT@@" + json.dumps(_out))
 '''
 
 #: Files of the user's project written before each case (the ``lost`` check).
+VICTIM_TEXT = "a user's file outside the output folder\n"
 PROJECT_FILES = {"Makefile": "all:\n\techo mine\n", "README.md": "# my project\n",
                  "main.c": "int main(void) { return 0; }\n"}
 
@@ -405,7 +408,7 @@ def _safety() -> list[Case]:
           "assert not list((TMP / 'theirs').iterdir())", {"FL_DESIGN_CACHE": "@TMP@/theirs"},
           expect="result"),
         e("cache: exposed key (0644)", "fl.plants.pendulum().normal_form()\n"
-          "os.chmod(TMP / 'c' / '.fl_design_key', 0o644)\n"
+          "os.chmod(TMP / 'config' / 'fl_design' / 'cache.key', 0o644)\n"
           "fl.plants.maglev().normal_form()", {"FL_DESIGN_CACHE": "@TMP@/c"}, expect="result"),
         e("cache: symlink planted at an entry", "fl.plants.pendulum().normal_form()\n"
           "victim = TMP / 'victim.txt'; victim.write_text('keep')\n"
@@ -492,6 +495,15 @@ def _safety() -> list[Case]:
     return cases
 
 
+def _issue36() -> list[Case]:
+    """Issue 36: cache folders from someone else, write-through, waits, structure, streams
+    (``verify/fault_cases_issue36.py``)."""
+    from fault_cases_issue36 import cases
+
+    return [Case(name, code, kind, env, quick, expect)
+            for name, code, kind, env, quick, expect in cases()]
+
+
 def run_case(case: Case, timeout: float) -> dict:
     """Run one case in a fresh interpreter; its class, detail and time."""
     with tempfile.TemporaryDirectory(prefix="fl_fault-") as tmp:
@@ -502,7 +514,10 @@ def run_case(case: Case, timeout: float) -> dict:
         for name, text in PROJECT_FILES.items():
             with open(os.path.join(project, name), "w") as fh:
                 fh.write(text)
-        env = dict(os.environ, FAULT_TMP=tmp, FL_DESIGN_CACHE=os.path.join(tmp, "default"))
+        with open(os.path.join(tmp, "outside_victim.txt"), "w") as fh:
+            fh.write(VICTIM_TEXT)
+        env = dict(os.environ, FAULT_TMP=tmp, FL_DESIGN_CACHE=os.path.join(tmp, "default"),
+                   XDG_CONFIG_HOME=os.path.join(tmp, "config"))  # each case its own user key
         env.update({k: v.replace("@TMP@", tmp) for k, v in case.env.items()})
         if "XDG_CACHE_HOME" in case.env:
             env.pop("FL_DESIGN_CACHE")
@@ -520,6 +535,8 @@ def run_case(case: Case, timeout: float) -> dict:
             return {"cls": "exec", "detail": "the payload's marker file appeared",
                     "seconds": seconds}
         lost = [n for n, t in PROJECT_FILES.items() if not _same_text(os.path.join(project, n), t)]
+        if not _same_text(os.path.join(tmp, "outside_victim.txt"), VICTIM_TEXT):
+            lost.append("outside_victim.txt (outside the output folder)")
         if lost:
             return {"cls": "lost", "detail": f"the user's {', '.join(lost)} changed",
                     "seconds": seconds}
@@ -561,10 +578,17 @@ def main(argv=None) -> int:
     parser.add_argument("-v", "--verbose", action="store_true", help="print every case")
     parser.add_argument("--timeout", type=float, default=None, help="seconds per case")
     parser.add_argument("--jobs", type=int, default=max(2, min(8, os.cpu_count() or 1)))
+    parser.add_argument("--match", default=None, metavar="REGEX",
+                        help="only the cases whose name matches")
+    parser.add_argument("--issue36", action="store_true", help="only the issue-36 cases")
     args = parser.parse_args(argv)
-    cases = _inputs() + _envs() + _safety()
+    cases = _issue36() if args.issue36 else _inputs() + _envs() + _safety() + _issue36()
     if args.quick:
         cases = [c for c in cases if c.quick]
+    if args.match:
+        import re
+
+        cases = [c for c in cases if re.search(args.match, c.name)]
     timeout = args.timeout or (60.0 if args.quick else 120.0)
     start = time.perf_counter()
     with ThreadPoolExecutor(max(1, args.jobs)) as pool:

@@ -99,19 +99,33 @@ def check_out_dir(path, *, force: bool = False) -> Path:
 def _executor(address: str | None):
     if address is None:
         return None
-    try:
-        from distributed import Client
-    except ImportError:
-        from ..errors import MissingDependencyError
+    from ..sim._executor import connect_scheduler
 
-        raise MissingDependencyError("--scheduler needs dask.distributed: pip install "
-                                     "'fl_design[dask]'") from None
+    # connected and answering within a bounded time, else one clear line (no hang)
+    return connect_scheduler(address).get_executor()
+
+
+def _run_guarded(args) -> int:
+    """``args.func(args)`` with standard streams that cannot break it
+    (:func:`fl_design._streams.guard_streams`: closed, full or ASCII-only); exit 2 with one
+    line when the printed text was lost, the command's files written."""
+    from .._streams import guard_streams
+
+    saved = sys.stdout, sys.stderr
+    out, _ = guard_streams()
     try:
-        return Client(address, timeout="10s").get_executor()
-    except (OSError, TimeoutError, ValueError) as err:
-        raise ParameterError(f"cannot connect to the Dask scheduler {address!r}: "
-                             f"{str(err).splitlines()[0] if str(err) else type(err).__name__}") \
-            from None
+        code = args.func(args)
+        sys.stdout.flush()
+        if out.failed is not None and code == 0:
+            out.silence()
+            print(f"fl-design: error: standard output could not be written ({out.failed}): "
+                  "the printed text was lost; the command's files were written",
+                  file=sys.stderr)
+            return 2
+        return code
+    finally:  # a stream closed from the start stays the tolerant one (writes nowhere)
+        sys.stdout = saved[0] if saved[0] is not None else sys.stdout
+        sys.stderr = saved[1] if saved[1] is not None else sys.stderr
 
 
 def _config(args):
@@ -542,7 +556,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     _tolerant_stdout()
     try:
-        code = args.func(args)
+        code = _run_guarded(args)
         sys.stdout.flush()
         return code
     except FlDesignError as err:

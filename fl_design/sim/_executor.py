@@ -34,8 +34,9 @@ import hashlib
 import math
 import os
 import threading
+import time
 from collections import OrderedDict
-from concurrent.futures import BrokenExecutor, Executor, as_completed
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, wait
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +54,13 @@ MIN_TASK_RUNS = 16
 STUCK_STEP_SECONDS = 1e-4
 #: Seconds added to every executor grid's time limit (worker start, imports, kernel loads).
 STUCK_GRACE_SECONDS = 600.0
+#: Seconds between two checks that the executor's workers are alive while a grid waits.
+HEARTBEAT_SECONDS = 1.0
+#: Seconds a Dask cluster may have no worker at all (a nanny restarting one) before the grid
+#: is declared lost.
+WORKERLESS_SECONDS = 5.0
+#: Seconds allowed to one question to a Dask scheduler (how many workers it has).
+ASK_SECONDS = 5.0
 
 _MEMO: OrderedDict = OrderedDict()  # per worker process: task key -> runner
 _MEMO_LOCK = threading.Lock()
@@ -223,11 +231,16 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
     n_runs = sum(g.size for g in groups)
     limit = (STUCK_GRACE_SECONDS + STUCK_STEP_SECONDS * n_runs * task.D.shape[1]
              / max(1, executor_workers(executor)))
+    watch = _Heartbeat(executor)
     try:
         for idx in groups:
             futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
-        try:
-            for fut in as_completed(futures, timeout=limit):
+        watch.note()  # the pool's processes exist once tasks are submitted
+        pending, start = set(futures), time.monotonic()
+        while pending:
+            done, pending = wait(pending, timeout=min(HEARTBEAT_SECONDS, limit),
+                                 return_when=FIRST_COMPLETED)
+            for fut in done:
                 idx = futures[fut]
                 try:
                     out[:, idx] = fut.result()
@@ -236,23 +249,31 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
                     broken = exc
                     continue
                 bar.update(idx.size)
-        except TimeoutError:
-            stuck = [f for f in futures if not f.done()]
-            for fut in stuck:
-                fut.cancel()
-            lost.extend(futures[f] for f in stuck)
-            broken = TimeoutError(f"{len(stuck)} of {len(groups)} tasks had not returned "
-                                  f"after {limit:.0f} s")
+            if not pending:
+                break
+            dead = watch.beat()
+            if dead is not None or time.monotonic() - start > limit:
+                for fut in pending:
+                    fut.cancel()
+                lost.extend(futures[f] for f in pending)
+                broken = dead or TimeoutError(f"{len(pending)} of {len(groups)} tasks had not "
+                                              f"returned after {limit:.0f} s")
+                break
     except BaseException:
         for fut in futures:
             fut.cancel()
         raise
+    if lost and broken is not None and not isinstance(broken, WorkerLostError):
+        named = watch.dead_named()
+        if named:
+            broken = type(broken)(f"{broken}; {named}") if isinstance(broken, TimeoutError) \
+                else WorkerLostError(f"{type(broken).__name__}: {named}")
     if lost:
         where = np.concatenate(lost)
         out[:, where] = np.nan
         done = len(groups) - len(lost)
         raise WorkerLostError(
-            f"a worker of the executor died or hung ({type(broken).__name__}: {broken}) and the "
+            f"a worker of the executor died or hung ({_reason(broken)}) and the "
             f"results of {where.size} of {out.shape[1]} runs were lost (grid indices "
             f"{_ranges(where)}; eps-major); {done} of {len(groups)} tasks finished and are kept "
             "in this exception's .partial. Usual causes: memory exhausted (the OS killed it), "
@@ -261,4 +282,181 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
             lost=sorted(int(i) for i in where), partial=out.copy())
 
 
-__all__ = ["KernelTask", "executor_workers", "run_task", "run_tasks", "task_columns"]
+def _reason(broken) -> str:
+    if isinstance(broken, WorkerLostError):
+        return str(broken)
+    return f"{type(broken).__name__}: {broken}"
+
+
+def bounded_call(fn, seconds: float, what: str):
+    """``fn()`` run in a daemon thread, waited for at most ``seconds``.
+
+    Returns ``fn()``'s value; re-raises its exception; raises :class:`TimeoutError` naming
+    ``what`` when it has not answered in time (the thread is abandoned).
+
+    Examples
+    --------
+    >>> from fl_design.sim._executor import bounded_call
+    >>> bounded_call(lambda: 42, 1.0, "the answer")
+    42
+    """
+    box: dict = {}
+    done = threading.Event()
+
+    def call():
+        try:
+            box["value"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - handed to the waiting thread
+            box["error"] = exc
+        finally:
+            done.set()
+
+    threading.Thread(target=call, name=f"fl_design: {what}", daemon=True).start()
+    if not done.wait(seconds):
+        raise TimeoutError(f"{what} did not answer within {seconds:g} s")
+    if "error" in box:
+        raise box["error"]
+    return box.get("value")
+
+
+#: Seconds allowed to connect to a Dask scheduler and get its first answer.
+CONNECT_SECONDS = 10.0
+_SCHEMES = ("tcp", "tls", "ws", "wss", "inproc", "ucx")
+
+
+def connect_scheduler(address: str, *, timeout: float = CONNECT_SECONDS):
+    """A ``distributed.Client`` of the scheduler at ``address``, connected and answering
+    within ``timeout`` seconds, else a clear error (never a hang, never a raw traceback).
+
+    A server that accepts the connection but never answers (not a Dask scheduler, or frozen)
+    is refused after ``timeout`` seconds; ``tls://`` without certificates is refused with
+    what to configure.
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port`` (or ``host:port``), ``tls://...``, ``ws://...``...
+    timeout : float, optional
+        Seconds for the connection and the scheduler's first answer.
+
+    Returns
+    -------
+    distributed.Client
+
+    Raises
+    ------
+    ParameterError
+        Not an address, an unknown scheme, refused, silent, or misconfigured TLS.
+    MissingDependencyError
+        ``dask.distributed`` is not installed.
+
+    Examples
+    --------
+    >>> from fl_design.sim._executor import connect_scheduler
+    >>> connect_scheduler("gopher://example:8786")
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.ParameterError: the Dask scheduler address 'gopher://example:8786' has the scheme 'gopher'; ...
+    """
+    from ..errors import MissingDependencyError, ParameterError
+
+    if not isinstance(address, str) or not address.strip():
+        raise ParameterError(f"the Dask scheduler address must be a non-empty string such as "
+                             f"tcp://host:8786, got {address!r}")
+    scheme = address.split("://", 1)[0].lower() if "://" in address else "tcp"
+    if scheme not in _SCHEMES:
+        raise ParameterError(f"the Dask scheduler address {address!r} has the scheme {scheme!r}; "
+                             f"valid: {', '.join(s + '://' for s in _SCHEMES)}")
+    try:
+        from distributed import Client
+    except ImportError:
+        raise MissingDependencyError("a Dask scheduler needs dask.distributed: pip install "
+                                     "'fl_design[dask]'") from None
+    abandoned = threading.Event()
+
+    def connect():
+        client = Client(address, timeout=f"{timeout:g}s")
+        try:
+            client.scheduler_info()  # its first answer
+        except BaseException:
+            client.close()
+            raise
+        if abandoned.is_set():
+            client.close()
+        return client
+
+    try:
+        return bounded_call(connect, timeout + 2.0, f"the Dask scheduler {address!r}")
+    except TimeoutError:
+        abandoned.set()
+        raise ParameterError(
+            f"cannot connect to the Dask scheduler {address!r}: no answer within {timeout:g} s "
+            "(something accepts connections there but does not answer as a Dask scheduler, or "
+            "it is frozen); check the address and that `dask scheduler` runs there") from None
+    except Exception as err:  # noqa: BLE001 - whatever distributed raises: one clear line
+        first = (str(err).splitlines() or [""])[0][:300] or type(err).__name__
+        hint = ("; a tls:// scheduler needs certificates: configure "
+                "distributed.comm.tls (ca-file, client cert and key) in the Dask config"
+                if scheme in ("tls", "wss") else "")
+        raise ParameterError(f"cannot connect to the Dask scheduler {address!r}: "
+                             f"{type(err).__name__}: {first}{hint}") from None
+
+
+class _Heartbeat:
+    """Who is alive among the executor's workers: process-pool processes (exit codes) or a
+    Dask cluster's workers (asked with a bounded wait); :meth:`beat` returns a
+    :class:`~fl_design.errors.WorkerLostError` when the grid cannot go on."""
+
+    def __init__(self, executor: Executor):
+        self.executor = executor
+        self.client = getattr(executor, "_client", None)
+        self.processes: dict = {}
+        self.workers: set = set()
+        self.gone: set = set()
+        self.workerless_since = None
+        self.note()
+
+    def note(self) -> None:
+        procs = getattr(self.executor, "_processes", None)
+        if isinstance(procs, dict):
+            self.processes.update(procs)
+
+    def dead_named(self, settle: float = 1.0) -> str:
+        """The workers known dead (a killed process is reaped within ``settle`` seconds)."""
+        self.note()
+        deadline = time.monotonic() + settle
+        while True:
+            codes = {pid: getattr(p, "exitcode", None) for pid, p in self.processes.items()}
+            if any(c is not None for c in codes.values()) or time.monotonic() > deadline \
+                    or not codes:
+                break
+            time.sleep(0.05)
+        dead = [f"worker process {pid} ({'killed by signal ' + str(-c) if c < 0 else f'exit code {c}'})"
+                for pid, c in sorted(codes.items()) if c is not None]
+        dead.extend(f"Dask worker {w} left the cluster" for w in sorted(self.gone))
+        return "; ".join(dead)
+
+    def beat(self) -> WorkerLostError | None:
+        self.note()
+        if self.client is None:
+            return None
+        try:
+            now = set(bounded_call(self.client.nthreads, ASK_SECONDS,
+                                   "the Dask scheduler (asked for its workers)"))
+        except Exception as exc:  # noqa: BLE001 - an unreachable scheduler is a lost grid
+            return WorkerLostError(f"the Dask scheduler stopped answering: {exc}")
+        self.gone |= self.workers - now
+        self.workers |= now
+        if now:
+            self.workerless_since = None
+            return None
+        self.workerless_since = self.workerless_since or time.monotonic()
+        if time.monotonic() - self.workerless_since < WORKERLESS_SECONDS:
+            return None
+        left = ", ".join(sorted(self.gone)) or "none had joined"
+        return WorkerLostError(f"the Dask cluster has had no worker for "
+                               f"{WORKERLESS_SECONDS:g} s (workers that left: {left})")
+
+
+__all__ = ["KernelTask", "bounded_call", "connect_scheduler", "executor_workers", "run_task",
+           "run_tasks", "task_columns"]

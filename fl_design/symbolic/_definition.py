@@ -25,7 +25,7 @@ from ..errors import PlantDefinitionError
 #: Keys of ``operating_point`` that give the output value instead of a state.
 OUTPUT_KEYS = ("y", "output")
 from ._constructs import check_expression, mismatched_assumptions, non_finite_at
-from ._grammar import parse_expression
+from ._grammar import check_names, check_size, parse_expression
 
 
 def _symbols(name: str, value) -> tuple:
@@ -43,6 +43,7 @@ def _symbols(name: str, value) -> tuple:
     dup = sorted({nm for nm in names if names.count(nm) > 1})
     if dup:
         raise PlantDefinitionError(f"{name} contains duplicate state(s) {dup}; each state once")
+    check_names(names, what=name)  # no two names Python reads as one (NFKC), no function names
     return out
 
 
@@ -66,7 +67,7 @@ def _sympify(what: str, value, names: Mapping[str, sp.Symbol]) -> sp.Expr:
         raise PlantDefinitionError(f"{what} must be a sympy expression, got {value!r}") from err
     if not isinstance(out, sp.Expr):
         raise PlantDefinitionError(f"{what} must be a scalar sympy expression, got {out!r}")
-    return check_expression(what, out)
+    return check_expression(what, check_size(out, what))
 
 
 def _key(kind: str, key, by_name: Mapping[str, sp.Symbol]) -> sp.Symbol:

@@ -17,10 +17,12 @@ directory of the compiled kernels (:func:`fl_design._cache.cache_directory`,
 (a library plant, known before SymPy by its recipe, is keyed by
 :meth:`~fl_design.symbolic._recipe.Recipe.key` instead: its values, this code version and its
 package's sources), with the size/SHA-256 sidecar of :mod:`fl_design._cache`, and signed: each
-file starts with an HMAC-SHA256 of its name and payload under the per-user key of the private cache folder
-(:func:`fl_design._cache.user_key`, mode 0600). Nothing is unpickled unless its signature
+file starts with an HMAC-SHA256 of its name and payload under the per-user key, which lives
+outside the cache folder, in the user's config folder (:func:`fl_design._cache.user_key`,
+mode 0600), and the sidecar is signed with it too. Nothing is unpickled unless its signature
 verifies, so a file written by anyone who cannot read that key (a planted pickle, an entry
-copied from another machine or user) is never loaded. A quantity read from the cache is
+re-signed with a key shipped inside a copied folder, a folder copied from another machine or
+user) is never loaded. A quantity read from the cache is
 identical to a fresh derivation (tests compare every one). A file that does not match its
 sidecar or signature, or does not unpickle to the expected type, is recomputed and rewritten,
 with one :class:`~fl_design.errors.CacheWarning` per process. A cache folder that is not
@@ -174,8 +176,8 @@ def plant_key(states, input, rhs, output, params, name, input_range, region,
                      (sym(k), tuple(num(v) for v in lohi)) for k, lohi in region.items())),
                  repr(None if operating_point is None else sorted(
                      (sym(k), num(v)) for k, v in dict(operating_point).items()))]
-    except (TypeError, ValueError, AttributeError, OverflowError):
-        return None
+    except (TypeError, ValueError, AttributeError, OverflowError, RecursionError):
+        return None  # a very deep expression: not cached (computed, as without a cache)
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 import ast
 import difflib
 import math
+import unicodedata
 from collections.abc import Mapping
 
 import sympy as sp
@@ -49,6 +50,12 @@ MAX_DEPTH = 100
 MAX_EXPONENT = 1000
 #: Most digits of an exact (integer or rational) number built while parsing.
 MAX_DIGITS = 1000
+#: Most terms an expression may have once fully expanded (``(x1 + x2 + u)**1000`` has 501,501).
+MAX_TERMS = 5000
+#: Highest total polynomial degree of an expression once expanded.
+MAX_DEGREE = 200
+#: Deepest accepted SymPy expression tree (given as a SymPy object).
+MAX_TREE_DEPTH = 200
 
 #: Function name -> (SymPy function, number of arguments).
 FUNCTIONS = {
@@ -246,6 +253,7 @@ def parse_expression(text: str, names: Mapping[str, sp.Basic], *,
     ...
     fl_design.errors.ExpressionError: rhs[0] 'Al*2': unknown symbol 'Al' (did you mean 'A1'?); the declared names are ['A1'] ...
     """
+    names = check_names(names, what=what)
     builder = _Builder(str(text) if isinstance(text, str) else "", names, what)
     if not isinstance(text, str):
         raise ExpressionError(f"{what} must be a string, got {type(text).__name__} {text!r:.60}")
@@ -268,8 +276,155 @@ def parse_expression(text: str, names: Mapping[str, sp.Basic], *,
         raise builder.fail(f"nested too deeply (limit {MAX_DEPTH})") from None
     if not isinstance(out, sp.Expr):
         raise builder.fail(f"does not give a scalar expression (got {type(out).__name__})")
-    return out
+    return check_size(out, f"{what} {_short(text)!r}")
 
 
-__all__ = ["CONSTANTS", "FUNCTIONS", "MAX_DEPTH", "MAX_DIGITS", "MAX_EXPONENT", "MAX_LENGTH",
+def check_names(names, *, what: str = "the declared names"):
+    """``names`` after refusing two that Python reads as one, or one that is a function.
+
+    Python reads identifiers in NFKC form (``ℎ``, the Planck-constant letter, is ``h``), so two
+    declared names equal after NFKC normalization would silently stand for one symbol: refused.
+    A name of the grammar's functions (``sin``) is refused too.
+
+    Parameters
+    ----------
+    names : mapping of str to object, or iterable of str
+        The declared names (a mapping is returned keyed by the normalized names).
+    what : str, optional
+        Where the names come from, for messages.
+
+    Returns
+    -------
+    dict or list
+        The names, NFKC-normalized (a dict for a mapping, else a list).
+
+    Raises
+    ------
+    ExpressionError
+        Two names collide after normalization, a name is not a string or not an identifier,
+        or a name is one of :data:`FUNCTIONS`.
+
+    Examples
+    --------
+    >>> from fl_design.symbolic._grammar import check_names
+    >>> check_names(["x1", "u"])
+    ['x1', 'u']
+    >>> check_names(["h", "\u210e"])
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.ExpressionError: the declared names: 'h' and '\u210e' are the same name once Unicode-normalized (NFKC: 'h')...
+    """
+    items = list(names.items()) if isinstance(names, Mapping) else [(n, None) for n in names]
+    seen: dict[str, str] = {}
+    out = []
+    for name, value in items:
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ExpressionError(f"{what}: the name {name!r} is not an identifier (letters, "
+                                  "digits and underscores, not starting with a digit)")
+        norm = unicodedata.normalize("NFKC", name)
+        if norm in seen:
+            raise ExpressionError(
+                f"{what}: {seen[norm]!r} and {name!r} are the same name once Unicode-normalized "
+                f"(NFKC: {norm!r}), as Python reads them; give them different names")
+        if norm in FUNCTIONS:
+            raise ExpressionError(f"{what}: the name {name!r} is a function of the expression "
+                                  f"grammar ({', '.join(sorted(FUNCTIONS))}); rename it")
+        seen[norm] = name
+        out.append((norm, value))
+    return dict(out) if isinstance(names, Mapping) else [n for n, _ in out]
+
+
+def _walk_size(expr: sp.Basic) -> tuple[int, int, int]:
+    """``(terms, degree, depth)``: the most terms and highest degree of any part of ``expr``
+    once expanded (inside function arguments too: ``expand`` goes there), and the tree's depth;
+    bottom-up without recursion, saturating above the limits."""
+    cap = 10 * MAX_TERMS
+    done: dict = {}
+    stack = [(expr, 0, False)]
+    deepest = worst_terms = worst_degree = 0
+    while stack:
+        node, depth, ready = stack.pop()
+        deepest = max(deepest, depth)
+        if depth > MAX_TREE_DEPTH:
+            return 0, 0, depth
+        if node in done:
+            continue
+        if not ready:
+            stack.append((node, depth, True))
+            stack.extend((a, depth + 1, False) for a in node.args if a not in done)
+            continue
+        kids = [done[a] for a in node.args]
+        if isinstance(node, sp.Add):
+            terms, degree = min(cap, sum(k[0] for k in kids)), max(k[1] for k in kids)
+        elif isinstance(node, sp.Mul):
+            terms, degree = 1, 0
+            for k in kids:
+                terms, degree = min(cap, terms * k[0]), min(cap, degree + k[1])
+        elif isinstance(node, sp.Pow) and node.exp.is_Integer and node.exp > 0:
+            n, (k, d) = int(node.exp), kids[0]
+            terms = cap if k > 1 and n > cap else min(cap, math.comb(n + k - 1, k - 1))
+            degree = min(cap, n * d)
+        elif isinstance(node, sp.Symbol):
+            terms, degree = 1, 1
+        else:  # numbers, functions, other powers: one term after expansion
+            terms, degree = 1, 0
+        done[node] = (terms, degree)
+        worst_terms, worst_degree = max(worst_terms, terms), max(worst_degree, degree)
+    return worst_terms, worst_degree, deepest
+
+
+def check_size(expr: sp.Basic, what: str = "expression") -> sp.Basic:
+    """``expr`` if its expanded size stays within bounds, checked before anything expands it.
+
+    The derivation expands and differentiates: ``(x1 + x2 + u)**1000`` (25 characters) has
+    501,501 terms once expanded and kept ``derive`` busy for minutes. Refused when any part of
+    ``expr`` expands to more than :data:`MAX_TERMS` terms or a total degree above
+    :data:`MAX_DEGREE`, or when the tree is deeper than :data:`MAX_TREE_DEPTH`.
+
+    Parameters
+    ----------
+    expr : sympy.Basic
+    what : str, optional
+        For messages.
+
+    Returns
+    -------
+    sympy.Basic
+
+    Raises
+    ------
+    ExpressionError
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from fl_design.symbolic._grammar import check_size
+    >>> x1, x2, u = sp.symbols("x1 x2 u")
+    >>> check_size((x1 + u)**3)
+    (u + x1)**3
+    >>> check_size((x1 + x2 + u)**1000 - x1)
+    Traceback (most recent call last):
+    ...
+    fl_design.errors.ExpressionError: expression: expands to more than 5000 terms (limit MAX_TERMS = 5000)...
+    """
+    if not isinstance(expr, sp.Basic):
+        return expr
+    terms, degree, depth = _walk_size(expr)
+    if depth > MAX_TREE_DEPTH:
+        raise ExpressionError(f"{what}: the expression tree is more than {MAX_TREE_DEPTH} "
+                              "levels deep; build it from simpler terms")
+    if terms > MAX_TERMS:
+        shown = f"more than {MAX_TERMS}" if terms >= 10 * MAX_TERMS else f"{terms}"
+        raise ExpressionError(
+            f"{what}: expands to {shown} terms (limit MAX_TERMS = {MAX_TERMS}), which the "
+            "derivation (Lie derivatives, expansion) cannot handle in reasonable time; write "
+            "it with fewer terms or a lower power")
+    if degree > MAX_DEGREE:
+        raise ExpressionError(f"{what}: has polynomial degree {degree} once expanded (limit "
+                              f"{MAX_DEGREE}); write it with a lower power")
+    return expr
+
+
+__all__ = ["CONSTANTS", "FUNCTIONS", "MAX_DEGREE", "MAX_DEPTH", "MAX_DIGITS", "MAX_EXPONENT",
+           "MAX_LENGTH", "MAX_TERMS", "MAX_TREE_DEPTH", "check_names", "check_size",
            "parse_expression"]

@@ -43,6 +43,8 @@ import sympy as sp
 
 from ..errors import ComputationError, ParameterError, RelativeDegreeError
 from ._bridge import to_casadi
+from ._budget import time_budget
+from ._enclosure import enclose
 from ._lie import lie_derivative
 from ._probe import _check_b_scale, _identically_zero, _negligible_note, _Probe
 from ._tidy import _drop_dirac, _real_maps, tidy
@@ -67,8 +69,14 @@ def lie_chain(plant) -> LieChain:
     """Compute the relative degree by Lie derivatives (see the module docstring).
 
     Raises RelativeDegreeError if the input does not appear up to ``y^(n)`` or if ``b`` vanishes
-    at the operating point ``(x_op, u_eq)``.
+    at the operating point ``(x_op, u_eq)``; DerivationTimeoutError past the time budget
+    (:func:`~fl_design.symbolic._budget.time_budget`).
     """
+    with time_budget(f"the relative degree of plant {plant.name!r}"):
+        return _lie_chain(plant)
+
+
+def _lie_chain(plant) -> LieChain:
     fwd, back = _real_maps([*plant.states, plant.input, *plant.params])
     states = [fwd.get(s, s) for s in plant.states]
     u = fwd.get(plant.input, plant.input)
@@ -101,9 +109,18 @@ def lie_chain(plant) -> LieChain:
 
 
 def _check_b_at_operating_point(plant, rho: int, b: sp.Expr, probe: _Probe) -> None:
+    """RelativeDegreeError unless b != 0 at the operating point, decided by a rigorous interval
+    enclosure of b there (:func:`~fl_design.symbolic._enclosure.enclose`: ``1 + 40 u**39`` is
+    ``[1, 1]`` at ``u = 0``, whatever its size elsewhere); the relative test against b's size at
+    probe points only for an expression the enclosure does not support."""
     point = {**dict(zip(plant.states, plant.x_op.tolist())), plant.input: plant.u_eq}
     value = complex(b.subs(plant.params).subs(point).evalf()) if b.free_symbols else complex(b)
-    if _check_b_scale(value, b, probe):
+    box = {s: (float(v), float(v)) for s, v in point.items()}
+    box.update({k: (float(v), float(v)) for k, v in plant.params.items()})
+    enclosure = enclose(b, box)
+    vanishes = _check_b_scale(value, b, probe) if enclosure is None else \
+        enclosure[0] <= 0.0 <= enclosure[1]
+    if vanishes:
         where = ", ".join(f"{s}={v:g}" for s, v in point.items())
         raise RelativeDegreeError(
             f"the input coefficient b = d y^({rho})/d{plant.input} = {b} of plant {plant.name!r} "
@@ -410,7 +427,13 @@ def _fmt(z: complex) -> str:
 
 
 def derive_normal_form(plant) -> NormalForm:
-    """Build the :class:`NormalForm` of ``plant`` (see :meth:`fl_design.Plant.normal_form`)."""
+    """Build the :class:`NormalForm` of ``plant`` (see :meth:`fl_design.Plant.normal_form`)
+    within the derivation's time budget (:func:`~fl_design.symbolic._budget.time_budget`)."""
+    with time_budget(f"the normal form of plant {plant.name!r}"):
+        return _derive_normal_form(plant)
+
+
+def _derive_normal_form(plant) -> NormalForm:
     chain = plant._lie_chain()
     rho, u = chain.rho, plant.input
     sigma = chain.derivatives[rho]

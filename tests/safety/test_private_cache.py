@@ -27,6 +27,12 @@ from fl_design.symbolic import _derivation_cache as _stored
 from fl_design.symbolic import _plant_derived as _plant  # where the derivations are called
 
 
+@pytest.fixture(autouse=True)
+def _own_config(tmp_path, monkeypatch):
+    """Each test has its own user key (in its own config folder)."""
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+
+
 @pytest.fixture
 def fresh(monkeypatch):
     monkeypatch.setattr(_stored, "_WARNED", set())
@@ -135,15 +141,16 @@ def test_an_entry_signed_with_another_key_is_not_loaded(tmp_path, monkeypatch, f
     cache = tmp_path / "cache"
     monkeypatch.setenv("FL_DESIGN_CACHE", str(cache))
     _trms_chain(monkeypatch)
-    (cache / KEY_NAME).unlink()  # a new user key: the old signatures no longer verify
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "other"))  # another user's key
     with pytest.warns(CacheWarning, match="corrupted"):
         assert _trms_chain(monkeypatch) == [1]
 
 
 def test_an_exposed_key_is_refused(tmp_path):
     key = user_key(tmp_path / "c")
-    assert len(key) == 32 and _mode(tmp_path / "c" / KEY_NAME) == 0o600
-    os.chmod(tmp_path / "c" / KEY_NAME, 0o644)
+    where = tmp_path / "config" / "fl_design" / KEY_NAME
+    assert len(key) == 32 and _mode(where) == 0o600 and not (tmp_path / "c").exists()
+    os.chmod(where, 0o644)
     with pytest.raises(UnsafeCacheError, match="not a private 32-byte file"):
         user_key(tmp_path / "c")
 
