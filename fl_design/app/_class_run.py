@@ -182,7 +182,7 @@ def run_class(args, config_path) -> int:
     from ..codegen import generate_c
     from ..tuning._tune_class import tune_class
     from ._class_table import load_class_config
-    from ._cli import check_out_dir
+    from ._outdir import check_out_dir
     from ._report_render import md, render_html, render_markdown
 
     cfg = load_class_config(config_path)
@@ -234,7 +234,7 @@ def cmd_identify(args) -> int:
     """``fl-design identify LOG.csv --rho R``."""
     from ..identification import identify, write_page
     from ._class_table import class_toml
-    from ._cli import check_out_dir
+    from ._outdir import check_out_dir
 
     cls = identify(args.log, rho=args.rho, T=args.T, u_limits=args.u_limits,
                    b_sign=args.b_sign, bad_rows="skip" if args.skip_bad_rows else "error")
