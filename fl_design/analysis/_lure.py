@@ -83,6 +83,15 @@ class LureCertificate(_Result):
         The integral term's coefficients (``V = X^T P X + 2 (q+ - q-) int phi/k``).
     names : tuple of str
         Loop coordinates.
+    tau : numpy.ndarray or None
+        The five S-procedure multipliers (sector at ``k``, at ``k+1``, slope, the two means).
+    s : numpy.ndarray or None
+        The dead-zones' multipliers.
+    kappa : float
+        The decay certified.
+    W : numpy.ndarray or None
+        The coordinates of the re-check (``X = W Xt``; :func:`recheck_lure` takes ``W`` and
+        ``W^T P W``).
     """
 
     certified: bool
@@ -93,6 +102,10 @@ class LureCertificate(_Result):
     q_plus: float = math.nan
     q_minus: float = math.nan
     names: tuple = ()
+    tau: object = None
+    s: object = None
+    kappa: float = math.nan
+    W: object = None
 
     def _repr_lines(self):
         return [("certified" if self.certified else "NOT certified") + ": " + self.argument,
@@ -330,7 +343,9 @@ def lure_certificate(design, b_bounds, damping: float, slope: float, *,
     head = "Lur'e certificate (re-checked)" if ok else "the Lur'e LMI's solution FAILED the re-check"
     return LureCertificate(bool(ok), f"{head}: {words}", float(worst),
                            time.perf_counter() - t0, Px if ok else None,
-                           vals[0] if ok else math.nan, vals[1] if ok else math.nan, mod.names)
+                           vals[0] if ok else math.nan, vals[1] if ok else math.nan, mod.names,
+                           vals[2] if ok else None, vals[3] if ok else None, kap,
+                           W if ok else None)
 
 
 __all__ = ["LureCertificate", "lure_certificate", "lure_model", "recheck_lure"]
