@@ -45,8 +45,10 @@ paper's ``k = 500`` is not). So the TRMS's 0.3 rad step stays NOT certified by t
 Examples
 --------
 >>> import fl_design as fl
->>> c = lure_certificate(fl.presets.paper_design(), (3.6, 3.6), 5.0, 2.0)
->>> c.certified
+>>> paper = fl.presets.paper_design()
+>>> free = fl.Design(estimator=paper.estimator,
+...                  controller=fl.DynamicController((2.0, 4.0), 3e-4, ki=1e-3))
+>>> lure_certificate(free, (3.6, 3.6), 5.0, 2.0).certified
 True
 """
 
@@ -217,19 +219,20 @@ def _forms(mod: _Model, R: np.ndarray, W: np.ndarray):
     w1 = wrow + T * wR
     cons = [sym(p0, wrow - p0), sym(p1, w1 - p1), sym(dp, wR - dp), sym(dF, dp - dF),
             sym(dFp, dp - dFp)]
-    return wR, p0, p1, cons
+    return wR, p0, p1, dp, cons
 
 
 def _assemble(mod, R, W, P, qp, qm, tau, s, kappa, lib=np):
     """``Omega`` (the delta form without ``T R^T P R``) of one ``b`` end."""
     n, m, N = mod.n, mod.m, mod.N
-    wR, p0, p1, cons = _forms(mod, R, W)
+    wR, p0, p1, dp, cons = _forms(mod, R, W)
     Ex = np.zeros((n, N))
     Ex[:, :n] = np.eye(n)
     PR = Ex.T @ P @ R
     Om = PR + PR.T + kappa * (Ex.T @ P @ Ex)
     qa, qb = np.outer(p1, wR), np.outer(p0, wR)
-    Om = Om + qp * (qa + qa.T) - qm * (qb + qb.T)
+    dd = mod.T * np.outer(dp, dp)  # the slope bound's triangle: exact for a linear phi
+    Om = Om + qp * (qa + qa.T - dd) - qm * (qb + qb.T + dd)
     for i, C in enumerate(cons):
         Om = Om + tau[i] * C
     if m:

@@ -121,3 +121,11 @@ def test_bad_input(kw):
     args = dict(b_bounds=(3.6, 3.6), damping=5.0, slope=10.0) | kw
     with pytest.raises(ParameterError):
         lure_certificate(free_design(), **args)
+
+
+def test_certify_step_uses_the_stated_friction():
+    cls = fl.PlantClass.chain(2, b=(3.6, 3.6), T=1e-3)
+    c = fl.certify_step(cls, free_design(), fl.Scenario(0.3), friction=(A0, K))
+    assert c.certified and c.largest_step == math.inf and "Lur'e certificate" in c.argument
+    with pytest.raises(ParameterError):
+        fl.certify_step(cls, free_design(), fl.Scenario(0.3), friction="x")
