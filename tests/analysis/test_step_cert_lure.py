@@ -40,7 +40,7 @@ def phi(w):
 
 def one_sample(x, u, b, T):
     """Exact (to 1e-13) one sample of ``e' = w, w' = -A0 w - phi(w) + b u``."""
-    f = lambda t, z: [z[1], -A0 * z[1] - phi(z[1]) + b * u]  # noqa: E731
+    f = lambda t, z: [z[1], -A0 * z[1] - phi(z[1]) + b * u]
     sol = scipy.integrate.solve_ivp(f, (0.0, T), x, method="DOP853", rtol=1e-13, atol=1e-15)
     return sol.y[:, -1]
 
@@ -114,11 +114,10 @@ def test_trms_friction_range_is_not_certified():
     assert not c.certified and c.P is None and "no Lur'e certificate" in c.argument
 
 
-@pytest.mark.parametrize("kw", [dict(damping=-1.0), dict(slope=0.0), dict(slope=math.nan),
-                                dict(b_bounds=(0.0, 1.0)), dict(b_bounds="x"),
-                                dict(kappa=0.0)])
+@pytest.mark.parametrize("kw", [{"damping": -1.0}, {"slope": 0.0}, {"slope": math.nan},
+                                {"b_bounds": (0.0, 1.0)}, {"b_bounds": "x"}, {"kappa": 0.0}])
 def test_bad_input(kw):
-    args = dict(b_bounds=(3.6, 3.6), damping=5.0, slope=10.0) | kw
+    args = {"b_bounds": (3.6, 3.6), "damping": 5.0, "slope": 10.0} | kw
     with pytest.raises(ParameterError):
         lure_certificate(free_design(), **args)
 
