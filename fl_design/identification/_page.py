@@ -22,13 +22,44 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
+import numpy as np
+
+from ._estimators import _poly_basis, chain_response
+
+
+def best_window_fit(cls):
+    """The local fit over the most informative window: ``(t, y, y_fit, b)``, or None.
+
+    Parameters
+    ----------
+    cls : IdentifiedClass
+        What :func:`fl_design.identify` returned.
+
+    Returns
+    -------
+    tuple of (numpy.ndarray, numpy.ndarray, numpy.ndarray, float) or None
+        None when no window is informative.
+    """
+    ev, L = cls.evidence, cls.evidence.log
+    est = ev.windows["local-ls"]
+    ok = est.informative(0.1)
+    if not ok.any():
+        return None
+    i = int(np.argmin(np.where(ok, est.se / np.abs(est.b), np.inf)))
+    a, n = int(est.start[i]), est.n_win
+    U = chain_response(L.u, L.T, cls.rho, ev.delay)[a:a + n]
+    y = L.y[a:a + n]
+    Q = _poly_basis(n, cls.rho + 1)
+    fit = Q @ (Q.T @ (y - est.b[i] * U)) + est.b[i] * U
+    return L.t[a:a + n], y, fit, float(est.b[i])
+
 
 def _figures(cls, out: Path) -> dict:
     from ..plotting import save_figure
     from ..plotting._identify import plot_identification
 
     paths = {}
-    for key, fig in plot_identification(cls).items():
+    for key, fig in plot_identification(cls, best_window_fit(cls)).items():
         paths[key] = out / f"identify_{key}.png"
         save_figure(fig, paths[key], dpi=90)
     return paths
@@ -68,4 +99,4 @@ def write_page(cls, out_dir) -> dict:
     return paths
 
 
-__all__ = ["write_page"]
+__all__ = ["best_window_fit", "write_page"]

@@ -21,13 +21,16 @@ import numpy as np
 from ._base import literal
 
 
-def plot_identification(cls) -> dict:
+def plot_identification(cls, fit=None) -> dict:
     """The three figures of an identified class: ``fit``, ``residuals``, ``noise``.
 
     Parameters
     ----------
     cls : IdentifiedClass
         What :func:`fl_design.identify` returned (its ``evidence`` carries the log).
+    fit : tuple of (t, y, y_fit, b) or None, optional
+        The local fit over the most informative window
+        (:func:`fl_design.identification._page.best_window_fit`); None draws no fit.
 
     Returns
     -------
@@ -45,23 +48,14 @@ def plot_identification(cls) -> dict:
     """
     import matplotlib.pyplot as plt
 
-    from ..identification._estimators import _poly_basis, chain_response
-
     ev, L = cls.evidence, cls.evidence.log
     est = ev.windows["local-ls"]
     figs = {}
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6))
-    ok = est.informative(0.1)
-    if ok.any():
-        i = int(np.argmin(np.where(ok, est.se / np.abs(est.b), np.inf)))
-        a, n = int(est.start[i]), est.n_win
-        U = chain_response(L.u, L.T, cls.rho, ev.delay)[a:a + n]
-        y = L.y[a:a + n]
-        Q = _poly_basis(n, cls.rho + 1)
-        fit = Q @ (Q.T @ (y - est.b[i] * U)) + est.b[i] * U
-        t = L.t[a:a + n]
+    if fit is not None:
+        t, y, y_fit, b = fit
         ax1.plot(t, y, ".", ms=2, label="y (log)")
-        ax1.plot(t, fit, "-", label=f"local fit, b = {est.b[i]:.4g}")
+        ax1.plot(t, y_fit, "-", label=f"local fit, b = {b:.4g}")
         ax1.legend(loc="best", fontsize=8)
     ax1.set_xlabel("t [s]")
     ax1.set_title("the most informative window of the log")
