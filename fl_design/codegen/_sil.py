@@ -17,8 +17,10 @@ hold:
 (b) **the C loop does what the simulation says**: its status, classified by the simulation
     layer's rules (:mod:`fl_design.codegen._verdict`), equals that of :func:`fl_design.simulate`
     on the same plant, design and scenario. A loop that diverges (or oscillates under a constant
-    reference: :func:`loop_failed`) in C and in Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not to fail. A run
-    too short to tell (``"undecided"`` in both) passes with that status in the result
+    reference: :func:`loop_failed`), or stalls outside the band (an unreachable reference)
+    in C and in Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not
+    to fail. Any verdict mismatch fails (e.g. ``"undecided"`` in C where Python converges).
+    A run too short to tell (``"undecided"`` in both) passes with that status in the result
     (:attr:`SilResult.c_stable` is then False): run longer, or give no duration (the run then
     chooses its length from the loop's slowest mode), to see it converge.
 
@@ -49,16 +51,18 @@ from ._verdict import c_loop_response
 DOUBLE_BOUND = 1e-12
 #: relative bound of the single-precision build (fraction of max |u|)
 FLOAT_BOUND = 1e-4
-#: statuses of the C loop that fail the check whatever the simulation says
-FAILING = ("diverged", "oscillating", "solver_failed")
+#: statuses of the C loop that fail the check whatever the simulation says (``"stalled"``: the
+#: output stopped outside the band, e.g. an unreachable reference under the input limits)
+FAILING = ("diverged", "oscillating", "solver_failed", "stalled")
 
 
 def loop_failed(status: str, r_tail) -> bool:
     """Whether a C loop with ``status`` fails the check (``r_tail``: the reference's tail).
 
-    A status in :data:`FAILING` fails, except ``"oscillating"`` under a reference that moves
-    in the tail window: the classifier counts reversals of the error, which a loop tracking a
-    square wave shows too (the status then says nothing about the loop).
+    A status in :data:`FAILING` fails (``"stalled"``, an unreachable or never-reached
+    reference, included), except ``"oscillating"`` under a reference that moves in the tail
+    window: the classifier counts reversals of the error, which a loop tracking a square wave
+    shows too (the status then says nothing about the loop).
 
     Parameters
     ----------
@@ -75,6 +79,8 @@ def loop_failed(status: str, r_tail) -> bool:
     --------
     >>> from fl_design.codegen._sil import loop_failed
     >>> loop_failed("oscillating", [0.3, 0.3]), loop_failed("oscillating", [0.3, -0.3])
+    (True, False)
+    >>> loop_failed("stalled", [1.0, 1.0]), loop_failed("undecided", [1.0, 1.0])
     (True, False)
     """
     if status == "oscillating":
@@ -121,8 +127,8 @@ class SilResult(InputComparison):
     c_stable : bool, optional
         The C loop's status is convergent (``"converged"`` or ``"converging"``).
     c_failed : bool, optional
-        The C loop failed (:func:`loop_failed`: diverged, solver failed, or oscillating under a
-        constant reference).
+        The C loop failed (:func:`loop_failed`: diverged, solver failed, stalled outside the
+        band, or oscillating under a constant reference).
 
     Attributes
     ----------
