@@ -23,7 +23,8 @@ True
 """
 
 from .._toolchain import STRICT_CFLAGS
-from ._cost import CostTable, StepCost, compare_costs, operation_counts, step_cost
+from ._compare_costs import compare_costs
+from ._cost import CostTable, StepCost, operation_counts, step_cost
 from ._float import to_single_precision
 from ._generate import PRECISIONS, core_function, generate_c, step_design
 from ._package import CPackage

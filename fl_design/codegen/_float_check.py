@@ -145,7 +145,7 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     True
     """
     from ._compare import recorded_run, reference_inputs
-    from ._generate import step_design
+    from ._step import step_design
 
     used = step_design(design, "float")
     ym, r, u0 = recorded_run(plant, design, scenario, max_samples=max_samples)

@@ -42,15 +42,11 @@ import numpy as np
 from ..errors import ParameterError
 from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
-from ._compare import InputComparison
-from ._package import compiler_or_raise, run_command
+from ._build import compiler_or_raise, run_command
+from ._compare import DOUBLE_BOUND, FLOAT_BOUND, InputComparison, bound_for, reference_run
 from ._template import render
 from ._verdict import c_loop_response
 
-#: relative bound of the double build (fraction of max |u|)
-DOUBLE_BOUND = 1e-12
-#: relative bound of the single-precision build (fraction of max |u|)
-FLOAT_BOUND = 1e-4
 #: statuses of the C loop that fail the check whatever the simulation says (``"stalled"``: the
 #: output stopped outside the band, e.g. an unreachable reference under the input limits)
 FAILING = ("diverged", "oscillating", "solver_failed", "stalled")
@@ -86,27 +82,6 @@ def loop_failed(status: str, r_tail) -> bool:
     if status == "oscillating":
         return bool(np.ptp(np.asarray(r_tail, dtype=float)) == 0.0)
     return status in FAILING
-
-
-def bound_for(precision: str) -> float:
-    """The documented relative bound of :func:`software_in_the_loop` for ``precision``.
-
-    Parameters
-    ----------
-    precision : str
-        ``"double"`` or ``"float"``.
-
-    Returns
-    -------
-    float
-
-    Examples
-    --------
-    >>> from fl_design.codegen._sil import bound_for
-    >>> bound_for("float") > bound_for("double")
-    True
-    """
-    return FLOAT_BOUND if precision == "float" else DOUBLE_BOUND
 
 
 @dataclass(frozen=True)
@@ -242,62 +217,6 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
                  str(driver), str(plant_c), *map(str, pkg.sources), "-lm"],
                 what="compiling the software-in-the-loop driver")
     return exe
-
-
-def reference_run(design, ym, r, *, state0=None, chunk: int = 20_000):
-    """``Design.step`` (CasADi's interpreter) fed ``ym, r``: inputs, estimates, states.
-
-    The step is accumulated over chunks of samples (``mapaccum``), the state carried from
-    chunk to chunk: linear in the number of samples (about 4 us per sample).
-
-    Parameters
-    ----------
-    design : Design
-        The design.
-    ym, r : numpy.ndarray
-        ``(N,)`` measurements and references.
-    state0 : array_like, optional
-        Start state (default :meth:`Design.initial_state`).
-    chunk : int, optional
-        Samples per ``mapaccum``.
-
-    Returns
-    -------
-    u : numpy.ndarray
-        ``(N,)``.
-    xhat : numpy.ndarray
-        ``(N, rho + 1)`` clamped estimates.
-    states : numpy.ndarray
-        ``(N, state_size)`` states after each sample.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design import presets
-    >>> from fl_design.codegen._sil import reference_run
-    >>> d = presets.paper_design()
-    >>> y, r = np.linspace(0, 0.1, 7), np.full(7, 0.3)
-    >>> u, xhat, states = reference_run(d, y, r, chunk=3)
-    >>> np.allclose(u, d.run(y, r).u, rtol=0, atol=1e-15), xhat.shape
-    (True, (7, 3))
-    """
-    p0 = ca.DM(design.parameter_vector())
-    s, y_, r_ = ca.SX.sym("s", design.state_size), ca.SX.sym("y"), ca.SX.sym("r")
-    s_next, u, xhat = design.parametric_step(s, y_, r_, p0)
-    f = ca.Function("fl_sil_ref", [s, y_, r_], [s_next, u, xhat])
-    state = design.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-    us, xs, ss, maps = [], [], [], {}
-    for start in range(0, len(ym), chunk):
-        y_c, r_c = ym[start:start + chunk], r[start:start + chunk]
-        if y_c.size not in maps:  # building a mapaccum costs more than running it: reuse
-            maps[y_c.size] = f.mapaccum("fl_ref", y_c.size)
-        states, u_c, x_c = maps[y_c.size](state, y_c[None, :], r_c[None, :])
-        states = np.asarray(states, dtype=float)
-        state = states[:, -1]
-        ss.append(states.T)
-        us.append(np.asarray(u_c, dtype=float).ravel())
-        xs.append(np.asarray(x_c, dtype=float).T)
-    return np.concatenate(us), np.concatenate(xs), np.concatenate(ss)
 
 
 def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None) -> SilResult:

@@ -190,8 +190,8 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
     lit = lambda x: c_literal(x, precision)
     c0, c1 = start_map(design)
     body, n_ins = core_source(design, precision, prefix)
-    from ._cost import operation_counts
     from ._graph import parametric_core
+    from ._opcount import operation_counts
 
     ops = operation_counts(parametric_core(design))
     size = 4 if precision == "float" else 8

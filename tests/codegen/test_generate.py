@@ -137,7 +137,7 @@ def test_folder_that_cannot_be_written(tmp_path):
 
 def test_no_c_compiler(tmp_path, monkeypatch):
     pkg = generate_c(presets.paper_design(), tmp_path)  # writing needs no compiler
-    monkeypatch.setattr("fl_design.codegen._package.find_compiler", lambda: None)
+    monkeypatch.setattr("fl_design.codegen._build.find_compiler", lambda: None)
     with pytest.raises(CompilerNotFoundError, match="no C compiler found: set \\$CC") as info:
         pkg.build()
     assert isinstance(info.value, RuntimeError)
