@@ -107,7 +107,7 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
         defaults += [f"  p->xhat_{side}[{i}] = {lit(sign * U_OPEN)};  /* not clamped */"
                      for i in range(rho) if i not in clamped
                      for side, sign in (("min", -1), ("max", 1))]
-    defaults.append("  p->antiwindup = 0;")
+    defaults.append(f"  p->antiwindup = {int(design.controller.antiwindup)};")
     finite = [f"!{{PFX}}_finite(p->{name})" for name in fields if name != "antiwindup"]
     checks = ["  if (" + (" ||\n      ".join(finite)) + ") {",
               f"    return {P}_BAD_NONFINITE;", "  }"]
