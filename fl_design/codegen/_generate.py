@@ -41,6 +41,7 @@ from ..design import Design
 from ..errors import OutputPathError, ParameterError
 from ._compare import FLOAT_BOUND
 from ._float_check import fixes, predict_float_error
+from ._guard import guard_settings
 from ._package import CPackage
 from ._step import PRECISIONS, check_precision, check_prefix, core_function, step_design
 from ._template import render, substitutions
@@ -70,8 +71,13 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
-    plant, scenario : Plant and Scenario, optional
-        With ``precision="float"``: predict the float build's error on this run
+    plant : Plant, optional
+        The plant: its region gives the default plausibility range of ``y`` and its
+        equilibrium input the safe input and ``main.c``'s start
+        (:func:`fl_design.codegen._guard.guard_settings`; without it ``|y| <= 1e9`` and
+        the controller's ``u0`` or 0).
+    scenario : Scenario, optional
+        With ``plant`` and ``precision="float"``: predict the float build's error on this run
         (:func:`fl_design.codegen._float_check.predict_float_error`, no compiler needed) before
         writing; the number is :attr:`CPackage.predicted_float_error`.
     float_policy : {"warn", "refuse"}, optional
@@ -91,7 +97,7 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     ------
     ParameterError
         Unknown ``precision`` or ``float_policy``, ``prefix`` not a C identifier, ``design``
-        not a Design, only one of ``plant`` and ``scenario``.
+        not a Design, ``scenario`` without ``plant``.
     PrecisionError
         ``float_policy="refuse"`` and the float build is predicted to miss its bound.
 
@@ -118,14 +124,16 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
     used = step_design(design, precision)
     predicted = _float_prediction(design, precision, plant, scenario, float_policy)
+    guard = guard_settings(design, plant)
     out = claim_output_folder(out_dir, force=force, what="out_dir")
     try:
-        files = _write_templates(used, out, precision, prefix)
+        files = _write_templates(used, out, precision, prefix, guard, plant)
         record_outputs(out, files)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
-                    prefix=prefix, files=tuple(files), predicted_float_error=predicted)
+                    prefix=prefix, files=tuple(files), predicted_float_error=predicted,
+                    guard=guard)
 
 
 def _float_prediction(design, precision, plant, scenario, policy) -> float | None:
@@ -136,10 +144,10 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
     if policy not in FLOAT_POLICIES:
         raise ParameterError(f"float_policy={policy!r} is not known; valid: "
                              f"{', '.join(map(repr, FLOAT_POLICIES))}")
-    if (plant is None) != (scenario is None):
-        raise ParameterError("give both plant= and scenario= (the run on which the float "
-                             "build's error is predicted), or neither")
-    if precision != "float" or plant is None:
+    if scenario is not None and plant is None:
+        raise ParameterError("scenario= needs plant= (the run on which the float build's "
+                             "error is predicted)")
+    if precision != "float" or scenario is None:
         return None
     err = predict_float_error(design, plant, scenario)
     if err > FLOAT_BOUND:
@@ -152,8 +160,9 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
     return err
 
 
-def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> list[Path]:
-    subs = substitutions(design, precision, prefix)
+def _write_templates(design: Design, out: Path, precision: str, prefix: str, guard,
+                     plant) -> list[Path]:
+    subs = substitutions(design, precision, prefix, guard, plant)
     names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
              "main.c.in": "main.c", "Makefile.in": "Makefile",
              "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",

@@ -51,6 +51,8 @@ class CPackage:
     predicted_float_error : float or None, optional
         The float build's predicted relative error (``generate_c`` with ``plant`` and
         ``scenario``), else None.
+    guard : GuardSettings, optional
+        The defaults of the step's checks (:func:`fl_design.codegen._guard.guard_settings`).
 
     Examples
     --------
@@ -68,6 +70,7 @@ class CPackage:
     prefix: str
     files: tuple
     predicted_float_error: float | None = None
+    guard: object = None
 
     @property
     def header(self) -> Path:
@@ -141,7 +144,8 @@ class CPackage:
                     what=f"compiling the {self.precision} harness with {cc}")
         return exe
 
-    def run(self, y, r, *, executable: Path | None = None, env=None) -> np.ndarray:
+    def run(self, y, r, *, executable: Path | None = None, env=None,
+            start: bool = False) -> np.ndarray:
         """Feed ``y, r`` samples to the compiled harness; the inputs ``u`` it prints.
 
         Parameters
@@ -153,6 +157,10 @@ class CPackage:
             A harness from :meth:`build` (default: build one).
         env : dict, optional
             Environment of the process (e.g. sanitizer options).
+        start : bool, optional
+            True: ``PREFIX_start`` at the first ``y`` and the operating point's input
+            (``main.c``'s default, as firmware starts); False (default): from
+            ``PREFIX_init``'s state, :meth:`Design.initial_state` (``main.c --init``).
 
         Returns
         -------
@@ -171,7 +179,7 @@ class CPackage:
             raise ParameterError(f"y and r must have the same length, got {y.size} and {r.size}")
         exe = executable or self.build()
         lines = "\n".join(f"{a!r} {b!r}" for a, b in zip(y.tolist(), r.tolist())) + "\n"
-        proc = subprocess.run([str(exe)], input=lines, capture_output=True, text=True,
+        proc = subprocess.run([str(exe)] + ([] if start else ["--init"]), input=lines, capture_output=True, text=True,
                               env=env, timeout=600, check=False)
         if proc.returncode != 0:
             raise CompilationError(f"the harness {exe} failed (exit {proc.returncode}): "

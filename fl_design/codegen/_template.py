@@ -15,6 +15,7 @@ import casadi as ca
 
 from ..design import EHGO, Design, LeastSquaresEstimator
 from ..errors import ComputationError
+from ._guard import PARAM_CHECK_PERIOD, design_hash, guard_settings
 
 
 def render(text: str, subs: dict[str, str]) -> str:
@@ -118,10 +119,29 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
     for i in clamped:
         checks += [f"  if (p->xhat_min[{i}] > p->xhat_max[{i}]) {{",
                    f"    return {P}_BAD_XHAT_LIMITS;", "  }"]
-    checks += ["  if (p->antiwindup != 0 && p->antiwindup != 1) {",
+    checks += ["  if ((p->antiwindup != 0) && (p->antiwindup != 1)) {",
                f"    return {P}_BAD_SWITCH;", "  }"]
+    reals = ["gamma", *(f"k[{i}]" for i in range(rho)), "ki", "u_min", "u_max"]
+    if clamped:
+        reals += [f"xhat_{side}[{i}]" for side in ("min", "max") for i in range(rho)]
+    reals += ["y_min", "y_max", "dy_max", "u_safe"]
+    summed = [f"  h = {{PFX}}_mix_real(h, p->{name});" for name in reals]
+    summed += ["  h = {PFX}_mix(h, (uint32_t) p->antiwindup);",
+               "  h = {PFX}_mix(h, p->lost_after);", "  h = {PFX}_mix(h, p->frozen_after);"]
     return {"PARAM_MEMBERS": "\n".join(members), "PARAM_DEFAULTS": "\n".join(defaults),
-            "PARAM_CHECKS": "\n".join(checks)}
+            "PARAM_CHECKS": "\n".join(checks), "PARAM_SUM": "\n".join(summed)}
+
+
+def _units(design, plant) -> str:
+    rho = design.rho
+    out = "the plant's output" if plant is None else f"the output {getattr(plant, 'output', 'y')}"
+    inp = "input" if plant is None else f"input {getattr(plant, 'input', 'u')}"
+    rows = [f"/* y, r, y_min, y_max, dy_max, xhat_1: units of {out} (those of the model the",
+            " * design was made for); u, u_min, u_max, u_safe: units of the " + inp + ";",
+            f" * xhat_i: y units / s^(i-1); sigmahat: y units / s^{rho}; T, eps: s;",
+            (f" * k_i: 1 / s^({rho} - i + 1); k_I: 1 / s^{rho + 1}; gamma: u units per "
+            f"(y units / s^{rho}). */")]
+    return "\n".join(rows)
 
 
 def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
@@ -162,13 +182,18 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
     return body, int(f.n_instructions())
 
 
-def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]:
+def substitutions(design: Design, precision: str, prefix: str, guard=None,
+                  plant=None) -> dict[str, str]:
     """Every placeholder value of the templates for ``design``.
 
     Parameters
     ----------
     design, precision, prefix
         As in :func:`core_source` (the design after :func:`~fl_design.codegen.step_design`).
+    guard : GuardSettings, optional
+        The checks' defaults (default :func:`~fl_design.codegen._guard.guard_settings`).
+    plant : Plant, optional
+        For the names in the header's units.
 
     Returns
     -------
@@ -218,8 +243,22 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
         "T": f"{design.T:g}",
     }
     params = _parameter_text(design, precision, P)
-    params["PARAM_CHECKS"] = params["PARAM_CHECKS"].replace("{PFX}", prefix)
+    for key in ("PARAM_CHECKS", "PARAM_SUM"):
+        params[key] = params[key].replace("{PFX}", prefix)
     subs.update(params)
+    g = guard_settings(design) if guard is None else guard
+    digest = design_hash(design, precision)
+    subs.update({
+        "Y_MIN": lit(g.y_min), "Y_MAX": lit(g.y_max), "DY_MAX": lit(g.dy_max),
+        "U_SAFE": lit(g.u_safe), "LOST_AFTER": str(int(g.lost_after)),
+        "FROZEN_AFTER": str(int(g.frozen_after)), "U_OP_LITERAL": lit(g.u_op),
+        "PARAM_CHECK_PERIOD": str(PARAM_CHECK_PERIOD), "GUARD_SOURCE": g.source,
+        "DESIGN_HASH": digest, "DESIGN_HASH_U32": "0x" + digest[:8].upper(),
+        "UNITS": _units(design, plant),
+        "MIX_REAL": ("  return " + prefix + "_mix(h, " + prefix + "_bits(v));" if precision == "float"
+                     else "  const uint64_t b = " + prefix + "_bits(v);\n  return " + prefix
+                     + "_mix(" + prefix + "_mix(h, (uint32_t) (b & 0xFFFFFFFFu)), (uint32_t) (b >> 32));"),
+    })
     return subs
 
 
