@@ -250,6 +250,8 @@ class FirmwareModel:
             self.sensor_lost = True
             self.fault |= FAULT["lost"]
             self.x[self.m] = s.u_safe
+        if not math.isfinite(self.x[self.m]):
+            self.x[self.m] = s.u_safe
         self.faults |= self.fault
         return float(self.x[self.m])
 
@@ -283,7 +285,7 @@ class FirmwareModel:
             return self._reject(FAULT["rate"])
         x_next, u = (np.asarray(v, dtype=float).ravel() for v in
                      self.core(self.x, y, r, [self.p[f] for f in self.fields]))
-        if not np.all(np.isfinite(x_next)):
+        if not (np.all(np.isfinite(x_next)) and math.isfinite(self.x[self.m])):
             self.restart_due = True
             return self._reject(FAULT["result"])
         z_before = self.x[self.m + 1]
