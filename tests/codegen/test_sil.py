@@ -209,6 +209,12 @@ def test_float_error_is_predicted_at_generation(tmp_path):
     from fl_design.codegen._float_check import emulate
 
     plant, design, sc, _ = _tanks_case()
+    # the prediction emulates the float step on the double loop's record; with conditional
+    # integration (the default) a rounding that flips one hold decision shifts z for the rest
+    # of that open-loop record (about 4x the closed loop's error on this run: a pessimistic
+    # estimate); the rounding alone is what this test pins down
+    design = fl.Design(estimator=design.estimator,
+                       controller=design.controller.replace(antiwindup=False))
     with pytest.warns(fl.errors.FloatPrecisionWarning,
                       match=r"predicted to be .* of max\|u\| off .*bound 0.0001.*"
                             r"precision='double'.*larger eps \(alpha = T/eps = 0.1"):
