@@ -26,8 +26,8 @@ Examples
 >>> from fl_design.codegen import generate_c
 >>> pkg = generate_c(presets.paper_design(), "trms_c")
 >>> sorted(p.name for p in pkg.files)  # doctest: +NORMALIZE_WHITESPACE
-['CMakeLists.txt', 'Makefile', 'README.md', 'fl.c', 'fl.h', 'main.c', 'pil.ld',
- 'pil_main.c', 'pil_semihost.h', 'pil_startup.c']
+['CMakeLists.txt', 'MISRA_DEVIATIONS.md', 'Makefile', 'README.md', 'check.c', 'fl.c', 'fl.h',
+ 'main.c', 'pil.ld', 'pil_main.c', 'pil_semihost.h', 'pil_startup.c', 'test_vectors.txt']
 """
 
 from __future__ import annotations
@@ -42,9 +42,11 @@ from ..errors import OutputPathError, ParameterError
 from ._compare import FLOAT_BOUND
 from ._float_check import fixes, predict_float_error
 from ._guard import guard_settings
+from ._misra import deviation_text
 from ._package import CPackage
 from ._step import PRECISIONS, check_precision, check_prefix, core_function, step_design
 from ._template import render, substitutions
+from ._vectors import vector_text
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
     from ..symbolic import Plant
@@ -166,6 +168,7 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str, gua
     names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
              "main.c.in": "main.c", "Makefile.in": "Makefile",
              "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",
+             "check.c.in": "check.c",
              "pil_main.c.in": "pil/pil_main.c", "pil_startup.c.in": "pil/pil_startup.c",
              "pil_semihost.h.in": "pil/pil_semihost.h", "pil.ld.in": "pil/pil.ld"}
     written = []
@@ -175,6 +178,12 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str, gua
         path = out / name
         path.write_text(render(text, subs))
         written.append(path)
+    misra = out / "MISRA_DEVIATIONS.md"
+    misra.write_text(deviation_text(prefix, subs["DESIGN_HASH"]))
+    written.append(misra)
+    vectors = out / "test_vectors.txt"
+    vectors.write_text(vector_text(design, guard, precision, digest=subs["DESIGN_HASH"]))
+    written.append(vectors)
     return written
 
 
