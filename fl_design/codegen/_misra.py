@@ -74,10 +74,10 @@ def deviation_text(prefix: str, digest: str) -> str:
     return "\n".join([
         f"# MISRA C:2012 deviations of {prefix}.c",
         "",
-        f"Design hash {digest}. Checked with `cppcheck --addon=misra {prefix}.c` (cppcheck's "
+        (f"Design hash {digest}. Checked with `cppcheck --addon=misra {prefix}.c` (cppcheck's "
         "MISRA C:2012 addon): **no violation of a required or mandatory rule**. The advisory "
         "rules below are deviated from on purpose; fl_design's tests run cppcheck on the "
-        "generated sources and fail on any rule not in this table.",
+        "generated sources and fail on any rule not in this table."),
         "",
         "| Rule | Category | Reason |",
         "|---|---|---|",
@@ -85,8 +85,8 @@ def deviation_text(prefix: str, digest: str) -> str:
         "",
         "## Host-only programs (not linked into the firmware)",
         "",
-        "`main.c` (harness), `check.c` (`make check`) and `pil/` (the Cortex-M4 model's "
-        "driver) are host or test programs; MISRA's scope is the firmware source above.",
+        ("`main.c` (harness), `check.c` (`make check`) and `pil/` (the Cortex-M4 model's "
+        "driver) are host or test programs; MISRA's scope is the firmware source above."),
         "",
         "| Rule | Reason |",
         "|---|---|",

@@ -167,12 +167,12 @@ def test_a_real_jump_passes_the_rate_check_within_the_stated_samples(pkg):
     ys = ramp(30) + [0.05 + v for v in ramp(200, 3e-3)]
     spike = ramp(30)
     spike[15] = 0.5
-    u, f = check_alike(p, exe, ["S 0 0", "R 0.01 0 0", *samples(ys)])
+    _u, f = check_alike(p, exe, ["S 0 0", "R 0.01 0 0", *samples(ys)])
     rejected = np.flatnonzero(f)
     n_rej = math.ceil((ys[30] - ys[29]) / 0.01) - 1  # the stated number
     assert list(rejected) == list(range(30, 30 + n_rej)) and n_rej == 5
     assert np.all(f[rejected] == FAULT["rate"]) and np.all(f[30 + n_rej:] == 0)
-    u2, f2 = check_alike(p, exe, ["S 0 0", "R 0.01 0 0", *samples(spike)])
+    _u2, f2 = check_alike(p, exe, ["S 0 0", "R 0.01 0 0", *samples(spike)])
     assert list(np.flatnonzero(f2)) == [15]
 
 
@@ -244,5 +244,5 @@ def test_defaults_are_valid_and_the_range_comes_from_the_region(pkg):
     text = p.header.read_text()
     assert "FL_DESIGN_HASH" in text and "FL_API_VERSION_MAJOR" in text and "units" in text
     # a 1e30 sample on the damped double integrator no longer reaches u
-    u, f = check_alike(p, exe, ["S 0 0", *samples([0.0, 1e30, 0.0])])
+    _u, f = check_alike(p, exe, ["S 0 0", *samples([0.0, 1e30, 0.0])])
     assert f.tolist() == [0, FAULT["range"], 0]
