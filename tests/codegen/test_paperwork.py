@@ -73,8 +73,8 @@ def test_header_has_hash_version_and_units(packages):
 @pytest.mark.parametrize("precision", ["double", "float"])
 def test_make_check_replays_the_vectors(packages, name, precision):
     pkg = packages[(name, precision)]
-    proc = subprocess.run(["make", "-s", "-C", str(pkg.out_dir), "check"], capture_output=True,
-                          text=True, timeout=300)
+    proc = subprocess.run(["make", "-s", "-C", str(pkg.out_dir), "check"], check=False,
+                          capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0 and "PASS: 1500 samples, 0 outside" in proc.stdout, proc.stdout
 
 
