@@ -105,7 +105,7 @@ def emulate(design, ym, r, state0) -> np.ndarray:
             elif op == ca.OP_OUTPUT:
                 if outs[0] == 0:
                     x_next[outs[1]] = w[ins[0]]
-                else:
+                elif outs[0] == 1:
                     u = w[ins[0]]
             elif op == ca.OP_CONST:
                 w[outs[0]] = const

@@ -101,7 +101,10 @@ def parameter_fields(design: Design) -> tuple[ParameterField, ...]:
 
 
 def parametric_core(design: Design, name: str = "fl_core") -> ca.Function:
-    """``name(x, y, r, p) -> (x_next, u)``: the design's step with the parameter block ``p``.
+    """``name(x, y, r, p) -> (x_next, u, xhat)``: the design's step with the parameter block ``p``.
+
+    ``xhat`` are the clamped estimates ``[xhat_1 .. xhat_rho, sigmahat]`` of the sample (the
+    telemetry frame's).
 
     Parameters
     ----------
@@ -140,10 +143,10 @@ def parametric_core(design: Design, name: str = "fl_core") -> ca.Function:
                            antiwindup=sym["antiwindup"])
     xhat, xi_next, ready = est.symbolic_update(x[:m], y, ca.DM(est.parameter_vector()))
     u_prev, z_prev = x[m], x[m + 1]
-    u, z, _ = DynamicController.symbolic_law(shim, xhat, r, u_prev, z_prev, ready,
-                                             sym["gamma"], design.T)
-    return ca.Function(name, [x, y, r, p], [ca.vertcat(xi_next, u, z), u],
-                       ["x", "y", "r", "p"], ["x_next", "u"])
+    u, z, xhat_c = DynamicController.symbolic_law(shim, xhat, r, u_prev, z_prev, ready,
+                                                  sym["gamma"], design.T)
+    return ca.Function(name, [x, y, r, p], [ca.vertcat(xi_next, u, z), u, xhat_c],
+                       ["x", "y", "r", "p"], ["x_next", "u", "xhat"])
 
 
 def start_map(design: Design) -> tuple[np.ndarray, np.ndarray]:

@@ -283,8 +283,8 @@ class FirmwareModel:
         lim = s.dy_max * (self.n_consecutive + 1)
         if s.dy_max > 0 and self.last_known and abs(y - self.y_last) > lim:
             return self._reject(FAULT["rate"])
-        x_next, u = (np.asarray(v, dtype=float).ravel() for v in
-                     self.core(self.x, y, r, [self.p[f] for f in self.fields]))
+        x_next, u, _ = (np.asarray(v, dtype=float).ravel() for v in
+                        self.core(self.x, y, r, [self.p[f] for f in self.fields]))
         if not (np.all(np.isfinite(x_next)) and math.isfinite(self.x[self.m])):
             self.restart_due = True
             return self._reject(FAULT["result"])

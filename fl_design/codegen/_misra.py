@@ -20,8 +20,10 @@ from __future__ import annotations
 
 #: advisory rules of MISRA C:2012 the firmware source deviates from: rule -> reason
 DEVIATIONS = {
-    "2.3": "The union type of the bit-pattern helper is anonymous and local, and the header's "
-           "`PREFIX_real_t` typedef is for the firmware's use, not the package's.",
+    "2.3": "The union type of the bit-pattern helper is anonymous and local; the header's "
+           "`PREFIX_real_t` typedef is for the firmware's use, and "
+           "`PREFIX_telemetry_is_packed` is a compile-time check of the frame's size (an "
+           "array of size -1 if the frame had padding), never used as a type.",
     "2.5": "The header's macros (sizes, fault bits, result codes, version, hash, units) are "
            "the API for the firmware; the package itself uses only some of them.",
     "8.7": "`PREFIX_default_params`, `PREFIX_set_params`, `PREFIX_reset`... are the API: "

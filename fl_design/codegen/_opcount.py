@@ -5,7 +5,7 @@ Examples
 >>> import casadi as ca
 >>> from fl_design.codegen._opcount import operation_counts
 >>> x = ca.SX.sym("x")
->>> operation_counts(ca.Function("f", [x], [2 * x + 1]))["mul"]
+>>> operation_counts(ca.Function("f", [x], [3 * x + 1]))["mul"]
 1
 """
 

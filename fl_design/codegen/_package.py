@@ -186,7 +186,8 @@ class CPackage:
                                    f"{proc.stderr[-3000:]}")
         return np.array(proc.stdout.split(), dtype=float)
 
-    def verify(self, plant, scenario, *, integrator=None, compiler=None):
+    def verify(self, plant, scenario, *, integrator=None, compiler=None, telemetry=None,
+               excitation=None):
         """Software-in-the-loop: the compiled step drives the simulated plant in closed loop.
 
         See :func:`fl_design.codegen.software_in_the_loop`.
@@ -201,6 +202,9 @@ class CPackage:
             The plant's fixed-step integrator (default ``fl.RK4()``).
         compiler : str, optional
             C compiler.
+        telemetry, excitation : optional
+            A file for the C loop's telemetry frames; the firmware excitation as the
+            reference (see :func:`~fl_design.codegen.software_in_the_loop`).
 
         Returns
         -------
@@ -218,7 +222,8 @@ class CPackage:
         from ._sil import software_in_the_loop
 
         return software_in_the_loop(self, plant, scenario, integrator=integrator,
-                                    compiler=compiler)
+                                    compiler=compiler, telemetry=telemetry,
+                                    excitation=excitation)
 
     def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300,
             cflags=()):

@@ -39,7 +39,7 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ComputationError, ParameterError
 from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
 from ._build import compiler_or_raise, run_command
@@ -219,7 +219,35 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
     return exe
 
 
-def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None) -> SilResult:
+def _options(pkg, scenario, telemetry, excitation):
+    """The driver's arguments, and the scenario (its reference the excitation's, if any)."""
+    from dataclasses import replace
+
+    from ..sim import Scenario
+    from ._telemetry import EXCITATION_KINDS, excitation_sequence
+
+    args = [] if telemetry is None else ["telemetry", str(telemetry)]
+    if excitation is None:
+        return args, scenario
+    if not isinstance(scenario, Scenario) or scenario.duration is None:
+        raise ParameterError("an excitation needs a scenario with a duration (the run's "
+                             "length)")
+    kind, center, amplitude, hold = excitation
+    n = round(scenario.duration / pkg.design.T)
+    ref = excitation_sequence(kind, float(center), float(amplitude), int(hold), n)
+    g = pkg.guard
+    if g is not None and not (g.y_min <= center - amplitude and center + amplitude <= g.y_max):
+        raise ParameterError(f"excitation {center} +- {amplitude} leaves the plausibility range "
+                             f"[{g.y_min:g}, {g.y_max:g}] (PREFIX_excitation_init refuses it)")
+    if pkg.precision == "float":
+        ref = ref.astype(np.float32).astype(float)
+    args += ["excite", str(EXCITATION_KINDS[kind]), repr(float(center)), repr(float(amplitude)),
+             str(int(hold))]
+    return args, replace(scenario, reference=ref, duration=n * pkg.design.T)
+
+
+def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None,
+                         telemetry=None, excitation=None) -> SilResult:
     """Run ``pkg``'s compiled step in closed loop with ``plant``, started as firmware starts it.
 
     See the module docstring: passes when the C equals ``Design.step`` within the precision's
@@ -240,6 +268,14 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
         simulation alike.
     compiler : str, optional
         C compiler.
+    telemetry : path-like, optional
+        Write the C loop's telemetry frames there (``PREFIX_telemetry`` after each step;
+        :func:`fl_design.read_telemetry` reads them).
+    excitation : tuple, optional
+        ``(kind, center, amplitude, hold)``: the reference is the firmware's
+        ``PREFIX_excite`` (:func:`~fl_design.codegen._telemetry.excitation_sequence`), in
+        the C loop and in the simulation it is compared with, over the scenario's duration
+        (which must be given).
 
     Returns
     -------
@@ -248,7 +284,8 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     Raises
     ------
     ParameterError
-        ``scenario.initial_estimate`` is set; ``integrator`` not a ``fl.RK4``.
+        ``scenario.initial_estimate`` is set; ``integrator`` not a ``fl.RK4``; an excitation
+        without a duration, or one the C refuses (outside the plausibility range).
 
     Examples
     --------
@@ -267,6 +304,7 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
             "scenario.initial_estimate is set; the C loop starts as firmware does, from the "
             "first measurement (PREFIX_start): give a scenario without initial_estimate")
     design = pkg.design
+    args, scenario = _options(pkg, scenario, telemetry, excitation)
     run = prepare_run(plant, design, scenario, integrator=integrator)
     steps = run.loop.substeps
     exe = build_driver(pkg, plant, steps, compiler)
@@ -274,10 +312,15 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     body = "\n".join(f"{a!r} {b!r} {c!r}"
                      for a, b, c in zip(run.r.tolist(), run.noise.tolist(), run.d_in.tolist()))
     n = run.loop.n
-    out = np.array(run_command([str(exe)], stdin=head + body + "\n", what="the SIL driver")
-                   .split(), dtype=float).reshape(-1, 3 + 2 * n)
+    out = np.array(run_command([str(exe), *args], stdin=head + body + "\n",
+                               what="the SIL driver").split(), dtype=float).reshape(-1, 4 + 2 * n)
     y, ym, u_c = out[:, 0], out[:, 1], out[:, 2]
-    X, X_next = out[:, 3:3 + n], out[:, 3 + n:]
+    X, X_next = out[:, 4:4 + n], out[:, 4 + n:]
+    if excitation is not None:  # the C routine made the reference the simulation was given
+        tol = 1e-6 * max(1.0, float(np.max(np.abs(run.r)))) if pkg.precision == "float" else 0
+        if not np.allclose(out[:, 3], run.r, rtol=0, atol=tol):
+            raise ComputationError("the C excitation differs from excitation_sequence: "
+                                   f"max {np.max(np.abs(out[:, 3] - run.r)):.3g}")
     used = pkg.step_design
     state0 = used.initial_state(y0=float(ym[0]), u0=run.u0)
     u_ref, xhat, states = reference_run(used, ym, run.r, state0=state0)

@@ -132,6 +132,21 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
             "PARAM_CHECKS": "\n".join(checks), "PARAM_SUM": "\n".join(summed)}
 
 
+def _excitation(design, g, lit) -> dict[str, str]:
+    """Suggested excitation: 2 % of the output's plausible span (at most 0.1 without a plant),
+    held for the closed loop's slowest time constant (the roots of the gains' polynomial)."""
+    import numpy as np
+
+    ctrl = design.controller
+    roots = np.roots([1.0, *ctrl.gains[::-1]])
+    tau = 1.0 / float(np.min(np.abs(roots.real)))
+    hold = max(1, round(tau / design.T))
+    span = g.y_max - g.y_min
+    amp = 0.02 * span if span < 1e6 else 0.1
+    why = ("2 % of the plausibility range" if span < 1e6 else "0.1 (no plant: a guess)")
+    return {"EXCITE_AMPLITUDE": lit(amp), "EXCITE_HOLD": str(hold), "EXCITE_WHY": why}
+
+
 def _units(design, plant) -> str:
     rho = design.rho
     out = "the plant's output" if plant is None else f"the output {getattr(plant, 'output', 'y')}"
@@ -175,7 +190,8 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
     names = [f"p->{fl.name}" for fl in parameter_fields(design)]
     n = design.state_size
     body = c_body(f, [[f"x[{i}]" for i in range(n)], ["y"], ["r"], names],
-                  [[f"x_next[{i}]" for i in range(n)], ["*u"]], precision,
+                  [[f"x_next[{i}]" for i in range(n)], ["*u"],
+                   [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
                   switches={"p->antiwindup"})
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
@@ -236,8 +252,9 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
         "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
         "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
-        "COMMIT": "\n".join(f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
-                            for i in range(design.state_size)),
+        "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
+                             for i in range(design.state_size)]
+                            + [f"  s->xhat[{i}] = xhat[{i}];" for i in range(design.rho + 1)]),
         "STATE_BYTES": str(size * design.state_size),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",
@@ -255,6 +272,7 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "PARAM_CHECK_PERIOD": str(PARAM_CHECK_PERIOD), "GUARD_SOURCE": g.source,
         "DESIGN_HASH": digest, "DESIGN_HASH_U32": "0x" + digest[:8].upper(),
         "UNITS": _units(design, plant),
+        **_excitation(design, g, lit),
         "MIX_REAL": ("  return " + prefix + "_mix(h, " + prefix + "_bits(v));" if precision == "float"
                      else "  const uint64_t b = " + prefix + "_bits(v);\n  return " + prefix
                      + "_mix(" + prefix + "_mix(h, (uint32_t) (b & 0xFFFFFFFFu)), (uint32_t) (b >> 32));"),

@@ -85,7 +85,8 @@ def test_strict_compile_no_library_call_one_step_exported(packages, precision, c
     assert {u for u in nm("-u").split() if u != "U"} == set()  # no libm, not even memcpy
     exported = set(re.findall(r" T (\w+)", nm("-g", "--defined-only")))
     assert exported == {"fl_init", "fl_reset", "fl_start", "fl_step", "fl_set_params",
-                        "fl_default_params", "fl_disengage", "fl_manual_input", "fl_engage"}
+                        "fl_default_params", "fl_disengage", "fl_manual_input", "fl_engage",
+                        "fl_telemetry", "fl_excitation_init", "fl_excite"}
     assert exe.exists()
 
 
