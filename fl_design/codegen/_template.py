@@ -128,8 +128,13 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
     summed = [f"  h = {{PFX}}_mix_real(h, p->{name});" for name in reals]
     summed += ["  h = {PFX}_mix(h, (uint32_t) p->antiwindup);",
                "  h = {PFX}_mix(h, p->lost_after);", "  h = {PFX}_mix(h, p->frozen_after);"]
+    # member by member: a struct assignment of this size is a memcpy call on some targets
+    copied = [f"  s->p.{name} = p->{name};" for name in reals]
+    copied += [f"  s->p.{name} = p->{name};" for name in ("antiwindup", "lost_after",
+                                                          "frozen_after")]
     return {"PARAM_MEMBERS": "\n".join(members), "PARAM_DEFAULTS": "\n".join(defaults),
-            "PARAM_CHECKS": "\n".join(checks), "PARAM_SUM": "\n".join(summed)}
+            "PARAM_CHECKS": "\n".join(checks), "PARAM_SUM": "\n".join(summed),
+            "PARAM_COPY": "\n".join(copied)}
 
 
 def _excitation(design, g, lit) -> dict[str, str]:
