@@ -127,15 +127,56 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     used = step_design(design, precision)
     predicted = _float_prediction(design, precision, plant, scenario, float_policy)
     guard = guard_settings(design, plant)
+    if precision == "q31":
+        files_of, predicted = _q31_files(used, prefix, guard)
     out = claim_output_folder(out_dir, force=force, what="out_dir")
     try:
-        files = _write_templates(used, out, precision, prefix, guard, plant)
+        if precision == "q31":
+            files = files_of(out)
+        else:
+            files = _write_templates(used, out, precision, prefix, guard, plant)
         record_outputs(out, files)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
                     prefix=prefix, files=tuple(files), predicted_float_error=predicted,
                     guard=guard)
+
+
+def _q31_files(design, prefix, guard):
+    """The Q31 package's writer (a function of the folder) and its measured error."""
+    import warnings
+
+    from ..errors import FloatPrecisionWarning
+    from ._q31_files import q31_base, q31_error, q31_range, q31_substitutions, q31_vector_text
+
+    if design.controller.u_range is None:
+        raise ParameterError("precision='q31' needs u_limits on the controller (the input's "
+                             "fixed-point range)")
+    _, _, why = q31_range(guard)
+    if "assumed" in why:
+        warnings.warn(f"precision='q31': {why}", FloatPrecisionWarning, stacklevel=3)
+    base = q31_base(design, prefix, guard)
+    subs, prog, _ = q31_substitutions(design, prefix, guard, base)
+    err = q31_error(design, prog, guard)
+    names = {"step_q31.h.in": f"{prefix}.h", "step_q31.c.in": f"{prefix}.c",
+             "main_q31.c.in": "main.c", "check_q31.c.in": "check.c", "Makefile.in": "Makefile",
+             "CMakeLists.txt.in": "CMakeLists.txt", "README_q31.md.in": "README.md"}
+
+    def write(out: Path) -> list[Path]:
+        written = []
+        for template, name in names.items():
+            text = resources.files("fl_design.codegen").joinpath("templates", template)
+            path = out / name
+            path.write_text(render(text.read_text(), {**subs, "Q31_ERROR": f"{err:.3g}"}))
+            written.append(path)
+        misra = out / "MISRA_DEVIATIONS.md"
+        misra.write_text(deviation_text(prefix, subs["DESIGN_HASH"]))
+        vectors = out / "test_vectors.txt"
+        vectors.write_text(q31_vector_text(design, prog, guard, subs["DESIGN_HASH"]))
+        return [*written, misra, vectors]
+
+    return write, err
 
 
 def _float_prediction(design, precision, plant, scenario, policy) -> float | None:

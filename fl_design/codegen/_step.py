@@ -18,7 +18,7 @@ from ..design import EHGO, Design
 from ..errors import ParameterError
 
 #: valid values of ``precision``
-PRECISIONS = ("double", "float")
+PRECISIONS = ("double", "float", "q31")
 _C_KEYWORDS = frozenset(
     ["auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void", "volatile", "while", "_Bool", "_Complex", "_Imaginary"])
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")

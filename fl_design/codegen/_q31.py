@@ -1,0 +1,578 @@
+"""Fixed point for FPU-less chips: the step as Q31 integer code, its scalings from interval analysis.
+
+``generate_c(..., precision="q31")`` prints ``Design.step`` (its numbers fixed: the gains,
+``gamma`` and the limits are constants of a Q31 build) as integer code: every value is an
+``int32_t`` holding ``v 2^F`` with its own number of fraction bits ``F``; products are formed in
+``int64_t`` and shifted back; no floating-point operation, type or helper anywhere.
+
+**Scalings.** Each value's ``F`` comes from an interval that contains it on every sample
+(one bit of headroom: ``|v| 2^F <= 2^30``):
+
+- ``y`` and ``r``: the plausibility range ``[y_min, y_max]`` (the plant's region, see
+  :mod:`fl_design.codegen._guard`); the wrapper rejects a ``y`` outside it and clamps ``r``;
+- the observer's state: its rest point at the range's middle plus, per entry, the peak gain
+  ``sum_j |(A^j B)_i|`` times the range's half-width (exact for a linear, Schur observer fed
+  any input within the range, from any start at rest in it);
+- ``u``: ``[u_min, u_max]`` (saturated); ``z``: ``k_I |z| <= k_1 (y_max - y_min)``, the
+  proportional term's full scale, so ``z`` saturates there (a stated difference from
+  ``Design.step``, whose ``z`` is unbounded; with ``k_I = 0``, ``|z| <= 2^20 T``). Known
+  limit: in 32 bits that range leaves ``z`` a resolution of ``2^-F_z``, so increments
+  ``T |y - r|`` below it are lost (a dead band of the integral action near the reference;
+  a 64-bit ``z`` is the fix, not done);
+- every intermediate value: interval arithmetic over the graph from these boxes.
+
+**No overflow.** Each ``int32_t`` result lies within its interval, hence within
+``+-2^30 / 2^F``; the ``int64_t`` intermediates are sums of two values below ``2^62`` and
+products of two ``int32_t``. The state's entries are stored through a saturation that the
+bounds above never reach (interval arithmetic of one step is looser than the peak-gain bound).
+
+**Error.** :func:`emulate_q31` runs the same integer program in Python, bit for bit; its inputs
+against ``Design.step``'s measure the quantization error (``CPackage`` records it as
+``predicted_float_error`` for this precision).
+
+Examples
+--------
+>>> from fl_design import presets
+>>> from fl_design.codegen._q31 import q31_program
+>>> prog = q31_program(presets.paper_design(), (-10.0, 10.0))
+>>> prog.f_y, prog.f_state[-2]   # fraction bits of y and of u
+(26, 29)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ComputationError, ParameterError
+
+_LIMIT = 2.0**30  # one bit of headroom below 2^31
+_F_MAX = 60
+
+
+def frac_bits(lo: float, hi: float) -> int:
+    """Fraction bits ``F`` with ``max(|lo|, |hi|) 2^F <= 2^30`` (at most 60).
+
+    Parameters
+    ----------
+    lo, hi : float
+        An interval.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from fl_design.codegen._q31 import frac_bits
+    >>> frac_bits(-1.0, 1.0), frac_bits(0.0, 24.0), frac_bits(0.0, 0.0)
+    (30, 25, 60)
+    """
+    m = max(abs(lo), abs(hi))
+    if not math.isfinite(m):
+        raise ComputationError(f"an interval [{lo}, {hi}] of the Q31 step is not finite")
+    if m == 0.0:
+        return _F_MAX
+    return int(min(_F_MAX, math.floor(math.log2(_LIMIT / m))))
+
+
+@dataclass(frozen=True)
+class Q31Program:
+    """The integer program of one step: its instructions, C text and scalings.
+
+    Parameters
+    ----------
+    ops : tuple
+        ``(kind, out, args, F_out, data)`` per instruction (see :func:`q31_program`).
+    f_state : tuple of int
+        Fraction bits of each state entry (estimator | u | z).
+    f_y : int
+        Fraction bits of ``y`` and ``r``.
+    state_box : tuple of (float, float)
+        The interval of each state entry.
+    y_range : (float, float)
+        The range of ``y`` and ``r``.
+    n_out : int
+        State size (``x_next`` entries before ``u``).
+    start0, start1 : tuple of int
+        The start's rest state ``(start0 + start1 * y0) >> ...`` in fixed point (see C).
+    f_start1 : int
+        Fraction bits of ``start1``.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> len(q31_program(presets.paper_design(), (-1.0, 1.0)).ops) > 50
+    True
+    """
+
+    ops: tuple
+    f_state: tuple
+    f_y: int
+    state_box: tuple
+    y_range: tuple
+    n_out: int
+    start0: tuple
+    start1: tuple
+    f_start1: int
+
+
+def _linear_maps(design):
+    est = design.estimator
+    m = int(est.state_size)
+    xi, y = ca.SX.sym("xi", m), ca.SX.sym("y")
+    _, xi_next, _ = est.symbolic_update(xi, y, ca.DM(est.parameter_vector()))
+    f = ca.Function("lin", [xi, y], [ca.jacobian(xi_next, xi), ca.jacobian(xi_next, y)])
+    A, B = (np.asarray(v, dtype=float) for v in f(np.zeros(m), 0.0))
+    return A, B.ravel()
+
+
+def _peak_gain(A, B, n_max: int = 2_000_000) -> np.ndarray:
+    """``sum_j |A^j B|`` per entry (until the terms are below 1e-15 of the sum)."""
+    if np.max(np.abs(np.linalg.eigvals(A))) >= 1.0:
+        raise ComputationError("the observer is not Schur: no bounded state for Q31")
+    total, v = np.zeros_like(B), B.copy()
+    for _ in range(n_max):
+        total += np.abs(v)
+        v = A @ v
+        if np.max(np.abs(v)) <= 1e-15 * max(np.max(total), 1e-300):
+            return total
+    raise ComputationError("the observer's peak gain did not converge (a pole at 1?)")
+
+
+def state_box(design, y_range):
+    """The interval of each state entry (module docstring) and ``(c0, c1)`` of the rest state.
+
+    Parameters
+    ----------
+    design : Design
+        The generated design (delta realization).
+    y_range : (float, float)
+        Range of ``y`` and ``r``.
+
+    Returns
+    -------
+    tuple
+        ``(boxes, c0, c1)``.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import step_design
+    >>> from fl_design.codegen._q31 import state_box
+    >>> boxes, c0, c1 = state_box(step_design(presets.paper_design(), "q31"), (-1.0, 1.0))
+    >>> boxes[-2]
+    (-2.5, 2.5)
+    """
+    from ._graph import start_map
+
+    lo, hi = y_range
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    A, B = _linear_maps(design)
+    c0, c1 = start_map(design)
+    gain = _peak_gain(A, B) * half
+    rest = c0 + c1 * mid
+    boxes = [(float(a - g), float(a + g)) for a, g in zip(rest, gain)]
+    ctrl = design.controller
+    if ctrl.u_range is None:
+        raise ParameterError("precision='q31' needs u_limits on the controller (the input's "
+                             "fixed-point range): give DynamicController(..., u_limits=...)")
+    boxes.append(tuple(float(v) for v in ctrl.u_range))
+    boxes.append((0.0, 0.0))  # z: set after the first pass (needs v's other terms)
+    return boxes, c0, c1
+
+
+def _fixed_core(design):
+    from ._graph import parameter_fields, parametric_core
+
+    f = parametric_core(design)
+    n = design.state_size
+    x, y, r = ca.SX.sym("x", n), ca.SX.sym("y"), ca.SX.sym("r")
+    x_next, u, _ = f(x, y, r, [fl.value for fl in parameter_fields(design)])
+    return ca.Function("q31_core", [x, y, r], [x_next, u])
+
+
+_CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
+
+
+def _analyse(f, boxes, y_range):
+    """Intervals of every instruction of ``f`` (x, y, r) from the input boxes."""
+    iv, kind = {}, {}
+    cur = {}
+    for k in range(f.n_instructions()):
+        op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
+        if op == ca.OP_OUTPUT:
+            continue
+        if op == ca.OP_INPUT:
+            box = boxes[ins[1]] if ins[0] == 0 else y_range
+            iv[k], kind[k] = box, "q"
+            cur[outs[0]] = k
+            continue
+        a = [cur[i] for i in ins if i >= 0] if op != ca.OP_CONST else []
+        if op == ca.OP_CONST:
+            c = f.instruction_constant(k)
+            iv[k], kind[k] = (c, c), "q"
+        elif op in (ca.OP_ADD, ca.OP_SUB, ca.OP_MUL, ca.OP_FMIN, ca.OP_FMAX):
+            (l1, h1), (l2, h2) = iv[a[0]], iv[a[1]]
+            if op == ca.OP_ADD:
+                iv[k] = (l1 + l2, h1 + h2)
+            elif op == ca.OP_SUB:
+                iv[k] = (l1 - h2, h1 - l2)
+            elif op == ca.OP_MUL:
+                p = (l1 * l2, l1 * h2, h1 * l2, h1 * h2)
+                iv[k] = (min(p), max(p))
+            elif op == ca.OP_FMIN:
+                iv[k] = (min(l1, l2), min(h1, h2))
+            else:
+                iv[k] = (max(l1, l2), max(h1, h2))
+            kind[k] = "q"
+        elif op == ca.OP_NEG:
+            iv[k], kind[k] = (-iv[a[0]][1], -iv[a[0]][0]), "q"
+        elif op == ca.OP_TWICE:
+            iv[k], kind[k] = (2 * iv[a[0]][0], 2 * iv[a[0]][1]), "q"
+        elif op == ca.OP_SQ:
+            lo, hi = iv[a[0]]
+            iv[k] = (0.0 if lo <= 0 <= hi else min(lo * lo, hi * hi), max(lo * lo, hi * hi))
+            kind[k] = "q"
+        elif op == ca.OP_ASSIGN:
+            iv[k], kind[k] = iv[a[0]], kind[a[0]]
+        elif op == ca.OP_IF_ELSE_ZERO:
+            lo, hi = iv[a[1]]
+            iv[k], kind[k] = (min(lo, 0.0), max(hi, 0.0)), "q"
+        elif op in _CMP or op in (ca.OP_NOT, ca.OP_AND, ca.OP_OR):
+            iv[k], kind[k] = (0.0, 1.0), "b"
+        else:
+            raise ComputationError(f"CasADi operation {op} has no Q31 translation (the "
+                                   "library's estimators use +, -, *, min, max, compare)")
+        cur[outs[0]] = k
+    return iv, kind
+
+
+def q31_program(design, y_range) -> Q31Program:
+    """The step of ``design`` (after :func:`~fl_design.codegen.step_design`) as Q31 code.
+
+    Parameters
+    ----------
+    design : Design
+        EHGO or least-squares design with ``u_limits``.
+    y_range : (float, float)
+        Range of ``y`` and ``r``.
+
+    Returns
+    -------
+    Q31Program
+
+    Raises
+    ------
+    ParameterError
+        No ``u_limits``; an empty ``y_range``.
+    ComputationError
+        An operation without a Q31 translation, or an unbounded interval.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> q31_program(presets.maglev_design(), (0.002, 0.010)).f_y
+    36
+    """
+    lo, hi = (float(v) for v in y_range)
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ParameterError(f"y_range={y_range!r} must be a finite (lo, hi) with lo < hi")
+    f = _fixed_core(design)
+    boxes, c0, c1 = state_box(design, (lo, hi))
+    iv, _ = _analyse(f, boxes, (lo, hi))
+    # z's box: k_I |z| at most k_1 (y_max - y_min), the proportional term's full scale
+    ctrl = design.controller
+    zb = ctrl.gains[0] * (hi - lo) / ctrl.ki if ctrl.ki > 0 else 2.0**20 * design.T
+    boxes[-1] = (-zb, zb)
+    iv, kind = _analyse(f, boxes, (lo, hi))
+    f_state = tuple(frac_bits(*b) for b in boxes)
+    f_y = frac_bits(lo, hi)
+    ops, F, cur = [], {}, {}
+    for k in range(f.n_instructions()):
+        op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
+        if op == ca.OP_OUTPUT:
+            w = cur[ins[0]]
+            fo = f_state[outs[1]] if outs[0] == 0 else f_state[-2]
+            ops.append(("out", (outs[0], outs[1]), (w,), fo, boxes[outs[1]] if outs[0] == 0
+                        else boxes[-2]))
+            continue
+        if op == ca.OP_INPUT:
+            F[k] = f_state[ins[1]] if ins[0] == 0 else f_y
+            ops.append(("in", k, (ins[0], ins[1]), F[k], None))
+            cur[outs[0]] = k
+            continue
+        a = tuple(cur[i] for i in ins if i >= 0) if op != ca.OP_CONST else ()
+        if kind[k] == "b":
+            F[k] = 0
+        elif op == ca.OP_CONST:
+            c = f.instruction_constant(k)
+            F[k] = frac_bits(c, c)
+        else:
+            F[k] = frac_bits(*iv[k])
+        data = f.instruction_constant(k) if op == ca.OP_CONST else op
+        ops.append(("op", k, a, F[k], data))
+        cur[outs[0]] = k
+    s0 = tuple(round(v * 2.0 ** f_state[i]) for i, v in enumerate(c0))
+    f1 = min(frac_bits(*(float(np.min(c1)), float(np.max(c1)))), 30)
+    s1 = tuple(round(v * 2.0**f1) for v in c1)
+    return Q31Program(tuple(ops), f_state, f_y, tuple(boxes), (lo, hi), design.state_size,
+                      s0, s1, f1)
+
+
+def _shift(v: str, f_from: int, f_to: int) -> str:
+    s = f_from - f_to
+    if s > 0:
+        return f"({v} >> {min(s, 63)})"
+    if s < 0:
+        return f"({v} * INT64_C({1 << -s}))"
+    return v
+
+
+def _py_shift(v: int, f_from: int, f_to: int) -> int:
+    s = f_from - f_to
+    return v >> min(s, 63) if s > 0 else v * (1 << -s) if s < 0 else v
+
+
+def _align(fa: int, fb: int) -> int:
+    return min(max(fa, fb), min(fa, fb) + 31)
+
+
+_SYM = {ca.OP_ADD: "+", ca.OP_SUB: "-"}
+
+
+def c_body_q31(prog: Q31Program) -> str:
+    """The statements of the Q31 core (``x, y, r -> x_next, u``; int32 in, int32 out).
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The program.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import c_body_q31, q31_program
+    >>> body = c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
+    >>> "float" in body or "double" in body, "int64_t" in body
+    (False, True)
+    """
+    F, lines, name = {}, [], {}
+    for kind, k, a, fk, data in prog.ops:
+        if kind == "in":
+            F[k] = fk
+            name[k] = f"x[{a[1]}]" if a[0] == 0 else ("y" if a[0] == 1 else "r")
+            continue
+        if kind == "out":
+            (which, i), (w,) = k, a
+            dst = f"x_next[{i}]" if which == 0 else "*u"
+            lines.append(f"  {dst} = {{PFX}}_sat32({_shift(f'(int64_t) {name[w]}', F[w], fk)});")
+            continue
+        F[k], name[k] = fk, f"q{k}"
+        q = lambda j: f"(int64_t) {name[j]}"
+        op = data
+        if not isinstance(op, int) or isinstance(op, bool):  # a constant
+            lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
+            continue
+        if op in _SYM:
+            fm = _align(F[a[0]], F[a[1]])
+            expr = f"({_shift(q(a[0]), F[a[0]], fm)} {_SYM[op]} {_shift(q(a[1]), F[a[1]], fm)})"
+            text = f"(int32_t) {_shift(expr, fm, fk)}"
+        elif op == ca.OP_MUL:
+            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[1])})', F[a[0]] + F[a[1]], fk)}"
+        elif op == ca.OP_SQ:
+            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[0])})', 2 * F[a[0]], fk)}"
+        elif op == ca.OP_NEG:
+            text = f"(int32_t) {_shift(f'(-{q(a[0])})', F[a[0]], fk)}"
+        elif op == ca.OP_TWICE:
+            text = f"(int32_t) {_shift(f'({q(a[0])} * 2)', F[a[0]], fk)}"
+        elif op == ca.OP_ASSIGN:
+            text = name[a[0]]
+        elif op in (ca.OP_FMIN, ca.OP_FMAX):
+            fm = _align(F[a[0]], F[a[1]])
+            A, B = _shift(q(a[0]), F[a[0]], fm), _shift(q(a[1]), F[a[1]], fm)
+            cmp = "<" if op == ca.OP_FMIN else ">"
+            text = f"(int32_t) {_shift(f'(({A} {cmp} {B}) ? {A} : {B})', fm, fk)}"
+        elif op in _CMP:
+            fm = _align(F[a[0]], F[a[1]])
+            A, B = _shift(q(a[0]), F[a[0]], fm), _shift(q(a[1]), F[a[1]], fm)
+            lines.append(f"  const bool q{k} = ({A} {_CMP[op]} {B});")
+            continue
+        elif op == ca.OP_NOT:
+            lines.append(f"  const bool q{k} = !{name[a[0]]};")
+            continue
+        elif op in (ca.OP_AND, ca.OP_OR):
+            sym = "&&" if op == ca.OP_AND else "||"
+            lines.append(f"  const bool q{k} = ({name[a[0]]} {sym} {name[a[1]]});")
+            continue
+        elif op == ca.OP_IF_ELSE_ZERO:
+            text = f"({name[a[0]]} ? (int32_t) {_shift(q(a[1]), F[a[1]], fk)} : 0)"
+        else:
+            raise ComputationError(f"CasADi operation {op} has no Q31 translation")
+        lines.append(f"  const int32_t q{k} = {text};")
+    return "\n".join(lines)
+
+
+def _const(c: float, f: int) -> str:
+    v = round(c * 2.0**f)
+    return f"INT32_C({v})" if v >= 0 else f"(-INT32_C({-v}))"
+
+
+def emulate_q31(prog: Q31Program, yq, rq, xq0) -> tuple[np.ndarray, np.ndarray]:
+    """The Q31 C core on integer samples, bit for bit: ``(u_q, x_q)`` after each sample.
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The program.
+    yq, rq : sequence of int
+        Measurements and references in Q format (``f_y`` fraction bits).
+    xq0 : sequence of int
+        Start state (``f_state`` fraction bits).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(N,)`` inputs and ``(N, n)`` states, integers.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import emulate_q31, q31_program, start_state
+    >>> prog = q31_program(presets.paper_design(), (-1.0, 1.0))
+    >>> y0 = 1 << (prog.f_y - 3)
+    >>> u, _ = emulate_q31(prog, [y0] * 3, [y0] * 3, start_state(prog, y0, 0))
+    >>> u.tolist()
+    [0, 0, 0]
+    """
+    x = [int(v) for v in xq0]
+    us, xs = [], []
+    for y, r in zip(yq, rq):
+        w, xn, u = {}, [0] * prog.n_out, 0
+        for kind, k, a, fk, data in prog.ops:
+            if kind == "in":
+                w[k] = x[a[1]] if a[0] == 0 else (int(y) if a[0] == 1 else int(r))
+                continue
+            if kind == "out":
+                (which, i), (j,) = k, a
+                v = _sat(_py_shift(w[j], _F_of(prog, j), fk))
+                if which == 0:
+                    xn[i] = v
+                else:
+                    u = v
+                continue
+            w[k] = _py_op(prog, w, k, a, fk, data)
+        x = xn
+        us.append(u)
+        xs.append(list(x))
+    return np.array(us, dtype=np.int64), np.array(xs, dtype=np.int64)
+
+
+def _F_of(prog, j):
+    return _fmap(prog)[j]
+
+
+_FCACHE: dict = {}
+
+
+def _fmap(prog):
+    key = id(prog)
+    if key not in _FCACHE:
+        _FCACHE.clear()
+        _FCACHE[key] = {k: fk for kind, k, a, fk, data in prog.ops if kind != "out"}
+    return _FCACHE[key]
+
+
+def _sat(v: int) -> int:
+    return max(-(2**31), min(2**31 - 1, v))
+
+
+def _py_op(prog, w, k, a, fk, op):
+    F = _fmap(prog)
+    if not isinstance(op, int) or isinstance(op, bool):
+        return round(op * 2.0**fk)
+    if op in _SYM:
+        fm = _align(F[a[0]], F[a[1]])
+        A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)
+        return _py_shift(A + B if op == ca.OP_ADD else A - B, fm, fk)
+    if op == ca.OP_MUL:
+        return _py_shift(w[a[0]] * w[a[1]], F[a[0]] + F[a[1]], fk)
+    if op == ca.OP_SQ:
+        return _py_shift(w[a[0]] * w[a[0]], 2 * F[a[0]], fk)
+    if op == ca.OP_NEG:
+        return _py_shift(-w[a[0]], F[a[0]], fk)
+    if op == ca.OP_TWICE:
+        return _py_shift(w[a[0]] * 2, F[a[0]], fk)
+    if op == ca.OP_ASSIGN:
+        return w[a[0]]
+    if op in (ca.OP_FMIN, ca.OP_FMAX) or op in _CMP:
+        fm = _align(F[a[0]], F[a[1]])
+        A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)
+        if op == ca.OP_FMIN:
+            return _py_shift(min(A, B), fm, fk)
+        if op == ca.OP_FMAX:
+            return _py_shift(max(A, B), fm, fk)
+        return int({ca.OP_LT: A < B, ca.OP_LE: A <= B, ca.OP_EQ: A == B, ca.OP_NE: A != B}[op])
+    if op == ca.OP_NOT:
+        return int(not w[a[0]])
+    if op == ca.OP_AND:
+        return int(bool(w[a[0]]) and bool(w[a[1]]))
+    if op == ca.OP_OR:
+        return int(bool(w[a[0]]) or bool(w[a[1]]))
+    if op == ca.OP_IF_ELSE_ZERO:
+        return _py_shift(w[a[1]], F[a[1]], fk) if w[a[0]] else 0
+    raise ComputationError(f"CasADi operation {op} has no Q31 translation")
+
+
+def start_state(prog: Q31Program, y0q: int, u0q: int) -> list[int]:
+    """The start state in Q format: the observer at rest at ``y0``, ``u = u0``, ``z = 0``
+    (the C start's integer arithmetic).
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The program.
+    y0q, u0q : int
+        ``y0`` (``f_y`` bits) and ``u0`` (``u``'s bits, clamped by the caller).
+
+    Returns
+    -------
+    list of int
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program, start_state
+    >>> prog = q31_program(presets.paper_design(), (-1.0, 1.0))
+    >>> start_state(prog, 1 << prog.f_y, 0)[0] == 1 << prog.f_state[0]
+    True
+    """
+    m = prog.n_out - 2
+    x = [_sat(prog.start0[i] + _py_shift(prog.start1[i] * int(y0q), prog.f_start1 + prog.f_y,
+                                         prog.f_state[i])) for i in range(m)]
+    return x + [int(u0q), 0]
+
+
+def start_c(prog: Q31Program) -> str:
+    """C statements of the start (``s->x[i]`` from ``y0``), matching :func:`start_state`."""
+    m = prog.n_out - 2
+    rows = []
+    for i in range(m):
+        prod = _shift(f"((int64_t) {prog.start1[i]} * (int64_t) y0)",
+                      prog.f_start1 + prog.f_y, prog.f_state[i])
+        rows.append(f"  s->x[{i}] = {{PFX}}_sat32((int64_t) {_const(prog.start0[i], 0)} + "
+                    f"{prod});")
+    return "\n".join(rows)
+
+
+__all__ = ["Q31Program", "c_body_q31", "emulate_q31", "frac_bits", "q31_program", "start_c",
+           "start_state", "state_box"]
