@@ -150,6 +150,12 @@ def _q31_files(design, prefix, guard):
     from ..errors import FloatPrecisionWarning
     from ._q31_files import q31_base, q31_error, q31_range, q31_substitutions, q31_vector_text
 
+    from ..design import EHGO
+
+    if not isinstance(design.estimator, EHGO):
+        raise ParameterError(f"precision='q31' is generated for the EHGO; the "
+                             f"{type(design.estimator).__name__}'s window counter has no "
+                             "bounded fixed-point range: use precision='float' or 'double'")
     if design.controller.u_range is None:
         raise ParameterError("precision='q31' needs u_limits on the controller (the input's "
                              "fixed-point range)")

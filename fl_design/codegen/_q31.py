@@ -328,7 +328,7 @@ def q31_program(design, y_range) -> Q31Program:
 def _shift(v: str, f_from: int, f_to: int) -> str:
     s = f_from - f_to
     if s > 0:
-        return f"({v} >> {min(s, 63)})"
+        return f"{{PFX}}_asr({v}, {min(s, 63)}u)"
     if s < 0:
         return f"({v} * INT64_C({1 << -s}))"
     return v

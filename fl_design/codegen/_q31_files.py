@@ -55,7 +55,7 @@ def _q(v: float, f: int) -> int:
 
 
 def _lit(v: int) -> str:
-    return f"INT32_C({v})" if v >= 0 else f"(-INT32_C({-v}) - 0)" if v > -(2**31) else "INT32_MIN"
+    return f"INT32_C({v})" if v >= 0 else f"(-INT32_C({-v}))" if v > -(2**31) else "INT32_MIN"
 
 
 def q31_base(design, prefix: str, guard) -> dict:
@@ -137,6 +137,7 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
     subs.update({
         "BODY_Q31": c_body_q31(prog).replace("{PFX}", prefix),
         "START_Q31": start_c(prog).replace("{PFX}", prefix),
+        "COMMIT_Q31": "\n".join(f"    s->x[{i}] = x_next[{i}];" for i in range(len(x0))),
         "F_Y": str(prog.f_y), "F_U": str(f_u),
         "Y_LO_Q": _lit(_q(lo, prog.f_y)), "Y_HI_Q": _lit(_q(hi, prog.f_y)),
         "Y_LO": f"{lo:.9g}", "Y_HI": f"{hi:.9g} ({why})",
