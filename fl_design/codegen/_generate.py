@@ -147,10 +147,9 @@ def _q31_files(design, prefix, guard):
     """The Q31 package's writer (a function of the folder) and its measured error."""
     import warnings
 
+    from ..design import EHGO
     from ..errors import FloatPrecisionWarning
     from ._q31_files import q31_base, q31_error, q31_range, q31_substitutions, q31_vector_text
-
-    from ..design import EHGO
 
     if not isinstance(design.estimator, EHGO):
         raise ParameterError(f"precision='q31' is generated for the EHGO; the "
