@@ -33,7 +33,7 @@ def packages(tmp_path_factory):
 
 def test_no_floating_point_in_the_source(packages):
     for pkg in packages.values():
-        code = re.sub(r"/\*.*?\*/", "", pkg.sources[0].read_text(), flags=re.S)
+        code = re.sub(r"/\*.*?\*/", "", pkg.sources[0].read_text(), flags=re.DOTALL)
         assert not re.search(r"\b(float|double)\b", code)
         assert not re.search(r"\b\d+\.\d|\b\d+[eE][+-]?\d", code)  # no real literal
 
