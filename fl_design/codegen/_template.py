@@ -259,7 +259,8 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
         "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
                              for i in range(design.state_size)]
-                            + [f"  s->xhat[{i}] = xhat[{i}];" for i in range(design.rho + 1)]),
+                            + [f"  s->xhat[{i}] = xhat[{i}]{' + s->y_c' if i == 0 else ''};"
+                               for i in range(design.rho + 1)]),
         "STATE_BYTES": str(size * design.state_size),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",

@@ -99,7 +99,8 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
     if precision == "float":
         from ._float_check import emulate
 
-        u32 = emulate(design, y[keep], r[keep], np.asarray(state0, dtype=np.float32))
+        start = np.asarray(design.initial_state(y0=0.0, u0=guard.u_op), dtype=np.float32)
+        u32 = emulate(design, y[keep], r[keep], start, y_c=float(y[0]))
         dev = float(np.max(np.abs(u32.astype(float) - u_kept)))
         tol = max(4.0 * dev, 1e-5 * scale)
     else:
