@@ -155,7 +155,6 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     used = step_design(design, "float")
     ym, r, u0 = recorded_run(plant, design, scenario, max_samples=max_samples)
     u64 = reference_inputs(used, ym, r, u0)
-    state0 = used.initial_state(y0=float(ym[0]), u0=u0)
     start = used.initial_state(y0=0.0, u0=u0)  # the C start: deviations from y_c = ym[0]
     u32 = emulate(used, ym, r, np.asarray(start, dtype=_F), y_c=float(ym[0])).astype(float)
     return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
