@@ -194,8 +194,9 @@ def step_cost(pkg, *, name=None, bench_steps: int = 2_000_000, compiler=None) ->
     exe = pkg.build(compiler=cc)
     times = [float(run_command([str(exe), "--bench", str(int(bench_steps))], what="bench")
                    .split()[0]) for _ in range(3)]
-    arm, skipped = _arm(pkg) if pkg.precision == "float" else (None, "double build")
-    width = 4 if pkg.precision == "float" else 8
+    arm, skipped = (_arm(pkg) if pkg.precision == "float"
+                    else (None, f"{pkg.precision} build (the Cortex-M4F figures are of float)"))
+    width = 4 if pkg.precision in ("float", "q31") else 8
     return StepCost(name, pkg.precision, ops, frames["stack"], code, data, min(times),
                     width * pkg.step_design.state_size, arm, skipped)
 
