@@ -284,7 +284,8 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     Raises
     ------
     ParameterError
-        ``scenario.initial_estimate`` is set; ``integrator`` not a ``fl.RK4``; an excitation
+        A q31 package; ``scenario.initial_estimate`` is set; ``integrator`` not a
+        ``fl.RK4``; an excitation
         without a duration, or one the C refuses (outside the plausibility range).
 
     Examples
@@ -299,6 +300,11 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     """
     from ..sim import RK4
 
+    if pkg.precision == "q31":
+        raise ParameterError(
+            "software_in_the_loop of a precision='q31' package is not available: its make "
+            "check replays bit-exact vectors of the integer model, and "
+            "CPackage.predicted_float_error is its measured error against Design.step")
     if getattr(scenario, "initial_estimate", None) is not None:
         raise ParameterError(
             "scenario.initial_estimate is set; the C loop starts as firmware does, from the "

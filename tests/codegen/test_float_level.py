@@ -44,6 +44,7 @@ def test_float_error_is_flat_in_the_level(pkg):
     assert max(errs.values()) <= 4 * errs[0.0] + 1e-7, errs  # flat: no growth with |y|
 
 
+@pytest.mark.slow
 def test_the_predicted_error_is_the_measured_one_at_a_level(tmp_path):
     """Maglev (y ~ 6 mm) and the flexible joint started away from 0: prediction = SIL."""
     plant, design = fl.plants.maglev(), presets.maglev_design()

@@ -43,8 +43,9 @@ def misra_rules(path) -> set[str]:
 @pytest.mark.skipif(shutil.which("cppcheck") is None,
                     reason="cppcheck is not installed (apt-get install cppcheck): the MISRA "
                            "C:2012 addon cannot run")
-@pytest.mark.parametrize("name", ["trms", "ls26"])
-@pytest.mark.parametrize("precision", ["double", "float"])
+@pytest.mark.slow
+@pytest.mark.parametrize("name, precision", [("trms", "double"), ("trms", "float"),
+                                             ("ls26", "float")])
 def test_misra_only_documented_advisory_deviations(packages, name, precision):
     pkg = packages[(name, precision)]
     found = misra_rules(pkg.sources[0])
@@ -69,6 +70,7 @@ def test_header_has_hash_version_and_units(packages):
 
 @pytest.mark.skipif(find_compiler() is None or shutil.which("make") is None,
                     reason="no C compiler or no make")
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(CASES))
 @pytest.mark.parametrize("precision", ["double", "float"])
 def test_make_check_replays_the_vectors(packages, name, precision):

@@ -94,6 +94,10 @@ def test_q31_without_plant_says_what_it_assumes_and_refuses_what_it_cannot(tmp_p
         generate_c(presets.paper_design(), tmp_path / "a", precision="q31")
     with pytest.raises(ParameterError, match="q31' is generated for the EHGO"):
         generate_c(presets.least_squares_design(9), tmp_path / "b", precision="q31")
+    pkg = generate_c(presets.paper_design(), tmp_path / "q", precision="q31",
+                     plant=fl.plants.trms_yaw())
+    with pytest.raises(ParameterError, match="q31' package is not available"):
+        pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 1.0))
     d = presets.pendulum_design()  # no u_limits
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -55,6 +55,7 @@ def test_the_sil_log_round_trips(tmp_path, precision):
 
 
 @needs_cc
+@pytest.mark.slow
 def test_the_firmware_excitation_drives_the_sil(tmp_path):
     plant, design = fl.plants.trms_yaw(), presets.paper_design()
     pkg = generate_c(design, tmp_path / "pkg", plant=plant)
