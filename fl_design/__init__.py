@@ -39,6 +39,7 @@ _LAZY = {
     "gains_from_poles": "design",
     "lqr_gains": "design",
     "Design": "design",
+    "read_telemetry": "codegen",
     "simulate": "sim",
     "Scenario": "sim",
     "Noise": "sim",

@@ -255,6 +255,11 @@ def _cmd_codegen(args) -> int:
         job = run_job(cfg, quick=args.quick, stages=("codegen",), out_dir=out,
                       progress=not args.no_progress, force=args.force)
         print_codegen(job)
+        cg = job.results["codegen"]
+        if "sil" in cg and not cg["sil"].passed:  # a failed SIL is a failed command
+            print(f"fl-design: the software-in-the-loop check failed: "
+                  f"{_sil_reason(cg['sil'])}", file=sys.stderr)
+            return 1
         return 0
     design = job.design if args.design == "config" else build_design(
         cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
@@ -265,6 +270,18 @@ def _cmd_codegen(args) -> int:
     for path in pkg.files:
         print(f"  {path.name}")
     return _pil(pkg, job, cfg) if args.pil else 0
+
+
+def _sil_reason(sil) -> str:
+    """One line: why a SIL result did not pass."""
+    why = []
+    if not sil.matches:
+        why.append(f"C vs Design.step {sil.max_rel_error:.3g} > bound {sil.bound:g}")
+    if not sil.verdicts_agree:
+        why.append(f"C loop {sil.c_status!r}, simulation {sil.sim_status!r}")
+    if sil.c_failed:
+        why.append(f"the C loop is {sil.c_status!r}")
+    return "; ".join(why) or "see the result"
 
 
 def _codegen_paths(args) -> None:

@@ -12,7 +12,9 @@ Modules: ``_generate`` (:func:`generate_c`); ``_package`` (:class:`CPackage`); `
 (:func:`to_single_precision`); ``_float_check`` (the float build's predicted error);
 ``_compare`` (a step's inputs against ``Design.step``'s on the same record); ``_sil``
 and ``_verdict`` (closed-loop SIL, the C loop's status); ``_pil`` (the Cortex-M4F model);
-``_cost``; ``_template`` (the C files of ``templates/``). The compiler, its flag sets and the
+``_cost``; ``_template`` (the C files of ``templates/``); ``_guard`` (the checks' defaults,
+the design hash, a Python model of the guard); ``_vectors`` (the test-vector file);
+``_misra`` (the deviation report); ``_telemetry`` (:func:`read_telemetry`). The compiler, its flag sets and the
 cache are the ground floor's (:mod:`fl_design._toolchain`).
 
 Examples
@@ -23,14 +25,32 @@ True
 """
 
 from .._toolchain import STRICT_CFLAGS
-from ._cost import CostTable, StepCost, compare_costs, operation_counts, step_cost
+from ._compare_costs import compare_costs
+from ._cost import CostTable, StepCost, operation_counts, step_cost
 from ._float import to_single_precision
 from ._generate import PRECISIONS, core_function, generate_c, step_design
 from ._package import CPackage
 from ._pil import PilResult, processor_in_the_loop
 from ._sil import SilResult, software_in_the_loop
+from ._telemetry import Telemetry, read_telemetry
 
-__all__ = ["PRECISIONS", "STRICT_CFLAGS", "CPackage", "CostTable", "PilResult", "SilResult",
-           "StepCost", "compare_costs", "core_function", "generate_c", "operation_counts",
-           "processor_in_the_loop", "software_in_the_loop", "step_cost", "step_design",
-           "to_single_precision"]
+__all__ = [
+           "PRECISIONS",
+           "STRICT_CFLAGS",
+           "CPackage",
+           "CostTable",
+           "PilResult",
+           "SilResult",
+           "StepCost",
+           "Telemetry",
+           "compare_costs",
+           "core_function",
+           "generate_c",
+           "operation_counts",
+           "processor_in_the_loop",
+           "read_telemetry",
+           "software_in_the_loop",
+           "step_cost",
+           "step_design",
+           "to_single_precision",
+]

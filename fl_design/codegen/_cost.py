@@ -29,54 +29,16 @@ import hashlib
 import json
 import math
 import platform
-import re
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import casadi as ca
+from ._build import compiler_or_raise, run_command
+from ._opcount import FLOP_KINDS, operation_counts
+from ._step import core_function
 
-from ._package import compiler_or_raise, run_command
-
-_KIND = {"ADD": "add", "SUB": "add", "MUL": "mul", "DIV": "div", "NEG": "neg",
-         "FMIN": "minmax", "FMAX": "minmax", "LT": "compare", "LE": "compare",
-         "EQ": "compare", "NE": "compare", "NOT": "compare", "AND": "compare",
-         "OR": "compare", "IF_ELSE_ZERO": "select"}
-_NOT_FLOPS = {"CONST", "INPUT", "OUTPUT", "PARAMETER", "ASSIGN"}
-#: kinds counted as floating-point operations (all but loads, stores and constants)
-FLOP_KINDS = ("add", "mul", "div", "neg", "minmax", "compare", "select", "math")
 ARM_FLAGS = ("-O2", "-std=c99", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
              "-mfloat-abi=hard", "-fstack-usage")
-
-
-def operation_counts(function: ca.Function) -> dict[str, int]:
-    """Operations of an SX function's instruction list, by kind (``add`` counts subtractions).
-
-    Parameters
-    ----------
-    function : casadi.Function
-        An SX function.
-
-    Returns
-    -------
-    dict
-        ``{kind: count}`` over :data:`FLOP_KINDS` (``math``: any other elementary function).
-
-    Examples
-    --------
-    >>> import casadi as ca
-    >>> from fl_design.codegen import operation_counts
-    >>> x = ca.SX.sym("x")
-    >>> operation_counts(ca.Function("f", [x], [ca.fmax(2 * x - 1, 0)]))["minmax"]
-    1
-    """
-    names = {getattr(ca, n): n[3:] for n in dir(ca) if n.startswith("OP_")}
-    out = dict.fromkeys(FLOP_KINDS, 0)
-    for k in range(function.n_instructions()):
-        name = names.get(function.instruction_id(k), "?")
-        if name not in _NOT_FLOPS:
-            out[_KIND.get(name, "math")] += 1
-    return out
 
 
 def _stack_usage(files) -> dict[str, int]:
@@ -221,7 +183,6 @@ def step_cost(pkg, *, name=None, bench_steps: int = 2_000_000, compiler=None) ->
     'LS(9)'
     """
     from .. import design as dsg
-    from ._generate import core_function
 
     cc = compiler_or_raise(compiler)
     est = pkg.step_design.estimator
@@ -233,8 +194,9 @@ def step_cost(pkg, *, name=None, bench_steps: int = 2_000_000, compiler=None) ->
     exe = pkg.build(compiler=cc)
     times = [float(run_command([str(exe), "--bench", str(int(bench_steps))], what="bench")
                    .split()[0]) for _ in range(3)]
-    arm, skipped = _arm(pkg) if pkg.precision == "float" else (None, "double build")
-    width = 4 if pkg.precision == "float" else 8
+    arm, skipped = (_arm(pkg) if pkg.precision == "float"
+                    else (None, f"{pkg.precision} build (the Cortex-M4F figures are of float)"))
+    width = 4 if pkg.precision in ("float", "q31") else 8
     return StepCost(name, pkg.precision, ops, frames["stack"], code, data, min(times),
                     width * pkg.step_design.state_size, arm, skipped)
 
@@ -380,7 +342,7 @@ def cost_key(pkg, *, name: str, bench_steps: int, compiler: str) -> str:
     return h.hexdigest()
 
 
-def _cached_cost(pkg, *, name: str, bench_steps: int, compiler) -> tuple[StepCost, bool]:
+def cached_cost(pkg, *, name: str, bench_steps: int, compiler) -> tuple[StepCost, bool]:
     """``pkg.cost(...)`` through the private cache: (row, whether it came from the cache)."""
     from .._cache import cache_directory, read_verified, write_verified
     from ..errors import ComputationError
@@ -407,54 +369,5 @@ def _cached_cost(pkg, *, name: str, bench_steps: int, compiler) -> tuple[StepCos
     return cost, False
 
 
-def compare_costs(designs: dict, out_dir, *, precision: str = "double",
-                  bench_steps: int = 2_000_000, compiler=None, cache: bool = False) -> CostTable:
-    """Generate, build and measure each design: the comparison table.
-
-    Parameters
-    ----------
-    designs : dict
-        ``{row name: Design}``, e.g. the EHGO and the least-squares baselines N = 9, 26.
-    out_dir : path-like
-        One sub-folder per design is written there.
-    precision : str, optional
-        ``"double"`` or ``"float"``.
-    bench_steps : int, optional
-        Steps of each timing run.
-    compiler : str, optional
-        C compiler.
-    cache : bool, optional
-        Reuse a row measured earlier with the same key (:func:`cost_key`: the same
-        generated files, compilers, flags, timing length, code generator and machine) and
-        store new rows; the table's ``cached`` says how many rows came from the cache.
-
-    Returns
-    -------
-    CostTable
-
-    Examples
-    --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import compare_costs
-    >>> t = compare_costs({"EHGO": presets.paper_design(),
-    ...                    "LS(26)": presets.least_squares_design(26)}, "cmp", bench_steps=10)
-    >>> t.rows[0].flops < t.rows[1].flops
-    True
-    """
-    from ._generate import generate_c
-
-    rows, cached = [], 0
-    for i, (name, design) in enumerate(designs.items()):
-        folder = Path(out_dir) / (re.sub(r"\W+", "_", name).strip("_") or f"design{i}")
-        pkg = generate_c(design, folder, precision=precision)
-        if cache:
-            row, hit = _cached_cost(pkg, name=name, bench_steps=bench_steps, compiler=compiler)
-            rows.append(row)
-            cached += hit
-        else:
-            rows.append(pkg.cost(name=name, bench_steps=bench_steps, compiler=compiler))
-    return CostTable(tuple(rows), cached=cached)
-
-
-__all__ = ["ARM_FLAGS", "COST_FORMAT", "FLOP_KINDS", "CostTable", "StepCost", "compare_costs",
-           "cost_key", "operation_counts", "step_cost"]
+__all__ = ["ARM_FLAGS", "COST_FORMAT", "FLOP_KINDS", "CostTable", "StepCost",
+           "cached_cost", "cost_key", "operation_counts", "step_cost"]

@@ -3,7 +3,8 @@
 Every instruction becomes one ``const`` local (SSA), printed so that no compiler flag changes
 what it computes and no library call is left: ``fmin``/``fmax`` as ``?:`` selects (the step
 never sees a NaN: the wrapper rejects it first), comparisons as ``int`` locals (so no float is
-ever used as a truth value: ``-Wfloat-conversion``, ``-Wfloat-equal`` clean), CasADi's
+ever used as a truth value: ``-Wfloat-conversion``, ``-Wfloat-equal`` clean; ``bool`` locals of
+``<stdbool.h>``, MISRA C's essentially Boolean type), CasADi's
 ``if_else`` pattern ``(c ? a : 0) + (!c ? b : 0)`` as one select, a comparison of a *switch*
 input (a C ``int`` holding 0 or 1, e.g. ``p->antiwindup``) with a constant as an integer test
 (``p->antiwindup != 0``: no conversion, no floating compare), literals in the build's
@@ -214,7 +215,7 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         else:
             raise ComputationError(f"CasADi operation {op} of {f.name()} has no C translation")
         names.name[k], names.kind[k] = f"a{k}", kind
-        ctype = real if kind == "real" else "int"
+        ctype = real if kind == "real" else "bool"  # <stdbool.h>: MISRA's essential Boolean
         lines.append((k, args, f"{indent}const {ctype} a{k} = {text};"))
         cur[outs[0]] = k
     for k, args, _ in reversed(lines):  # drop what no output needs (-Wunused-variable)

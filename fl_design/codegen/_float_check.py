@@ -57,7 +57,7 @@ def _program(f: ca.Function):
     return prog
 
 
-def emulate(design, ym, r, state0) -> np.ndarray:
+def emulate(design, ym, r, state0, *, y_c: float = 0.0) -> np.ndarray:
     """The float C step's inputs ``u`` for ``ym, r`` from ``state0`` (every operation in float32).
 
     Parameters
@@ -67,7 +67,11 @@ def emulate(design, ym, r, state0) -> np.ndarray:
     ym, r : array_like
         ``(N,)`` measurements and references (rounded to float, as the C API takes them).
     state0 : array_like
-        Start state (rounded to float).
+        Start state (rounded to float), in the C's deviation coordinates: relative to ``y_c``.
+    y_c : float, optional
+        The level the C state is measured from (``PREFIX_start`` sets it to ``y0``, the state
+        then being ``Design.initial_state(y0=0)``; ``PREFIX_init``: 0). The step sees
+        ``y - y_c`` and ``r - y_c``, rounded in float as the C computes them.
 
     Returns
     -------
@@ -81,7 +85,7 @@ def emulate(design, ym, r, state0) -> np.ndarray:
     >>> from fl_design.codegen import step_design
     >>> from fl_design.codegen._float_check import emulate
     >>> d = step_design(presets.paper_design(), "float")
-    >>> u = emulate(d, np.full(3, 0.1), np.full(3, 0.3), d.initial_state(y0=0.1))
+    >>> u = emulate(d, np.full(3, 0.1), np.full(3, 0.3), d.initial_state(y0=0.0), y_c=0.1)
     >>> u.dtype, bool(abs(u[-1] - d.run(np.full(3, 0.1), 0.3,
     ...                                  state0=d.initial_state(y0=0.1)).u[-1]) < 1e-6)
     (dtype('float32'), True)
@@ -93,7 +97,8 @@ def emulate(design, ym, r, state0) -> np.ndarray:
     p = np.array([fl.value for fl in parameter_fields(design)], dtype=_F)
     x = np.asarray(state0, dtype=_F).copy()
     w = [_F(0)] * max(int(f.sz_w()), 1)
-    ym, r = np.asarray(ym, dtype=_F), np.asarray(r, dtype=_F)
+    c = _F(y_c)
+    ym, r = np.asarray(ym, dtype=_F) - c, np.asarray(r, dtype=_F) - c
     out = np.empty(ym.size, dtype=_F)
     for k in range(ym.size):
         inputs = (x, (ym[k],), (r[k],), p)
@@ -105,7 +110,7 @@ def emulate(design, ym, r, state0) -> np.ndarray:
             elif op == ca.OP_OUTPUT:
                 if outs[0] == 0:
                     x_next[outs[1]] = w[ins[0]]
-                else:
+                elif outs[0] == 1:
                     u = w[ins[0]]
             elif op == ca.OP_CONST:
                 w[outs[0]] = const
@@ -145,13 +150,13 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     True
     """
     from ._compare import recorded_run, reference_inputs
-    from ._generate import step_design
+    from ._step import step_design
 
     used = step_design(design, "float")
     ym, r, u0 = recorded_run(plant, design, scenario, max_samples=max_samples)
     u64 = reference_inputs(used, ym, r, u0)
-    state0 = used.initial_state(y0=float(ym[0]), u0=u0)
-    u32 = emulate(used, ym, r, np.asarray(state0, dtype=_F)).astype(float)
+    start = used.initial_state(y0=0.0, u0=u0)  # the C start: deviations from y_c = ym[0]
+    u32 = emulate(used, ym, r, np.asarray(start, dtype=_F), y_c=float(ym[0])).astype(float)
     return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
 
 

@@ -26,111 +26,30 @@ Examples
 >>> from fl_design.codegen import generate_c
 >>> pkg = generate_c(presets.paper_design(), "trms_c")
 >>> sorted(p.name for p in pkg.files)  # doctest: +NORMALIZE_WHITESPACE
-['CMakeLists.txt', 'Makefile', 'README.md', 'fl.c', 'fl.h', 'main.c', 'pil.ld',
- 'pil_main.c', 'pil_semihost.h', 'pil_startup.c']
+['CMakeLists.txt', 'MISRA_DEVIATIONS.md', 'Makefile', 'README.md', 'check.c', 'fl.c', 'fl.h',
+ 'main.c', 'pil.ld', 'pil_main.c', 'pil_semihost.h', 'pil_startup.c', 'test_vectors.txt']
 """
 
 from __future__ import annotations
 
-import re
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import casadi as ca
-
 from .._output import claim_output_folder, record_outputs
-from ..design import EHGO, Design
+from ..design import Design
 from ..errors import OutputPathError, ParameterError
+from ._compare import FLOAT_BOUND
+from ._float_check import fixes, predict_float_error
+from ._guard import guard_settings
+from ._misra import deviation_text
 from ._package import CPackage
+from ._step import PRECISIONS, check_precision, check_prefix, core_function, step_design
+from ._template import render, substitutions
+from ._vectors import vector_text
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
     from ..symbolic import Plant
-
-#: valid values of ``precision``
-PRECISIONS = ("double", "float")
-_C_KEYWORDS = frozenset(
-    ["auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void", "volatile", "while", "_Bool", "_Complex", "_Imaginary"])
-_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
-
-
-def check_prefix(prefix) -> str:
-    """``prefix`` if it is a usable C identifier, else ParameterError saying what is valid.
-
-    Parameters
-    ----------
-    prefix : str
-        Prefix of every public C name (``<prefix>_step``, ``<prefix>_state_t``...).
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from fl_design.codegen._generate import check_prefix
-    >>> check_prefix("trms_yaw")
-    'trms_yaw'
-    """
-    if (not isinstance(prefix, str) or not _IDENT.match(prefix) or prefix in _C_KEYWORDS
-            or prefix.startswith("__") or re.match(r"_[A-Z]", prefix) or len(prefix) > 24):
-        raise ParameterError(
-            f"prefix={prefix!r} is not a usable C identifier: give 1 to 24 letters, digits or "
-            "underscores, not starting with a digit, '__' or '_' + capital, and not a C "
-            "keyword (e.g. 'fl' or 'trms_ctrl')")
-    return prefix
-
-
-def check_precision(precision) -> str:
-    """``precision`` if it is ``"double"`` or ``"float"``, else ParameterError.
-
-    Parameters
-    ----------
-    precision : str
-        Floating-point type of the generated code.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from fl_design.codegen._generate import check_precision
-    >>> check_precision("float")
-    'float'
-    """
-    if not isinstance(precision, str) or precision not in PRECISIONS:
-        raise ParameterError(
-            f"precision={precision!r} is not known; valid: {', '.join(map(repr, PRECISIONS))}")
-    return precision
-
-
-def step_design(design: Design, precision: str) -> Design:
-    """The design whose ``step`` is generated: for ``"float"`` an EHGO goes to its delta form.
-
-    Parameters
-    ----------
-    design : Design
-        The user's design.
-    precision : str
-        ``"double"`` (the design as it is) or ``"float"``.
-
-    Returns
-    -------
-    Design
-
-    Examples
-    --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import step_design
-    >>> step_design(presets.paper_design(), "float").estimator.realization
-    'delta'
-    """
-    est = design.estimator
-    if isinstance(est, EHGO) and est.realization != "delta":
-        return Design(estimator=est.replace(realization="delta"), controller=design.controller)
-    return design
-
 
 #: what :func:`generate_c` does when the float build is predicted to miss its bound
 FLOAT_POLICIES = ("warn", "refuse")
@@ -154,8 +73,13 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
-    plant, scenario : Plant and Scenario, optional
-        With ``precision="float"``: predict the float build's error on this run
+    plant : Plant, optional
+        The plant: its region gives the default plausibility range of ``y`` and its
+        equilibrium input the safe input and ``main.c``'s start
+        (:func:`fl_design.codegen._guard.guard_settings`; without it ``|y| <= 1e9`` and
+        the controller's ``u0`` or 0).
+    scenario : Scenario, optional
+        With ``plant`` and ``precision="float"``: predict the float build's error on this run
         (:func:`fl_design.codegen._float_check.predict_float_error`, no compiler needed) before
         writing; the number is :attr:`CPackage.predicted_float_error`.
     float_policy : {"warn", "refuse"}, optional
@@ -175,7 +99,7 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     ------
     ParameterError
         Unknown ``precision`` or ``float_policy``, ``prefix`` not a C identifier, ``design``
-        not a Design, only one of ``plant`` and ``scenario``.
+        not a Design, ``scenario`` without ``plant``.
     PrecisionError
         ``float_policy="refuse"`` and the float build is predicted to miss its bound.
 
@@ -202,30 +126,76 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
     used = step_design(design, precision)
     predicted = _float_prediction(design, precision, plant, scenario, float_policy)
+    guard = guard_settings(design, plant)
+    if precision == "q31":
+        files_of, predicted = _q31_files(used, prefix, guard)
     out = claim_output_folder(out_dir, force=force, what="out_dir")
     try:
-        files = _write_templates(used, out, precision, prefix)
+        if precision == "q31":
+            files = files_of(out)
+        else:
+            files = _write_templates(used, out, precision, prefix, guard, plant)
         record_outputs(out, files)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
-                    prefix=prefix, files=tuple(files), predicted_float_error=predicted)
+                    prefix=prefix, files=tuple(files), predicted_float_error=predicted,
+                    guard=guard)
+
+
+def _q31_files(design, prefix, guard):
+    """The Q31 package's writer (a function of the folder) and its measured error."""
+    import warnings
+
+    from ..design import EHGO
+    from ..errors import FloatPrecisionWarning
+    from ._q31_files import q31_base, q31_error, q31_range, q31_substitutions, q31_vector_text
+
+    if not isinstance(design.estimator, EHGO):
+        raise ParameterError(f"precision='q31' is generated for the EHGO; the "
+                             f"{type(design.estimator).__name__}'s window counter has no "
+                             "bounded fixed-point range: use precision='float' or 'double'")
+    if design.controller.u_range is None:
+        raise ParameterError("precision='q31' needs u_limits on the controller (the input's "
+                             "fixed-point range)")
+    _, _, why = q31_range(guard)
+    if "assumed" in why:
+        warnings.warn(f"precision='q31': {why}", FloatPrecisionWarning, stacklevel=3)
+    base = q31_base(design, prefix, guard)
+    subs, prog, _ = q31_substitutions(design, prefix, guard, base)
+    err = q31_error(design, prog, guard)
+    names = {"step_q31.h.in": f"{prefix}.h", "step_q31.c.in": f"{prefix}.c",
+             "main_q31.c.in": "main.c", "check_q31.c.in": "check.c", "Makefile.in": "Makefile",
+             "CMakeLists.txt.in": "CMakeLists.txt", "README_q31.md.in": "README.md"}
+
+    def write(out: Path) -> list[Path]:
+        written = []
+        for template, name in names.items():
+            text = resources.files("fl_design.codegen").joinpath("templates", template)
+            path = out / name
+            path.write_text(render(text.read_text(), {**subs, "Q31_ERROR": f"{err:.3g}"}))
+            written.append(path)
+        misra = out / "MISRA_DEVIATIONS.md"
+        misra.write_text(deviation_text(prefix, subs["DESIGN_HASH"]))
+        vectors = out / "test_vectors.txt"
+        vectors.write_text(q31_vector_text(design, prog, guard, subs["DESIGN_HASH"]))
+        return [*written, misra, vectors]
+
+    return write, err
 
 
 def _float_prediction(design, precision, plant, scenario, policy) -> float | None:
     import warnings
 
     from ..errors import FloatPrecisionWarning, PrecisionError
-    from ._float_check import fixes, predict_float_error
-    from ._sil import FLOAT_BOUND
 
     if policy not in FLOAT_POLICIES:
         raise ParameterError(f"float_policy={policy!r} is not known; valid: "
                              f"{', '.join(map(repr, FLOAT_POLICIES))}")
-    if (plant is None) != (scenario is None):
-        raise ParameterError("give both plant= and scenario= (the run on which the float "
-                             "build's error is predicted), or neither")
-    if precision != "float" or plant is None:
+    if scenario is not None and plant is None:
+        raise ParameterError("scenario= needs plant= (the run on which the float build's "
+                             "error is predicted)")
+    if precision != "float" or scenario is None:
         return None
     err = predict_float_error(design, plant, scenario)
     if err > FLOAT_BOUND:
@@ -238,42 +208,13 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
     return err
 
 
-def core_function(design: Design, prefix: str) -> ca.Function:
-    """``<prefix>_step_core(x, y, r, p) -> (x_next, u)``: the function the C core computes.
-
-    :attr:`Design.step` with the controller's numbers as the run-time parameter block ``p``
-    (:func:`fl_design.codegen._graph.parametric_core`).
-
-    Parameters
-    ----------
-    design : Design
-        The design generated (after :func:`step_design`).
-    prefix : str
-        C prefix.
-
-    Returns
-    -------
-    casadi.Function
-
-    Examples
-    --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import core_function
-    >>> core_function(presets.paper_design(), "fl").name_in()
-    ['x', 'y', 'r', 'p']
-    """
-    from ._graph import parametric_core
-
-    return parametric_core(design, f"{prefix}_step_core")
-
-
-def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> list[Path]:
-    from ._template import render, substitutions
-
-    subs = substitutions(design, precision, prefix)
+def _write_templates(design: Design, out: Path, precision: str, prefix: str, guard,
+                     plant) -> list[Path]:
+    subs = substitutions(design, precision, prefix, guard, plant)
     names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
              "main.c.in": "main.c", "Makefile.in": "Makefile",
              "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",
+             "check.c.in": "check.c",
              "pil_main.c.in": "pil/pil_main.c", "pil_startup.c.in": "pil/pil_startup.c",
              "pil_semihost.h.in": "pil/pil_semihost.h", "pil.ld.in": "pil/pil.ld"}
     written = []
@@ -283,6 +224,12 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str) -> 
         path = out / name
         path.write_text(render(text, subs))
         written.append(path)
+    misra = out / "MISRA_DEVIATIONS.md"
+    misra.write_text(deviation_text(prefix, subs["DESIGN_HASH"]))
+    written.append(misra)
+    vectors = out / "test_vectors.txt"
+    vectors.write_text(vector_text(design, guard, precision, digest=subs["DESIGN_HASH"]))
+    written.append(vectors)
     return written
 
 

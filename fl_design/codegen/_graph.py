@@ -8,9 +8,9 @@ needs, both neutral at their defaults (the C then equals ``Design.step``):
 
 - input limits ``u_min, u_max`` always exist (default: the design's, else ``-/+ U_OPEN``, a
   huge finite value that never clamps);
-- conditional integration (``antiwindup = 1``): ``z`` is held while ``u`` sits on a limit and
-  the integrator's increment ``-gamma k_I T (xhat_1 - r)`` would push it further out
-  (default 0, the design's law).
+- the conditional-integration switch ``antiwindup`` of :class:`fl_design.DynamicController`
+  (``z`` held while ``u`` sits on a limit and the integrator would push it further out) as a
+  0/1 parameter, defaulting to the design's own setting (on, unless the design turned it off).
 
 :func:`parameter_fields` names the block's fields in the order of the function's ``p`` input.
 
@@ -95,13 +95,16 @@ def parameter_fields(design: Design) -> tuple[ParameterField, ...]:
             out += [ParameterField(f"xhat_min[{i}]", float(lim[0]), f"clamp of xhat_{i + 1}, low"),
                     ParameterField(f"xhat_max[{i}]", float(lim[1]),
                                    f"clamp of xhat_{i + 1}, high")]
-    out.append(ParameterField("antiwindup", 0.0,
+    out.append(ParameterField("antiwindup", float(ctrl.antiwindup),
                               "1: hold z while u is on a limit and z pushes it out; 0: off"))
     return tuple(out)
 
 
 def parametric_core(design: Design, name: str = "fl_core") -> ca.Function:
-    """``name(x, y, r, p) -> (x_next, u)``: the design's step with the parameter block ``p``.
+    """``name(x, y, r, p) -> (x_next, u, xhat)``: the design's step with the parameter block ``p``.
+
+    ``xhat`` are the clamped estimates ``[xhat_1 .. xhat_rho, sigmahat]`` of the sample (the
+    telemetry frame's).
 
     Parameters
     ----------
@@ -136,17 +139,14 @@ def parametric_core(design: Design, name: str = "fl_core") -> ca.Function:
     ranges = [None if lim is None else (sym[f"xhat_min[{i}]"], sym[f"xhat_max[{i}]"])
               for i, lim in enumerate(ctrl.estimate_ranges)]
     shim = SimpleNamespace(rho=rho, gains=[sym[f"k[{i}]"] for i in range(rho)], ki=sym["ki"],
-                           estimate_ranges=ranges, u_range=(sym["u_min"], sym["u_max"]))
+                           estimate_ranges=ranges, u_range=(sym["u_min"], sym["u_max"]),
+                           antiwindup=sym["antiwindup"])
     xhat, xi_next, ready = est.symbolic_update(x[:m], y, ca.DM(est.parameter_vector()))
     u_prev, z_prev = x[m], x[m + 1]
     u, z, xhat_c = DynamicController.symbolic_law(shim, xhat, r, u_prev, z_prev, ready,
                                                   sym["gamma"], design.T)
-    push = -sym["gamma"] * sym["ki"] * (xhat_c[0] - r)  # sign of z's push on u
-    out = ca.logic_or(ca.logic_and(u >= sym["u_max"], push > 0),
-                      ca.logic_and(u <= sym["u_min"], push < 0))
-    z = ca.if_else(ca.logic_and(sym["antiwindup"] > 0.5, out), z_prev, z)
-    return ca.Function(name, [x, y, r, p], [ca.vertcat(xi_next, u, z), u],
-                       ["x", "y", "r", "p"], ["x_next", "u"])
+    return ca.Function(name, [x, y, r, p], [ca.vertcat(xi_next, u, z), u, xhat_c],
+                       ["x", "y", "r", "p"], ["x_next", "u", "xhat"])
 
 
 def start_map(design: Design) -> tuple[np.ndarray, np.ndarray]:

@@ -24,81 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .._toolchain import STRICT_CFLAGS, find_compiler
-from ..errors import CompilationError, CompilerNotFoundError, ParameterError
-
-#: extra warnings of every build (prototypes, float equality, any double arithmetic in float)
-FLOAT_WARNINGS = ("-Wmissing-prototypes", "-Wfloat-equal", "-Wdouble-promotion",
-                  "-Wfloat-conversion")
-#: sanitizer flags of :meth:`CPackage.build` with ``sanitize=True``
-SANITIZE_FLAGS = ("-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
-                  "-fno-sanitize-recover=all")
-
-
-def compiler_or_raise(compiler: str | None = None) -> str:
-    """The C compiler to use, or CompilerNotFoundError saying how to get one.
-
-    Parameters
-    ----------
-    compiler : str, optional
-        Explicit compiler; default :func:`~fl_design.codegen.find_compiler`.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from fl_design.codegen._package import compiler_or_raise
-    >>> compiler_or_raise("cc").endswith("cc")
-    True
-    """
-    cc = compiler or find_compiler()
-    if cc is None:
-        raise CompilerNotFoundError(
-            "no C compiler found: set $CC or install gcc or clang (e.g. apt-get install gcc); "
-            "the generated sources are written, but building, verify() and cost() need one")
-    return cc
-
-
-def run_command(cmd: list[str], *, what: str, stdin: str | None = None, cwd=None,
-                timeout: float = 600) -> str:
-    """Run ``cmd``; its stdout, or CompilationError with the tail of its stderr.
-
-    Parameters
-    ----------
-    cmd : list of str
-        The command.
-    what : str
-        What it does, for the error message.
-    stdin : str, optional
-        Text fed to it.
-    cwd : path-like, optional
-        Working directory.
-    timeout : float, optional
-        Seconds.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from fl_design.codegen._package import run_command
-    >>> run_command(["echo", "ok"], what="echo").strip()
-    'ok'
-    """
-    try:
-        proc = subprocess.run(cmd, input=stdin, capture_output=True, text=True, cwd=cwd,
-                              timeout=timeout, check=False)
-    except FileNotFoundError as exc:
-        raise CompilerNotFoundError(f"{what}: {cmd[0]!r} not found ({exc})") from None
-    except subprocess.TimeoutExpired:
-        raise CompilationError(f"{what}: {cmd[0]} timed out after {timeout:g} s") from None
-    if proc.returncode != 0:
-        raise CompilationError(
-            f"{what} failed (exit {proc.returncode}): {' '.join(cmd)}\n{proc.stderr[-2000:]}")
-    return proc.stdout
+from .._toolchain import STRICT_CFLAGS
+from ..errors import CompilationError, ParameterError
+from ._build import FLOAT_WARNINGS, SANITIZE_FLAGS, compiler_or_raise, run_command
 
 
 @dataclass(frozen=True)
@@ -123,6 +51,8 @@ class CPackage:
     predicted_float_error : float or None, optional
         The float build's predicted relative error (``generate_c`` with ``plant`` and
         ``scenario``), else None.
+    guard : GuardSettings, optional
+        The defaults of the step's checks (:func:`fl_design.codegen._guard.guard_settings`).
 
     Examples
     --------
@@ -140,6 +70,7 @@ class CPackage:
     prefix: str
     files: tuple
     predicted_float_error: float | None = None
+    guard: object = None
 
     @property
     def header(self) -> Path:
@@ -213,7 +144,8 @@ class CPackage:
                     what=f"compiling the {self.precision} harness with {cc}")
         return exe
 
-    def run(self, y, r, *, executable: Path | None = None, env=None) -> np.ndarray:
+    def run(self, y, r, *, executable: Path | None = None, env=None,
+            start: bool = False) -> np.ndarray:
         """Feed ``y, r`` samples to the compiled harness; the inputs ``u`` it prints.
 
         Parameters
@@ -225,6 +157,10 @@ class CPackage:
             A harness from :meth:`build` (default: build one).
         env : dict, optional
             Environment of the process (e.g. sanitizer options).
+        start : bool, optional
+            True: ``PREFIX_start`` at the first ``y`` and the operating point's input
+            (``main.c``'s default, as firmware starts); False (default): from
+            ``PREFIX_init``'s state, :meth:`Design.initial_state` (``main.c --init``).
 
         Returns
         -------
@@ -243,14 +179,15 @@ class CPackage:
             raise ParameterError(f"y and r must have the same length, got {y.size} and {r.size}")
         exe = executable or self.build()
         lines = "\n".join(f"{a!r} {b!r}" for a, b in zip(y.tolist(), r.tolist())) + "\n"
-        proc = subprocess.run([str(exe)], input=lines, capture_output=True, text=True,
+        proc = subprocess.run([str(exe)] + ([] if start else ["--init"]), input=lines, capture_output=True, text=True,
                               env=env, timeout=600, check=False)
         if proc.returncode != 0:
             raise CompilationError(f"the harness {exe} failed (exit {proc.returncode}): "
                                    f"{proc.stderr[-3000:]}")
         return np.array(proc.stdout.split(), dtype=float)
 
-    def verify(self, plant, scenario, *, integrator=None, compiler=None):
+    def verify(self, plant, scenario, *, integrator=None, compiler=None, telemetry=None,
+               excitation=None):
         """Software-in-the-loop: the compiled step drives the simulated plant in closed loop.
 
         See :func:`fl_design.codegen.software_in_the_loop`.
@@ -265,6 +202,9 @@ class CPackage:
             The plant's fixed-step integrator (default ``fl.RK4()``).
         compiler : str, optional
             C compiler.
+        telemetry, excitation : optional
+            A file for the C loop's telemetry frames; the firmware excitation as the
+            reference (see :func:`~fl_design.codegen.software_in_the_loop`).
 
         Returns
         -------
@@ -282,7 +222,8 @@ class CPackage:
         from ._sil import software_in_the_loop
 
         return software_in_the_loop(self, plant, scenario, integrator=integrator,
-                                    compiler=compiler)
+                                    compiler=compiler, telemetry=telemetry,
+                                    excitation=excitation)
 
     def pil(self, plant, scenario, *, max_samples: int = 2000, timeout: float = 300,
             cflags=()):

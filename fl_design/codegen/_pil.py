@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CompilationError, CompilerNotFoundError, ParameterError
+from ._build import run_command
 from ._compare import InputComparison, recorded_run, reference_inputs
-from ._package import run_command
 
 #: target flags of the Cortex-M4F build (true single-precision FPU, hard-float ABI)
 ARM_CFLAGS = ("-O2", "-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16")
@@ -260,7 +260,7 @@ def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
     >>> res is None or res.passed
     True
     """
-    from ._sil import bound_for
+    from ._compare import bound_for
 
     if not isinstance(max_samples, int) or max_samples < 1:
         raise ParameterError(f"max_samples={max_samples!r} must be an integer >= 1")

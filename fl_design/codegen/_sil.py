@@ -17,8 +17,10 @@ hold:
 (b) **the C loop does what the simulation says**: its status, classified by the simulation
     layer's rules (:mod:`fl_design.codegen._verdict`), equals that of :func:`fl_design.simulate`
     on the same plant, design and scenario. A loop that diverges (or oscillates under a constant
-    reference: :func:`loop_failed`) in C and in Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not to fail. A run
-    too short to tell (``"undecided"`` in both) passes with that status in the result
+    reference: :func:`loop_failed`), or stalls outside the band (an unreachable reference)
+    in C and in Python agrees, but fails: :attr:`SilResult.passed` also needs the C loop not
+    to fail. Any verdict mismatch fails (e.g. ``"undecided"`` in C where Python converges).
+    A run too short to tell (``"undecided"`` in both) passes with that status in the result
     (:attr:`SilResult.c_stable` is then False): run longer, or give no duration (the run then
     chooses its length from the loop's slowest mode), to see it converge.
 
@@ -37,28 +39,26 @@ from importlib import resources
 import casadi as ca
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ComputationError, ParameterError
 from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
-from ._compare import InputComparison
-from ._package import compiler_or_raise, run_command
+from ._build import compiler_or_raise, run_command
+from ._compare import DOUBLE_BOUND, FLOAT_BOUND, InputComparison, bound_for, reference_run
 from ._template import render
 from ._verdict import c_loop_response
 
-#: relative bound of the double build (fraction of max |u|)
-DOUBLE_BOUND = 1e-12
-#: relative bound of the single-precision build (fraction of max |u|)
-FLOAT_BOUND = 1e-4
-#: statuses of the C loop that fail the check whatever the simulation says
-FAILING = ("diverged", "oscillating", "solver_failed")
+#: statuses of the C loop that fail the check whatever the simulation says (``"stalled"``: the
+#: output stopped outside the band, e.g. an unreachable reference under the input limits)
+FAILING = ("diverged", "oscillating", "solver_failed", "stalled")
 
 
 def loop_failed(status: str, r_tail) -> bool:
     """Whether a C loop with ``status`` fails the check (``r_tail``: the reference's tail).
 
-    A status in :data:`FAILING` fails, except ``"oscillating"`` under a reference that moves
-    in the tail window: the classifier counts reversals of the error, which a loop tracking a
-    square wave shows too (the status then says nothing about the loop).
+    A status in :data:`FAILING` fails (``"stalled"``, an unreachable or never-reached
+    reference, included), except ``"oscillating"`` under a reference that moves in the tail
+    window: the classifier counts reversals of the error, which a loop tracking a square wave
+    shows too (the status then says nothing about the loop).
 
     Parameters
     ----------
@@ -76,31 +76,12 @@ def loop_failed(status: str, r_tail) -> bool:
     >>> from fl_design.codegen._sil import loop_failed
     >>> loop_failed("oscillating", [0.3, 0.3]), loop_failed("oscillating", [0.3, -0.3])
     (True, False)
+    >>> loop_failed("stalled", [1.0, 1.0]), loop_failed("undecided", [1.0, 1.0])
+    (True, False)
     """
     if status == "oscillating":
         return bool(np.ptp(np.asarray(r_tail, dtype=float)) == 0.0)
     return status in FAILING
-
-
-def bound_for(precision: str) -> float:
-    """The documented relative bound of :func:`software_in_the_loop` for ``precision``.
-
-    Parameters
-    ----------
-    precision : str
-        ``"double"`` or ``"float"``.
-
-    Returns
-    -------
-    float
-
-    Examples
-    --------
-    >>> from fl_design.codegen._sil import bound_for
-    >>> bound_for("float") > bound_for("double")
-    True
-    """
-    return FLOAT_BOUND if precision == "float" else DOUBLE_BOUND
 
 
 @dataclass(frozen=True)
@@ -121,8 +102,8 @@ class SilResult(InputComparison):
     c_stable : bool, optional
         The C loop's status is convergent (``"converged"`` or ``"converging"``).
     c_failed : bool, optional
-        The C loop failed (:func:`loop_failed`: diverged, solver failed, or oscillating under a
-        constant reference).
+        The C loop failed (:func:`loop_failed`: diverged, solver failed, stalled outside the
+        band, or oscillating under a constant reference).
 
     Attributes
     ----------
@@ -238,63 +219,35 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
     return exe
 
 
-def reference_run(design, ym, r, *, state0=None, chunk: int = 20_000):
-    """``Design.step`` (CasADi's interpreter) fed ``ym, r``: inputs, estimates, states.
+def _options(pkg, scenario, telemetry, excitation):
+    """The driver's arguments, and the scenario (its reference the excitation's, if any)."""
+    from dataclasses import replace
 
-    The step is accumulated over chunks of samples (``mapaccum``), the state carried from
-    chunk to chunk: linear in the number of samples (about 4 us per sample).
+    from ..sim import Scenario
+    from ._telemetry import EXCITATION_KINDS, excitation_sequence
 
-    Parameters
-    ----------
-    design : Design
-        The design.
-    ym, r : numpy.ndarray
-        ``(N,)`` measurements and references.
-    state0 : array_like, optional
-        Start state (default :meth:`Design.initial_state`).
-    chunk : int, optional
-        Samples per ``mapaccum``.
-
-    Returns
-    -------
-    u : numpy.ndarray
-        ``(N,)``.
-    xhat : numpy.ndarray
-        ``(N, rho + 1)`` clamped estimates.
-    states : numpy.ndarray
-        ``(N, state_size)`` states after each sample.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design import presets
-    >>> from fl_design.codegen._sil import reference_run
-    >>> d = presets.paper_design()
-    >>> y, r = np.linspace(0, 0.1, 7), np.full(7, 0.3)
-    >>> u, xhat, states = reference_run(d, y, r, chunk=3)
-    >>> np.allclose(u, d.run(y, r).u, rtol=0, atol=1e-15), xhat.shape
-    (True, (7, 3))
-    """
-    p0 = ca.DM(design.parameter_vector())
-    s, y_, r_ = ca.SX.sym("s", design.state_size), ca.SX.sym("y"), ca.SX.sym("r")
-    s_next, u, xhat = design.parametric_step(s, y_, r_, p0)
-    f = ca.Function("fl_sil_ref", [s, y_, r_], [s_next, u, xhat])
-    state = design.initial_state() if state0 is None else np.asarray(state0, dtype=float)
-    us, xs, ss, maps = [], [], [], {}
-    for start in range(0, len(ym), chunk):
-        y_c, r_c = ym[start:start + chunk], r[start:start + chunk]
-        if y_c.size not in maps:  # building a mapaccum costs more than running it: reuse
-            maps[y_c.size] = f.mapaccum("fl_ref", y_c.size)
-        states, u_c, x_c = maps[y_c.size](state, y_c[None, :], r_c[None, :])
-        states = np.asarray(states, dtype=float)
-        state = states[:, -1]
-        ss.append(states.T)
-        us.append(np.asarray(u_c, dtype=float).ravel())
-        xs.append(np.asarray(x_c, dtype=float).T)
-    return np.concatenate(us), np.concatenate(xs), np.concatenate(ss)
+    args = [] if telemetry is None else ["telemetry", str(telemetry)]
+    if excitation is None:
+        return args, scenario
+    if not isinstance(scenario, Scenario) or scenario.duration is None:
+        raise ParameterError("an excitation needs a scenario with a duration (the run's "
+                             "length)")
+    kind, center, amplitude, hold = excitation
+    n = round(scenario.duration / pkg.design.T)
+    ref = excitation_sequence(kind, float(center), float(amplitude), int(hold), n)
+    g = pkg.guard
+    if g is not None and not (g.y_min <= center - amplitude and center + amplitude <= g.y_max):
+        raise ParameterError(f"excitation {center} +- {amplitude} leaves the plausibility range "
+                             f"[{g.y_min:g}, {g.y_max:g}] (PREFIX_excitation_init refuses it)")
+    if pkg.precision == "float":
+        ref = ref.astype(np.float32).astype(float)
+    args += ["excite", str(EXCITATION_KINDS[kind]), repr(float(center)), repr(float(amplitude)),
+             str(int(hold))]
+    return args, replace(scenario, reference=ref, duration=n * pkg.design.T)
 
 
-def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None) -> SilResult:
+def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None,
+                         telemetry=None, excitation=None) -> SilResult:
     """Run ``pkg``'s compiled step in closed loop with ``plant``, started as firmware starts it.
 
     See the module docstring: passes when the C equals ``Design.step`` within the precision's
@@ -315,6 +268,14 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
         simulation alike.
     compiler : str, optional
         C compiler.
+    telemetry : path-like, optional
+        Write the C loop's telemetry frames there (``PREFIX_telemetry`` after each step;
+        :func:`fl_design.read_telemetry` reads them).
+    excitation : tuple, optional
+        ``(kind, center, amplitude, hold)``: the reference is the firmware's
+        ``PREFIX_excite`` (:func:`~fl_design.codegen._telemetry.excitation_sequence`), in
+        the C loop and in the simulation it is compared with, over the scenario's duration
+        (which must be given).
 
     Returns
     -------
@@ -323,7 +284,9 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     Raises
     ------
     ParameterError
-        ``scenario.initial_estimate`` is set; ``integrator`` not a ``fl.RK4``.
+        A q31 package; ``scenario.initial_estimate`` is set; ``integrator`` not a
+        ``fl.RK4``; an excitation
+        without a duration, or one the C refuses (outside the plausibility range).
 
     Examples
     --------
@@ -337,11 +300,17 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     """
     from ..sim import RK4
 
+    if pkg.precision == "q31":
+        raise ParameterError(
+            "software_in_the_loop of a precision='q31' package is not available: its make "
+            "check replays bit-exact vectors of the integer model, and "
+            "CPackage.predicted_float_error is its measured error against Design.step")
     if getattr(scenario, "initial_estimate", None) is not None:
         raise ParameterError(
             "scenario.initial_estimate is set; the C loop starts as firmware does, from the "
             "first measurement (PREFIX_start): give a scenario without initial_estimate")
     design = pkg.design
+    args, scenario = _options(pkg, scenario, telemetry, excitation)
     run = prepare_run(plant, design, scenario, integrator=integrator)
     steps = run.loop.substeps
     exe = build_driver(pkg, plant, steps, compiler)
@@ -349,10 +318,15 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     body = "\n".join(f"{a!r} {b!r} {c!r}"
                      for a, b, c in zip(run.r.tolist(), run.noise.tolist(), run.d_in.tolist()))
     n = run.loop.n
-    out = np.array(run_command([str(exe)], stdin=head + body + "\n", what="the SIL driver")
-                   .split(), dtype=float).reshape(-1, 3 + 2 * n)
+    out = np.array(run_command([str(exe), *args], stdin=head + body + "\n",
+                               what="the SIL driver").split(), dtype=float).reshape(-1, 4 + 2 * n)
     y, ym, u_c = out[:, 0], out[:, 1], out[:, 2]
-    X, X_next = out[:, 3:3 + n], out[:, 3 + n:]
+    X, X_next = out[:, 4:4 + n], out[:, 4 + n:]
+    if excitation is not None:  # the C routine made the reference the simulation was given
+        tol = 1e-6 * max(1.0, float(np.max(np.abs(run.r)))) if pkg.precision == "float" else 0
+        if not np.allclose(out[:, 3], run.r, rtol=0, atol=tol):
+            raise ComputationError("the C excitation differs from excitation_sequence: "
+                                   f"max {np.max(np.abs(out[:, 3] - run.r)):.3g}")
     used = pkg.step_design
     state0 = used.initial_state(y0=float(ym[0]), u0=run.u0)
     u_ref, xhat, states = reference_run(used, ym, run.r, state0=state0)

@@ -15,6 +15,7 @@ import casadi as ca
 
 from ..design import EHGO, Design, LeastSquaresEstimator
 from ..errors import ComputationError
+from ._guard import PARAM_CHECK_PERIOD, design_hash, guard_settings
 
 
 def render(text: str, subs: dict[str, str]) -> str:
@@ -107,7 +108,7 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
         defaults += [f"  p->xhat_{side}[{i}] = {lit(sign * U_OPEN)};  /* not clamped */"
                      for i in range(rho) if i not in clamped
                      for side, sign in (("min", -1), ("max", 1))]
-    defaults.append("  p->antiwindup = 0;")
+    defaults.append(f"  p->antiwindup = {int(design.controller.antiwindup)};")
     finite = [f"!{{PFX}}_finite(p->{name})" for name in fields if name != "antiwindup"]
     checks = ["  if (" + (" ||\n      ".join(finite)) + ") {",
               f"    return {P}_BAD_NONFINITE;", "  }"]
@@ -118,10 +119,49 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
     for i in clamped:
         checks += [f"  if (p->xhat_min[{i}] > p->xhat_max[{i}]) {{",
                    f"    return {P}_BAD_XHAT_LIMITS;", "  }"]
-    checks += ["  if (p->antiwindup != 0 && p->antiwindup != 1) {",
+    checks += ["  if ((p->antiwindup != 0) && (p->antiwindup != 1)) {",
                f"    return {P}_BAD_SWITCH;", "  }"]
+    reals = ["gamma", *(f"k[{i}]" for i in range(rho)), "ki", "u_min", "u_max"]
+    if clamped:
+        reals += [f"xhat_{side}[{i}]" for side in ("min", "max") for i in range(rho)]
+    reals += ["y_min", "y_max", "dy_max", "u_safe"]
+    summed = [f"  h = {{PFX}}_mix_real(h, p->{name});" for name in reals]
+    summed += ["  h = {PFX}_mix(h, (uint32_t) p->antiwindup);",
+               "  h = {PFX}_mix(h, p->lost_after);", "  h = {PFX}_mix(h, p->frozen_after);"]
+    # member by member: a struct assignment of this size is a memcpy call on some targets
+    copied = [f"  s->p.{name} = p->{name};" for name in reals]
+    copied += [f"  s->p.{name} = p->{name};" for name in ("antiwindup", "lost_after",
+                                                          "frozen_after")]
     return {"PARAM_MEMBERS": "\n".join(members), "PARAM_DEFAULTS": "\n".join(defaults),
-            "PARAM_CHECKS": "\n".join(checks)}
+            "PARAM_CHECKS": "\n".join(checks), "PARAM_SUM": "\n".join(summed),
+            "PARAM_COPY": "\n".join(copied)}
+
+
+def _excitation(design, g, lit) -> dict[str, str]:
+    """Suggested excitation: 2 % of the output's plausible span (at most 0.1 without a plant),
+    held for the closed loop's slowest time constant (the roots of the gains' polynomial)."""
+    import numpy as np
+
+    ctrl = design.controller
+    roots = np.roots([1.0, *ctrl.gains[::-1]])
+    tau = 1.0 / float(np.min(np.abs(roots.real)))
+    hold = max(1, round(tau / design.T))
+    span = g.y_max - g.y_min
+    amp = 0.02 * span if span < 1e6 else 0.1
+    why = ("2 % of the plausibility range" if span < 1e6 else "0.1 (no plant: a guess)")
+    return {"EXCITE_AMPLITUDE": lit(amp), "EXCITE_HOLD": str(hold), "EXCITE_WHY": why}
+
+
+def _units(design, plant) -> str:
+    rho = design.rho
+    out = "the plant's output" if plant is None else f"the output {getattr(plant, 'output', 'y')}"
+    inp = "input" if plant is None else f"input {getattr(plant, 'input', 'u')}"
+    rows = [f"/* y, r, y_min, y_max, dy_max, xhat_1: units of {out} (those of the model the",
+            " * design was made for); u, u_min, u_max, u_safe: units of the " + inp + ";",
+            f" * xhat_i: y units / s^(i-1); sigmahat: y units / s^{rho}; T, eps: s;",
+            (f" * k_i: 1 / s^({rho} - i + 1); k_I: 1 / s^{rho + 1}; gamma: u units per "
+            f"(y units / s^{rho}). */")]
+    return "\n".join(rows)
 
 
 def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
@@ -155,20 +195,26 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
     names = [f"p->{fl.name}" for fl in parameter_fields(design)]
     n = design.state_size
     body = c_body(f, [[f"x[{i}]" for i in range(n)], ["y"], ["r"], names],
-                  [[f"x_next[{i}]" for i in range(n)], ["*u"]], precision,
+                  [[f"x_next[{i}]" for i in range(n)], ["*u"],
+                   [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
                   switches={"p->antiwindup"})
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
 
 
-def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]:
+def substitutions(design: Design, precision: str, prefix: str, guard=None,
+                  plant=None) -> dict[str, str]:
     """Every placeholder value of the templates for ``design``.
 
     Parameters
     ----------
     design, precision, prefix
         As in :func:`core_source` (the design after :func:`~fl_design.codegen.step_design`).
+    guard : GuardSettings, optional
+        The checks' defaults (default :func:`~fl_design.codegen._guard.guard_settings`).
+    plant : Plant, optional
+        For the names in the header's units.
 
     Returns
     -------
@@ -190,8 +236,8 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
     lit = lambda x: c_literal(x, precision)
     c0, c1 = start_map(design)
     body, n_ins = core_source(design, precision, prefix)
-    from ._cost import operation_counts
     from ._graph import parametric_core
+    from ._opcount import operation_counts
 
     ops = operation_counts(parametric_core(design))
     size = 4 if precision == "float" else 8
@@ -211,15 +257,33 @@ def substitutions(design: Design, precision: str, prefix: str) -> dict[str, str]
         "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
         "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
         "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
-        "COMMIT": "\n".join(f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
-                            for i in range(design.state_size)),
+        "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
+                             for i in range(design.state_size)]
+                            + [f"  s->xhat[{i}] = xhat[{i}]{' + s->y_c' if i == 0 else ''};"
+                               for i in range(design.rho + 1)]),
         "STATE_BYTES": str(size * design.state_size),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",
     }
     params = _parameter_text(design, precision, P)
-    params["PARAM_CHECKS"] = params["PARAM_CHECKS"].replace("{PFX}", prefix)
+    for key in ("PARAM_CHECKS", "PARAM_SUM"):
+        params[key] = params[key].replace("{PFX}", prefix)
     subs.update(params)
+    g = guard_settings(design) if guard is None else guard
+    digest = design_hash(design, precision)
+    subs.update({
+        "Y_MIN": lit(g.y_min), "Y_MAX": lit(g.y_max), "DY_MAX": lit(g.dy_max),
+        "U_SAFE": lit(g.u_safe), "LOST_AFTER": str(int(g.lost_after)),
+        "FROZEN_AFTER": str(int(g.frozen_after)), "U_OP_LITERAL": lit(g.u_op),
+        "PARAM_CHECK_PERIOD": str(PARAM_CHECK_PERIOD), "GUARD_SOURCE": g.source,
+        "DESIGN_HASH": digest, "DESIGN_HASH_U32": "0x" + digest[:8].upper(),
+        "UNITS": _units(design, plant),
+        "DEVIATION": "1" if precision == "float" else "0",
+        **_excitation(design, g, lit),
+        "MIX_REAL": ("  return " + prefix + "_mix(h, " + prefix + "_bits(v));" if precision == "float"
+                     else "  const uint64_t b = " + prefix + "_bits(v);\n  return " + prefix
+                     + "_mix(" + prefix + "_mix(h, (uint32_t) (b & 0xFFFFFFFFu)), (uint32_t) (b >> 32));"),
+    })
     return subs
 
 

@@ -45,8 +45,15 @@ class DynamicController:
         z_k     = z_(k-1) + T (xhat_1 - r)
         v_k     = -k_1 (xhat_1 - r) - sum_(i>=2) k_i xhat_i - k_I z_k
         u_k     = sat(u_(k-1) + gamma (v_k - sigmahat), u_limits)
+        z_k    <- z_(k-1)  if antiwindup and u_k is on a limit and the integrator's
+                           increment -gamma k_I (xhat_1 - r) pushes it further out
 
-    The saturated ``u_k`` is the controller's state.
+    The saturated ``u_k`` is the controller's state: ``u`` itself never winds up, and the
+    model-free observer (driven by ``y`` alone) estimates ``sigma = a + b u`` of the input
+    actually applied, so ``sigmahat`` cannot wind up while ``u`` is pinned either. The
+    integrator can: conditional integration (``antiwindup=True``, the default) holds ``z``
+    while ``u`` sits on a limit and ``z`` would push it further. Nothing changes while ``u``
+    is inside its limits, without ``u_limits``, or with ``k_I = 0``.
 
     Parameters
     ----------
@@ -73,6 +80,10 @@ class DynamicController:
         (``(-c, c)``) or a pair ``(lo, hi)``; limits the peaking of the high-gain observer.
         Entry 0 must be None: ``xhat_1`` is the output estimate fed to the integrator and the
         normative loop clamps only ``xhat_2 .. xhat_rho``. None (default): no limits.
+    antiwindup : bool, optional
+        Conditional integration (default True): ``z`` is held while ``u`` is on a limit and
+        the integrator pushes it further out (the C step's ``antiwindup`` parameter is the
+        same law). False: ``z`` integrates whatever ``u`` does (the paper's law).
     u0 : float, optional
         Initial input ``u(-1)``, the controller state before the first sample (inside
         ``u_limits``). Default None: the plant's equilibrium input ``u_eq`` at its operating
@@ -117,6 +128,7 @@ class DynamicController:
     u_limits: Interval | None = None
     estimate_limits: tuple[Interval | None, ...] | None = None
     u0: float | None = None
+    antiwindup: bool = True
     u_range: Interval | None = field(init=False, repr=False, compare=False)
     estimate_ranges: tuple[Interval | None, ...] = field(init=False, repr=False, compare=False)
 
@@ -134,6 +146,7 @@ class DynamicController:
             "u_range": u_limits,
             "estimate_ranges": _checked_estimate_limits(self.estimate_limits, rho),
             "u0": u0,
+            "antiwindup": _checked_switch("antiwindup", self.antiwindup),
         }
         for name, value in fields.items():
             object.__setattr__(self, name, value)
@@ -154,7 +167,8 @@ class DynamicController:
         Parameters
         ----------
         **changes
-            New values of ``gains``, ``gamma``, ``ki``, ``u_limits``, ``estimate_limits``, ``u0``.
+            New values of ``gains``, ``gamma``, ``ki``, ``u_limits``, ``estimate_limits``, ``u0``,
+            ``antiwindup``.
 
         Examples
         --------
@@ -218,7 +232,14 @@ class DynamicController:
             vk = vk - self.gains[i] * parts[i]
         u = u_prev + gamma * (vk - parts[rho])
         if self.u_range is not None:
-            u = ca.fmin(ca.fmax(u, self.u_range[0]), self.u_range[1])
+            lo, hi = self.u_range
+            u = ca.fmin(ca.fmax(u, lo), hi)
+            if self.antiwindup is not False:  # True, or a 0/1 switch symbol (the C's block)
+                push = -gamma * self.ki * err  # sign of z's push on u
+                out = ca.logic_or(ca.logic_and(u >= hi, push > 0), ca.logic_and(u <= lo, push < 0))
+                if self.antiwindup is not True:
+                    out = ca.logic_and(self.antiwindup > 0.5, out)
+                z = ca.if_else(out, z_prev, z)
         hold = ready == 0
         return ca.if_else(hold, u_prev, u), ca.if_else(hold, z_prev, z), xhat_c
 
@@ -234,9 +255,17 @@ class DynamicController:
             opts.append(f"estimate_limits=({shown})")
         if self.u0 is not None:
             opts.append(f"u0={self.u0:g}")
+        if not self.antiwindup:
+            opts.append("antiwindup=False")
         gains = ", ".join(f"{k:g}" for k in self.gains)
         head = [f"gains=({gains})", f"gamma={self.gamma:g}"]
         return f"DynamicController({', '.join(head + opts)})"
+
+
+def _checked_switch(name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 def _checked_gains(gains) -> tuple[float, ...]:

@@ -60,7 +60,8 @@ def test_table_measures_and_serializes(table):
     data = json.loads(json.dumps(table.to_dict(), allow_nan=False))
     assert [r["name"] for r in data["rows"]] == ["EHGO", "LS(9)", "LS(26)"]
     md = table.to_markdown().splitlines()
-    assert len(md) == 5 and md[2].startswith("| EHGO | double | 59 |")
+    # 58: the conditional integration reuses xhat_1 - r of the law (59 with its own copy)
+    assert len(md) == 5 and md[2].startswith("| EHGO | double | 58 |")
 
 
 @pytest.mark.skipif(shutil.which("arm-none-eabi-gcc") is None,
@@ -86,7 +87,7 @@ def test_cli_codegen_writes_the_package(tmp_path, capsys):
     out = tmp_path / "c"
     assert main(["codegen", str(out), "--precision", "float", "--prefix", "trms"]) == 0
     assert "float trms_step(" in (out / "trms.h").read_text()
-    assert "wrote 10 files (float, prefix 'trms')" in capsys.readouterr().out
+    assert "wrote 13 files (float, prefix 'trms')" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("args,needle", [
@@ -104,4 +105,4 @@ def test_bench_codegen_quick():
     proc = subprocess.run([sys.executable, str(ROOT / "verify" / "bench_codegen.py"), "--quick"],
                           capture_output=True, text=True, timeout=600, check=False, env=env)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    assert "[ok] EHGO flops 59 <= 60" in proc.stdout and "| LS(26) | float |" in proc.stdout
+    assert "[ok] EHGO flops 58 <= 60" in proc.stdout and "| LS(26) | float |" in proc.stdout

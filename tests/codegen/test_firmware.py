@@ -62,6 +62,7 @@ def test_start_is_the_estimators_rest_state_and_holds_u(packages, name):
     u = np.array(out[n:n + 5000], dtype=float)
     x_end = np.array(out[n + 5000:], dtype=float)
     # the state Python starts from (what fl.simulate does), in the generated realization
+    # (double: absolute coordinates; a float build measures the state from y_c = y0)
     np.testing.assert_allclose(x_start, used.initial_state(y0=y0, u0=u0), rtol=1e-15, atol=0)
     # at rest with y = r: u stays at u0 and the observer stays where it started
     np.testing.assert_allclose(u, u0, rtol=1e-13, atol=0)
@@ -165,11 +166,13 @@ def test_plausibility_rate_sensor_lost_and_saturating_counters(packages):
   printf("%lu %lu", (unsigned long) s.n_rejected, (unsigned long) s.n_steps);""")
     assert out[:3] == ["1", "2", "0"]            # held u, FL_FAULT_RANGE, not lost yet
     assert out[3:5] == ["4", "6"]                # FL_FAULT_RATE; sticky RANGE | RATE
-    assert out[5:8] == ["1", "1", "3"]           # FL_FAULT_NONFINITE; lost after 3
+    assert out[5:8] == ["65", "1", "3"]          # FL_FAULT_NONFINITE | LOST; lost after 3
     assert out[8:10] == ["0", "3"]
-    used = pkg.step_design  # restarted at rest at 0.4 with u held, then one step there
-    x_next, _ = used.step(used.initial_state(y0=0.4, u0=float(out[12])), 0.4, 0.1)
-    assert float(out[10]) == pytest.approx(float(x_next[0]), rel=1e-6)
+    used = pkg.step_design  # restarted at rest at 0.4 with u_safe (held while lost), one step
+    u_safe = pkg.guard.u_safe
+    x_next, _ = used.step(used.initial_state(y0=0.4, u0=u_safe), 0.4, 0.1)
+    # s.x[0] is relative to y_c = 0.4 (deviation coordinates)
+    assert float(out[10]) == pytest.approx(float(x_next[0]) - 0.4, abs=1e-6)
     assert float(out[11]) == pytest.approx(0.4)
     assert out[13:] == ["4294967295", "4294967295"]  # saturated, not wrapped
 
@@ -181,6 +184,9 @@ def test_faults_without_optional_checks_are_named(packages, precision):
     pkg = packages[("trms", precision)]
     big = "3e38f" if precision == "float" else "1.7e308"
     out = probe(pkg, f"""  fl_init(&s);
+  fl_default_params(&p);
+  p.y_min = p.y_max = 0;                   /* the range check off */
+  if (fl_set_params(&s, &p) != FL_OK) return 1;
   fl_start(&s, 0.1, 0.0);
   float u0 = (float) fl_step(&s, 0.1, 0.3);
   fl_real_t bad[4][2] = {{{{0.0 / 0.0, 0.3}}, {{0.1, 1.0 / 0.0}}, {{{big}, 0.0}}, {{0.1, 0.3}}}};
@@ -229,10 +235,11 @@ def test_non_finite_rejection_survives_fast_math(packages, compiler, flag, preci
                    timeout=120)
     y = [0.1, float("nan"), float("inf"), 0.1, float("-inf"), 1e30, 0.12]
     lines = "".join(f"{v!r} 0.3\n" for v in y) + "0.1 nan\n"
-    proc = subprocess.run([str(exe)], input=lines, capture_output=True, text=True, check=True,
-                          timeout=60)
+    proc = subprocess.run([str(exe), "--init"], input=lines, capture_output=True, text=True,
+                          check=True, timeout=60)
     u = np.array(proc.stdout.split(), dtype=float)
-    assert "rejected 4" in proc.stderr  # nan, inf, -inf, r = nan; 1e30 is finite
+    # nan, inf, -inf, r = nan; 1e30 is finite but outside the default range |y| <= 1e9
+    assert "rejected 5" in proc.stderr
     assert np.all(np.isfinite(u))
     strict = pkg.run(np.array(y + [0.1]), np.array([0.3] * 7 + [np.nan]))
     np.testing.assert_allclose(u, strict, rtol=1e-5 if precision == "float" else 1e-12)

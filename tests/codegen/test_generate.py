@@ -31,7 +31,8 @@ def test_files_and_api(packages):
     assert isinstance(pkg, CPackage)
     assert {str(p.relative_to(pkg.out_dir)) for p in pkg.files} == {
         "fl.h", "fl.c", "main.c", "Makefile", "CMakeLists.txt", "README.md", "pil/pil_main.c",
-        "pil/pil_startup.c", "pil/pil_semihost.h", "pil/pil.ld"}
+        "pil/pil_startup.c", "pil/pil_semihost.h", "pil/pil.ld", "check.c", "test_vectors.txt",
+        "MISRA_DEVIATIONS.md"}
     header = pkg.header.read_text()
     for decl in ("} fl_state_t;", "} fl_params_t;", "void fl_init(fl_state_t *s);",
                  "void fl_reset(fl_state_t *s);",
@@ -84,7 +85,8 @@ def test_strict_compile_no_library_call_one_step_exported(packages, precision, c
     assert {u for u in nm("-u").split() if u != "U"} == set()  # no libm, not even memcpy
     exported = set(re.findall(r" T (\w+)", nm("-g", "--defined-only")))
     assert exported == {"fl_init", "fl_reset", "fl_start", "fl_step", "fl_set_params",
-                        "fl_default_params"}
+                        "fl_default_params", "fl_disengage", "fl_manual_input", "fl_engage",
+                        "fl_telemetry", "fl_excitation_init", "fl_excite"}
     assert exe.exists()
 
 
@@ -137,7 +139,7 @@ def test_folder_that_cannot_be_written(tmp_path):
 
 def test_no_c_compiler(tmp_path, monkeypatch):
     pkg = generate_c(presets.paper_design(), tmp_path)  # writing needs no compiler
-    monkeypatch.setattr("fl_design.codegen._package.find_compiler", lambda: None)
+    monkeypatch.setattr("fl_design.codegen._build.find_compiler", lambda: None)
     with pytest.raises(CompilerNotFoundError, match="no C compiler found: set \\$CC") as info:
         pkg.build()
     assert isinstance(info.value, RuntimeError)

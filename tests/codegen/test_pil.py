@@ -47,7 +47,9 @@ def test_no_flush_build_is_leaner_and_computes_the_same(tmp_path):
     lean = pkg.pil(fl.plants.trms_yaw(), sc, max_samples=500, cflags=("-DFL_NO_FLUSH",))
     assert (lean.u_c == full.u_c).all()  # no subnormal on this run: the same bits
     # the flush is the FPU's flush-to-zero mode: FPSCR read, FZ set, FPSCR written, restored
-    assert full.instructions - lean.instructions == pytest.approx(4.0, abs=0.5)
+    # (and two register moves the FZ build spends on keeping the saved FPSCR live across the
+    # deviation-coordinate subtractions and the checks)
+    assert full.instructions - lean.instructions == pytest.approx(6.0, abs=0.5)
 
 
 @needs_qemu

@@ -88,15 +88,21 @@ def _law_numpy(ctrl, xhat_ext, r, u_prev, z_prev, ready, gamma, T):
     u = u_prev + gamma * (v - x[ctrl.rho])
     if ctrl.u_range is not None:
         u = min(max(u, ctrl.u_range[0]), ctrl.u_range[1])
+        push = -gamma * ctrl.ki * (x[0] - r)  # conditional integration (anti-windup)
+        if ctrl.antiwindup and ((u >= ctrl.u_range[1] and push > 0)
+                                or (u <= ctrl.u_range[0] and push < 0)):
+            z = z_prev
     return u, z, x
 
 
+@pytest.mark.parametrize("antiwindup", [True, False])
 @pytest.mark.parametrize("rho", [1, 2, 3])
-def test_symbolic_law_matches_the_equations(rho):
+def test_symbolic_law_matches_the_equations(rho, antiwindup):
     rng = np.random.default_rng(rho)
     gains = fl.gains_from_poles([-1.0 - 0.5 * i for i in range(rho)])
     limits = (None,) + tuple((-0.3, 0.4) for _ in range(rho - 1))
-    ctrl = fl.DynamicController(gains, 0.7, ki=0.3, u_limits=(-0.5, 0.8), estimate_limits=limits)
+    ctrl = fl.DynamicController(gains, 0.7, ki=0.3, u_limits=(-0.5, 0.8), estimate_limits=limits,
+                                antiwindup=antiwindup)
     xs = ca.SX.sym("x", rho + 1)
     r, up, zp, ready, gamma = (ca.SX.sym(n) for n in ("r", "up", "zp", "ready", "gamma"))
     f = ca.Function("law", [xs, r, up, zp, ready, gamma],
@@ -220,3 +226,10 @@ def test_lqr_double_integrator_closed_form():
 def test_lqr_gains_bad_inputs(kwargs, error, match):
     with pytest.raises(error, match=match):
         fl.lqr_gains(**kwargs)
+
+
+def test_antiwindup_is_a_bool_and_on_by_default():
+    assert fl.DynamicController((2, 4), 1e-3).antiwindup is True
+    assert "antiwindup=False" in repr(fl.DynamicController((2, 4), 1e-3, antiwindup=False))
+    with pytest.raises(errors.ParameterError, match="antiwindup must be True or False, got 1"):
+        fl.DynamicController((2, 4), 1e-3, antiwindup=1)

@@ -30,6 +30,10 @@ def _controller_part(ctrl, xhat, r, u_prev, z_prev):
         v -= ctrl.gains[i] * x[i]
     v -= ctrl.ki * z
     u = _clamp(u_prev + ctrl.gamma * (v - x[rho]), ctrl.u_range)  # step 5
+    if ctrl.antiwindup and ctrl.u_range is not None:  # conditional integration
+        push = -ctrl.gamma * ctrl.ki * (x[0] - r)
+        if (u >= ctrl.u_range[1] and push > 0) or (u <= ctrl.u_range[0] and push < 0):
+            z = z_prev
     return u, z, x
 
 

@@ -1,0 +1,279 @@
+"""The Q31 program as C statements and as a bit-exact Python model.
+
+Each instruction of :class:`~fl_design.codegen._q31.Q31Program` becomes one ``int32_t`` (or
+``bool``) constant: sums aligned in ``int64_t`` (at most 31 bits apart, so each operand is
+below ``2^62``), products of two ``int32_t`` in ``int64_t``, results shifted to their fraction
+bits (floor: the arithmetic right shift, written on the unsigned pattern in C). The Python
+model applies the same integer operations to Python integers, so C and model agree bit for bit.
+
+Examples
+--------
+>>> from fl_design import presets
+>>> from fl_design.codegen._q31 import q31_program
+>>> from fl_design.codegen._q31_code import c_body_q31
+>>> "_asr(" in c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
+True
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ComputationError
+from ._q31 import _CMP, Q31Program
+
+
+def _shift(v: str, f_from: int, f_to: int) -> str:
+    s = f_from - f_to
+    if s > 0:
+        return f"{{PFX}}_asr({v}, {min(s, 63)}u)"
+    if s < 0:
+        return f"({v} * INT64_C({1 << -s}))"
+    return v
+
+
+def _py_shift(v: int, f_from: int, f_to: int) -> int:
+    s = f_from - f_to
+    return v >> min(s, 63) if s > 0 else v * (1 << -s) if s < 0 else v
+
+
+def _align(fa: int, fb: int) -> int:
+    return min(max(fa, fb), min(fa, fb) + 31)
+
+
+_SYM = {ca.OP_ADD: "+", ca.OP_SUB: "-"}
+
+
+def c_body_q31(prog: Q31Program) -> str:
+    """The statements of the Q31 core (``x, y, r -> x_next, u``; int32 in, int32 out).
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The program.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_code import c_body_q31
+    >>> body = c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
+    >>> "float" in body or "double" in body, "int64_t" in body
+    (False, True)
+    """
+    F, lines, name = {}, [], {}
+    for kind, k, a, fk, data in prog.ops:
+        if kind == "in":
+            F[k] = fk
+            name[k] = f"x[{a[1]}]" if a[0] == 0 else ("y" if a[0] == 1 else "r")
+            continue
+        if kind == "out":
+            (which, i), (w,) = k, a
+            dst = f"x_next[{i}]" if which == 0 else "*u"
+            lines.append(f"  {dst} = {{PFX}}_sat32({_shift(f'(int64_t) {name[w]}', F[w], fk)});")
+            continue
+        F[k], name[k] = fk, f"q{k}"
+        q = lambda j: f"(int64_t) {name[j]}"
+        op = data
+        if not isinstance(op, int) or isinstance(op, bool):  # a constant
+            lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
+            continue
+        if op in _SYM:
+            fm = _align(F[a[0]], F[a[1]])
+            expr = f"({_shift(q(a[0]), F[a[0]], fm)} {_SYM[op]} {_shift(q(a[1]), F[a[1]], fm)})"
+            text = f"(int32_t) {_shift(expr, fm, fk)}"
+        elif op == ca.OP_MUL:
+            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[1])})', F[a[0]] + F[a[1]], fk)}"
+        elif op == ca.OP_SQ:
+            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[0])})', 2 * F[a[0]], fk)}"
+        elif op == ca.OP_NEG:
+            text = f"(int32_t) {_shift(f'(-{q(a[0])})', F[a[0]], fk)}"
+        elif op == ca.OP_TWICE:
+            text = f"(int32_t) {_shift(f'({q(a[0])} * 2)', F[a[0]], fk)}"
+        elif op == ca.OP_ASSIGN:
+            text = name[a[0]]
+        elif op in (ca.OP_FMIN, ca.OP_FMAX):
+            fm = _align(F[a[0]], F[a[1]])
+            A, B = _shift(q(a[0]), F[a[0]], fm), _shift(q(a[1]), F[a[1]], fm)
+            cmp = "<" if op == ca.OP_FMIN else ">"
+            text = f"(int32_t) {_shift(f'(({A} {cmp} {B}) ? {A} : {B})', fm, fk)}"
+        elif op in _CMP:
+            fm = _align(F[a[0]], F[a[1]])
+            A, B = _shift(q(a[0]), F[a[0]], fm), _shift(q(a[1]), F[a[1]], fm)
+            lines.append(f"  const bool q{k} = ({A} {_CMP[op]} {B});")
+            continue
+        elif op == ca.OP_NOT:
+            lines.append(f"  const bool q{k} = !{name[a[0]]};")
+            continue
+        elif op in (ca.OP_AND, ca.OP_OR):
+            sym = "&&" if op == ca.OP_AND else "||"
+            lines.append(f"  const bool q{k} = ({name[a[0]]} {sym} {name[a[1]]});")
+            continue
+        elif op == ca.OP_IF_ELSE_ZERO:
+            text = f"({name[a[0]]} ? (int32_t) {_shift(q(a[1]), F[a[1]], fk)} : 0)"
+        else:
+            raise ComputationError(f"CasADi operation {op} has no Q31 translation")
+        lines.append(f"  const int32_t q{k} = {text};")
+    return "\n".join(lines)
+
+
+def _const(c: float, f: int) -> str:
+    v = round(c * 2.0**f)
+    return f"INT32_C({v})" if v >= 0 else f"(-INT32_C({-v}))"
+
+
+def emulate_q31(prog: Q31Program, yq, rq, xq0) -> tuple[np.ndarray, np.ndarray]:
+    """The Q31 C core on integer samples, bit for bit: ``(u_q, x_q)`` after each sample.
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The program.
+    yq, rq : sequence of int
+        Measurements and references in Q format (``f_y`` fraction bits).
+    xq0 : sequence of int
+        Start state (``f_state`` fraction bits).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(N,)`` inputs and ``(N, n)`` states, integers.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_code import emulate_q31, start_state
+    >>> prog = q31_program(presets.paper_design(), (-1.0, 1.0))
+    >>> y0 = 1 << (prog.f_y - 3)
+    >>> u, _ = emulate_q31(prog, [y0] * 3, [y0] * 3, start_state(prog, y0, 0))
+    >>> u.tolist()
+    [0, 0, 0]
+    """
+    x = [int(v) for v in xq0]
+    us, xs = [], []
+    for y, r in zip(yq, rq):
+        w, xn, u = {}, [0] * prog.n_out, 0
+        for kind, k, a, fk, data in prog.ops:
+            if kind == "in":
+                w[k] = x[a[1]] if a[0] == 0 else (int(y) if a[0] == 1 else int(r))
+                continue
+            if kind == "out":
+                (which, i), (j,) = k, a
+                v = _sat(_py_shift(w[j], _F_of(prog, j), fk))
+                if which == 0:
+                    xn[i] = v
+                else:
+                    u = v
+                continue
+            w[k] = _py_op(prog, w, k, a, fk, data)
+        x = xn
+        us.append(u)
+        xs.append(list(x))
+    return np.array(us, dtype=np.int64), np.array(xs, dtype=np.int64)
+
+
+def _F_of(prog, j):
+    return _fmap(prog)[j]
+
+
+_FCACHE: dict = {}
+
+
+def _fmap(prog):
+    key = id(prog)
+    if key not in _FCACHE:
+        _FCACHE.clear()
+        _FCACHE[key] = {k: fk for kind, k, a, fk, data in prog.ops if kind != "out"}
+    return _FCACHE[key]
+
+
+def _sat(v: int) -> int:
+    return max(-(2**31), min(2**31 - 1, v))
+
+
+def _py_op(prog, w, k, a, fk, op):
+    F = _fmap(prog)
+    if not isinstance(op, int) or isinstance(op, bool):
+        return round(op * 2.0**fk)
+    if op in _SYM:
+        fm = _align(F[a[0]], F[a[1]])
+        A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)
+        return _py_shift(A + B if op == ca.OP_ADD else A - B, fm, fk)
+    if op == ca.OP_MUL:
+        return _py_shift(w[a[0]] * w[a[1]], F[a[0]] + F[a[1]], fk)
+    if op == ca.OP_SQ:
+        return _py_shift(w[a[0]] * w[a[0]], 2 * F[a[0]], fk)
+    if op == ca.OP_NEG:
+        return _py_shift(-w[a[0]], F[a[0]], fk)
+    if op == ca.OP_TWICE:
+        return _py_shift(w[a[0]] * 2, F[a[0]], fk)
+    if op == ca.OP_ASSIGN:
+        return w[a[0]]
+    if op in (ca.OP_FMIN, ca.OP_FMAX) or op in _CMP:
+        fm = _align(F[a[0]], F[a[1]])
+        A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)
+        if op == ca.OP_FMIN:
+            return _py_shift(min(A, B), fm, fk)
+        if op == ca.OP_FMAX:
+            return _py_shift(max(A, B), fm, fk)
+        return int({ca.OP_LT: A < B, ca.OP_LE: A <= B, ca.OP_EQ: A == B, ca.OP_NE: A != B}[op])
+    if op == ca.OP_NOT:
+        return int(not w[a[0]])
+    if op == ca.OP_AND:
+        return int(bool(w[a[0]]) and bool(w[a[1]]))
+    if op == ca.OP_OR:
+        return int(bool(w[a[0]]) or bool(w[a[1]]))
+    if op == ca.OP_IF_ELSE_ZERO:
+        return _py_shift(w[a[1]], F[a[1]], fk) if w[a[0]] else 0
+    raise ComputationError(f"CasADi operation {op} has no Q31 translation")
+
+
+def start_state(prog: Q31Program, y0q: int, u0q: int) -> list[int]:
+    """The start state in Q format: the observer at rest at ``y0``, ``u = u0``, ``z = 0``
+    (the C start's integer arithmetic).
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The program.
+    y0q, u0q : int
+        ``y0`` (``f_y`` bits) and ``u0`` (``u``'s bits, clamped by the caller).
+
+    Returns
+    -------
+    list of int
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_code import start_state
+    >>> prog = q31_program(presets.paper_design(), (-1.0, 1.0))
+    >>> start_state(prog, 1 << prog.f_y, 0)[0] == 1 << prog.f_state[0]
+    True
+    """
+    m = prog.n_out - 2
+    x = [_sat(prog.start0[i] + _py_shift(prog.start1[i] * int(y0q), prog.f_start1 + prog.f_y,
+                                         prog.f_state[i])) for i in range(m)]
+    return x + [int(u0q), 0]
+
+
+def start_c(prog: Q31Program) -> str:
+    """C statements of the start (``s->x[i]`` from ``y0``), matching :func:`start_state`."""
+    m = prog.n_out - 2
+    rows = []
+    for i in range(m):
+        prod = _shift(f"((int64_t) {prog.start1[i]} * (int64_t) y0)",
+                      prog.f_start1 + prog.f_y, prog.f_state[i])
+        rows.append(f"  s->x[{i}] = {{PFX}}_sat32((int64_t) {_const(prog.start0[i], 0)} + "
+                    f"{prod});")
+    return "\n".join(rows)
+
+
+__all__ = ["c_body_q31", "emulate_q31", "start_c", "start_state"]

@@ -1,0 +1,288 @@
+"""The files of a Q31 package: template values, the test vectors (bit-exact), the error.
+
+Examples
+--------
+>>> from fl_design import presets
+>>> from fl_design.codegen._guard import guard_settings
+>>> from fl_design.codegen._q31_files import q31_range
+>>> q31_range(guard_settings(presets.paper_design()))[:2]
+(-10.0, 10.0)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._q31 import q31_program
+from ._q31_code import c_body_q31, emulate_q31, start_c, start_state
+
+#: the range of ``y`` a Q31 build assumes when no plant gives one
+Q31_DEFAULT_RANGE = (-10.0, 10.0)
+
+
+def q31_range(guard) -> tuple[float, float, str]:
+    """``(lo, hi, why)``: the range of ``y`` and ``r`` the Q31 scalings are analysed over.
+
+    Parameters
+    ----------
+    guard : GuardSettings
+        The checks' defaults (the plant region's output range, when a plant was given).
+
+    Returns
+    -------
+    tuple
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._q31_files import q31_range
+    >>> lo, hi, _ = q31_range(guard_settings(presets.maglev_design(), fl.plants.maglev()))
+    >>> lo < 0.004 < 0.008 < hi
+    True
+    """
+    if guard.y_max - guard.y_min < 1e6:
+        return float(guard.y_min), float(guard.y_max), guard.source
+    lo, hi = Q31_DEFAULT_RANGE
+    return lo, hi, (f"|y| <= {hi:g}, assumed: no plant was given to generate_c (pass plant= "
+                    "for the region's range)")
+
+
+def _q(v: float, f: int) -> int:
+    return int(max(-(2**31), min(2**31 - 1, round(v * 2.0**f))))
+
+
+def _lit(v: int) -> str:
+    return f"INT32_C({v})" if v >= 0 else f"(-INT32_C({-v}))" if v > -(2**31) else "INT32_MIN"
+
+
+def q31_base(design, prefix: str, guard) -> dict:
+    """The values every Q31 template shares (names, sizes, version, hash).
+
+    Parameters
+    ----------
+    design : Design
+        The generated design.
+    prefix : str
+        C prefix.
+    guard : GuardSettings
+        The checks' defaults.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._q31_files import q31_base
+    >>> d = presets.paper_design()
+    >>> q31_base(d, "fl", guard_settings(d))["PRECISION"]
+    'q31'
+    """
+    import casadi as ca
+
+    import fl_design
+
+    from ._guard import design_hash
+
+    digest = design_hash(design, "q31")
+    lay = design.state_layout
+    return {"PREFIX": prefix, "P": prefix.upper(), "VERSION": fl_design.__version__,
+            "CASADI_VERSION": ca.__version__, "DESCRIPTION": " ".join(repr(design).split()),
+            "PRECISION": "q31", "RHO": str(design.rho), "STATE_SIZE": str(design.state_size),
+            "ESTIMATOR_SIZE": str(lay["estimator"].stop), "U_INDEX": str(lay["u"].start),
+            "Z_INDEX": str(lay["z"].start), "DESIGN_HASH": digest,
+            "DESIGN_HASH_U32": "0x" + digest[:8].upper(), "LOST_AFTER": str(guard.lost_after)}
+
+
+def q31_substitutions(design, prefix: str, guard, base: dict):
+    """The template values of ``step_q31.*.in`` (on top of ``base``) and the program.
+
+    Parameters
+    ----------
+    design : Design
+        The generated design (delta realization).
+    prefix : str
+        C prefix.
+    guard : GuardSettings
+        The checks' defaults.
+    base : dict
+        The common values (prefix, version, hash, sizes...).
+
+    Returns
+    -------
+    tuple of (dict, Q31Program, tuple)
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import step_design
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._q31_files import q31_substitutions
+    >>> d = step_design(presets.paper_design(), "q31")
+    >>> subs, prog, rng = q31_substitutions(d, "fl", guard_settings(d), {})
+    >>> subs["F_Y"], rng[:2]
+    ('26', (-10.0, 10.0))
+    """
+    lo, hi, why = q31_range(guard)
+    prog = q31_program(design, (lo, hi))
+    f_u = prog.f_state[-2]
+    u_lo, u_hi = design.controller.u_range
+    x0 = [_q(v, prog.f_state[i]) for i, v in enumerate(design.initial_state())]
+    subs = dict(base)
+    subs.update({
+        "BODY_Q31": c_body_q31(prog).replace("{PFX}", prefix),
+        "START_Q31": start_c(prog).replace("{PFX}", prefix),
+        "COMMIT_Q31": "\n".join(f"    s->x[{i}] = x_next[{i}];" for i in range(len(x0))),
+        "F_Y": str(prog.f_y), "F_U": str(f_u),
+        "Y_LO_Q": _lit(_q(lo, prog.f_y)), "Y_HI_Q": _lit(_q(hi, prog.f_y)),
+        "Y_LO": f"{lo:.9g}", "Y_HI": f"{hi:.9g} ({why})",
+        "U_MIN_Q": _lit(_q(u_lo, f_u)), "U_MAX_Q": _lit(_q(u_hi, f_u)),
+        "U_OP_Q": _lit(_q(guard.u_op, f_u)), "U_OP": f"{guard.u_op:.9g}",
+        "F_STATE": ", ".join(map(str, prog.f_state)),
+        "INITIAL_STATE_Q": ", ".join(_lit(v) for v in x0),
+        "T_US": str(max(1, round(design.T * 1e6))),
+        "Z_BOX": f"{prog.state_box[-1][1]:.6g}",
+    })
+    return subs, prog, (lo, hi, why)
+
+
+def q31_expected(design, prog, guard, n: int):
+    """``(yq, rq, uq)``: the vector record in Q units and the Q31 step's inputs (bit-exact).
+
+    Parameters
+    ----------
+    design : Design
+        The generated design.
+    prog : Q31Program
+        Its program.
+    guard : GuardSettings
+        Gives the operating point's input.
+    n : int
+        Samples.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import step_design
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_files import q31_expected
+    >>> d = step_design(presets.paper_design(), "q31")
+    >>> y, r, u = q31_expected(d, q31_program(d, (-10.0, 10.0)), guard_settings(d), 50)
+    >>> int(u[20]) == int(u[19])  # the out-of-range sample 10 is held... and 20 too
+    True
+    """
+    lo, hi = prog.y_range
+    mid, amp = 0.5 * (lo + hi), 0.05 * (hi - lo)
+    k = np.arange(n)
+    r = mid + amp * np.where(k < n // 2, 1.0, -0.5)
+    y = np.empty(n)
+    y[0] = mid
+    for i in range(1, n):
+        y[i] = y[i - 1] + (r[i] - y[i - 1]) / 40.0
+    y += 0.02 * amp * np.sin(2 * np.pi * k / 97.0)
+    yq = np.array([_q(v, prog.f_y) for v in y], dtype=np.int64)
+    rq = np.array([_q(v, prog.f_y) for v in r], dtype=np.int64)
+    bad = [n // 5, (2 * n) // 5]
+    yq[bad] = 2**31 - 1  # outside the range: rejected, u held
+    f_u = prog.f_state[-2]
+    u_lo, u_hi = design.controller.u_range
+    u0 = min(max(_q(guard.u_op, f_u), _q(u_lo, f_u)), _q(u_hi, f_u))
+    keep = np.ones(n, bool)
+    keep[bad] = False
+    u_kept, _ = emulate_q31(prog, yq[keep], rq[keep], start_state(prog, int(yq[0]), u0))
+    u = np.empty(n, dtype=np.int64)
+    j, last = 0, u0
+    for i in range(n):
+        if keep[i]:
+            last = int(u_kept[j])
+            j += 1
+        u[i] = last
+    return yq, rq, u
+
+
+def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
+    """The Q31 vector file: raw ``int32`` values, tolerance 0 (the program is bit-exact).
+
+    Parameters
+    ----------
+    design, prog, guard, n
+        As in :func:`q31_expected`.
+    digest : str
+        The design's hash.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import step_design
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_files import q31_vector_text
+    >>> d = step_design(presets.paper_design(), "q31")
+    >>> q31_vector_text(d, q31_program(d, (-1.0, 1.0)), guard_settings(d), "x", 10).split(
+    ...     "\\n")[3]
+    'tol 0'
+    """
+    y, r, u = q31_expected(design, prog, guard, n)
+    head = [f"# test vectors of the generated Q31 step; design hash {digest}",
+            (f"# y, r in Q{prog.f_y} (y * 2^{prog.f_y}), u in Q{prog.f_state[-2]}; start: "
+            "PREFIX_start(first y, PREFIX_U_OP)"),
+            "# u_expected: the same integer program run in Python (bit-exact: tolerance 0)",
+            "tol 0"]
+    rows = [f"{a} {b} {c}" for a, b, c in zip(y.tolist(), r.tolist(), u.tolist())]
+    return "\n".join(head + rows) + "\n"
+
+
+def q31_error(design, prog, guard, n: int = 3000) -> float:
+    """The Q31 step's ``max |u_q31 - u_double| / max |u_double|`` on the vector record.
+
+    Parameters
+    ----------
+    design, prog, guard, n
+        As in :func:`q31_expected`.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import step_design
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_files import q31_error
+    >>> d = step_design(presets.paper_design(), "q31")
+    >>> q31_error(d, q31_program(d, (-10.0, 10.0)), guard_settings(d), 500) < 1e-2
+    True
+    """
+    from ._compare import reference_run
+
+    yq, rq, uq = q31_expected(design, prog, guard, n)
+    keep = yq != 2**31 - 1
+    y, r = yq[keep] / 2.0**prog.f_y, rq[keep] / 2.0**prog.f_y
+    f_u = prog.f_state[-2]
+    u0 = float(uq[0] * 0) + min(max(guard.u_op, design.controller.u_range[0]),
+                                design.controller.u_range[1])
+    u_ref = reference_run(design, y, r, state0=design.initial_state(y0=y[0], u0=u0))[0]
+    u_q = uq[keep] / 2.0**f_u
+    scale = max(float(np.max(np.abs(u_ref))), math.ldexp(1.0, -f_u))
+    return float(np.max(np.abs(u_q - u_ref)) / scale)
+
+
+__all__ = ["Q31_DEFAULT_RANGE", "q31_base", "q31_error", "q31_expected", "q31_range", "q31_substitutions",
+           "q31_vector_text"]

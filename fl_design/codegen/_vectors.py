@@ -1,0 +1,143 @@
+"""The package's test-vector file: inputs and expected outputs that ``make check`` replays.
+
+A record of ``N`` samples around the middle of the plausibility range (a first-order approach
+to a stepping reference with a slow ripple, two transient faults: a NaN and an out-of-range
+sample, which the step rejects and holds ``u``), started as firmware starts
+(``PREFIX_start(first y, PREFIX_U_OP)``). The expected ``u`` is ``Design.step`` in double
+(CasADi's interpreter, :func:`~fl_design.codegen._compare.reference_run`) over the accepted
+samples, held over the rejected ones. The tolerance, written in the file, is absolute:
+
+- double: ``1e-9`` of ``max |u|`` (another compiler may contract ``a*b + c`` into an FMA);
+- float: ``4 x`` the float step's own deviation from the double one on this record (its
+  bit-exact emulation, :func:`~fl_design.codegen._float_check.emulate`), at least ``1e-5`` of
+  ``max |u|``.
+
+Examples
+--------
+>>> from fl_design import presets
+>>> from fl_design.codegen._guard import guard_settings
+>>> from fl_design.codegen._vectors import vector_text
+>>> d = presets.paper_design()
+>>> text = vector_text(d, guard_settings(d), "double", n=50)
+>>> text.splitlines()[3].split()[0], len(text.splitlines())
+('tol', 54)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: samples in the vector file
+N_VECTORS = 1500
+
+
+def _record(design, guard, n: int):
+    lo, hi = guard.y_min, guard.y_max
+    mid = 0.5 * (lo + hi)
+    amp = 0.05 * (hi - lo) if hi - lo < 1e6 else 0.1
+    k = np.arange(n)
+    r = mid + amp * np.where(k < n // 2, 1.0, -0.5)
+    tau = 40.0  # samples
+    y = np.empty(n)
+    y[0] = mid
+    for i in range(1, n):
+        y[i] = y[i - 1] + (r[i] - y[i - 1]) / tau
+    y += 0.02 * amp * np.sin(2 * np.pi * k / 97.0)
+    bad = {n // 5: math.nan, (3 * n) // 5: 2.0 * max(abs(hi), abs(lo)) + 1.0}
+    for i, v in bad.items():
+        y[i] = v
+    return y, r, sorted(bad)
+
+
+def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
+    """``(y, r, u_expected, tolerance)`` of the vector file.
+
+    Parameters
+    ----------
+    design : Design
+        The design generated (``CPackage.step_design``).
+    guard : GuardSettings
+        The checks' defaults (the range, the operating point's input).
+    precision : str
+        ``"double"`` or ``"float"``.
+    n : int, optional
+        Samples.
+
+    Returns
+    -------
+    tuple
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._vectors import expected_inputs
+    >>> d = presets.paper_design()
+    >>> y, r, u, tol = expected_inputs(d, guard_settings(d), "double", n=100)
+    >>> bool(u[20] == u[19]), tol < 1e-9
+    (True, True)
+    """
+    from ._compare import reference_run
+
+    y, r, bad = _record(design, guard, n)
+    if precision == "float":
+        y, r = y.astype(np.float32).astype(float), r.astype(np.float32).astype(float)
+    keep = np.ones(n, bool)
+    keep[bad] = False
+    state0 = design.initial_state(y0=float(y[0]), u0=guard.u_op)
+    u_kept = reference_run(design, y[keep], r[keep], state0=state0)[0]
+    u = np.empty(n)
+    j, last = 0, guard.u_op
+    for i in range(n):
+        if keep[i]:
+            last = u_kept[j]
+            j += 1
+        u[i] = last
+    scale = max(float(np.max(np.abs(u))), np.finfo(float).tiny)
+    if precision == "float":
+        from ._float_check import emulate
+
+        start = np.asarray(design.initial_state(y0=0.0, u0=guard.u_op), dtype=np.float32)
+        u32 = emulate(design, y[keep], r[keep], start, y_c=float(y[0]))
+        dev = float(np.max(np.abs(u32.astype(float) - u_kept)))
+        tol = max(4.0 * dev, 1e-5 * scale)
+    else:
+        tol = 1e-9 * scale
+    return y, r, u, tol
+
+
+def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: str = "") -> str:
+    """The vector file: ``#`` comment lines, ``tol <abs>``, then one ``y r u`` line per sample.
+
+    Parameters
+    ----------
+    design, guard, precision, n
+        As in :func:`expected_inputs`.
+    digest : str, optional
+        The design's hash (written in the header).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._vectors import vector_text
+    >>> d = presets.paper_design()
+    >>> vector_text(d, guard_settings(d), "float", n=20).startswith("# test vectors")
+    True
+    """
+    y, r, u, tol = expected_inputs(design, guard, precision, n)
+    head = [f"# test vectors of the generated step ({precision}); design hash {digest}",
+            "# start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
+            "# |u - u_expected| <= tol on every line (u_expected: Design.step in double)",
+            f"tol {tol!r}"]
+    rows = [f"{a!r} {b!r} {c!r}" for a, b, c in zip(y.tolist(), r.tolist(), u.tolist())]
+    return "\n".join(head + rows) + "\n"
+
+
+__all__ = ["N_VECTORS", "expected_inputs", "vector_text"]

@@ -1,0 +1,116 @@
+"""precision="q31": integer code for FPU-less Cortex-M0+/M3, scalings from interval analysis."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+import fl_design as fl
+from fl_design import presets
+from fl_design._toolchain import find_compiler
+from fl_design.codegen import generate_c, step_design
+from fl_design.codegen._guard import guard_settings
+from fl_design.codegen._q31 import q31_program, state_box
+from fl_design.codegen._q31_code import emulate_q31, start_state
+from fl_design.errors import FloatPrecisionWarning, ParameterError
+
+CASES = {"trms": (presets.paper_design, fl.plants.trms_yaw),
+         "maglev": (presets.maglev_design, fl.plants.maglev),
+         "flexible_joint": (presets.flexible_joint_design, fl.plants.flexible_joint)}
+
+
+@pytest.fixture(scope="module")
+def packages(tmp_path_factory):
+    root = tmp_path_factory.mktemp("q31")
+    return {name: generate_c(d(), root / name, precision="q31", plant=p())
+            for name, (d, p) in CASES.items()}
+
+
+def test_no_floating_point_in_the_source(packages):
+    for pkg in packages.values():
+        code = re.sub(r"/\*.*?\*/", "", pkg.sources[0].read_text(), flags=re.DOTALL)
+        assert not re.search(r"\b(float|double)\b", code)
+        assert not re.search(r"\b\d+\.\d|\b\d+[eE][+-]?\d", code)  # no real literal
+
+
+@pytest.mark.skipif(find_compiler() is None or shutil.which("make") is None,
+                    reason="no C compiler or no make")
+@pytest.mark.parametrize("name", list(CASES))
+def test_make_check_is_bit_exact_with_the_integer_model(packages, name):
+    proc = subprocess.run(["make", "-s", "-C", str(packages[name].out_dir), "check"],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0 and "PASS: 1500 samples, 0 outside" in proc.stdout, proc.stdout
+
+
+@pytest.mark.parametrize("name, bound", [("trms", 1e-4), ("maglev", 2e-3),
+                                         ("flexible_joint", 2e-2)])
+def test_the_quantization_error_against_design_step(packages, name, bound):
+    err = packages[name].predicted_float_error  # measured on the vector record
+    assert 0 < err < bound
+
+
+def test_the_state_stays_inside_its_boxes_on_a_noisy_record():
+    """The peak-gain boxes hold (no saturation) under a full-range random y."""
+    d = step_design(presets.paper_design(), "q31")
+    prog = q31_program(d, (-1.0, 1.0))
+    rng = np.random.default_rng(3)
+    y = rng.uniform(-1.0, 1.0, 3000)
+    yq = np.round(y * 2.0**prog.f_y).astype(np.int64)
+    _, xs = emulate_q31(prog, yq, np.zeros_like(yq), start_state(prog, int(yq[0]), 0))
+    for i in range(d.state_size - 2):
+        lo, hi = prog.state_box[i]
+        v = xs[:, i] / 2.0 ** prog.f_state[i]
+        assert lo <= v.min() and v.max() <= hi, i
+        assert np.max(np.abs(xs[:, i])) < 2**30  # the headroom bit is never used
+    boxes, _, _ = state_box(d, (-1.0, 1.0))
+    assert boxes[-2] == (-2.5, 2.5)
+
+
+@pytest.mark.skipif(shutil.which("arm-none-eabi-gcc") is None,
+                    reason="arm-none-eabi-gcc is not installed")
+@pytest.mark.parametrize("cpu", ["cortex-m0plus", "cortex-m3"])
+def test_builds_for_fpu_less_cortex_m_without_float_helpers(packages, cpu, tmp_path):
+    pkg = packages["trms"]
+    objs = []
+    for src in (pkg.sources[0], pkg.out_dir / "check.c"):
+        obj = tmp_path / f"{src.stem}.o"
+        subprocess.run(["arm-none-eabi-gcc", f"-mcpu={cpu}", "-mthumb", "-O2", "-std=c99",
+                        "-Wall", "-Wextra", "-Werror", "-c", f"-I{pkg.out_dir}", str(src), "-o",
+                        str(obj)], check=True, timeout=120)
+        objs.append(str(obj))
+    und = subprocess.run(["arm-none-eabi-nm", "-u", objs[0]], capture_output=True, text=True,
+                         check=True).stdout
+    assert not re.search(r"__aeabi_[fdi]2|__aeabi_[fd](add|sub|mul|div|cmp)|[sd]f3\b", und), und
+    assert "memcpy" not in und
+
+
+def test_q31_without_plant_says_what_it_assumes_and_refuses_what_it_cannot(tmp_path):
+    with pytest.warns(FloatPrecisionWarning, match=r"\|y\| <= 10, assumed"):
+        generate_c(presets.paper_design(), tmp_path / "a", precision="q31")
+    with pytest.raises(ParameterError, match="q31' is generated for the EHGO"):
+        generate_c(presets.least_squares_design(9), tmp_path / "b", precision="q31")
+    pkg = generate_c(presets.paper_design(), tmp_path / "q", precision="q31",
+                     plant=fl.plants.trms_yaw())
+    with pytest.raises(ParameterError, match="q31' package is not available"):
+        pkg.verify(fl.plants.trms_yaw(), fl.Scenario(0.3, 1.0))
+    d = presets.pendulum_design()  # no u_limits
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(ParameterError, match="needs u_limits"):
+            generate_c(d, tmp_path / "c", precision="q31")
+
+
+@pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
+def test_host_harness_tracks_design_step(packages):
+    pkg = packages["trms"]
+    g = guard_settings(pkg.design, fl.plants.trms_yaw())
+    y = 0.2 * (1 - np.exp(-np.arange(2000) * 3e-3))
+    u_q = pkg.run(y, np.full(y.size, 0.2), start=True)
+    ref = pkg.step_design.run(y, 0.2, state0=pkg.step_design.initial_state(y0=y[0],
+                                                                        u0=g.u_op)).u
+    assert np.max(np.abs(u_q - ref)) <= 1e-4 * np.max(np.abs(ref))
