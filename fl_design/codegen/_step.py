@@ -24,6 +24,11 @@ _C_KEYWORDS = frozenset(
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
+#: The generated package's files that a prefix's ``<prefix>.c`` / ``<prefix>.h`` must not name.
+PACKAGE_FILES = ("main.c", "check.c", "sil.c", "Makefile", "CMakeLists.txt", "README.md",
+                 "test_vectors.txt", "MISRA_DEVIATIONS.md")
+
+
 def check_prefix(prefix) -> str:
     """``prefix`` if it is a usable C identifier, else ParameterError saying what is valid.
 
@@ -48,7 +53,11 @@ def check_prefix(prefix) -> str:
             f"prefix={prefix!r} is not a usable C identifier: give 1 to 24 letters, digits or "
             "underscores, not starting with a digit, '__' or '_' + capital, and not a C "
             "keyword (e.g. 'fl' or 'trms_ctrl')")
-    return prefix
+    from .._output import check_prefix_names
+
+    # the package's own files: a prefix naming one of them (``main`` -> main.c) would overwrite
+    # it with the step's source and the package would not link
+    return check_prefix_names(prefix, PACKAGE_FILES)
 
 
 def check_precision(precision) -> str:

@@ -173,3 +173,11 @@ def test_every_estimator_builds_clean_in_both_precisions(tmp_path, design):
             pkg.build(compiler=cc)  # -Werror with -Wmissing-prototypes -Wfloat-equal ...
         code = pkg.sources[0].read_text()
         assert not re.search(r"\bf(max|min|abs)f?\(", code)
+
+
+@pytest.mark.parametrize("prefix", ["main", "check", "Sil"])
+def test_a_prefix_naming_a_package_file_is_refused(prefix, tmp_path):
+    """``prefix='main'`` wrote the step over main.c: a package that did not link (issue 36)."""
+    with pytest.raises(ParameterError, match=rf"prefix='{prefix}'"):
+        fl.generate_c(presets.paper_design(), tmp_path / "pkg", prefix=prefix)
+    assert not (tmp_path / "pkg" / "main.c").exists()
