@@ -354,8 +354,10 @@ def codegen(setup: Setup, quick: bool, out_dir, force: bool = False) -> dict:
     if not cfg.enabled:
         return {"skipped": "[codegen] enabled = false"}
     out_dir = Path(out_dir)
+    # the plant gives the package its plausibility range of y and the operating-point input
+    # (the safe u, main.c's start)
     pkg = generate_c(setup.design, out_dir / "c", precision=cfg.precision, prefix=cfg.prefix,
-                     force=force)
+                     force=force, plant=setup.plant)
     sil_t = QUICK["sil_duration"] if quick else cfg.sil_duration
     std = float(setup.config.compare.noise_std[0]) if setup.config.compare.noise_std else 0.0
     sc = setup.config.scenario
