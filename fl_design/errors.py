@@ -182,3 +182,10 @@ __all__ += ["FloatPrecisionWarning", "PrecisionError"]
 
 class NoDesignError(CertificationError):
     """No design with a certificate and a converging check exists for the data (fl.tune)."""
+
+
+class AssumptionError(FlDesignError, ValueError):
+    """The plant is outside the method's assumptions (non-minimum phase, b changing sign)."""
+
+
+__all__ += ["AssumptionError"]
