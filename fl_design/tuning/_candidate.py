@@ -198,7 +198,11 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
         if low and spare is not None:
             misses.append(f"{eps:.4g} certified, phase margin {pm:.3g} deg")
             continue
-        check = check_candidate(s.plant, trial, s.r)
+        try:
+            check = check_candidate(s.plant, trial, s.r)
+        except FlDesignError as exc:  # a failed check is a miss of this eps, said
+            misses.append(f"{eps:.4g} certified but its check failed: {str(exc)[:120]}")
+            continue
         miss = s.accept(check) if check["status"] in CONVERGENT else \
             f"the check is {check['status']}"
         if miss:
