@@ -8,7 +8,8 @@ comes from the plant, the certificates and a check, and is said with its reason:
    ``u_eq`` to the nearer limit) moves the step through ``y^(rho) = b u``, i.e.
    ``(0.2 |b|_min room / |step|)^(1/rho)``;
 2. **T** (unless given): 100 samples per ``1/d``, rounded down to 1-2-5 (within
-   ``[1e-4, 0.1]`` s);
+   ``[1e-4, 0.1]`` s); at the floor ``1e-4`` s, ``d`` is capped at ``1/(100 T)`` (the loop
+   never faster than its sampling allows);
 3. **gains**: :func:`fl_design.synthesize_gains` at the loop's decay (all poles at
    ``-(1 + spare) decay``, the decay certified);
 4. **gamma** (sign of ``b``), inside the admissible interval of :func:`fl_design.certify_gamma`
@@ -31,7 +32,8 @@ comes from the plant, the certificates and a check, and is said with its reason:
 
 Objectives (one default for the API and the CLI, :data:`DEFAULT_OBJECTIVE`):
 ``"fastest"`` (default: the loop at the plant's time scale ``d`` with the fast gamma; when it
-has no design, loops at ``d/2`` and ``d/4``, the documented fallbacks), ``"least-noise"``
+has no design, or no eps with a phase margin of :data:`MIN_PHASE_MARGIN` deg, loops at ``d/2``
+and ``d/4``, the documented fallbacks), ``"least-noise"``
 (``"least_noise"`` too: loops at ``d``, ``d/2``, ``d/4`` with the low gamma, the least noise
 gain wins), ``("overshoot", x)`` (the loop at ``d`` with the fast gamma and the low-gamma loops
 at ``d``, ``d/2``, ``d/4``: the least noise gain with an overshoot of at most ``x``, a
@@ -70,8 +72,11 @@ from ._tuning import Tuning
 CANDIDATES = {"least-noise": ((1.0, "low"), (0.5, "low"), (0.25, "low")),
               "fastest": ((1.0, "fast"),),
               "overshoot": ((1.0, "fast"), (1.0, "low"), (0.5, "low"), (0.25, "low"))}
-#: Fallback loops (factors of the time scale) when every candidate of the objective fails.
+#: Fallback loops (factors of the time scale) when every candidate of the objective fails
+#: (and, for the default objective, when the loop has no eps with a 30 deg phase margin).
 FALLBACKS = (0.5, 0.25)
+#: The shortest sampling time proposed (s); a faster plant's loop is slowed to 1/(100 T_MIN).
+T_MIN = 1e-4
 #: The objective of ``fl.tune`` and of ``fl-design run`` without ``[design]``.
 DEFAULT_OBJECTIVE = "fastest"
 #: The default design reaches the 2 % band within this many plant time constants ``1/d``.
@@ -199,8 +204,12 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
     r = _reference(plant, reference, y_op)
     decay, head, full_reach = _time_scale(plant, rho, (lo, hi), u_lim, r, y_op)
     if T is None:
-        T, T_why = (min(0.1, max(1e-4, nice_time(1.0 / (100.0 * decay)))),
+        T, T_why = (min(0.1, max(T_MIN, nice_time(1.0 / (100.0 * decay)))),
                     "100 samples per 1/time scale, 1-2-5 rounded")
+        if decay * T > 0.01 * (1 + 1e-9):  # T at its floor: the loop slowed to fit it
+            head.append(f"loop time scale capped at {0.01 / T:.3g} rad/s, 100 samples per time "
+                        f"constant at T = {T:g} s (the shortest T proposed; give T to go faster)")
+            decay = 0.01 / T
     else:
         T, T_why = V.positive("T", T), "given"
     head.append(f"T = {T:g} s ({T_why})")
@@ -224,6 +233,18 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
     key = ((lambda c: c["settling_time"]) if kind == "fastest" else (lambda c: c["noise_gain"]
                                                                      if np.isfinite(c["noise_gain"]) else math.inf))
     best = min(chosen, key=key)
+    final = certified_eps(loop, best)
+    if kind == "fastest" and decays is None and not final[3] >= MIN_PHASE_MARGIN:
+        for f in FALLBACKS:  # the default design needs its margin: slower loops
+            alt = _run(loop, [(f, "fast")], decay, full_reach, accept, tried)
+            fin = certified_eps(loop, alt[0]) if alt else None
+            if fin is not None and fin[3] >= MIN_PHASE_MARGIN:
+                tried.append(f"loop at {best['decay']:.3g} rad/s: phase margin "
+                             f"{final[3]:.3g} deg < {MIN_PHASE_MARGIN:g} deg at every eps "
+                             f"tried; the loop at {alt[0]['decay']:.3g} rad/s has "
+                             f"{fin[3]:.3g} deg")
+                best, final, chosen = alt[0], fin, alt
+                break
     label = kind if kind != "overshoot" else f"overshoot <= {100 * limit:g} %"
     why = {"least-noise": f"the least noise gain of {len(chosen)} converging loops",
            "fastest": f"the shortest settling time of {len(chosen)} converging loops",
@@ -233,7 +254,7 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
               f"eps {c['design'].estimator.eps:.3g}: noise gain {c['noise_gain']:.3g}, "
               f"settling {c['settling_time']:.3g} s, overshoot {c['overshoot']:.3g} %"
               for c in chosen if c is not best]
-    return _result(loop, best, label, head + [f"chosen: {why}"], tuple(tried + others),
+    return _result(loop, final, label, head + [f"chosen: {why}"], tuple(tried + others),
                    baseline, decay)
 
 
@@ -285,10 +306,11 @@ def _run(loop: Setup, cands, decay: float, full_reach: float, accept, tried: lis
     return chosen
 
 
-def _result(s: Setup, best: dict, label: str, head: list, tried: tuple, baseline,
+def _result(s: Setup, final: tuple, label: str, head: list, tried: tuple, baseline,
             plant_scale: float) -> Tuning:
-    """The chosen candidate with its eps certified, certificates, margins, ranges, baseline."""
-    best, eps_why, ec, pm = certified_eps(s, best)
+    """The chosen candidate with its eps certified (:func:`certified_eps`'s answer),
+    certificates, margins, ranges, baseline."""
+    best, eps_why, ec, pm = final
     if ec is None:
         raise NoDesignError(f"no design for {s.plant.name!r}: the eps certificate (LMI) failed "
                             f"at every eps tried: {eps_why}")
@@ -339,7 +361,8 @@ def _result(s: Setup, best: dict, label: str, head: list, tried: tuple, baseline
         overshoot=best["overshoot"], settling_time=best["settling_time"],
         status=best["status"], noise_gain=best["noise_gain"], sweep_converged=best["sweep"],
         ranges=_ranges(s.T, best["decay"], design.estimator.eps, gc, s.sign), baseline=base,
-        reasons=tuple(head[:2] + reasons + head[2:] + extra), tried=tried,
+        reasons=tuple([h for h in head if not h.startswith('chosen:')] + reasons +
+                      [h for h in head if h.startswith('chosen:')] + extra), tried=tried,
         response=best["response"], objective_met=not miss, phase_margin=pm,
         plant_time_scale=plant_scale, warnings=tuple(warnings))
 
