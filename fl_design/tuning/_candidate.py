@@ -179,12 +179,15 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
 
     Returns ``(candidate, reason, EpsCertificate at that eps, phase margin)``. When no eps
     has the margin, the first certified one whose check passes (its margin is flagged by the
-    caller); none certified: the provisional eps stays, NOT certified, and the reason says so.
+    caller). Two uncertified eps in a row end the search (smaller ones fare no better on the
+    loops seen, and each failed solve is the slowest step); then the smallest tried eps whose
+    check passes stays, NOT certified, with the certificate already computed there (else the
+    provisional eps), and the reason says so.
     """
     base = f"frozen-b eps* {g_text(c['frozen'])} (eigenvalue scan), linearized eps* {c['lin']}"
     top = min(c["frozen"], c["eps_lin"] or math.inf) / EPS_MARGIN
     provisional = c["design"].estimator.eps
-    misses, spare = [], None
+    misses, spare, failed = [], None, []
     for k in range(EPS_TRIES):
         eps = top / 2.0 ** k
         trial = c["design"].replace(eps=eps)
@@ -192,6 +195,9 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
         if cert is None or not cert.certified:
             misses.append(f"{eps:.4g} not certified" + ("" if cert is None else
                                                         f" ({cert.reason})"))
+            failed.append((trial, cert))
+            if len(failed) == 2 and spare is None:  # two in a row: halving will not help
+                break
             continue
         pm = phase_margin(trial, s.b_bounds)
         low = not pm >= MIN_PHASE_MARGIN
@@ -219,10 +225,26 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     if spare is not None:
         return spare[0], (spare[1] + f"; no eps tried has a phase margin >= "
                           f"{MIN_PHASE_MARGIN:g} deg: " + "; ".join(misses)), spare[2], spare[3]
+    for trial, cert in failed[::-1] if cert_needed(failed) else ():  # the provisional eps
+        try:  # an uncertified eps tried whose check converges: its certificate is in hand
+            check = check_candidate(s.plant, trial, s.r)
+        except FlDesignError:
+            continue
+        if check["status"] in CONVERGENT and not s.accept(check):
+            eps = trial.estimator.eps
+            return dict(c, **check, design=trial), (
+                f"eps = {eps:.4g} s (from the smaller of the {base}, over {EPS_MARGIN:g}, "
+                f"halved); NOT certified at any of the eps tried: {'; '.join(misses)}"), \
+                cert, phase_margin(trial, s.b_bounds)
     cert = _point(c["design"], s)
     return c, (f"eps = {provisional:.4g} s (half the smaller of the {base}); NOT certified at "
                f"any of the eps tried: {'; '.join(misses)}"), cert, \
         phase_margin(c["design"], s.b_bounds)
+
+
+def cert_needed(failed) -> bool:
+    """Every failed try has a certificate object (a solve that ran, not one that raised)."""
+    return all(cert is not None for _, cert in failed)
 
 
 def phase_margin(design, b_bounds, n_freq: int = 600) -> float:
