@@ -51,7 +51,9 @@ def assumption_failures(plant) -> tuple[str, ...]:
 
     Examples
     --------
-    See the module.
+    >>> import fl_design as fl
+    >>> assumption_failures(fl.plants.trms_yaw())
+    ()
     """
     out = []
     nf = plant.normal_form()
