@@ -324,6 +324,8 @@ def _from_ode_text() -> str:
             "numbers), gamma (with the sign of b), eps and T (s),\nu_limits.\n"
             "Run: fl-design run THIS.toml --out out")
     lines = render(cfg, head).splitlines()
+    at = lines.index("[scenario]") - 1  # [design] comes after [plant]: every key left to tune
+    lines[at:at] = ["", "[design]", *_design_lines()]
     table, out = None, []
     for line in lines:
         if line.startswith("[") and line.endswith("]"):
@@ -335,6 +337,20 @@ def _from_ode_text() -> str:
             line = f"# {key} = ...  # (derived: {_DERIVED_WHY[key]}) {doc}".rstrip()
         out.append(line)
     return "\n".join(out) + "\n"
+
+
+def _design_lines() -> list[str]:
+    """``[design]``'s keys, each commented out: proposed by :func:`fl_design.tune`."""
+    import dataclasses
+
+    from ._config import TABLES
+    from ._tables import field_docs
+
+    cls = TABLES["design"]
+    docs = field_docs(cls)
+    return [f"# {f.name} = ...  # (not set: proposed by fl.tune from your plant) "
+            f"{_sentence(docs.get(f.name, ''))}".rstrip()
+            for f in dataclasses.fields(cls) if f.init]
 
 
 def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
