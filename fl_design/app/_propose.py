@@ -64,7 +64,7 @@ def propose_design(cfg: Config, plant=None) -> Config:
     plant = plant if plant is not None else build_plant(cfg)
     r = None if cfg.scenario.reference is None else float(cfg.scenario.reference)
     try:  # fl.tune's default objective (the API's), with its documented fallbacks
-        tuned = tune(plant, reference=r)
+        tuned = tune(plant, reference=r, progress=True)
     except NoDesignError as exc:
         raise ConfigError(f"{cfg.source}: [design] is missing and none can be proposed: "
                           f"{exc}; give [design] (gains, gamma, eps, T)") from exc

@@ -29,6 +29,8 @@ Examples
 from __future__ import annotations
 
 import math
+import sys
+import time
 from typing import NamedTuple
 
 import numpy as np
@@ -52,14 +54,21 @@ CONVERGENT = ("converged", "converging")
 class Setup:
     """What every candidate shares: plant, T, b-range, limits, reference, objective check."""
 
-    def __init__(self, plant, rho, T, b_bounds, u_lim, r, accept=None):
+    def __init__(self, plant, rho, T, b_bounds, u_lim, r, accept=None, progress=False):
         self.plant, self.rho, self.T, self.b_bounds, self.u_lim, self.r = (
             plant, rho, T, b_bounds, u_lim, r)
+        self.progress, self.t0 = bool(progress), time.perf_counter()
         self.sign = math.copysign(1.0, b_bounds[0])
         self.bmax = max(abs(b) for b in b_bounds)
         self.bmin = min(abs(b) for b in b_bounds)
         #: ``accept(check) -> str | None``: why a check misses the objective (None: meets it)
         self.accept = accept or (lambda check: None)
+
+    def say(self, message: str) -> None:
+        """One progress line on stderr (with ``progress=True``): the step and the time so far."""
+        if self.progress:
+            print(f"[fl.tune {time.perf_counter() - self.t0:5.1f} s] {message}", file=sys.stderr,
+                  flush=True)
 
 
 def g_text(x) -> str:
@@ -111,6 +120,7 @@ def _gamma_interval(s: Setup, d: float, gains, tried: list, low: bool):
 def candidate(s: Setup, d: float, rule: str, tried: list) -> dict | None:
     """One loop at decay ``d``: gains, gamma, a provisional eps and its check (None: dropped,
     the reason appended to ``tried``)."""
+    s.say(f"loop at {d:.3g} rad/s ({rule} gamma): gains, gamma interval, eps* scans, check")
     try:
         syn = synthesize_gains(s.rho, decay=d)
     except FlDesignError as exc:
@@ -191,6 +201,8 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     for k in range(EPS_TRIES):
         eps = top / 2.0 ** k
         trial = c["design"].replace(eps=eps)
+        s.say(f"loop at {c['decay']:.3g} rad/s: eps certificate {k + 1}/{EPS_TRIES} at eps = "
+              f"{eps:.4g} s (one LMI)")
         cert = _point(trial, s)
         if cert is None or not cert.certified:
             misses.append(f"{eps:.4g} not certified" + ("" if cert is None else

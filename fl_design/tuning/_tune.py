@@ -137,7 +137,7 @@ def _b_range(plant) -> tuple[float, float]:
 
 def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
          reference: float | None = None, u_limits=None, decays=None,
-         baseline="auto") -> Tuning:
+         baseline="auto", progress: bool = False) -> Tuning:
     """Propose a certified, checked design for ``plant`` (the module says how and why).
 
     Parameters
@@ -161,6 +161,9 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
     baseline : Design, None or "auto", optional
         A design to compare noise and overshoot with; ``"auto"`` (default): the paper's design
         for the library TRMS (:func:`fl_design.presets.paper_design`), else none.
+    progress : bool, optional
+        One line per step on stderr (the loop tried, each eps certificate, the final
+        certificates) with the seconds so far (default False; ``fl-design run`` turns it on).
 
     Returns
     -------
@@ -214,7 +217,8 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
         T, T_why = V.positive("T", T), "given"
     head.append(f"T = {T:g} s ({T_why})")
     accept = _acceptance(kind, limit)
-    loop = Setup(plant, rho, T, (lo, hi), u_lim, r, accept)
+    loop = Setup(plant, rho, T, (lo, hi), u_lim, r, accept, progress)
+    loop.say(head[0].split(' (')[0] + f', T = {T:g} s, step to {r:.6g}')
     cands = list(CANDIDATES[kind])
     if decays is not None:
         factors = [V.positive("decays entry", f) for f in V.real_vector("decays", decays)]
@@ -315,6 +319,7 @@ def _result(s: Setup, final: tuple, label: str, head: list, tried: tuple, baseli
         raise NoDesignError(f"no design for {s.plant.name!r}: the eps certificate (LMI) failed "
                             f"at every eps tried: {eps_why}")
     design = best["design"]
+    s.say("the gamma certificate at the design, the baseline")
     try:
         gc = certify_gamma(design, s.b_bounds, eps_grid=best["grid"])
     except FlDesignError as exc:
