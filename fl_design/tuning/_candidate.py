@@ -185,7 +185,8 @@ def _linearized(s: Setup, probe, eps_range) -> tuple[float | None, str]:
 def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     """The chosen loop's eps: the largest of ``min eps* / EPS_MARGIN`` halved up to
     ``EPS_TRIES - 1`` times whose LMI certificate holds, whose phase margin is at least
-    :data:`MIN_PHASE_MARGIN`, and whose check converges and meets the objective.
+    :data:`MIN_PHASE_MARGIN`, and whose check converges and meets the objective (the margins
+    are computed first, cheaply: the eps that have one are certified first).
 
     Returns ``(candidate, reason, EpsCertificate at that eps, phase margin)``. When no eps
     has the margin, the first certified one whose check passes (its margin is flagged by the
@@ -195,14 +196,14 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     provisional eps), and the reason says so.
     """
     base = f"frozen-b eps* {g_text(c['frozen'])} (eigenvalue scan), linearized eps* {c['lin']}"
-    top = min(c["frozen"], c["eps_lin"] or math.inf) / EPS_MARGIN
     provisional = c["design"].estimator.eps
+    margins = eps_margins(s, c)  # cheap: the eps with the margin are certified first
+    order = sorted(margins, key=lambda e: (not margins[e] >= MIN_PHASE_MARGIN, -e))
     misses, spare, failed = [], None, []
-    for k in range(EPS_TRIES):
-        eps = top / 2.0 ** k
+    for k, eps in enumerate(order):
         trial = c["design"].replace(eps=eps)
         s.say(f"loop at {c['decay']:.3g} rad/s: eps certificate {k + 1}/{EPS_TRIES} at eps = "
-              f"{eps:.4g} s (one LMI)")
+              f"{eps:.4g} s (one LMI; phase margin {margins[eps]:.3g} deg)")
         cert = _point(trial, s)
         if cert is None or not cert.certified:
             misses.append(f"{eps:.4g} not certified" + ("" if cert is None else
@@ -211,7 +212,7 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
             if len(failed) == 2 and spare is None:  # two in a row: halving will not help
                 break
             continue
-        pm = phase_margin(trial, s.b_bounds)
+        pm = margins[eps]
         low = not pm >= MIN_PHASE_MARGIN
         if low and spare is not None:
             misses.append(f"{eps:.4g} certified, phase margin {pm:.3g} deg")
@@ -226,9 +227,13 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
         if miss:
             misses.append(f"{eps:.4g} certified but {miss}")
             continue
+        halved = round(math.log2(max(margins) / eps))
         said = (f"eps = {eps:.4g} s (the smaller of the {base}, over {EPS_MARGIN:g}" +
-                (f", halved {k} time(s): " + "; ".join(misses) if k else "") +
-                "; certified there, eps* not searched)")
+                (f", halved {halved} time(s)" if halved else "") +
+                (": " + "; ".join(misses) if misses else "") +
+                (f"; larger eps have a phase margin below {MIN_PHASE_MARGIN:g} deg ("
+                 + ", ".join(f"{e:.4g}: {m:.3g}" for e, m in margins.items() if e > eps) + ")"
+                 if halved and not misses else "") + "; certified there, eps* not searched)")
         if low:  # certified and checked, but a small margin: kept in case none does better
             spare = (dict(c, **check, design=trial), said, cert, pm)
             misses.append(f"{eps:.4g} certified, phase margin {pm:.3g} deg")
@@ -252,6 +257,13 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     return c, (f"eps = {provisional:.4g} s (half the smaller of the {base}); NOT certified at "
                f"any of the eps tried: {'; '.join(misses)}"), cert, \
         phase_margin(c["design"], s.b_bounds)
+
+
+def eps_margins(s: Setup, c: dict) -> dict:
+    """``{eps: phase margin}`` over the eps :func:`certified_eps` tries, largest first."""
+    top = min(c["frozen"], c["eps_lin"] or math.inf) / EPS_MARGIN
+    return {top / 2.0 ** k: phase_margin(c["design"].replace(eps=top / 2.0 ** k), s.b_bounds)
+            for k in range(EPS_TRIES)}
 
 
 def cert_needed(failed) -> bool:
@@ -307,4 +319,4 @@ def _point(design, s: Setup):
 
 
 __all__ = ["CONVERGENT", "EPS_MARGIN", "EPS_TRIES", "MIN_PHASE_MARGIN", "Setup", "candidate",
-           "certified_eps", "g_text", "phase_margin"]
+           "certified_eps", "eps_margins", "g_text", "phase_margin"]

@@ -63,7 +63,8 @@ from ..analysis import certify_gamma
 from ..design import Design
 from ..errors import FlDesignError, NoDesignError, ParameterError, RelativeDegreeError
 from ..symbolic import Plant
-from ._candidate import MIN_PHASE_MARGIN, CONVERGENT, Setup, candidate, certified_eps, g_text
+from ._candidate import (CONVERGENT, MIN_PHASE_MARGIN, Setup, candidate, certified_eps,
+                         eps_margins, g_text)
 from ._check import baseline_for
 from ._tuning import Tuning
 
@@ -241,6 +242,10 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
     if kind == "fastest" and decays is None and not final[3] >= MIN_PHASE_MARGIN:
         for f in FALLBACKS:  # the default design needs its margin: slower loops
             alt = _run(loop, [(f, "fast")], decay, full_reach, accept, tried)
+            if alt and not max(eps_margins(loop, alt[0]).values()) >= MIN_PHASE_MARGIN:
+                tried.append(f"loop at {alt[0]['decay']:.3g} rad/s: no eps tried has a phase "
+                             f"margin >= {MIN_PHASE_MARGIN:g} deg either")
+                continue
             fin = certified_eps(loop, alt[0]) if alt else None
             if fin is not None and fin[3] >= MIN_PHASE_MARGIN:
                 tried.append(f"loop at {best['decay']:.3g} rad/s: phase margin "
