@@ -121,8 +121,8 @@ def test_trms_default_design_is_no_slower_than_the_paper_s():
 def test_hydraulic_actuator_gets_a_design_or_a_named_step():
     """b ~ sqrt(Ps - p), T = 0.1 ms: never a crash; a converging design or NoDesignError."""
     plant = _plant("hydraulic")
-    try:
-        tuned = fl.tune(plant)
+    try:  # the loop at the time scale only (its LMIs fail slowly: verify/ runs the fallbacks)
+        tuned = fl.tune(plant, decays=[1.0])
     except fl.errors.NoDesignError as exc:
         assert "loop at" in str(exc)
         return
