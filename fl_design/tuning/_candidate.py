@@ -117,9 +117,12 @@ def _gamma_interval(s: Setup, d: float, gains, tried: list, low: bool):
         probe = probe.replace(eps=max(2.0 * s.T, probe.estimator.eps / 4.0))
 
 
-def candidate(s: Setup, d: float, rule: str, tried: list) -> dict | None:
+def candidate(s: Setup, d: float, rule: str, tried: list,
+              margin_needed: bool = False) -> dict | None:
     """One loop at decay ``d``: gains, gamma, a provisional eps and its check (None: dropped,
-    the reason appended to ``tried``)."""
+    the reason appended to ``tried``); with ``margin_needed``, dropped before the check when
+    none of the eps :func:`certified_eps` would try has a phase margin of
+    :data:`MIN_PHASE_MARGIN` deg."""
     s.say(f"loop at {d:.3g} rad/s ({rule} gamma): gains, gamma interval, eps* scans, check")
     try:
         syn = synthesize_gains(s.rho, decay=d)
@@ -148,6 +151,13 @@ def candidate(s: Setup, d: float, rule: str, tried: list) -> dict | None:
         return None
     eps = min(frozen, eps_lin or math.inf) / 2.0
     design = probe.replace(eps=eps)
+    if margin_needed:
+        best = max(eps_margins(s, {"design": design, "frozen": frozen,
+                                   "eps_lin": eps_lin}).values())
+        if not best >= MIN_PHASE_MARGIN:
+            tried.append(f"{what}: no eps tried has a phase margin >= {MIN_PHASE_MARGIN:g} deg "
+                         f"(at most {best:.3g} deg)")
+            return None
     check = check_candidate(s.plant, design, s.r)
     if check["status"] not in CONVERGENT:
         tried.append(f"{what}, eps {eps:.3g}: the check simulation is {check['status']} "
@@ -186,7 +196,8 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     """The chosen loop's eps: the largest of ``min eps* / EPS_MARGIN`` halved up to
     ``EPS_TRIES - 1`` times whose LMI certificate holds, whose phase margin is at least
     :data:`MIN_PHASE_MARGIN`, and whose check converges and meets the objective (the margins
-    are computed first, cheaply: the eps that have one are certified first).
+    are computed first, cheaply: the eps that have one are certified first, largest first;
+    when none has it, the one with the largest margin first).
 
     Returns ``(candidate, reason, EpsCertificate at that eps, phase margin)``. When no eps
     has the margin, the first certified one whose check passes (its margin is flagged by the
@@ -198,10 +209,13 @@ def certified_eps(s: Setup, c: dict) -> tuple[dict, str, object, float]:
     base = f"frozen-b eps* {g_text(c['frozen'])} (eigenvalue scan), linearized eps* {c['lin']}"
     provisional = c["design"].estimator.eps
     margins = eps_margins(s, c)  # cheap: the eps with the margin are certified first
-    order = sorted(margins, key=lambda e: (not margins[e] >= MIN_PHASE_MARGIN, -e))
+    order = sorted(margins, key=lambda e: (0, -e) if margins[e] >= MIN_PHASE_MARGIN else
+                   (1, -np.nan_to_num(margins[e], nan=-np.inf)))  # else the best margin first
     misses, spare, failed = [], None, []
     for k, eps in enumerate(order):
         trial = c["design"].replace(eps=eps)
+        if spare is not None and not margins[eps] >= MIN_PHASE_MARGIN:
+            break  # a certified, checked eps is in hand and no eps left has the margin
         s.say(f"loop at {c['decay']:.3g} rad/s: eps certificate {k + 1}/{EPS_TRIES} at eps = "
               f"{eps:.4g} s (one LMI; phase margin {margins[eps]:.3g} deg)")
         cert = _point(trial, s)
