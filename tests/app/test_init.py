@@ -216,6 +216,7 @@ def _cli(*args, timeout=300):
                           text=True, timeout=timeout, check=False)
 
 
+@pytest.mark.slow
 def test_cli_user_plant_with_only_its_plant_table_gets_a_step_and_a_design(tmp_path):
     """No [design], no reference: the step is 5 % of the output's range in the region (0.3
     rad of [-3, 3]), the design proposed by fl.tune, each said on stderr."""
