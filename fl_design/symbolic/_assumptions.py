@@ -56,9 +56,10 @@ def assumption_failures(plant) -> tuple[str, ...]:
     ()
     """
     out = []
-    nf = plant.normal_form()
-    if not nf.minimum_phase:
-        eig = ", ".join(_fmt(z) for z in nf.zero_dynamics_eigenvalues)
+    zeros = zero_dynamics_eigenvalues(plant)
+    A = plant.linearization()[0]
+    if zeros.size and not np.all(zeros.real < -1e-9 * max(1.0, float(np.linalg.norm(A)))):
+        eig = ", ".join(_fmt(z) for z in zeros)
         out.append(f"NOT minimum phase: the zero dynamics have the eigenvalue(s) [{eig}] (real "
                    "part >= 0) at the operating point; the method keeps the output on its "
                    "reference while the internal state diverges: it does not apply")
@@ -66,6 +67,45 @@ def assumption_failures(plant) -> tuple[str, ...]:
     if b:
         out.append(b)
     return tuple(out)
+
+
+def zero_dynamics_eigenvalues(plant) -> np.ndarray:
+    """The zero dynamics' eigenvalues at the operating point: the invariant zeros of the
+    linearization ``(A, B, C)``, the finite generalized eigenvalues of the Rosenbrock pencil
+    ``[[A, B], [C, 0]] - s [[I, 0], [0, 0]]`` (SciPy; no SymPy, so a cached library plant
+    stays SymPy-free). The same test as :attr:`fl_design.NormalForm.minimum_phase`.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``n - rho`` complex numbers, sorted (empty when ``rho = n``).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> import fl_design as fl
+    >>> w, x1, x2, u = sp.symbols("w x1 x2 u")
+    >>> p = fl.Plant.from_ode([w, x1, x2], u, [-2 * w + x1, x2, u], x1)
+    >>> zero_dynamics_eigenvalues(p).real.tolist()
+    [-2.0]
+    """
+    import scipy.linalg
+
+    A, B, C, _ = plant.linearization()
+    n = A.shape[0]
+    if plant.relative_degree() >= n:
+        return np.zeros(0, dtype=complex)
+    M = np.block([[A, B], [C, np.zeros((1, 1))]])
+    N = np.zeros_like(M)
+    N[:n, :n] = np.eye(n)
+    alpha, beta = scipy.linalg.eigvals(M, N, homogeneous_eigvals=True)
+    finite = np.abs(beta) > 1e-12 * np.maximum(np.abs(alpha), 1.0)
+    return np.sort_complex(alpha[finite] / beta[finite])
 
 
 def check_assumptions(plant, *, what: str = "the design") -> None:
@@ -147,4 +187,4 @@ def _fmt(z: complex) -> str:
     return f"{z.real:.4g}" if abs(z.imag) < 1e-12 else f"{z.real:.4g}{z.imag:+.4g}j"
 
 
-__all__ = ["assumption_failures", "check_assumptions"]
+__all__ = ["assumption_failures", "check_assumptions", "zero_dynamics_eigenvalues"]

@@ -99,3 +99,14 @@ def test_b_changing_sign_is_refused_at_a_point_where_b_has_the_other_sign():
     th_at = float(msg.split("th=")[1].split(",")[0])
     assert math.cos(th_at) < 0 < math.cos(0.0)  # b = cos(th): the other sign there
     assert assumption_failures(fl.plants.trms_yaw()) == ()
+
+
+def test_the_zero_dynamics_from_the_pencil_agree_with_the_normal_form():
+    """The refusal's eigenvalues (Rosenbrock pencil, SciPy) equal the normal form's (kernel of
+    the observability chain): the gantry crane's two stable zeros."""
+    from fl_design.symbolic._assumptions import zero_dynamics_eigenvalues
+
+    plant = fl.plants.cart_pendulum()
+    want = plant.normal_form().zero_dynamics_eigenvalues
+    assert zero_dynamics_eigenvalues(plant) == pytest.approx(want, rel=1e-9)
+    assert np.all(want.real < 0)
