@@ -198,3 +198,10 @@ class ExcitationError(LogError):
 
 
 __all__ += ["ExcitationError", "LogError"]
+
+
+class AssumptionError(FlDesignError, ValueError):
+    """The plant is outside the method's assumptions (non-minimum phase, b changing sign)."""
+
+
+__all__ += ["AssumptionError"]

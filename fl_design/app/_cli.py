@@ -99,16 +99,23 @@ def _prepare(cfg):
     from ._build import build_plant, check_fit
     from ._job import prepare
 
+    # --- issue 31: the method's assumptions first, a design and a step derived from the plant,
+    # ranges that hold the design (fl_design.symbolic._assumptions, app._template.fit_ranges)
+    from ..symbolic._assumptions import check_assumptions
+    from ._template import fit_ranges
+
+    plant = build_plant(cfg)
+    check_assumptions(plant, what="fl-design")
     if cfg.design is None:
         from ._propose import propose_design
 
-        plant = build_plant(cfg)
-        if cfg.scenario.reference is not None:
-            print("fl-design: no [design] given: proposing one from the plant ...",
-                  file=sys.stderr, flush=True)
-            cfg = propose_design(cfg, plant)
-        else:
-            check_fit(cfg, plant)  # refuses, naming what to add
+        print("fl-design: no [design] given: proposing one from the plant ...",
+              file=sys.stderr, flush=True)
+        cfg = propose_design(cfg, plant)
+    cfg, widened = fit_ranges(cfg)
+    for line in widened:
+        print(f"fl-design: {line}", file=sys.stderr)
+    # --- end issue 31
     job = prepare(cfg)
     for line in check_fit(cfg, job.plant):
         print(f"fl-design: warning: {line}" if not line.startswith("[design] proposed")

@@ -234,6 +234,7 @@ def _custom_defaults(tables: dict, data: dict) -> None:
     sc = data.get("scenario", {})
     if "reference" not in sc:
         tables["scenario"].pop("reference")
+        tables["compare"]["noise_std"] = []  # derived from the step once it is known (_propose)
         return
     op = p.get("operating_point", {}) if isinstance(p.get("operating_point"), dict) else {}
     y0 = op.get("y", op.get(p.get("output"), 0.0))

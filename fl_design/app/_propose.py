@@ -1,13 +1,13 @@
 """A design proposed for a plant from expressions given without ``[design]``: :func:`fl.tune`.
 
-One way to propose: :func:`fl_design.tune` with the configured step (``[scenario]
-reference``), objective ``"fastest"`` with the loop at the plant's own time scale (one
-candidate: the report's simulation should settle within its run); when that loop has no
-design, loops at half and a quarter of it (a lagging actuator), the faster settling one. The tuning says each choice
-with its number (time scale, T, gains, gamma inside the certified interval, eps the largest
-with a certified margin, the check simulation and sweep, the noise gain); those sentences
-become the config's notes, and the sweep and certificate ranges come from the tuning (T, the
-time scale and the certified gamma interval) unless given.
+One way to propose, the API's: :func:`fl_design.tune` with its default objective
+(:data:`fl_design.tuning._tune.DEFAULT_OBJECTIVE`, the loop at the plant's own time scale, and
+its documented fallbacks) and the configured step (``[scenario] reference``; not given: the
+tuning's, the operating output plus 5 % of the output's range in the region). The tuning
+says each choice with its number; those sentences (its warnings first) become the config's
+notes, and the sweep and certificate ranges come from the tuning (T, the time scale and the
+certified gamma interval) unless given; the compared noise levels, unless given, from the
+step.
 
 Examples
 --------
@@ -62,21 +62,13 @@ def propose_design(cfg: Config, plant=None) -> Config:
     from ._build import build_plant
 
     plant = plant if plant is not None else build_plant(cfg)
-    if cfg.scenario.reference is None:
-        raise ConfigError(f"{cfg.source}: [scenario] reference is missing: give the output's "
-                          "step target (absolute, in the plant's units)")
-    r, first_why = float(cfg.scenario.reference), []
-    try:
-        tuned = tune(plant, reference=r, objective="fastest", decays=(1.0,))
-    except NoDesignError as first:
-        first_why = [f"not chosen: the loop at the plant's time scale: {first}"]
-        try:  # slower loops: what a lagging actuator may still follow
-            tuned = tune(plant, reference=r, objective="fastest", decays=(0.5, 0.25))
-        except NoDesignError as exc:
-            raise ConfigError(f"{cfg.source}: [design] is missing and none can be proposed: "
-                              f"{first}; then {exc}; give [design] (`fl-design init --from-ode` "
-                              "shows one)") from exc
-    return _config_with(cfg, tuned, first_why)
+    r = None if cfg.scenario.reference is None else float(cfg.scenario.reference)
+    try:  # fl.tune's default objective (the API's), with its documented fallbacks
+        tuned = tune(plant, reference=r, progress=True)
+    except NoDesignError as exc:
+        raise ConfigError(f"{cfg.source}: [design] is missing and none can be proposed: "
+                          f"{exc}; give [design] (gains, gamma, eps, T)") from exc
+    return _config_with(cfg, tuned, [])
 
 
 def _config_with(cfg: Config, tuned, extra: list) -> Config:
@@ -91,18 +83,37 @@ def _config_with(cfg: Config, tuned, extra: list) -> Config:
                       eps_range=cfg.certify.eps_range or tuple(ranges["certify_eps"]))
     compare = replace(cfg.compare, eps_tradeoff=tuple(float(f"{est.eps * f:.3g}")
                                                       for f in (0.5, 1.0, 2.0, 4.0)))
-    reasons = list(tuned.reasons) + [f"not chosen: {t}" for t in tuned.tried] + extra
-    notes = tuple(cfg.notes) + tuple(f"[design] proposed: {r}" for r in reasons)
+    reasons = [f"WARNING: {w}" for w in tuned.warnings] + list(tuned.reasons) + \
+        [f"not chosen: {t}" for t in tuned.tried] + extra
+    scenario, compare, derived = _derived(cfg, tuned, compare)
+    notes = tuple(cfg.notes) + tuple(derived) + tuple(f"[design] proposed: {r}" for r in reasons)
     gc = tuned.gamma_certificate
-    star = "-" if tuned.eps_star_certified is None else f"{tuned.eps_star_certified:.4g} s"
     why = (f"design proposed by fl.tune, no [design] given: loop at {tuned.time_scale:.3g} "
            f"rad/s, T = {est.T:g} s, gamma = {ctrl.gamma:.4g} (|gamma| in the admissible "
            f"[{_g(gc.gamma_min)}, {_g(gc.gamma_max)}]), eps = {est.eps:.4g} s "
-           f"({'certified' if tuned.certified else 'NOT certified'}, certified eps* {star}), "
+           f"({'certified' if tuned.certified else 'NOT certified'} there), "
            f"check {tuned.status} with {tuned.overshoot:.3g} % overshoot; every reason in the "
            "notes (summary.json config.notes, stderr)")
     return replace(cfg, design=d, sweep=sweep, certify=certify, compare=compare,
-                   source=f"{cfg.source} ({why})", notes=notes)
+                   scenario=scenario, source=f"{cfg.source} ({why})", notes=notes)
+
+
+def _derived(cfg: Config, tuned, compare) -> tuple:
+    """``(scenario, compare, notes)``: the reference and the compared noise, when not given,
+    from the plant (the tuning's step) — never another plant's numbers."""
+    notes, scenario = [], cfg.scenario
+    if scenario.reference is None:
+        scenario = replace(scenario, reference=float(tuned.reference))
+        notes.append(f"[scenario] reference = {tuned.reference:.6g} (not given: the operating "
+                     "output plus 5 % of the output's range in the region)")
+    if not compare.noise_std:
+        y_op = float(tuned.response.y[0]) if len(tuned.response.y) else 0.0
+        step = abs(float(tuned.reference) - y_op) or 1.0
+        stds = (float(f"{step / 300:.3g}"), float(f"{step * 0.105409:.3g}"))
+        compare = replace(compare, noise_std=stds)
+        notes.append(f"[compare] noise_std = {list(stds)} (not given: 1/300 and 0.105 of the "
+                     f"step {step:.4g}, the paper's noise relative to its step)")
+    return scenario, compare, notes
 
 
 def _g(x) -> str:

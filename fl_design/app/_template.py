@@ -282,6 +282,77 @@ def fill_ranges(tables: dict, given: dict) -> None:
         tables["certify"]["eps_range"] = list(tables["sweep"]["eps"])
 
 
+#: The ``init --from-ode`` example: a mass on a hardening spring with viscous friction,
+#: written only to be replaced (no other table holds a number derived from it).
+_EXAMPLE_PLANT = {"name": "my_plant", "states": ["x", "v"], "input": "u",
+                  "rhs": ["v", "(-k*x - k3*x**3 - c*v + u)/m"], "output": "x",
+                  "params": {"m": 1.0, "k": 4.0, "k3": 1.0, "c": 0.4},
+                  "region": {"x": [-2.0, 2.0], "v": [-5.0, 5.0]}, "input_range": [-10.0, 10.0],
+                  "operating_point": {"x": 0.0}, "output_unit": "m", "input_unit": "N"}
+
+#: Keys ``init --from-ode`` leaves to the run: derived from the plant and the (proposed)
+#: design, never another plant's numbers.
+DERIVED = {"scenario": ("reference",), "sweep": ("eps", "gamma"),
+           "certify": ("eps_range", "gamma"),
+           "compare": ("noise_std", "eps_tradeoff", "duration"),
+           "codegen": ("sil_duration",)}
+
+_DERIVED_WHY = {
+    "reference": "the operating output plus 5 % of the output's range in the region",
+    "eps": "around the design's eps, from T to the loop's time scale",
+    "gamma": "around the design's gamma, from its certified interval",
+    "eps_range": "as [sweep] eps",
+    "noise_std": "1/300 and 0.105 of the step (the paper's noise relative to its step)",
+    "eps_tradeoff": "0.5, 1, 2, 4 times the design's eps",
+    "duration": "not set here: the tool's default for every plant",
+    "sil_duration": "not set here: the tool's default for every plant",
+}
+
+
+def _from_ode_text() -> str:
+    """The ``init --from-ode`` text: ``[plant]`` given, every derived key commented out."""
+    from ._config import parse_config
+
+    cfg = parse_config(_toml({"plant": _EXAMPLE_PLANT}), source="init")
+    head = ("fl-design configuration for your own plant, written as expressions.\n"
+            "Edit [plant] only (the example is a mass on a hardening spring): every other number "
+            "is\nderived from YOUR plant when you run it: the step (5 % of the output's range "
+            "in the\nregion), a design proposed by fl.tune (time scale, T, gains, gamma, a "
+            "certified eps; each\nchoice said with its reason), the map and certificate "
+            "ranges around that design, the\ncompared noise from the step. Uncomment a key "
+            "to set it yourself. To give your own design\nadd a [design] table: gains (rho "
+            "numbers), gamma (with the sign of b), eps and T (s),\nu_limits.\n"
+            "Run: fl-design run THIS.toml --out out")
+    lines = render(cfg, head).splitlines()
+    at = lines.index("[scenario]") - 1  # [design] comes after [plant]: every key left to tune
+    lines[at:at] = ["", "[design]", *_design_lines()]
+    table, out = None, []
+    for line in lines:
+        if line.startswith("[") and line.endswith("]"):
+            table = line[1:-1]
+        key = line.lstrip("# ").split(" = ", 1)[0] if " = " in line else None
+        if key in DERIVED.get(table, ()):
+            doc = line.split("  # ", 1)[1] if "  # " in line else ""
+            doc = doc.replace("(not set) ", "")
+            line = f"# {key} = ...  # (derived: {_DERIVED_WHY[key]}) {doc}".rstrip()
+        out.append(line)
+    return "\n".join(out) + "\n"
+
+
+def _design_lines() -> list[str]:
+    """``[design]``'s keys, each commented out: proposed by :func:`fl_design.tune`."""
+    import dataclasses
+
+    from ._config import TABLES
+    from ._tables import field_docs
+
+    cls = TABLES["design"]
+    docs = field_docs(cls)
+    return [f"# {f.name} = ...  # (not set: proposed by fl.tune from your plant) "
+            f"{_sentence(docs.get(f.name, ''))}".rstrip()
+            for f in dataclasses.fields(cls) if f.init]
+
+
 def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
     """The commented configuration ``fl-design init`` writes (``fl-design run`` accepts it).
 
@@ -290,9 +361,11 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
     plant : str, optional
         A library plant (default the paper's TRMS).
     from_ode : bool, optional
-        A plant written as expressions instead (a damped pendulum with every ``[plant]`` key:
-        states, input, rhs, output, params, region, input_range, operating_point), with its
-        design; edit the expressions and the design for your own plant.
+        A plant written as expressions instead (an example with every ``[plant]`` key:
+        states, input, rhs, output, params, region, input_range, operating_point) and no
+        other plant-specific number: the reference, the design (:func:`fl_design.tune`), the
+        ranges and the compared noise are derived from the plant at run time
+        (:data:`DERIVED`); edit ``[plant]`` only.
 
     Returns
     -------
@@ -302,26 +375,14 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
     --------
     >>> from fl_design.app import parse_config
     >>> from fl_design.app._template import config_toml
-    >>> parse_config(config_toml(from_ode=True)).plant.states
-    ('theta', 'omega')
+    >>> cfg = parse_config(config_toml(from_ode=True))
+    >>> cfg.plant.states, cfg.design, cfg.scenario.reference
+    (('x', 'v'), None, None)
     """
     from ._config import parse_config
 
     if from_ode:
-        t = full_tables("pendulum")
-        t["plant"] = {"name": "my_pendulum", "states": ["theta", "omega"], "input": "u",
-                      "rhs": ["omega", "-g/l*sin(theta) - c*omega + u/(m*l**2)"],
-                      "output": "theta", "params": {"g": 9.81, "l": 1.0, "m": 1.0, "c": 0.5},
-                      "region": {"theta": [-3.14159, 3.14159], "omega": [-10.0, 10.0]},
-                      "input_range": [-20.0, 20.0], "operating_point": {"theta": 0.0},
-                      "output_unit": "rad", "input_unit": "N m"}
-        head = ("fl-design configuration: your own plant as expressions (here a damped "
-                "pendulum),\nwith a design for it. Replace [plant] by your equations and "
-                "[scenario] reference; then\nadapt [design] (rho gains, rho + 1 coeffs, gamma "
-                "with the sign of b, eps >= T), or\ndelete the [design] table and `fl-design "
-                "run` proposes one from the plant (and says why).\n"
-                "Run: fl-design run THIS.toml --out out")
-        return render(parse_config(_toml(t), source="init"), head)
+        return _from_ode_text()
     head = (f"fl-design configuration: {_PLANT_DOC[plant]},\nwith its bench design "
             f"(fl_design.presets.bench_design({plant!r})). Every table and key is\nshown "
             "with its value. The operating point is the plant's own ("
@@ -330,5 +391,64 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
     return render(parse_config(_toml(full_tables(plant)), source="init"), head)
 
 
-__all__ = ["config_toml", "default_ranges", "fill_ranges", "full_tables", "library_tables",
-           "render"]
+def fit_ranges(cfg) -> tuple:
+    """``(cfg, notes)``: every ``[sweep]`` and ``[certify]`` range holds the design's point.
+
+    A range given (or derived) that misses the design's eps or gamma is widened to hold it,
+    a factor 2 beyond it, and one note says which range, from what to what; a gamma range of
+    the other sign than the design's gamma cannot be widened: :class:`ConfigError`, one line.
+
+    Parameters
+    ----------
+    cfg : Config
+        A validated configuration with a design.
+
+    Returns
+    -------
+    (Config, tuple of str)
+
+    Raises
+    ------
+    ConfigError
+        A gamma range of the other sign than the design's gamma.
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from fl_design.app import load_config
+    >>> cfg = load_config(None)
+    >>> new, notes = fit_ranges(replace(cfg, sweep=replace(cfg.sweep, eps=(1e-3, 0.01))))
+    >>> new.sweep.eps, notes[0].split(":")[0]
+    ((0.001, 0.1), '[sweep] eps widened from [0.001, 0.01] to [0.001, 0.1]')
+    """
+    from dataclasses import replace
+
+    from ._config import ConfigError
+
+    d = cfg.design
+    if d is None or getattr(d, "eps", None) is None or not getattr(d, "gamma", None):
+        return cfg, ()
+    notes, tables = [], {}
+    for table, key, value in (("sweep", "eps", d.eps), ("sweep", "gamma", d.gamma),
+                              ("certify", "eps_range", d.eps), ("certify", "gamma", d.gamma)):
+        obj = tables.get(table, getattr(cfg, table))
+        rng = getattr(obj, key)
+        if rng is None:
+            continue
+        lo, hi = float(rng[0]), float(rng[1])
+        if lo <= value <= hi:
+            continue
+        if key == "gamma" and lo * value <= 0 and hi * value <= 0:
+            raise ConfigError(f"{cfg.source}: [{table}] {key} = [{lo:g}, {hi:g}] has the other "
+                              f"sign than the design's gamma = {value:g}: give a range of its "
+                              "sign (gamma takes the sign of b)")
+        new = (_round(min(lo, value / 2.0) if value > 0 else min(lo, 2.0 * value)),
+               _round(max(hi, 2.0 * value) if value > 0 else max(hi, value / 2.0)))
+        notes.append(f"[{table}] {key} widened from [{lo:g}, {hi:g}] to [{new[0]:g}, "
+                     f"{new[1]:g}]: the design's {key.split('_')[0]} = {value:g} lay outside it")
+        tables[table] = replace(obj, **{key: new})
+    return (replace(cfg, **tables) if tables else cfg), tuple(notes)
+
+
+__all__ = ["DERIVED", "config_toml", "default_ranges", "fill_ranges", "fit_ranges", "full_tables",
+           "library_tables", "render"]

@@ -33,10 +33,13 @@ The statuses, in this order:
   (a single slow crossing dips ``|e|``: a V that depends on where the window falls in the
   swing, not an envelope); the conditions are listed in :func:`classify`;
 * ``oscillating``: at least :data:`MIN_REVERSALS` reversals, swings larger than the band, not
-  decaying (the envelope shrinks by less than :data:`MIN_CHANGE`, or the last swing is as
-  large as the first) and not growing significantly: a limit cycle (how an unstable loop
-  usually looks behind input saturation);
-* ``stalled``: bounded, outside the band, no such swings, envelope flat or heading for an
+  decaying (the envelope shrinks by less than :data:`MIN_CHANGE` and the last swing is not
+  smaller than the first by more than that), at least :data:`MIN_PERIODS` full swings in the
+  window, and not growing significantly: a limit cycle (how an unstable loop usually looks
+  behind input saturation); a decaying swing, or one slower than the run can show twice, is
+  never oscillating;
+* ``stalled``: bounded, the tail's error outside the band (inside it a run is never
+  stalled), no such swings, envelope flat or heading for an
   offset, and the loop at rest (the input steady: drifting over the window by at most
   :data:`U_DRIFT` of its level or by less than its noise, or pinned at a limit): not
   approaching the reference;
@@ -146,6 +149,9 @@ MIN_REVERSALS = 2
 T_SIGNIFICANT = 4.0
 #: Relative change of the fitted envelope over the window below which it is flat.
 MIN_CHANGE = 0.05
+#: Full swings the analysis window must hold for a sustained swing to be called oscillating
+#: (a swing slower than that, decaying or not, cannot be judged in the run: undecided).
+MIN_PERIODS = 1
 #: One-sided 95 % Student quantiles ``scipy.stats.t.ppf(0.95, dof)``, indexed by the envelope
 #: fit's degrees of freedom (at most ``NBLOCKS - 2``; NaN for none): a slow decay's confidence.
 T_CONFIDENT = (np.nan, 6.3138, 2.9200, 2.3534, 2.1318, 2.0150, 1.9432)
@@ -308,10 +314,12 @@ def classify(summary: dict) -> np.ndarray:
       :data:`MIN_REVERSALS` reversals, and no hump (below);
     * ``oscillating``: at least :data:`MIN_REVERSALS` reversals of a swing whose mean
       peak-to-peak exceeds the band (``tol`` and the noise floor), and sustained: the fitted
-      envelope shrinks by less than :data:`MIN_CHANGE` over the window, or the last swing is at
-      least ``1 - MIN_CHANGE`` times the first, and it does not grow significantly (growing
-      swings end in a limit cycle or a divergence: undecided);
-    * ``stalled``: bounded, outside the band, no such swings, on one side of the reference
+      envelope shrinks by less than :data:`MIN_CHANGE` over the window, and the last swing
+      (when measured) is at least ``1 - MIN_CHANGE`` times the first, the window holds at
+      least :data:`MIN_PERIODS` periods, and it does not grow significantly (growing swings
+      end in a limit cycle or a divergence: undecided);
+    * ``stalled``: bounded, the tail's largest ``|e|`` outside the band, no such swings, on
+      one side of the reference
       over the window (``e`` does not cross the band), and the envelope flat (no
       significant trend nor hump: a hump has ``|curvature_t| > T_SIGNIFICANT`` and a ``spread``
       above both the noise floor and ``MIN_CHANGE`` of the largest ``|e|``) or heading for an
@@ -372,6 +380,8 @@ def _classify(summary: dict) -> np.ndarray:
         p2p = np.asarray(summary["tail_e_max"]) - np.asarray(summary["tail_e_min"])
         converged = ((np.asarray(summary["tail_abs_e_max"]) <= band) & (np.abs(mean) <= tol)
                      & (p2p <= np.maximum(tol, ev["floor"])))
+        # a stall is an error outside the band: inside it, whatever else, never stalled
+        outside = np.asarray(summary["tail_abs_e_max"]) > band
         t = ev["rate"] / ev["rate_se"]
         t = np.where(ev["rate_se"] == 0, np.sign(ev["rate"]) * np.inf, t)
         swinging = (ev["reversals"] >= MIN_REVERSALS) & (ev["amplitude"] > np.maximum(tol, ev["floor"]))
@@ -387,17 +397,22 @@ def _classify(summary: dict) -> np.ndarray:
         flat = ((np.abs(t) < 1) | (np.abs(ev["change"]) < MIN_CHANGE) | (ev["rate"] == 0)) \
             & ~hump
         growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
-        sustained = ((ev["change"] >= -MIN_CHANGE) | (ev["swing_ratio"] >= 1 - MIN_CHANGE)) \
-            & ~growing
+        # sustained: the envelope does not shrink AND the last swing is not smaller than the
+        # first (when measured), over at least MIN_PERIODS full swings in the window: a
+        # decaying swing slower than that is not an oscillation (converging or undecided)
+        ratio = ev["swing_ratio"]
+        seen = ev["period"] * MIN_PERIODS <= ev["window"]
         # a slow decay (rules in the docstring); no hump: the fit's line describes the envelope
         dof = np.clip(np.nan_to_num(ev["fit_points"]) - 2, 0, len(T_CONFIDENT) - 1).astype(int)
         confident = t < -np.take(np.asarray(T_CONFIDENT), dof)
+        sustained = ((ev["change"] >= -MIN_CHANGE) & ~(ratio < 1 - MIN_CHANGE) & seen
+                     & ~growing & ~confident)
         slow_decay = (confident & (ev["change"] < -MIN_CHANGE) & ~offset
                       & ~(swinging & sustained) & (ev["saturated"] < 0.5)
                       & (one_sided | (ev["reversals"] >= MIN_REVERSALS)) & ~hump)
     code = np.select(
         [div, converged, decaying, swinging & sustained, slow_decay,
-         ~swinging & (flat | offset) & one_sided & ~ev["u_moving"]],
+         ~swinging & (flat | offset) & one_sided & ~ev["u_moving"] & outside],
         [int(Status.DIVERGED), int(Status.CONVERGED), int(Status.CONVERGING),
          int(Status.OSCILLATING), int(Status.CONVERGING), int(Status.STALLED)],
         int(Status.UNDECIDED))
@@ -408,6 +423,7 @@ __all__ = [
     "BOUNDED_CODES",
     "CONVERGENT_CODES",
     "MIN_CHANGE",
+    "MIN_PERIODS",
     "MIN_REVERSALS",
     "NBLOCKS",
     "NOISE_P2P",

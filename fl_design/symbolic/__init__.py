@@ -24,9 +24,11 @@ _LAZY = {"to_casadi": "_bridge", "Discretization": "_discretization",
          "lie_series_terms": "_discretization", "sigma_symbol": "_discretization",
          "taylor_discretization": "_discretization", "Equilibrium": "_equilibrium",
          "InternalDynamics": "_normal_form", "NormalForm": "_normal_form", "Plant": "_plant",
-         "PlantFunctions": "_casadi_functions"}
+         "PlantFunctions": "_casadi_functions",
+         "check_assumptions": "_assumptions", "assumption_failures": "_assumptions"}
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from ._assumptions import assumption_failures, check_assumptions
     from ._bridge import to_casadi
     from ._casadi_functions import PlantFunctions
     from ._discretization import (
@@ -53,6 +55,8 @@ __all__ = [
     "Plant",
     "PlantFunctions",
     "approximate_extended_model",
+    "assumption_failures",
+    "check_assumptions",
     "chain_states",
     "lie_series_terms",
     "sigma_symbol",

@@ -22,6 +22,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import PlantDefinitionError
+from ._tidy import _drop_dirac, _real_maps
 
 #: Random starts of the equilibrium search beyond the first guess (a Sobol set).
 STARTS = 16
@@ -120,7 +121,11 @@ def solve_equilibrium(*, states, input, rhs, output, params, region, input_range
     F = eqs.subs(sub)
     syms = [unknowns[i] for i in free]
     fun = sp.lambdify([syms], list(F), modules="numpy")
-    jac = sp.lambdify([syms], F.jacobian(syms).tolist(), modules="numpy")
+    # differentiate with real stand-ins (d|x|/dx = sign(x) whatever the user's assumptions),
+    # drop DiracDelta terms (the derivative almost everywhere)
+    fwd, back = _real_maps([*syms, *F.free_symbols])
+    J = _drop_dirac(F.xreplace(fwd).jacobian([fwd.get(s, s) for s in syms])).xreplace(back)
+    jac = sp.lambdify([syms], J.tolist(), modules="numpy")
     scale = 1.0 + float(np.max(np.abs(np.asarray(fun(first[free]), dtype=float))))
     tol = 1e-9 * scale
     def res(z):
@@ -131,6 +136,7 @@ def solve_equilibrium(*, states, input, rhs, output, params, region, input_range
 
     found: list[np.ndarray] = []
     for start in _starts(lo[free], hi[free], first[free]):
+        _defined_at(res, start, syms, F, name)
         z, resid = _solve_from(res, der, start, (lo[free], hi[free]))
         if resid <= tol and not any(np.allclose(z, f, rtol=1e-6, atol=1e-8) for f in found):
             found.append(z)
@@ -141,6 +147,26 @@ def solve_equilibrium(*, states, input, rhs, output, params, region, input_range
             outside[free] = z
             _outside(outside, lo, hi, states, input_range, name)
     return _unique(found, first, free, fixed, y, states, output, params, name, tol)
+
+
+def _defined_at(res, z, syms, F, name) -> None:
+    """Refuse a region where ``f`` is undefined (e.g. ``sqrt`` of a negative number), naming
+    the point and the first expression that fails there."""
+    with np.errstate(all="ignore"):
+        try:
+            ok = bool(np.all(np.isfinite(res(z))))
+        except (TypeError, ValueError, ZeroDivisionError):
+            ok = False
+    if ok:
+        return
+    point = dict(zip(syms, z.tolist()))
+    where = ", ".join(f"{s}={v:.6g}" for s, v in point.items())
+    bad = next((e for e in F if not complex(e.subs(point).evalf()).imag == 0 or
+                not np.isfinite(complex(e.subs(point).evalf()))), None)
+    what = "" if bad is None else f": {bad} is not a finite real number there"
+    raise PlantDefinitionError(
+        f"plant {name!r} is not defined at the point ({where}) inside its region and input "
+        f"range{what}; shrink the region (or input_range) to where the model is defined")
 
 
 def _solve_from(res, der, start, bounds) -> tuple[np.ndarray, float]:

@@ -7,40 +7,47 @@ comes from the plant, the certificates and a check, and is said with its reason:
    point (at least 1 rad/s), at most the rate at which a fifth of the input's room (from
    ``u_eq`` to the nearer limit) moves the step through ``y^(rho) = b u``, i.e.
    ``(0.2 |b|_min room / |step|)^(1/rho)``;
-2. **T** (unless given): 100 samples per ``1/d``, rounded down to 1-2-5;
-3. **gains**: :func:`fl_design.synthesize_gains` at decay ``d`` (all poles at
-   ``-(1 + spare) d``, the decay certified);
+2. **T** (unless given): 100 samples per ``1/d``, rounded down to 1-2-5 (within
+   ``[1e-4, 0.1]`` s); at the floor ``1e-4`` s, ``d`` is capped at ``1/(100 T)`` (the loop
+   never faster than its sampling allows);
+3. **gains**: :func:`fl_design.synthesize_gains` at the loop's decay (all poles at
+   ``-(1 + spare) decay``, the decay certified);
 4. **gamma** (sign of ``b``), inside the admissible interval of :func:`fl_design.certify_gamma`
    at a probe eps (a factor 2 from its lower end, 1.25 from its upper end where it can; the
-   probe eps from ``0.2 / d`` down by 4 until some gamma is stable): rule ``"fast"``, the disturbance estimate ``5x`` the
-   loop's rate for the smallest ``|b|``, ``5 d T / |b|_min``; rule ``"low"``, twice the larger of the certified lower
-   bound (below it no eps works) and the interval's lower end (the smaller gamma, the larger
-   eps* and the less noise);
+   probe eps from ``0.2 / decay`` down by 4 until some gamma is stable): rule ``"fast"``, the
+   disturbance estimate ``5x`` the loop's rate for the smallest ``|b|``,
+   ``5 decay T / |b|_min``; rule ``"low"``, twice the larger of the certified lower bound
+   (below it no eps works) and the interval's lower end (less noise, slower);
 5. **eps**: a provisional eps, half the smaller of the surrogate's frozen-b eps* (eigenvalue
    scan, :func:`fl_design.eps_star_curve`) and the real plant's linearized eps*
-   (:func:`fl_design.linearized_eps_star`, which sees ``a(x)``, e.g. an unstable pole), ranks
-   the candidates; the chosen one gets the largest eps with a certified margin: the smaller
-   of the certified eps* (varying ``b``, :func:`fl_design.certify_eps`) and the linearized
-   eps*, over :data:`EPS_MARGIN` = 1.25, certified again at the design (a certified eps* is
-   not an interval). When no LMI certifies the provisional eps, nor its half or quarter, the
-   design stays uncertified and ``Tuning.certified`` and the reasons say so;
-6. **checked** by a simulation of the step (nonlinear plant, input limits), a short sweep
-   around the design (eps ``/2, x1``, gamma ``/2, x1, x2``) and its noise gain
-   (:func:`fl_design.analysis.noise_gain`).
+   (:func:`fl_design.linearized_eps_star`, which sees ``a(x)``), ranks the candidates; the
+   chosen one gets the largest of ``min eps* / 1.25`` halved up to 3 times that the LMI
+   certifies (one certificate per eps tried, no eps* bisection) and whose check converges and
+   meets the objective (:mod:`fl_design.tuning._candidate`, with every fallback);
+6. **checked** by a simulation of the step (nonlinear plant, input limits), six runs around
+   the design (eps ``/2, x1``, gamma ``/2, x1, x2``), its noise gain
+   (:func:`fl_design.analysis.noise_gain`) and its phase margin at the plant input over the
+   b-range (:func:`fl_design.analysis.loop_margins`): below :data:`MIN_PHASE_MARGIN` degrees
+   the result carries a warning.
 
-Objectives: ``"least-noise"`` (DESIGN.md's spelling; ``"least_noise"`` too: loops at ``d``,
-``d/2``, ``d/4`` with the low gamma, the least noise gain wins), ``"fastest"`` (loops at
-``d``, ``2 d``, ``4 d`` up to what the whole input room allows, the fast gamma, the shortest
-settling time wins), ``("overshoot", x)`` (the loop at ``d`` with the fast gamma and the
-three low-gamma loops: the least noise gain with an overshoot of at most ``x``, a fraction).
-A candidate whose gamma interval or eps* is empty, or whose check does not converge, is said
-in ``tried``; when none is left :class:`~fl_design.errors.NoDesignError` says why, per
-candidate.
+Objectives (one default for the API and the CLI, :data:`DEFAULT_OBJECTIVE`):
+``"fastest"`` (default: the loop at the plant's time scale ``d`` with the fast gamma; when it
+has no design, or no eps with a phase margin of :data:`MIN_PHASE_MARGIN` deg, loops at ``d/2``
+and ``d/4``, the documented fallbacks), ``"least-noise"``
+(``"least_noise"`` too: loops at ``d``, ``d/2``, ``d/4`` with the low gamma, the least noise
+gain wins), ``("overshoot", x)`` (the loop at ``d`` with the fast gamma and the low-gamma loops
+at ``d``, ``d/2``, ``d/4``: the least noise gain with an overshoot of at most ``x``, a
+fraction). An objective is kept in the final, certified design or the result says by how much
+it is missed (``objective_met``, ``warnings``). The default design is required to reach the 2 %
+band within :data:`SETTLE_MULTIPLE` times the plant's time constant ``1/d``; slower, the
+result carries a warning. A candidate whose gamma interval or eps* is empty, or whose check
+does not converge, is said in ``tried``; when none is left
+:class:`~fl_design.errors.NoDesignError` says why, per candidate and step.
 
 Examples
 --------
 >>> import fl_design as fl
->>> tuned = fl.tune(fl.plants.pendulum(), reference=0.1, decays=[1])
+>>> tuned = fl.tune(fl.plants.pendulum(), reference=0.1)
 >>> tuned.certified, tuned.status, tuned.design.estimator.T
 (True, 'converged', 0.002)
 """
@@ -52,27 +59,29 @@ import math
 import numpy as np
 
 from .. import _validate as V
-from ..analysis import (
-    certify_eps,
-    certify_gamma,
-    eps_star_curve,
-    linearized_eps_star,
-    synthesize_gains,
-)
-from ..design import EHGO, Design, DynamicController
-from ..errors import NoDesignError, ParameterError, RelativeDegreeError
+from ..analysis import certify_gamma
+from ..design import Design
+from ..errors import FlDesignError, NoDesignError, ParameterError, RelativeDegreeError
 from ..symbolic import Plant
-from ._check import baseline_for, check_candidate
+from ._candidate import CONVERGENT, MIN_PHASE_MARGIN, Setup, candidate, certified_eps, g_text
+from ._check import baseline_for
 from ._tune_class import PlantClass, tune_class
 from ._tuning import Tuning
 
 #: Candidates per objective: (loop decay over the plant's time scale, gamma rule); "fast":
 #: the disturbance estimate 5x the loop's rate, "low": near the certified lower bound.
 CANDIDATES = {"least-noise": ((1.0, "low"), (0.5, "low"), (0.25, "low")),
-              "fastest": ((1.0, "fast"), (2.0, "fast"), (4.0, "fast")),
+              "fastest": ((1.0, "fast"),),
               "overshoot": ((1.0, "fast"), (1.0, "low"), (0.5, "low"), (0.25, "low"))}
-#: eps is the certified eps* divided by this (the certified margin).
-EPS_MARGIN = 1.25
+#: Fallback loops (factors of the time scale) when every candidate of the objective fails
+#: (and, for the default objective, when the loop has no eps with a 30 deg phase margin).
+FALLBACKS = (0.5, 0.25)
+#: The shortest sampling time proposed (s); a faster plant's loop is slowed to 1/(100 T_MIN).
+T_MIN = 1e-4
+#: The objective of ``fl.tune`` and of ``fl-design run`` without ``[design]``.
+DEFAULT_OBJECTIVE = "fastest"
+#: The default design reaches the 2 % band within this many plant time constants ``1/d``.
+SETTLE_MULTIPLE = 50.0
 
 
 def nice_time(x: float) -> float:
@@ -127,31 +136,35 @@ def _b_range(plant) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
+def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
          reference: float | None = None, u_limits=None, decays=None,
-         baseline="auto") -> Tuning:
+         baseline="auto", progress: bool = False) -> Tuning:
     """Propose a certified, checked design for ``plant`` (the module says how and why).
 
     Parameters
     ----------
     plant : Plant
-        A plant with a ``region`` and an ``input_range`` (they give the b-range).
+        A plant with a ``region`` and an ``input_range`` (they give the b-range), inside the
+        method's assumptions (minimum phase, sign of ``b`` known on the region).
     T : float, optional
         Sampling time (default from the plant's time scale and the actuator, step 2).
     objective : str or tuple, optional
-        ``"least-noise"`` (default; ``"least_noise"`` too), ``"fastest"`` or
-        ``("overshoot", x)``, ``x`` a fraction.
+        ``"fastest"`` (default, :data:`DEFAULT_OBJECTIVE`), ``"least-noise"``
+        (``"least_noise"`` too) or ``("overshoot", x)``, ``x`` a fraction.
     reference : float, optional
         The step target of the checks (default the operating output plus 5 % of the output's
         range in the region).
     u_limits : (float, float), optional
         Input saturation (default the plant's ``input_range``); must contain ``u_eq``.
     decays : sequence of float, optional
-        The loop decays to try, as factors of the plant's time scale (default per objective:
-        ``(1, 1/2, 1/4)``, fastest ``(1, 2, 4)``); each costs certificates and checks.
+        The loop decays to try, as factors of the plant's time scale (default per objective,
+        see the module); each costs certificates and checks.
     baseline : Design, None or "auto", optional
         A design to compare noise and overshoot with; ``"auto"`` (default): the paper's design
         for the library TRMS (:func:`fl_design.presets.paper_design`), else none.
+    progress : bool, optional
+        One line per step on stderr (the loop tried, each eps certificate, the final
+        certificates) with the seconds so far (default False; ``fl-design run`` turns it on).
 
     Returns
     -------
@@ -161,15 +174,18 @@ def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
     ------
     ParameterError
         A bad ``T``, ``objective``, ``reference``, ``u_limits`` or ``baseline``.
+    AssumptionError
+        The plant is not minimum phase, or ``b`` vanishes or changes sign on the region
+        (:func:`fl_design.symbolic.check_assumptions`: eigenvalues or the point).
     NoDesignError
-        No region or input range, ``b`` changing sign, ``u_eq`` outside the limits, or no
-        candidate with a nonempty gamma interval, a certified eps and a converging check (the
-        message says, per candidate, why).
+        No region or input range, ``u_eq`` outside the limits, or no candidate with a
+        nonempty gamma interval, an eps and a converging check (the message says, per
+        candidate, which step failed and why), also after the fallback loops.
 
     Examples
     --------
     >>> import fl_design as fl
-    >>> tuned = fl.tune(fl.plants.pendulum(), reference=0.1, objective="fastest", decays=[1])
+    >>> tuned = fl.tune(fl.plants.pendulum(), reference=0.1)
     >>> tuned.certified, tuned.status, [round(k, 4) for k in tuned.design.controller.gains]
     (True, 'converged', [10.2063, 6.3895])
     """
@@ -180,7 +196,10 @@ def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
     if not (baseline is None or isinstance(baseline, Design) or
             (isinstance(baseline, str) and baseline == "auto")):
         raise ParameterError(f"baseline={baseline!r}: give a Design, None or 'auto'")
+    from ..symbolic._assumptions import check_assumptions
+
     rho = plant.relative_degree()
+    check_assumptions(plant, what="fl.tune")
     lo, hi = _b_range(plant)
     u_lim = tuple(plant.input_range) if u_limits is None else V.interval("u_limits", u_limits)
     if not u_lim[0] < plant.u_eq < u_lim[1]:
@@ -188,47 +207,52 @@ def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
                             f"{plant.u_eq:.6g} is not inside u_limits {u_lim}: no room to act")
     y_op = float(plant.casadi().h(plant.x_op))
     r = _reference(plant, reference, y_op)
-    A = np.asarray(plant.linearization()[0], dtype=float)
-    speed = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
-    step, room = abs(r - y_op), min(plant.u_eq - u_lim[0], u_lim[1] - plant.u_eq)
-    reach = (0.2 * min(abs(lo), abs(hi)) * room / step) ** (1.0 / rho) if step > 0 else math.inf
-    decay = max(0.01, min(max(1.0, speed), reach))
+    decay, head, full_reach = _time_scale(plant, rho, (lo, hi), u_lim, r, y_op)
     if T is None:
-        T, T_why = (min(0.1, max(1e-4, nice_time(1.0 / (100.0 * decay)))),
+        T, T_why = (min(0.1, max(T_MIN, nice_time(1.0 / (100.0 * decay)))),
                     "100 samples per 1/time scale, 1-2-5 rounded")
+        if decay * T > 0.01 * (1 + 1e-9):  # T at its floor: the loop slowed to fit it
+            head.append(f"loop time scale capped at {0.01 / T:.3g} rad/s, 100 samples per time "
+                        f"constant at T = {T:g} s (the shortest T proposed; give T to go faster)")
+            decay = 0.01 / T
     else:
         T, T_why = V.positive("T", T), "given"
-    head = [(f"time scale {decay:.3g} rad/s (largest |eigenvalue| of the linearization "
-             f"{speed:.3g}, at least 1; at most {reach:.3g}, what a fifth of the input's room "
-             f"{room:.3g} moves the step {step:.3g} at)"), f"T = {T:g} s ({T_why})"]
-    loop = _Setup(plant, rho, T, (lo, hi), u_lim, r)
-    full_reach = reach * 5.0 ** (1.0 / rho)
-    chosen, tried = [], []
-    cands = CANDIDATES[kind]
+    head.append(f"T = {T:g} s ({T_why})")
+    accept = _acceptance(kind, limit)
+    loop = Setup(plant, rho, T, (lo, hi), u_lim, r, accept, progress)
+    loop.say(head[0].split(' (')[0] + f', T = {T:g} s, step to {r:.6g}')
+    cands = list(CANDIDATES[kind])
     if decays is not None:
         factors = [V.positive("decays entry", f) for f in V.real_vector("decays", decays)]
         if not factors:
             raise ParameterError("decays is empty: give factors of the time scale, e.g. (1.0,)")
         rules = {rule for _, rule in cands}
         cands = [(f, rule) for f in factors for rule in sorted(rules)]
-    for f, rule in cands:
-        d = decay * f
-        if d > full_reach * (1 + 1e-12) or d < 0.01:
-            tried.append(f"loop at {d:.3g} rad/s: outside [0.01, {full_reach:.3g}] (the whole "
-                         "input room)")
-            continue
-        cand = _candidate(loop, d, rule, tried)
-        if cand is None:
-            continue
-        if kind == "overshoot" and not cand["overshoot"] <= 100.0 * limit:
-            tried.append(f"loop at {d:.3g} rad/s, gamma {cand['design'].controller.gamma:.3g}: "
-                         f"overshoot {cand['overshoot']:.3g} % > {100 * limit:g} %")
-            continue
-        chosen.append(cand)
+    tried: list = []
+    chosen = _run(loop, cands, decay, full_reach, accept, tried)
+    if not chosen and decays is None:  # the documented fallback: slower loops
+        rule = cands[0][1]
+        chosen = _run(loop, [(f, rule) for f in FALLBACKS if (f, rule) not in cands], decay,
+                      full_reach, accept, tried)
     if not chosen:
         raise NoDesignError(f"no design for {plant.name!r} ({kind}): " + "; ".join(tried))
-    key = ((lambda c: c["settling_time"]) if kind == "fastest" else (lambda c: c["noise_gain"]))
+    key = ((lambda c: c["settling_time"]) if kind == "fastest" else (lambda c: c["noise_gain"]
+                                                                     if np.isfinite(c["noise_gain"]) else math.inf))
     best = min(chosen, key=key)
+    final = certified_eps(loop, best)
+    if kind == "fastest" and decays is None and not final[3] >= MIN_PHASE_MARGIN:
+        for f in FALLBACKS:  # the default design needs its margin: slower loops
+            alt = _run(loop, [(f, "fast")], decay, full_reach, accept, tried,
+                       margin_needed=True)
+            fin = certified_eps(loop, alt[0]) if alt else None
+            if fin is not None and fin[3] >= MIN_PHASE_MARGIN:
+                tried.append(f"loop at {best['decay']:.3g} rad/s: phase margin "
+                             f"{final[3]:.3g} deg < {MIN_PHASE_MARGIN:g} deg at every eps "
+                             f"tried; the loop at {alt[0]['decay']:.3g} rad/s has "
+                             f"{fin[3]:.3g} deg")
+                best, final, chosen = alt[0], fin, alt
+                break
+    label = kind if kind != "overshoot" else f"overshoot <= {100 * limit:g} %"
     why = {"least-noise": f"the least noise gain of {len(chosen)} converging loops",
            "fastest": f"the shortest settling time of {len(chosen)} converging loops",
            "overshoot": (f"the least noise gain of {len(chosen)} converging loops with overshoot "
@@ -237,139 +261,104 @@ def tune(plant: Plant, *, T: float | None = None, objective="least-noise",
               f"eps {c['design'].estimator.eps:.3g}: noise gain {c['noise_gain']:.3g}, "
               f"settling {c['settling_time']:.3g} s, overshoot {c['overshoot']:.3g} %"
               for c in chosen if c is not best]
-    return _result(loop, best, kind if kind != "overshoot" else f"overshoot <= {100 * limit:g} %",
-                   head, why, tuple(tried + others), baseline)
+    return _result(loop, final, label, head + [f"chosen: {why}"], tuple(tried + others),
+                   baseline, decay)
 
 
-class _Setup:
-    """What every candidate shares: plant, T, b-range, limits, reference."""
+def _time_scale(plant, rho, b, u_lim, r, y_op) -> tuple[float, list, float]:
+    """``(d, [sentence], full reach)``: the plant's time scale (step 1 of the module)."""
+    A = np.asarray(plant.linearization()[0], dtype=float)
+    speed = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
+    step, room = abs(r - y_op), min(plant.u_eq - u_lim[0], u_lim[1] - plant.u_eq)
+    bmin = min(abs(b[0]), abs(b[1]))
+    reach = (0.2 * bmin * room / step) ** (1.0 / rho) if step > 0 else math.inf
+    decay = max(0.01, min(max(1.0, speed), reach))
+    head = [(f"time scale {decay:.3g} rad/s (largest |eigenvalue| of the linearization "
+             f"{speed:.3g}, at least 1; at most {reach:.3g}, what a fifth of the input's room "
+             f"{room:.3g} moves the step {step:.3g} at)")]
+    return decay, head, reach * 5.0 ** (1.0 / rho)
 
-    def __init__(self, plant, rho, T, b_bounds, u_lim, r):
-        self.plant, self.rho, self.T, self.b_bounds, self.u_lim, self.r = (
-            plant, rho, T, b_bounds, u_lim, r)
-        self.sign = math.copysign(1.0, b_bounds[0])
-        self.bmax = max(abs(b) for b in b_bounds)
-        self.bmin = min(abs(b) for b in b_bounds)
 
-
-def _candidate(s: _Setup, d: float, rule: str, tried: list) -> dict | None:
-    """One loop at decay ``d``: gains, gamma, a provisional eps and checks (None: rejected).
-
-    The provisional eps is half the smaller of the surrogate's frozen-b eps* (an eigenvalue
-    scan, :func:`fl_design.eps_star_curve`) and the real plant's linearized eps*: the LMI
-    searches run for the chosen candidate only (:func:`_certified_eps`).
-    """
-    syn = synthesize_gains(s.rho, decay=d)
-    g0 = 5.0 * d * s.T / s.bmin  # |b| gamma / T at least 5 d, for the smallest b too
-    eps0, eps_hi = max(2.0 * s.T, 0.2 / d), max(10.0 / d, 20.0 * s.T)
-    grid = np.geomspace(s.T / 2.0, eps_hi, 6)
-    probe = Design(estimator=EHGO(rho=s.rho, eps=eps0, T=s.T),
-                   controller=DynamicController(syn.gains, s.sign * g0, u_limits=s.u_lim))
-    while True:  # the probe eps: from 0.2/d down by 4 until some gamma gives a stable loop
-        gc = certify_gamma(probe, s.b_bounds, eps_grid=grid, n_scan=40, n_b=21)  # coarse
-        if gc.gamma_min is not None:
-            break
-        if probe.estimator.eps <= 2.0 * s.T:
-            tried.append(f"loop at {d:.3g} rad/s: no gamma down to eps = "
-                         f"{probe.estimator.eps:.3g}: {gc.reason}")
-            return None
-        probe = probe.replace(eps=max(2.0 * s.T, probe.estimator.eps / 4.0))
-    g_lo, g_hi = 2.0 * gc.gamma_min, gc.gamma_max / 1.25
-    if rule == "low" and gc.gamma_lower_bound is not None:
-        g_lo = 2.0 * max(gc.gamma_lower_bound, gc.gamma_min)
-        g0 = g_lo
-    gamma = min(max(g0, g_lo), g_hi) if g_lo <= g_hi else math.sqrt(gc.gamma_min * gc.gamma_max)
-    probe = probe.replace(gamma=s.sign * gamma)
-    eps_range = (s.T / 2.0, eps_hi)
-    frozen = float(eps_star_curve(probe, s.b_bounds, [gamma], eps_range=eps_range,
-                                  certified=False).eps_star_frozen[0])
-    lin = linearized_eps_star(s.plant, probe, eps_range=eps_range, rtol=1e-3)
-    what = f"loop at {d:.3g} rad/s, gamma {s.sign * gamma:.3g}"
-    if not np.isfinite(frozen) or (lin.value is None and not lin.above_range):
-        tried.append(f"{what}: no stable eps in [{s.T / 2:g}, {eps_hi:g}] s (frozen-b eps* "
-                     f"{_g(frozen)}, linearized {lin})")
+def _acceptance(kind: str, limit):
+    """``accept(check) -> str | None``: how a check misses the objective (None: it meets it)."""
+    if kind != "overshoot":
         return None
-    eps_lin = None if lin.above_range else float(lin.lower)
-    eps = min(frozen, eps_lin or math.inf) / 2.0
-    design = probe.replace(eps=eps)
-    check = check_candidate(s.plant, design, s.r)
-    if check["status"] not in ("converged", "converging"):
-        tried.append(f"{what}, eps {eps:.3g}: the check simulation is {check['status']} "
-                     f"({check['response'].verdict()})")
-        return None
-    gamma_why = ("twice the larger of the certified lower bound over eps and the interval's "
-                 "lower end" if rule == "low" else
-                 f"5 d T / |b|_min = {s.sign * 5.0 * d * s.T / s.bmin:.3g}, the disturbance "
-                 "estimate 5x the loop's rate")
-    reasons = [
-        (f"gains {tuple(round(k, 6) for k in syn.gains)} (synthesize_gains at decay {d:.3g}: "
-        f"{'certified' if syn.certified else 'not certified'})"),
-        (f"gamma = {s.sign * gamma:.4g} ({gamma_why}; sign of b; kept inside the admissible "
-         f"interval [{gc.gamma_min:.4g}, {gc.gamma_max:.4g}] at eps {probe.estimator.eps:.3g};"
-         f" lower bound over eps {_g(gc.gamma_lower_bound)}; paper bound 1/|b|_max = "
-         f"{1 / s.bmax:.3g})"),
-        f"u_limits = {s.u_lim}"]
-    return dict(check, design=design, decay=d, gains=syn, eps_lin=eps_lin, eps_hi=eps_hi,
-                frozen=frozen, lin=lin, grid=grid, reasons=reasons)
+    return lambda c: (None if c["overshoot"] <= 100.0 * limit else
+                      f"overshoot {c['overshoot']:.3g} % > {100 * limit:g} %")
 
 
-def _g(x) -> str:
-    return "-" if x is None or not np.isfinite(x) else f"{x:.4g}"
+def _run(loop: Setup, cands, decay: float, full_reach: float, accept, tried: list,
+         margin_needed: bool = False) -> list:
+    """The candidates that pass (each failure said in ``tried``; ``margin_needed``: see
+    :func:`~fl_design.tuning._candidate.candidate`)."""
+    chosen = []
+    for f, rule in cands:
+        d = decay * f
+        if d > full_reach * (1 + 1e-12) or d < 0.01:
+            tried.append(f"loop at {d:.3g} rad/s: outside [0.01, {full_reach:.3g}] (the whole "
+                         "input room)")
+            continue
+        try:
+            cand = candidate(loop, d, rule, tried, margin_needed)
+        except FlDesignError as exc:  # a step without its own fallback: said, not raised
+            tried.append(f"loop at {d:.3g} rad/s ({rule} gamma): {type(exc).__name__}: "
+                         f"{str(exc).splitlines()[0][:200]}")
+            continue
+        if cand is None:
+            continue
+        miss = accept(cand) if accept else None
+        if miss:
+            tried.append(f"loop at {d:.3g} rad/s, gamma {cand['design'].controller.gamma:.3g}: "
+                         f"{miss}")
+            continue
+        chosen.append(cand)
+    return chosen
 
 
-def _certified_eps(s: _Setup, c: dict) -> tuple[dict, str, float | None]:
-    """The chosen loop's eps: the largest with a certified margin (or the provisional one).
-
-    If the provisional eps is certified, the certified eps* is searched up to the frozen eps*
-    and eps becomes the smaller of it and the linearized eps*, over :data:`EPS_MARGIN`, when
-    that is larger (and its check converges). Otherwise eps/2, eps/4 are tried; when none is
-    certified the provisional eps stays, not certified, and the reason says so.
-    """
-    design, eps = c["design"], c["design"].estimator.eps
-    base = (f"frozen-b eps* {_g(c['frozen'])} (eigenvalue scan), linearized eps* {c['lin']}")
-    point = certify_eps(design, s.b_bounds, search=False)
-    if not point.certified:
-        for f in (0.5, 0.25):
-            trial = design.replace(eps=eps * f)
-            if certify_eps(trial, s.b_bounds, search=False).certified:
-                check = check_candidate(s.plant, trial, s.r)
-                if check["status"] in ("converged", "converging"):
-                    return (dict(c, **check, design=trial), (f"eps = {eps * f:.4g} s ({base}; "
-                            f"half of the smaller not certified, {f / 2:g} of it is)"), None)
-        return c, (f"eps = {eps:.4g} s (half the smaller of the {base}); NOT certified there "
-                   f"nor at eps/2, eps/4: {point.reason}"), None
-    search = certify_eps(design, s.b_bounds, eps_range=(eps, max(c["frozen"], eps * 1.01)),
-                         rtol=0.02)
-    star = search.eps_star_certified
-    new = min(star or eps, c["eps_lin"] or math.inf) / EPS_MARGIN
-    if new > eps:
-        trial = design.replace(eps=new)
-        check = check_candidate(s.plant, trial, s.r)
-        if check["status"] in ("converged", "converging"):
-            return (dict(c, **check, design=trial), (f"eps = {new:.4g} s (the smaller of the "
-                    f"certified eps* {star:.4g} for {search.covers} b and the linearized eps* "
-                    f"{c['lin']}, over {EPS_MARGIN:g})"), star)
-    return c, (f"eps = {eps:.4g} s (half the smaller of the {base}: certified; the certified "
-               f"eps* {_g(star)} over {EPS_MARGIN:g} is not larger)"), star
-
-
-def _result(s: _Setup, best: dict, label: str, head: list, why: str, tried: tuple,
-            baseline) -> Tuning:
-    """The chosen candidate with its eps certified, certificates, ranges and the baseline."""
-    best, eps_why, star = _certified_eps(s, best)
+def _result(s: Setup, final: tuple, label: str, head: list, tried: tuple, baseline,
+            plant_scale: float) -> Tuning:
+    """The chosen candidate with its eps certified (:func:`certified_eps`'s answer),
+    certificates, margins, ranges, baseline."""
+    best, eps_why, ec, pm = final
+    if ec is None:
+        raise NoDesignError(f"no design for {s.plant.name!r}: the eps certificate (LMI) failed "
+                            f"at every eps tried: {eps_why}")
     design = best["design"]
-    ec = certify_eps(design, s.b_bounds, search=False)
-    gc = certify_gamma(design, s.b_bounds, eps_grid=best["grid"])
-    base = baseline_for(s.plant, baseline, s.r)
+    s.say("the gamma certificate at the design, the baseline")
+    try:
+        gc = certify_gamma(design, s.b_bounds, eps_grid=best["grid"])
+    except FlDesignError as exc:
+        raise NoDesignError(f"no design for {s.plant.name!r}: the gamma certificate failed at "
+                            f"the chosen design: {exc}") from exc
+    try:
+        base = baseline_for(s.plant, baseline, s.r)
+    except FlDesignError as exc:  # the comparison is extra: said, never a crash
+        base, head = None, head + [f"baseline not compared: {str(exc)[:160]}"]
     if base is not None:
         base["noise_saved"] = base["noise_gain"] / best["noise_gain"]
+    warnings = []
+    miss = s.accept(best) if best["status"] in CONVERGENT else f"the check is {best['status']}"
+    if miss:
+        warnings.append(f"objective {label} missed: {miss}")
+    if pm < MIN_PHASE_MARGIN:
+        warnings.append(f"phase margin {pm:.3g} deg < {MIN_PHASE_MARGIN:g} deg at the plant "
+                        "input (worst over the b-range): little robustness to delay and "
+                        "unmodeled lag")
+    settle = best["settling_time"]
+    bound = SETTLE_MULTIPLE / plant_scale
+    if not settle <= bound:
+        warnings.append(f"settling {g_text(settle)} s > {SETTLE_MULTIPLE:g} plant time "
+                        f"constants ({bound:.3g} s)")
     check = best
     reasons = best["reasons"][:2] + [eps_why] + best["reasons"][2:] + [
         (f"checked: a step to {s.r:.6g} is {check['status']} (overshoot "
-         f"{check['overshoot']:.3g} %, settling {check['settling_time']:.3g} s); sweep around "
-         f"it (eps /2, x1; gamma /2, x1, x2): {check['sweep_ok']}/{len(check['sweep'])} runs "
-         "converge"),
-        f"noise gain {check['noise_gain']:.4g} (rms u per rms sensor noise)",
+         f"{check['overshoot']:.3g} %, settling {check['settling_time']:.3g} s = "
+         f"{check['settling_time'] * plant_scale:.3g} plant time constants, at most "
+         f"{SETTLE_MULTIPLE:g}); runs around it (eps /2, x1; gamma /2, x1, x2): "
+         f"{check['sweep_ok']}/{len(check['sweep'])} converge"),
+        f"noise gain {check['noise_gain']:.4g} (rms u per rms sensor noise)" +
+        (f"; {check['noise_note']}" if check.get("noise_note") else ""),
+        f"phase margin {pm:.3g} deg at the plant input (worst of b_min, b_max)",
         f"certified: eps {ec.certified} ({ec.covers} b), gamma {gc.certified} ({gc.reason})"]
     extra = [] if base is None else [
         (f"vs {base['name']}: noise gain {base['noise_gain']:.3g}, "
@@ -378,12 +367,14 @@ def _result(s: _Setup, best: dict, label: str, head: list, why: str, tried: tupl
     return Tuning(
         design=design, objective=label, reference=s.r, time_scale=best["decay"],
         gains=best["gains"], gamma_certificate=gc, eps_certificate=ec,
-        eps_star_certified=star, eps_star_linearized=best["eps_lin"],
+        eps_star_certified=None, eps_star_linearized=best["eps_lin"],
         overshoot=best["overshoot"], settling_time=best["settling_time"],
         status=best["status"], noise_gain=best["noise_gain"], sweep_converged=best["sweep"],
         ranges=_ranges(s.T, best["decay"], design.estimator.eps, gc, s.sign), baseline=base,
-        reasons=tuple(head + reasons + [f"chosen: {why}"] + extra), tried=tried,
-        response=best["response"])
+        reasons=tuple([h for h in head if not h.startswith('chosen:')] + reasons +
+                      [h for h in head if h.startswith('chosen:')] + extra), tried=tried,
+        response=best["response"], objective_met=not miss, phase_margin=pm,
+        plant_time_scale=plant_scale, warnings=tuple(warnings))
 
 
 def _ranges(T, d, eps, gc, sign) -> dict:
@@ -401,4 +392,4 @@ def _ranges(T, d, eps, gc, sign) -> dict:
             "certify_gamma": signed(gc.gamma_min, gc.gamma_max)}
 
 
-__all__ = ["Tuning", "nice_time", "tune"]
+__all__ = ["DEFAULT_OBJECTIVE", "MIN_PHASE_MARGIN", "SETTLE_MULTIPLE", "Tuning", "nice_time", "tune"]

@@ -38,7 +38,8 @@ class Tuning:
     eps_certificate : EpsCertificate
         The design's eps certified (or why not), varying ``b``.
     eps_star_certified : float or None
-        The certified eps* found at the design's gamma (None: none searched or found).
+        The certified eps* found at the design's gamma (None: not searched: ``fl.tune``
+        certifies the eps it proposes, one LMI per eps tried, and bisects no eps*).
     eps_star_linearized : float or None
         The linearized loop's eps* of the real plant (None: stable on the whole scan).
     overshoot, settling_time : float
@@ -62,6 +63,16 @@ class Tuning:
         Candidates rejected on the way, and why.
     response : Response
         The check simulation (``.plot()`` shows it).
+    objective_met : bool
+        The final design's check meets the objective (else ``warnings`` says by how much not).
+    phase_margin : float
+        Degrees at the plant input, the worst of ``b_min`` and ``b_max``
+        (:func:`fl_design.analysis.loop_margins`); NaN when not computed.
+    plant_time_scale : float
+        The plant's time scale ``d`` (rad/s) that sizes T, the loops and the settling bound.
+    warnings : tuple of str
+        What an engineer should look at: an objective missed, a phase margin below 30 deg, a
+        settling time beyond the stated multiple of ``1/d`` (empty: none).
 
     Examples
     --------
@@ -90,6 +101,10 @@ class Tuning:
     reasons: tuple
     tried: tuple
     response: Any
+    objective_met: bool = True
+    phase_margin: float = math.nan
+    plant_time_scale: float = math.nan
+    warnings: tuple = ()
 
     @property
     def certified(self) -> bool:
@@ -144,7 +159,9 @@ class Tuning:
                  f"certified {_num(self.eps_star_certified)}"),
                  (f"predicted: {self.status}, overshoot {_num(self.overshoot)} %, settling "
                  f"{_num(self.settling_time)} s, noise gain {_num(self.noise_gain)}"),
-                 f"sweep around it: {ok}/{len(self.sweep_converged)} runs converge"]
+                 (f"sweep around it: {ok}/{len(self.sweep_converged)} runs converge; phase "
+                  f"margin {_num(self.phase_margin)} deg")]
+        lines += [f"WARNING: {w}" for w in self.warnings]
         return "\n  ".join(lines + list(self.reasons))
 
 

@@ -73,15 +73,41 @@ def test_init_round_trips_every_library_plant_to_its_bench_design(name):
 
 
 def test_init_from_ode_is_a_plant_from_expressions_that_converges():
+    """Only [plant] holds numbers: the reference, design, ranges and compared noise come from
+    the plant at run time (issue 31); the proposed design converges on it."""
+    from fl_design.app._propose import propose_design
+
     code, text = _init("--from-ode")
     assert code == 0
     t = tomllib.loads(text)
     assert {"states", "rhs", "output", "params", "region", "input_range",
             "operating_point"} <= set(t["plant"])
-    job = prepare(parse_config(text))
+    assert t.get("design", {}) == {} and "reference" not in t["scenario"]
+    assert not {"eps", "gamma"} & set(t["sweep"]) and not {"eps_range", "gamma"} & set(t["certify"])
+    assert not {"noise_std", "eps_tradeoff", "duration"} & set(t["compare"])
+    cfg = propose_design(parse_config(text))
+    job = prepare(cfg)
     assert job.plant.relative_degree() == 2
-    resp = fl.simulate(job.plant, job.design, fl.Scenario(t["scenario"]["reference"], 20.0))
+    region = t["plant"]["region"][t["plant"]["output"]]
+    assert cfg.scenario.reference == pytest.approx(0.05 * (region[1] - region[0]))
+    assert cfg.sweep.eps[0] <= job.design.estimator.eps <= cfg.sweep.eps[1]
+    resp = fl.simulate(job.plant, job.design, fl.Scenario(cfg.scenario.reference, 20.0))
     assert resp.status == "converged"
+
+
+def test_init_from_ode_other_tables_do_not_depend_on_the_example_plant():
+    """A config written by init for plant P holds nothing of plant Q: replacing the example's
+    [plant] by another plant leaves every other table's parsed value as it was."""
+    from fl_design.app._template import config_toml
+
+    text = config_toml(from_ode=True)
+    head, rest = text.split("\n[plant]\n", 1)
+    tail = rest[rest.index("\n[design]"):]
+    other = parse_config(head + PENDULUM + tail)
+    mine = parse_config(text)
+    for table in ("scenario", "compare", "sweep", "certify", "codegen", "classifier"):
+        assert getattr(other, table) == getattr(mine, table), table
+    assert other.design is None and mine.design is None
 
 
 def test_init_plant_and_from_ode_together_is_refused(capsys):
@@ -190,14 +216,49 @@ def _cli(*args, timeout=300):
                           text=True, timeout=timeout, check=False)
 
 
-def test_cli_user_plant_without_design_or_reference_is_one_line_exit_2(tmp_path):
+@pytest.mark.slow
+def test_cli_user_plant_with_only_its_plant_table_gets_a_step_and_a_design(tmp_path):
+    """No [design], no reference: the step is 5 % of the output's range in the region (0.3
+    rad of [-3, 3]), the design proposed by fl.tune, each said on stderr."""
     path = tmp_path / "p.toml"
     path.write_text(PENDULUM)
-    proc = _cli("run", str(path), "--out", str(tmp_path / "o"))
-    assert proc.returncode == 2
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and "[design] is missing" in lines[0]
+    proc = _cli("simulate", str(path), "--quick", "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    assert "[scenario] reference = 0.3 (not given" in proc.stderr
+    assert "fl-design: [design] proposed: gamma = " in proc.stderr
+
+
+def test_cli_refuses_a_non_minimum_phase_plant_before_any_work(tmp_path):
+    path = tmp_path / "nmp.toml"
+    path.write_text('[plant]\nstates = ["w", "x1", "x2"]\ninput = "u"\n'
+                    'rhs = ["w + x1", "x2", "u"]\noutput = "x1"\n'
+                    "region = { w = [-10.0, 10.0], x1 = [-1.0, 1.0], x2 = [-5.0, 5.0] }\n"
+                    "input_range = [-10.0, 10.0]\n")
+    for cmd in ("run", "certify"):
+        proc = _cli(cmd, str(path), *(["--out", str(tmp_path / "o")] if cmd == "run" else []),
+                    timeout=60)
+        assert proc.returncode == 2
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and "NOT minimum phase" in lines[0] and "[1]" in lines[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_ranges_missing_the_design_are_widened_or_refused_in_one_line():
+    from dataclasses import replace
+
+    from fl_design.app._template import fit_ranges
+
+    cfg = parse_config('[plant]\nlibrary = "pendulum"\n[sweep]\neps = [0.1, 1.0]\n'
+                       "gamma = [0.05, 1.0]\n")
+    new, notes = fit_ranges(cfg)
+    eps, gamma = cfg.design.eps, cfg.design.gamma
+    assert new.sweep.eps[0] <= eps <= new.sweep.eps[1]
+    assert new.sweep.gamma[0] <= gamma <= new.sweep.gamma[1]
+    assert len(notes) == 3 and all("widened" in n for n in notes)  # [certify] eps_range too
+    assert fit_ranges(new) == (new, ())  # holding the design: unchanged, nothing said
+    bad = replace(cfg, certify=replace(cfg.certify, gamma=(-1.0, -0.1)))
+    with pytest.raises(ConfigError, match=r"\[certify\] gamma = \[-1, -0.1\] has the other sign"):
+        fit_ranges(bad)
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
@@ -340,5 +401,5 @@ def test_proposal_on_held_out_plants_converges_with_the_sign_of_b(name, referenc
     resp = fl.simulate(job.plant, job.design, fl.Scenario(reference))
     assert resp.status == "converged", resp.verdict()
     assert resp.overshoot <= 45.0  # the paper's TRMS design overshoots 45 % (README)
-    fell_back = any("not chosen: the loop at the plant's time scale" in n for n in cfg.notes)
+    fell_back = any("not chosen: loop at" in n for n in cfg.notes)
     assert fell_back == (name == "trms_lag")

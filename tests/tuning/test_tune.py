@@ -49,9 +49,7 @@ def test_every_library_plant_gets_a_converging_tuned_design(name):
     assert len(tuned.sweep_converged) == 6 and at_design[0] in CONVERGENT
     cert = fl.certify_eps(d, plant.b_bounds(), search=False)  # fresh, at the design's numbers
     assert cert.certified == tuned.eps_certificate.certified
-    if tuned.certified:
-        assert d.estimator.eps <= tuned.eps_star_certified * (1 + 1e-9)
-    else:  # said, with the reason
+    if not tuned.certified:  # said, with the reason
         assert any("NOT certified" in r or "gamma False" in r for r in tuned.reasons)
     assert 0 < tuned.noise_gain < math.inf
     assert tuned.to_dict()["design"]["eps"] == d.estimator.eps
@@ -61,7 +59,7 @@ def test_every_library_plant_gets_a_converging_tuned_design(name):
 def test_trms_tuned_design_is_certified_overshoots_less_and_saves_noise():
     """The paper's TRMS: certified, overshoot <= 45 %, and how much noise it saves."""
     plant = fl.plants.trms_yaw()
-    tuned = fl.tune(plant, reference=0.3)
+    tuned = fl.tune(plant, reference=0.3, objective="least-noise")
     assert tuned.certified and tuned.status in CONVERGENT
     assert tuned.overshoot <= 45.0
     paper = fl.presets.paper_design()
@@ -106,7 +104,7 @@ def test_no_design_says_why():
     flips = fl.Plant.from_ode([th, om], u, [om, -9.81 * sp.sin(th) + sp.cos(th) * u], th,
                               name="flips", input_range=(-5.0, 5.0),
                               region={th: (-3.0, 3.0), om: (-5.0, 5.0)})
-    with pytest.raises(NoDesignError, match="b changes sign on the region"):
+    with pytest.raises(fl.errors.AssumptionError, match="vanishes or changes sign on the region"):
         fl.tune(flips, reference=0.1)
     bare = fl.Plant.from_ode([th, om], u, [om, -9.81 * sp.sin(th) + u], th, name="bare")
     with pytest.raises(NoDesignError, match="no region"):
