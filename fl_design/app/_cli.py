@@ -96,12 +96,11 @@ def _prepare(cfg):
     (:func:`fl_design.app._propose.propose_design`; the reasons go to stderr and the report).
     Returns the (possibly completed) config and its job.
     """
-    from ._build import build_plant, check_fit
-    from ._job import prepare
-
     # --- issue 31: the method's assumptions first, a design and a step derived from the plant,
     # ranges that hold the design (fl_design.symbolic._assumptions, app._template.fit_ranges)
     from ..symbolic._assumptions import check_assumptions
+    from ._build import build_plant, check_fit
+    from ._job import prepare
     from ._template import fit_ranges
 
     plant = build_plant(cfg)

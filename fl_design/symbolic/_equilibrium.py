@@ -161,7 +161,7 @@ def _defined_at(res, z, syms, F, name) -> None:
         return
     point = dict(zip(syms, z.tolist()))
     where = ", ".join(f"{s}={v:.6g}" for s, v in point.items())
-    bad = next((e for e in F if not complex(e.subs(point).evalf()).imag == 0 or
+    bad = next((e for e in F if complex(e.subs(point).evalf()).imag != 0 or
                 not np.isfinite(complex(e.subs(point).evalf()))), None)
     what = "" if bad is None else f": {bad} is not a finite real number there"
     raise PlantDefinitionError(

@@ -35,8 +35,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..analysis import certify_eps, certify_gamma, eps_star_curve, linearized_eps_star
-from ..analysis import synthesize_gains
+from ..analysis import (
+    certify_eps,
+    certify_gamma,
+    eps_star_curve,
+    linearized_eps_star,
+    synthesize_gains,
+)
 from ..design import EHGO, Design, DynamicController
 from ..errors import FlDesignError
 from ._check import check_candidate
@@ -304,7 +309,8 @@ def phase_margin(design, b_bounds, n_freq: int = 600) -> float:
             continue
         T, eye = design.T, np.eye(A.shape[0])
 
-        def L(w, A=A, B=B, C=C):  # batched solves: the EHGO's repeated poles are defective
+        # batched solves: the EHGO's repeated poles are defective
+        def L(w, A=A, B=B, C=C, T=T, eye=eye):
             z = np.exp(1j * np.atleast_1d(w) * T)
             sol = np.linalg.solve(z[:, None, None] * eye[None] - A[None],
                                   np.broadcast_to(B, (z.size, B.size))[..., None])[..., 0]

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.optimize
 
 import fl_design as fl
 from fl_design.app import parse_config
