@@ -188,17 +188,8 @@ def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 CIRCLES = _circles(_module_graph())
 #: Circles inside packages known when the module-level rule was added (session 28), each with
-#: what breaks it; the test of that package is an expected failure until then.
-KNOWN = {
-    "app": "_config <-> _template: parse_config uses _template's library_tables/fill_ranges "
-           "and _template's config_toml/render use _config's parse_config/TABLES (and "
-           "DEFAULT_TOML = config_toml('trms')); moving library_tables, default_ranges, "
-           "fill_ranges, full_tables and _toml into a module that imports nothing of app, "
-           "and DEFAULT_TOML next to config_toml, breaks it",
-    "codegen": "_generate, _package, _sil, _pil, _cost, _compare, _float_check, _template "
-               "(issue 35: generation -> package -> checks, one way)",
-    "sim": "sim.kernel: _emit -> _runners -> _lanes -> _emit (issue 35)",
-}
+#: what breaks it (an expected failure until then); all three were broken in session 28.
+KNOWN: dict[str, str] = {}  # none left (the app, codegen and sim.kernel circles are broken)
 PACKAGES = sorted({p.parent.relative_to(ROOT).parts[0] for p in ROOT.rglob("*/*.py")})
 
 

@@ -25,10 +25,11 @@ Examples
 
 from ._build import build_classifier, build_design, build_plant, build_scenario
 from ._cli import build_parser, main
-from ._config import DEFAULT_TOML, Config, ConfigError, load_config, parse_config  # noqa: F401
+from ._config import Config, ConfigError, load_config, parse_config  # noqa: F401
 from ._job import QUICK, STAGES, Job, run_job
 from ._report import derivation_report
 from ._report_write import render_html, render_markdown, summary, write_report
+from ._template import DEFAULT_TOML
 
 __all__ = [
     "DEFAULT_TOML",

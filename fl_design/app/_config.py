@@ -31,6 +31,7 @@ from pathlib import Path
 from ..errors import ParameterError
 from ..sim import Classifier
 from ._design_table import DesignTable
+from ._library_tables import fill_ranges, full_tables, library_tables, plain_toml
 from ._plant_table import LIBRARY, PlantTable
 from ._tables import (
     MAX_CERTIFY_POINTS,
@@ -42,7 +43,6 @@ from ._tables import (
     SweepTable,
     table_dict,
 )
-from ._template import config_toml
 from ._uncertainty import UncertaintyTable
 
 
@@ -300,7 +300,6 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     ...
     fl_design.app._config.ConfigError: <string>: unknown key 'epsilon' in [design]; ...
     """
-    from ._template import fill_ranges, library_tables
 
     text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark
     try:
@@ -348,7 +347,7 @@ def load_config(path: str | Path | None) -> Config:
     Parameters
     ----------
     path : str or pathlib.Path or None
-        The file (None: :data:`DEFAULT_TOML`, the paper's TRMS experiment).
+        The file (None: the paper's TRMS experiment, :data:`fl_design.app.DEFAULT_TOML`).
 
     Returns
     -------
@@ -366,7 +365,7 @@ def load_config(path: str | Path | None) -> Config:
     0.0003
     """
     if path is None:
-        return parse_config(DEFAULT_TOML, source="<default>")
+        return parse_config(plain_toml(full_tables("trms")), source="<default>")
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is allowed
@@ -376,9 +375,6 @@ def load_config(path: str | Path | None) -> Config:
     return parse_config(text, source=str(path))
 
 
-#: The embedded default: the paper's TRMS experiment, as ``fl-design init`` writes it.
-DEFAULT_TOML = config_toml("trms")
 
-
-__all__ = ["DEFAULT_TOML", "LIBRARY", "MAX_CERTIFY_POINTS", "MAX_SWEEP_POINTS", "TABLES", "Config",
+__all__ = ["LIBRARY", "MAX_CERTIFY_POINTS", "MAX_SWEEP_POINTS", "TABLES", "Config",
            "ConfigError", "load_config", "parse_config"]

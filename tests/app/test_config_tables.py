@@ -192,6 +192,9 @@ def test_the_library_names_are_one_registry():
 
     names = set(LIBRARY)
     assert set(PLANT_CHOICES) == names
-    assert set(_template.UNITS) == set(_template._RUN_LENGTH) == set(_template._PLANT_DOC) == names
+    from fl_design.app import _library_tables
+
+    assert set(_library_tables.UNITS) == set(_library_tables._RUN_LENGTH) == \
+        set(_template._PLANT_DOC) == names
     for name in names:  # each has a bench design and a config
         assert parse_config(f'[plant]\nlibrary = "{name}"').plant.library == name
