@@ -77,13 +77,14 @@ def plotly_bundle() -> str:
     >>> plotly_bundle()[:3]
     '/**'
     """
-    try:
-        import plotly
-    except ImportError:
+    import importlib.util
+
+    spec = importlib.util.find_spec("plotly")  # its location only: nothing of it is imported
+    if spec is None or not spec.origin:
         raise MissingDependencyError("interactive report figures need plotly (its Plotly.js is "
                                      "inlined): pip install 'fl_design[ui]', or write a static "
-                                     "report (fl-design run --static-report)") from None
-    path = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+                                     "report (fl-design run --static-report)")
+    path = Path(spec.origin).parent / "package_data" / "plotly.min.js"
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as err:

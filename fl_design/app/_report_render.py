@@ -8,8 +8,9 @@ mathml, latex)``, ``("details", summary, text)`` or ``("fig", file name, caption
 Everything that is text is escaped for its format: HTML entities in the page, backslash
 escapes in Markdown (markup, links, images, table pipes; newlines become spaces), so a name a
 user chose (``<img src=x onerror=...>``, a line break, ``|``) shows as written and never turns
-into markup. The page carries its stylesheet and its figures (base64), works offline and
-prints: the summary first, a badge per verdict whose colour carries the meaning and whose
+into markup. The page carries its stylesheet and its figures (base64; the main ones also
+drawn live by Plotly.js inlined once, :mod:`fl_design.app._report_interactive`), works offline
+and prints: the summary first, a badge per verdict whose colour carries the meaning and whose
 word and border say it again in greyscale, tables that wrap inside the width.
 
 Examples

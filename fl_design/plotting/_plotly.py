@@ -200,8 +200,9 @@ def step_spec(runs, designs, stds, ctx, *, labels=None, window: str = "") -> dic
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import step_spec
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
-    >>> step_spec({("a", 0.0): r}, ["a"], [0.0], FigureContext("p"))["data"][0]["name"]
-    'a: converged'
+    >>> spec = step_spec({("a", 0.0): r}, ["a"], [0.0], FigureContext("p"))
+    >>> spec["data"][0]["name"] == f"a: {r.status}", spec["data"][1]["name"]
+    (True, 'reference')
     """
     n = len(stds)
     rows = math.ceil((len(designs) + 1) / 3)  # legend rows (the designs and the reference)

@@ -152,10 +152,7 @@ def test_without_plotly_the_report_stays_static_and_says_why(monkeypatch):
 
     monkeypatch.setattr(ri, "plotly_bundle", missing)
 
-    class Job:  # the figures are not built: the bundle is checked first
-        results = {}
-
-    live, why = live_figures(Job(), ["response.png"])
+    live, why = live_figures(None, ["response.png"])  # the bundle is checked before the job
     assert live is None and "need plotly" in why
 
 
