@@ -8,8 +8,8 @@ map, the compared runs) is a ``{"data", "layout"}`` spec from
 :mod:`fl_design.plotting._plotly`, embedded as ``<script type="application/json">`` with every
 ``<``, ``>``, ``&`` and line separator written as a ``\\uXXXX`` escape (no ``</script>`` nor
 ``<!--`` can appear inside). The page's Content-Security-Policy allows only these two scripts
-(by their SHA-256), inline styles and ``data:`` images, and no connection at all
-(``default-src 'none'``). The PNG stays in the figure: shown without JavaScript (or if a plot
+(by their SHA-256), inline styles, ``data:`` and ``blob:`` images (the plots' PNG export
+builds one in the page) and no connection at all (``default-src 'none'``). The PNG stays in the figure: shown without JavaScript (or if a plot
 fails), and in print (a print rule hides the live plot).
 
 Examples
@@ -164,7 +164,7 @@ class LiveFigures:
     def head(self) -> str:
         """The Content-Security-Policy ``<meta>``: only these scripts, no connection."""
         policy = (f"default-src 'none'; script-src {_sha256(self.bundle)} {_sha256(INIT_JS)}; "
-                  "style-src 'unsafe-inline'; img-src data:; font-src 'none'; "
+                  "style-src 'unsafe-inline'; img-src data: blob:; font-src 'none'; "
                   "connect-src 'none'; base-uri 'none'; form-action 'none'")
         return f'<meta http-equiv="Content-Security-Policy" content="{policy}">'
 

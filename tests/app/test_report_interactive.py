@@ -4,7 +4,8 @@ no browser, driver or selenium is installed).
 
 The browser checks: the three main figures drawn by Plotly.js (with data), hover values and a
 zoom by the mouse, no request leaving the page (resource timing entries; the CSP's
-``default-src 'none'``; no CSP violation in the console), the summary first, no horizontal
+``default-src 'none'``; no CSP violation in the console, the PNG export included), the
+summary first, no horizontal
 scroll at 1280 px, the PNG shown in print and the plot hidden, and a plant name with markup
 shown literally by Plotly.
 """
@@ -268,6 +269,13 @@ def test_hover_shows_values_and_the_mouse_zooms(driver, report):
                   "._fullLayout.xaxis.range; return r[1] - r[0] < arguments[0] && r", 10,
                   0.5 * (before[1] - before[0]))
     assert after[1] - after[0] < 0.5 * (before[1] - before[0])  # a quarter of the width shown
+    # the camera button's export (a PNG built in the page) passes the CSP
+    png = driver.execute_async_script(
+        "const done = arguments[0]; Plotly.toImage(document.querySelector('.js-plotly-plot'), "
+        "{format: 'png'}).then(u => done(u.slice(0, 22)), e => done('failed: ' + e));")
+    assert png == "data:image/png;base64,", png
+    logs = [e["message"] for e in driver.get_log("browser")]
+    assert not [m for m in logs if "Content Security Policy" in m], logs
 
 
 @pytest.mark.slow
@@ -289,3 +297,13 @@ def test_print_shows_the_png_and_a_hostile_name_shows_literally(driver, tmp_path
     finally:
         driver.execute_cdp_cmd("Emulation.setEmulatedMedia", {"media": ""})
     assert shown == ["inline", "none"]
+    # scripts that do not run (JavaScript off, or blocked: here a changed script whose hash no
+    # longer matches the CSP) leave the PNG on screen
+    path.write_text(page.replace("if (!window.Plotly) { return; }", "/* changed */"),
+                    encoding="utf-8")
+    driver.get(path.as_uri())
+    time.sleep(0.5)
+    assert driver.execute_script(
+        "const f = document.querySelector('figure.live-figure'); return [f.classList.contains("
+        "'live'), getComputedStyle(f.querySelector('img')).display, "
+        "f.querySelectorAll('.js-plotly-plot').length]") == [False, "inline", 0]
