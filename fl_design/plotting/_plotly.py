@@ -159,7 +159,8 @@ def response_spec(resp, ctx, *, title: str) -> dict:
                    "x1": resp.divergence_time, "y0": 0, "y1": 1,
                    "line": {"color": STATUS_COLORS[1], "width": 1}}]
     unit = plotly_text(ctx.y_unit) or "1"
-    layout = _layout(plotly_text(title), 620, hovermode="x unified", shapes=shapes,
+    layout = _layout(plotly_text(title), 620, hovermode="x unified", hoversubplots="axis",
+                     shapes=shapes,
                      xaxis=_axis("time (s)", anchor="y3"),
                      yaxis=_axis(_label("output y", ctx.y_unit), domain=[0.70, 1.0]),
                      yaxis2=_axis(_label("input u", ctx.u_unit), domain=[0.36, 0.64]),
