@@ -145,7 +145,8 @@ def _cmd_run(args) -> int:
     waited = time.perf_counter() - start
     start = time.perf_counter()
     paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
-                         csv_written=written, full_csv=args.full_csv)
+                         csv_written=written, full_csv=args.full_csv,
+                         interactive=not args.static_report)
     during = (f" (CPU {csv.cpu:.1f} s, also counted in the stages running beside it; from the "
               f"end of simulate, {waited:.1f} s of it after the C stage)"
               if written is not None else "")
@@ -382,6 +383,9 @@ def build_parser() -> argparse.ArgumentParser:
                      "every k-th sample and the last)")
     run.add_argument("--verbose", action="store_true",
                      help="print every stage's detail (default: the summary, one screen)")
+    run.add_argument("--static-report", action="store_true",
+                     help="report.html with PNG figures only and no script (default: the main "
+                     "figures interactive, Plotly.js inlined: about 5 MB, opens offline)")
     run.set_defaults(func=_cmd_run)
     init = sub.add_parser("init", help="write a commented config (every table and key) to "
                           "stdout; `fl-design run` accepts it as is")

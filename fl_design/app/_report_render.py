@@ -8,8 +8,9 @@ mathml, latex)``, ``("details", summary, text)`` or ``("fig", file name, caption
 Everything that is text is escaped for its format: HTML entities in the page, backslash
 escapes in Markdown (markup, links, images, table pipes; newlines become spaces), so a name a
 user chose (``<img src=x onerror=...>``, a line break, ``|``) shows as written and never turns
-into markup. The page carries its stylesheet and its figures (base64), works offline and
-prints: the summary first, a badge per verdict whose colour carries the meaning and whose
+into markup. The page carries its stylesheet and its figures (base64; the main ones also
+drawn live by Plotly.js inlined once, :mod:`fl_design.app._report_interactive`), works offline
+and prints: the summary first, a badge per verdict whose colour carries the meaning and whose
 word and border say it again in greyscale, tables that wrap inside the width.
 
 Examples
@@ -202,8 +203,13 @@ def _is_number(text: str) -> bool:
     return bool(re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", text.strip()))
 
 
-def render_html(secs, folder: Path, *, title: str) -> str:
+def render_html(secs, folder: Path, *, title: str, live=None) -> str:
     """Render sections as one self-contained HTML page (PNG figures embedded as base64).
+
+    With ``live`` (:class:`~fl_design.app._report_interactive.LiveFigures`), the figures it
+    holds are drawn by Plotly.js inlined in the page (zoom, hover values), their PNG kept for
+    print and for a browser without JavaScript; the page then carries a Content-Security-Policy
+    that allows only its own scripts and no connection.
 
     Parameters
     ----------
@@ -213,6 +219,8 @@ def render_html(secs, folder: Path, *, title: str) -> str:
         Where the figures' PNG files are.
     title : str
         Page title.
+    live : LiveFigures, optional
+        Interactive figures (default none: a page without scripts).
 
     Returns
     -------
@@ -259,12 +267,19 @@ def render_html(secs, folder: Path, *, title: str) -> str:
                             "</table>")
             elif kind == "fig":
                 data = base64.b64encode((Path(folder) / block[1]).read_bytes()).decode("ascii")
-                body.append(f'<figure><img alt="{e(block[2])}" src="data:image/png;base64,'
-                            f'{data}"><figcaption>{e(block[2])}</figcaption></figure>')
-    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+                img = f'<img alt="{e(block[2])}" src="data:image/png;base64,{data}">'
+                cap = f"<figcaption>{e(block[2])}</figcaption>"
+                body.append(live.figure(block[1], img, cap) if live and block[1] in live.specs
+                            else f"<figure>{img}{cap}</figure>")
+    head, css, tail = "", CSS, ""
+    if live:
+        from ._report_interactive import CSS as LIVE_CSS
+
+        head, css, tail = live.head(), CSS + LIVE_CSS, "\n" + live.scripts()
+    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">{head}'
             f'<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<title>{e(title)}</title><style>{CSS}</style></head><body>\n"
-            + "\n".join(body) + "\n</body></html>\n")
+            f"<title>{e(title)}</title><style>{css}</style></head><body>\n"
+            + "\n".join(body) + tail + "\n</body></html>\n")
 
 
 __all__ = ["CSS", "md", "render_html", "render_markdown"]

@@ -30,6 +30,7 @@ from ._brief import run_brief
 from ._report_csv import CSV_MAX_ROWS, BackgroundCsv, run_csv_name, write_runs_csv
 from ._report_family import summary as robustness_summary
 from ._report_figures import FIGURES, write_figures
+from ._report_interactive import live_figures
 from ._report_render import md, render_html, render_markdown
 from ._report_sections import sections
 from ._text import design_label
@@ -99,7 +100,8 @@ def _run_row(resp) -> dict:
 
 
 def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
-                 csv_written: list | None = None, full_csv: bool = False) -> dict:
+                 csv_written: list | None = None, full_csv: bool = False,
+                 interactive: bool = True) -> dict:
     """Write ``report.html``, ``report.md``, the PNG figures, ``summary.json`` and the compared
     runs as CSV (:func:`write_runs_csv`).
 
@@ -124,19 +126,25 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
         The CSV files the caller already wrote into this folder (:func:`write_runs_csv`'s
         result; ``fl-design run`` writes them while the C compilers run): recorded, not
         written again.
+    interactive : bool, optional
+        Draw the main figures of ``report.html`` with Plotly.js inlined in the page (zoom,
+        hover values; :mod:`fl_design.app._report_interactive`), the PNG kept for print
+        (default); False: PNG only and no script (``fl-design run --static-report``).
+        ``report.md`` links the PNG files either way.
 
     Returns
     -------
     dict
         ``{"html": path, "markdown": path, "summary": path, "figures": [names],
-        "csv": [relative paths of the runs' CSV files]}``.
+        "csv": [relative paths of the runs' CSV files], "failed_figures": {name: reason},
+        "live_figures": [names drawn live in report.html]}``.
 
     Examples
     --------
     >>> from fl_design.app import load_config, run_job, write_report
     >>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
     >>> sorted(write_report(job, "."))
-    ['csv', 'failed_figures', 'figures', 'html', 'markdown', 'summary']
+    ['csv', 'failed_figures', 'figures', 'html', 'live_figures', 'markdown', 'summary']
     """
     folder = claim_output_folder(out_dir, force=force, what="report folder")
     start = time.perf_counter()
@@ -153,16 +161,19 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
         secs[-1][1].append(("p", f"{len(csv)} runs as CSV under runs/: " + (
             "every sample." if full_csv else f"at most {CSV_MAX_ROWS} rows each (every k-th "
             "sample and the last; `fl-design run --full-csv` writes every sample).")))
+    live, why = live_figures(job, figures) if interactive else (None, "")
+    if why:
+        secs[-1][1].append(("p", f"Interactive figures: {why}."))
     title = f"fl_design report: {job.plant.name}"
     paths = {"html": folder / "report.html", "markdown": folder / "report.md",
              "summary": folder / "summary.json"}
-    paths["html"].write_text(render_html(secs, folder, title=title), encoding="utf-8")
+    paths["html"].write_text(render_html(secs, folder, title=title, live=live), encoding="utf-8")
     paths["markdown"].write_text(f"# {md(title)}\n\n" + render_markdown(secs), encoding="utf-8")
     paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
     record_outputs(folder, [*paths.values(), *(folder / name for name in figures),
                             *(folder / name for name in csv)])
     return {**{k: str(v) for k, v in paths.items()}, "figures": figures, "csv": csv,
-            "failed_figures": failed}
+            "failed_figures": failed, "live_figures": list(live.specs) if live else []}
 
 
 __all__ = ["FIGURES", "BackgroundCsv", "render_html", "render_markdown", "run_csv_name", "summary",

@@ -54,7 +54,7 @@ def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
                  "response.png"):
         assert (out / name).stat().st_size > 10_000
         assert f"]({name})" in md
-    assert html.count('src="data:image/png;base64,') == 5
+    assert len(re.findall(r'<img [^>]*src="data:image/png;base64,', html)) == 5
     assert "<img" in html and 'src="stability_map.png"' not in html  # self-contained
     assert "P_x =" in md and escaped("eps* for varying b (s): [certified, refuted]") in md
     assert "Software in the loop" in md

@@ -78,9 +78,10 @@ def rendered(tmp_path_factory):
                     "the report's rendering is not checked")
     out = tmp_path_factory.mktemp("report")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.run([sys.executable, "-m", "fl_design", "run", "--quick", "--out",
-                           str(out)], capture_output=True, text=True, env=env, timeout=300,
-                          check=False)
+    # the static page (its PNG figures; the interactive one: test_report_interactive.py)
+    proc = subprocess.run([sys.executable, "-m", "fl_design", "run", "--quick", "--static-report",
+                           "--out", str(out)], capture_output=True, text=True, env=env,
+                          timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "<script" not in html  # the report runs no scripts; only the copy below measures
