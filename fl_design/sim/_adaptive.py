@@ -80,9 +80,10 @@ def assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, 
     """
     info = run.loop.layout.unpack(acc)
     info["est2_sum"] = np.asarray(info["est2_sum"]).T
-    m = metrics_from_summary(info, run.T)
+    m = metrics_from_summary(info, run.T, run.metrics)
     if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
-        m.update(summary_metrics(info, run.T, run.disturbance_start))
+        dist = summary_metrics(info, run.T, run.disturbance_start)
+        m.update({k: v for k, v in dist.items() if run.metrics is None or k in run.metrics})
     status = m.pop("status").reshape(shape)
     metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
                for k, v in m.items()}

@@ -58,7 +58,8 @@ def _runner(run: RunSetup, kernel: Kernel):
     """The runner of ``run.loop``, memoised per process (tasks of one sweep share it)."""
     try:
         key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps,
-                            run.loop.uncertain, kernel))
+                            run.loop.uncertain, run.loop.allow_unmodeled,
+                            run.loop.accumulators, kernel))
     except (pickle.PicklingError, TypeError, AttributeError):  # unpicklable: no memo
         return run.loop.runner(kernel=kernel)
     with _RUNNERS_LOCK:
