@@ -45,7 +45,6 @@ from ._metrics import metrics_from_summary
 from ._run import RunSetup
 from ._status import Status
 
-
 #: Runs finalized at once: every run's metrics depend on its own accumulators only, so a
 #: grid is finalized in blocks and the temporaries of the classification do not grow with it
 #: (the memory of a map stays its accumulators and its metrics).
