@@ -420,18 +420,29 @@ def reference_and_memory(quick: bool, cache: str) -> bool:
     good = ivp / ns >= 200
     print(f"reference: per-sample solve_ivp loop {ivp / 1e3:.1f} us per step, "
           f"{ivp / ns:.0f}x the kernel (target >= 200x)  {'PASS' if good else 'FAIL'}")
-    mem = {}
-    for g in (8, 8, 32):  # the first 8 x 8 warms the kernel up
+    memory_per_point(cache, quick)
+    return good
+
+
+def memory_per_point(cache: str, quick: bool = False) -> float:
+    """Peak traced memory of sweeps of 2 s runs; bytes per extra grid point (8 x 8 -> 32 x 32,
+    and 32 x 32 -> 64 x 64: beyond a chunk of runs, what a grid point costs by itself)."""
+    mem, grids = {}, (8, 8, 32) if quick else (8, 8, 32, 64)
+    plant, design = fl.plants.trms_yaw(), fl.presets.paper_design()
+    for g in grids:  # the first 8 x 8 warms the kernel up
         tracemalloc.start()
-        fl.sweep(w.plant, w.design, fl.Scenario(REFERENCE, 2.0), eps=np.geomspace(0.01, 0.5, g),
+        fl.sweep(plant, design, fl.Scenario(REFERENCE, 2.0), eps=np.geomspace(0.01, 0.5, g),
                  gamma=np.geomspace(1e-4, 1e-2, g), progress=False,
                  kernel=fl.Kernel(cache_dir=cache))
         mem[g] = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()
-    per_run = (mem[32] - mem[8]) / (32 * 32 - 8 * 8) * 1e6
-    print(f"peak traced memory of sweeps of 2 s runs: {mem[8]:.2f} MB (8 x 8), {mem[32]:.2f} MB "
-          f"(32 x 32); {per_run:.0f} bytes per extra run (running metrics only)")
-    return good
+    slope = lambda a, b: (mem[b] - mem[a]) / (b * b - a * a) * 1e6
+    text = ", ".join(f"{mem[g]:.2f} MB ({g} x {g})" for g in sorted(set(grids)))
+    pairs = [(8, 32)] + ([] if quick else [(32, 64)])
+    print(f"peak traced memory of sweeps of 2 s runs: {text}; bytes per extra run "
+          + ", ".join(f"{slope(a, b):.0f} ({a}->{b})" for a, b in pairs)
+          + " (running metrics only)")
+    return slope(*pairs[-1])
 
 
 def machine() -> str:
