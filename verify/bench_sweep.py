@@ -16,7 +16,8 @@ classified with a 20 % settling band and a divergence bound of 1 rad (yaw) and 6
    loop only). The final states agree to about 1e-14 relative (median); a run or two that
    sits on a knife edge (undecided, here) amplifies the last bits of ``tanh`` (libmvec's
    against glibc's: the bitwise-exact kernel differs from the default there too). Ratios are medians over interleaved rounds of ``t_peer / t_sweep`` in the same
-   round; ns per step count the steps computed (a diverged run stops at its divergence). Every
+   round; ns per step count the steps computed (a diverged run stops at its divergence); the
+   same for ``fl.sweep(..., metrics=[])`` (the status alone, what the peers compute). Every
    peer must reproduce the sweep's classification of every run (diverged / within the band /
    neither) and the kernel's divergence samples;
 2. the same on an 8 x 8 x 5 s grid, with where the fixed costs of a sweep go (``prepare_run``,
@@ -110,11 +111,11 @@ class Workload:
         self.args = (self.P, self.run.r, self.run.N, self.run.k_tail, self.run.T, substeps,
                      TRMS, (*ctrl.gains, ctrl.ki, lim, *ctrl.u_range), self.run.bound)
 
-    def sweep(self, threads: int = 1):
-        """The whole public call, as a user makes it."""
+    def sweep(self, threads: int = 1, metrics=None):
+        """The whole public call, as a user makes it (``metrics=[]``: the status alone)."""
         return fl.sweep(self.plant, self.design, self.scenario, eps=self.eps, gamma=self.gamma,
                         integrator=self.integrator, classifier=CLASSIFIER,
-                        kernel=self.kernels[threads], progress=False)
+                        kernel=self.kernels[threads], progress=False, metrics=metrics)
 
     def kernel(self) -> np.ndarray:
         return self.runner.run(self.acc0, self.run.D, threads=1)
@@ -264,6 +265,9 @@ def whole_sweeps(w: Workload, peers: dict, n_rounds: int, targets: dict,
     phases = []
     if fixed_costs:
         calls["phases"] = lambda: phases.append(w.phases())
+    status_only = w.sweep(metrics=[])  # the status alone: no accumulator of another metric
+    ok &= bool(np.array_equal(status_only.status, smap.status))
+    calls["status only"] = lambda: w.sweep(metrics=[])
     t_sweep, times, ratios = rounds(w.sweep, calls, n_rounds)
     steps = w.steps(w.summary(w.kernel()))
     t = _med(t_sweep)
@@ -273,6 +277,12 @@ def whole_sweeps(w: Workload, peers: dict, n_rounds: int, targets: dict,
     print(f"  fl.sweep {t:7.3f} s  {t / steps * 1e9:6.1f} ns per step per grid point per core "
           f"(the whole call)")
     ok &= report({n: peers[n] for n in peers}, times, ratios, targets)
+    t_s = times.pop("status only")
+    print(f"  fl.sweep(metrics=[]) (the status alone, same classes: "
+          f"{'yes' if np.array_equal(status_only.status, smap.status) else 'NO'}) "
+          f"{_med(t_s):7.3f} s, {_med(t_sweep) / _med(t_s):.2f}x the full call; against the "
+          "peers: " + ", ".join(f"{n} {_med([a / b for a, b in zip(times[n], t_s)]):.2f}x"
+                                for n in peers))
     if fixed_costs:
         parts = {k: _med([p[k] for p in phases]) for k in phases[0]}
         total = sum(parts.values())
@@ -410,18 +420,29 @@ def reference_and_memory(quick: bool, cache: str) -> bool:
     good = ivp / ns >= 200
     print(f"reference: per-sample solve_ivp loop {ivp / 1e3:.1f} us per step, "
           f"{ivp / ns:.0f}x the kernel (target >= 200x)  {'PASS' if good else 'FAIL'}")
-    mem = {}
-    for g in (8, 8, 32):  # the first 8 x 8 warms the kernel up
+    memory_per_point(cache, quick)
+    return good
+
+
+def memory_per_point(cache: str, quick: bool = False) -> float:
+    """Peak traced memory of sweeps of 2 s runs; bytes per extra grid point (8 x 8 -> 32 x 32,
+    and 32 x 32 -> 64 x 64: beyond a chunk of runs, what a grid point costs by itself)."""
+    mem, grids = {}, (8, 8, 32) if quick else (8, 8, 32, 64)
+    plant, design = fl.plants.trms_yaw(), fl.presets.paper_design()
+    for g in grids:  # the first 8 x 8 warms the kernel up
         tracemalloc.start()
-        fl.sweep(w.plant, w.design, fl.Scenario(REFERENCE, 2.0), eps=np.geomspace(0.01, 0.5, g),
+        fl.sweep(plant, design, fl.Scenario(REFERENCE, 2.0), eps=np.geomspace(0.01, 0.5, g),
                  gamma=np.geomspace(1e-4, 1e-2, g), progress=False,
                  kernel=fl.Kernel(cache_dir=cache))
         mem[g] = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()
-    per_run = (mem[32] - mem[8]) / (32 * 32 - 8 * 8) * 1e6
-    print(f"peak traced memory of sweeps of 2 s runs: {mem[8]:.2f} MB (8 x 8), {mem[32]:.2f} MB "
-          f"(32 x 32); {per_run:.0f} bytes per extra run (running metrics only)")
-    return good
+    slope = lambda a, b: (mem[b] - mem[a]) / (b * b - a * a) * 1e6
+    text = ", ".join(f"{mem[g]:.2f} MB ({g} x {g})" for g in sorted(set(grids)))
+    pairs = [(8, 32)] + ([] if quick else [(32, 64)])
+    print(f"peak traced memory of sweeps of 2 s runs: {text}; bytes per extra run "
+          + ", ".join(f"{slope(a, b):.0f} ({a}->{b})" for a, b in pairs)
+          + " (running metrics only)")
+    return slope(*pairs[-1])
 
 
 def machine() -> str:

@@ -45,6 +45,23 @@ from ._metrics import metrics_from_summary
 from ._run import RunSetup
 from ._status import Status
 
+#: Runs finalized at once: every run's metrics depend on its own accumulators only, so a
+#: grid is finalized in blocks and the temporaries of the classification do not grow with it
+#: (the memory of a map stays its accumulators and its metrics).
+ASSEMBLE_CHUNK = 512
+
+
+def _finalize(run: RunSetup, acc: np.ndarray) -> dict:
+    """Status codes and metrics (flat) of the runs of ``acc``."""
+    info = run.loop.layout.unpack(acc)
+    info["est2_sum"] = np.asarray(info["est2_sum"]).T
+    m = metrics_from_summary(info, run.T, run.metrics)
+    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
+        dist = summary_metrics(info, run.T, run.disturbance_start)
+        m.update({k: v for k, v in dist.items() if run.metrics is None or k in run.metrics})
+    return {k: np.asarray(v).reshape(acc.shape[1], *np.shape(v)[1:]) if np.ndim(v) else
+            np.full(acc.shape[1], v) for k, v in m.items()}
+
 
 def assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, dict]:
     """Status codes and metrics, shaped ``shape``, from the final accumulators of the runs.
@@ -78,11 +95,14 @@ def assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, 
     >>> status.tolist(), metrics["estimation_rms"].shape
     ([[1], [-1]], (2, 1, 3))
     """
-    info = run.loop.layout.unpack(acc)
-    info["est2_sum"] = np.asarray(info["est2_sum"]).T
-    m = metrics_from_summary(info, run.T)
-    if math.isfinite(run.disturbance_start):  # the response to the scenario's disturbance
-        m.update(summary_metrics(info, run.T, run.disturbance_start))
+    acc = np.asarray(acc, dtype=float).reshape(run.loop.layout.size, -1)
+    m = {}
+    for a in range(0, max(1, acc.shape[1]), ASSEMBLE_CHUNK):  # filled in place: no copies
+        part = _finalize(run, acc[:, a:a + ASSEMBLE_CHUNK])
+        for k, v in part.items():
+            if k not in m:
+                m[k] = np.empty((acc.shape[1], *v.shape[1:]), dtype=v.dtype)
+            m[k][a:a + v.shape[0]] = v
     status = m.pop("status").reshape(shape)
     metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
                for k, v in m.items()}

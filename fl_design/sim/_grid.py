@@ -58,7 +58,8 @@ def _runner(run: RunSetup, kernel: Kernel):
     """The runner of ``run.loop``, memoised per process (tasks of one sweep share it)."""
     try:
         key = pickle.dumps((run.loop.plant, run.loop.design, run.loop.substeps,
-                            run.loop.uncertain, kernel))
+                            run.loop.uncertain, run.loop.allow_unmodeled,
+                            run.loop.accumulators, kernel))
     except (pickle.PicklingError, TypeError, AttributeError):  # unpicklable: no memo
         return run.loop.runner(kernel=kernel)
     with _RUNNERS_LOCK:
@@ -186,6 +187,13 @@ class _Progress:
             except ImportError:
                 self.desc = desc
 
+    def note(self, text: str) -> None:
+        """Say what the bar waits for (the kernel being compiled); ``""`` clears it."""
+        if self.bar is not None:
+            self.bar.set_postfix_str(text, refresh=True)
+        elif self.enabled and text:
+            print(f"\r{self.desc}: {text}", end="", file=sys.stderr, flush=True)
+
     def update(self, n: int) -> None:
         self.done += n
         if self.bar is not None:
@@ -289,6 +297,11 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     bar = _Progress(n_runs, bool(progress), desc)
     try:
         if executor is None:
+            if bar.enabled and kernel.compiled:  # a first use compiles for seconds: say so
+                bar.note("preparing the compiled kernel (compiled on first use, then cached)")
+                runner = _runner(run, kernel)
+                getattr(runner, "library", None)  # the lanes kernel is built on first use
+                bar.note("")
             chunk = kernel.chunk_size or CHUNK_IN_PROCESS
             n_thr = threads if threads is not None else _cores()
             for a in range(0, n_runs, chunk):

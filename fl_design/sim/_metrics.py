@@ -258,8 +258,94 @@ ACCUMULATORS = (
 WHOLE_RUN = ("e_max", "e_min", "abs_e_sum", "u2_sum", "du_sum", "est2_sum", "k10", "k90",
              "k_out", "k_exit", "dist_peak", "k_dist_out")
 
+#: Accumulators that feed a metric but not the classification, by metric: a sweep asked for
+#: some metrics only (``fl.sweep(..., metrics=[...])``) updates these for the metrics asked
+#: for and no others (every accumulator not listed here feeds the status and always runs).
+#: Measured on the TRMS (AVX2): the kernel step without them is about 9 % faster.
+METRIC_ACCUMULATORS = {
+    "overshoot": ("e_max", "e_min"), "rise_time": ("k10",), "settling_time": ("k_out",),
+    "iae": ("abs_e_sum",), "input_rms": ("u2_sum",), "input_tv": ("du_sum",),
+    "estimation_rms": ("est2_sum",), "time_to_tolerance": ("k_out",),
+    "region_exit_time": ("k_exit",), "disturbance_peak": ("dist_peak",),
+    "recovery_time": ("k_dist_out",),
+}
+#: The accumulators of :data:`METRIC_ACCUMULATORS` (the others feed the status).
+METRIC_ONLY = frozenset(name for names in METRIC_ACCUMULATORS.values() for name in names)
+#: Metrics of the response to a scenario's disturbance (:mod:`fl_design.sim._disturbance`).
+DISTURBANCE_METRICS = ("disturbance_peak", "recovery_time")
+
 #: Constants of a run stored with its accumulators (inputs of the finalization).
 RUN_CONSTANTS = ("N", "k_tail", "k_mid", "y0", "step", "tol", "noise", "k_dist")
+
+
+def requested_metrics(metrics) -> tuple[str, ...] | None:
+    """The validated metric names a caller asks for (None: every metric).
+
+    Parameters
+    ----------
+    metrics : sequence of str or None
+        Names from :data:`METRIC_NAMES` or :data:`DISTURBANCE_METRICS`; ``()`` asks for the
+        status (and ``divergence_time``) only.
+
+    Returns
+    -------
+    tuple of str or None
+        Sorted names without repeats, or None.
+
+    Raises
+    ------
+    ParameterError
+        Not a list of names, or an unknown name (the message lists the valid ones).
+
+    Examples
+    --------
+    >>> from fl_design.sim._metrics import requested_metrics
+    >>> requested_metrics(["overshoot", "iae"]), requested_metrics(None)
+    (('iae', 'overshoot'), None)
+    """
+    from ..errors import ParameterError
+
+    if metrics is None:
+        return None
+    valid = (*METRIC_NAMES, *DISTURBANCE_METRICS)
+    if isinstance(metrics, str) or not hasattr(metrics, "__iter__"):
+        raise ParameterError(f"metrics must be a list of metric names (or None: all), got "
+                             f"{metrics!r}; write [{metrics!r}] for one")
+    names = list(metrics)
+    bad = [m for m in names if not isinstance(m, str) or m not in valid]
+    if bad:
+        raise ParameterError(f"unknown metric(s) {bad} in metrics={names!r}; valid names: "
+                             f"{list(valid)}")
+    return tuple(sorted(set(names)))
+
+
+def accumulators_for(metrics: tuple[str, ...] | None) -> tuple[str, ...] | None:
+    """The accumulators the kernel must update for ``metrics`` (None: all of them).
+
+    The status needs every accumulator outside :data:`METRIC_ONLY`; each metric adds its
+    own (:data:`METRIC_ACCUMULATORS`).
+
+    Parameters
+    ----------
+    metrics : tuple of str or None
+        Validated names (:func:`requested_metrics`).
+
+    Returns
+    -------
+    tuple of str or None
+        Accumulator names in :data:`ACCUMULATORS` order, or None (all).
+
+    Examples
+    --------
+    >>> from fl_design.sim._metrics import accumulators_for
+    >>> kept = accumulators_for(("overshoot",))
+    >>> "e_max" in kept, "iae" in kept, "est2_sum" in kept, "reversals" in kept
+    (True, False, False, True)
+    """
+    if metrics is None:
+        return None
+    extra = {name for m in metrics for name in METRIC_ACCUMULATORS.get(m, ())}
+    return tuple(a.name for a in ACCUMULATORS if a.name not in METRIC_ONLY or a.name in extra)
 
 
 def metric_layout(rho: int) -> Layout:
@@ -463,8 +549,9 @@ def _time_to_tolerance(g, T):
                     np.where(status == Status.CONVERGING, estimate, np.nan))
 
 
-def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
-    """Every metric of :data:`METRICS`, ``divergence_time`` and ``status`` from accumulators.
+def metrics_from_summary(summary: dict, T: float,
+                         metrics: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+    """Every metric of :data:`METRICS` (or those asked for), ``divergence_time`` and ``status``.
 
     Parameters
     ----------
@@ -474,11 +561,14 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
         axis of length ``rho + 1``.
     T : float
         Sampling time.
+    metrics : tuple of str, optional
+        Only these metrics (:func:`requested_metrics`; ``divergence_time`` and ``status``
+        always); default None: all of them.
 
     Returns
     -------
     dict
-        ``METRIC_NAMES`` -> arrays, plus ``status`` (codes).
+        ``METRIC_NAMES`` (or ``metrics``) -> arrays, plus ``status`` (codes).
 
     Examples
     --------
@@ -502,19 +592,25 @@ def metrics_from_summary(summary: dict, T: float) -> dict[str, np.ndarray]:
     g["_status"] = classify(g)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         for metric in METRICS:
+            if metrics is not None and metric.name not in metrics:
+                continue
             value = metric.finalize(g, T)
             out[metric.name] = np.where(div[..., None] if metric.per_estimate else div,
                                         np.nan, value)
     out["divergence_time"] = np.where(div, g["k_div"] * T, np.nan)
-    out["region_exit_time"] = np.where(g["k_exit"] >= 0, g["k_exit"] * T, np.nan)
+    if metrics is None or "region_exit_time" in metrics:
+        out["region_exit_time"] = np.where(g["k_exit"] >= 0, g["k_exit"] * T, np.nan)
     out["status"] = g["_status"]
     return out
 
 
 __all__ = [
     "ACCUMULATORS",
+    "DISTURBANCE_METRICS",
     "METRICS",
+    "METRIC_ACCUMULATORS",
     "METRIC_NAMES",
+    "METRIC_ONLY",
     "NBLOCKS",
     "NOISE_P2P",
     "RUN_CONSTANTS",
@@ -524,10 +620,12 @@ __all__ = [
     "Accumulator",
     "Metric",
     "Status",
+    "accumulators_for",
     "classify",
     "initial_values",
     "metric_layout",
     "metrics_from_summary",
+    "requested_metrics",
     "signals",
     "update",
 ]

@@ -28,7 +28,7 @@ from .. import _validate as V
 from .._limits import check_memory
 from ..errors import DimensionError, ParameterError, RelativeDegreeError
 from ._duration import resolve_duration
-from ._metrics import initial_values
+from ._metrics import accumulators_for, initial_values, requested_metrics
 from ._options import RK4, Classifier, Scenario, option
 from .kernel._loop import ClosedLoop, resolve_substeps
 
@@ -100,6 +100,8 @@ class RunSetup:
         ``(N,)`` input disturbance added to ``u`` at the plant (default zeros).
     disturbance_start : float, optional
         When the first non-zero disturbance acts (``inf``: none).
+    metrics : tuple of str, optional
+        The metrics asked for (None: all; the loop's kernel updates only their accumulators).
 
     Examples
     --------
@@ -129,6 +131,7 @@ class RunSetup:
     duration_reason: str = "given"
     d_in: np.ndarray | None = None
     disturbance_start: float = math.inf
+    metrics: tuple | None = None
 
     def __post_init__(self) -> None:
         if self.d_in is None:  # no input disturbance: zeros, one per sample
@@ -226,7 +229,7 @@ class RunSetup:
 
 def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = None,
                 classifier: Classifier | None = None, gammas=None,
-                allow_unmodeled: bool = False) -> RunSetup:
+                allow_unmodeled: bool = False, metrics=None) -> RunSetup:
     """Validate a run of ``design`` on ``plant`` under ``scenario`` and lay out its samples.
 
     Parameters
@@ -251,6 +254,9 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     allow_unmodeled : bool, optional
         Accept a design of lower relative degree than the plant's (see
         :class:`~fl_design.sim.ClosedLoop`); default False.
+    metrics : sequence of str, optional
+        The metrics the runs must give (:func:`fl_design.sim._metrics.requested_metrics`;
+        the status always): the kernel updates only their accumulators. Default None: all.
 
     Returns
     -------
@@ -260,7 +266,7 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     ------
     ParameterError
         A duration shorter than one sample, a plant, design or option object of the wrong
-        type, a ``gamma`` whose sign is not that of ``b``.
+        type, a ``gamma`` whose sign is not that of ``b``, an unknown metric name.
     DimensionError
         A reference array or ``x0``, ``initial_estimate`` or bound of the wrong length.
     DesignMismatchError
@@ -287,8 +293,10 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
     if scenario.duration is not None:
         scenario.n_samples(T)  # a bad length is refused before the loop is built
     steps = resolve_substeps(plant, T, integrator.substeps)
+    metrics = requested_metrics(metrics)
     loop = ClosedLoop(plant, design, substeps=steps,
-                      allow_unmodeled=V.boolean("allow_unmodeled", allow_unmodeled))
+                      allow_unmodeled=V.boolean("allow_unmodeled", allow_unmodeled),
+                      accumulators=accumulators_for(metrics))
     check_gamma_sign(plant, design.controller.gamma if gammas is None else gammas)
     length = resolve_duration(loop, scenario, classifier)
     if length.adaptive:
@@ -317,7 +325,7 @@ def prepare_run(plant, design, scenario: Scenario, *, integrator: RK4 | None = N
                     x0=x0, s0=s0, y0=y0, step=step,
                     tol=float(classifier.tolerance) * (scale if scale > 0 else 1.0), q=q,
                     k_tail=classifier.k_tail(N), bound=classifier.bound_for(plant),
-                    region=_region(plant), duration_reason=length.reason)
+                    region=_region(plant), duration_reason=length.reason, metrics=metrics)
 
 
 def _measured(y: float, q: float) -> float:

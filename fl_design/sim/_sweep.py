@@ -77,7 +77,7 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
           kernel: Kernel | None = None, executor: Executor | None = None, progress: bool = True,
           allow_unmodeled: bool = False, params: dict | None = None, samples: int = 32,
           seed: int = 0, extend: float | None = None,
-          max_duration: float | None = None) -> StabilityMap | RobustMap:
+          max_duration: float | None = None, metrics=None) -> StabilityMap | RobustMap:
     """Run and classify the closed loop on every (eps, gamma) pair of a grid.
 
     With ``params`` the map is *robust*: every grid point runs against the same ``samples``
@@ -134,6 +134,12 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     max_duration : float, optional
         Longest re-run (s, > ``D``; default ``max(extend, 4) * D``). Each point's own length
         is in :attr:`StabilityMap.durations`.
+    metrics : sequence of str, optional
+        The metrics the map must hold (names of :data:`fl_design.sim._metrics.METRIC_NAMES`,
+        or ``disturbance_peak`` / ``recovery_time``); the status and ``divergence_time`` are
+        always computed, and the kernel only updates the running values these metrics need
+        (``[]``: the status alone, about 10 % faster on the TRMS). Default None: every
+        metric. Not for robust maps.
 
     Returns
     -------
@@ -145,8 +151,8 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     ParameterError
         A grid value <= 0 or not finite, an empty grid, bad options, an estimator
         without ``eps``, negative gammas on a plant with ``b > 0``, ``extend < 1``,
-        ``max_duration <= D`` or with ``extend=1``, ``extend`` or ``max_duration`` with
-        ``params``.
+        ``max_duration <= D`` or with ``extend=1``, ``extend``, ``max_duration`` or
+        ``metrics`` with ``params``, an unknown metric name.
     DimensionError
         Reference of the wrong length.
     DesignMismatchError
@@ -165,6 +171,9 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     eps_grid, gamma_grid = _grid("eps", eps), _grid("gamma", gamma, signed=True)
     gammas = signed_gammas(plant, gamma_grid)
     if params is not None:
+        if metrics is not None:
+            raise ParameterError("metrics= selects the metrics of a nominal map; a robust map "
+                                 "(params=) computes all of them: leave metrics=None")
         if extend is not None or max_duration is not None:
             raise ParameterError("extend= and max_duration= re-run a nominal map's undecided "
                                  "points; a robust map (params=) runs every point at one "
@@ -174,7 +183,7 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                              classifier=classifier, kernel=kernel, executor=executor,
                              progress=progress, allow_unmodeled=allow_unmodeled)
     run = prepare_run(plant, design, scenario, integrator=integrator, classifier=classifier,
-                      gammas=gammas, allow_unmodeled=allow_unmodeled)
+                      gammas=gammas, allow_unmodeled=allow_unmodeled, metrics=metrics)
     extend, max_duration = extension_options(scenario, extend, max_duration)  # scenario validated
     columns = _Columns(design, eps_grid, gammas)
     acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
@@ -187,7 +196,7 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                         lambda longer: prepare_run(
                             plant, design, longer, integrator=integrator,
                             classifier=classifier, gammas=gammas,
-                            allow_unmodeled=allow_unmodeled),
+                            allow_unmodeled=allow_unmodeled, metrics=metrics),
                         kernel=kernel, executor=executor, progress=progress, acc=acc)
     return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
                         T=run.T, duration=run.duration, tol=run.tol,

@@ -146,16 +146,20 @@ def _body(ops, load, store, rename) -> list[str]:
 #: slower again), with 10 substeps 1.69x, and 4 groups 1.19x faster than 2.
 GROUPS = {"plain": 2, "substeps": 4}
 _DEFINED = re.compile(r"^(?:const )?double (\w+) =")
+_WORD = re.compile(r"\b\w+\b")
 
 
 def _segment_groups(lines: list[str], groups: int) -> str:
     """A ``#pragma omp simd`` loop over ``FL_V`` lanes running ``lines`` (written for lane
     ``l``) on each of ``groups`` lane groups, statements interleaved."""
     names = {m.group(1) for m in map(_DEFINED.match, lines) if m}
-    pattern = re.compile(r"\b(?:l|" + "|".join(sorted(names, key=len, reverse=True)) + r")\b"
-                         if names else r"\bl\b")
-    copies = [[pattern.sub(lambda m, g=g: f"l{g}" if m.group(0) == "l" else f"{m.group(0)}_g{g}",
-                           line) for line in lines] for g in range(groups)]
+
+    def copy(g: int) -> list[str]:  # whole words only: a local gets _g<g>, the lane l is l<g>
+        rename = {**{name: f"{name}_g{g}" for name in names}, "l": f"l{g}"}
+        sub = lambda m: rename.get(m.group(0), m.group(0))
+        return [_WORD.sub(sub, line) for line in lines]
+
+    copies = [copy(g) for g in range(groups)]
     lanes = ", ".join(f"l{g} = l + {g} * FL_V" for g in range(groups))
     inner = "\n".join("    " + line for group in zip(*copies) for line in group)
     return (f"  #pragma omp simd\n  for (l = 0; l < FL_V; ++l) {{\n    const long {lanes};\n"

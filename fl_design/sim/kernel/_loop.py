@@ -191,6 +191,10 @@ class ClosedLoop:
         step then integrates ``[x; theta]`` with ``theta' = 0`` (``theta`` is carried
         exactly). :attr:`control`, :attr:`sample` and :attr:`plant_step` keep the plant's
         own values. Default ``()``.
+    accumulators : tuple of str, optional
+        The accumulators the step updates (:func:`fl_design.sim._metrics.accumulators_for`);
+        the others keep their initial values and cost nothing in the kernel (the lanes
+        emitter drops an entry the step only copies). Default None: all of them.
 
     Attributes
     ----------
@@ -239,9 +243,12 @@ class ClosedLoop:
     substeps: int
     allow_unmodeled: bool = False
     uncertain: tuple = ()
+    accumulators: tuple | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "substeps", check_substeps(self.substeps))
+        if self.accumulators is not None:
+            object.__setattr__(self, "accumulators", tuple(self.accumulators))
         V.boolean("allow_unmodeled", self.allow_unmodeled)
         if self.uncertain != ():
             from ._parametric import uncertain_names
@@ -267,7 +274,7 @@ class ClosedLoop:
         )
 
     def __getstate__(self):  # CasADi graphs are rebuilt after unpickling
-        keep = ("plant", "design", "substeps", "allow_unmodeled", "uncertain")
+        keep = ("plant", "design", "substeps", "allow_unmodeled", "uncertain", "accumulators")
         return {k: v for k, v in self.__dict__.items() if k in keep}
 
     # --- sizes ----------------------------------------------------------------------------------
@@ -458,8 +465,10 @@ class ClosedLoop:
                       step=a["step"], tol=a["tol"], k_tail=a["k_tail"], k_mid=a["k_mid"],
                       outside=outside, noise=a["noise"],
                       u_range=self.design.controller.u_range, k_dist=a["k_dist"])
+        kept = self.accumulators
         for name, value in update(a, sig).items():
-            new[name] = ca.if_else(accept, value, a[name])
+            if kept is None or name in kept:  # the others are copied: no code for them
+                new[name] = ca.if_else(accept, value, a[name])
         acc_next = ca.vertcat(*[new[name] for name, _ in lay.fields])
         out = ca.vertcat(a["x"], y, ym, u, xhat, sigma, ca.vec(coords))
         return acc, d, acc_next, out
