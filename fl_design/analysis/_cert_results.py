@@ -10,7 +10,7 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -56,6 +56,40 @@ class _Result:
     def __repr__(self) -> str:
         head = type(self).__name__
         return "\n".join([head] + [f"  {line}" for line in self._repr_lines()])
+
+
+@dataclass(frozen=True, repr=False)
+class _OfClass(_Result):
+    """The class a certificate covers (keyword-only fields shared by every certificate).
+
+    ``plant_class`` is the :class:`fl_design.PlantClass` certified (a Plant given to a
+    certificate is read as its class, ``PlantClass.from_plant``; a bare ``b`` range as the
+    named chain class ``PlantClass.chain``); ``class_description`` its one line;
+    ``uncovered`` what the certificate does not cover, in words.
+    """
+
+    plant_class: object = field(default=None, kw_only=True)
+    class_description: str = field(default="", kw_only=True)
+    uncovered: tuple = field(default=(), kw_only=True)
+
+    def to_dict(self) -> dict:
+        out = super().to_dict()
+        out["plant_class"] = None if self.plant_class is None else self.plant_class.to_dict()
+        return out
+
+    def _class_lines(self) -> list[str]:
+        if not self.class_description:
+            return []
+        out = [f"certifies the {self.class_description}"]
+        if self.uncovered:
+            out.append("not covered: " + "; ".join(self.uncovered))
+        return out
+
+
+def class_fields(cls) -> dict:
+    """The keyword fields of :class:`_OfClass` for a :class:`fl_design.PlantClass`."""
+    return {"plant_class": cls, "class_description": cls.describe(),
+            "uncovered": tuple(cls.uncovered())}
 
 
 def _fmt(x) -> str:
@@ -179,7 +213,9 @@ class EpsBracket(_Result):
 
     def __str__(self) -> str:
         what = (f"rate-bounded b (|db| <= {self.b_rate:.4g} per sample)"
-                if self.covers == "rate-bounded" else f"{self.covers} b")
+                if self.covers == "rate-bounded" else
+                "class (slopes and b varying in time)" if self.covers == "nonlinear" else
+                f"{self.covers} b")
         return f"{what}: eps* in [{_fmt(self.certified)}, {_fmt(self.refuted)}]"
 
     def _repr_lines(self):
@@ -187,7 +223,7 @@ class EpsBracket(_Result):
 
 
 @dataclass(frozen=True, repr=False)
-class EpsCertificate(_Result):
+class EpsCertificate(_OfClass):
     """Result of :func:`fl_design.certify_eps` (see there for what is covered).
 
     Parameters
@@ -288,14 +324,15 @@ class EpsCertificate(_Result):
     def _repr_lines(self):
         lines = [(f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
                   f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
-                 (f"certified for {self.covers} b: {self.certified} "
+                 (f"certified for its class ({self.covers}): {self.certified} "
                   f"({self.point.kind or '-'}); eps* certified "
                   f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
         lines += [str(b) + (f"  <- headline (certified by {b.how_certified.split(':')[0]})"
                             if b.covers == self.covers else "")
                   for b in self.brackets]
+        lines = self._class_lines() + lines
         ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
-        if ranges:
+        if ranges and "every plant with" not in self.class_description:
             lines.append("covers every plant with " + ", ".join(ranges))
         if self.b_rate is not None:
             lines.append(f"b rate {self.b_rate:.6g} per sample ({self.b_rate_source})")
@@ -308,7 +345,7 @@ class EpsCertificate(_Result):
 
 
 @dataclass(frozen=True, repr=False)
-class GammaCertificate(_Result):
+class GammaCertificate(_OfClass):
     """Result of :func:`fl_design.certify_gamma`.
 
     Parameters
@@ -371,7 +408,8 @@ class GammaCertificate(_Result):
         ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
         if ranges:
             what += " and every plant with " + ", ".join(ranges)
-        return [(f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
+        return self._class_lines() + [
+                (f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
                  f"{self.certified}"),
                 (f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"
                 f" lower bound over eps {_fmt(self.gamma_lower_bound)}"),
@@ -380,7 +418,7 @@ class GammaCertificate(_Result):
 
 
 @dataclass(frozen=True, repr=False)
-class EpsStarCurve(_Result):
+class EpsStarCurve(_OfClass):
     """``eps*`` against ``gamma`` (result of :func:`fl_design.eps_star_curve`).
 
     Parameters
@@ -449,7 +487,7 @@ class EpsStarCurve(_Result):
         return plot_eps_star_curve(self, ax=ax)
 
     def _repr_lines(self):
-        return [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
+        return self._class_lines() + [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
                 f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}, "
                 f"certified for {self.covers} b"),
                 f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"

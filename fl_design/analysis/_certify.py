@@ -63,11 +63,12 @@ from .. import _validate as V
 from .._blas import serial_blas
 from ..errors import CertificationError, ParameterError
 from ._analytic import piecewise_modal, real_modal_basis
-from ._cert_results import EpsCertificate, PointCertificate
+from ._cert_results import EpsCertificate, PointCertificate, class_fields
+from ._class_bracket import class_brackets
+from ._class_resolve import resolve_class
 from ._coverage import coverage_brackets, coverage_of, gamma_fix, varying_point
 from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
-from ._plant_bounds import resolve
 from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
@@ -217,9 +218,10 @@ class _Loop:
 
     def _point(self, eps, gamma, *, common_only, lmi) -> PointCertificate:
         if self.box is not None:
+            from ._class_bracket import member_refutation_point
             from ._ldi import ldi_point
 
-            return ldi_point(self, eps, gamma)
+            return member_refutation_point(self, eps, gamma) or ldi_point(self, eps, gamma)
         margin = self.frozen_margin(eps, gamma)
         if not margin < 0.0:
             return PointCertificate(
@@ -423,8 +425,9 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
     ('varying', False, True)
     """
-    b_bounds, b_rate, a_jacobian_bounds, params, rate_source, pb = resolve(
-        b_bounds, b_rate, a_jacobian_bounds, design.T)
+    r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design)
+    b_bounds, b_rate, a_jacobian_bounds = r.b_bounds, r.b_rate, r.a_jacobian_bounds
+    params, rate_source, pb = r.params, r.rate_source, r.pb
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
@@ -443,8 +446,9 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
                             lambda es: L.frozen_margins(es, gamma))
         f = None if fb is None else fb[0]
         if L.box is not None:
-            if f is not None:
-                c_head = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
+            found = class_brackets(L, gamma, lo, fb, rtol)
+            brackets = (found["frozen"], found["nonlinear"])
+            c_head = found["nonlinear"].certified
         else:
             found, c_common = coverage_brackets(
                 L, gamma, lo, fb, rtol, b_rate,
@@ -452,9 +456,13 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
                                          L.rate_point(e, gamma, b_rate).certified))
             brackets = tuple(found.values())
             c_head = found[covers].certified
-    reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
-              if point.certified else
-              f"eps = {eps:g} not certified for {covers} b: {point.reason}")
+    reason = (f"eps = {eps:g} certified for its class ({covers} b, {point.kind}): "
+              f"{point.reason}" if point.certified else
+              f"eps = {eps:g} not certified for its class ({covers} b): {point.reason}")
+    if search and c_head is None:
+        reason += ("; no eps of the range is certified for the class" + (
+            f" (its structure, {'; '.join(x.describe() for x in r.cls.structure)}, is what "
+            "multiplier arguments use: fl.certify_step)" if r.cls.structure else ""))
     if search and not intervals:
         reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {gamma_fix(L, gamma, lo, hi)}"
     if intervals and intervals[0][0] > lo:
@@ -470,7 +478,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
         reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
         eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source,
-        covered_set=loop_covered_set(L, point, pb))
+        covered_set=loop_covered_set(L, point, pb), **class_fields(r.cls))
 
 
 

@@ -16,9 +16,9 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ParameterError
-from ._cert_results import EpsStarCurve
+from ._cert_results import EpsStarCurve, class_fields
+from ._class_resolve import resolve_class
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
-from ._plant_bounds import resolve
 from ._search import certified_eps_star, frozen_bracket
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -69,7 +69,8 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     >>> bool(all(c.eps_star_certified <= c.eps_star_frozen))
     True
     """
-    b_bounds, _, a_jacobian_bounds, _, _, _ = resolve(b_bounds, None, a_jacobian_bounds, design.T)
+    r = resolve_class(b_bounds, None, a_jacobian_bounds, design)
+    b_bounds, a_jacobian_bounds = r.b_bounds, r.a_jacobian_bounds
     lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
@@ -91,7 +92,9 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
             if c is not None:
                 cert[i], hint = c, c / f
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
-                        b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi))
+                        b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi),
+                        covers="frozen" if L.box is None else "nonlinear",
+                        **class_fields(r.cls))
 
 
 __all__ = ["eps_star_curve"]

@@ -88,6 +88,136 @@ def _fmt(x: float) -> str:
 
 
 @dataclass(frozen=True)
+class SlopeRestricted:
+    """``sigma`` depends on one variable through a static scalar function with bounded slope.
+
+    ``sigma = phi(v) + (the rest, free of v)`` with ``v = xi_i`` (``coordinate = i``, 1..rho)
+    or ``v = u`` (``coordinate = 0``), ``phi`` time-invariant and ``phi'(v)`` in ``slope``
+    (a friction on ``xi_2``, a spring on ``xi_1``, a static input nonlinearity). More than a
+    slope box: the slope is a *function of the state*, not an arbitrary signal of time, which is
+    what multiplier arguments (Zames-Falb, Popov/Jury-Lee, IQCs) use; ``monotone`` when the
+    slope keeps one sign.
+
+    Parameters
+    ----------
+    coordinate : int
+        ``i`` of ``xi_i`` (1..rho), or 0 for the input ``u``.
+    slope : (float, float)
+        Interval of ``d phi / d v``.
+    name : str, optional
+        What it is (``"friction"``).
+
+    Examples
+    --------
+    >>> s = SlopeRestricted(2, (-505.0, -5.0), "friction")
+    >>> s.variable, s.monotone, s.describe()
+    ('xi_2', True, 'xi_2 enters through one static monotone function (friction), slope in [-505, -5]')
+    """
+
+    coordinate: int
+    slope: tuple[float, float]
+    name: str = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "coordinate", V.integer("coordinate", self.coordinate,
+                                                         minimum=0, maximum=8))
+        try:
+            lo, hi = (float(v) for v in self.slope)
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"slope must be a pair (lo, hi) of numbers, got "
+                                 f"{V.short(self.slope)}") from exc
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise ParameterError(f"slope = ({lo:g}, {hi:g}) of {self.variable} must be finite "
+                                 f"with lo <= hi")
+        object.__setattr__(self, "slope", (lo, hi))
+        object.__setattr__(self, "name", str(self.name))
+
+    @property
+    def variable(self) -> str:
+        """``"u"`` or ``"xi_i"``."""
+        return "u" if self.coordinate == 0 else f"xi_{self.coordinate}"
+
+    @property
+    def monotone(self) -> bool:
+        """The slope keeps one sign (``phi`` monotone)."""
+        return self.slope[0] >= 0.0 or self.slope[1] <= 0.0
+
+    def describe(self) -> str:
+        """One phrase."""
+        kind = "static monotone function" if self.monotone else "static function"
+        nm = f" ({self.name})" if self.name else ""
+        return (f"{self.variable} enters through one {kind}{nm}, slope in "
+                f"[{_fmt(self.slope[0])}, {_fmt(self.slope[1])}]")
+
+    def to_dict(self) -> dict:
+        """Plain JSON."""
+        return {"coordinate": self.coordinate, "variable": self.variable,
+                "slope": list(self.slope), "monotone": self.monotone, "name": self.name}
+
+
+def _structure(value, rho: int, a_slopes, b) -> tuple:
+    """Validate ``structure`` (SlopeRestricted, dicts or ``(i, (lo, hi))`` pairs) against the
+    class: ``coordinate <= rho``, the slope inside ``a_slopes[i-1]`` (or ``b`` for ``u``)."""
+    out = []
+    for item in value or ():
+        if isinstance(item, SlopeRestricted):
+            s = item
+        elif isinstance(item, dict):
+            s = SlopeRestricted(**item)
+        else:
+            try:
+                s = SlopeRestricted(*item)
+            except TypeError as exc:
+                raise ParameterError(f"structure entries must be SlopeRestricted, dicts or "
+                                     f"(coordinate, (lo, hi)), got {V.short(item)}") from exc
+        if s.coordinate > rho:
+            raise ParameterError(f"structure names xi_{s.coordinate} but rho = {rho}: use "
+                                 f"coordinate 1..{rho} (xi_i) or 0 (the input u)")
+        box = b if s.coordinate == 0 else (None if a_slopes is None else a_slopes[s.coordinate - 1])
+        if box is None:
+            raise ParameterError(f"structure on {s.variable} needs a_slopes (its slope interval "
+                                 f"is the box's entry {s.coordinate})")
+        tol = 1e-9 * max(1.0, abs(box[0]), abs(box[1]))
+        if s.slope[0] < box[0] - tol or s.slope[1] > box[1] + tol:
+            raise ParameterError(
+                f"structure slope of {s.variable} [{s.slope[0]:g}, {s.slope[1]:g}] is not inside "
+                f"the class's {'b' if s.coordinate == 0 else 'a_slopes'} entry "
+                f"[{box[0]:g}, {box[1]:g}]")
+        out.append(s)
+    return tuple(out)
+
+
+def _detect_structure(plant, pb) -> tuple:
+    """Coordinates (and ``u``) through which ``sigma`` depends by one static scalar function.
+
+    For a chain plant (``xi`` = the states), ``xi_i`` (or ``u``) qualifies when ``d sigma/d v``
+    is free of every other state and of the input: ``sigma = phi(v) + rest(others)``. Only
+    nonlinear ones (``d sigma/d v`` not constant) are listed; the slope interval is the
+    enclosure already in ``pb``.
+    """
+    import sympy as sp
+
+    if pb.xi_region is None or pb.a_jacobian_bounds is None:
+        return ()
+    chain = plant._lie_chain()
+    sigma = chain.derivatives[chain.rho]
+    xs, u = list(plant.states), plant.input
+    out = []
+    for i, v in enumerate([u] + xs[: chain.rho]):
+        d = sp.diff(sigma, v)
+        dep = d.free_symbols & (set(xs) | {u})
+        if dep != {v}:  # constant slope, or a slope that depends on other variables
+            continue
+        slope = pb.b_bounds if i == 0 else pb.a_jacobian_bounds[i - 1]
+        if slope[0] == slope[1]:
+            continue
+        name = ("input map" if i == 0 else "friction" if (i == 2 and slope[1] <= 0)
+                else "")
+        out.append(SlopeRestricted(i, slope, name))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
 class PlantClass:
     """The plants a certificate covers: what the method's theory assumes, as data.
 
@@ -132,6 +262,13 @@ class PlantClass:
         The output value the class's bounds were taken around (the reference), if any.
     u_eq : float or None, optional
         The equilibrium input at the operating point, if known.
+    structure : sequence of SlopeRestricted, optional
+        Where ``sigma`` depends on a coordinate (or on ``u``) through one static scalar
+        function of bounded slope (:class:`SlopeRestricted`): friction, springs, a static input
+        map. More than the slope box says (the slope follows the state, it is not an arbitrary
+        signal): multiplier arguments use it (``fl.certify_step``).
+    params : tuple of (str, float, float), optional
+        The model's parameters with the ranges covered (``lo == hi``: fixed), from a model.
 
     Examples
     --------
@@ -157,6 +294,8 @@ class PlantClass:
     notes: tuple[str, ...] = field(default_factory=tuple)
     operating_point: float | None = None
     u_eq: float | None = None
+    structure: tuple = ()
+    params: tuple = ()
 
     def __post_init__(self):
         s = object.__setattr__
@@ -194,6 +333,8 @@ class PlantClass:
             v = getattr(self, nm)
             if v is not None:
                 s(self, nm, V.real_scalar(nm, v))
+        s(self, "structure", _structure(self.structure, self.rho, self.a_slopes, self.b))
+        s(self, "params", tuple((str(n), float(lo), float(hi)) for n, lo, hi in self.params))
 
     # -- constructors ---------------------------------------------------------------------
     @classmethod
@@ -243,6 +384,12 @@ class PlantClass:
 
         pb = plant_bounds(plant, params=params, region=region, T=T, du=du,
                           input_range=input_range, splits=splits)
+        return cls._from_bounds(plant, pb, T=T, noise_std=noise_std, delay=delay)
+
+    @classmethod
+    def _from_bounds(cls, plant, pb, *, T=None, noise_std: float = 0.0,
+                     delay: int = 0) -> PlantClass:
+        """:meth:`from_plant` from enclosures ``pb`` already computed for ``plant``."""
         notes = [f"enclosures: {pb.method}"]
         if pb.a_jacobian_bounds is None:
             notes.append(f"no slope box for a: {pb.jacobian_note}")
@@ -269,12 +416,21 @@ class PlantClass:
             states, out = ranges if isinstance(ranges, tuple) else (ranges, None)
             if out is not None and isinstance(states, dict) and states.get(out):
                 y_range = tuple(states[out])
+        structure = _detect_structure(plant, pb)
+        if structure:
+            notes.append("structure: " + "; ".join(x.describe() for x in structure)
+                         + " (d sigma/d v depends on v alone)")
+        cov = pb.covered()
+        if cov:
+            notes.append("every plant with " + ", ".join(f"{k} in [{a:g}, {b:g}]"
+                                                         for k, (a, b) in cov.items()))
         return cls(rho=plant.relative_degree(), T=T, b=pb.b_bounds,
                    b_rate=pb.b_rate if T is not None else None,
                    a_slopes=pb.a_jacobian_bounds, delay=delay, noise_std=noise_std,
                    u_limits=pb.input_range, y_range=y_range, zero_dynamics=zd,
                    zero_dynamics_decay=decay, source="plant", name=str(plant.name),
-                   notes=tuple(notes), u_eq=pb.u_eq)
+                   notes=tuple(notes), u_eq=pb.u_eq, structure=structure,
+                   params=pb.params)
 
     # -- reading ----------------------------------------------------------------------------
     @property
@@ -367,7 +523,12 @@ class PlantClass:
             nz = f"noise std {self.noise_std:g}"
         else:
             nz = "no sensor noise"
-        parts = [f"rho = {self.rho}", T, bb, a, d, nz]
+        parts = [f"rho = {self.rho}", T, bb, a]
+        parts += [x.describe() for x in self.structure]
+        parts += [d, nz]
+        ranges = [f"{n} in [{lo:g}, {hi:g}]" for n, lo, hi in self.params if lo != hi]
+        if ranges:
+            parts.append("every plant with " + ", ".join(ranges))
         if self.zero_dynamics != "none":
             parts.append(f"internal dynamics: {self.zero_dynamics}")
         return f"{who}: " + ", ".join(parts)
@@ -381,6 +542,8 @@ class PlantClass:
         [1.0, 2.0]
         """
         def plain(v):
+            if isinstance(v, SlopeRestricted):
+                return v.to_dict()
             if isinstance(v, tuple):
                 return [plain(x) for x in v]
             if isinstance(v, float) and not math.isfinite(v):
@@ -391,4 +554,4 @@ class PlantClass:
         return d
 
 
-__all__ = ["PlantClass"]
+__all__ = ["PlantClass", "SlopeRestricted"]
