@@ -81,6 +81,9 @@ DEFAULT_EPS_RANGE = (1e-3, 1.0)
 
 #: Finest modal piece: the interval split in ``MODAL_SPLIT * max_pieces`` pieces at most.
 MODAL_SPLIT = 8
+#: Finest modal piece relative to ``b_min`` (a wide range, b_max/b_min up to 100, needs pieces
+#: narrow near b_min and wide near b_max: the adaptive halving stops where each is certified).
+MODAL_REL_WIDTH = 0.01
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
 #: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).
@@ -104,7 +107,8 @@ def _serial(func):
 class _Loop:
     """The surrogate of one design over one ``b`` interval: frozen checks and certificates."""
 
-    def __init__(self, design, b_bounds, a_jacobian_bounds, n_b: int, max_pieces: int):
+    def __init__(self, design, b_bounds, a_jacobian_bounds, n_b: int, max_pieces: int,
+                 loop=None):
         from ..design import EHGO
 
         if not isinstance(design.estimator, EHGO):
@@ -116,7 +120,8 @@ class _Loop:
         self.box = jacobian_box(a_jacobian_bounds, design.rho)
         self.n_b = V.integer("n_b", n_b, minimum=2)
         self.max_pieces = V.integer("max_pieces", max_pieces, minimum=1)
-        self.loop, self.T, self.design = SurrogateLoop(design), design.T, design
+        self.loop = SurrogateLoop(design) if loop is None else loop
+        self.T, self.design = design.T, design
         self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
         self._worst = 0  # the b index that failed last (screened_margin)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
@@ -279,6 +284,8 @@ class _Loop:
         one P for the whole interval (a common P, no halving)."""
         (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
         width = (self.b_hi - self.b_lo) / (1 if whole else MODAL_SPLIT * self.max_pieces)
+        if not whole:  # wide ranges: pieces down to a fixed *relative* width near b_min
+            width = min(width, MODAL_REL_WIDTH * self.b_lo)
         span = self.b_hi - self.b_lo or 1.0
         done, margin, bad = piecewise_modal(
             lambda b: Dlo + (b - self.b_lo) / span * (Dhi - Dlo), self.b_lo, self.b_hi,
@@ -346,6 +353,24 @@ def _point(eps, sol, kind, parts, tv) -> PointCertificate:
         float(eps), True, kind, len(parts), tv, "+".join(sorted({x.solver for x in sols})),
         sols[-1].solver_status, min(x.margin for x in sols), note,
         tuple(p[0] for p in parts), tuple(lyap))
+
+
+def loop_maker(design, n_b: int, max_pieces: int):
+    """``PlantClass -> _Loop`` sharing one surrogate loop (its CasADi Jacobian built once);
+    the shared loop is kept on the function as ``.loop``."""
+    def make(cls):
+        L = _Loop(design, cls.b, cls.a_slopes, n_b, max_pieces, make.loop)
+        make.loop = L.loop
+        return L
+    make.loop = None
+    return make
+
+
+def class_screen(L, gamma: float, lo: float, hi: float) -> bool:
+    """A certificate of ``L``'s class at half its frozen eps* (a coarse eigenvalue scan): the
+    cheap test of :func:`._class_region.plant_class_search`."""
+    fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, 16, 0.05)
+    return fb is not None and L.point(max(lo, 0.5 * fb[0]), gamma).certified
 
 
 def _eps_range(eps_range) -> tuple[float, float]:
@@ -425,15 +450,18 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
     ('varying', False, True)
     """
-    r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design)
+    lo, hi = _eps_range(eps_range)
+    mk = loop_maker(design, n_b, max_pieces)
+    gamma = abs(design.controller.gamma)
+    r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design,
+                      screen=lambda c: class_screen(mk(c), gamma, lo, hi))
     b_bounds, b_rate, a_jacobian_bounds = r.b_bounds, r.b_rate, r.a_jacobian_bounds
     params, rate_source, pb = r.params, r.rate_source, r.pb
-    lo, hi = _eps_range(eps_range)
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
     if b_rate is not None:
         b_rate = V.nonnegative("b_rate", b_rate)
-    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
+    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces, mk.loop)
     covers = coverage_of(b_rate, L.box)
     eps, gamma = design.estimator.eps, abs(design.controller.gamma)  # b gamma > 0: magnitudes
     point = L.covered_point(eps, gamma, covers, b_rate)
@@ -464,7 +492,13 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
             f" (its structure, {'; '.join(x.describe() for x in r.cls.structure)}, is what "
             "multiplier arguments use: fl.certify_step)" if r.cls.structure else ""))
     if search and not intervals:
-        reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {gamma_fix(L, gamma, lo, hi)}"
+        fix = gamma_fix(L, gamma, lo, hi, n=40 if L.box is None else 12)
+        if L.box is not None and r.cls.source in ("stated", "log") and fix.startswith("no |"):
+            raise ParameterError(
+                f"a_slopes = {[list(p) for p in r.cls.a_slopes]}: no gain stabilizes every "
+                f"corner of this slope box with the design's K and T ({fix}); valid: a box "
+                "whose corner plants one gamma stabilizes (narrow it)")
+        reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {fix}"
     if intervals and intervals[0][0] > lo:
         reason += (f"; the frozen-stable eps form a band away from eps = {lo:g}: "
                    + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals))

@@ -114,8 +114,8 @@ def class_brackets(L, gamma: float, lo: float, fb, rtol: float) -> dict:
 
     ``fb`` is the frozen scan's ``(good, bad)`` over the corners and the ``b`` grid (None when
     ``lo`` already fails). The LDI is searched only when no corner switching refutes ``lo``
-    (then no certificate exists there); the frozen bracket's certified end is the LDI's (it
-    covers every frozen member too).
+    (then no certificate exists there; at each eps a member found unstable skips the LMI);
+    the frozen bracket's certified end is the LDI's (it covers every frozen member too).
     """
     if fb is None:
         none = bracket("nonlinear", None, lo, "no eps of the range", None, lo)
@@ -126,8 +126,7 @@ def class_brackets(L, gamma: float, lo: float, fb, rtol: float) -> dict:
     if first is not None and first.refuted:
         r, ref = lo, first
     else:
-        if L.search_ok(lo, gamma):  # not found at the smallest eps: not searched above it
-            c_ldi = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, good, rtol)
+        c_ldi = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, good, rtol)
         r, ref = refuted_by_switching(L, gamma, c_ldi or lo, bad, rtol, good)
     return {"nonlinear": bracket("nonlinear", c_ldi, r, LDI_HOW, ref, bad),
             "frozen": bracket("frozen", c_ldi, bad, "the LDI's common P (covers every frozen "

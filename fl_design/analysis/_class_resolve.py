@@ -50,7 +50,7 @@ def _is_plant(obj) -> bool:
     return isinstance(obj, Plant)
 
 
-def resolve_class(obj, b_rate, a_jacobian_bounds, design) -> Resolved:
+def resolve_class(obj, b_rate, a_jacobian_bounds, design, *, screen=None) -> Resolved:
     """Read ``obj`` (class, plant, plant bounds or ``b`` range) as the class certified.
 
     Parameters
@@ -61,6 +61,9 @@ def resolve_class(obj, b_rate, a_jacobian_bounds, design) -> Resolved:
         As :func:`fl_design.certify_eps` (None: the class's own).
     design : Design
         Gives ``T`` and ``rho``.
+    screen : callable, optional
+        ``PlantClass -> bool``: with a Plant, search the largest region whose class passes it
+        (:func:`._class_region.plant_class_search`).
 
     Returns
     -------
@@ -68,8 +71,13 @@ def resolve_class(obj, b_rate, a_jacobian_bounds, design) -> Resolved:
     """
     T, rho = design.T, design.rho
     if _is_plant(obj):
-        pb = plant_bounds(obj, T=T)
-        cls = PlantClass._from_bounds(obj, pb, T=T)
+        if screen is not None and a_jacobian_bounds is None:
+            from ._class_region import plant_class_search
+
+            cls, pb, _ = plant_class_search(obj, design, screen)
+        else:
+            pb = plant_bounds(obj, T=T)
+            cls = PlantClass._from_bounds(obj, pb, T=T)
         return _finish(cls, b_rate, a_jacobian_bounds, pb, "the plant: " + pb.b_rate_source)
     if isinstance(obj, PlantClass):
         cls = obj.with_T(T)

@@ -85,6 +85,8 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         if fb is None:
             continue
         frozen[i] = f = fb[0]
+        if certified and L.box is not None and not L.search_ok(max(lo, 0.5 * f), gamma):
+            continue  # a class with a slope box not certified at half its frozen eps*: skipped
         if certified:
             L.modal_hit = False
             c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f, rtol, hint,
