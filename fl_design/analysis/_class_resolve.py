@@ -83,24 +83,22 @@ def resolve_class(obj, b_rate, a_jacobian_bounds, design, *, screen=None) -> Res
         cls = obj.with_T(T)
         return _finish(cls, b_rate, a_jacobian_bounds, None,
                        None if cls.b_rate is None else "the class")
-    if isinstance(obj, PlantBounds) and not (isinstance(b_rate, str)
-                                             or isinstance(a_jacobian_bounds, str)):
-        if obj.T is not None and abs(obj.T - T) <= 1e-12 * T:
+    if isinstance(obj, PlantBounds):
+        # 'plant' options read the enclosures' values (checked by resolve: T, availability)
+        _, rate, box, _, src, _ = resolve(obj, b_rate, a_jacobian_bounds, T)
+        if b_rate is None and obj.T is not None and abs(obj.T - T) <= 1e-12 * T:
             rate, src = obj.b_rate, "the plant: " + obj.b_rate_source
-        else:
-            rate, src = None, None
-        cls = PlantClass(rho=rho, T=T, b=obj.b_bounds, b_rate=rate,
-                         a_slopes=obj.a_jacobian_bounds, u_limits=obj.input_range,
-                         source="plant", name=obj.plant, params=obj.params, u_eq=obj.u_eq,
+        if a_jacobian_bounds is None:
+            box = obj.a_jacobian_bounds  # the box's slopes enter (damping, stiffness, ...)
+        cls = PlantClass(rho=rho, T=T, b=obj.b_bounds, b_rate=rate, a_slopes=box,
+                         u_limits=obj.input_range, source="plant", name=obj.plant,
+                         params=obj.params, u_eq=obj.u_eq, region=obj.region,
                          notes=(f"enclosures: {obj.method}",) + (
                              () if obj.a_jacobian_bounds is not None else
                              (f"no slope box for a: {obj.jacobian_note}",)))
-        return _finish(cls, b_rate, a_jacobian_bounds, obj, src)
+        return Resolved(cls, cls.b, cls.b_rate, cls.a_slopes, cls.params, src, obj)
     bb, rate, box, params, src, pb = resolve(obj, b_rate, a_jacobian_bounds, T)
-    if pb is not None:  # 'plant' options on a PlantBounds
-        cls = PlantClass(rho=rho, T=T, b=bb, b_rate=rate, a_slopes=box, source="plant",
-                         name=pb.plant, params=params, u_limits=pb.input_range, u_eq=pb.u_eq)
-    elif box is None:
+    if box is None:
         cls = PlantClass.chain(rho, b=bb, T=T, b_rate=rate)
     else:
         cls = PlantClass(rho=rho, T=T, b=bb, b_rate=rate, a_slopes=box)
