@@ -384,7 +384,7 @@ def _eps_range(eps_range) -> tuple[float, float]:
 def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
                 eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, max_pieces: int = 8,
                 n_scan: int = 32, rtol: float = 1e-2, search: bool = True,
-                raise_on_failure: bool = False) -> EpsCertificate:
+                raise_on_failure: bool = False, region_search: bool = False) -> EpsCertificate:
     """Certify the design's ``eps`` and bracket ``eps*`` for each coverage of ``b``.
 
     See :mod:`fl_design.analysis._certify` for the loop covered (the sampled *linear
@@ -401,10 +401,13 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     ----------
     design : Design
         An EHGO design.
-    b_bounds : (float, float) or PlantBounds
-        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``), or the enclosures
-        of :func:`fl_design.analysis.plant_bounds` over a parameter box: the certificate then
-        covers every plant of the box and ``params`` lists the ranges.
+    b_bounds : PlantClass, Plant, PlantBounds or (float, float)
+        The class certified (:mod:`._class_resolve`): a :class:`~fl_design.PlantClass`; a
+        Plant (its class, ``PlantClass.from_plant`` at the design's ``T``: ``b``, the slopes
+        of ``sigma`` and ``b``'s rate over its region, never the ``a = 0`` chain); the
+        enclosures of :func:`fl_design.analysis.plant_bounds` over a parameter box (the class
+        of every plant of the box, slopes included; ``params`` lists the ranges); or
+        ``(b_min, b_max)`` of one strict sign: the named chain class ``PlantClass.chain``.
     a_jacobian_bounds : sequence of (float, float) or "plant", optional
         Bounds of ``d sigma/d x_i`` at the equilibrium input, i = 1..rho
         (``plant.jacobian_bounds()``): the certificate covers the nonlinear plant's LDI.
@@ -430,6 +433,10 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     raise_on_failure : bool, optional
         Raise :class:`~fl_design.errors.CertificationError` instead of returning a result that
         is not certified.
+    region_search : bool, optional
+        Given a Plant whose class over its whole region is not certified, shrink the region
+        around the operating point (:mod:`._class_region`; tens of seconds) and certify the
+        class of the largest region that passes; the description names the region.
 
     Returns
     -------
@@ -454,7 +461,8 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     mk = loop_maker(design, n_b, max_pieces)
     gamma = abs(design.controller.gamma)
     r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design,
-                      screen=lambda c: class_screen(mk(c), gamma, lo, hi))
+                      screen=(lambda c: class_screen(mk(c), gamma, lo, hi)) if region_search
+                      else None)
     b_bounds, b_rate, a_jacobian_bounds = r.b_bounds, r.b_rate, r.a_jacobian_bounds
     params, rate_source, pb = r.params, r.rate_source, r.pb
     rtol = V.positive("rtol", rtol)
