@@ -83,7 +83,7 @@ DEFAULT_EPS_RANGE = (1e-3, 1.0)
 MODAL_SPLIT = 8
 #: Finest modal piece relative to ``b_min`` (a wide range, b_max/b_min up to 100, needs pieces
 #: narrow near b_min and wide near b_max: the adaptive halving stops where each is certified).
-MODAL_REL_WIDTH = 0.01
+MODAL_REL_WIDTH = 0.003
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
 #: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).

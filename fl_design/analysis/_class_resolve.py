@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 
 from ._plant_bounds import PlantBounds, plant_bounds, resolve
 from ._plant_class import PlantClass
+from ._surrogate import jacobian_box
 
 
 @dataclass(frozen=True)
@@ -90,6 +91,7 @@ def resolve_class(obj, b_rate, a_jacobian_bounds, design, *, screen=None) -> Res
             rate, src = obj.b_rate, "the plant: " + obj.b_rate_source
         if a_jacobian_bounds is None:
             box = obj.a_jacobian_bounds  # the box's slopes enter (damping, stiffness, ...)
+        jacobian_box(box, rho)
         cls = PlantClass(rho=rho, T=T, b=obj.b_bounds, b_rate=rate, a_slopes=box,
                          u_limits=obj.input_range, source="plant", name=obj.plant,
                          params=obj.params, u_eq=obj.u_eq, region=obj.region,
@@ -98,6 +100,7 @@ def resolve_class(obj, b_rate, a_jacobian_bounds, design, *, screen=None) -> Res
                              (f"no slope box for a: {obj.jacobian_note}",)))
         return Resolved(cls, cls.b, cls.b_rate, cls.a_slopes, cls.params, src, obj)
     bb, rate, box, params, src, pb = resolve(obj, b_rate, a_jacobian_bounds, T)
+    jacobian_box(box, rho)  # a box of another relative degree: DesignMismatchError
     if box is None:
         cls = PlantClass.chain(rho, b=bb, T=T, b_rate=rate)
     else:
@@ -108,6 +111,7 @@ def resolve_class(obj, b_rate, a_jacobian_bounds, design, *, screen=None) -> Res
 def _finish(cls, b_rate, a_jacobian_bounds, pb, src) -> Resolved:
     """Apply explicit overrides to a class."""
     if a_jacobian_bounds is not None and not isinstance(a_jacobian_bounds, str):
+        jacobian_box(a_jacobian_bounds, cls.rho)
         cls = replace(cls, a_slopes=a_jacobian_bounds, structure=())
     if b_rate is not None and not isinstance(b_rate, str):
         cls, src = replace(cls, b_rate=b_rate), "given"

@@ -296,8 +296,11 @@ def test_cli_certify_prints_the_certificates(capsys):
 
     assert main(["certify", "--eps", "0.05", "--gamma", "3e-4"]) == 0
     out = capsys.readouterr().out
-    assert "GammaCertificate" in out and "certified for varying b: True" in out
-    assert "varying b: eps* in [0.1166" in out and "eps* to use: 0.1167" in out
+    # the TRMS is certified as its class (friction slope box, b range): never the a = 0 chain;
+    # switching the friction slope between -505 and -5 grows: not certified, and it says so
+    assert "GammaCertificate" in out and "certifies the class of plant 'trms_yaw'" in out
+    assert "a member of the class grows" in out and "eps* to use: none" in out
+    assert "not covered: input saturation" in out
     assert main(["certify", "--eps", "-1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "eps" in err[0]
