@@ -139,16 +139,20 @@ def _whitened(P, ends, T: float, margin):
         return margin
     out = margin.copy()
     k, n = P.shape[0], P.shape[-1]
-    for i in np.flatnonzero(fail):
-        try:
-            L = np.linalg.cholesky(P[i])
-        except np.linalg.LinAlgError:
-            continue
-        Lt, cond = L.T, float(np.linalg.cond(L))
-        Dw = np.stack([Lt @ ends[j] @ np.linalg.inv(Lt) for j in (i, k + i)])
-        eye = np.broadcast_to(np.eye(n), Dw.shape)
-        m = float(np.min(recheck_stack(eye, eye, Dw, T))) - 64.0 * n * cond * 2.0 ** -52
-        out[i] = max(out[i], m)
+    idx = np.flatnonzero(fail)
+    Pi = P[idx]
+    ok = np.all(np.linalg.eigvalsh(Pi) > 0.0, axis=-1)
+    idx, Pi = idx[ok], Pi[ok]
+    if not idx.size:
+        return out
+    L = np.linalg.cholesky(Pi)
+    Lt = np.swapaxes(L, -1, -2)
+    Lti = np.linalg.inv(Lt)
+    cond = np.linalg.cond(L)
+    Dw = np.concatenate([Lt @ ends[idx] @ Lti, Lt @ ends[k + idx] @ Lti])
+    eye = np.broadcast_to(np.eye(n), Dw.shape)
+    m = np.minimum(*np.split(recheck_stack(eye, eye, Dw, T), 2)) - 64.0 * n * cond * 2.0 ** -52
+    out[idx] = np.maximum(out[idx], m)
     return out
 
 

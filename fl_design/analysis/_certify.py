@@ -126,6 +126,7 @@ class _Loop:
         self._worst = 0  # the b index that failed last (screened_margin)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
+        self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
                               else (-self.b_hi, -self.b_lo))
 
@@ -163,11 +164,30 @@ class _Loop:
     def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
         """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
         if self.box is not None:
-            return np.array([self.frozen_margin(e, gamma) for e in eps_values])
+            return self._box_margins(eps_values, gamma)
         M0, M1 = self.loop.parts_many(eps_values, gamma)
         M = M0[:, None] + self.b_grid[None, :, None, None] * M1[:, None]
         m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
         return np.where(np.isfinite(m), m, np.inf)
+
+    def _box_margins(self, eps_values, gamma: float) -> np.ndarray:
+        """:meth:`frozen_margin` at many eps for a slope box: the chain's stacked parts with
+        each corner's plant block (``Phi_a``, ``Gamma_a``, exact ZOH) swapped in."""
+        from ._surrogate import chain_zoh
+
+        rho = self.loop.rho
+        M0, M1 = self.loop.parts_many(eps_values, gamma)
+        _, G0 = chain_zoh(rho, self.T)
+        worst = np.full(len(eps_values), -np.inf)
+        for a_row in self._corners():
+            Phi, Ga = chain_zoh(rho, self.T, a_row)
+            A0, A1 = M0.copy(), M1.copy()
+            A0[:, :rho, :rho] = Phi
+            A1[:, :rho] *= (Ga / G0)[None, :, None]
+            M = A0[:, None] + self.b_grid[None, :, None, None] * A1[:, None]
+            m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
+            worst = np.maximum(worst, np.where(np.isfinite(m), m, np.inf))
+        return worst
 
     def frozen_ok(self, eps: float, gamma: float) -> bool:
         """Every frozen loop on the b grid (and the a-corners) is Schur."""
@@ -277,7 +297,7 @@ class _Loop:
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
-        return vertex_lmi(D, self.T, common=common), s
+        return vertex_lmi(D, self.T, common=common, fallback=self.scs), s
 
     def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
         """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
