@@ -126,7 +126,8 @@ def class_brackets(L, gamma: float, lo: float, fb, rtol: float) -> dict:
     if first is not None and first.refuted:
         r, ref = lo, first
     else:
-        c_ldi = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, good, rtol)
+        c_ldi = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, good, rtol,
+                                   step=0.3)  # one SDP per eps: few steps down
         r, ref = refuted_by_switching(L, gamma, c_ldi or lo, bad, rtol, good)
     return {"nonlinear": bracket("nonlinear", c_ldi, r, LDI_HOW, ref, bad),
             "frozen": bracket("frozen", c_ldi, bad, "the LDI's common P (covers every frozen "
