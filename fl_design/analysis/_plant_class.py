@@ -355,7 +355,9 @@ class PlantClass:
         if self.u_limits is not None:
             out.append(f"input saturation at u in [{_fmt(self.u_limits[0])}, "
                        f"{_fmt(self.u_limits[1])}]")
-        out.append("the estimate clamp")
+        else:
+            out.append("input saturation (the design's limits, if any)")
+        out += ["the estimate clamp", "integrator windup"]
         if self.noise_std or self.noise_bound:
             out.append("sensor noise (bounded effect, not stability)")
         if self.delay:
