@@ -163,3 +163,26 @@ def test_theorem1_is_a_sampling_step_bound():
     ok = theorem1_constants((2, 4), 3e-3, (3.6, 6.8), alpha=0.02, T=0.5 * c.step_bound,
                            n=60)
     assert ok.meets is True and "meets it" in ok.verdict()
+
+
+def test_region_search_keeps_the_largest_region_that_passes():
+    """plant_class_search (opt-in region search) with a stand-in screen: the pendulum's slope
+    d sigma/d theta = -(g/l) cos(theta) stays negative only for |theta| < pi/2, reached at the
+    room x1e-2 (then once between: x1e-1); the class names its region."""
+    from fl_design.analysis._class_region import plant_class_search, scaled_region
+
+    p = fl.plants.pendulum()
+    r = scaled_region(p, 1e-2)
+    assert r["theta"] == pytest.approx((-math.pi * 1e-2, math.pi * 1e-2))
+    seen = []
+
+    def screen(cls):
+        seen.append(cls.a_slopes[0])
+        return cls.a_slopes[0][1] < 0.0
+
+    cls, pb, note = plant_class_search(p, presets.pendulum_design(), screen)
+    assert cls.a_slopes[0][1] < 0.0 and "shrunk 10x" in note
+    assert dict((n, (lo, hi)) for n, lo, hi in cls.region)["theta"] == pytest.approx(
+        (-math.pi / 10, math.pi / 10))
+    assert "over the region theta in [-0.3142, 0.3142]" in cls.describe()
+    assert seen[0][1] > 0.0  # the whole region was tried first
