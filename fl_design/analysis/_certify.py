@@ -127,6 +127,7 @@ class _Loop:
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
         self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
+        self.b_rate = None  # the class's bound on b's change per sample (None: arbitrary)
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
                               else (-self.b_hi, -self.b_lo))
 
@@ -490,6 +491,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     if b_rate is not None:
         b_rate = V.nonnegative("b_rate", b_rate)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces, mk.loop)
+    L.b_rate = b_rate  # which switchings are members of the class (_class_bracket)
     covers = coverage_of(b_rate, L.box)
     eps, gamma = design.estimator.eps, abs(design.controller.gamma)  # b gamma > 0: magnitudes
     point = L.covered_point(eps, gamma, covers, b_rate)

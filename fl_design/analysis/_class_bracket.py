@@ -9,9 +9,11 @@ certificate is the common-``P`` LDI of :mod:`._ldi` (coverage ``"nonlinear"``). 
 * **refuted**: the smallest eps at which a *member* of the class is found unstable:
   a **frozen corner** (constant ``a`` at a corner of the box, constant ``b`` of the grid: an LTI
   member, the bad end of the frozen scan), or a **switching** between two corner plants
-  (each sample one corner's exact ZOH; :func:`._refute.switching_refutation` on every pair of
-  the ``2^k`` corners, ``k`` the varying entries of ``(a, b)``), or, with a rate bound on
-  ``b``, the same with ``b`` ramps.
+  (each sample one corner's exact ZOH; :func:`._refute.switching_refutation` on pairs of the
+  ``2^k`` corners, ``k`` the varying entries of ``(a, b)``, fewest differing entries first);
+  pairs whose ``b`` differs only when the class lets ``b`` jump (no rate bound, or one at least
+  the range's width): a class with ``b`` constant per plant (a parameter box) or rate-bounded
+  switches the slopes only.
 
 The **frozen members** bracket (every member with constant ``a`` and ``b``: each
 linearization of the plant in its region) is refuted by the frozen corners; its certified end
@@ -60,11 +62,9 @@ def _corner_matrix(L, eps, gamma, a_row, b):
 def switching_refute(L, eps: float, gamma: float) -> Refutation:
     """The worst switching between two corner plants at ``eps`` (first refuting pair)."""
     corners = corner_plants(L)
-    mats = [_corner_matrix(L, eps, gamma, a, b) for a, b in corners]
-    best = Refutation(False, math.nan, 0, "no pair of corners")
-    keys = [np.r_[a, b] for a, b in corners]  # pairs differing in fewest entries first
-    pairs = sorted(itertools.combinations(range(len(mats)), 2),
-                   key=lambda ij: int(np.sum(keys[ij[0]] != keys[ij[1]])))[:MAX_PAIRS]
+    pairs = admissible_pairs(L)
+    best = Refutation(False, math.nan, 0, "no admissible pair of corners")
+    mats = [_corner_matrix(L, eps, gamma, a, b) for a, b in corners] if pairs else []
     for i, j in pairs:
         Mi, Mj = mats[i], mats[j]
         r = switching_refutation(lambda t, Mi=Mi, Mj=Mj: Mi if t < 0.5 else Mj, 0.0, 1.0, None)
@@ -77,6 +77,25 @@ def switching_refute(L, eps: float, gamma: float) -> Refutation:
     return best
 
 
+def admissible_pairs(L) -> list:
+    """Index pairs of :func:`corner_plants` a member may switch between, fewest differing
+    entries first, at most :data:`MAX_PAIRS` (see :func:`b_may_jump`)."""
+    corners = corner_plants(L)
+    keys = [np.r_[a, b] for a, b in corners]
+    jumps = b_may_jump(L)
+    return sorted((ij for ij in itertools.combinations(range(len(corners)), 2)
+                   if jumps or corners[ij[0]][1] == corners[ij[1]][1]),
+                  key=lambda ij: int(np.sum(keys[ij[0]] != keys[ij[1]])))[:MAX_PAIRS]
+
+
+def b_may_jump(L) -> bool:
+    """Whether a member's ``b`` may jump between the ends of its range from one sample to the
+    next: no rate bound (``L.b_rate`` None) or one at least the range's width. Otherwise (``b``
+    constant per plant, or rate-bounded) only corners with the same ``b`` are switched."""
+    rate = getattr(L, "b_rate", None)
+    return rate is None or rate >= L.b_hi - L.b_lo
+
+
 def _words(a_row, b) -> str:
     return f"(d sigma/d xi = ({', '.join(f'{v:.6g}' for v in a_row)}), b = {b:.6g})"
 
@@ -85,7 +104,7 @@ def refuted_by_switching(L, gamma: float, start: float, frozen_bad, rtol: float,
     """``(eps, Refutation)``: smallest eps refuted by corner switching, from ``start`` up to the
     frozen counterexample (or ``hi``); ``(frozen_bad, None)`` when switching finds nothing."""
     top = frozen_bad if frozen_bad is not None else hi
-    if start >= top or len(corner_plants(L)) < 2:
+    if start >= top or not admissible_pairs(L):
         return frozen_bad, None
     prev, found = start, None
     for e in np.geomspace(start, top, 6)[1:]:
@@ -121,7 +140,7 @@ def class_brackets(L, gamma: float, lo: float, fb, rtol: float) -> dict:
         none = bracket("nonlinear", None, lo, "no eps of the range", None, lo)
         return {"nonlinear": none, "frozen": bracket("frozen", None, lo, "-", None, lo)}
     good, bad = fb
-    first = switching_refute(L, lo, gamma) if len(corner_plants(L)) > 1 else None
+    first = switching_refute(L, lo, gamma) if admissible_pairs(L) else None
     c_ldi = None
     if first is not None and first.refuted:
         r, ref = lo, first
@@ -145,7 +164,7 @@ def member_refutation_point(L, eps: float, gamma: float):
         return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
                                 f"a frozen corner plant of the class is not Schur (margin "
                                 f"{m:.3g} >= 0): no certificate exists, no LMI solved")
-    if len(corner_plants(L)) < 2:
+    if not admissible_pairs(L):
         return None
     r = switching_refute(L, eps, gamma)
     if not r.refuted:
@@ -162,5 +181,6 @@ def frozen_corner_margin(L, eps: float, gamma: float) -> float:
     return float(np.max(schur_margins(np.stack(D), L.T)))
 
 
-__all__ = ["LDI_HOW", "class_brackets", "corner_plants", "frozen_corner_margin",
+__all__ = ["LDI_HOW", "admissible_pairs", "b_may_jump", "class_brackets", "corner_plants",
+           "frozen_corner_margin",
            "member_refutation_point", "refuted_by_switching", "switching_refute"]
