@@ -125,6 +125,30 @@ def real_modal_basis(D: np.ndarray) -> np.ndarray:
     return X / np.linalg.norm(X, axis=0)
 
 
+def common_p_in_modal_basis(D, T: float, failed):
+    """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
+    the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
+
+    The LMI and its NumPy re-check run in that basis (a congruence: the same certificate);
+    ``P`` is returned in the balanced coordinates, ``X^-T P_m X^-1``. Else ``failed``.
+    """
+    import dataclasses
+
+    from ._lmi import vertex_lmi
+
+    X = real_modal_basis(0.5 * (D[0] + D[1]))
+    cond = float(np.linalg.cond(X))
+    if not cond < 1e10:
+        return failed
+    sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], T, common=True)
+    if not sol.certified:
+        return failed
+    Xi = np.linalg.inv(X)
+    P = Xi.T @ sol.P[0] @ Xi
+    return dataclasses.replace(sol, P=(P,), G=P, note=(
+        f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
+
+
 def _whitened(P, ends, T: float, margin):
     """Margins of the pieces that failed, re-checked in ``P``'s own coordinates.
 
@@ -209,4 +233,4 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     return [(float(a), float(b), P, m) for a, b, P, m in done], min(p[3] for p in done), None
 
 
-__all__ = ["modal_lyapunov", "modal_lyapunov_stack", "piecewise_modal", "real_modal_basis"]
+__all__ = ["common_p_in_modal_basis", "modal_lyapunov", "modal_lyapunov_stack", "piecewise_modal", "real_modal_basis"]

@@ -272,6 +272,12 @@ class EpsCertificate(_OfClass):
         For a nonlinear certificate from a ``PlantBounds`` of a chain plant: the initial loop
         states covered, the largest sublevel set of ``V`` in the region
         (:class:`fl_design.analysis._ldi.CoveredSet`).
+    plant_class : PlantClass or None
+        The class certified (keyword; see :class:`_OfClass`).
+    class_description : str
+        Its one line.
+    uncovered : tuple of str
+        What the certificate does not cover.
 
     Examples
     --------
@@ -374,6 +380,12 @@ class GammaCertificate(_OfClass):
         Why (not).
     params : tuple of (str, float, float)
         The plant parameters covered with their ranges (from a ``PlantBounds``), else empty.
+    plant_class : PlantClass or None
+        The class certified (keyword; see :class:`_OfClass`).
+    class_description : str
+        Its one line.
+    uncovered : tuple of str
+        What the certificate does not cover.
 
     Examples
     --------
@@ -417,81 +429,7 @@ class GammaCertificate(_OfClass):
                 self.reason]
 
 
-@dataclass(frozen=True, repr=False)
-class EpsStarCurve(_OfClass):
-    """``eps*`` against ``gamma`` (result of :func:`fl_design.eps_star_curve`).
-
-    Parameters
-    ----------
-    gamma : numpy.ndarray
-        The gains.
-    eps_star_frozen : numpy.ndarray
-        Frozen-b eps* per gamma (NaN: unstable at the lowest eps).
-    eps_star_certified : numpy.ndarray
-        Certified eps* per gamma (NaN: none).
-    b_bounds : tuple of float
-        The interval of ``b``.
-    T : float
-        Sampling time.
-    eps_range : tuple of float
-        The eps search interval.
-    covers : str
-        What the certified curve covers: ``"frozen"`` (every constant ``b``; the curve is the
-        fast search, see :func:`fl_design.certify_eps` for varying ``b``).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> c = EpsStarCurve(np.array([1e-3]), np.array([0.1]), np.array([0.09]), (1.0, 2.0),
-    ...                  1e-3, (1e-3, 1.0))
-    >>> c.ratio.round(2).tolist(), c.to_dict()["eps_star_certified"]
-    ([0.9], [0.09])
-    """
-
-    gamma: np.ndarray
-    eps_star_frozen: np.ndarray
-    eps_star_certified: np.ndarray
-    b_bounds: tuple
-    T: float
-    eps_range: tuple
-    covers: str = "frozen"
-
-    @property
-    def ratio(self) -> np.ndarray:
-        """``eps_star_certified / eps_star_frozen`` (NaN where either is missing)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return self.eps_star_certified / self.eps_star_frozen
-
-    def plot(self, *, ax=None):
-        """Both curves on log axes (see :func:`fl_design.plotting.plot_eps_star_curve`).
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
-        ...                  np.array([0.09, 0.04]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
-        >>> c.plot().axes[0].get_xlabel()
-        'gamma'
-        """
-        from ..plotting import plot_eps_star_curve
-
-        return plot_eps_star_curve(self, ax=ax)
-
-    def _repr_lines(self):
-        return self._class_lines() + [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
-                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}, "
-                f"certified for {self.covers} b"),
-                f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"
-                if np.any(np.isfinite(self.ratio)) else "no certified point"]
+from ._curve_result import EpsStarCurve  # noqa: E402 (it builds on _OfClass above)
 
 
 __all__ = ["EpsBracket", "EpsCertificate", "EpsStarCurve", "GammaCertificate", "PointCertificate",

@@ -62,7 +62,7 @@ import numpy as np
 from .. import _validate as V
 from .._blas import serial_blas
 from ..errors import CertificationError, ParameterError
-from ._analytic import piecewise_modal, real_modal_basis
+from ._analytic import piecewise_modal
 from ._cert_results import EpsCertificate, PointCertificate, class_fields
 from ._class_bracket import class_brackets
 from ._class_resolve import resolve_class
@@ -77,12 +77,9 @@ if TYPE_CHECKING:  # annotations only (no import at run time)
     from ..design import Design
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
-
-
 #: Finest modal piece: the interval split in ``MODAL_SPLIT * max_pieces`` pieces at most.
 MODAL_SPLIT = 8
-#: Finest modal piece relative to ``b_min`` (a wide range, b_max/b_min up to 100, needs pieces
-#: narrow near b_min and wide near b_max: the adaptive halving stops where each is certified).
+#: Finest modal piece relative to ``b_min`` (b_max/b_min up to 100: narrow pieces near b_min).
 MODAL_REL_WIDTH = 0.003
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
@@ -165,30 +162,13 @@ class _Loop:
     def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
         """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
         if self.box is not None:
-            return self._box_margins(eps_values, gamma)
+            from ._class_bracket import box_frozen_margins
+
+            return box_frozen_margins(self, eps_values, gamma)
         M0, M1 = self.loop.parts_many(eps_values, gamma)
         M = M0[:, None] + self.b_grid[None, :, None, None] * M1[:, None]
         m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
         return np.where(np.isfinite(m), m, np.inf)
-
-    def _box_margins(self, eps_values, gamma: float) -> np.ndarray:
-        """:meth:`frozen_margin` at many eps for a slope box: the chain's stacked parts with
-        each corner's plant block (``Phi_a``, ``Gamma_a``, exact ZOH) swapped in."""
-        from ._surrogate import chain_zoh
-
-        rho = self.loop.rho
-        M0, M1 = self.loop.parts_many(eps_values, gamma)
-        _, G0 = chain_zoh(rho, self.T)
-        worst = np.full(len(eps_values), -np.inf)
-        for a_row in self._corners():
-            Phi, Ga = chain_zoh(rho, self.T, a_row)
-            A0, A1 = M0.copy(), M1.copy()
-            A0[:, :rho, :rho] = Phi
-            A1[:, :rho] *= (Ga / G0)[None, :, None]
-            M = A0[:, None] + self.b_grid[None, :, None, None] * A1[:, None]
-            m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
-            worst = np.maximum(worst, np.where(np.isfinite(m), m, np.inf))
-        return worst
 
     def frozen_ok(self, eps: float, gamma: float) -> bool:
         """Every frozen loop on the b grid (and the a-corners) is Schur."""
@@ -277,24 +257,11 @@ class _Loop:
         return self._pieces(eps, gamma, sol)
 
     def _common_modal_basis(self, eps, gamma, failed):
-        """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
-        the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
+        """:func:`._analytic.common_p_in_modal_basis` of the ends' deltas, else ``failed``."""
+        from ._analytic import common_p_in_modal_basis
 
-        The LMI and its NumPy re-check run in that basis (a congruence: the same certificate);
-        ``P`` is returned in the balanced coordinates, ``X^-T P_m X^-1``. Else ``failed``.
-        """
-        D, _ = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
-        X = real_modal_basis(0.5 * (D[0] + D[1]))
-        cond = float(np.linalg.cond(X))
-        if not cond < 1e10:
-            return failed
-        sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], self.T, common=True)
-        if not sol.certified:
-            return failed
-        Xi = np.linalg.inv(X)
-        P = Xi.T @ sol.P[0] @ Xi
-        return dataclasses.replace(sol, P=(P,), G=P, note=(
-            f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
+        return common_p_in_modal_basis(self._deltas(eps, gamma, (self.b_lo, self.b_hi))[0],
+                                       self.T, failed)
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
@@ -374,24 +341,6 @@ def _point(eps, sol, kind, parts, tv) -> PointCertificate:
         float(eps), True, kind, len(parts), tv, "+".join(sorted({x.solver for x in sols})),
         sols[-1].solver_status, min(x.margin for x in sols), note,
         tuple(p[0] for p in parts), tuple(lyap))
-
-
-def loop_maker(design, n_b: int, max_pieces: int):
-    """``PlantClass -> _Loop`` sharing one surrogate loop (its CasADi Jacobian built once);
-    the shared loop is kept on the function as ``.loop``."""
-    def make(cls):
-        L = _Loop(design, cls.b, cls.a_slopes, n_b, max_pieces, make.loop)
-        make.loop = L.loop
-        return L
-    make.loop = None
-    return make
-
-
-def class_screen(L, gamma: float, lo: float, hi: float) -> bool:
-    """A certificate of ``L``'s class at half its frozen eps* (a coarse eigenvalue scan): the
-    cheap test of :func:`._class_region.plant_class_search`."""
-    fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, 16, 0.05)
-    return fb is not None and L.point(max(lo, 0.5 * fb[0]), gamma).certified
 
 
 def _eps_range(eps_range) -> tuple[float, float]:
@@ -479,6 +428,8 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     ('varying', False, True)
     """
     lo, hi = _eps_range(eps_range)
+    from ._class_region import class_screen, loop_maker
+
     mk = loop_maker(design, n_b, max_pieces)
     gamma = abs(design.controller.gamma)
     r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design,
@@ -543,7 +494,6 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
         reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
         eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source,
         covered_set=loop_covered_set(L, point, pb), **class_fields(r.cls))
-
 
 
 __all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]

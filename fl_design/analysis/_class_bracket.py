@@ -40,7 +40,7 @@ import numpy as np
 from ._coverage import bracket
 from ._refute import Refutation, switching_refutation
 from ._search import certified_eps_star
-from ._surrogate import delta, schur_margins
+from ._surrogate import chain_zoh, delta, schur_margins
 
 #: Most corner pairs the switching refutation tries (each a periodic + greedy search).
 MAX_PAIRS = 16
@@ -175,12 +175,31 @@ def member_refutation_point(L, eps: float, gamma: float):
                             "no LMI solved")
 
 
+def box_frozen_margins(L, eps_values, gamma: float) -> np.ndarray:
+    """``L.frozen_margin`` at many eps for a slope box: the chain's stacked parts with
+    each corner's plant block (``Phi_a``, ``Gamma_a``, exact ZOH) swapped in."""
+    rho = L.loop.rho
+    M0, M1 = L.loop.parts_many(eps_values, gamma)
+    _, G0 = chain_zoh(rho, L.T)
+    worst = np.full(len(eps_values), -np.inf)
+    for a_row in L._corners():
+        Phi, Ga = chain_zoh(rho, L.T, a_row)
+        A0, A1 = M0.copy(), M1.copy()
+        A0[:, :rho, :rho] = Phi
+        A1[:, :rho] *= (Ga / G0)[None, :, None]
+        M = A0[:, None] + L.b_grid[None, :, None, None] * A1[:, None]
+        m = schur_margins(delta(M, L.T), L.T).max(axis=-1)
+        worst = np.maximum(worst, np.where(np.isfinite(m), m, np.inf))
+    return worst
+
+
 def frozen_corner_margin(L, eps: float, gamma: float) -> float:
     """Largest Schur margin over the corner plants (``< 0``: every corner is Schur)."""
     D = [delta(_corner_matrix(L, eps, gamma, a, b), L.T) for a, b in corner_plants(L)]
     return float(np.max(schur_margins(np.stack(D), L.T)))
 
 
-__all__ = ["LDI_HOW", "admissible_pairs", "b_may_jump", "class_brackets", "corner_plants",
+__all__ = ["LDI_HOW", "admissible_pairs", "b_may_jump", "box_frozen_margins", "class_brackets",
+           "corner_plants",
            "frozen_corner_margin",
            "member_refutation_point", "refuted_by_switching", "switching_refute"]

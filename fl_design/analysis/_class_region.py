@@ -85,4 +85,26 @@ def _noted(cls, note: str):
     return replace(cls, notes=cls.notes + (note,))
 
 
-__all__ = ["SCALES", "plant_class_search", "scaled_region"]
+def loop_maker(design, n_b: int, max_pieces: int):
+    """``PlantClass -> _Loop`` sharing one surrogate loop (its CasADi Jacobian built once);
+    the shared loop is kept on the function as ``.loop``."""
+    def make(cls):
+        from ._certify import _Loop
+
+        L = _Loop(design, cls.b, cls.a_slopes, n_b, max_pieces, make.loop)
+        make.loop = L.loop
+        return L
+    make.loop = None
+    return make
+
+
+def class_screen(L, gamma: float, lo: float, hi: float) -> bool:
+    """A certificate of ``L``'s class at half its frozen eps* (a coarse eigenvalue scan): the
+    cheap test of :func:`._class_region.plant_class_search`."""
+    from ._search import frozen_bracket
+
+    fb = frozen_bracket(lambda e: L.frozen_margin(e, gamma), lo, hi, 16, 0.05)
+    return fb is not None and L.point(max(lo, 0.5 * fb[0]), gamma).certified
+
+
+__all__ = ["SCALES", "class_screen", "loop_maker", "plant_class_search", "scaled_region"]

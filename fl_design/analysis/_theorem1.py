@@ -76,6 +76,8 @@ class Theorem1Constants(_Result):
         Top of the eps grid of ``H``.
     argmax : tuple of float
         ``(eps, b)`` where ``H`` is attained.
+    T : float or None
+        The design's sampling time (whether it meets the step bound), if given.
 
     Examples
     --------
