@@ -1,4 +1,5 @@
-"""Benchmark: the time of a 50-point eps*(gamma) curve of the paper's TRMS design.
+"""Benchmark: the time of a 50-point eps*(gamma) curve of the paper's TRMS design, and of the
+class certificates (issue 29).
 
 For 50 log-spaced gains in ``[1.5e-4, 1e-2]`` (TRMS static motor, ``b in [3.6, 6.8]``,
 ``K = (2, 4)``, ``k_I = 1e-3``, ``alpha = (6, 11, 6)``, ``T = 1 ms``) computes the frozen-b
@@ -10,6 +11,13 @@ varying-``b`` eps*). Target: under 5 s on the development machine (2 cores, idle
 miss, when a certified eps* exceeds its frozen one (soundness) or when a ratio at the issue's
 gains is below 0.8. ``--quick`` computes 4 points and checks soundness and the ratios only (the
 tests run it).
+
+``--classes`` adds the class certificates' targets, interleaved (each case in turn, ``--repeat``
+rounds, each run in a fresh process so "cold" includes the imports and model builds), with the
+CPU named: the class certificate of the paper's TRMS design (``certify_eps(design,
+trms_yaw())``, <= 3 s cold), every library plant's (<= 30 s cold), a 12-gain
+``eps_star_curve`` for the class ``rho = 2, T = 1 ms, b in [1, 50]`` (<= 5 s, timed after a
+one-gain warm-up in its process, as the 50-point curve). A miss exits 1.
 
     python verify/bench_certify.py [--quick]
 """
@@ -29,11 +37,104 @@ TARGET_S = 5.0
 ISSUE_GAMMAS = (3e-4, 1e-3, 3e-3)
 
 
+#: ``name -> (python code run cold in a fresh process, target seconds)``.
+CLASS_CASES = {
+    "trms class": ("fl.certify_eps(fl.presets.paper_design(), fl.plants.trms_yaw())", 3.0),
+    "pendulum(c=0.05) class": ("fl.certify_eps(fl.presets.pendulum_design(eps=0.0405), "
+                               "fl.plants.pendulum(c=0.05))", 30.0),
+    "cart-pendulum class": ("fl.certify_eps(fl.presets.bench_design('cart-pendulum'), "
+                            "fl.plants.cart_pendulum())", 30.0),
+    "flexible-joint class": ("fl.certify_eps(fl.presets.bench_design('flexible-joint'), "
+                             "fl.plants.flexible_joint())", 30.0),
+    "maglev class": ("fl.certify_eps(fl.presets.bench_design('maglev'), fl.plants.maglev())",
+                     30.0),
+    "trms-lag class": ("fl.certify_eps(fl.presets.bench_design('trms-lag'), "
+                       "fl.plants.trms_yaw(motor_lag=True))", 30.0),
+    "b in [1, 50] curve (12 gains, warm)": (
+        "fl.eps_star_curve(fl.presets.pendulum_design(eps=0.01, gamma=0.01), "
+        "fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0)), np.geomspace(1e-3, 0.03, 12))", 5.0),
+}
+#: Cases timed after a warm-up call in the same process (imports, CasADi and CVXPY compiled),
+#: as the 50-point curve above: ``name -> warm-up code``.
+WARM_UP = {"b in [1, 50] curve (12 gains, warm)": (
+    "fl.eps_star_curve(fl.presets.pendulum_design(eps=0.01, gamma=0.01), "
+    "fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0)), [1e-2])")}
+
+
+def cpu_name() -> str:
+    """The CPU model (``/proc/cpuinfo``), else the platform's processor string."""
+    import platform
+
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
+    """Wall seconds of ``code`` in a fresh interpreter (imports included unless a ``warm``
+    call runs first, untimed), or (inf, why)."""
+    import subprocess
+
+    pre = "import numpy as np; import fl_design as fl; " + (f"{warm}; " if warm else "")
+    prog = (("" if warm else "import time; t0 = time.perf_counter(); ") + pre
+            + ("import time; t0 = time.perf_counter(); " if warm else "")
+            + f"r = {code}; print(time.perf_counter() - t0); "
+            "print(next((x.strip() for x in repr(r).splitlines() if 'eps* certified' in x "
+            "or 'median' in x or 'no certified' in x), '')[:160])")
+    try:
+        out = subprocess.run([sys.executable, "-c", prog], capture_output=True, text=True,
+                             timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return float("inf"), f"timed out after {timeout:g} s"
+    lines = out.stdout.strip().splitlines()
+    if out.returncode != 0 or not lines:
+        return float("inf"), (out.stderr.strip().splitlines() or ["failed"])[-1]
+    return float(lines[0]), (lines[1] if len(lines) > 1 else "")
+
+
+def bench_classes(names, repeat: int) -> bool:
+    """The class certificates' times, interleaved over ``repeat`` rounds; True when all meet."""
+    print(f"class certificates, cold (fresh process each), CPU: {cpu_name()}, "
+          f"{os.cpu_count()} logical CPUs")
+    times = {n: [] for n in names}
+    for _ in range(repeat):
+        for n in names:  # interleaved: one run of each case per round
+            code, target = CLASS_CASES[n]
+            t, what = _cold(code, timeout=max(60.0, 10 * target), warm=WARM_UP.get(n, ""))
+            times[n].append(t)
+            print(f"  {n}: {t:.2f} s (target <= {target:g} s)  {what}", flush=True)
+    ok = True
+    for n in names:
+        best = min(times[n])
+        met = best <= CLASS_CASES[n][1]
+        ok &= met
+        print(f"{n}: best {best:.2f} s of {repeat} -> {'meets' if met else 'MISS'}")
+    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+    return ok
+
+
 def main(argv=None) -> int:
     """Run the benchmark; return the exit status."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="4 points, no time target")
+    parser.add_argument("--classes", action="store_true",
+                        help="the class certificates' time targets (issue 29)")
+    parser.add_argument("--only", nargs="*", default=None,
+                        help="with --classes: these cases only (names of CLASS_CASES)")
+    parser.add_argument("--repeat", type=int, default=2, help="rounds of --classes")
     args = parser.parse_args(argv)
+    if args.classes:
+        names = args.only or list(CLASS_CASES)
+        bad = [n for n in names if n not in CLASS_CASES]
+        if bad:
+            print(f"unknown case(s) {bad}; valid: {list(CLASS_CASES)}")
+            return 2
+        return 0 if bench_classes(names, max(1, args.repeat)) else 1
     n = 4 if args.quick else 50
     gammas = np.geomspace(1.5e-4, 1e-2, n)
     design = fl.presets.paper_design()

@@ -11,9 +11,15 @@ with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesiz
 ``_region`` (the largest region where the nonlinear certificate holds and the initial states
 it covers, :func:`nonlinear_region`), ``_margins`` (gain, phase and delay margins at the plant input,
 :func:`loop_margins`), ``_noise`` (:func:`noise_gain`), ``_theorem1`` (Theorem 1's constants, :func:`theorem1_constants`), ``_cert_results``
-(the result objects; an :class:`~fl_design.analysis._cert_results.EpsBracket`
+(the result objects, each naming the class it certifies; an
+:class:`~fl_design.analysis._cert_results.EpsBracket`
 is returned inside them, not exported), ``_sos`` (the quartic SOS certificate for b varying in
-time), ``_covered_lmi`` (the P chosen for the widest covered initial states). A layer exports
+time), ``_covered_lmi`` (the P chosen for the widest covered initial states), ``_plant_class``
+(:class:`~fl_design.PlantClass`, what a certificate covers), ``_slope_structure``
+(slope-restricted static functions of one coordinate), ``_class_resolve`` (a plant, plant
+bounds or ``b`` range read as the class certified), ``_class_bracket`` (a slope-box class's
+bracket: LDI certified, refuted by frozen corners and corner switching), ``_class_region``
+(the largest certifiable region of a plant, opt-in). A layer exports
 at most 20 names: :class:`PointCertificate` (inside every eps and gamma certificate's
 ``point``) and :class:`NonlinearRegion` (what :func:`nonlinear_region` returns) stay importable
 from here but are not in ``__all__``.

@@ -125,6 +125,61 @@ def real_modal_basis(D: np.ndarray) -> np.ndarray:
     return X / np.linalg.norm(X, axis=0)
 
 
+def common_p_in_modal_basis(D, T: float, failed):
+    """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
+    the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
+
+    The LMI and its NumPy re-check run in that basis (a congruence: the same certificate);
+    ``P`` is returned in the balanced coordinates, ``X^-T P_m X^-1``. Else ``failed``.
+    """
+    import dataclasses
+
+    from ._lmi import vertex_lmi
+
+    X = real_modal_basis(0.5 * (D[0] + D[1]))
+    cond = float(np.linalg.cond(X))
+    if not cond < 1e10:
+        return failed
+    sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], T, common=True)
+    if not sol.certified:
+        return failed
+    Xi = np.linalg.inv(X)
+    P = Xi.T @ sol.P[0] @ Xi
+    return dataclasses.replace(sol, P=(P,), G=P, note=(
+        f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
+
+
+def _whitened(P, ends, T: float, margin):
+    """Margins of the pieces that failed, re-checked in ``P``'s own coordinates.
+
+    With ``P = L L^T`` the same certificate reads ``P' = I``, ``Delta' = L^T Delta L^-T`` (a
+    congruence): the relative margin no longer carries ``cond(P)`` (5e8 on b in [1, 50], where
+    the plain check's margin 1e-9 is at the level of its tolerance). The similarity is computed
+    in floating point: its error, ``<= 64 n cond(L) u`` relative, is added to the tolerance.
+    Returns the better of the two margins, minus that error, for each piece.
+    """
+    fail = np.isfinite(margin) & ~(margin > RECHECK_TOL)
+    if not fail.any():
+        return margin
+    out = margin.copy()
+    k, n = P.shape[0], P.shape[-1]
+    idx = np.flatnonzero(fail)
+    Pi = P[idx]
+    ok = np.all(np.linalg.eigvalsh(Pi) > 0.0, axis=-1)
+    idx, Pi = idx[ok], Pi[ok]
+    if not idx.size:
+        return out
+    L = np.linalg.cholesky(Pi)
+    Lt = np.swapaxes(L, -1, -2)
+    Lti = np.linalg.inv(Lt)
+    cond = np.linalg.cond(L)
+    Dw = np.concatenate([Lt @ ends[idx] @ Lti, Lt @ ends[k + idx] @ Lti])
+    eye = np.broadcast_to(np.eye(n), Dw.shape)
+    m = np.minimum(*np.split(recheck_stack(eye, eye, Dw, T), 2)) - 64.0 * n * cond * 2.0 ** -52
+    out[idx] = np.maximum(out[idx], m)
+    return out
+
+
 def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     """Cover ``[lo, hi]`` by pieces each certified by one modal ``P`` (adaptive halving).
 
@@ -163,6 +218,7 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
         k = len(level)
         margin = np.where(np.isnan(P[:, 0, 0]), -np.inf, np.minimum(
             *np.split(recheck_stack(np.concatenate([P, P]), np.concatenate([P, P]), ends, T), 2)))
+        margin = _whitened(P, ends, T, margin)
         nxt = []
         for i in range(k):
             if margin[i] > RECHECK_TOL:
@@ -177,4 +233,4 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     return [(float(a), float(b), P, m) for a, b, P, m in done], min(p[3] for p in done), None
 
 
-__all__ = ["modal_lyapunov", "modal_lyapunov_stack", "piecewise_modal", "real_modal_basis"]
+__all__ = ["common_p_in_modal_basis", "modal_lyapunov", "modal_lyapunov_stack", "piecewise_modal", "real_modal_basis"]

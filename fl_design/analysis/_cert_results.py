@@ -10,7 +10,7 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -56,6 +56,40 @@ class _Result:
     def __repr__(self) -> str:
         head = type(self).__name__
         return "\n".join([head] + [f"  {line}" for line in self._repr_lines()])
+
+
+@dataclass(frozen=True, repr=False)
+class _OfClass(_Result):
+    """The class a certificate covers (keyword-only fields shared by every certificate).
+
+    ``plant_class`` is the :class:`fl_design.PlantClass` certified (a Plant given to a
+    certificate is read as its class, ``PlantClass.from_plant``; a bare ``b`` range as the
+    named chain class ``PlantClass.chain``); ``class_description`` its one line;
+    ``uncovered`` what the certificate does not cover, in words.
+    """
+
+    plant_class: object = field(default=None, kw_only=True)
+    class_description: str = field(default="", kw_only=True)
+    uncovered: tuple = field(default=(), kw_only=True)
+
+    def to_dict(self) -> dict:
+        out = super().to_dict()
+        out["plant_class"] = None if self.plant_class is None else self.plant_class.to_dict()
+        return out
+
+    def _class_lines(self) -> list[str]:
+        if not self.class_description:
+            return []
+        out = [f"certifies the {self.class_description}"]
+        if self.uncovered:
+            out.append("not covered: " + "; ".join(self.uncovered))
+        return out
+
+
+def class_fields(cls) -> dict:
+    """The keyword fields of :class:`_OfClass` for a :class:`fl_design.PlantClass`."""
+    return {"plant_class": cls, "class_description": cls.describe(),
+            "uncovered": tuple(cls.uncovered())}
 
 
 def _fmt(x) -> str:
@@ -179,7 +213,9 @@ class EpsBracket(_Result):
 
     def __str__(self) -> str:
         what = (f"rate-bounded b (|db| <= {self.b_rate:.4g} per sample)"
-                if self.covers == "rate-bounded" else f"{self.covers} b")
+                if self.covers == "rate-bounded" else
+                "class (slopes and b varying in time)" if self.covers == "nonlinear" else
+                f"{self.covers} b")
         return f"{what}: eps* in [{_fmt(self.certified)}, {_fmt(self.refuted)}]"
 
     def _repr_lines(self):
@@ -187,7 +223,7 @@ class EpsBracket(_Result):
 
 
 @dataclass(frozen=True, repr=False)
-class EpsCertificate(_Result):
+class EpsCertificate(_OfClass):
     """Result of :func:`fl_design.certify_eps` (see there for what is covered).
 
     Parameters
@@ -236,6 +272,12 @@ class EpsCertificate(_Result):
         For a nonlinear certificate from a ``PlantBounds`` of a chain plant: the initial loop
         states covered, the largest sublevel set of ``V`` in the region
         (:class:`fl_design.analysis._ldi.CoveredSet`).
+    plant_class : PlantClass or None
+        The class certified (keyword; see :class:`_OfClass`).
+    class_description : str
+        Its one line.
+    uncovered : tuple of str
+        What the certificate does not cover.
 
     Examples
     --------
@@ -288,14 +330,15 @@ class EpsCertificate(_Result):
     def _repr_lines(self):
         lines = [(f"design eps = {self.eps:.6g}, gamma = {self.gamma:.6g}, b in "
                   f"[{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}"),
-                 (f"certified for {self.covers} b: {self.certified} "
+                 (f"certified for its class ({self.covers}): {self.certified} "
                   f"({self.point.kind or '-'}); eps* certified "
                   f"{_fmt(self.eps_star_certified)} ({self.covers} b)")]
         lines += [str(b) + (f"  <- headline (certified by {b.how_certified.split(':')[0]})"
                             if b.covers == self.covers else "")
                   for b in self.brackets]
+        lines = self._class_lines() + lines
         ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
-        if ranges:
+        if ranges and "every plant with" not in self.class_description:
             lines.append("covers every plant with " + ", ".join(ranges))
         if self.b_rate is not None:
             lines.append(f"b rate {self.b_rate:.6g} per sample ({self.b_rate_source})")
@@ -308,7 +351,7 @@ class EpsCertificate(_Result):
 
 
 @dataclass(frozen=True, repr=False)
-class GammaCertificate(_Result):
+class GammaCertificate(_OfClass):
     """Result of :func:`fl_design.certify_gamma`.
 
     Parameters
@@ -337,6 +380,12 @@ class GammaCertificate(_Result):
         Why (not).
     params : tuple of (str, float, float)
         The plant parameters covered with their ranges (from a ``PlantBounds``), else empty.
+    plant_class : PlantClass or None
+        The class certified (keyword; see :class:`_OfClass`).
+    class_description : str
+        Its one line.
+    uncovered : tuple of str
+        What the certificate does not cover.
 
     Examples
     --------
@@ -371,7 +420,8 @@ class GammaCertificate(_Result):
         ranges = [f"{n} in [{a:g}, {b:g}]" for n, a, b in self.params if a != b]
         if ranges:
             what += " and every plant with " + ", ".join(ranges)
-        return [(f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
+        return self._class_lines() + [
+                (f"gamma = {self.gamma:.6g} at eps = {self.eps:.6g}: certified{what} "
                  f"{self.certified}"),
                 (f"admissible (frozen b grid): [{_fmt(self.gamma_min)}, {_fmt(self.gamma_max)}];"
                 f" lower bound over eps {_fmt(self.gamma_lower_bound)}"),
@@ -379,81 +429,7 @@ class GammaCertificate(_Result):
                 self.reason]
 
 
-@dataclass(frozen=True, repr=False)
-class EpsStarCurve(_Result):
-    """``eps*`` against ``gamma`` (result of :func:`fl_design.eps_star_curve`).
-
-    Parameters
-    ----------
-    gamma : numpy.ndarray
-        The gains.
-    eps_star_frozen : numpy.ndarray
-        Frozen-b eps* per gamma (NaN: unstable at the lowest eps).
-    eps_star_certified : numpy.ndarray
-        Certified eps* per gamma (NaN: none).
-    b_bounds : tuple of float
-        The interval of ``b``.
-    T : float
-        Sampling time.
-    eps_range : tuple of float
-        The eps search interval.
-    covers : str
-        What the certified curve covers: ``"frozen"`` (every constant ``b``; the curve is the
-        fast search, see :func:`fl_design.certify_eps` for varying ``b``).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> c = EpsStarCurve(np.array([1e-3]), np.array([0.1]), np.array([0.09]), (1.0, 2.0),
-    ...                  1e-3, (1e-3, 1.0))
-    >>> c.ratio.round(2).tolist(), c.to_dict()["eps_star_certified"]
-    ([0.9], [0.09])
-    """
-
-    gamma: np.ndarray
-    eps_star_frozen: np.ndarray
-    eps_star_certified: np.ndarray
-    b_bounds: tuple
-    T: float
-    eps_range: tuple
-    covers: str = "frozen"
-
-    @property
-    def ratio(self) -> np.ndarray:
-        """``eps_star_certified / eps_star_frozen`` (NaN where either is missing)."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return self.eps_star_certified / self.eps_star_frozen
-
-    def plot(self, *, ax=None):
-        """Both curves on log axes (see :func:`fl_design.plotting.plot_eps_star_curve`).
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
-        ...                  np.array([0.09, 0.04]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
-        >>> c.plot().axes[0].get_xlabel()
-        'gamma'
-        """
-        from ..plotting import plot_eps_star_curve
-
-        return plot_eps_star_curve(self, ax=ax)
-
-    def _repr_lines(self):
-        return [(f"{self.gamma.size} gains in [{self.gamma.min():.3g}, {self.gamma.max():.3g}],"
-                f" b in [{self.b_bounds[0]:g}, {self.b_bounds[1]:g}], T = {self.T:g}, "
-                f"certified for {self.covers} b"),
-                f"median certified/frozen ratio {_fmt(float(np.nanmedian(self.ratio)))}"
-                if np.any(np.isfinite(self.ratio)) else "no certified point"]
+from ._curve_result import EpsStarCurve  # noqa: E402 (it builds on _OfClass above)
 
 
 __all__ = ["EpsBracket", "EpsCertificate", "EpsStarCurve", "GammaCertificate", "PointCertificate",

@@ -62,12 +62,13 @@ import numpy as np
 from .. import _validate as V
 from .._blas import serial_blas
 from ..errors import CertificationError, ParameterError
-from ._analytic import piecewise_modal, real_modal_basis
-from ._cert_results import EpsCertificate, PointCertificate
+from ._analytic import piecewise_modal
+from ._cert_results import EpsCertificate, PointCertificate, class_fields
+from ._class_bracket import class_brackets
+from ._class_resolve import resolve_class
 from ._coverage import coverage_brackets, coverage_of, gamma_fix, varying_point
 from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
-from ._plant_bounds import resolve
 from ._rate import rate_lmi
 from ._search import certified_eps_star, frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
@@ -76,10 +77,10 @@ if TYPE_CHECKING:  # annotations only (no import at run time)
     from ..design import Design
 
 DEFAULT_EPS_RANGE = (1e-3, 1.0)
-
-
 #: Finest modal piece: the interval split in ``MODAL_SPLIT * max_pieces`` pieces at most.
 MODAL_SPLIT = 8
+#: Finest modal piece relative to ``b_min`` (b_max/b_min up to 100: narrow pieces near b_min).
+MODAL_REL_WIDTH = 0.003
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
 #: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).
@@ -103,7 +104,8 @@ def _serial(func):
 class _Loop:
     """The surrogate of one design over one ``b`` interval: frozen checks and certificates."""
 
-    def __init__(self, design, b_bounds, a_jacobian_bounds, n_b: int, max_pieces: int):
+    def __init__(self, design, b_bounds, a_jacobian_bounds, n_b: int, max_pieces: int,
+                 loop=None):
         from ..design import EHGO
 
         if not isinstance(design.estimator, EHGO):
@@ -115,11 +117,14 @@ class _Loop:
         self.box = jacobian_box(a_jacobian_bounds, design.rho)
         self.n_b = V.integer("n_b", n_b, minimum=2)
         self.max_pieces = V.integer("max_pieces", max_pieces, minimum=1)
-        self.loop, self.T, self.design = SurrogateLoop(design), design.T, design
+        self.loop = SurrogateLoop(design) if loop is None else loop
+        self.T, self.design = design.T, design
         self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
         self._worst = 0  # the b index that failed last (screened_margin)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
+        self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
+        self.b_rate = None  # the class's bound on b's change per sample (None: arbitrary)
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
                               else (-self.b_hi, -self.b_lo))
 
@@ -157,7 +162,9 @@ class _Loop:
     def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
         """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
         if self.box is not None:
-            return np.array([self.frozen_margin(e, gamma) for e in eps_values])
+            from ._class_bracket import box_frozen_margins
+
+            return box_frozen_margins(self, eps_values, gamma)
         M0, M1 = self.loop.parts_many(eps_values, gamma)
         M = M0[:, None] + self.b_grid[None, :, None, None] * M1[:, None]
         m = schur_margins(delta(M, self.T), self.T).max(axis=-1)
@@ -217,9 +224,10 @@ class _Loop:
 
     def _point(self, eps, gamma, *, common_only, lmi) -> PointCertificate:
         if self.box is not None:
+            from ._class_bracket import member_refutation_point
             from ._ldi import ldi_point
 
-            return ldi_point(self, eps, gamma)
+            return member_refutation_point(self, eps, gamma) or ldi_point(self, eps, gamma)
         margin = self.frozen_margin(eps, gamma)
         if not margin < 0.0:
             return PointCertificate(
@@ -249,34 +257,23 @@ class _Loop:
         return self._pieces(eps, gamma, sol)
 
     def _common_modal_basis(self, eps, gamma, failed):
-        """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
-        the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
+        """:func:`._analytic.common_p_in_modal_basis` of the ends' deltas, else ``failed``."""
+        from ._analytic import common_p_in_modal_basis
 
-        The LMI and its NumPy re-check run in that basis (a congruence: the same certificate);
-        ``P`` is returned in the balanced coordinates, ``X^-T P_m X^-1``. Else ``failed``.
-        """
-        D, _ = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
-        X = real_modal_basis(0.5 * (D[0] + D[1]))
-        cond = float(np.linalg.cond(X))
-        if not cond < 1e10:
-            return failed
-        sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], self.T, common=True)
-        if not sol.certified:
-            return failed
-        Xi = np.linalg.inv(X)
-        P = Xi.T @ sol.P[0] @ Xi
-        return dataclasses.replace(sol, P=(P,), G=P, note=(
-            f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
+        return common_p_in_modal_basis(self._deltas(eps, gamma, (self.b_lo, self.b_hi))[0],
+                                       self.T, failed)
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
-        return vertex_lmi(D, self.T, common=common), s
+        return vertex_lmi(D, self.T, common=common, fallback=self.scs), s
 
     def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
         """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
         one P for the whole interval (a common P, no halving)."""
         (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
         width = (self.b_hi - self.b_lo) / (1 if whole else MODAL_SPLIT * self.max_pieces)
+        if not whole:  # wide ranges: pieces down to a fixed *relative* width near b_min
+            width = min(width, MODAL_REL_WIDTH * self.b_lo)
         span = self.b_hi - self.b_lo or 1.0
         done, margin, bad = piecewise_modal(
             lambda b: Dlo + (b - self.b_lo) / span * (Dhi - Dlo), self.b_lo, self.b_hi,
@@ -357,7 +354,7 @@ def _eps_range(eps_range) -> tuple[float, float]:
 def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None,
                 eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, max_pieces: int = 8,
                 n_scan: int = 32, rtol: float = 1e-2, search: bool = True,
-                raise_on_failure: bool = False) -> EpsCertificate:
+                raise_on_failure: bool = False, region_search: bool = False) -> EpsCertificate:
     """Certify the design's ``eps`` and bracket ``eps*`` for each coverage of ``b``.
 
     See :mod:`fl_design.analysis._certify` for the loop covered (the sampled *linear
@@ -374,10 +371,13 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     ----------
     design : Design
         An EHGO design.
-    b_bounds : (float, float) or PlantBounds
-        ``(b_min, b_max)`` of one strict sign (e.g. ``plant.b_bounds()``), or the enclosures
-        of :func:`fl_design.analysis.plant_bounds` over a parameter box: the certificate then
-        covers every plant of the box and ``params`` lists the ranges.
+    b_bounds : PlantClass, Plant, PlantBounds or (float, float)
+        The class certified (:mod:`._class_resolve`): a :class:`~fl_design.PlantClass`; a
+        Plant (its class, ``PlantClass.from_plant`` at the design's ``T``: ``b``, the slopes
+        of ``sigma`` and ``b``'s rate over its region, never the ``a = 0`` chain); the
+        enclosures of :func:`fl_design.analysis.plant_bounds` over a parameter box (the class
+        of every plant of the box, slopes included; ``params`` lists the ranges); or
+        ``(b_min, b_max)`` of one strict sign: the named chain class ``PlantClass.chain``.
     a_jacobian_bounds : sequence of (float, float) or "plant", optional
         Bounds of ``d sigma/d x_i`` at the equilibrium input, i = 1..rho
         (``plant.jacobian_bounds()``): the certificate covers the nonlinear plant's LDI.
@@ -403,6 +403,10 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     raise_on_failure : bool, optional
         Raise :class:`~fl_design.errors.CertificationError` instead of returning a result that
         is not certified.
+    region_search : bool, optional
+        Given a Plant whose class over its whole region is not certified, shrink the region
+        around the operating point (:mod:`._class_region`; tens of seconds) and certify the
+        class of the largest region that passes; the description names the region.
 
     Returns
     -------
@@ -423,14 +427,22 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     >>> c.covers, c.certified, c.eps_star_certified <= c.bracket("varying").refuted
     ('varying', False, True)
     """
-    b_bounds, b_rate, a_jacobian_bounds, params, rate_source, pb = resolve(
-        b_bounds, b_rate, a_jacobian_bounds, design.T)
     lo, hi = _eps_range(eps_range)
+    from ._class_region import class_screen, loop_maker
+
+    mk = loop_maker(design, n_b, max_pieces)
+    gamma = abs(design.controller.gamma)
+    r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design,
+                      screen=(lambda c: class_screen(mk(c), gamma, lo, hi)) if region_search
+                      else None)
+    b_bounds, b_rate, a_jacobian_bounds = r.b_bounds, r.b_rate, r.a_jacobian_bounds
+    params, rate_source, pb = r.params, r.rate_source, r.pb
     rtol = V.positive("rtol", rtol)
     n_scan = V.integer("n_scan", n_scan, minimum=2)
     if b_rate is not None:
         b_rate = V.nonnegative("b_rate", b_rate)
-    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
+    L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces, mk.loop)
+    L.b_rate = b_rate  # which switchings are members of the class (_class_bracket)
     covers = coverage_of(b_rate, L.box)
     eps, gamma = design.estimator.eps, abs(design.controller.gamma)  # b gamma > 0: magnitudes
     point = L.covered_point(eps, gamma, covers, b_rate)
@@ -443,8 +455,9 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
                             lambda es: L.frozen_margins(es, gamma))
         f = None if fb is None else fb[0]
         if L.box is not None:
-            if f is not None:
-                c_head = certified_eps_star(lambda e: L.search_ok(e, gamma), lo, f, rtol)
+            found = class_brackets(L, gamma, lo, fb, rtol)
+            brackets = (found["frozen"], found["nonlinear"])
+            c_head = found["nonlinear"].certified
         else:
             found, c_common = coverage_brackets(
                 L, gamma, lo, fb, rtol, b_rate,
@@ -452,11 +465,21 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
                                          L.rate_point(e, gamma, b_rate).certified))
             brackets = tuple(found.values())
             c_head = found[covers].certified
-    reason = (f"eps = {eps:g} certified for {covers} b ({point.kind}): {point.reason}"
-              if point.certified else
-              f"eps = {eps:g} not certified for {covers} b: {point.reason}")
+    reason = (f"eps = {eps:g} certified for its class ({covers} b, {point.kind}): "
+              f"{point.reason}" if point.certified else
+              f"eps = {eps:g} not certified for its class ({covers} b): {point.reason}")
+    if search and c_head is None:
+        reason += ("; no eps of the range is certified for the class" + (
+            f" (its structure, {'; '.join(x.describe() for x in r.cls.structure)}, is what "
+            "multiplier arguments use: fl.certify_step)" if r.cls.structure else ""))
     if search and not intervals:
-        reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {gamma_fix(L, gamma, lo, hi)}"
+        fix = gamma_fix(L, gamma, lo, hi, n=40 if L.box is None else 12)
+        if L.box is not None and r.cls.source in ("stated", "log") and fix.startswith("no |"):
+            raise ParameterError(
+                f"a_slopes = {[list(p) for p in r.cls.a_slopes]}: no gain stabilizes every "
+                f"corner of this slope box with the design's K and T ({fix}); valid: a box "
+                "whose corner plants one gamma stabilizes (narrow it)")
+        reason += f"; no eps of [{lo:g}, {hi:g}] gives a stable surrogate: {fix}"
     if intervals and intervals[0][0] > lo:
         reason += (f"; the frozen-stable eps form a band away from eps = {lo:g}: "
                    + ", ".join(f"[{a:.6g}, {b:.6g}]" for a, b in intervals))
@@ -470,8 +493,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
         a_jacobian_bounds=None if L.box is None else tuple(map(tuple, L.box.tolist())),
         reason=reason, covers=covers, brackets=brackets, b_rate=b_rate,
         eps_intervals_frozen=intervals, params=params, b_rate_source=rate_source,
-        covered_set=loop_covered_set(L, point, pb))
-
+        covered_set=loop_covered_set(L, point, pb), **class_fields(r.cls))
 
 
 __all__ = ["DEFAULT_EPS_RANGE", "certify_eps"]

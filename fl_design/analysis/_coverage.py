@@ -209,7 +209,7 @@ def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24) -> float:
     from scipy.optimize import minimize_scalar
 
     grid = np.geomspace(lo, hi, n)
-    m = np.array([L.frozen_margin(e, gamma) for e in grid])
+    m = np.asarray(L.frozen_margins(grid, gamma), dtype=float)  # stacked eigenvalue problems
     i = int(np.argmin(m))
     if m[i] < 0.0:
         return float(m[i])

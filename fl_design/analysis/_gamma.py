@@ -17,10 +17,10 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import CertificationError, ParameterError
-from ._cert_results import GammaCertificate
+from ._cert_results import GammaCertificate, class_fields
+from ._class_resolve import resolve_class
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
 from ._coverage import best_margin, coverage_of
-from ._plant_bounds import resolve
 from ._search import gamma_interval
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -82,8 +82,8 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
     >>> g.certified, g.gamma_lower_bound > 1e-4
     (False, True)
     """
-    b_bounds, b_rate, a_jacobian_bounds, params, _, _ = resolve(
-        b_bounds, b_rate, a_jacobian_bounds, design.T)
+    r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design)
+    b_bounds, b_rate, a_jacobian_bounds, params = r.b_bounds, r.b_rate, r.a_jacobian_bounds, r.params
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     if b_rate is not None:
         b_rate = V.nonnegative("b_rate", b_rate)
@@ -115,7 +115,8 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
         gamma=float(gamma), eps=float(eps), T=design.T, b_bounds=L.signed_bounds,
         paper_bound=1.0 / L.b_hi, convergence_bound=2.0 / L.b_hi, gamma_min=g_min,
         gamma_max=g_max, gamma_lower_bound=lower, eps_grid=tuple(grid_eps.tolist()),
-        certified=certified, point=point, reason=reason, params=params)
+        certified=certified, point=point, reason=reason, params=params,
+        **class_fields(r.cls))
 
 
 #: Relative width of the bracket of the refined gamma lower bound.

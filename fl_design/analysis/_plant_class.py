@@ -36,6 +36,7 @@ from dataclasses import dataclass, field, fields, replace
 
 from .. import _validate as V
 from ..errors import ParameterError
+from ._slope_structure import SlopeRestricted, _detect_structure, _structure
 
 #: Where a class came from (``source``).
 SOURCES = ("stated", "chain", "plant", "log")
@@ -132,6 +133,15 @@ class PlantClass:
         The output value the class's bounds were taken around (the reference), if any.
     u_eq : float or None, optional
         The equilibrium input at the operating point, if known.
+    structure : sequence of SlopeRestricted, optional
+        Where ``sigma`` depends on a coordinate (or on ``u``) through one static scalar
+        function of bounded slope (:class:`SlopeRestricted`): friction, springs, a static input
+        map. More than the slope box says (the slope follows the state, it is not an arbitrary
+        signal): multiplier arguments use it (``fl.certify_step``).
+    params : tuple of (str, float, float), optional
+        The model's parameters with the ranges covered (``lo == hi``: fixed), from a model.
+    region : tuple of (str, float, float), optional
+        The model's state box over which the bounds were enclosed (from a model).
 
     Examples
     --------
@@ -157,6 +167,9 @@ class PlantClass:
     notes: tuple[str, ...] = field(default_factory=tuple)
     operating_point: float | None = None
     u_eq: float | None = None
+    structure: tuple = ()
+    params: tuple = ()
+    region: tuple = ()
 
     def __post_init__(self):
         s = object.__setattr__
@@ -194,6 +207,9 @@ class PlantClass:
             v = getattr(self, nm)
             if v is not None:
                 s(self, nm, V.real_scalar(nm, v))
+        s(self, "structure", _structure(self.structure, self.rho, self.a_slopes, self.b))
+        s(self, "params", tuple((str(n), float(lo), float(hi)) for n, lo, hi in self.params))
+        s(self, "region", tuple((str(n), float(lo), float(hi)) for n, lo, hi in self.region))
 
     # -- constructors ---------------------------------------------------------------------
     @classmethod
@@ -243,6 +259,12 @@ class PlantClass:
 
         pb = plant_bounds(plant, params=params, region=region, T=T, du=du,
                           input_range=input_range, splits=splits)
+        return cls._from_bounds(plant, pb, T=T, noise_std=noise_std, delay=delay)
+
+    @classmethod
+    def _from_bounds(cls, plant, pb, *, T=None, noise_std: float = 0.0,
+                     delay: int = 0) -> PlantClass:
+        """:meth:`from_plant` from enclosures ``pb`` already computed for ``plant``."""
         notes = [f"enclosures: {pb.method}"]
         if pb.a_jacobian_bounds is None:
             notes.append(f"no slope box for a: {pb.jacobian_note}")
@@ -269,12 +291,21 @@ class PlantClass:
             states, out = ranges if isinstance(ranges, tuple) else (ranges, None)
             if out is not None and isinstance(states, dict) and states.get(out):
                 y_range = tuple(states[out])
+        structure = _detect_structure(plant, pb)
+        if structure:
+            notes.append("structure: " + "; ".join(x.describe() for x in structure)
+                         + " (d sigma/d v depends on v alone)")
+        cov = pb.covered()
+        if cov:
+            notes.append("every plant with " + ", ".join(f"{k} in [{a:g}, {b:g}]"
+                                                         for k, (a, b) in cov.items()))
         return cls(rho=plant.relative_degree(), T=T, b=pb.b_bounds,
                    b_rate=pb.b_rate if T is not None else None,
                    a_slopes=pb.a_jacobian_bounds, delay=delay, noise_std=noise_std,
                    u_limits=pb.input_range, y_range=y_range, zero_dynamics=zd,
                    zero_dynamics_decay=decay, source="plant", name=str(plant.name),
-                   notes=tuple(notes), u_eq=pb.u_eq)
+                   notes=tuple(notes), u_eq=pb.u_eq, structure=structure,
+                   params=pb.params, region=pb.region)
 
     # -- reading ----------------------------------------------------------------------------
     @property
@@ -324,7 +355,9 @@ class PlantClass:
         if self.u_limits is not None:
             out.append(f"input saturation at u in [{_fmt(self.u_limits[0])}, "
                        f"{_fmt(self.u_limits[1])}]")
-        out.append("the estimate clamp")
+        else:
+            out.append("input saturation (the design's limits, if any)")
+        out += ["the estimate clamp", "integrator windup"]
         if self.noise_std or self.noise_bound:
             out.append("sensor noise (bounded effect, not stability)")
         if self.delay:
@@ -367,7 +400,15 @@ class PlantClass:
             nz = f"noise std {self.noise_std:g}"
         else:
             nz = "no sensor noise"
-        parts = [f"rho = {self.rho}", T, bb, a, d, nz]
+        parts = [f"rho = {self.rho}", T, bb, a]
+        parts += [x.describe() for x in self.structure]
+        parts += [d, nz]
+        ranges = [f"{n} in [{lo:g}, {hi:g}]" for n, lo, hi in self.params if lo != hi]
+        if ranges:
+            parts.append("every plant with " + ", ".join(ranges))
+        if self.region:
+            parts.append("over the region " + ", ".join(f"{n} in [{lo:.4g}, {hi:.4g}]"
+                                                         for n, lo, hi in self.region))
         if self.zero_dynamics != "none":
             parts.append(f"internal dynamics: {self.zero_dynamics}")
         return f"{who}: " + ", ".join(parts)
@@ -381,6 +422,8 @@ class PlantClass:
         [1.0, 2.0]
         """
         def plain(v):
+            if isinstance(v, SlopeRestricted):
+                return v.to_dict()
             if isinstance(v, tuple):
                 return [plain(x) for x in v]
             if isinstance(v, float) and not math.isfinite(v):
@@ -391,4 +434,4 @@ class PlantClass:
         return d
 
 
-__all__ = ["PlantClass"]
+__all__ = ["PlantClass", "SlopeRestricted"]

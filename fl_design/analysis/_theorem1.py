@@ -25,6 +25,11 @@ written for ``alpha = 1``); here the step is ``h = alpha eps`` throughout (``H``
   ``lambda -> 0``: the ``x`` decrease needs ``h < lambda_x / H``, the ``e_u`` decrease
   ``h^2 < lambda_u / H``).
 
+**What it is.** A bound on the *sampling step*: ``h* = alpha eps*`` (:attr:`step_bound`).
+The theorem covers the sampled state-feedback loop for ``T < h*``; at the paper's
+``gamma = 3e-3`` it is about 5e-5 s, twenty times below the paper's ``T = 1 ms``, so the
+theorem says nothing about the paper's experiment (:meth:`Theorem1Constants.verdict`).
+
 **How this differs from the LMI certificates.** The theorem is about *state feedback* and a
 sample step that shrinks with eps (``T = alpha eps``); it bounds ``Vbar`` with one
 ``(P_x, 1/2)`` fixed in advance. The certificates of :func:`fl_design.certify_eps` keep the
@@ -71,6 +76,8 @@ class Theorem1Constants(_Result):
         Top of the eps grid of ``H``.
     argmax : tuple of float
         ``(eps, b)`` where ``H`` is attained.
+    T : float or None
+        The design's sampling time (whether it meets the step bound), if given.
 
     Examples
     --------
@@ -85,12 +92,42 @@ class Theorem1Constants(_Result):
     alpha: float
     eps_max: float
     argmax: tuple
+    T: float | None = None
+
+    @property
+    def step_bound(self) -> float:
+        """``h* = min(lambda_x / H, sqrt(lambda_u / H))``: the largest **sampling step** the
+        theorem covers (its "eps*" is ``h* / alpha``: a bound on ``T = alpha eps``)."""
+        return self.eps_star * self.alpha
+
+    @property
+    def meets(self) -> bool | None:
+        """The design's ``T`` satisfies ``T < h*`` (None when no ``T`` was given)."""
+        return None if self.T is None else bool(self.T < self.step_bound)
+
+    def verdict(self) -> str:
+        """Theorem 1 as what it is: a sampling-step bound, and whether ``T`` meets it.
+
+        Examples
+        --------
+        >>> c = theorem1_constants((2, 4), 3e-3, (3.6, 6.8), alpha=0.02, T=1e-3)
+        >>> c.verdict().startswith("Theorem 1 is a sampling-step bound")
+        True
+        """
+        head = (f"Theorem 1 is a sampling-step bound: state feedback on the chain is covered "
+                f"for T = alpha eps < h* = {self.step_bound:.3g} s (its 'eps*' "
+                f"{self.eps_star:.3g} = h*/alpha at alpha = {self.alpha:g})")
+        if self.T is None:
+            return head
+        if self.meets:
+            return head + f"; the design's T = {self.T:g} s meets it"
+        return (head + f"; the design's T = {self.T:g} s does NOT meet it "
+                f"({self.T / self.step_bound:.3g}x too large): Theorem 1 says nothing about "
+                "this design")
 
     def _repr_lines(self):
         return [(f"lambda_x = {self.lambda_x:.6g}, lambda_u = {self.lambda_u:.6g}, "
-                 f"H = {self.H:.6g} (at eps, b = {self.argmax})"),
-                (f"Theorem 1's eps* = min(lambda_x/H, sqrt(lambda_u/H))/alpha = "
-                 f"{self.eps_star:.6g} (state feedback, step T = {self.alpha:g} eps)")]
+                 f"H = {self.H:.6g} (at eps, b = {self.argmax})"), self.verdict()]
 
 
 def _loop(k, gamma, b, h):
@@ -105,7 +142,8 @@ def _loop(k, gamma, b, h):
 
 
 def theorem1_constants(gains, gamma: float, b_bounds, *, Q=None, alpha: float = 1.0,
-                       eps_max: float = 1.0, n: int = 400) -> Theorem1Constants:
+                       eps_max: float = 1.0, n: int = 400,
+                       T: float | None = None) -> Theorem1Constants:
     """``lambda_x``, ``lambda_u``, ``H`` and Theorem 1's ``eps*`` for the chain (state feedback).
 
     Parameters
@@ -124,6 +162,8 @@ def theorem1_constants(gains, gamma: float, b_bounds, *, Q=None, alpha: float = 
         Top of the eps grid of ``H`` (default 1).
     n : int, optional
         Grid points of the step ``h`` (default 400).
+    T : float, optional
+        The design's sampling time: the result says whether it meets the bound ``h*``.
 
     Returns
     -------
@@ -173,7 +213,8 @@ def theorem1_constants(gains, gamma: float, b_bounds, *, Q=None, alpha: float = 
     H = max(best, 0.0)
     h_star = np.inf if H == 0.0 else min(lam_x / H, float(np.sqrt(lam_u / H)))
     star = h_star / alpha
-    return Theorem1Constants(lam_x, lam_u, H, float(star), alpha, eps_max, where)
+    T = None if T is None else V.positive("T", T)
+    return Theorem1Constants(lam_x, lam_u, H, float(star), alpha, eps_max, where, T)
 
 
 __all__ = ["Theorem1Constants", "theorem1_constants"]

@@ -128,7 +128,10 @@ def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
     gammas = np.geomspace(*cfg.gamma, n)
     eps_range = tuple(cfg.eps_range or setup.config.sweep.eps)  # [certify] eps_range
     if b is not None and design.estimator.has_time_constant and cfg.enabled:
-        bb = b if "box" in out else tuple(b)  # a PlantBounds: results list the box they cover
+        # the certificates certify the plant's class (fl.PlantClass.from_plant: b, the slopes
+        # of sigma and b's rate over its region, or over the [uncertainty] box given as a
+        # PlantBounds), never the a = 0 chain of its b range
+        bb = b if "box" in out else setup.plant
         out["gamma"] = certify_gamma(design, bb)
         out["eps"] = certify_eps(design, bb, eps_range=eps_range)
         out["curve"] = eps_star_curve(design, bb, np.abs(gammas), eps_range=eps_range)  # |gamma|

@@ -83,8 +83,10 @@ def test_trms_whole_region_says_why_not():
     assert pb.a_jacobian_bounds[1][0] == pytest.approx(-505.0)
     c = fl.certify_eps(design, pb, a_jacobian_bounds="plant", search=False)
     why = c.point.reason
-    assert not c.certified and "every vertex loop is Schur" in why
-    assert "no common quadratic P" in why and "smaller region" in why
+    # every corner is Schur, but a member of the class (the slope switching between its corner
+    # plants -505 and -5) grows: no certificate can exist, none is solved for
+    assert not c.certified and "a member of the class grows" in why
+    assert "(0, -505)" in why and "(0, -5)" in why and "no certificate exists" in why
 
 
 def _loop_state(design, keep, x, s, s_eq):

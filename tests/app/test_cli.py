@@ -56,7 +56,8 @@ def test_run_writes_report_with_sections_and_embedded_figures(quick_run):
         assert f"]({name})" in md
     assert len(re.findall(r'<img [^>]*src="data:image/png;base64,', html)) == 5
     assert "<img" in html and 'src="stability_map.png"' not in html  # self-contained
-    assert "P_x =" in md and escaped("eps* for varying b (s): [certified, refuted]") in md
+    # the certificates certify the TRMS's class (slope box, b range): brackets frozen, nonlinear
+    assert "P_x =" in md and escaped("eps* for nonlinear b (s): [certified, refuted]") in md
     assert "Software in the loop" in md
 
 
@@ -71,7 +72,11 @@ def test_summary_is_strict_json_with_verdicts(quick_run):
     assert all(r["status"] in ("converged", "converging", "oscillating", "stalled", "undecided", "diverged")
                for r in runs)
     assert data["codegen"]["sil"]["passed"] is True
-    assert data["certify"]["eps"]["certified"] is True
+    # the TRMS's class (friction slope box [-505, -5], b in [3.6, 6.8]) is not certified: a
+    # switching of the friction slope grows; summary.json names the class it certifies
+    eps = data["certify"]["eps"]
+    assert eps["certified"] is False and eps["plant_class"]["source"] == "plant"
+    assert eps["class_description"].startswith("class of plant 'trms_yaw'")
     # linearized eps*: a bracket per gamma, "> top" when stable on the whole range, never NaN
     lin = data["certify"]["linearized"]
     top = lin["eps_range"][1]
