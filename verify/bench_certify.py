@@ -40,19 +40,19 @@ ISSUE_GAMMAS = (3e-4, 1e-3, 3e-3)
 #: ``name -> (python code run cold in a fresh process, target seconds)``.
 CLASS_CASES = {
     "trms class": ("fl.certify_eps(fl.presets.paper_design(), fl.plants.trms_yaw())", 3.0),
-    "pendulum(c=0.05) class": ("fl.certify_eps(fl.presets.pendulum_design(eps=0.0405), "
-                               "fl.plants.pendulum(c=0.05))", 30.0),
-    "cart-pendulum class": ("fl.certify_eps(fl.presets.bench_design('cart-pendulum'), "
-                            "fl.plants.cart_pendulum())", 30.0),
-    "flexible-joint class": ("fl.certify_eps(fl.presets.bench_design('flexible-joint'), "
-                             "fl.plants.flexible_joint())", 30.0),
+    "pendulum(c=0.05) class": (("fl.certify_eps(fl.presets.pendulum_design(eps=0.0405), "
+                               "fl.plants.pendulum(c=0.05))"), 30.0),
+    "cart-pendulum class": (("fl.certify_eps(fl.presets.bench_design('cart-pendulum'), "
+                            "fl.plants.cart_pendulum())"), 30.0),
+    "flexible-joint class": (("fl.certify_eps(fl.presets.bench_design('flexible-joint'), "
+                             "fl.plants.flexible_joint())"), 30.0),
     "maglev class": ("fl.certify_eps(fl.presets.bench_design('maglev'), fl.plants.maglev())",
                      30.0),
-    "trms-lag class": ("fl.certify_eps(fl.presets.bench_design('trms-lag'), "
-                       "fl.plants.trms_yaw(motor_lag=True))", 30.0),
+    "trms-lag class": (("fl.certify_eps(fl.presets.bench_design('trms-lag'), "
+                       "fl.plants.trms_yaw(motor_lag=True))"), 30.0),
     "b in [1, 50] curve (12 gains, warm)": (
-        "fl.eps_star_curve(fl.presets.pendulum_design(eps=0.01, gamma=0.01), "
-        "fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0)), np.geomspace(1e-3, 0.03, 12))", 5.0),
+        ("fl.eps_star_curve(fl.presets.pendulum_design(eps=0.01, gamma=0.01), "
+        "fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0)), np.geomspace(1e-3, 0.03, 12))"), 5.0),
 }
 #: Cases timed after a warm-up call in the same process (imports, CasADi and CVXPY compiled),
 #: as the 50-point curve above: ``name -> warm-up code``.

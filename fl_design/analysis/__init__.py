@@ -31,10 +31,11 @@ Examples
 ('SampledLinearization', 'certify_eps')
 """
 
-from ._cert_results import EpsCertificate, EpsStarCurve, GammaCertificate
+from ._cert_results import EpsCertificate, GammaCertificate
 from ._cert_results import PointCertificate as PointCertificate  # importable, not in __all__
 from ._certify import certify_eps
 from ._curve import eps_star_curve
+from ._curve_result import EpsStarCurve
 from ._gamma import certify_gamma
 from ._linearization import SampledLinearization, linearized_eps_star, sampled_linearization
 from ._lyapunov import GainSynthesis, LyapunovCertificate, certify_lyapunov, synthesize_gains

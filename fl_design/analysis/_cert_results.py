@@ -429,8 +429,4 @@ class GammaCertificate(_OfClass):
                 self.reason]
 
 
-from ._curve_result import EpsStarCurve  # noqa: E402 (it builds on _OfClass above)
-
-
-__all__ = ["EpsBracket", "EpsCertificate", "EpsStarCurve", "GammaCertificate", "PointCertificate",
-           "json_number"]
+__all__ = ["EpsBracket", "EpsCertificate", "GammaCertificate", "PointCertificate", "json_number"]

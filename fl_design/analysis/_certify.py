@@ -70,7 +70,7 @@ from ._coverage import coverage_brackets, coverage_of, gamma_fix, varying_point
 from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
-from ._search import certified_eps_star, frozen_bracket, stable_intervals
+from ._search import frozen_bracket, stable_intervals
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -430,7 +430,7 @@ def certify_eps(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=None
     lo, hi = _eps_range(eps_range)
     from ._class_region import class_screen, loop_maker
 
-    mk = loop_maker(design, n_b, max_pieces)
+    mk = loop_maker(design, n_b, max_pieces, _Loop)
     gamma = abs(design.controller.gamma)
     r = resolve_class(b_bounds, b_rate, a_jacobian_bounds, design,
                       screen=(lambda c: class_screen(mk(c), gamma, lo, hi)) if region_search

@@ -85,13 +85,11 @@ def _noted(cls, note: str):
     return replace(cls, notes=cls.notes + (note,))
 
 
-def loop_maker(design, n_b: int, max_pieces: int):
+def loop_maker(design, n_b: int, max_pieces: int, loop_cls):
     """``PlantClass -> _Loop`` sharing one surrogate loop (its CasADi Jacobian built once);
     the shared loop is kept on the function as ``.loop``."""
     def make(cls):
-        from ._certify import _Loop
-
-        L = _Loop(design, cls.b, cls.a_slopes, n_b, max_pieces, make.loop)
+        L = loop_cls(design, cls.b, cls.a_slopes, n_b, max_pieces, make.loop)
         make.loop = L.loop
         return L
     make.loop = None

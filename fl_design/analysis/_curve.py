@@ -16,9 +16,10 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ParameterError
-from ._cert_results import EpsStarCurve, class_fields
-from ._class_resolve import resolve_class
+from ._cert_results import class_fields
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
+from ._class_resolve import resolve_class
+from ._curve_result import EpsStarCurve
 from ._search import certified_eps_star, frozen_bracket
 
 if TYPE_CHECKING:  # annotations only (no import at run time)

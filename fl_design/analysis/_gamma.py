@@ -18,8 +18,8 @@ from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import CertificationError, ParameterError
 from ._cert_results import GammaCertificate, class_fields
-from ._class_resolve import resolve_class
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
+from ._class_resolve import resolve_class
 from ._coverage import best_margin, coverage_of
 from ._search import gamma_interval
 

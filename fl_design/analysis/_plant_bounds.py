@@ -303,17 +303,6 @@ def resolve(b_bounds, b_rate, a_jacobian_bounds, T: float):
     ``b_bounds`` may be a :class:`PlantBounds`; ``b_rate`` and ``a_jacobian_bounds`` may be
     ``"plant"`` (taken from it, its ``T`` must be the design's).
     """
-    from ._plant_class import PlantClass
-
-    if isinstance(b_bounds, PlantClass):  # a class: its b, slopes and rate (explicit ones win)
-        cls = b_bounds.with_T(T)
-        b_bounds = cls.b
-        if a_jacobian_bounds is None:
-            a_jacobian_bounds = cls.a_slopes
-        if b_rate is None:
-            b_rate = cls.b_rate
-        return b_bounds, b_rate, a_jacobian_bounds, (), ("the class" if b_rate is not None
-                                                         else None), None
     pb = b_bounds if isinstance(b_bounds, PlantBounds) else None
     plant_asked = [k for k, v in (("b_rate", b_rate), ("a_jacobian_bounds", a_jacobian_bounds))
                    if isinstance(v, str)]

@@ -180,9 +180,9 @@ def test_region_search_keeps_the_largest_region_that_passes():
         seen.append(cls.a_slopes[0])
         return cls.a_slopes[0][1] < 0.0
 
-    cls, pb, note = plant_class_search(p, presets.pendulum_design(), screen)
+    cls, _pb, note = plant_class_search(p, presets.pendulum_design(), screen)
     assert cls.a_slopes[0][1] < 0.0 and "shrunk 10x" in note
-    assert dict((n, (lo, hi)) for n, lo, hi in cls.region)["theta"] == pytest.approx(
+    assert {n: (lo, hi) for n, lo, hi in cls.region}["theta"] == pytest.approx(
         (-math.pi / 10, math.pi / 10))
     assert "over the region theta in [-0.3142, 0.3142]" in cls.describe()
     assert seen[0][1] > 0.0  # the whole region was tried first
