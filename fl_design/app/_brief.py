@@ -173,10 +173,13 @@ def cert_brief(cert: dict | None) -> Brief:
     if "eps" not in cert:
         return Brief("not certified", "warn", cert.get("skipped", "no b-range to certify"))
     g, e = cert["gamma"], cert["eps"]
-    star = fmt(e.eps_star_certified, "none")
     b = cert["box"]["b_bounds"] if cert.get("box") else list(e.b_bounds)
-    detail = (f"eps* {star} s ({e.covers} b), this eps {'inside' if e.certified else 'outside'}"
-              f"; gamma in ({fmt(g.gamma_min, 'none', 3)}, {fmt(g.gamma_max, 'none', 3)})")
+    if e.eps_star_certified is None:
+        detail = f"no eps certified for the plant's class ({e.covers} b)"
+    else:
+        detail = (f"eps* {fmt(e.eps_star_certified)} s for its class ({e.covers} b), this eps "
+                  f"{'inside' if e.certified else 'outside'}")
+    detail += f"; gamma in ({fmt(g.gamma_min, 'none', 3)}, {fmt(g.gamma_max, 'none', 3)})"
     if cert.get("box"):
         detail += "; over the [uncertainty] box"
     return Brief("certified" if e.certified else "NOT certified",
@@ -205,11 +208,14 @@ def cert_long(cert: dict, b_bounds=None) -> str:
                    if box["not_covered"] else ""))
     b = (f", b anywhere in [{b_bounds[0]:.3g}, {b_bounds[1]:.3g}]" if b_bounds is not None
          else "")
+    cls = getattr(e, "class_description", "") or f"chain of integrators, sigma = b u{b}"
+    unc = "; ".join(getattr(e, "uncovered", ()) or ())
     return (f"eps* = {fmt(e.eps_star_certified, 'none in range')} s, gamma in "
             f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')}); this eps "
-            f"{'certified' if e.certified else 'NOT certified'}. Covers the sampled linear "
-            f"surrogate (chain of integrators, sigma = b u{b}{family}). The nonlinear plant: "
-            f"{cert.get('nonlinear_summary', 'no certificate (the plant gives no region)')}")
+            f"{'certified' if e.certified else 'NOT certified'}: {e.reason}. Covers every "
+            f"plant of the {cls}{family}" + (f"; not covered: {unc}" if unc else "")
+            + ". This step on the nonlinear plant: "
+            + cert.get("nonlinear_summary", "not analysed"))
 
 
 def nonlinear_brief(cert: dict | None) -> Brief:

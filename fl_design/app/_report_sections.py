@@ -73,12 +73,15 @@ def _certificates(job) -> list:
               for b in e.brackets],
             [f"this eps certified for {e.covers} b", f"{e.certified}: {e.reason}"],
         ]))
-        blocks.append(("p", ("What is certified: the sampled linear surrogate loop (chain of "
-                            "integrators, sigma = b u) closed by this design's own step, for b "
-                            "constant (frozen) or changing arbitrarily in its interval along "
-                            "the trajectory (varying, the paper's b(w(k), x(k))); not the "
-                            "nonlinear plant. Refuted: a constant or periodically switched b "
-                            "found that makes the surrogate grow.")))
+        blocks.append(("p", ("What is certified: every plant of the class named here "
+                            f"({getattr(e, 'class_description', '') or 'the chain of its b range'})"
+                            ": the sampled loop closed by this design's own step, with b and "
+                            "the slopes of sigma anywhere in the class's ranges (frozen: each "
+                            "constant member; varying: changing along the trajectory). Refuted: "
+                            "a member of the class (a frozen corner, or a switching between "
+                            "corners) found growing. Not covered: "
+                            + ("; ".join(getattr(e, "uncovered", ()) or ()) or "nothing")
+                            + ".")))
         if "nonlinear" in cert:
             blocks.append(("p", cert["nonlinear"] + "."))
     elif "skipped" in cert:

@@ -138,8 +138,8 @@ def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
         # margins at both ends of b, as plain numbers and text (cached without python-control)
         out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
                           for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
-        out["nonlinear"], out["nonlinear_summary"] = nonlinear_line(design, plant,
-                                                                    box["ranges"], quick)
+        out["nonlinear"], out["nonlinear_summary"] = step_line(design, plant,
+                                                               setup.config.scenario, quick)
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
@@ -149,33 +149,54 @@ def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
     return out
 
 
-def nonlinear_line(design, plant, ranges, quick: bool) -> tuple[str, str]:
-    """The nonlinear certificate's line and summary words (``analysis.nonlinear_region``).
+def step_line(design, plant, scenario, quick: bool) -> tuple[str, str]:
+    """The step certificate's text and summary words (:func:`fl_design.certify_step`).
 
-    Not searched in ``--quick``: the region search solves tens of LMIs and the quick job is for
-    tests and a first look (target 5 s); the full job searches it once (3 bisection steps of
-    the scale: 17.8 s on the TRMS on a 2-core machine, against 41.7 s for 5 steps under
-    cProfile and 50 s on a loaded machine; the 5-step region is at most a few times wider)
-    and the stage cache keeps it. ``nonlinear_region`` itself searches finer (12 steps).
+    The user's question on the nonlinear plant: is this step, from the plant's operating point
+    with the observer and controller at rest, certified (bounded and converging), with the
+    input limits and the estimate clamps inside the argument? Noise-free (sensor noise is
+    covered only when bounded: ``fl.certify_step(..., noise_bound=...)``). Not computed in
+    ``--quick`` (seconds of LMIs: the quick job is a first look); a constant reference only.
+
+    Parameters
+    ----------
+    design : Design
+    plant : Plant
+    scenario : ScenarioTable
+        The config's ``[scenario]`` (its reference).
+    quick : bool
+
+    Returns
+    -------
+    (str, str)
+        The long text and the summary words (``certified ...``, ``not certified (...)``,
+        ``not searched ...``).
 
     Examples
     --------
-    >>> from fl_design.app._stages import nonlinear_line
-    >>> nonlinear_line(None, None, {}, True)[1]
+    >>> from fl_design.app._stages import step_line
+    >>> step_line(None, None, None, True)[1]
     'not searched in --quick'
     """
-    from ..analysis import nonlinear_region
-    from ..errors import ParameterError
+    from ..analysis._step_cert import certify_step
+    from ..errors import FlDesignError
+    from ..sim import Scenario
 
     if quick:
-        return (("nonlinear: not searched in --quick (the region search takes tens of seconds; "
-                 "the full job or `fl-design certify` without --quick searches it)"),
-                "not searched in --quick")
+        return (("this step: not certified in --quick (the step certificate solves LMIs for "
+                 "seconds; the full job or fl.certify_step answers)"), "not searched in --quick")
+    r = scenario.reference
+    if callable(r) or not isinstance(r, (int, float)):
+        return "this step: a constant reference only", "not certified (a varying reference)"
     try:
-        region = nonlinear_region(design, plant, params=ranges or None, steps=3)
-    except ParameterError as err:
-        return f"nonlinear: not certified: {err}", "not certified (see Certificates)"
-    return region.words(), region.summary()
+        c = certify_step(plant, design, Scenario(float(r)))
+    except FlDesignError as err:
+        return f"this step: not analysed: {err}", "not certified (see Certificates)"
+    text = "the step on the nonlinear plant: " + "; ".join(c._repr_lines())
+    if c.certified:
+        return text, f"certified the {c.step:.3g} step from rest (limits and clamp inside)"
+    return text, (f"not certified (the {c.step:.3g} step; largest certified step "
+                  f"{c.largest_step:.3g})")
 
 
 def sweep(setup: Setup, quick: bool, executor=None, progress: bool = False):
@@ -377,4 +398,4 @@ def codegen(setup: Setup, quick: bool, out_dir, force: bool = False) -> dict:
 
 __all__ = ["COMPARE_MAX_SAMPLES", "COMPARE_RISE_TIMES", "QUICK", "STAGES", "certify",
            "codegen", "compare_window", "derive", "design_name", "noise_levels",
-           "nonlinear_line", "simulate", "sweep"]
+           "simulate", "step_line", "sweep"]

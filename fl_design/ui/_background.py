@@ -73,7 +73,11 @@ def stage_keys(values: dict) -> dict:
     return {s: json.dumps([v[k] for k in keys]) for s, keys in STAGES.items()}
 
 
-def _words(tuner, v, covers: str) -> str:
+def _words(tuner, v, covers: str, cert=None) -> str:
+    described = getattr(cert, "class_description", "")
+    if described:  # the certificate names the class it certified
+        unc = "; ".join(getattr(cert, "uncovered", ()) or ())
+        return f"{described}" + (f"; not covered: {unc}" if unc else "") + f" ({covers} b)"
     cls = tuner.plant_class
     if cls is None:
         return class_words(tuner.b_bounds, tuner.rho, v["T"], covers)
@@ -135,7 +139,7 @@ def _gamma(tuner, design, v):
     from ..analysis import certify_gamma
 
     c = certify_gamma(design, tuner.cert_target)
-    return {"text": str(c), "words": _words(tuner, v, "varying")}
+    return {"text": str(c), "words": _words(tuner, v, "varying", c)}
 
 
 def _cost(tuner, design, v):
@@ -190,7 +194,7 @@ def _curve(tuner, design, v):
     return {"gamma": [float(g) for g in c.gamma],
             "frozen": [_num(x) for x in c.eps_star_frozen],
             "certified": [_num(x) for x in c.eps_star_certified], "covers": c.covers,
-            "words": _words(tuner, v, c.covers)}
+            "words": _words(tuner, v, c.covers, c)}
 
 
 def _eps(tuner, design, v):
@@ -200,11 +204,11 @@ def _eps(tuner, design, v):
     c = certify_eps(design, tuner.cert_target,
                     eps_range=tuple(cfg.certify.eps_range or cfg.sweep.eps))
     brackets = [{"covers": b.covers, "certified": _num(b.certified), "refuted": _num(b.refuted),
-                 "words": _words(tuner, v, b.covers)}
+                 "words": _words(tuner, v, b.covers, c)}
                 for b in c.brackets]
     return {"text": str(c), "certified": bool(c.certified), "covers": c.covers,
             "eps_star_certified": _num(c.eps_star_certified), "brackets": brackets,
-            "words": _words(tuner, v, c.covers)}
+            "words": _words(tuner, v, c.covers, c)}
 
 
 _RUN = {"margins": _margins, "gamma": _gamma, "cost": _cost, "map": _map, "curve": _curve,

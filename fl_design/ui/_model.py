@@ -189,8 +189,10 @@ class Tuner:
         self.plant_class = setup.plant_class
         self.b_bounds = self._b_bounds() if self.plant_class is None else \
             tuple(float(x) for x in self.plant_class.b)
-        #: what the certificates cover: the class, or the plant's b range
-        self.cert_target = self.plant_class or self.b_bounds
+        #: what the certificates cover: the class, or the plant's own class (read by the
+        #: certificates from the plant: its b, slopes and b's rate over its region)
+        self.cert_target = self.plant_class or (self.plant if self.b_bounds is not None
+                                                else None)
         self.loops = LoopCache(compile_aside=compile_aside)
 
     def _b_bounds(self):

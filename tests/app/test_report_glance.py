@@ -219,7 +219,7 @@ def test_no_cell_says_certified_for_a_non_minimum_phase_plant():
     assert job.derivation["minimum_phase"] is False
     assert complex(job.derivation["zero_dynamics_eigenvalues"][0]) == pytest.approx(1.0)
     rows = {q: a for q, a, _ in summary_rows(job)}
-    for question in ("Certified (linear surrogate)", "Nonlinear plant"):
+    for question in ("Certified for its class", "This step certified?"):
         assert rows[question].word == "assumptions fail" and rows[question].level == "bad"
     assert not any(str(a).startswith("certified") for a in rows.values())
     from fl_design.app._report_summary import summary_blocks
