@@ -24,7 +24,7 @@ def test_full_job_certifies_the_pendulum_step():
 def test_an_uncertified_step_gives_the_largest_certified_one():
     plant, design = fl.plants.pendulum(), fl.presets.pendulum_design()
     direct = fl.certify_step(plant, design, fl.Scenario(3.0))
-    line, summary = step_line(design, plant, _scenario(3.0), quick=False)
+    _line, summary = step_line(design, plant, _scenario(3.0), quick=False)
     assert not direct.certified
     assert summary == (f"not certified (the 3 step; largest certified step "
                        f"{direct.largest_step:.3g})")
