@@ -136,7 +136,7 @@ def _b_range(plant) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
+def tune(plant: Plant, *, T: float | None = None, objective=None,
          reference: float | None = None, u_limits=None, decays=None,
          baseline="auto", progress: bool = False) -> Tuning:
     """Propose a certified, checked design for ``plant`` (the module says how and why).
@@ -149,8 +149,12 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
     T : float, optional
         Sampling time (default from the plant's time scale and the actuator, step 2).
     objective : str or tuple, optional
-        ``"fastest"`` (default, :data:`DEFAULT_OBJECTIVE`), ``"least-noise"``
-        (``"least_noise"`` too) or ``("overshoot", x)``, ``x`` a fraction.
+        ``"fastest"`` (default for a plant, :data:`DEFAULT_OBJECTIVE`), ``"least-noise"``
+        (``"least_noise"`` too) or ``("overshoot", x)``, ``x`` a fraction. For a
+        :class:`~fl_design.PlantClass` the default is ``"least-noise"`` (API and
+        ``fl-design run CLASS.toml`` alike): a design for a whole class knows neither the
+        plant's time scale nor its noise path, and the fastest certified loop amplifies sensor
+        noise by thousands at the wide end of ``b``.
     reference : float, optional
         The step target of the checks (default the operating output plus 5 % of the output's
         range in the region).
@@ -190,7 +194,10 @@ def tune(plant: Plant, *, T: float | None = None, objective=DEFAULT_OBJECTIVE,
     (True, 'converged', [10.2063, 6.3895])
     """
     if isinstance(plant, PlantClass):  # what a rig owner knows: designed for every member
-        return tune_class(plant, T=T, objective=objective, reference=reference, u_limits=u_limits)
+        return tune_class(plant, T=T, objective="least-noise" if objective is None else objective,
+                          reference=reference, u_limits=u_limits)
+    if objective is None:
+        objective = DEFAULT_OBJECTIVE
     V.instance("plant", plant, Plant, "an fl.Plant (fl.Plant.from_ode or fl.plants.*)")
     kind, limit = _objective(objective)
     if not (baseline is None or isinstance(baseline, Design) or

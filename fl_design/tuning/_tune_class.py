@@ -96,6 +96,40 @@ def _candidate(cls: PlantClass, c: float, u_lim) -> dict:
     return out
 
 
+def _certified(cand, cls, tried):
+    """``(candidate with its eps, certificate, why)`` at the largest certified fraction of the
+    class's frozen eps* tried (a quarter first, then up to :data:`BOLD_FRACTION` within
+    :data:`UPGRADE_BUDGET`), or None (the reason appended to ``tried``)."""
+    trial = cand["design"].replace(eps=cand["frozen"] * SAFE_FRACTION)
+    ec = certify_eps(trial, cls, search=False)
+    if not ec.certified:
+        tried.append(f"|gamma| |b|_max = {cand['c']:g}, eps = {trial.estimator.eps:.4g} s: "
+                     f"not certified ({ec.reason})")
+        return None
+    chosen, cert = dict(cand, design=trial), ec
+    why = (f"eps = {trial.estimator.eps:.4g} s ({SAFE_FRACTION:g} x the class's "
+           f"frozen-b eps* {cand['frozen']:.4g} s; certified for {ec.covers} b)")
+    lo, hi, cpu0 = SAFE_FRACTION, BOLD_FRACTION, time.process_time()
+    for step in range(UPGRADE_STEPS):  # larger eps (less noise) while certified: bisection
+        if time.process_time() - cpu0 > UPGRADE_BUDGET:
+            break
+        f = BOLD_FRACTION if step == 0 else math.sqrt(lo * hi)
+        trial = chosen["design"].replace(eps=chosen["frozen"] * f)
+        ec = certify_eps(trial, cls, search=False)
+        if ec.certified:
+            lo, chosen, cert = f, dict(chosen, design=trial), ec
+            why = (f"eps = {trial.estimator.eps:.4g} s ({f:.3g} x the class's frozen-b eps* "
+                   f"{chosen['frozen']:.4g} s, the largest fraction certified of those tried; "
+                   f"certified for {ec.covers} b)")
+            if f == BOLD_FRACTION:
+                break
+        else:
+            hi = f
+            tried.append(f"|gamma| |b|_max = {chosen['c']:g}, eps = "
+                         f"{trial.estimator.eps:.4g} s: not certified ({ec.reason})")
+    return chosen, cert, why
+
+
 def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-noise",
                reference=None, u_limits=None, members: bool = True,
                seed: int = 0) -> ClassTuning:
@@ -156,36 +190,26 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
         raise NoDesignError(f"no design for the class ({cls.describe()}): " + "; ".join(tried))
     key = (lambda x: x["noise"]) if kind == "least-noise" else (lambda x: -x["decay"])
     cands.sort(key=key)
-    chosen, cert, eps_why = None, None, ""
-    for cand in cands:  # a quarter of the frozen eps* first: the likely certificate
-        trial = cand["design"].replace(eps=cand["frozen"] * SAFE_FRACTION)
-        ec = certify_eps(trial, cls, search=False)
-        if ec.certified:
-            chosen, cert = dict(cand, design=trial), ec
-            eps_why = (f"eps = {trial.estimator.eps:.4g} s ({SAFE_FRACTION:g} x the class's "
-                       f"frozen-b eps* {cand['frozen']:.4g} s; certified for {ec.covers} b)")
+    chosen = cert = None
+    eps_why, runs, first = "", (), None
+    for cand in cands:  # in the objective's order; the first certified whose members converge
+        got = _certified(cand, cls, tried)
+        if got is None:
+            continue
+        cand_c, cert_c, why_c = got
+        runs_c = (member_runs(cand_c["design"], cls, r, 12.0 / cand_c["decay"], seed=seed)
+                  if members else ())
+        if first is None:
+            first = (cand_c, cert_c, why_c, runs_c)
+        if all(m.converged for m in runs_c):
+            chosen, cert, eps_why, runs = cand_c, cert_c, why_c, runs_c
             break
-        tried.append(f"|gamma| |b|_max = {cand['c']:g}, eps = {trial.estimator.eps:.4g} s: "
-                     f"not certified ({ec.reason})")
-    if chosen is not None:  # larger eps (less noise) while certified: bisection on the fraction
-        lo, hi, cpu0 = SAFE_FRACTION, BOLD_FRACTION, time.process_time()
-        for step in range(UPGRADE_STEPS):
-            if time.process_time() - cpu0 > UPGRADE_BUDGET:
-                break
-            f = BOLD_FRACTION if step == 0 else math.sqrt(lo * hi)
-            trial = chosen["design"].replace(eps=chosen["frozen"] * f)
-            ec = certify_eps(trial, cls, search=False)
-            if ec.certified:
-                lo, chosen, cert = f, dict(chosen, design=trial), ec
-                eps_why = (f"eps = {trial.estimator.eps:.4g} s ({f:.3g} x the class's "
-                           f"frozen-b eps* {chosen['frozen']:.4g} s, the largest fraction "
-                           f"certified of those tried; certified for {ec.covers} b)")
-                if f == BOLD_FRACTION:
-                    break
-            else:
-                hi = f
-                tried.append(f"|gamma| |b|_max = {chosen['c']:g}, eps = "
-                             f"{trial.estimator.eps:.4g} s: not certified ({ec.reason})")
+        tried.append(f"|gamma| |b|_max = {cand_c['c']:g}, eps = "
+                     f"{cand_c['design'].estimator.eps:.4g} s: certified, but "
+                     f"{sum(not m.converged for m in runs_c)}/{len(runs_c)} member runs do not "
+                     "converge (noise and input limits are outside the certificate)")
+    if chosen is None and first is not None:  # none whose members converge: the first, said
+        chosen, cert, eps_why, runs = first
     if chosen is None:
         chosen = dict(cands[0], design=cands[0]["design"].replace(
             eps=cands[0]["frozen"] * SAFE_FRACTION))
@@ -193,11 +217,11 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
         eps_why = (f"eps = {chosen['design'].estimator.eps:.4g} s ({SAFE_FRACTION:g} x the "
                    f"class's frozen-b eps* {chosen['frozen']:.4g} s); NOT certified for the "
                    f"class there: {cert.reason}")
+        runs = (member_runs(chosen["design"], cls, r, 12.0 / chosen["decay"], seed=seed)
+                if members else ())
     design = chosen["design"]
     ng = {f"{b:.6g}": surrogate_noise_gain(design, b) for b in cls.b}
     margins = class_margins(design, cls)
-    duration = 12.0 / chosen["decay"]
-    runs = member_runs(design, cls, r, duration, seed=seed) if members else ()
     bmin, bmax = sorted(abs(b) for b in cls.b)
     reasons = (
         f"class: {cls.describe()}",
