@@ -86,9 +86,15 @@ class GuardSettings:
 
 
 def _output_range(plant) -> tuple[float, float]:
-    """The plant output's range over its region: corners and 4 096 points of the box."""
-    region = plant.region or {}
-    box = [region.get(s, (float(x), float(x))) for s, x in zip(plant.states, plant.x_op)]
+    """The plant output's range over its region: the output state's own range, else the
+    output over the corners and 4 096 points of the box (read without SymPy: a cached library
+    plant's ranges come from its header, :meth:`Plant._state_ranges`)."""
+    ranges, out = plant._state_ranges()
+    if out is not None and ranges.get(out) is not None:
+        lo, hi = ranges[out]
+        return float(lo), float(hi)
+    box = [tuple(r) if r is not None else (float(x), float(x))
+           for r, x in zip(ranges.values(), plant.x_op)]
     lo, hi = np.array([b[0] for b in box]), np.array([b[1] for b in box])
     corners = np.array(list(itertools.product(*box)), dtype=float)
     inner = lo + (hi - lo) * np.random.default_rng(0).random((4096, lo.size))

@@ -154,8 +154,11 @@ def _excitation(design, g, lit) -> dict[str, str]:
 
 def _units(design, plant) -> str:
     rho = design.rho
-    out = "the plant's output" if plant is None else f"the output {getattr(plant, 'output', 'y')}"
-    inp = "input" if plant is None else f"input {getattr(plant, 'input', 'u')}"
+    # the names from the plant's cached header (no SymPy for a cached library plant)
+    names = getattr(plant, "_names", None) if plant is not None else None
+    y_text, u_text = (names[2], names[1]) if names else ("y", "u")
+    out = "the plant's output" if plant is None else f"the output {y_text}"
+    inp = "input" if plant is None else f"input {u_text}"
     rows = [f"/* y, r, y_min, y_max, dy_max, xhat_1: units of {out} (those of the model the",
             " * design was made for); u, u_min, u_max, u_safe: units of the " + inp + ";",
             f" * xhat_i: y units / s^(i-1); sigmahat: y units / s^{rho}; T, eps: s;",

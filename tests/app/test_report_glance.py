@@ -128,11 +128,15 @@ def test_what_a_user_names_is_literal_everywhere(tmp_path):
     matplotlib.use("Agg")
     from fl_design.app._template import config_toml
 
-    text = config_toml(from_ode=True).replace('name = "my_pendulum"',
+    text = config_toml(from_ode=True).replace('name = "my_plant"',
                                               f"name = {HOSTILE_NAME!r}".replace("'", '"')
                                               .replace("\n", "\\n"))
     text = re.sub(r'output_unit = "[^"]*"', r'output_unit = "$\\\\foo{$"', text)
     text = re.sub(r'input_unit = "[^"]*"', 'input_unit = "<b>N m</b>"', text)
+    # init --from-ode leaves [design] to fl.tune at run time; this test is about names: give one
+    text = re.sub(r"^\[design\]\n", "[design]\neps = 0.02\nT = 0.001\ngains = [2.0, 4.0]\n"
+                  "gamma = 0.01\n", text, flags=re.M)
+    text = re.sub(r"^\[scenario\]\n", "[scenario]\nreference = 0.1\n", text, flags=re.M)
     cfg = parse_config(text)
     assert cfg.plant.name == HOSTILE_NAME and cfg.plant.output_unit == "$\\foo{$"
     job = run_job(cfg, quick=True, stages=("derive", "simulate"), progress=False)
