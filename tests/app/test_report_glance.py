@@ -135,8 +135,8 @@ def test_what_a_user_names_is_literal_everywhere(tmp_path):
     text = re.sub(r'input_unit = "[^"]*"', 'input_unit = "<b>N m</b>"', text)
     # init --from-ode leaves [design] to fl.tune at run time; this test is about names: give one
     text = re.sub(r"^\[design\]\n", "[design]\neps = 0.02\nT = 0.001\ngains = [2.0, 4.0]\n"
-                  "gamma = 0.01\n", text, flags=re.M)
-    text = re.sub(r"^\[scenario\]\n", "[scenario]\nreference = 0.1\n", text, flags=re.M)
+                  "gamma = 0.01\n", text, flags=re.MULTILINE)
+    text = re.sub(r"^\[scenario\]\n", "[scenario]\nreference = 0.1\n", text, flags=re.MULTILINE)
     cfg = parse_config(text)
     assert cfg.plant.name == HOSTILE_NAME and cfg.plant.output_unit == "$\\foo{$"
     job = run_job(cfg, quick=True, stages=("derive", "simulate"), progress=False)
