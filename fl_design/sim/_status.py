@@ -397,16 +397,20 @@ def _classify(summary: dict) -> np.ndarray:
         flat = ((np.abs(t) < 1) | (np.abs(ev["change"]) < MIN_CHANGE) | (ev["rate"] == 0)) \
             & ~hump
         growing = (t > T_SIGNIFICANT) & (ev["change"] > MIN_CHANGE)
-        # sustained: the envelope does not shrink AND the last swing is not smaller than the
-        # first (when measured), over at least MIN_PERIODS full swings in the window: a
-        # decaying swing slower than that is not an oscillation (converging or undecided)
+        # sustained: over at least MIN_PERIODS full swings in the window, not a confident decay
+        # (a decaying swing, or one slower than the window, is no oscillation: converging or
+        # undecided)
         ratio = ev["swing_ratio"]
         seen = ev["period"] * MIN_PERIODS <= ev["window"]
         # a slow decay (rules in the docstring); no hump: the fit's line describes the envelope
         dof = np.clip(np.nan_to_num(ev["fit_points"]) - 2, 0, len(T_CONFIDENT) - 1).astype(int)
         confident = t < -np.take(np.asarray(T_CONFIDENT), dof)
-        sustained = ((ev["change"] >= -MIN_CHANGE) & ~(ratio < 1 - MIN_CHANGE) & seen
-                     & ~growing & ~confident)
+        # (the envelope flat OR the last swing as large as the first: a limit cycle's swings
+        # vary by a few per cent from one to the next, e.g. the TRMS's stick-slip cycles)
+        # (a decay is "confident" only when it is also larger than MIN_CHANGE over the window:
+        # over thousands of swings a -0.3 % drift of a limit cycle is significant but no decay)
+        sustained = (((ev["change"] >= -MIN_CHANGE) | (ratio >= 1 - MIN_CHANGE)) & seen
+                     & ~growing & ~(confident & (ev["change"] < -MIN_CHANGE)))
         slow_decay = (confident & (ev["change"] < -MIN_CHANGE) & ~offset
                       & ~(swinging & sustained) & (ev["saturated"] < 0.5)
                       & (one_sided | (ev["reversals"] >= MIN_REVERSALS)) & ~hump)

@@ -83,8 +83,13 @@ def test_accumulated_evidence_equals_the_record_s_and_names_the_status(name):
     assert ev["reversals"] == want["reversals"]
     for key in ("period", "amplitude", "swing_ratio", "rate", "rate_se", "change", "asymptote",
                 "curvature_t"):
-        close = 1e-6 if key == "curvature_t" else 1e-15  # a t near 0 is rounding over rounding
-        assert float(ev[key]) == pytest.approx(want[key], rel=1e-9, abs=close, nan_ok=True), key
+        if key == "curvature_t" and abs(want[key]) < 1e-3:
+            # an envelope with no curvature (an exact exponential): its t is rounding over
+            # rounding on both sides (+-1e-6, either sign); what decides is that both are far
+            # below T_SIGNIFICANT (4), where a hump would count
+            assert abs(float(ev[key])) < 1e-3, key
+            continue
+        assert float(ev[key]) == pytest.approx(want[key], rel=1e-9, abs=1e-15, nan_ok=True), key
     assert Status(int(metrics_from_summary(acc, 0.05)["status"])).label == status
     # the same record negated gives the same evidence
     assert evidence(_run_table(-e, k_tail, noise))["reversals"] == want["reversals"]
