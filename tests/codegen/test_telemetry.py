@@ -100,3 +100,17 @@ def _frame(magic=MAGIC, version=1, rho=1, size=8, k=1):
 def test_bad_logs_are_refused_by_name(data, message):
     with pytest.raises(ParameterError, match=message):
         read_telemetry(data)
+
+
+@needs_cc
+def test_the_c_square_wave_is_the_python_one(tmp_path):
+    """The C square wave started at the center and stayed there (its first hold took the step
+    branch, then -0 = 0): the SIL compares the C routine with excitation_sequence sample by
+    sample and would raise."""
+    plant, design = fl.plants.trms_yaw(), presets.paper_design()
+    pkg = generate_c(design, tmp_path / "pkg", plant=plant)
+    path = tmp_path / "sq.bin"
+    pkg.verify(plant, fl.Scenario(0.0, 1.0), telemetry=path, excitation=("square", 0.0, 0.1, 100))
+    log = read_telemetry(path)
+    np.testing.assert_array_equal(log.r, excitation_sequence("square", 0.0, 0.1, 100, log.n))
+    assert log.r[0] == np.float64(0.1) and log.r[100] == -log.r[0]
