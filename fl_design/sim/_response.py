@@ -336,6 +336,12 @@ class Response:
         m = self.metrics
         window = self.duration / 2
         text = _reason(self.status, m, self.tol, window, self.duration, self.adaptive_duration)
+        tau = float(self.summary.get("loop_tau_samples", 0.0)) * self.T
+        if (self.status == "undecided" and 0.0 < window < tau and not m["reversals"] >= 2
+                and "too short to judge" not in text):
+            text = (f"undecided: too short to judge: |e| = {m['tail_error']:.3g} (band "
+                    f"{self.tol:.3g}) over the last {window:.3g} s, shorter than the designed "
+                    f"loop's time constant {tau:.3g} s (its gains); run at least {4 * tau:.3g} s")
         over = "" if np.isnan(m["overshoot"]) else f"; overshoot {m['overshoot']:.3g} %"
         exit_ = ("" if np.isnan(m["region_exit_time"]) else
                  f"; left the plant's region at t = {m['region_exit_time']:.3g} s")

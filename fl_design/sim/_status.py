@@ -414,9 +414,12 @@ def _classify(summary: dict) -> np.ndarray:
         slow_decay = (confident & (ev["change"] < -MIN_CHANGE) & ~offset
                       & ~(swinging & sustained) & (ev["saturated"] < 0.5)
                       & (one_sided | (ev["reversals"] >= MIN_REVERSALS)) & ~hump)
+        # a window shorter than the designed loop's time constant (simulate gives it; sweeps
+        # do not) cannot show a stall: the loop has not had the time to act
+        short = ev["window"] < np.asarray(summary.get("loop_tau_samples", 0.0), dtype=float)
     code = np.select(
         [div, converged, decaying, swinging & sustained, slow_decay,
-         ~swinging & (flat | offset) & one_sided & ~ev["u_moving"] & outside],
+         ~swinging & (flat | offset) & one_sided & ~ev["u_moving"] & outside & ~short],
         [int(Status.DIVERGED), int(Status.CONVERGED), int(Status.CONVERGING),
          int(Status.OSCILLATING), int(Status.CONVERGING), int(Status.STALLED)],
         int(Status.UNDECIDED))

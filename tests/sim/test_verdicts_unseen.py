@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+import fl_design as fl
 from fl_design.sim import Status
 from fl_design.sim._metrics import metrics_from_summary
 from fl_design.sim._status import NOISE_P2P
@@ -48,3 +49,17 @@ def test_an_error_inside_the_band_is_never_stalled():
     assert np.max(np.abs(e[int(0.8 * e.size):])) <= band
     assert _status(e, noise) != "stalled"
     assert _status(0.3 + 0.0 * T) == "stalled"  # outside the band it still is
+
+
+def test_a_run_shorter_than_the_designed_loop_is_undecided_not_stalled():
+    """Issue 36: a 0.2 s run of the converging pendulum design read 'stalled'. The designed
+    loop s^2 + 4 s + 2 has its slowest root at -2 + sqrt(2): time constant 1.707 s (closed
+    form); a 0.1 s analysed window cannot show a stall. The full run converges."""
+    import math
+
+    plant, design = fl.plants.pendulum(), fl.presets.pendulum_design()
+    short = fl.simulate(plant, design, fl.Scenario(0.1, 0.2))
+    assert short.status == "undecided"
+    tau = 1.0 / (2.0 - math.sqrt(2.0))
+    assert f"time constant {tau:.3g} s" in short.verdict()
+    assert fl.simulate(plant, design, fl.Scenario(0.1, 20.0)).status == "converged"
