@@ -148,7 +148,8 @@ def main(argv=None) -> int:
 
 
 def write_indexes() -> None:
-    """``claims_index.md`` and ``bench_index.md``: one section per output file present."""
+    """``claim_index.md`` and ``bench_index.md``: one section per output file present (included
+    by ``claims.md`` and ``performance.md`` in ``docs/``, so the paths are relative to it)."""
     for kind, title in (("claim", "claim"), ("bench", "benchmark")):
         parts = []
         for path in sorted(OUT.glob(f"{kind}_*.txt")):
@@ -161,7 +162,7 @@ def write_indexes() -> None:
 
                 doc = (ast.get_docstring(ast.parse(src.read_text())) or "").split("\n\n")[0]
             parts += [f"## `{script}`", "", doc.replace("\n", " "), "",
-                      f"```{{literalinclude}} {path.name}", ":language: text", ":lines: 2-", "```",
+                      f"```{{literalinclude}} _generated/{path.name}", ":language: text", ":lines: 2-", "```",
                       "", f"*{first.lstrip('# ')}*", ""]
         (OUT / f"{kind}_index.md").write_text(
             "\n".join(parts) if parts else f"No {title} output yet: run `make docs-data`.\n")
