@@ -59,7 +59,7 @@ def run(kind: str, script: Path, args: list[str], timeout: float) -> Path:
             + "\n".join(p.stderr.strip().splitlines()[-15:]) + "\n")
     except subprocess.TimeoutExpired:
         body = f"(timed out after {timeout:g} s: no numbers)\n"
-    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     path = OUT / f"{kind}_{script.stem}.txt"
     path.write_text(f"# `{shown}` on {machine()}, {stamp}\n{body}")
     return path
@@ -91,9 +91,9 @@ def notebook_page(nb_path: Path, quick: bool, timeout: float) -> Path:
     gal = OUT / "gallery"
     gal.mkdir(parents=True, exist_ok=True)
     stem = nb_path.stem
-    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"<!-- executed by `python docs/generate.py` on {machine()}, {stamp}"
-             f"{' (FL_DESIGN_QUICK=1)' if quick else ''} -->", ""]
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [(f"<!-- executed by `python docs/generate.py` on {machine()}, {stamp}"
+             f"{' (FL_DESIGN_QUICK=1)' if quick else ''} -->"), ""]
     n_fig = 0
     for cell in nb.cells:
         if cell.cell_type == "markdown":
