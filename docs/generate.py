@@ -53,7 +53,7 @@ def run(kind: str, script: Path, args: list[str], timeout: float) -> Path:
     env = dict(os.environ, MPLBACKEND="Agg")
     try:
         p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
-                           timeout=timeout)
+                           timeout=timeout, check=False)
         body = p.stdout if p.returncode == 0 else (
             f"(exit status {p.returncode})\n{p.stdout}\n--- stderr (end) ---\n"
             + "\n".join(p.stderr.strip().splitlines()[-15:]) + "\n")
