@@ -46,7 +46,7 @@ numpydoc_validation_checks: set[str] = set()
 # MathJax is loaded from the package bundled with the docs build, not a CDN, when available.
 html_theme = "furo"
 html_title = f"fl_design {release}"
-html_static_path = ["_static"]
+
 html_last_updated_fmt = None
 nitpicky = False
 templates_path = ["_templates"]
