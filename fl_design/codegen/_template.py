@@ -140,12 +140,7 @@ def _parameter_text(design: Design, precision: str, P: str) -> dict[str, str]:
 def _excitation(design, g, lit) -> dict[str, str]:
     """Suggested excitation: 2 % of the output's plausible span (at most 0.1 without a plant),
     held for the closed loop's slowest time constant (the roots of the gains' polynomial)."""
-    import numpy as np
-
-    ctrl = design.controller
-    roots = np.roots([1.0, *ctrl.gains[::-1]])
-    tau = 1.0 / float(np.min(np.abs(roots.real)))
-    hold = max(1, round(tau / design.T))
+    hold = max(1, round(design.controller.time_constant / design.T))
     span = g.y_max - g.y_min
     amp = 0.02 * span if span < 1e6 else 0.1
     why = ("2 % of the plausibility range" if span < 1e6 else "0.1 (no plant: a guess)")

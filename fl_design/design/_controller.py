@@ -100,6 +100,8 @@ class DynamicController:
         ``rho`` entries, each None or ``(lo, hi)``: the estimate limits in use.
     u_start : float
         ``u0``, or 0 when ``u0`` is None (no plant context).
+    time_constant : float
+        The designed loop's slowest time constant (s), from the gains.
 
     Raises
     ------
@@ -160,6 +162,19 @@ class DynamicController:
     def rho(self) -> int:
         """Relative degree served (number of gains)."""
         return len(self.gains)
+
+    @property
+    def time_constant(self) -> float:
+        """The designed loop's slowest time constant (s): ``1 / min |Re p|`` over the roots of
+        ``s^rho + k_rho s^(rho-1) + ... + k_1`` (the integrator's slow pole left out).
+
+        Examples
+        --------
+        >>> round(fl.DynamicController((2.0, 4.0), 0.01).time_constant, 4)  # -2 + sqrt(2)
+        1.7071
+        """
+        roots = np.roots(np.concatenate([[1.0], np.asarray(self.gains, dtype=float)[::-1]]))
+        return 1.0 / float(np.min(np.abs(roots.real)))
 
     def replace(self, **changes) -> DynamicController:
         """Return a copy with fields changed and re-validated (``dataclasses.replace``).

@@ -128,19 +128,10 @@ def _summary_fields(run: RunSetup, summary: dict) -> dict:
     out = {k: (np.asarray(v, dtype=float).ravel() if k == "est2_sum" else float(np.ravel(v)[0]))
            for k, v in summary.items() if k in keep}
     out.update(run.constants())
-    out["loop_tau_samples"] = _loop_time_constant(run.loop.design) / run.T
+    # a run whose analysed half is shorter than the designed loop's time constant cannot show
+    # a stall (:func:`fl_design.sim._status.classify`: undecided)
+    out["loop_tau_samples"] = run.loop.design.controller.time_constant / run.T
     return out
-
-
-def _loop_time_constant(design) -> float:
-    """The designed loop's slowest time constant (s): ``1 / min |Re p|`` over the roots of
-    ``s^rho + k_rho s^(rho-1) + ... + k_1`` (the controller's gains; the integrator's slow pole
-    left out). A run whose analysed half is shorter than this cannot show a stall: the loop has
-    not had the time to act (:func:`fl_design.sim._status.classify`: undecided)."""
-    gains = np.asarray(design.controller.gains, dtype=float)
-    roots = np.roots(np.concatenate([[1.0], gains[::-1]]))
-    slow = float(np.min(np.abs(roots.real))) if roots.size else 0.0
-    return 1.0 / slow if slow > 0 else 0.0
 
 
 def _response(run: RunSetup, out: np.ndarray, summary: dict, method: str) -> Response:
