@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import platform
 import subprocess
 import sys
 from pathlib import Path
@@ -35,16 +34,12 @@ BENCHES = ("bench_sweep", "bench_certify", "bench_codegen", "bench_tune", "bench
 
 
 def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    """CPU model (:func:`fl_design._isa.cpu_model`), cores and the load average."""
+    sys.path.insert(0, str(ROOT))
+    from fl_design._isa import cpu_model
+
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{cpu}, {os.cpu_count()} cores, load {load:.1f}"
+    return f"{cpu_model()}, {os.cpu_count()} cores, load {load:.1f}"
 
 
 def run(kind: str, script: Path, args: list[str], timeout: float) -> Path:
