@@ -165,8 +165,10 @@ class DynamicController:
 
     @property
     def time_constant(self) -> float:
-        """The designed loop's slowest time constant (s): ``1 / min |Re p|`` over the roots of
-        ``s^rho + k_rho s^(rho-1) + ... + k_1`` (the integrator's slow pole left out).
+        """The designed loop's slowest time constant (s).
+
+        It is ``1 / min |Re p|`` over the roots ``p`` of ``s^rho + k_rho s^(rho-1) + ... + k_1``
+        (the integrator's slow pole left out).
 
         Examples
         --------
