@@ -172,6 +172,7 @@ class DynamicController:
 
         Examples
         --------
+        >>> import fl_design as fl
         >>> round(fl.DynamicController((2.0, 4.0), 0.01).time_constant, 4)  # -2 + sqrt(2)
         1.7071
         """
