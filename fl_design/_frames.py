@@ -1,4 +1,4 @@
-"""pandas, optional: one rule for every ``to_frame`` (a clear error when it is missing).
+"""pandas, optional: one ``to_frame`` for every result with ``columns()`` (a clear error without it).
 
 Examples
 --------
@@ -52,4 +52,47 @@ def data_frame(columns: dict, what: str, instead: str):
     return pd.DataFrame(columns)
 
 
-__all__ = ["data_frame"]
+class ColumnFrame:
+    """Mixin of a result whose ``columns()`` is a ``{name: 1-D array}`` table: ``to_frame()``.
+
+    A subclass names its pandas-free exports in ``_FRAME_INSTEAD`` (the error message points
+    there when pandas is missing).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
+    ...                    fl.Scenario(0.1, 0.05))
+    >>> try:
+    ...     frame = resp.to_frame()
+    ... except fl.errors.MissingDependencyError:
+    ...     frame = None  # pandas is optional
+    >>> frame is None or list(frame.columns) == list(resp.columns())
+    True
+    """
+
+    _FRAME_INSTEAD = "columns"
+
+    def to_frame(self):
+        """The table :meth:`columns` as a ``pandas.DataFrame``, one row per entry.
+
+        Returns
+        -------
+        pandas.DataFrame
+
+        Raises
+        ------
+        MissingDependencyError
+            pandas is not installed (``pip install pandas``); the message names the exports
+            that need nothing.
+
+        Examples
+        --------
+        See :class:`ColumnFrame`.
+        """
+        name = type(self).__name__
+        instead = " / ".join(f"{name}.{m}" for m in self._FRAME_INSTEAD.split())
+        return data_frame(self.columns(), f"{name}.to_frame", instead)
+
+
+__all__ = ["ColumnFrame", "data_frame"]

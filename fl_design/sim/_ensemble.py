@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _validate as V
+from .._frames import ColumnFrame
 from .._json import jsonable
 from ._status import CONVERGENT_CODES, Status
 
@@ -28,7 +29,7 @@ SEVERITY = (Status.DIVERGED, Status.SOLVER_FAILED, Status.OSCILLATING, Status.ST
 
 
 @dataclass(frozen=True)
-class Ensemble:
+class Ensemble(ColumnFrame):
     """Verdicts and metrics of one design run against every plant of a family.
 
     Parameters
@@ -60,6 +61,8 @@ class Ensemble:
     >>> ens.n, ens.convergent_fraction, ens.sample(1)
     (3, 1.0, {'b': 1.1})
     """
+
+    _FRAME_INSTEAD = "to_dict columns"
 
     params: dict
     status: np.ndarray
@@ -174,36 +177,6 @@ class Ensemble:
                          "params": self.params, "status": self.labels.tolist(),
                          "tol": self.tol, "fractions": self.fractions,
                          "worst": self.worst(), "metrics": self.metrics})
-
-    def to_frame(self):
-        """One row per sample (:meth:`columns`) as a ``pandas.DataFrame``.
-
-        Returns
-        -------
-        pandas.DataFrame
-
-        Raises
-        ------
-        MissingDependencyError
-            pandas is not installed (``pip install pandas``; :meth:`to_dict` needs nothing).
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> import fl_design as fl
-        >>> from fl_design.sim._ensemble import Ensemble
-        >>> ens = Ensemble({"c": np.array([0.5, 0.7])}, np.array([2, 1]), {}, 1e-3, 1.0,
-        ...                np.ones(2))
-        >>> try:
-        ...     frame = ens.to_frame()
-        ... except fl.errors.MissingDependencyError:
-        ...     frame = None  # pandas is optional
-        >>> frame is None or frame.shape == (2, 3)
-        True
-        """
-        from .._frames import data_frame
-
-        return data_frame(self.columns(), "Ensemble.to_frame", "Ensemble.to_dict / Ensemble.columns")
 
     def _repr_html_(self) -> str:
         """A short HTML table for Jupyter: the family, the runs, the verdict fractions."""

@@ -21,13 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._frames import ColumnFrame
 from .._json import jsonable
 from ._metrics import STATUS_NAMES, Status, metrics_from_summary
 from ._status import MIN_CHANGE, T_SIGNIFICANT
 
 
 @dataclass(frozen=True)
-class Response:
+class Response(ColumnFrame):
     """One closed-loop run: trajectories, settings and metrics (module table).
 
     Samples after a divergence are NaN. Build it with :func:`fl_design.simulate`.
@@ -74,6 +75,8 @@ class Response:
     >>> resp.y.shape, resp.xhat.shape, sorted(resp.metrics)[:3]
     ((2000,), (2000, 2), ['decay_rate', 'decay_rate_se', 'divergence_time'])
     """
+
+    _FRAME_INSTEAD = "to_csv columns"
 
     t: np.ndarray
     r: np.ndarray
@@ -209,34 +212,6 @@ class Response:
         for i in range(self.x.shape[1]):
             cols[f"x{i + 1}"] = self.x[:, i]
         return cols
-
-    def to_frame(self):
-        """The trajectories (:meth:`columns`) as a ``pandas.DataFrame`` indexed by sample.
-
-        Returns
-        -------
-        pandas.DataFrame
-
-        Raises
-        ------
-        MissingDependencyError
-            pandas is not installed (``pip install pandas``; :meth:`to_csv` needs nothing).
-
-        Examples
-        --------
-        >>> import fl_design as fl
-        >>> resp = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
-        ...                    fl.Scenario(0.1, 0.05))
-        >>> try:
-        ...     frame = resp.to_frame()
-        ... except fl.errors.MissingDependencyError:
-        ...     frame = None  # pandas is optional
-        >>> frame is None or frame.shape == (50, 13)
-        True
-        """
-        from .._frames import data_frame
-
-        return data_frame(self.columns(), "Response.to_frame", "Response.to_csv / Response.columns")
 
     def to_csv(self, path=None, *, overwrite: bool = False) -> str:
         """The trajectories (:meth:`columns`) as CSV: a header line, then one row per sample.
