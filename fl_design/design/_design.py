@@ -184,6 +184,8 @@ class Design:
         Returns
         -------
         numpy.ndarray
+            ``(m,)`` in the order of :attr:`state_layout`: the estimator's state, ``u0``,
+            the integrator's 0.
 
         Examples
         --------

@@ -395,6 +395,7 @@ class EHGO(Estimator, EHGOViews):
         Returns
         -------
         numpy.ndarray
+            ``(rho + 1,)`` observer state ``xi`` (of the realization in use).
 
         Examples
         --------

@@ -257,6 +257,7 @@ def start_state(p, n: int, *, theta: float | None, y0: float, estimate=None) -> 
     Returns
     -------
     numpy.ndarray
+        ``(n,)`` observer state ``xi`` of the realization ``p`` belongs to.
 
     Examples
     --------

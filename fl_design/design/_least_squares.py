@@ -233,6 +233,8 @@ class LeastSquaresEstimator(Estimator):
         Returns
         -------
         numpy.ndarray
+            ``(window + 1,)``: the ``window`` buffered samples, oldest first, then the count
+            of samples seen.
 
         Examples
         --------

@@ -225,6 +225,7 @@ def parameter_columns(design, eps, gamma) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
+        Column ``i * n_g + j`` is the parameter vector at ``(eps[i], gamma[j])``.
 
     Examples
     --------

@@ -208,6 +208,8 @@ class RunSetup:
         Returns
         -------
         numpy.ndarray
+            One column per parameter vector, rows as the kernel's accumulator layout (plant
+            and design state, previous input, metric accumulators, run constants).
 
         Examples
         --------

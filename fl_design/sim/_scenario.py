@@ -84,6 +84,8 @@ class Noise:
         Returns
         -------
         numpy.ndarray
+            ``(n,)`` Gaussian samples of standard deviation :attr:`std`, drawn from
+            :attr:`seed` (the same seed gives the same samples).
 
         Examples
         --------
