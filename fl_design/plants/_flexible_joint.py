@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import math
 
-from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import library_plant, positive_params
+from ._common import definition_dict, library_plant, param_symbols, validated_params
 
 
 def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h: float = 0.155,
@@ -51,6 +50,7 @@ def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h
     Returns
     -------
     Plant
+        Relative degree 4 = n (no zero dynamics), constant ``b = k Ktau / (Jl Jm)``.
 
     Examples
     --------
@@ -59,43 +59,33 @@ def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h
     >>> p.relative_degree(), [round(v, 2) for v in p.b_bounds()]
     (4, [418.48, 418.48])
     """
-    vals = positive_params(Jm=Jm, Jl=Jl, m=m, h=h, k=k, Ktau=Ktau, g=g)
-    vals["B"] = V.nonnegative("B", B)
+    vals = validated_params({"Jm": Jm, "Jl": Jl, "m": m, "h": h, "k": k, "Ktau": Ktau, "g": g},
+                            {"B": B})
     return library_plant(flexible_joint_definition, params=vals, name="flexible_joint",
                          input_range=input_range)
 
 
 def flexible_joint_definition(params: dict) -> dict:
-    """The SymPy definition of :func:`flexible_joint` (validated ``params``; see there).
+    """The SymPy definition of :func:`flexible_joint` from its validated ``params``.
 
-    Parameters
-    ----------
-    params : dict
-        ``{name: float}`` as :func:`flexible_joint` validated them.
-
-    Returns
-    -------
-    dict
-        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+    The contract of a definition: :func:`~fl_design.plants._common.definition_dict`.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plants._flexible_joint import flexible_joint_definition
     >>> flexible_joint_definition(dict(fl.plants.flexible_joint()._recipe.params))["states"]
     [q1, q1_dot, q2, q2_dot]
     """
     import sympy as sp
 
-    s = {name: sp.Symbol(name, positive=True) for name in params}
+    s = param_symbols(params)
     q1, w1, q2, w2, u = sp.symbols("q1 q1_dot q2 q2_dot u", real=True)
     spring = s["k"] * (q1 - q2)
     rhs = [w1, (-s["m"] * s["g"] * s["h"] * sp.sin(q1) - spring) / s["Jl"],
            w2, (s["Ktau"] * u - s["B"] * w2 + spring) / s["Jm"]]
-    return {"states": [q1, w1, q2, w2], "input": u, "rhs": rhs, "output": q1,
-            "params": {s[name]: v for name, v in params.items()},
-            "region": {q1: (-math.pi, math.pi), w1: (-10.0, 10.0),
-                       q2: (-math.pi, math.pi), w2: (-10.0, 10.0)}}
+    return definition_dict(s, params, states=[q1, w1, q2, w2], input=u, rhs=rhs, output=q1,
+                           region={q1: (-math.pi, math.pi), w1: (-10.0, 10.0),
+                                   q2: (-math.pi, math.pi), w2: (-10.0, 10.0)})
 
 
 __all__ = ["flexible_joint"]

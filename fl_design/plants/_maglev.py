@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import library_plant, positive_params
+from ._common import definition_dict, library_plant, param_symbols, validated_params
 
 
 def maglev(*, m: float = 0.068, C: float = 3.2654e-5, L: float = 0.4125, R: float = 11.0,
@@ -54,6 +54,7 @@ def maglev(*, m: float = 0.068, C: float = 3.2654e-5, L: float = 0.4125, R: floa
     Returns
     -------
     Plant
+        Relative degree 3 = n, ``b < 0``, held at the gap ``y0`` (not at the origin).
 
     Raises
     ------
@@ -72,43 +73,32 @@ def maglev(*, m: float = 0.068, C: float = 3.2654e-5, L: float = 0.4125, R: floa
     >>> [round(v, 2) for v in p.b_bounds()]
     [-174.62, -18.19]
     """
-    vals = positive_params(m=m, C=C, L=L, R=R, g=g)
+    vals = validated_params({"m": m, "C": C, "L": L, "R": R, "g": g})
     y_op = V.positive("y0", y0)
     return library_plant(maglev_definition, params=vals, name="maglev", input_range=input_range,
                          y0=y_op)
 
 
 def maglev_definition(params: dict, *, y0: float) -> dict:
-    """The SymPy definition of :func:`maglev` (validated ``params``; see there).
+    """The SymPy definition of :func:`maglev` from its validated ``params``, held at gap ``y0``.
 
-    Parameters
-    ----------
-    params : dict
-        ``{name: float}`` as :func:`maglev` validated them.
-    y0 : float
-        The gap held at the operating point.
-
-    Returns
-    -------
-    dict
-        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``, ``operating_point``.
+    The contract of a definition: :func:`~fl_design.plants._common.definition_dict`; this one
+    also returns the ``operating_point`` ``{"y": y0}``.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plants._maglev import maglev_definition
-    >>> maglev_definition(dict(fl.plants.maglev()._recipe.params), y0=6e-3)["states"]
-    [y, v, i]
+    >>> maglev_definition(dict(fl.plants.maglev()._recipe.params), y0=6e-3)["operating_point"]
+    {'y': 0.006}
     """
     import sympy as sp
 
-    s = {k: sp.Symbol(k, positive=True) for k in params}
+    s = param_symbols(params)
     y, v, i, u = sp.symbols("y v i u", real=True)
     rhs = [v, s["g"] - s["C"] * i ** 2 / (s["m"] * y ** 2), (u - s["R"] * i) / s["L"]]
-    return {"states": [y, v, i], "input": u, "rhs": rhs, "output": y,
-            "params": {s[k]: val for k, val in params.items()},
-            "region": {y: (4e-3, 8e-3), v: (-0.5, 0.5), i: (0.5, 1.2)},
-            "operating_point": {"y": y0}}
+    return definition_dict(s, params, states=[y, v, i], input=u, rhs=rhs, output=y,
+                           region={y: (4e-3, 8e-3), v: (-0.5, 0.5), i: (0.5, 1.2)},
+                           operating_point={"y": y0})
 
 
 __all__ = ["maglev"]

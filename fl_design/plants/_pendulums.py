@@ -6,7 +6,7 @@ import math
 
 from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import library_plant, positive_params
+from ._common import definition_dict, library_plant, param_symbols, validated_params
 
 
 def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
@@ -40,6 +40,7 @@ def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
     Returns
     -------
     Plant
+        Relative degree 2, constant input coefficient ``b``.
 
     Examples
     --------
@@ -48,40 +49,29 @@ def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
     >>> p.relative_degree(), p.b_bounds()
     (2, (1.0, 1.0))
     """
-    vals = positive_params(g=g, l=l, b=b)
-    vals["c"] = V.nonnegative("c", c)
+    vals = validated_params({"g": g, "l": l, "b": b}, {"c": c})
     return library_plant(pendulum_definition, params=vals, name="pendulum",
                          input_range=input_range)
 
 
 def pendulum_definition(params: dict) -> dict:
-    """The SymPy definition of :func:`pendulum` (validated ``params``; see there).
+    """The SymPy definition of :func:`pendulum` from its validated ``params``.
 
-    Parameters
-    ----------
-    params : dict
-        ``{name: float}`` as :func:`pendulum` validated them.
-
-    Returns
-    -------
-    dict
-        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+    The contract of a definition: :func:`~fl_design.plants._common.definition_dict`.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plants._pendulums import pendulum_definition
-    >>> pendulum_definition(dict(fl.plants.pendulum()._recipe.params))["states"]
-    [theta, theta_dot]
+    >>> pendulum_definition({"g": 9.81, "l": 1.0, "b": 1.0, "c": 0.5})["rhs"][1]
+    b*u - c*theta_dot - g*sin(theta)/l
     """
     import sympy as sp
 
-    s = {k: sp.Symbol(k, positive=True) for k in params}
+    s = param_symbols(params)
     th, om, u = sp.symbols("theta theta_dot u", real=True)
     rhs = [om, -(s["g"] / s["l"]) * sp.sin(th) - s["c"] * om + s["b"] * u]
-    return {"states": [th, om], "input": u, "rhs": rhs, "output": th,
-            "params": {s[k]: v for k, v in params.items()},
-            "region": {th: (-math.pi, math.pi), om: (-10.0, 10.0)}}
+    return definition_dict(s, params, states=[th, om], input=u, rhs=rhs, output=th,
+                           region={th: (-math.pi, math.pi), om: (-10.0, 10.0)})
 
 
 
@@ -148,6 +138,7 @@ def cart_pendulum(inverted: bool = False, *, M: float = 1.0, m: float = 0.2, l: 
     Returns
     -------
     Plant
+        Relative degree 2 in the cart position; minimum phase hanging, not when inverted.
 
     Examples
     --------
@@ -160,38 +151,29 @@ def cart_pendulum(inverted: bool = False, *, M: float = 1.0, m: float = 0.2, l: 
     False
     """
     inverted = V.boolean("inverted", inverted)
-    vals = positive_params(M=M, m=m, l=l, J=J, g=g)
-    vals.update({k: V.nonnegative(k, v) for k, v in {"c": c, "gamma_p": gamma_p}.items()})
+    vals = validated_params({"M": M, "m": m, "l": l, "J": J, "g": g}, {"c": c, "gamma_p": gamma_p})
     return library_plant(cart_pendulum_definition, params=vals, input_range=input_range,
                          name="cart_pendulum_inverted" if inverted else "cart_pendulum",
                          inverted=inverted)
 
 
 def cart_pendulum_definition(params: dict, *, inverted: bool) -> dict:
-    """The SymPy definition of :func:`cart_pendulum` (validated ``params``; see there).
+    """The SymPy definition of :func:`cart_pendulum` from its validated ``params``.
 
-    Parameters
-    ----------
-    params : dict
-        ``{name: float}`` as :func:`cart_pendulum` validated them.
-    inverted : bool
-        Balance the pendulum upright.
-
-    Returns
-    -------
-    dict
-        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+    ``inverted`` balances the pendulum upright. The contract of a definition:
+    :func:`~fl_design.plants._common.definition_dict`.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plants._pendulums import cart_pendulum_definition
-    >>> cart_pendulum_definition(dict(fl.plants.cart_pendulum()._recipe.params), inverted=False)["states"]
-    [p, p_dot, theta, theta_dot]
+    >>> crane = cart_pendulum_definition(dict(fl.plants.cart_pendulum()._recipe.params),
+    ...                                  inverted=False)
+    >>> crane["states"], crane["output"]
+    ([p, p_dot, theta, theta_dot], p)
     """
     import sympy as sp
 
-    s = {k: sp.Symbol(k, positive=True) for k in params}
+    s = param_symbols(params)
     p, v, th, om, F = sp.symbols("p p_dot theta theta_dot F", real=True)
     sgn = 1 if inverted else -1
     ml, Jt = s["m"] * s["l"], s["J"] + s["m"] * s["l"] ** 2
@@ -201,9 +183,10 @@ def cart_pendulum_definition(params: dict, *, inverted: bool) -> dict:
     det = (s["M"] + s["m"]) * Jt - cos ** 2  # > 0: (M + m) J_t > m^2 l^2 since J_t > m l^2
     acc_p = (Jt * f_cart + cos * f_pend) / det  # Cramer's rule on the 2 x 2 mass matrix
     acc_th = (cos * f_cart + (s["M"] + s["m"]) * f_pend) / det
-    return {"states": [p, v, th, om], "input": F, "rhs": [v, acc_p, om, acc_th], "output": p,
-            "params": {s[k]: val for k, val in params.items()},
-            "region": {p: (-0.5, 0.5), v: (-2.0, 2.0), th: (-0.6, 0.6), om: (-5.0, 5.0)}}
+    return definition_dict(s, params, states=[p, v, th, om], input=F,
+                           rhs=[v, acc_p, om, acc_th], output=p,
+                           region={p: (-0.5, 0.5), v: (-2.0, 2.0), th: (-0.6, 0.6),
+                                   om: (-5.0, 5.0)})
 
 
 __all__ = ["cart_pendulum", "pendulum"]

@@ -6,7 +6,7 @@ import math
 
 from .. import _validate as V
 from ..symbolic._plant import Plant
-from ._common import library_plant, positive_params
+from ._common import definition_dict, library_plant, param_symbols, validated_params
 
 
 def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2: float = 0.09,
@@ -74,6 +74,7 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
     Returns
     -------
     Plant
+        Relative degree 2, or 3 with ``motor_lag``; ``b`` grows with the thrust ``|tau|``.
 
     Examples
     --------
@@ -83,8 +84,8 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
     (3, (3.6..., 6.8...))
     """
     motor_lag = V.boolean("motor_lag", motor_lag)
-    vals = positive_params(I2=I2, delta=delta, k2=k2, T20=T20, b2=b2)
-    vals.update({k: V.nonnegative(k, v) for k, v in {"a2": a2, "B1": B1, "B2": B2}.items()})
+    vals = validated_params({"I2": I2, "delta": delta, "k2": k2, "T20": T20, "b2": b2},
+                            {"a2": a2, "B1": B1, "B2": B2})
     t21 = V.positive("T21", T21)  # checked even when unused: a typo is never silently ignored
     if motor_lag:
         vals["T21"] = t21
@@ -94,19 +95,10 @@ def trms_yaw(motor_lag: bool = False, *, I2: float = 2e-2, a2: float = 0.02, b2:
 
 
 def trms_yaw_definition(params: dict, *, motor_lag: bool) -> dict:
-    """The SymPy definition of :func:`trms_yaw` (validated ``params``; see there).
+    """The SymPy definition of :func:`trms_yaw` from its validated ``params``.
 
-    Parameters
-    ----------
-    params : dict
-        ``{name: float}`` as :func:`trms_yaw` validated them (``T21`` only with the motor lag).
-    motor_lag : bool
-        Include the tail-motor state ``tau``.
-
-    Returns
-    -------
-    dict
-        ``states``, ``input``, ``rhs``, ``output``, ``params``, ``region``.
+    ``motor_lag`` adds the tail-motor state ``tau`` (and ``T21`` to ``params``). The contract
+    of a definition: :func:`~fl_design.plants._common.definition_dict`.
 
     Examples
     --------
@@ -117,7 +109,7 @@ def trms_yaw_definition(params: dict, *, motor_lag: bool) -> dict:
     """
     import sympy as sp
 
-    s = {k: sp.Symbol(k, positive=True) for k in params}
+    s = param_symbols(params)
     phi, w, tau, u = sp.symbols("phi phi_dot tau u", real=True)
     torque = lambda t: s["a2"] * t * sp.Abs(t) + s["b2"] * t
     friction = s["B1"] * w + s["B2"] * sp.tanh(w / s["delta"])
@@ -129,8 +121,8 @@ def trms_yaw_definition(params: dict, *, motor_lag: bool) -> dict:
     else:
         rhs = [w, (torque(s["k2"] * u / s["T20"]) - friction) / s["I2"]]
         states = [phi, w]
-    return {"states": states, "input": u, "rhs": rhs, "output": phi,
-            "params": {s[k]: v for k, v in params.items()}, "region": region}
+    return definition_dict(s, params, states=states, input=u, rhs=rhs, output=phi,
+                           region=region)
 
 
 __all__ = ["trms_yaw"]
