@@ -35,6 +35,15 @@ PAPER_WINDOWS = (9, 26)
 _DEFAULT_U_LIMITS = (-2.5, 2.5)
 
 
+def _ehgo_bench(rho: int, gains, eps: float, gamma: float, controller: dict,
+                u_limits=None) -> Design:
+    """EHGO of order ``rho + 1`` with all poles at ``-1/eps`` at ``T = 1 ms`` and the dynamic
+    controller ``gains``; ``u_limits`` unless ``controller`` sets its own."""
+    controller.setdefault("u_limits", u_limits)
+    return Design(estimator=EHGO(rho=rho, eps=eps, T=T_PAPER),
+                  controller=DynamicController(gains, gamma, **controller))
+
+
 def paper_controller(gamma: float = 3e-4, *, u_limits=_DEFAULT_U_LIMITS) -> DynamicController:
     """The paper's TRMS controller: ``K = (2, 4)``, ``k_I = 1e-3``, ``|xhat_2| <= 0.05``.
 
@@ -123,10 +132,8 @@ def pendulum_design(eps: float = 0.02, gamma: float = 1e-2, **controller) -> Des
 
     Parameters
     ----------
-    eps : float, optional
-        Observer time constant (default 0.02).
-    gamma : float, optional
-        Controller gain (default 1e-2).
+    eps, gamma : float, optional
+        Observer time constant and controller gain (defaults 0.02 and 1e-2).
     **controller
         More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
 
@@ -141,8 +148,7 @@ def pendulum_design(eps: float = 0.02, gamma: float = 1e-2, **controller) -> Des
     >>> fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 20.0)).status
     'converged'
     """
-    return Design(estimator=EHGO(rho=2, eps=eps, T=T_PAPER),
-                  controller=DynamicController((2.0, 4.0), gamma, **controller))
+    return _ehgo_bench(2, (2.0, 4.0), eps, gamma, controller)
 
 
 def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Design:
@@ -159,10 +165,9 @@ def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Des
 
     Parameters
     ----------
-    eps : float, optional
-        Observer time constant (default 0.05).
-    gamma : float, optional
-        Controller gain (default 3e-3; ``b`` in ``[3.6, 6.8]``).
+    eps, gamma : float, optional
+        Observer time constant and controller gain (defaults 0.05 and 3e-3;
+        ``b`` in ``[3.6, 6.8]``).
     **controller
         More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
 
@@ -177,9 +182,8 @@ def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Des
     >>> d.rho, d.controller.gains
     (3, (6.0, 11.0, 6.0))
     """
-    controller.setdefault("u_limits", _DEFAULT_U_LIMITS)
-    return Design(estimator=EHGO(rho=3, eps=eps, T=T_PAPER),
-                  controller=DynamicController(gains_from_poles([-1, -2, -3]), gamma, **controller))
+    return _ehgo_bench(3, gains_from_poles([-1, -2, -3]), eps, gamma, controller,
+                       _DEFAULT_U_LIMITS)
 
 
 def flexible_joint_design(eps: float = 5e-3, gamma: float = 3e-5, **controller) -> Design:
@@ -193,12 +197,10 @@ def flexible_joint_design(eps: float = 5e-3, gamma: float = 3e-5, **controller) 
 
     Parameters
     ----------
-    eps : float, optional
-        Observer time constant (default 5e-3).
-    gamma : float, optional
-        Controller gain (default 3e-5).
+    eps, gamma : float, optional
+        Observer time constant and controller gain (defaults 5e-3 and 3e-5).
     **controller
-        More :class:`~fl_design.DynamicController` options.
+        More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
 
     Returns
     -------
@@ -210,9 +212,7 @@ def flexible_joint_design(eps: float = 5e-3, gamma: float = 3e-5, **controller) 
     >>> fl.presets.flexible_joint_design().controller.gains
     (625.0, 500.0, 150.0, 20.0)
     """
-    controller.setdefault("u_limits", (-10.0, 10.0))
-    return Design(estimator=EHGO(rho=4, eps=eps, T=T_PAPER),
-                  controller=DynamicController(gains_from_poles([-5] * 4), gamma, **controller))
+    return _ehgo_bench(4, gains_from_poles([-5] * 4), eps, gamma, controller, (-10.0, 10.0))
 
 
 def cart_pendulum_design(eps: float = 5e-3, gamma: float = 0.05, **controller) -> Design:
@@ -226,12 +226,11 @@ def cart_pendulum_design(eps: float = 5e-3, gamma: float = 0.05, **controller) -
 
     Parameters
     ----------
-    eps : float, optional
-        Observer time constant (default 5e-3).
-    gamma : float, optional
-        Controller gain (default 0.05; ``b`` in ``[0.91, 0.95]`` 1/kg).
+    eps, gamma : float, optional
+        Observer time constant and controller gain (defaults 5e-3 and 0.05;
+        ``b`` in ``[0.91, 0.95]`` 1/kg).
     **controller
-        More :class:`~fl_design.DynamicController` options.
+        More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
 
     Returns
     -------
@@ -243,9 +242,7 @@ def cart_pendulum_design(eps: float = 5e-3, gamma: float = 0.05, **controller) -
     >>> fl.presets.cart_pendulum_design().controller.gains
     (4.0, 4.0)
     """
-    controller.setdefault("u_limits", (-10.0, 10.0))
-    return Design(estimator=EHGO(rho=2, eps=eps, T=T_PAPER),
-                  controller=DynamicController(gains_from_poles([-2, -2]), gamma, **controller))
+    return _ehgo_bench(2, gains_from_poles([-2, -2]), eps, gamma, controller, (-10.0, 10.0))
 
 
 def maglev_design(eps: float = 2e-3, gamma: float = -1.6e-3, **controller) -> Design:
@@ -265,12 +262,11 @@ def maglev_design(eps: float = 2e-3, gamma: float = -1.6e-3, **controller) -> De
 
     Parameters
     ----------
-    eps : float, optional
-        Observer time constant (default 2e-3).
-    gamma : float, optional
-        Controller gain (default -1.6e-3; ``b`` in ``[-174.6, -18.2]``).
+    eps, gamma : float, optional
+        Observer time constant and controller gain (defaults 2e-3 and -1.6e-3;
+        ``b`` in ``[-174.6, -18.2]``).
     **controller
-        More :class:`~fl_design.DynamicController` options.
+        More :class:`~fl_design.DynamicController` options (``ki``, ``u_limits``, ...).
 
     Returns
     -------
@@ -284,9 +280,7 @@ def maglev_design(eps: float = 2e-3, gamma: float = -1.6e-3, **controller) -> De
     >>> resp.status
     'converged'
     """
-    controller.setdefault("u_limits", (0.0, 24.0))
-    return Design(estimator=EHGO(rho=3, eps=eps, T=T_PAPER),
-                  controller=DynamicController(gains_from_poles([-40] * 3), gamma, **controller))
+    return _ehgo_bench(3, gains_from_poles([-40] * 3), eps, gamma, controller, (0.0, 24.0))
 
 
 #: The bench step of each library plant (config name -> reference, absolute output value): a
