@@ -152,6 +152,7 @@ def resolve_duration(loop, scenario, classifier) -> RunLength:
     Returns
     -------
     RunLength
+        The duration and how it was chosen (``reason``, and the ``tau`` it came from).
 
     Examples
     --------

@@ -206,6 +206,7 @@ class Ensemble(ColumnFrame):
         Returns
         -------
         matplotlib.figure.Figure
+            One histogram per metric, then the scatter of the verdicts over ``x`` and ``y``.
 
         Examples
         --------

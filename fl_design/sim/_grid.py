@@ -87,6 +87,7 @@ def max_memory() -> float:
     Returns
     -------
     float
+        The limit in bytes.
 
     Examples
     --------
@@ -112,6 +113,7 @@ def block_length(ncols: int, threads: int, compiled: bool) -> int:
     Returns
     -------
     int
+        At least 64.
 
     Examples
     --------

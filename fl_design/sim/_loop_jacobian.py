@@ -348,6 +348,8 @@ class LoopLinearizer:
         Returns
         -------
         tuple
+            ``X`` the loop state at the fixed point, ``J = dF/dX`` there, ``source`` as
+            :attr:`SampledLinearization.equilibrium_source`, ``residual`` ``max |F(X) - X|``.
 
         Raises
         ------
@@ -398,6 +400,7 @@ class LoopLinearizer:
         Returns
         -------
         SampledLinearization
+            Matrix, eigenvalues and spectral radius at the equilibrium, and how it was found.
 
         Examples
         --------

@@ -359,6 +359,7 @@ def metric_layout(rho: int) -> Layout:
     Returns
     -------
     Layout
+        Name -> slice of every accumulator in the packed vector.
 
     Examples
     --------
@@ -380,6 +381,7 @@ def initial_values(rho: int) -> dict[str, np.ndarray]:
     Returns
     -------
     dict
+        ``{name: (1,) or (rho + 1,) array}`` of the accumulators' initial values.
 
     Examples
     --------
@@ -414,6 +416,7 @@ def signals(*, e, u, u_prev, k, est_err, y, y0, step, tol, k_tail, k_mid, outsid
     Returns
     -------
     dict
+        ``{name: casadi.SX}`` per-sample signals that :func:`update` accumulates.
 
     Examples
     --------
@@ -451,6 +454,7 @@ def update(acc: dict, s: dict) -> dict:
     Returns
     -------
     dict
+        ``{name: casadi.SX}`` for every accumulator of :data:`ACCUMULATORS`.
 
     Examples
     --------

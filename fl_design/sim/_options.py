@@ -121,6 +121,7 @@ class Classifier:
         Returns
         -------
         int
+            ``min(N - 1, floor((1 - tail_fraction) N))``.
 
         Examples
         --------
@@ -394,6 +395,7 @@ def option(name: str, value, cls, *, default=None, what: str | None = None):
     Returns
     -------
     object
+        ``value``, or the default built when it is None.
 
     Examples
     --------

@@ -203,6 +203,7 @@ class RobustMap:
         Returns
         -------
         matplotlib.figure.Figure
+            The heat map, the robust eps* drawn at ``level`` over it.
 
         Examples
         --------

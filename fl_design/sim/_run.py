@@ -395,6 +395,7 @@ def b_sign(plant) -> int:
     Returns
     -------
     int
+        +1, -1, or 0 when neither the region nor the operating point gives a sign.
 
     Examples
     --------

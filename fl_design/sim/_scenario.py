@@ -32,6 +32,7 @@ def max_samples() -> int:
     Returns
     -------
     int
+        The limit in samples per run.
 
     Examples
     --------
@@ -213,6 +214,7 @@ class Scenario:
         Returns
         -------
         int
+            ``N >= 1``, at most :func:`max_samples`.
 
         Raises
         ------

@@ -185,6 +185,7 @@ class StabilityMap:
         Returns
         -------
         str
+            One sentence; "" when no point was re-run longer.
 
         Examples
         --------
@@ -358,6 +359,7 @@ class StabilityMap:
         Returns
         -------
         matplotlib.figure.Figure
+            The verdict heat map, the curves overlaid, with a legend.
 
         Examples
         --------
