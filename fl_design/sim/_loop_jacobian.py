@@ -49,12 +49,10 @@ that mode is coupled and stays in the spectrum.)
 
 Examples
 --------
+The public entry point is :func:`fl_design.sampled_linearization`:
+
 >>> import fl_design as fl
->>> from fl_design.sim import ClosedLoop
->>> from fl_design.sim._loop_jacobian import LoopLinearizer
->>> d = fl.presets.pendulum_design()
->>> lin = LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4))
->>> res = lin(0.0, d.parameter_vector())
+>>> res = fl.sampled_linearization(fl.plants.pendulum(), fl.presets.pendulum_design())
 >>> res.decoupled, res.stable, res.equilibrium_source
 (('z',), True, 'newton')
 """
@@ -218,13 +216,14 @@ class LoopLinearizer:
 
     Examples
     --------
+    The loop state of the flexible joint: four plant states, the order-5 EHGO, ``u``, ``z``.
+
     >>> import fl_design as fl
     >>> from fl_design.sim import ClosedLoop
     >>> from fl_design.sim._loop_jacobian import LoopLinearizer
-    >>> d = fl.presets.pendulum_design()
-    >>> lin = LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4))
-    >>> lin.names
-    ('theta', 'theta_dot', 'xi_0', 'xi_1', 'xi_2', 'u', 'z')
+    >>> loop = ClosedLoop(fl.plants.flexible_joint(), fl.presets.flexible_joint_design(), 4)
+    >>> LoopLinearizer(loop).names
+    ('q1', 'q1_dot', 'q2', 'q2_dot', 'xi_0', 'xi_1', 'xi_2', 'xi_3', 'xi_4', 'u', 'z')
     """
 
     def __init__(self, loop: ClosedLoop):
@@ -259,12 +258,14 @@ class LoopLinearizer:
 
         Examples
         --------
+        The maglev rests at its 6 mm gap, the observer at that output, ``u`` at ``u_eq``:
+
         >>> import fl_design as fl
         >>> from fl_design.sim import ClosedLoop
         >>> from fl_design.sim._loop_jacobian import LoopLinearizer
-        >>> d = fl.presets.pendulum_design()
-        >>> LoopLinearizer(ClosedLoop(fl.plants.pendulum(), d, substeps=4)).start().tolist()
-        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        >>> loop = ClosedLoop(fl.plants.maglev(), fl.presets.maglev_design(), 4)
+        >>> LoopLinearizer(loop).start().round(4).tolist()
+        [0.006, 0.0, 0.8576, 0.006, 0.0, 0.0, 0.0, 9.4333, 0.0]
         """
         loop = self.loop
         y0 = float(self._h(loop.plant.x_op))
