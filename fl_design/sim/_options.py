@@ -51,7 +51,7 @@ class Classifier:
         Fraction of the run, at its end, used for the tail metrics, in (0, 1] (default 0.2).
     divergence_bound : float or array_like, optional
         Bound on ``|x - x_op|`` per state beyond which a run is diverged (default: 10 x the
-        region's width per state, else 1e6; see :func:`fl_design.sim.default_divergence_bound`).
+        region's width per state, else 1e6; see :meth:`bound_for`).
 
     Raises
     ------
@@ -84,21 +84,27 @@ class Classifier:
                     raise ParameterError(f"divergence_bound must be > 0, got {arr.tolist()}")
 
     def bound_for(self, plant) -> np.ndarray:
-        """Per-state divergence bound for ``plant``.
+        """Per-state bound on ``|x - x_op|`` for ``plant``: as given, or 10 x the region's width.
+
+        By default a run whose state leaves this box is *diverged* (it has left the region of
+        interest ten times over: no controller of that region is working any more); states
+        without a region get a large absolute bound, 1e6, that only catches escapes.
 
         Parameters
         ----------
         plant : Plant
-            The plant.
+            Its ``n`` states and their region.
 
         Returns
         -------
         numpy.ndarray
-            ``(n,)``.
+            ``(n,)`` bounds.
 
         Examples
         --------
         >>> import fl_design as fl
+        >>> fl.Classifier().bound_for(fl.plants.pendulum()).round(2).tolist()
+        [62.83, 200.0]
         >>> fl.Classifier(divergence_bound=2.0).bound_for(fl.plants.pendulum()).tolist()
         [2.0, 2.0]
         """

@@ -33,33 +33,6 @@ from ._options import RK4, Classifier, Scenario, option
 from .kernel._loop import ClosedLoop, resolve_substeps
 
 
-def default_divergence_bound(plant) -> np.ndarray:
-    """Per-state bound on ``|x - x_op|``: 10 x the region's width, else 1e6.
-
-    A run whose state leaves this box is *diverged* (it has left the region of interest ten
-    times over: no controller of that region is working any more); states without a region get
-    a large absolute bound that only catches escapes.
-
-    Parameters
-    ----------
-    plant : Plant
-        The plant.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n,)`` bounds.
-
-    Examples
-    --------
-    >>> import fl_design as fl
-    >>> from fl_design.sim._run import default_divergence_bound
-    >>> default_divergence_bound(fl.plants.pendulum()).round(2).tolist()
-    [62.83, 200.0]
-    """
-    return Classifier().bound_for(plant)
-
-
 @dataclass(frozen=True)
 class RunSetup:
     """Validated inputs of one run (or of every run of a sweep): samples and constants.
@@ -390,7 +363,7 @@ def b_sign(plant) -> int:
     Parameters
     ----------
     plant : Plant
-        The plant.
+        Its ``b`` over the region, or at the operating point.
 
     Returns
     -------
@@ -418,7 +391,7 @@ def check_gamma_sign(plant, gamma) -> None:
     Parameters
     ----------
     plant : Plant
-        The plant.
+        Its ``b`` sets the valid sign (:func:`b_sign`).
     gamma : float or array_like
         The controller gain(s).
 
@@ -457,4 +430,4 @@ def _region(plant) -> np.ndarray:
                      [np.inf if r is None else r[1] for r in ranges]])
 
 
-__all__ = ["RunSetup", "b_sign", "check_gamma_sign", "default_divergence_bound", "prepare_run"]
+__all__ = ["RunSetup", "b_sign", "check_gamma_sign", "prepare_run"]

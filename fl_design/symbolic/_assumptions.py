@@ -78,7 +78,7 @@ def zero_dynamics_eigenvalues(plant) -> np.ndarray:
     Parameters
     ----------
     plant : Plant
-        The plant.
+        Linearized at its operating point ``(x_op, u_eq)``.
 
     Returns
     -------
@@ -114,7 +114,7 @@ def check_assumptions(plant, *, what: str = "the design") -> None:
     Parameters
     ----------
     plant : Plant
-        The plant.
+        Its zero dynamics and its ``b`` over the region are checked.
     what : str, optional
         What is refused, for the message (e.g. ``"fl.tune"``, ``"fl-design run"``).
 

@@ -26,7 +26,7 @@ from fl_design.errors import (
     ResourceLimitError,
 )
 from fl_design.sim import ClosedLoop
-from fl_design.sim._run import default_divergence_bound, prepare_run
+from fl_design.sim._run import prepare_run
 from fl_design.sim.kernel._loop import default_substeps
 
 T = 1e-3
@@ -197,7 +197,7 @@ def test_finite_escape_is_classified_not_raised(kind, tmp_path):
 
 
 def test_divergence_bound_default_and_custom(pendulum_design, pendulum):
-    np.testing.assert_allclose(default_divergence_bound(pendulum), [20 * math.pi, 200.0])
+    np.testing.assert_allclose(fl.Classifier().bound_for(pendulum), [20 * math.pi, 200.0])
     resp = fl.simulate(pendulum, pendulum_design(eps=0.2), fl.Scenario(0.05, 10.0), classifier=fl.Classifier(divergence_bound=0.2))
     assert resp.diverged
     k = resp.divergence_index
