@@ -14,6 +14,8 @@ Examples
 >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
 >>> run.N, run.k_tail, run.step
 (1000, 800, 0.1)
+>>> run.initial_accumulator(d.parameter_vector()).shape  # one column per parameter vector
+(106, 1)
 """
 
 from __future__ import annotations
@@ -78,12 +80,13 @@ class RunSetup:
 
     Examples
     --------
+    The maglev starts at its 6 mm gap: a 0.2 mm step, judged within 2 % of it.
+
     >>> import fl_design as fl
     >>> from fl_design.sim._run import prepare_run
-    >>> d = fl.presets.pendulum_design()
-    >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
-    >>> run.D.shape, run.tol
-    ((3, 1000), 0.002)
+    >>> run = prepare_run(fl.plants.maglev(), fl.presets.maglev_design(), fl.Scenario(6.2e-3, 0.5))
+    >>> run.D.shape, run.y0, round(run.step, 6), round(run.tol, 9)
+    ((3, 500), 0.006, 0.0002, 4e-06)
     """
 
     loop: ClosedLoop
@@ -186,12 +189,7 @@ class RunSetup:
 
         Examples
         --------
-        >>> import fl_design as fl
-        >>> from fl_design.sim._run import prepare_run
-        >>> d = fl.presets.pendulum_design()
-        >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.1, 1.0))
-        >>> run.initial_accumulator(d.parameter_vector()).shape
-        (106, 1)
+        See :mod:`fl_design.sim._run`.
         """
         P = np.asarray(P, dtype=float).reshape(self.loop.n_p, -1)
         return self.loop.layout.pack(

@@ -2,10 +2,11 @@
 
 Examples
 --------
+A reference may be a function of time, sampled at ``t = kT``:
+
 >>> import fl_design as fl
->>> sc = fl.Scenario(0.3, 20.0, noise=fl.Noise(std=1e-3, seed=1))
->>> sc.n_samples(1e-3), sc.noise.std
-(20000, 0.001)
+>>> fl.Scenario(lambda t: 0.1 * (t >= 2e-3), 5e-3).reference_samples(1e-3).tolist()
+[0.0, 0.0, 0.1, 0.1, 0.1]
 """
 
 from __future__ import annotations

@@ -112,7 +112,8 @@ def code_version() -> str:
     Returns
     -------
     str
-        64 hexadecimal digits.
+        64 hexadecimal digits; they change with any source of :mod:`fl_design.symbolic` or
+        ``fl_design/_*.py``, fl_design's version, Python's, or SymPy, CasADi, NumPy, SciPy's.
 
     Examples
     --------

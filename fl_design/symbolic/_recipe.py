@@ -158,7 +158,7 @@ class Recipe:
         Returns
         -------
         str
-            64 hexadecimal digits.
+            64 hexadecimal digits: the name of the plant's derivations in the cache.
 
         Examples
         --------
