@@ -89,35 +89,13 @@ def metrics_from_trajectories(resp) -> dict:
     }
 
 
-def count_reversals(e, h: float) -> int:
-    """Direction reversals of ``e`` with hysteresis ``h``: turning points of its zigzag.
+def turning_points(e, h: float) -> list:
+    """Turning points ``[(index, value), ...]`` of the zigzag of ``e`` with hysteresis ``h``.
 
     A zigzag leg starts once ``e`` has left the range of the samples so far by more than ``h``
     (upwards or downwards); each later move back by more than ``h`` from the leg's extreme ends
     the leg at a turning point (a reversal) and starts the next one.
     """
-    values = [float(v) for v in e]
-    legs, top, bottom, trend = 0, values[0], values[0], 0
-    for v in values[1:]:
-        if trend == 0:
-            top, bottom = max(top, v), min(bottom, v)
-            if v < top - h:
-                trend, bottom = -1, v
-            elif v > bottom + h:
-                trend, top = 1, v
-        elif trend > 0:
-            if v < top - h:
-                legs, trend, bottom = legs + 1, -1, v
-            top = max(top, v)
-        else:
-            if v > bottom + h:
-                legs, trend, top = legs + 1, 1, v
-            bottom = min(bottom, v)
-    return legs
-
-
-def turning_points(e, h: float) -> list:
-    """The zigzag of :func:`count_reversals` as ``[(index, value), ...]`` of its turning points."""
     values = [float(v) for v in e]
     points, top, bottom, trend = [], values[0], values[0], 0
     for i, v in enumerate(values[1:], 1):

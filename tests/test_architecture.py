@@ -14,13 +14,13 @@
 
 from __future__ import annotations
 
-import ast
 import importlib
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1] / "fl_design"
+from tests.source_imports import ROOT, imported_names, module_name
+
 LAYERS = ("symbolic", "design", "sim", "analysis", "codegen", "app")
 MAX_EXPORTS = 20
 
@@ -34,24 +34,10 @@ def _edges() -> set[tuple[str, str]]:
     edges = set()
     for path in ROOT.rglob("*.py"):
         src = _unit(path)
-        pkg = ".".join(("fl_design", *path.relative_to(ROOT).parts[:-1]))
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = pkg.split(".")[: len(pkg.split(".")) - node.level + 1]
-                    mod = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    mod = node.module or ""
-                names = [mod] if node.module else [f"{mod}.{a.name}" for a in node.names]
-            elif isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            else:
-                continue
-            for name in names:
-                parts = name.split(".")
-                if parts[0] == "fl_design" and len(parts) > 1 and parts[1] not in (src,
-                                                                                    "__init__"):
-                    edges.add((src, parts[1]))
+        for name in imported_names(path):
+            parts = name.split(".")
+            if parts[0] == "fl_design" and len(parts) > 1 and parts[1] not in (src, "__init__"):
+                edges.add((src, parts[1]))
     return edges
 
 
@@ -100,38 +86,13 @@ def test_a_layer_exports_its_api_only(layer):
         assert getattr(module, name).__doc__ or name.isupper(), f"{layer}.{name} undocumented"
 
 
-def _module_name(path: Path) -> str:
-    rel = ".".join(("fl_design", *path.relative_to(ROOT).with_suffix("").parts))
-    return rel.removesuffix(".__init__")
-
-
 def _module_imports(path: Path) -> set[str]:
     """``fl_design.*`` names a module imports anywhere (``if TYPE_CHECKING:`` excepted)."""
-    name = _module_name(path)
-    pkg = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
-    tree = ast.parse(path.read_text())
-    skip = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            skip |= {id(m) for m in ast.walk(node)}
-    out = set()
-    for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
-        if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = pkg.split(".")[: len(pkg.split(".")) - node.level + 1]
-                mod = ".".join(base + ([node.module] if node.module else []))
-            else:
-                mod = node.module or ""
-            out |= {mod, *(f"{mod}.{a.name}" for a in node.names)}
-        elif isinstance(node, ast.Import):
-            out |= {a.name for a in node.names}
-    return {m for m in out if m.startswith("fl_design.")}
+    return {m for m in imported_names(path, type_checking=False) if m.startswith("fl_design.")}
 
 
 def _module_graph() -> dict[str, set[str]]:
-    mods = {_module_name(p): p for p in ROOT.rglob("*.py")}
+    mods = {module_name(p): p for p in ROOT.rglob("*.py")}
     graph = {}
     for m, path in mods.items():
         targets = set()
