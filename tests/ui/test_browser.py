@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import shutil
-import threading
 import time
 
 import pytest
@@ -30,17 +29,13 @@ pytestmark = [
 
 
 @pytest.fixture(scope="module")
-def page(trms_tuner, tmp_path_factory):
+def page(served_tuner):
     from selenium.webdriver.chrome.options import Options
     from selenium.webdriver.chrome.service import Service
 
-    from fl_design.ui import TunerApp, make_server, url_of
+    from fl_design.ui import url_of
 
-    app = TunerApp(trms_tuner, tmp_path_factory.mktemp("ui") / "out", background=False)
-    httpd = make_server(app, 0)
-    thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1},
-                              daemon=True)
-    thread.start()
+    app, httpd = served_tuner
     opts = Options()
     for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
         opts.add_argument(a)
@@ -54,10 +49,6 @@ def page(trms_tuner, tmp_path_factory):
         yield drv, app
     finally:
         drv.quit()
-        httpd.shutdown()
-        httpd.server_close()
-        app.close()
-        thread.join(timeout=10)
 
 
 def _wait(drv, script, timeout):

@@ -5,26 +5,17 @@ from __future__ import annotations
 
 import http.client
 import json
-import threading
 from pathlib import Path
 
 import pytest
 
-from fl_design.ui import TunerApp, make_server
+from fl_design.ui import make_server
 
 
 @pytest.fixture(scope="module")
-def served(trms_tuner, tmp_path_factory):
-    app = TunerApp(trms_tuner, tmp_path_factory.mktemp("ui") / "out", background=False)
-    httpd = make_server(app, 0)
-    thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1},
-                              daemon=True)
-    thread.start()
-    yield app, httpd.server_address[1]
-    httpd.shutdown()
-    httpd.server_close()
-    app.close()
-    thread.join(timeout=10)
+def served(served_tuner):
+    app, httpd = served_tuner
+    return app, httpd.server_address[1]
 
 
 def _request(port, method, path, body=None, headers=None):
