@@ -10,6 +10,9 @@
   matrices ``(A_d, B_d)`` and ``(D^-1 C_d, D^-1 D_d)``; the controller law written out:
   ``z_k = z + T xhat_1``, ``v = -k_1 xhat_1 - sum k_i xhat_i - k_I z_k``,
   ``u_k = u + gamma (v - sigmahat)``. Loop state ``(x_1..x_rho, xi, u, z)``.
+* :data:`B_TRMS`, :data:`GAINS`, :data:`KI`, :data:`T`, :func:`paper_ehgo`,
+  :func:`paper_surrogate`: the paper's TRMS loop typed again (not read from
+  :mod:`fl_design.presets`), for the certificate tests.
 """
 
 from __future__ import annotations
@@ -263,6 +266,24 @@ def surrogate_loop_matrix(ehgo, gains, gamma: float, ki: float, b: float) -> np.
     Phi, Gam = chain_zoh_closed_form(rho, T)
     return np.vstack([Phi @ Px + b * Gam[:, None] @ U[None, :],
                       Bd.reshape(-1, 1) @ Y + Ad @ Pxi, U[None, :], Z[None, :]])
+
+
+#: The TRMS yaw's input-coefficient range and the paper's controller ``K``, ``k_I`` and sampling
+#: time (the paper's values, typed here independently of :mod:`fl_design.presets`).
+B_TRMS = (3.6, 6.8)
+GAINS, KI, T = (2.0, 4.0), 1e-3, 1e-3
+
+
+def paper_ehgo(eps: float):
+    """The paper's observer at ``eps``: ``s^3 + 6 s^2 + 11 s + 6``, bilinear, ``T = 1 ms``."""
+    import fl_design as fl
+
+    return fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+
+
+def paper_surrogate(eps: float, b: float, gamma: float = 3e-4) -> np.ndarray:
+    """:func:`surrogate_loop_matrix` of the paper's TRMS loop at ``eps``, ``b`` and ``gamma``."""
+    return surrogate_loop_matrix(paper_ehgo(eps), GAINS, gamma, KI, b)
 
 
 def spectral_radius_over_b(ehgo, gains, gamma, ki, b_values) -> float:

@@ -14,10 +14,16 @@ import fl_design as fl
 from fl_design.analysis._lmi import vertex_lmi
 from fl_design.analysis._surrogate import SurrogateLoop
 from fl_design.errors import CertificationError, DesignMismatchError, ParameterError
-from tests.oracles import spectral_radius_over_b, surrogate_loop_matrix
+from tests.oracles import (
+    B_TRMS,
+    GAINS,
+    KI,
+    T,
+    paper_ehgo,
+    spectral_radius_over_b,
+    surrogate_loop_matrix,
+)
 
-B_TRMS = (3.6, 6.8)
-GAINS, KI, T = (2.0, 4.0), 1e-3, 1e-3
 GAMMAS = (3e-4, 1e-3, 3e-3)
 
 
@@ -40,8 +46,8 @@ def test_eps_star_frozen_agrees_with_independent_eigenvalues(certs, gamma):
     """Just below eps*_frozen every b of the grid is Schur, just above one is not."""
     f = certs[gamma].eps_star_frozen
     grid = np.linspace(*B_TRMS, 41)
-    below = fl.EHGO(2, f * (1 - 1e-3), T, coeffs=(6, 11, 6))
-    above = fl.EHGO(2, f * (1 + 1e-2 * 0.2), T, coeffs=(6, 11, 6))
+    below = paper_ehgo(f * (1 - 1e-3))
+    above = paper_ehgo(f * (1 + 1e-2 * 0.2))
     assert spectral_radius_over_b(below, GAINS, gamma, KI, grid) < 1.0
     assert spectral_radius_over_b(above, GAINS, gamma, KI, grid) > 1.0
 
@@ -52,15 +58,15 @@ def test_frozen_bracket_is_sound_and_tight(certs, gamma):
     fr = c.bracket("frozen")
     assert fr.certified <= c.eps_star_frozen < fr.refuted
     assert fr.certified >= 0.8 * fr.refuted
-    ehgo = fl.EHGO(2, fr.certified, T, coeffs=(6, 11, 6))  # certified => Schur
+    ehgo = paper_ehgo(fr.certified)  # certified => Schur
     assert spectral_radius_over_b(ehgo, GAINS, gamma, KI, np.linspace(*B_TRMS, 101)) < 1.0
-    ehgo = fl.EHGO(2, fr.refuted, T, coeffs=(6, 11, 6))  # refuted => a constant b diverges
+    ehgo = paper_ehgo(fr.refuted)  # refuted => a constant b diverges
     assert spectral_radius_over_b(ehgo, GAINS, gamma, KI, np.linspace(*B_TRMS, 41)) > 1.0
 
 
 def _period_radius(eps, gamma, runs):
     """Spectral radius of one period of ``runs`` ((b, samples), ...) from the oracle matrices."""
-    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+    ehgo = paper_ehgo(eps)
     acc = np.eye(7)
     for b, n in runs:
         acc = np.linalg.matrix_power(surrogate_loop_matrix(ehgo, GAINS, gamma, KI, b), n) @ acc
@@ -133,7 +139,7 @@ def test_rate_bounded_bracket_respects_the_rate():
 def _rate_attack(eps, gamma, db, seed):
     """Random rate-bounded sequences of b (random walks, ramps with dwells), oracle matrices."""
     rng = np.random.default_rng(seed)
-    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+    ehgo = paper_ehgo(eps)
     worst = 0.0
     for _ in range(4):
         b, seq, step = B_TRMS[0], [], 1.0
@@ -170,7 +176,7 @@ def test_paper_design_is_certified(certs):
 
 def test_common_lyapunov_function_checked_independently():
     """A common P from the LMI makes M(b)^T P M(b) - P < 0 on a fine b grid (oracle matrices)."""
-    ehgo = fl.EHGO(2, 0.05, T, coeffs=(6, 11, 6))
+    ehgo = paper_ehgo(0.05)
     Ms = [surrogate_loop_matrix(ehgo, GAINS, 1e-3, KI, b) for b in B_TRMS]
     D = [(M - np.eye(7)) / T for M in Ms]
     _, (s, _) = scipy.linalg.matrix_balance(abs(D[0]) + abs(D[1]), permute=False, separate=True)
@@ -199,7 +205,7 @@ def test_too_small_gamma_is_never_certified_with_its_lower_bound():
     grid = np.linspace(*B_TRMS, 41)
 
     def rho_at(eps, gamma):
-        return spectral_radius_over_b(fl.EHGO(2, eps, T, coeffs=(6, 11, 6)), GAINS, gamma, KI,
+        return spectral_radius_over_b(paper_ehgo(eps), GAINS, gamma, KI,
                                       grid)
 
     # independent eigenvalues: below the bound no eps of the grid is stable, above one is
@@ -219,7 +225,7 @@ def test_certify_gamma_of_the_paper_design():
     g = fl.certify_gamma(fl.presets.paper_design(), B_TRMS)
     assert g.certified and g.gamma_min < 3e-4 < g.gamma_max
     assert g.paper_bound == 1 / 6.8 and g.convergence_bound == 2 / 6.8
-    ehgo = fl.EHGO(2, 0.05, T, coeffs=(6, 11, 6))
+    ehgo = paper_ehgo(0.05)
     grid = np.linspace(*B_TRMS, 41)
     assert spectral_radius_over_b(ehgo, GAINS, g.gamma_max * 0.999, KI, grid) < 1.0
     assert spectral_radius_over_b(ehgo, GAINS, g.gamma_max * 1.01, KI, grid) > 1.0
@@ -331,7 +337,7 @@ def _stored_certificate_holds(point, gamma, eps):
     ``P(b)`` interpolated linearly on its piece. A Jacobi congruence (``diag(P)^(-1/2)``,
     independent of the certifier's balancing) puts the matrices on one scale.
     """
-    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
+    ehgo = paper_ehgo(eps)
     pieces, lyap = point.b_pieces, point.lyapunov
     assert point.certified and len(pieces) == len(lyap) == point.pieces >= 1
     assert pieces[0][0] == B_TRMS[0] and pieces[-1][1] == B_TRMS[1]
@@ -408,7 +414,7 @@ def test_gamma_lower_bound_to_a_tenth_of_a_percent():
 
     def stable_eps(gamma, eps_values):
         return [e for e in eps_values if spectral_radius_over_b(
-            fl.EHGO(2, e, T, coeffs=(6, 11, 6)), GAINS, gamma, KI, grid) < 1.0]
+            paper_ehgo(e), GAINS, gamma, KI, grid) < 1.0]
 
     dense = np.concatenate([np.geomspace(1e-3, 0.05, 40), np.linspace(0.05, 0.15, 300),
                             np.geomspace(0.15, 1.0, 40)])
@@ -423,7 +429,7 @@ def test_eps_star_is_a_band_just_above_the_gamma_lower_bound():
     assert 0.02 < a < 0.05 and 0.1 < b < 0.15 and "band" in c.reason
     grid = np.linspace(*B_TRMS, 41)
     for eps, inside in ((0.99 * a, False), (1.01 * a, True), (0.99 * b, True), (1.01 * b, False)):
-        r = spectral_radius_over_b(fl.EHGO(2, eps, T, coeffs=(6, 11, 6)), GAINS, 1.35e-4, KI, grid)
+        r = spectral_radius_over_b(paper_ehgo(eps), GAINS, 1.35e-4, KI, grid)
         assert (r < 1.0) == inside, (eps, r)
 
 
@@ -463,7 +469,7 @@ def test_loop_margins_agree_with_the_gamma_interval_and_a_delayed_loop():
     g = fl.certify_gamma(design, B_TRMS)
     m = loop_margins(design, B_TRMS[1])
     assert m.gain_margins[1] == pytest.approx(g.gamma_max / 3e-4, rel=2e-3)
-    ehgo = fl.EHGO(2, 0.05, T, coeffs=(6, 11, 6))
+    ehgo = paper_ehgo(0.05)
     M = surrogate_loop_matrix(ehgo, GAINS, 3e-4, KI, B_TRMS[1])
     np.testing.assert_allclose(np.sort(np.abs(m.poles)), np.sort(np.abs(np.linalg.eigvals(M))),
                                atol=1e-9)

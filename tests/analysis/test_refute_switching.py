@@ -5,21 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import fl_design as fl
 from fl_design.analysis._refute import (
     common_modes,
     guide_rate,
     pontryagin_period,
     switching_refutation,
 )
-from tests.oracles import surrogate_loop_matrix
-
-B_TRMS = (3.6, 6.8)
-GAINS, KI, T = (2.0, 4.0), 1e-3, 1e-3
-
-
-def _oracle(eps, b):
-    return surrogate_loop_matrix(fl.EHGO(2, eps, T, coeffs=(6, 11, 6)), GAINS, 3e-4, KI, b)
+from tests.oracles import B_TRMS, paper_surrogate
 
 
 def _radius(Ms, seq):
@@ -43,7 +35,7 @@ def test_trms_refutation_below_the_old_bound_checked_with_oracle_matrices():
     """eps = 0.1205: a dwell pair near (613, 433) grows (the log-grid search stopped at 0.1237
     while the integrator's floor hid the other eigenvalues)."""
     eps = 0.1205
-    Ms = [_oracle(eps, b) for b in B_TRMS]
+    Ms = [paper_surrogate(eps, b) for b in B_TRMS]
     r = switching_refutation(lambda b: Ms[int(b == B_TRMS[1])], *B_TRMS, None)
     assert r.refuted
     seq = [int(b == B_TRMS[1]) for b, n in r.runs for _ in range(n)]
@@ -71,6 +63,6 @@ def test_pontryagin_climbs_from_a_random_period_to_a_growing_extremal(seed):
 
 def test_trms_best_dwell_pair_is_a_maximum_principle_extremal():
     eps = 0.12
-    Ms = [_oracle(eps, b) for b in B_TRMS]
+    Ms = [paper_surrogate(eps, b) for b in B_TRMS]
     seq, radius, bad = pontryagin_period(Ms[0], Ms[1], [0] * 616 + [1] * 432)
     assert bad == 0 and seq == [0] * 616 + [1] * 432 and radius < 1.0

@@ -21,10 +21,7 @@ from fl_design.analysis._sos import (
     sos_certificate,
     sos_lyapunov,
 )
-from tests.oracles import surrogate_loop_matrix
-
-B_TRMS = (3.6, 6.8)
-GAINS, KI, T = (2.0, 4.0), 1e-3, 1e-3
+from tests.oracles import B_TRMS, paper_surrogate
 
 
 def _z(x):
@@ -126,15 +123,10 @@ def test_recheck_rejects_a_certificate_of_other_matrices():
     assert recheck_sos(sol.Q, sol.N, list(_oscillators(0.1)), Tn) < 0.0
 
 
-def _oracle(eps, b):
-    ehgo = fl.EHGO(2, eps, T, coeffs=(6, 11, 6))
-    return surrogate_loop_matrix(ehgo, GAINS, 3e-4, KI, b)
-
-
 def _dense_dwell_radius(eps, step=8, top=1600):
     """Independent attack (oracle matrices): every dwell pair (a, c) on a uniform grid, the
     period ``M_hi^c M_lo^a``'s spectral radius, worst over the grid."""
-    Ms = [_oracle(eps, b) for b in B_TRMS]
+    Ms = [paper_surrogate(eps, b) for b in B_TRMS]
     grid = range(step, top, step)
 
     def powers(M):
