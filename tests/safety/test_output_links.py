@@ -28,10 +28,7 @@ from fl_design._output import (
 from fl_design.codegen import generate_c
 from fl_design.errors import OutputExistsError, OutputPathError, ParameterError
 
-
-@pytest.fixture(autouse=True)
-def _own_key(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+pytestmark = pytest.mark.usefixtures("own_user_key")
 
 
 def _ours(folder: Path, files: dict) -> Path:

@@ -26,11 +26,7 @@ from fl_design.errors import CacheWarning, UnsafeCacheError, UnsafeCacheWarning
 from fl_design.symbolic import _derivation_cache as _stored
 from fl_design.symbolic import _plant_derived as _plant  # where the derivations are called
 
-
-@pytest.fixture(autouse=True)
-def _own_config(tmp_path, monkeypatch):
-    """Each test has its own user key (in its own config folder)."""
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+pytestmark = pytest.mark.usefixtures("own_user_key")
 
 
 @pytest.fixture

@@ -31,8 +31,7 @@ from fl_design.symbolic import _plant_derived as _plant
 
 
 @pytest.fixture(autouse=True)
-def _isolated(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+def _isolated(own_user_key, tmp_path, monkeypatch):
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(_stored, "_WARNED", set())
     monkeypatch.setattr(_cache, "_WARNED", set())
