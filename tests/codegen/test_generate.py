@@ -19,15 +19,8 @@ pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler i
 COMPILERS = [c for c in ("gcc", "clang") if shutil.which(c)]
 
 
-@pytest.fixture(scope="module")
-def packages(tmp_path_factory):
-    root = tmp_path_factory.mktemp("pkgs")
-    return {prec: generate_c(presets.paper_design(), root / prec, precision=prec)
-            for prec in ("double", "float")}
-
-
-def test_files_and_api(packages):
-    pkg = packages["double"]
+def test_files_and_api(paper_packages):
+    pkg = paper_packages["double"]
     assert isinstance(pkg, CPackage)
     assert {str(p.relative_to(pkg.out_dir)) for p in pkg.files} == {
         "fl.h", "fl.c", "main.c", "Makefile", "CMakeLists.txt", "README.md", "pil/pil_main.c",
@@ -41,7 +34,7 @@ def test_files_and_api(packages):
                  "void fl_default_params(fl_params_t *p);",
                  "double fl_step(fl_state_t *s, double y, double r);"):
         assert decl in header
-    fheader = packages["float"].header.read_text()
+    fheader = paper_packages["float"].header.read_text()
     assert "float fl_step(fl_state_t *s, float y, float r);" in fheader
     assert "double" not in fheader.split("#define FL_STATE_SIZE")[1]
     # the fixed numbers are named constants; the tunable ones are the parameter defaults
@@ -57,8 +50,8 @@ def test_files_and_api(packages):
     assert '#include "fl.h"' in pkg.sources[0].read_text()  # the source includes its header
 
 
-def test_no_heap_no_mutable_globals(packages):
-    for pkg in packages.values():
+def test_no_heap_no_mutable_globals(paper_packages):
+    for pkg in paper_packages.values():
         code = "\n".join(p.read_text() for p in pkg.sources)
         assert not re.search(r"\b(malloc|calloc|realloc|free)\s*\(", code)
         for line in code.splitlines():  # file-scope data must be const
@@ -68,8 +61,8 @@ def test_no_heap_no_mutable_globals(packages):
 
 @pytest.mark.parametrize("compiler", COMPILERS)
 @pytest.mark.parametrize("precision", ["double", "float"])
-def test_strict_compile_no_library_call_one_step_exported(packages, precision, compiler):
-    pkg = packages[precision]
+def test_strict_compile_no_library_call_one_step_exported(paper_packages, precision, compiler):
+    pkg = paper_packages[precision]
     flags = pkg.flags()
     assert {"-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wmissing-prototypes",
             "-Wfloat-equal", "-Wdouble-promotion"} <= set(flags)
@@ -90,18 +83,18 @@ def test_strict_compile_no_library_call_one_step_exported(packages, precision, c
     assert exe.exists()
 
 
-def test_float_code_is_single_precision(packages):
-    core = (packages["float"].out_dir / "fl.c").read_text()
+def test_float_code_is_single_precision(paper_packages):
+    core = (paper_packages["float"].out_dir / "fl.c").read_text()
     body = core.split("static void fl_core(")[1].split("\n}\n")[0]
     assert not re.search(r"(?<![\w.])\d+\.\d*(e[+-]?\d+)?(?![\w.f])", body)  # no double literal
     assert "double" not in body and not re.search(r"\bf(max|min)f?\(", core)
-    assert "-Wdouble-promotion" in packages["float"].flags()
+    assert "-Wdouble-promotion" in paper_packages["float"].flags()
 
 
-def test_makefile_builds_the_harness(packages, tmp_path):
+def test_makefile_builds_the_harness(paper_packages, tmp_path):
     if shutil.which("make") is None:
         pytest.skip("make is not installed")
-    pkg = packages["float"]
+    pkg = paper_packages["float"]
     subprocess.run(["make", "-s", "-C", str(pkg.out_dir)], check=True, capture_output=True)
     out = subprocess.run([str(pkg.out_dir / "fl_main")], input="0.0 0.3\n", text=True,
                          capture_output=True, check=True).stdout
@@ -150,10 +143,10 @@ def test_not_a_design(tmp_path):
         generate_c(fl.EHGO(2, 0.05, 1e-3), tmp_path)
 
 
-def test_cmake_builds_the_library_and_harness(packages, tmp_path):
+def test_cmake_builds_the_library_and_harness(paper_packages, tmp_path):
     if shutil.which("cmake") is None:
         pytest.skip("cmake is not installed")
-    pkg = packages["float"]
+    pkg = paper_packages["float"]
     build = tmp_path / "build"
     for cmd in (["cmake", "-S", str(pkg.out_dir), "-B", str(build), "-DCMAKE_C_FLAGS=-Werror"],
                 ["cmake", "--build", str(build)]):

@@ -18,26 +18,19 @@ from fl_design.codegen._sil import DOUBLE_BOUND, FLOAT_BOUND
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
 
 
-@pytest.fixture(scope="module")
-def packages(tmp_path_factory):
-    root = tmp_path_factory.mktemp("sil")
-    return {prec: generate_c(presets.paper_design(), root / prec, precision=prec)
-            for prec in ("double", "float")}
-
-
 def _noisy_step_scenario(duration):
     return fl.Scenario(0.3, duration, noise=fl.Noise(std=1e-3, seed=4), quantization=1e-4)
 
 
-def test_double_closed_loop_matches_design_step(packages):
-    res = packages["double"].verify(fl.plants.trms_yaw(), _noisy_step_scenario(40.0))
+def test_double_closed_loop_matches_design_step(paper_packages):
+    res = paper_packages["double"].verify(fl.plants.trms_yaw(), _noisy_step_scenario(40.0))
     assert res.u_c.size == 40000 and np.ptp(res.u_ref) > 0.1  # the loop did something
     assert res.max_rel_error <= DOUBLE_BOUND and res.matches
     # the C loop's own verdict (classified like fl.simulate's) agrees with fl.simulate's
     # (the paper design's slowest mode is ~240 s: at 40 s "converging" or "undecided", never a
     # failure, and always the same in C and in Python)
     assert res.c_status == res.sim_status in ("converging", "undecided") and res.passed
-    short = packages["double"].verify(fl.plants.trms_yaw(), _noisy_step_scenario(20.0))
+    short = paper_packages["double"].verify(fl.plants.trms_yaw(), _noisy_step_scenario(20.0))
     assert short.c_status == short.sim_status in ("undecided", "stalled")
     # too short to tell: "undecided" passes and says so; "stalled" (outside the band) fails
     assert short.matches and short.passed == (short.c_status == "undecided")
@@ -52,10 +45,10 @@ def test_least_squares_double_closed_loop(tmp_path):
     assert res.max_rel_error <= DOUBLE_BOUND
 
 
-def test_float_closed_loop_one_million_steps_no_drift(packages):
+def test_float_closed_loop_one_million_steps_no_drift(paper_packages):
     reference = lambda t: 0.3 * np.sign(np.sin(2 * np.pi * t / 40.0))
     sc = fl.Scenario(reference, 1000.0, noise=fl.Noise(std=1e-3, seed=1))
-    res = packages["float"].verify(fl.plants.trms_yaw(), sc)
+    res = paper_packages["float"].verify(fl.plants.trms_yaw(), sc)
     assert res.u_c.size == 1_000_000
     assert res.max_rel_error <= FLOAT_BOUND and res.tail_rel_error <= FLOAT_BOUND
     err = np.abs(res.u_c - res.u_ref).reshape(10, -1).max(axis=1)
@@ -92,9 +85,9 @@ def _expected_with_rejection(design, y, r, rejected):
     return out
 
 
-def test_non_finite_samples_are_rejected_and_the_state_held(packages):
+def test_non_finite_samples_are_rejected_and_the_state_held(paper_packages):
     y, r, rejected = _bad_samples()
-    pkg = packages["double"]
+    pkg = paper_packages["double"]
     u = pkg.run(y, r)
     expected = _expected_with_rejection(pkg.design, y, r, rejected)
     np.testing.assert_allclose(u, expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
@@ -112,8 +105,8 @@ def _san_env():
 
 
 @pytest.mark.parametrize("precision", ["double", "float"])
-def test_harness_under_address_and_undefined_sanitizers(packages, precision):
-    pkg = packages[precision]
+def test_harness_under_address_and_undefined_sanitizers(paper_packages, precision):
+    pkg = paper_packages[precision]
     try:
         exe = pkg.build(sanitize=True)
     except fl.errors.CompilationError as exc:  # e.g. no libasan on this machine
@@ -127,8 +120,8 @@ def test_harness_under_address_and_undefined_sanitizers(packages, precision):
 
 
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
-def test_harness_under_valgrind(packages):
-    exe = packages["float"].build()
+def test_harness_under_valgrind(paper_packages):
+    exe = paper_packages["float"].build()
     y, r = _bad_samples()[:2]
     lines = "\n".join(f"{a!r} {b!r}" for a, b in zip(y[:100].tolist(), r[:100].tolist())) + "\n"
     proc = subprocess.run(["valgrind", "--error-exitcode=99", "--leak-check=full", "-q",
