@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 
 import numpy as np
+from _verdict import finish
 
 import fl_design as fl
 from fl_design.design._adrc import LinearADRC
@@ -92,9 +92,7 @@ def main(argv=None) -> int:
         print(f"ADRC (w_c = {k * wc:.3g} rad/s) converging runs per b0/b: " + ", ".join(
             f"{f:g}: {n}/{len(members)}" for f, n in counts.items()))
     print(f"ours (no b0): {'all' if ok else 'NOT all'} {len(members)} members converge")
-    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
-    print("holds" if ok else "FAILS")
-    return 0 if ok else 1
+    return finish(ok)
 
 
 if __name__ == "__main__":

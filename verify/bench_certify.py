@@ -30,6 +30,7 @@ import sys
 import time
 
 import numpy as np
+from _verdict import load_line
 
 import fl_design as fl
 
@@ -114,7 +115,7 @@ def bench_classes(names, repeat: int) -> bool:
         met = best <= CLASS_CASES[n][1]
         ok &= met
         print(f"{n}: best {best:.2f} s of {repeat} -> {'meets' if met else 'MISS'}")
-    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(load_line())
     return ok
 
 
@@ -156,7 +157,7 @@ def main(argv=None) -> int:
     if not np.all(issue.ratio >= 0.8):
         print("FAIL: a ratio at the issue's gains is below 0.8")
         ok = False
-    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(load_line())
     if not args.quick and elapsed >= TARGET_S:
         print(f"MISS: {elapsed:.2f} s >= {TARGET_S:g} s")
         ok = False

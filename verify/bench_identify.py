@@ -18,7 +18,6 @@ calls' wall time. Exits with status 1 on a miss.
 from __future__ import annotations
 
 import argparse
-import os
 import resource
 import subprocess
 import sys
@@ -28,6 +27,7 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
+from _verdict import load_line
 
 import fl_design as fl
 from fl_design.sim._rig import Rig
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
     print(f"tune(class b in [{wide[0]:g}, {wide[1]:g}]): {t_tune:.2f} s (target <= "
           f"{TARGET_TUNE_S:g} s); {tuned.status}")
     ok &= tuned.certified
-    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(load_line())
     if not args.quick:
         if t_id > TARGET_IDENTIFY_S:
             print(f"MISS: identify {t_id:.2f} s > {TARGET_IDENTIFY_S:g} s")

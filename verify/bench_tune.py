@@ -25,6 +25,8 @@ import subprocess
 import sys
 import tempfile
 
+from _verdict import load_line
+
 TARGET_S = 10.0
 #: fl-design's library names and the factory that builds each.
 PLANTS = {"trms": "fl.plants.trms_yaw()", "trms-lag": "fl.plants.trms_yaw(True)",
@@ -104,7 +106,7 @@ def main(argv=None) -> int:
         ok &= not miss or args.quick
         print(f"  {n:15s} {med:6.2f} s {spread:17s} load {min(loads[n]):.1f}-"
               f"{max(loads[n]):.1f}{'  MISS' if miss and not args.quick else ''}")
-    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(load_line())
     return 0 if ok else 1
 
 

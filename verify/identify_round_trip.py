@@ -21,11 +21,11 @@ limit. ``--quick``: the first two plants, shorter logs.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 import casadi as ca
 import numpy as np
+from _verdict import finish
 
 import fl_design as fl
 from fl_design.sim._rig import Rig
@@ -93,9 +93,7 @@ def main(argv=None) -> int:
             ok &= inside and m.converged
         else:
             print(f"  ({name}: rho = {rho}, reported, not counted: a known limit)")
-    print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
-    print("holds" if ok else "FAILS")
-    return 0 if ok else 1
+    return finish(ok)
 
 
 if __name__ == "__main__":
