@@ -24,7 +24,7 @@ import math
 import sys
 
 import numpy as np
-from _verdict import finish
+from _shared import finish
 
 import fl_design as fl
 from fl_design.design._adrc import LinearADRC

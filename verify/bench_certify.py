@@ -30,7 +30,7 @@ import sys
 import time
 
 import numpy as np
-from _verdict import load_line
+from _shared import load_line
 
 import fl_design as fl
 

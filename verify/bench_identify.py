@@ -27,7 +27,7 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-from _verdict import load_line
+from _shared import load_line
 
 import fl_design as fl
 from fl_design.sim._rig import Rig

@@ -25,7 +25,7 @@ import subprocess
 import sys
 import tempfile
 
-from _verdict import load_line
+from _shared import load_line
 
 TARGET_S = 10.0
 #: fl-design's library names and the factory that builds each.

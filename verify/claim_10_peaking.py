@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from _shared import claim_verdict, slope
 
 import fl_design as fl
 
@@ -50,10 +51,6 @@ def run(eps: float, clamp: bool):
             "after_x2": np.max(np.abs(r.xhat[k:, 1])), "after_sigma": np.max(np.abs(r.sigmahat[k:])),
             "after_eu": np.max(np.abs(e_u[k:])), "u": np.max(np.abs(r.u)),
             "limits": c.u_limits}
-
-
-def slope(x, y) -> float:
-    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
 def main(argv=None) -> int:
@@ -100,8 +97,7 @@ def main(argv=None) -> int:
     print("What it means: the peaking is real and grows as the theory says, but it stays in "
           "the estimates: after 10 eps the estimates and e_u are bounded by the same numbers for "
           "every eps, and with gamma = 3e-4 the input barely sees it.")
-    print(f"\nclaim 10 (peaking, then bounded xhat and e_u): {'holds' if ok else 'FAILS'}")
-    return 0 if ok else 1
+    return claim_verdict(10, "peaking, then bounded xhat and e_u", ok)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import argparse
 
+from _shared import claim_verdict
+
 import fl_design as fl
 
 CONVERGES = ("converged", "converging")
@@ -90,9 +92,8 @@ def main(argv=None) -> int:
           f"{settled[3e-4] / settled[3e-3]:.0f} "
           "times faster than the paper's 3e-4; continuing down past the bound is safe on this "
           "model only thanks to its friction, and each decade slows the loop further.")
-    print(f"\nclaim 11 (the stable gammas are an interval, bounded below at {lower:.4g}; the "
-          f"tuning procedure's premise fails below it): {'holds' if ok else 'FAILS'}")
-    return 0 if ok else 1
+    return claim_verdict(11, f"the stable gammas are an interval, bounded below at {lower:.4g}; "
+                         "the tuning procedure's premise fails below it", ok)
 
 
 if __name__ == "__main__":

@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 import sympy as sp
+from _shared import claim_verdict
 
 import fl_design as fl
 
@@ -162,9 +163,8 @@ def main(argv=None) -> int:
                   f"{abs(r.y[0] - s):.3g} to {np.abs(r.y[-1000:] - s).max():.3g} over 300 s: "
                   f"{verdict(good)}")
     ok &= lure_item(args.quick)
-    print(f"\nclaim 12 (certified steps converge; the chain's 0.3 rad step is not claimed): "
-          f"{verdict(ok)}")
-    return 0 if ok else 1
+    return claim_verdict(12, "certified steps converge; the chain's 0.3 rad step is not claimed",
+                         ok)
 
 
 if __name__ == "__main__":

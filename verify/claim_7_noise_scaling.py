@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from _shared import claim_verdict, slope
 
 import fl_design as fl
 
@@ -55,10 +56,6 @@ def attained(est, n: int, row: int) -> float:
     if isinstance(est, fl.EHGO):
         return float(est.filter(w, xi0=np.zeros(est.state_size))[-1, row])
     return float(est.filter(np.concatenate([np.zeros(est.window - 1), w]))[-1, row])
-
-
-def slope(x, y) -> float:
-    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
 def ehgo(eps: float) -> fl.EHGO:
@@ -127,9 +124,7 @@ def main(argv=None) -> int:
     print(f"   closed loop (TRMS, paper design): input noise gain {', '.join(f'{x:.3g}' for x in ng)}"
           f" at the eps above, slope {slope(eps, ng):.3f}: the dynamic controller integrates "
           "sigmahat with gain gamma, so u's noise falls more slowly than the estimate's.")
-    print(f"\nclaim 7 (noise radius ~ eps^-rho for the EHGO, T^-rho for LS): "
-          f"{'holds' if ok else 'FAILS'}")
-    return 0 if ok else 1
+    return claim_verdict(7, "noise radius ~ eps^-rho for the EHGO, T^-rho for LS", ok)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from _shared import claim_verdict, slope
 
 import fl_design as fl
 
@@ -39,10 +40,6 @@ def sigma_error(alpha: float) -> float:
     h = est.filter(np.sin(OMEGA * t))
     k = t.size // 2
     return float(np.max(np.abs(h[k:, 2] + OMEGA ** 2 * np.sin(OMEGA * t[k:]))))
-
-
-def slope(x, y) -> float:
-    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
 def main(argv=None) -> int:
@@ -90,9 +87,7 @@ def main(argv=None) -> int:
     print("What it means: alpha <= 1 is what the proof's O(T) = O(eps) step needs; the "
           "bilinear loop stays stable and accurate beyond it, and the cost of alpha > 1 is "
           "the noise the input carries.")
-    print(f"\nclaim 9 (alpha <= 1 for O(T) = O(eps); beyond it: stable, noisy): "
-          f"{'holds' if ok else 'FAILS'}")
-    return 0 if ok else 1
+    return claim_verdict(9, "alpha <= 1 for O(T) = O(eps); beyond it: stable, noisy", ok)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ import sys
 
 import casadi as ca
 import numpy as np
-from _verdict import finish
+from _shared import finish
 
 import fl_design as fl
 from fl_design.sim._rig import Rig

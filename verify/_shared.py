@@ -1,4 +1,4 @@
-"""How a verify script ends: the machine's load, then ``holds`` or ``FAILS`` and the exit status.
+"""What the verify scripts share: a log-log slope, the load line, how a claim's verdict ends.
 
 Imported by the scripts next to it (their folder is on ``sys.path`` when run as a script).
 """
@@ -6,6 +6,13 @@ Imported by the scripts next to it (their folder is on ``sys.path`` when run as 
 from __future__ import annotations
 
 import os
+
+import numpy as np
+
+
+def slope(x, y) -> float:
+    """Slope of the least-squares line through ``(log x, log y)``: the exponent of ``y ~ x^p``."""
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
 def load_line() -> str:
@@ -17,4 +24,10 @@ def finish(ok: bool) -> int:
     """Print :func:`load_line` and ``holds`` or ``FAILS``; the exit status (0 when ``ok``)."""
     print(load_line())
     print("holds" if ok else "FAILS")
+    return 0 if ok else 1
+
+
+def claim_verdict(number: int, statement: str, ok: bool) -> int:
+    """Print ``claim N (statement): holds`` (or ``FAILS``); the exit status (0 when ``ok``)."""
+    print(f"\nclaim {number} ({statement}): {'holds' if ok else 'FAILS'}")
     return 0 if ok else 1
