@@ -167,6 +167,7 @@ def checked_estimate(estimate, rho: int) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
+        ``(rho + 1,)`` floats.
 
     Examples
     --------

@@ -33,6 +33,7 @@ def checked_poles(poles, *, count: int | None = None, what: str = "") -> np.ndar
     Returns
     -------
     numpy.ndarray
+        The poles as complex numbers, in the given order.
 
     Raises
     ------
@@ -89,6 +90,7 @@ def monic_coefficients(poles: np.ndarray) -> tuple[float, ...]:
     Returns
     -------
     tuple of float
+        Real coefficients (the poles are conjugate-closed).
 
     Examples
     --------

@@ -278,6 +278,7 @@ class Response(ColumnFrame):
         Returns
         -------
         matplotlib.figure.Figure
+            Three axes: output and reference, input, ``sigma`` and its estimate.
 
         Examples
         --------
@@ -300,6 +301,8 @@ class Response(ColumnFrame):
         Returns
         -------
         str
+            ``"<status>: <evidence>"``: the verdict with the numbers it rests on (error band,
+            when it was entered, offset, overshoot).
 
         Examples
         --------

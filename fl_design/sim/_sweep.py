@@ -330,6 +330,7 @@ def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_r
     Returns
     -------
     EpsStarEstimate
+        ``eps_star`` and its bracket ``(converging eps, failing eps)``, with the runs it took.
 
     Examples
     --------

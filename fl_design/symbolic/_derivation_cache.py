@@ -76,7 +76,7 @@ def versions_and_sources(parts, packages, paths) -> str:
     Returns
     -------
     str
-        64 hexadecimal digits.
+        64 hexadecimal digits, equal for equal inputs and equal file contents.
 
     Examples
     --------
@@ -149,6 +149,7 @@ def plant_key(states, input, rhs, output, params, name, input_range, region,
     Returns
     -------
     str or None
+        64 hexadecimal digits; None when an expression is too deep to write out (not cached).
 
     Examples
     --------
