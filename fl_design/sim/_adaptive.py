@@ -242,7 +242,6 @@ def rerun_undecided(run, columns, status, metrics, durations, extend, cap, prepa
 
     Examples
     --------
-    >>> import numpy as np
     >>> import fl_design as fl
     >>> from fl_design.sim._adaptive import rerun_undecided
     >>> from fl_design.sim._grid import _Columns
