@@ -376,7 +376,7 @@ def initial_values(rho: int) -> dict[str, np.ndarray]:
     Parameters
     ----------
     rho : int
-        Relative degree.
+        Relative degree: the per-estimate accumulators get ``rho + 1`` entries.
 
     Returns
     -------
