@@ -27,7 +27,10 @@ def finish(ok: bool) -> int:
     return 0 if ok else 1
 
 
-def claim_verdict(number: int, statement: str, ok: bool) -> int:
-    """Print ``claim N (statement): holds`` (or ``FAILS``); the exit status (0 when ``ok``)."""
+def claim_verdict(number: int, statement: str, ok: bool, meaning: str | None = None) -> int:
+    """Print ``What it means: ...`` (when given), then ``claim N (statement): holds`` (or
+    ``FAILS``); the exit status (0 when ``ok``)."""
+    if meaning:
+        print(f"What it means: {meaning}")
     print(f"\nclaim {number} ({statement}): {'holds' if ok else 'FAILS'}")
     return 0 if ok else 1

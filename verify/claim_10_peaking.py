@@ -94,10 +94,10 @@ def main(argv=None) -> int:
     print(f"3. with the paper's clamp |xhat_2| <= 0.05: peak e_u {peaks} (eps {eps[0]:g} / 0.05"
           f" = {ratio:.3f}, unclamped {free[eps[0]]['peak_eu'] / paper['peak_eu']:.2f}); max |u| "
           f"{inputs} inside ({lo:g}, {hi:g}): {'holds' if good else 'FAILS'}")
-    print("What it means: the peaking is real and grows as the theory says, but it stays in "
-          "the estimates: after 10 eps the estimates and e_u are bounded by the same numbers for "
-          "every eps, and with gamma = 3e-4 the input barely sees it.")
-    return claim_verdict(10, "peaking, then bounded xhat and e_u", ok)
+    return claim_verdict(10, "peaking, then bounded xhat and e_u", ok, meaning=(
+        "the peaking is real and grows as the theory says, but it stays in the estimates: "
+        "after 10 eps the estimates and e_u are bounded by the same numbers for every eps, and "
+        "with gamma = 3e-4 the input barely sees it."))
 
 
 if __name__ == "__main__":

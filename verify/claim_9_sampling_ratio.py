@@ -84,10 +84,10 @@ def main(argv=None) -> int:
     print(f"\n3. input noise gain against eps: fitted slope {s:.3f} (steeper than -1: "
           f"{'holds' if good else 'FAILS'}); {gains[-1] / gains[0]:.0f}x the paper's at "
           f"alpha = {alphas[-1]:g}")
-    print("What it means: alpha <= 1 is what the proof's O(T) = O(eps) step needs; the "
-          "bilinear loop stays stable and accurate beyond it, and the cost of alpha > 1 is "
-          "the noise the input carries.")
-    return claim_verdict(9, "alpha <= 1 for O(T) = O(eps); beyond it: stable, noisy", ok)
+    return claim_verdict(9, "alpha <= 1 for O(T) = O(eps); beyond it: stable, noisy", ok,
+                         meaning="alpha <= 1 is what the proof's O(T) = O(eps) step needs; the "
+                         "bilinear loop stays stable and accurate beyond it, and the cost of "
+                         "alpha > 1 is the noise the input carries.")
 
 
 if __name__ == "__main__":
