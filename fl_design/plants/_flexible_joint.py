@@ -66,9 +66,10 @@ def flexible_joint(*, Jm: float = 3.7e-3, Jl: float = 9.3e-3, m: float = 0.21, h
 
 
 def flexible_joint_definition(params: dict) -> dict:
-    """The SymPy definition of :func:`flexible_joint` from its validated ``params``.
+    """Spong's link and motor equations in SymPy, output the link angle ``q1``.
 
-    The contract of a definition: :func:`~fl_design.plants._common.definition_dict`.
+    The definition of :func:`flexible_joint` (see there for the model), from the ``params`` it
+    validated; what it returns: :func:`~fl_design.plants._common.definition_dict`.
 
     Examples
     --------

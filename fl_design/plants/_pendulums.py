@@ -55,9 +55,10 @@ def pendulum(*, g: float = 9.81, l: float = 1.0, c: float = 0.5, b: float = 1.0,
 
 
 def pendulum_definition(params: dict) -> dict:
-    """The SymPy definition of :func:`pendulum` from its validated ``params``.
+    """``theta'' = -(g/l) sin(theta) - c theta' + b u`` in SymPy (:func:`pendulum`'s definition).
 
-    The contract of a definition: :func:`~fl_design.plants._common.definition_dict`.
+    ``params`` as :func:`pendulum` validated them; the dict returned is described by
+    :func:`~fl_design.plants._common.definition_dict`.
 
     Examples
     --------
