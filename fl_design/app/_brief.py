@@ -100,7 +100,6 @@ def run_brief(resp) -> Brief:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._brief import run_brief
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> str(run_brief(r))
@@ -141,7 +140,6 @@ def window_brief(resp, window: float) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._brief import window_brief
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> window_brief(r, 20.0)
@@ -245,7 +243,6 @@ def map_brief(smap, gamma: float) -> Brief:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._brief import map_brief
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [-1]]), {},
@@ -289,7 +286,6 @@ def design_brief(design) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._brief import design_brief
     >>> design_brief(fl.presets.paper_design())
     'EHGO eps 0.05 s, gamma 0.0003, K (2, 4), k_I 0.001, T 0.001 s'

@@ -268,7 +268,6 @@ def design_name(design) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._build import design_name
     >>> design_name(fl.presets.paper_design()), design_name(fl.presets.least_squares_design(9))
     ('EHGO eps=0.05', 'LS(9)')

@@ -66,7 +66,6 @@ def csv_text(resp, most: int | None = CSV_MAX_ROWS) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._report_csv import csv_text
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
     >>> len(csv_text(r, 100).splitlines()) - 1 <= 100, csv_text(r, None) == r.to_csv()

@@ -42,7 +42,6 @@ def at_design_gamma(job) -> dict:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.app._report_family import at_design_gamma
     >>> class Job:
@@ -79,8 +78,6 @@ def covers(rmap) -> str:
 
     Examples
     --------
-    >>> import numpy as np
-    >>> import fl_design as fl
     >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.app._report_family import covers
     >>> covers(RobustMap(np.array([0.1]), np.array([1.0]), np.array([[[2, 2]]]), {},

@@ -4,7 +4,6 @@ Shared by the console (``fl-design run`` and ``sweep``) and the report's map sec
 
 Examples
 --------
->>> import numpy as np
 >>> from fl_design.sim import StabilityMap
 >>> from fl_design.app._report_map import map_counts
 >>> map_counts(StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[2]]), {}, 1e-3, 5.0,
@@ -36,7 +35,6 @@ def slow_runs(smap) -> np.ndarray:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._report_map import slow_runs
     >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[3, 3]]),
@@ -74,7 +72,6 @@ def map_counts(smap) -> str:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._report_map import map_counts
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[2, 3], [3, 3]]),

@@ -120,7 +120,6 @@ def bounded_up_to(smap, gamma: float) -> str:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._text import bounded_up_to
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
@@ -152,7 +151,6 @@ def overshoot_text(resp) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._text import overshoot_text
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> overshoot_text(r)
@@ -180,7 +178,6 @@ def design_label(design) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._text import design_label
     >>> design_label(fl.presets.least_squares_design(9))[:5]
     'LS(9)'

@@ -10,7 +10,6 @@ figure. Modules: ``_base`` (colours, axes, log labels, legends, literal text), `
 
 Examples
 --------
->>> import numpy as np
 >>> from fl_design.sim import StabilityMap
 >>> from fl_design.plotting import plot_stability_map
 >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),

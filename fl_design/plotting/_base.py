@@ -60,7 +60,6 @@ def thin_line(t, y, buckets: int | None = REPORT_BUCKETS):
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.plotting import thin_line
     >>> t = np.arange(100_000) * 1e-3
     >>> tt, yy = thin_line(t, np.sin(t), buckets=100)

@@ -42,7 +42,6 @@ def plot_ensemble(ens, *, metrics=("tail_error", "settling_time", "input_rms"), 
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim._ensemble import Ensemble
     >>> from fl_design.plotting import plot_ensemble
     >>> ens = Ensemble({"c": np.array([0.1, 0.5])}, np.array([2, 1]),

@@ -2,7 +2,6 @@
 
 Examples
 --------
->>> import numpy as np
 >>> from fl_design.sim import StabilityMap
 >>> from fl_design.plotting import plot_stability_map
 >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
@@ -141,7 +140,6 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import plot_stability_map
     >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
@@ -211,7 +209,6 @@ def plot_eps_star_curve(curve, *, ax=None):
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.analysis import EpsStarCurve
     >>> from fl_design.plotting import plot_eps_star_curve
     >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
@@ -254,7 +251,6 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.plotting import plot_robust_map
     >>> m = RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),

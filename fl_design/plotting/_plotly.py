@@ -128,7 +128,6 @@ def response_spec(resp, ctx, *, title: str) -> dict:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import response_spec
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -197,7 +196,6 @@ def step_spec(runs, designs, stds, ctx, *, labels=None, window: str = "") -> dic
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import step_spec
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -296,7 +294,6 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import stability_map_spec

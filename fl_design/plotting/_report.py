@@ -118,7 +118,6 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import stability_map_figure
@@ -221,7 +220,6 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import step_figure
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -314,7 +312,6 @@ def response_figure(resp, ctx: FigureContext, *, title: str):
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import response_figure
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -351,7 +348,6 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import robust_map_figure

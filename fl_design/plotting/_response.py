@@ -2,7 +2,6 @@
 
 Examples
 --------
->>> import fl_design as fl
 >>> from fl_design.plotting import plot_response
 >>> fig = plot_response(fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
 ...                                 fl.Scenario(0.1, 0.2)))
@@ -39,7 +38,6 @@ def plot_response(resp, *, axes=None, title: str | None = None, buckets: int | N
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import plot_response
     >>> d = fl.presets.pendulum_design()
     >>> fig = plot_response(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.5)))
