@@ -21,6 +21,12 @@ from .._json import jsonable
 LEVELS = (1.0, 0.9)
 
 
+def _robust_map(job) -> tuple:
+    """The job's robust map, or None and why it was skipped (None if it was not asked for)."""
+    rmap = job.results.get("robust_map")
+    return rmap, (job.results.get("robust_map_skipped") if rmap is None else None)
+
+
 def _nearest(grid, gamma: float) -> float:
     return float(grid[np.argmin(np.abs(np.log(np.asarray(grid) / gamma)))])
 
@@ -106,15 +112,13 @@ def map_summary(job) -> dict:
 
     Examples
     --------
+    >>> from types import SimpleNamespace
     >>> from fl_design.app._report_family import map_summary
-    >>> class Job:
-    ...     results = {}
-    >>> map_summary(Job())
-    {}
+    >>> map_summary(SimpleNamespace(results={"robust_map_skipped": "no robust map: no eps"}))
+    {'skipped': 'no robust map: no eps'}
     """
-    rmap = job.results.get("robust_map")
+    rmap, skipped = _robust_map(job)
     if rmap is None:
-        skipped = job.results.get("robust_map_skipped")
         return {"skipped": skipped} if skipped else {}
     out = {k: v for k, v in rmap.to_dict().items() if k not in ("status", "metrics")}
     out["eps_star"] = [{"gamma": float(g), **{f"level_{lv:g}": rmap.eps_star(g, level=lv)
@@ -146,15 +150,13 @@ def blocks(job, figures) -> list:
 
     Examples
     --------
+    >>> from types import SimpleNamespace
     >>> from fl_design.app._report_family import blocks
-    >>> class Job:
-    ...     results = {}
-    >>> blocks(Job(), [])
-    []
+    >>> blocks(SimpleNamespace(results={"robust_map_skipped": "no robust map: no eps"}), [])
+    [('p', 'No robust map: no eps.')]
     """
-    rmap = job.results.get("robust_map")
+    rmap, skipped = _robust_map(job)
     if rmap is None:
-        skipped = job.results.get("robust_map_skipped")
         return [("p", skipped[0].upper() + skipped[1:] + ".")] if skipped else []
     here = at_design_gamma(job)
     seconds = job.timings.get("robust_map")
@@ -279,13 +281,15 @@ def summary(job) -> dict:
 
     Examples
     --------
+    >>> from fl_design.app import parse_config, run_job
     >>> from fl_design.app._report_family import summary
-    >>> class Job:
-    ...     results = {}
-    >>> summary(Job())
-    {}
+    >>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
+    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
+    ...               stages=("robustness",), progress=False)
+    >>> mc = summary(job)["monte_carlo"]
+    >>> mc["n"], mc["distributions"], round(sum(mc["fractions"].values()), 9)
+    (16, {'c': 'Uniform(0.1, 1)'}, 1.0)
     """
-
     ens = job.results.get("robustness")
     if ens is None:
         return {}
