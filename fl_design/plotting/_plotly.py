@@ -23,7 +23,16 @@ import math
 
 import numpy as np
 
-from ._base import STATUS_COLORS, STATUS_LABELS, edges, thin_line
+from ._base import (
+    OUTSIDE_RANGE,
+    STATUS_COLORS,
+    STATUS_LABELS,
+    bracket_points,
+    edges,
+    is_bracket,
+    thin_line,
+)
+from ._maps import MAP_EPS_STAR
 
 #: Time buckets per line (:func:`thin_line`): at most 5 points each, 2500 per trace.
 INTERACTIVE_BUCKETS = 500
@@ -247,32 +256,21 @@ def step_spec(runs, designs, stds, ctx, *, labels=None, window: str = "") -> dic
 
 def _bracket_traces(gamma, stars, *, label: str, color: str) -> list:
     """eps*(gamma) brackets as :func:`~fl_design.plotting.plot_eps_star` draws them."""
-    g = np.abs(np.asarray(gamma, dtype=float).ravel())
-    value = [s.lower if s.value is not None else math.nan for s in stars]
+    points = bracket_points(gamma, stars)
     out = []
-    if np.any(np.isfinite(value)):
-        out.append({"type": "scatter", "mode": "lines+markers", "x": _num(g), "y": _num(value),
+    if "value" in points:
+        xs, ys = zip(*points["value"])
+        out.append({"type": "scatter", "mode": "lines+markers", "x": _num(xs), "y": _num(ys),
                     "name": label, "line": {"color": color, "width": 1.8},
                     "marker": {"symbol": "square", "size": 6, "color": color}})
-    outside = ((lambda s: s.above_range, "lower", "triangle-up-open",
-                "eps* above the range (> top)"),
-               (lambda s: s.below_range and not getattr(s, "undecided", False), "upper",
-                "triangle-down-open", "eps* below the range (< bottom)"),
-               (lambda s: s.below_range and getattr(s, "undecided", False), "upper",
-                "diamond-open", "undecided at the bottom (run longer)"))
-    for pick, edge, symbol, words in outside:
-        pts = [(gi, getattr(s, edge)) for gi, s in zip(g, stars) if pick(s)]
-        if pts:
-            xs, ys = zip(*pts)
+    for kind, (words, _, symbol) in OUTSIDE_RANGE.items():
+        if kind in points:
+            xs, ys = zip(*points[kind])
             out.append({"type": "scatter", "mode": "markers", "x": _num(xs), "y": _num(ys),
                         "name": f"{label}: {words}",
                         "marker": {"symbol": symbol, "size": 10, "color": color,
                                    "line": {"width": 1.5, "color": color}}})
     return out
-
-
-def _is_bracket(obj) -> bool:
-    return all(hasattr(obj, name) for name in ("lower", "upper", "upper_status"))
 
 
 def stability_map_spec(smap, ctx, *, curves=None) -> dict:
@@ -324,19 +322,17 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
             data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None],
                          "name": name, "marker": {"symbol": "square", "size": 12,
                                                   "color": color}, "hoverinfo": "skip"})
-    stars = [smap.eps_star(g) for g in smap.gamma]
-    for pick, name, opacity in ((lambda b: b.value is not None, "eps* (this map)", 1.0),
-                                (lambda b: b.above_range, "eps* > largest eps scanned", 0.5)):
-        pts = [(g, b.lower) for g, b in zip(gx, stars) if pick(b)]
-        if pts:
-            xs, ys = zip(*pts)
+    points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
+    for kind, name, opacity in MAP_EPS_STAR:
+        if kind in points:
+            xs, ys = zip(*points[kind])
             data.append({"type": "scatter", "mode": "markers", "x": _num(xs), "y": _num(ys),
                          "name": name, "opacity": opacity,
                          "marker": {"symbol": "triangle-up", "size": 9, "color": "#ffffff",
                                     "line": {"color": "#000000", "width": 1}}})
     for i, (label, (g, e)) in enumerate((curves or {}).items()):
         color = CYCLE[i % 10]
-        if len(e) and all(_is_bracket(s) for s in e):
+        if len(e) and all(is_bracket(s) for s in e):
             data += _bracket_traces(g, list(e), label=plotly_text(label), color=color)
         else:
             data.append({"type": "scatter", "mode": "lines", "x": _num(np.abs(np.asarray(g))),
