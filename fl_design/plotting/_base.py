@@ -23,6 +23,20 @@ STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "conv
                  "undecided (run longer)", "stalled")
 
 
+def status_legend(status) -> list:
+    """``(code, colour, label)`` of each status code present in ``status``, in code order.
+
+    Examples
+    --------
+    >>> from fl_design.plotting._base import status_legend
+    >>> [label for _, _, label in status_legend([[1, -1], [1, 1]])]
+    ['diverged', 'converging']
+    """
+    present = set(np.unique(np.asarray(status)).tolist())
+    return [(code, color, label) for code, color, label
+            in zip(range(-2, 5), STATUS_COLORS, STATUS_LABELS) if code in present]
+
+
 #: How an eps* bracket outside the scanned range is drawn, by kind (:func:`bracket_points`):
 #: legend words, matplotlib marker, Plotly symbol.
 OUTSIDE_RANGE = {
@@ -46,28 +60,15 @@ def is_bracket(obj) -> bool:
 
 
 def bracket_points(gamma, stars) -> dict:
-    """Where eps* brackets are drawn, by kind: ``"value"`` (a line over every gamma at the
-    brackets' ``lower`` ends inside the range, NaN where a bracket is outside: the line breaks
-    there), then the kinds of :data:`OUTSIDE_RANGE`: ``"above"`` (at ``lower``, the range's
-    top), ``"below"`` and ``"undecided"`` (at ``upper``, the range's bottom; undecided: the run
-    there is too short to call, not a failure). An outside bracket is never drawn as a value.
+    """Where the eps* brackets ``stars`` over ``gamma`` (one each) are drawn: kind -> list of
+    ``(|gamma|, eps)`` points, kinds without points left out.
 
-    Parameters
-    ----------
-    gamma : array_like
-        ``(n,)`` controller gains (drawn at ``|gamma|``: gamma < 0 when b < 0).
-    stars : sequence of EpsStar
-        ``n`` brackets.
-
-    Returns
-    -------
-    dict
-        Kind -> list of ``(|gamma|, eps)`` points (kinds without points left out).
-
-    Raises
-    ------
-    ParameterError
-        ``gamma`` and ``stars`` of different lengths.
+    ``"value"``: a line over every gamma at the brackets' ``lower`` ends inside the range, NaN
+    where a bracket is outside (the line breaks there); then the kinds of
+    :data:`OUTSIDE_RANGE`: ``"above"`` at ``lower`` (the range's top), ``"below"`` and
+    ``"undecided"`` at ``upper`` (the range's bottom; undecided: the run there is too short to
+    call, not a failure). An outside bracket is never drawn as a value. Lengths that differ
+    raise :class:`~fl_design.errors.ParameterError`.
 
     Examples
     --------

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from ._base import STATUS_COLORS, STATUS_LABELS, literal
+from ._base import literal, status_legend
 
 
 def plot_ensemble(ens, *, metrics=("tail_error", "settling_time", "input_rms"), x=None, y=None):
@@ -79,11 +79,10 @@ def plot_ensemble(ens, *, metrics=("tail_error", "settling_time", "input_rms"), 
     xs = np.asarray(ens.params[x])
     ys = np.asarray(ens.params[y]) if y is not None else codes.astype(float)
     handles = []
-    for code, color, label in zip(range(-2, 5), STATUS_COLORS, STATUS_LABELS):
+    for code, color, label in status_legend(codes):
         sel = codes == code
-        if sel.any():
-            ax.scatter(xs[sel], ys[sel], s=10, color=color)
-            handles.append(Patch(color=color, label=f"{label} ({sel.sum()})"))
+        ax.scatter(xs[sel], ys[sel], s=10, color=color)
+        handles.append(Patch(color=color, label=f"{label} ({sel.sum()})"))
     ax.set_xlabel(literal(x))
     ax.set_ylabel(literal(y) if y is not None else "status code")
     ax.legend(handles=handles, fontsize=8)

@@ -1,14 +1,6 @@
-"""Maps over (gamma, eps): the stability map, eps*(gamma) brackets and curves, the robust map.
-
-Examples
---------
->>> from fl_design.sim import StabilityMap
->>> from fl_design.plotting import plot_stability_map
->>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
-...                  {}, 1e-3, 1.0, 0.1)
->>> fig = plot_stability_map(m, curves={"theory": (np.array([1.0, 2.0]), np.array([0.2, 0.1]))})
->>> fig.axes[0].get_xscale(), fig.axes[0].get_yscale()
-('log', 'log')
+"""Maps over (gamma, eps): the stability map (:func:`plot_stability_map`), eps*(gamma) brackets
+(:func:`plot_eps_star`) and curves (:func:`plot_eps_star_curve`), the robust map
+(:func:`plot_robust_map`); each function's docstring has its example.
 """
 
 from __future__ import annotations
@@ -19,7 +11,6 @@ from ..errors import ParameterError
 from ._base import (
     OUTSIDE_RANGE,
     STATUS_COLORS,
-    STATUS_LABELS,
     bracket_points,
     edges,
     is_bracket,
@@ -27,6 +18,7 @@ from ._base import (
     literal,
     log_axes,
     new_axes,
+    status_legend,
 )
 
 
@@ -136,6 +128,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     Returns
     -------
     matplotlib.figure.Figure
+        ``ax``'s figure, or a new one: the map on log-log axes, its legend below.
 
     Examples
     --------
@@ -163,9 +156,7 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     ax.set_xlabel("controller gain |gamma| (gamma < 0, as b)" if negative
                   else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
-    present = set(np.unique(np.asarray(smap.status)).tolist())
-    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 5), STATUS_COLORS,
-                                                              STATUS_LABELS) if code in present]
+    handles = [Patch(color=c, label=n) for _, c, n in status_legend(smap.status)]
     if show_eps_star:
         points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
         for kind, label, alpha in MAP_EPS_STAR:
@@ -201,6 +192,7 @@ def plot_eps_star_curve(curve, *, ax=None):
     Returns
     -------
     matplotlib.figure.Figure
+        ``ax``'s figure, or a new one: both curves on log-log axes.
 
     Examples
     --------
@@ -243,6 +235,7 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
     Returns
     -------
     matplotlib.figure.Figure
+        ``ax``'s figure, or a new one: the fractions on log-log axes, a colour bar.
 
     Examples
     --------

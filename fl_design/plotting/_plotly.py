@@ -26,10 +26,10 @@ import numpy as np
 from ._base import (
     OUTSIDE_RANGE,
     STATUS_COLORS,
-    STATUS_LABELS,
     bracket_points,
     edges,
     is_bracket,
+    status_legend,
     thin_line,
 )
 from ._maps import MAP_EPS_STAR
@@ -303,7 +303,6 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
     """
     gx = np.abs(np.asarray(smap.gamma, dtype=float))
     status = np.asarray(smap.status, dtype=int)
-    codes = list(range(-2, 5))
     labels = np.asarray(smap.labels)
     z = (status + 2).astype(float)
     text = [[f"{labels[i, j]}<br>|gamma| {gx[j]:.4g}<br>eps {smap.eps[i]:.4g}"
@@ -316,12 +315,10 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
              "z": z.tolist(), "zmin": -0.5, "zmax": n - 0.5, "colorscale": scale,
              "showscale": False, "text": text, "hovertemplate": "%{text}<extra></extra>",
              "name": "runs", "showlegend": False}]
-    present = set(np.unique(status).tolist())
-    for code, color, name in zip(codes, STATUS_COLORS, STATUS_LABELS):
-        if code in present:
-            data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None],
-                         "name": name, "marker": {"symbol": "square", "size": 12,
-                                                  "color": color}, "hoverinfo": "skip"})
+    for _, color, name in status_legend(status):
+        data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None],
+                     "name": name, "marker": {"symbol": "square", "size": 12, "color": color},
+                     "hoverinfo": "skip"})
     points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
     for kind, name, opacity in MAP_EPS_STAR:
         if kind in points:

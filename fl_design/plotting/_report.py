@@ -115,6 +115,8 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
     Returns
     -------
     matplotlib.figure.Figure
+        :func:`~fl_design.plotting.plot_stability_map`'s, in ``ctx``'s units, with the
+        design's star and the paper's bound.
 
     Examples
     --------
@@ -161,6 +163,7 @@ def eps_star_figure(ctx: FigureContext, *, curve=None, linearized=None, smap=Non
     Returns
     -------
     matplotlib.figure.Figure
+        One axes, log-log once a curve is drawn.
 
     Examples
     --------
@@ -217,6 +220,7 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
     Returns
     -------
     matplotlib.figure.Figure
+        One axes per noise level, top to bottom, sharing the time axis.
 
     Examples
     --------
@@ -265,6 +269,7 @@ def tradeoff_figure(rows, ctx: FigureContext):
     Returns
     -------
     matplotlib.figure.Figure
+        Two axes sharing eps: the estimate's noise above, the input's below.
 
     Examples
     --------
@@ -309,6 +314,8 @@ def response_figure(resp, ctx: FigureContext, *, title: str):
     Returns
     -------
     matplotlib.figure.Figure
+        :func:`~fl_design.plotting.plot_response`'s three axes (output, input, sigma)
+        in ``ctx``'s units.
 
     Examples
     --------
@@ -345,6 +352,8 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
     Returns
     -------
     matplotlib.figure.Figure
+        :func:`~fl_design.plotting.plot_robust_map`'s, in ``ctx``'s units, with the
+        design's star.
 
     Examples
     --------
