@@ -243,10 +243,9 @@ def map_brief(smap, gamma: float) -> Brief:
 
     Examples
     --------
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._brief import map_brief
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> str(map_brief(m, 1.0))
     'eps* 0.1 s — at gamma 1, 2 x 1 noise-free runs of 1 s'
     """

@@ -48,13 +48,12 @@ def at_design_gamma(job) -> dict:
 
     Examples
     --------
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.app._report_family import at_design_gamma
     >>> class Job:
     ...     class design:
     ...         class controller:
     ...             gamma = 1.1
-    ...     results = {"robust_map": RobustMap(
+    ...     results = {"robust_map": fl.RobustMap(
     ...         np.array([0.1, 0.2]), np.array([1.0, 2.0]),
     ...         np.array([[[2, 2], [2, 2]], [[2, -1], [-1, -1]]]), {}, {"b": np.ones(2)},
     ...         1e-3, 1.0)}
@@ -84,10 +83,9 @@ def covers(rmap) -> str:
 
     Examples
     --------
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.app._report_family import covers
-    >>> covers(RobustMap(np.array([0.1]), np.array([1.0]), np.array([[[2, 2]]]), {},
-    ...                  {"b": np.ones(2)}, 1e-3, 1.0, {"b": fl.Uniform(0.5, 2.0)}, 3))
+    >>> covers(fl.RobustMap(np.array([0.1]), np.array([1.0]), np.array([[[2, 2]]]), {},
+    ...                     {"b": np.ones(2)}, 1e-3, 1.0, {"b": fl.Uniform(0.5, 2.0)}, 3))
     '2 plants drawn from b ~ Uniform(0.5, 2), seed 3'
     """
     dists = ", ".join(f"{k} ~ {v}" for k, v in rmap.distributions.items())

@@ -87,11 +87,10 @@ def linearized_text(star) -> str:
 
     Examples
     --------
-    >>> from fl_design.sim import EpsStar
     >>> from fl_design.app._text import linearized_text
-    >>> linearized_text(EpsStar(1.0, float("inf")))
+    >>> linearized_text(fl.EpsStar(1.0, float("inf")))
     '> 1 s (stable on the whole scanned range: no boundary found up to 1 s)'
-    >>> linearized_text(EpsStar(0.0417, 0.0418))
+    >>> linearized_text(fl.EpsStar(0.0417, 0.0418))
     '0.0417 s (unstable at 0.0418 s)'
     """
     if star.above_range:
@@ -120,10 +119,9 @@ def bounded_up_to(smap, gamma: float) -> str:
 
     Examples
     --------
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._text import bounded_up_to
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> bounded_up_to(m, 1.0)
     '0.1 (diverges at 0.2)'
     """

@@ -82,10 +82,9 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     Examples
     --------
     >>> import matplotlib.pyplot as plt
-    >>> from fl_design.sim import EpsStar
     >>> from fl_design.plotting import plot_eps_star
     >>> fig, ax = plt.subplots()
-    >>> hs = plot_eps_star(ax, [1e-3, 1e-2], [EpsStar(1.0, float("inf")), EpsStar(0.1, 0.2)],
+    >>> hs = plot_eps_star(ax, [1e-3, 1e-2], [fl.EpsStar(1.0, float("inf")), fl.EpsStar(0.1, 0.2)],
     ...                    label="linearized")
     >>> [h.get_label() for h in hs]
     ['linearized', 'linearized: eps* above the range (> top)']
@@ -132,10 +131,9 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
 
     Examples
     --------
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import plot_stability_map
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> plot_stability_map(m).axes[0].get_xlabel()
     'controller gain gamma'
     """
@@ -196,10 +194,9 @@ def plot_eps_star_curve(curve, *, ax=None):
 
     Examples
     --------
-    >>> from fl_design.analysis import EpsStarCurve
     >>> from fl_design.plotting import plot_eps_star_curve
-    >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
-    ...                  np.array([0.09, np.nan]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
+    >>> c = fl.EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
+    ...                     np.array([0.09, np.nan]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
     >>> [l.get_label() for l in plot_eps_star_curve(c).axes[0].get_lines()]
     ['eps* frozen b grid', 'eps* certified (LMI)']
     """
@@ -239,10 +236,9 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
 
     Examples
     --------
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.plotting import plot_robust_map
-    >>> m = RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
-    ...               {}, {"b": np.ones(2)}, 1e-3, 1.0)
+    >>> m = fl.RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
+    ...                  {}, {"b": np.ones(2)}, 1e-3, 1.0)
     >>> plot_robust_map(m).axes[0].get_xlabel()
     'controller gain gamma'
     """

@@ -292,11 +292,10 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
 
     Examples
     --------
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import stability_map_spec
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> spec = stability_map_spec(m, FigureContext("p", design_gamma=1.0, design_eps=0.1))
     >>> [d["name"] for d in spec["data"]][1:]
     ['diverged', 'converging', 'eps* (this map)', 'this design']

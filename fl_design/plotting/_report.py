@@ -120,11 +120,10 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
 
     Examples
     --------
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import stability_map_figure
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> stability_map_figure(m, FigureContext("p", design_gamma=1.0, design_eps=0.1)
     ...                      ).axes[0].get_title()
     'p: stability map, noise-free runs of 1 s'
@@ -357,11 +356,10 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
 
     Examples
     --------
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import robust_map_figure
-    >>> m = RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
-    ...               {}, {"b": np.ones(2)}, 1e-3, 1.0)
+    >>> m = fl.RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
+    ...                  {}, {"b": np.ones(2)}, 1e-3, 1.0)
     >>> robust_map_figure(m, FigureContext("p", design_gamma=1.0, design_eps=0.1)
     ...                   ).axes[0].get_ylabel()
     'observer time constant eps (s)'
