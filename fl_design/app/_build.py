@@ -43,11 +43,13 @@ def build_plant(cfg: Config):
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration; its ``[plant]`` table is read (expressions through the
+        grammar, never evaluated).
 
     Returns
     -------
     fl_design.Plant
+        The library plant (with its motor lag if asked), or one from the expressions.
 
     Examples
     --------
@@ -92,7 +94,7 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration with a ``[design]`` table.
     eps : float, optional
         Override the observer's eps.
     window : int, optional
@@ -128,7 +130,7 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration with ``[scenario] reference``.
     duration, noise_std : float, optional
         Overrides (``duration="adaptive"``: a scenario without a duration, the run chooses
         it from the loop).
@@ -152,12 +154,13 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
 
 
 def build_classifier(cfg: Config):
-    """The classifier of ``[classifier]`` (:class:`fl_design.Classifier` itself).
+    """The classifier of ``[classifier]``: the table is read as a :class:`fl_design.Classifier`
+    itself (tolerance, windows), validated when the config was.
 
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration (the defaults without ``[classifier]``).
 
     Returns
     -------
@@ -182,7 +185,7 @@ def check_fit(cfg: Config, plant) -> tuple:
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration (``[design]``, ``[scenario]`` and ``[plant]`` are checked).
     plant : fl_design.Plant
         Its plant (:func:`build_plant`).
 
@@ -356,23 +359,25 @@ def build_setup(cfg: Config) -> Setup:
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration (every table is read).
 
     Returns
     -------
     Setup
+        Its scenario None when ``[scenario] reference`` is missing (what needs it says so).
 
     Raises
     ------
     DesignMismatchError
-        The design's relative degree (its number of gains) differs from the plant's.
+        ``[design] gains`` has not as many entries as the plant's relative degree.
 
     Examples
     --------
     >>> from fl_design.app import load_config
     >>> from fl_design.app._build import build_setup
-    >>> build_setup(load_config(None)).design.controller.gamma
-    0.0003
+    >>> s = build_setup(load_config(None))
+    >>> s.plant.name, s.design.controller.gamma, s.scenario.reference
+    ('trms_yaw', 0.0003, 0.3)
     """
     from ..errors import DesignMismatchError
 
