@@ -92,11 +92,12 @@ def run_brief(resp) -> Brief:
     Parameters
     ----------
     resp : fl_design.Response
-        A run.
+        A run (its verdict, overshoot and band entry are told).
 
     Returns
     -------
     Brief
+        The verdict word, its tone and one line of numbers.
 
     Examples
     --------

@@ -107,6 +107,7 @@ def map_summary(job) -> dict:
     Returns
     -------
     dict
+        ``{"skipped": why}`` when the stage skipped the map (a design without eps).
 
     Examples
     --------
@@ -275,7 +276,8 @@ def summary(job) -> dict:
     Returns
     -------
     dict
-        Empty when the robustness stage did not run.
+        ``{"monte_carlo": ..., "robust_map": ...}`` (:func:`map_summary`, None without a
+        map); empty when the robustness stage did not run.
 
     Examples
     --------

@@ -146,6 +146,8 @@ def overshoot_text(resp) -> str:
     Returns
     -------
     str
+        A number (``"12.3"``, no ``%``), ``"n/a (diverged)"``, or a phrase starting
+        ``"none: "``.
 
     Examples
     --------
