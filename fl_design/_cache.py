@@ -81,10 +81,12 @@ def check_private(path: str | os.PathLike) -> Path:
     Parameters
     ----------
     path : path-like
+        The folder to check (not created).
 
     Returns
     -------
     pathlib.Path
+        ``path`` itself, once checked.
 
     Raises
     ------
@@ -134,6 +136,7 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
     Returns
     -------
     pathlib.Path
+        The directory, existing and private.
 
     Raises
     ------

@@ -264,6 +264,7 @@ def output_path(folder, rel) -> Path:
     Returns
     -------
     pathlib.Path
+        ``folder/rel``, its folders existing.
 
     Raises
     ------
@@ -402,6 +403,7 @@ def check_prefix_names(prefix: str, fixed, suffixes=(".c", ".h"), *, what: str =
     Returns
     -------
     str
+        ``prefix`` unchanged.
 
     Raises
     ------

@@ -352,6 +352,7 @@ def load_config(path: str | Path | None) -> Config:
     Returns
     -------
     Config
+        As :func:`parse_config` gives it, named after the file in messages.
 
     Raises
     ------

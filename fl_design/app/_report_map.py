@@ -26,11 +26,12 @@ def slow_runs(smap) -> np.ndarray:
     Parameters
     ----------
     smap : fl_design.StabilityMap
-        A map.
+        A map (its ``input_moving`` and ``envelope_change`` metrics are read).
 
     Returns
     -------
     numpy.ndarray of bool
+        The map's shape (eps x gamma).
 
     Examples
     --------
@@ -67,6 +68,7 @@ def map_counts(smap) -> str:
     Returns
     -------
     str
+        ``"k status, ..."``; then ``"; "`` and the undecided runs' split, the extension.
 
     Examples
     --------
