@@ -271,7 +271,7 @@ def summary(job) -> dict:
     Parameters
     ----------
     job : Job
-        A finished job.
+        A job, with or without its robustness stage.
 
     Returns
     -------

@@ -63,7 +63,7 @@ def source_version(presentation: bool = False) -> str:
     Returns
     -------
     str
-        64 hexadecimal digits.
+        The hex digest of :func:`~fl_design.symbolic._derivation_cache.versions_and_sources`.
 
     Examples
     --------
@@ -92,7 +92,7 @@ def stage_key(job, stage: str, quick: bool) -> str | None:
     Returns
     -------
     str or None
-        64 hexadecimal digits.
+        A SHA-256 hex digest of the stage's tables, the plant's key and the sources.
 
     Examples
     --------

@@ -232,7 +232,7 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
     Returns
     -------
     matplotlib.figure.Figure
-        ``ax``'s figure, or a new one: the fractions on log-log axes, a colour bar.
+        ``ax``'s figure, or a new one, with a colour bar for the fractions.
 
     Examples
     --------

@@ -202,6 +202,7 @@ def step_spec(runs, designs, stds, ctx, *, labels=None, window: str = "") -> dic
     Returns
     -------
     dict
+        ``{"data", "layout"}``: a panel per noise level, each with its legend below it.
 
     Examples
     --------
@@ -289,6 +290,7 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
     Returns
     -------
     dict
+        ``{"data", "layout"}``: the heat map first, then one trace per legend entry.
 
     Examples
     --------

@@ -351,8 +351,8 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
     Returns
     -------
     matplotlib.figure.Figure
-        :func:`~fl_design.plotting.plot_robust_map`'s, in ``ctx``'s units, with the
-        design's star.
+        Log-log axes of the fractions (the colour bar has its own axes); the star marks
+        this design.
 
     Examples
     --------
