@@ -78,6 +78,11 @@ class FigureContext:
         """The unit of gamma: input unit times s^rho over output unit (literal)."""
         return literal(f"{self.u_unit} s^{self.rho}/{self.y_unit}")
 
+    @property
+    def gamma_label(self) -> str:
+        """The gamma axis' label: ``controller gain |gamma| (unit)``."""
+        return f"controller gain |gamma| ({self.gamma_unit})"
+
     def y_label(self, what: str) -> str:
         """``what (output unit)`` (literal)."""
         return f"{what} ({literal(self.y_unit)})" if self.y_unit else what
@@ -90,6 +95,18 @@ class FigureContext:
         """The configured design's point on (|gamma|, eps) axes (nothing without eps)."""
         if self.design_eps is not None and math.isfinite(self.design_gamma):
             ax.plot([abs(self.design_gamma)], [self.design_eps], label="this design", **STAR)
+
+    def finish_map(self, ax, title: str) -> None:
+        """A map's last touches: the legend below (the map's own entries first, then what was
+        drawn since, such as the star), the gamma label in units, the plant's name and
+        ``title`` on top."""
+        old = ax.get_legend()
+        handles = list(old.legend_handles) if old is not None else []
+        known = {h.get_label() for h in handles}
+        handles += [h for h in ax.get_legend_handles_labels()[0] if h.get_label() not in known]
+        legend_below(ax, ncol=2, handles=handles)
+        ax.set_xlabel(self.gamma_label)
+        ax.set_title(f"{self.name}: {title}", fontsize="medium")
 
     def bound_line(self, ax, right: float | None = None) -> None:
         """The paper's ``|gamma| < 1/max|b|``, a dotted vertical line (if inside the view)."""
@@ -129,19 +146,9 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
     'p: stability map, noise-free runs of 1 s'
     """
     fig = plot_stability_map(smap, curves=curves)
-    ax = fig.axes[0]
-    ctx.star(ax)
-    ctx.bound_line(ax, right=float(np.max(np.abs(smap.gamma))) * 1.5)
-    old = ax.get_legend()
-    handles = list(old.legend_handles) if old is not None else []
-    new, _ = ax.get_legend_handles_labels()
-    known = {h.get_label() for h in handles}
-    handles += [h for h in new if h.get_label() not in known]
-    legend_below(ax, ncol=2, handles=handles)
-    ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
-    ax.set_ylabel("observer time constant eps (s)")
-    ax.set_title(f"{ctx.name}: stability map, noise-free runs of {smap.duration:g} s",
-                 fontsize="medium")
+    ctx.star(fig.axes[0])
+    ctx.bound_line(fig.axes[0], right=float(np.max(np.abs(smap.gamma))) * 1.5)
+    ctx.finish_map(fig.axes[0], f"stability map, noise-free runs of {smap.duration:g} s")
     return fig
 
 
@@ -189,7 +196,7 @@ def eps_star_figure(ctx: FigureContext, *, curve=None, linearized=None, smap=Non
     ctx.star(ax)
     if ax.has_data():
         log_axes(ax)
-    ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
+    ax.set_xlabel(ctx.gamma_label)
     ax.set_ylabel("eps* (s)")
     ax.set_title(f"{ctx.name}: largest stable eps against gamma", fontsize="medium")
     if ax.get_legend_handles_labels()[0]:
@@ -365,12 +372,8 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
     'observer time constant eps (s)'
     """
     fig = plot_robust_map(rmap, level=level)
-    ax = fig.axes[0]
-    ctx.star(ax)
-    legend_below(ax, ncol=2)
-    ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
-    ax.set_title(f"{ctx.name}: robust stability map, {rmap.n} plants, seed {rmap.seed}",
-                 fontsize="medium")
+    ctx.star(fig.axes[0])
+    ctx.finish_map(fig.axes[0], f"robust stability map, {rmap.n} plants, seed {rmap.seed}")
     return fig
 
 
