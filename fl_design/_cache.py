@@ -283,10 +283,6 @@ def key_path() -> Path:
     ``$XDG_CONFIG_HOME/fl_design/cache.key`` when ``$XDG_CONFIG_HOME`` is absolute, else
     ``~/.config/fl_design/cache.key``. Copying or unpacking a cache folder never copies it.
 
-    Returns
-    -------
-    pathlib.Path
-
     Examples
     --------
     >>> from fl_design._cache import key_path
@@ -318,10 +314,6 @@ def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
     cache_dir : path-like, optional
         The cache folder the key will sign (see :func:`cache_directory`); the key is refused
         when it would lie inside it.
-
-    Returns
-    -------
-    bytes
 
     Raises
     ------
@@ -432,10 +424,6 @@ def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
         Content.
     cache_dir : path-like, optional
         See :func:`cache_directory`.
-
-    Returns
-    -------
-    pathlib.Path
 
     Raises
     ------

@@ -174,10 +174,6 @@ def claim_output_folder(path, *, force: bool = False, what: str = "output folder
     wait : float, optional
         Seconds to wait for another process's lock on the folder (default: fail at once).
 
-    Returns
-    -------
-    pathlib.Path
-
     Raises
     ------
     OutputExistsError
@@ -317,10 +313,6 @@ def write_output(folder, rel, data: bytes | str, *, record: bool = True) -> Path
         Content (str is written as UTF-8).
     record : bool, optional
         Add the file to the folder's marker (default).
-
-    Returns
-    -------
-    pathlib.Path
 
     Examples
     --------

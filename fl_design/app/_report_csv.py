@@ -33,10 +33,6 @@ def csv_rows(n: int, most: int | None) -> np.ndarray:
     most : int or None
         Most rows (None: all).
 
-    Returns
-    -------
-    numpy.ndarray
-
     Examples
     --------
     >>> from fl_design.app._report_csv import csv_rows
@@ -60,10 +56,6 @@ def csv_text(resp, most: int | None = CSV_MAX_ROWS) -> str:
     most : int or None, optional
         Most rows (None: every sample, as :meth:`~fl_design.Response.to_csv`).
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.app._report_csv import csv_text
@@ -86,10 +78,6 @@ def run_csv_name(design: str, std: float) -> str:
         The design's label (``"EHGO eps=0.05"``, ``"LS(9)"``, or ``"main"``).
     std : float
         Noise standard deviation of the run.
-
-    Returns
-    -------
-    str
 
     Examples
     --------

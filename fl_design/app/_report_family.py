@@ -77,10 +77,6 @@ def covers(rmap) -> str:
     rmap : RobustMap
         A robust sweep's result.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.app._report_family import covers
@@ -142,10 +138,6 @@ def blocks(job, figures) -> list:
         A finished job.
     figures : sequence of str
         The figure files written (``robust_map.png`` is shown only if among them).
-
-    Returns
-    -------
-    list
 
     Examples
     --------
@@ -230,10 +222,6 @@ def report_blocks(job, figures=()) -> list:
         A finished job.
     figures : sequence of str, optional
         The figure files written (the robust map's is shown only if among them).
-
-    Returns
-    -------
-    list
 
     Examples
     --------

@@ -62,10 +62,6 @@ figure.live-figure.live img{display:none}
 def plotly_bundle() -> str:
     """Plotly.js as the installed ``plotly`` package ships it (read, never fetched).
 
-    Returns
-    -------
-    str
-
     Raises
     ------
     MissingDependencyError
@@ -108,10 +104,6 @@ def script_json(value) -> str:
     ----------
     value : object
         Plain data (:func:`fl_design._json.jsonable` is applied).
-
-    Returns
-    -------
-    str
 
     Examples
     --------

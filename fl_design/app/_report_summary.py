@@ -46,10 +46,6 @@ def anchor(title: str) -> str:
     title : str
         Section title.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.app._report_summary import anchor
@@ -169,10 +165,6 @@ def summary_blocks(job, figures) -> list:
         A finished (or partial) job.
     figures : sequence of str
         Figures written.
-
-    Returns
-    -------
-    list
 
     Examples
     --------

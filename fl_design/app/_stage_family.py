@@ -38,10 +38,6 @@ def map_grid(config, quick: bool) -> tuple:
     quick : bool
         The quick grid and run length.
 
-    Returns
-    -------
-    tuple
-
     Examples
     --------
     >>> from fl_design.app import load_config

@@ -58,10 +58,6 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
     digits : int, optional
         Significant digits.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.app._text import fmt
@@ -80,10 +76,6 @@ def linearized_text(star) -> str:
     ----------
     star : fl_design.sim.EpsStar
         The result of :func:`fl_design.linearized_eps_star`.
-
-    Returns
-    -------
-    str
 
     Examples
     --------
@@ -171,10 +163,6 @@ def design_label(design) -> str:
     ----------
     design : fl_design.Design
         The design.
-
-    Returns
-    -------
-    str
 
     Examples
     --------

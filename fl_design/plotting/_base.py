@@ -274,10 +274,6 @@ def literal(text) -> str:
     text : object
         Anything; ``str()`` of it is used.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.plotting._base import literal

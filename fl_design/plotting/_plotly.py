@@ -52,10 +52,6 @@ def plotly_text(text) -> str:
     text : object
         ``str()`` of it is used.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.plotting._plotly import plotly_text
