@@ -105,6 +105,7 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     Returns
     -------
     fl_design.Design
+        Under the configured controller, with the configured or the overridden estimator.
 
     Examples
     --------
@@ -140,6 +141,7 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     Returns
     -------
     fl_design.Scenario
+        A new scenario (the overrides change nothing in ``cfg``).
 
     Examples
     --------
@@ -330,6 +332,7 @@ class Setup:
         Returns
         -------
         fl_design.Scenario
+            The setup's own scenario when nothing changes, else a changed copy.
 
         Examples
         --------

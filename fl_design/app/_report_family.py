@@ -98,7 +98,7 @@ def map_summary(job) -> dict:
     Parameters
     ----------
     job : Job
-        A finished job.
+        A finished job (its robust map, the sweep's map for the nominal eps*, the timings).
 
     Returns
     -------

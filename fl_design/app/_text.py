@@ -133,7 +133,7 @@ def overshoot_text(resp) -> str:
     Parameters
     ----------
     resp : fl_design.Response
-        A run.
+        A run (its status, output and overshoot are read).
 
     Returns
     -------

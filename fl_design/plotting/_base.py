@@ -305,9 +305,9 @@ def legend_below(ax, ncol: int = 3, **kwargs):
     >>> import matplotlib.pyplot as plt
     >>> from fl_design.plotting._base import legend_below
     >>> fig, ax = plt.subplots()
-    >>> _ = ax.plot([1, 2], label="a")
-    >>> legend_below(ax).get_texts()[0].get_text()
-    'a'
+    >>> lines = ax.plot([1, 2], label="a") + ax.plot([2, 1], label="b")
+    >>> [t.get_text() for t in legend_below(ax, ncol=2, handles=lines[::-1]).get_texts()]
+    ['b', 'a']
     >>> plt.close(fig)
     """
     return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), borderaxespad=0.0,
