@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._text import fmt
+from ._text import REACHES, fmt, step_reach
 
 #: Most words of a short form (the summary's cells).
 MAX_WORDS = 25
@@ -149,9 +149,8 @@ def window_brief(resp, window: float) -> str:
     m = resp.metrics
     if resp.status == "diverged":
         return f"diverged at {_n(m['divergence_time'])} s"
-    step = max(abs(resp.step), 1e-300)
-    reach = float(np.nanmax(np.abs(resp.y - resp.y0))) / step
-    if reach < 0.9:
+    reach = step_reach(resp)
+    if reach < REACHES:
         return f"never reaches r (peak {100 * reach:.0f} % of the step)"
     if resp.status == "converged" and math.isfinite(m["settling_time"]):
         return f"in the band from {_n(m['settling_time'])} s"
@@ -313,16 +312,12 @@ def compare_brief(sim: dict | None) -> Brief:
         r = sim["runs"][(name, std)]
         if r.status == "diverged":
             parts.append(f"{name} diverges")
-        elif _reach(r) < 0.9:
+        elif step_reach(r) < REACHES:
             parts.append(f"{name} never reaches r")
         else:
             parts.append(f"{name} {_n(r.overshoot)} %")
     return Brief("overshoot", "info", f"{'; '.join(parts)} (noise {std:.3g}, first "
                  f"{sim['compare_duration']:g} s)")
-
-
-def _reach(resp) -> float:
-    return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
 
 
 __all__ = ["DASH", "MAX_WORDS", "Brief", "cert_brief", "cert_long", "clip", "code_brief", "compare_brief",

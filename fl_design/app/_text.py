@@ -127,6 +127,24 @@ def bounded_up_to(smap, gamma: float) -> str:
     return f"{smap.eps[first - 1]:g} (diverges at {smap.eps[first]:g})"
 
 
+#: A run whose output's largest excursion stays below this fraction of the step never reaches
+#: the reference: its "overshoot" is not one.
+REACHES = 0.9
+
+
+def step_reach(resp) -> float:
+    """The output's largest excursion from its start, as a fraction of the step.
+
+    Examples
+    --------
+    >>> from fl_design.app._text import step_reach
+    >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
+    >>> step_reach(r) >= REACHES
+    True
+    """
+    return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
+
+
 def overshoot_text(resp) -> str:
     """Overshoot in %, or why it is not one (diverged; does not track).
 
@@ -150,8 +168,8 @@ def overshoot_text(resp) -> str:
     """
     if resp.status == "diverged":
         return "n/a (diverged)"
-    reach = np.nanmax(np.abs(resp.y - resp.y0)) / max(abs(resp.step), 1e-300)
-    if reach < 0.9:
+    reach = step_reach(resp)
+    if reach < REACHES:
         return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
     return f"{resp.overshoot:.3g}"
 
@@ -177,5 +195,5 @@ def design_label(design) -> str:
             f"T = {design.T:g} s")
 
 
-__all__ = ["bounded_up_to", "design_label", "fmt", "linearized_text", "overshoot_text",
-           "paper_gamma_bound"]
+__all__ = ["REACHES", "bounded_up_to", "design_label", "fmt", "linearized_text", "overshoot_text",
+           "paper_gamma_bound", "step_reach"]
