@@ -4,9 +4,18 @@ stability map (tables, ``summary.json``, the console); the stage is
 
 Examples
 --------
->>> from fl_design.app._report_family import LEVELS
->>> LEVELS
-(1.0, 0.9)
+One quick robustness job on the pendulum family, printed and summarized:
+
+>>> from fl_design.app import parse_config, run_job
+>>> from fl_design.app._report_family import print_robust_map, summary
+>>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
+...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
+...               stages=("robustness",), progress=False)
+>>> print_robust_map(job)  # doctest: +ELLIPSIS
+Robust stability map 5 x 5 (eps x gamma), 3 s runs, 8 plants drawn from c ~ ...
+>>> mc = summary(job)["monte_carlo"]
+>>> mc["n"], mc["distributions"], round(sum(mc["fractions"].values()), 9)
+(16, {'c': 'Uniform(0.1, 1)'}, 1.0)
 """
 
 from __future__ import annotations
@@ -182,16 +191,6 @@ def print_robust_map(job) -> None:
     ----------
     job : Job
         After the robustness stage (and the sweep stage for the nominal column).
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config, run_job
-    >>> from fl_design.app._report_family import print_robust_map
-    >>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
-    ...               stages=("robustness",), progress=False)
-    >>> print_robust_map(job)  # doctest: +ELLIPSIS
-    Robust stability map 5 x 5 (eps x gamma), 3 s runs, 8 plants drawn from c ~ ...
     """
     rmap, smap = job.results["robust_map"], job.results.get("sweep")
     seconds = job.timings.get("robust_map")
@@ -266,17 +265,6 @@ def summary(job) -> dict:
     dict
         ``{"monte_carlo": ..., "robust_map": ...}`` (:func:`map_summary`, None without a
         map); empty when the robustness stage did not run.
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config, run_job
-    >>> from fl_design.app._report_family import summary
-    >>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
-    ...               stages=("robustness",), progress=False)
-    >>> mc = summary(job)["monte_carlo"]
-    >>> mc["n"], mc["distributions"], round(sum(mc["fractions"].values()), 9)
-    (16, {'c': 'Uniform(0.1, 1)'}, 1.0)
     """
     ens = job.results.get("robustness")
     if ens is None:
