@@ -147,10 +147,6 @@ class DesignTable:
         window : int, optional
             A least-squares baseline with this window instead.
 
-        Returns
-        -------
-        fl_design.Design
-
         Examples
         --------
         >>> from fl_design.app._design_table import DesignTable

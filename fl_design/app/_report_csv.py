@@ -118,6 +118,7 @@ def write_runs_csv(job, folder, *, main: bool = False, full: bool = False) -> li
     Returns
     -------
     list of str
+        The files written, relative to ``folder`` (``runs/<design>_noise<std>.csv``).
 
     Examples
     --------

@@ -121,10 +121,6 @@ def summary_rows(job) -> list:
     job : Job
         A finished (or partial) job.
 
-    Returns
-    -------
-    list of tuple
-
     Examples
     --------
     >>> from fl_design.app import load_config, run_job

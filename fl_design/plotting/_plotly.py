@@ -290,13 +290,18 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
 
     Examples
     --------
+    A map with a linearized eps* curve whose second bracket lies above the range:
+
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import stability_map_spec
-    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                     1e-3, 1.0, 0.1)
-    >>> spec = stability_map_spec(m, FigureContext("p", design_gamma=1.0, design_eps=0.1))
-    >>> [d["name"] for d in spec["data"]][1:]
-    ['diverged', 'converging', 'eps* (this map)', 'this design']
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]),
+    ...                     np.array([[1, 2], [-1, 2]]), {}, 1e-3, 1.0, 0.1)
+    >>> lin = ([1.0, 2.0], [fl.EpsStar(0.1, 0.2), fl.EpsStar(0.2, float("inf"))])
+    >>> spec = stability_map_spec(m, FigureContext("p", design_gamma=1.0, design_eps=0.1),
+    ...                           curves={"lin": lin})
+    >>> [d["name"] for d in spec["data"]][1:]  # doctest: +NORMALIZE_WHITESPACE
+    ['diverged', 'converging', 'converged', 'eps* (this map)', 'eps* > largest eps scanned',
+     'lin', 'lin: eps* above the range (> top)', 'this design']
     """
     gx = np.abs(np.asarray(smap.gamma, dtype=float))
     status = np.asarray(smap.status, dtype=int)
