@@ -39,12 +39,8 @@ DERIVATION = "Derivation"
 
 
 def anchor(title: str) -> str:
-    """The HTML ``id`` (and Markdown anchor) of a section title: lower case, dashes.
-
-    Parameters
-    ----------
-    title : str
-        Section title.
+    """The HTML ``id`` (and Markdown anchor) of a section ``title``: lower case, every run of
+    other characters one dash.
 
     Examples
     --------
