@@ -81,10 +81,12 @@ def check_private(path: str | os.PathLike) -> Path:
     Parameters
     ----------
     path : path-like
+        The folder to check (not created).
 
     Returns
     -------
     pathlib.Path
+        ``path`` itself, once checked.
 
     Raises
     ------
@@ -134,6 +136,7 @@ def cache_directory(cache_dir: str | os.PathLike | None = None) -> Path:
     Returns
     -------
     pathlib.Path
+        The directory, existing and private.
 
     Raises
     ------
@@ -280,10 +283,6 @@ def key_path() -> Path:
     ``$XDG_CONFIG_HOME/fl_design/cache.key`` when ``$XDG_CONFIG_HOME`` is absolute, else
     ``~/.config/fl_design/cache.key``. Copying or unpacking a cache folder never copies it.
 
-    Returns
-    -------
-    pathlib.Path
-
     Examples
     --------
     >>> from fl_design._cache import key_path
@@ -315,10 +314,6 @@ def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
     cache_dir : path-like, optional
         The cache folder the key will sign (see :func:`cache_directory`); the key is refused
         when it would lie inside it.
-
-    Returns
-    -------
-    bytes
 
     Raises
     ------
@@ -429,10 +424,6 @@ def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
         Content.
     cache_dir : path-like, optional
         See :func:`cache_directory`.
-
-    Returns
-    -------
-    pathlib.Path
 
     Raises
     ------

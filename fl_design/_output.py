@@ -174,10 +174,6 @@ def claim_output_folder(path, *, force: bool = False, what: str = "output folder
     wait : float, optional
         Seconds to wait for another process's lock on the folder (default: fail at once).
 
-    Returns
-    -------
-    pathlib.Path
-
     Raises
     ------
     OutputExistsError
@@ -264,6 +260,7 @@ def output_path(folder, rel) -> Path:
     Returns
     -------
     pathlib.Path
+        ``folder/rel``, its folders existing.
 
     Raises
     ------
@@ -316,10 +313,6 @@ def write_output(folder, rel, data: bytes | str, *, record: bool = True) -> Path
         Content (str is written as UTF-8).
     record : bool, optional
         Add the file to the folder's marker (default).
-
-    Returns
-    -------
-    pathlib.Path
 
     Examples
     --------
@@ -402,6 +395,7 @@ def check_prefix_names(prefix: str, fixed, suffixes=(".c", ".h"), *, what: str =
     Returns
     -------
     str
+        ``prefix`` unchanged.
 
     Raises
     ------

@@ -10,12 +10,18 @@ accounts for. Used by :mod:`fl_design._output`.
 
 Examples
 --------
->>> from pathlib import Path
+A file fl_design wrote is accounted for by the marker until its content changes:
+
+>>> from fl_design._output import claim_output_folder, release_output_folder, write_output
 >>> from fl_design._output_marker import _scan
->>> Path("scanned").mkdir()
->>> _ = (Path("scanned") / "Makefile").write_text("all:")
->>> _scan(Path("scanned"), set())
-([], ['Makefile'])
+>>> folder = claim_output_folder("scanned")
+>>> _ = write_output(folder, "ours.txt", "x")
+>>> release_output_folder(folder)
+>>> _scan(folder, set())
+([], [])
+>>> _ = (folder / "ours.txt").write_text("changed")
+>>> _scan(folder, set())
+([], ['ours.txt'])
 """
 
 from __future__ import annotations

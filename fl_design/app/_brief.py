@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._text import fmt
+from ._text import REACHES, fmt, step_reach
 
 #: Most words of a short form (the summary's cells).
 MAX_WORDS = 25
@@ -92,15 +92,15 @@ def run_brief(resp) -> Brief:
     Parameters
     ----------
     resp : fl_design.Response
-        A run.
+        A run (its verdict, overshoot and band entry are told).
 
     Returns
     -------
     Brief
+        The verdict word, its tone and one line of numbers.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._brief import run_brief
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> str(run_brief(r))
@@ -141,7 +141,6 @@ def window_brief(resp, window: float) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._brief import window_brief
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> window_brief(r, 20.0)
@@ -150,9 +149,8 @@ def window_brief(resp, window: float) -> str:
     m = resp.metrics
     if resp.status == "diverged":
         return f"diverged at {_n(m['divergence_time'])} s"
-    step = max(abs(resp.step), 1e-300)
-    reach = float(np.nanmax(np.abs(resp.y - resp.y0))) / step
-    if reach < 0.9:
+    reach = step_reach(resp)
+    if reach < REACHES:
         return f"never reaches r (peak {100 * reach:.0f} % of the step)"
     if resp.status == "converged" and math.isfinite(m["settling_time"]):
         return f"in the band from {_n(m['settling_time'])} s"
@@ -245,11 +243,9 @@ def map_brief(smap, gamma: float) -> Brief:
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._brief import map_brief
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> str(map_brief(m, 1.0))
     'eps* 0.1 s — at gamma 1, 2 x 1 noise-free runs of 1 s'
     """
@@ -289,7 +285,6 @@ def design_brief(design) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._brief import design_brief
     >>> design_brief(fl.presets.paper_design())
     'EHGO eps 0.05 s, gamma 0.0003, K (2, 4), k_I 0.001, T 0.001 s'
@@ -317,16 +312,12 @@ def compare_brief(sim: dict | None) -> Brief:
         r = sim["runs"][(name, std)]
         if r.status == "diverged":
             parts.append(f"{name} diverges")
-        elif _reach(r) < 0.9:
+        elif step_reach(r) < REACHES:
             parts.append(f"{name} never reaches r")
         else:
             parts.append(f"{name} {_n(r.overshoot)} %")
     return Brief("overshoot", "info", f"{'; '.join(parts)} (noise {std:.3g}, first "
                  f"{sim['compare_duration']:g} s)")
-
-
-def _reach(resp) -> float:
-    return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
 
 
 __all__ = ["DASH", "MAX_WORDS", "Brief", "cert_brief", "cert_long", "clip", "code_brief", "compare_brief",

@@ -43,11 +43,13 @@ def build_plant(cfg: Config):
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration; its ``[plant]`` table is read (expressions through the
+        grammar, never evaluated).
 
     Returns
     -------
     fl_design.Plant
+        The library plant (with its motor lag if asked), or one from the expressions.
 
     Examples
     --------
@@ -92,7 +94,7 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration with a ``[design]`` table.
     eps : float, optional
         Override the observer's eps.
     window : int, optional
@@ -103,6 +105,7 @@ def build_design(cfg: Config, *, eps: float | None = None, window: int | None = 
     Returns
     -------
     fl_design.Design
+        Under the configured controller, with the configured or the overridden estimator.
 
     Examples
     --------
@@ -128,7 +131,7 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration with ``[scenario] reference``.
     duration, noise_std : float, optional
         Overrides (``duration="adaptive"``: a scenario without a duration, the run chooses
         it from the loop).
@@ -138,6 +141,7 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
     Returns
     -------
     fl_design.Scenario
+        A new scenario (the overrides change nothing in ``cfg``).
 
     Examples
     --------
@@ -152,12 +156,13 @@ def build_scenario(cfg: Config, *, duration: float | None = None, noise_std: flo
 
 
 def build_classifier(cfg: Config):
-    """The classifier of ``[classifier]`` (:class:`fl_design.Classifier` itself).
+    """The classifier of ``[classifier]``: the table is read as a :class:`fl_design.Classifier`
+    itself (tolerance, windows), validated when the config was.
 
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration (the defaults without ``[classifier]``).
 
     Returns
     -------
@@ -182,7 +187,7 @@ def check_fit(cfg: Config, plant) -> tuple:
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration (``[design]``, ``[scenario]`` and ``[plant]`` are checked).
     plant : fl_design.Plant
         Its plant (:func:`build_plant`).
 
@@ -268,7 +273,6 @@ def design_name(design) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._build import design_name
     >>> design_name(fl.presets.paper_design()), design_name(fl.presets.least_squares_design(9))
     ('EHGO eps=0.05', 'LS(9)')
@@ -328,6 +332,7 @@ class Setup:
         Returns
         -------
         fl_design.Scenario
+            The setup's own scenario when nothing changes, else a changed copy.
 
         Examples
         --------
@@ -357,23 +362,25 @@ def build_setup(cfg: Config) -> Setup:
     Parameters
     ----------
     cfg : Config
-        A validated configuration.
+        A validated configuration (every table is read).
 
     Returns
     -------
     Setup
+        Its scenario None when ``[scenario] reference`` is missing (what needs it says so).
 
     Raises
     ------
     DesignMismatchError
-        The design's relative degree (its number of gains) differs from the plant's.
+        ``[design] gains`` has not as many entries as the plant's relative degree.
 
     Examples
     --------
     >>> from fl_design.app import load_config
     >>> from fl_design.app._build import build_setup
-    >>> build_setup(load_config(None)).design.controller.gamma
-    0.0003
+    >>> s = build_setup(load_config(None))
+    >>> s.plant.name, s.design.controller.gamma, s.scenario.reference
+    ('trms_yaw', 0.0003, 0.3)
     """
     from ..errors import DesignMismatchError
 

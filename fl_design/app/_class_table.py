@@ -198,7 +198,6 @@ def class_toml(cls, *, comment: str = "") -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> print(class_toml(fl.PlantClass(rho=1, T=1e-3, b=(1, 2))).splitlines()[1])
     rho = 1
     """

@@ -52,11 +52,12 @@ class ConfigError(ParameterError):
     Examples
     --------
     >>> from fl_design.app import ConfigError, parse_config
-    >>> try:
-    ...     parse_config('[sweep]\\npoints = "many"')
-    ... except ConfigError as err:
-    ...     print(err)
-    <string>: [sweep] points must be an integer, got 'many'
+    >>> parse_config('[sweep]\\npoints = "many"')
+    Traceback (most recent call last):
+    ...
+    fl_design.app._config.ConfigError: <string>: [sweep] points must be an integer, got 'many'
+    >>> issubclass(ConfigError, ValueError)  # a ParameterError
+    True
     """
 
 
@@ -352,6 +353,7 @@ def load_config(path: str | Path | None) -> Config:
     Returns
     -------
     Config
+        As :func:`parse_config` gives it, named after the file in messages.
 
     Raises
     ------

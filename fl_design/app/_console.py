@@ -2,14 +2,31 @@
 
 ``fl-design run`` prints :func:`print_job`: by default one screen (the summary's short answers
 and the compared runs, under 60 lines); ``--verbose`` adds every stage's detail (the
-``print_<stage>`` functions, which the single-stage subcommands print).
+``print_<stage>`` functions, which the single-stage subcommands print). Each printer takes the
+job after its stage: ``print_derive(job)`` after ``derive``, ... ``print_codegen(job)`` after
+``codegen``; :func:`print_summary` and :func:`print_job` any job.
 
 Examples
 --------
+One quick job, then every printer (each output cut after its first words):
+
 >>> from fl_design.app import load_config, run_job
->>> from fl_design.app._console import print_derive
->>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
->>> print_derive(job)  # doctest: +ELLIPSIS
+>>> from fl_design.app import _console
+>>> job = run_job(load_config(None), quick=True, progress=False)
+>>> _console.print_derive(job)  # doctest: +ELLIPSIS
+Plant: trms_yaw...
+>>> _console.print_certificates(job)  # doctest: +ELLIPSIS
+Design: EHGO eps = 0.05 s...
+>>> _console.print_sweep(job)  # doctest: +ELLIPSIS
+Stability map 5 x 5...
+>>> _console.print_simulate(job)  # doctest: +ELLIPSIS
+This design (EHGO eps = 0.05 s...
+>>> _console.print_codegen(job)  # doctest: +ELLIPSIS
+C package...
+>>> _console.print_summary(job)  # doctest: +ELLIPSIS
+trms_yaw: EHGO eps = 0.05 s, gamma = 0.0003, ... (quick mode)
+...
+>>> _console.print_job(job, verbose=True)  # doctest: +ELLIPSIS
 Plant: trms_yaw...
 """
 
@@ -24,39 +41,12 @@ from ._text import bounded_up_to, design_label, fmt, linearized_text, overshoot_
 
 
 def print_derive(job) -> None:
-    """Print the derivation report of the job's plant.
-
-    Parameters
-    ----------
-    job : Job
-        After the derive stage.
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_derive
-    >>> print_derive(run_job(load_config(None), stages=("derive",), progress=False))  # doctest: +ELLIPSIS
-    Plant: trms_yaw...
-    """
+    """Print the derivation report of the job's plant (after the derive stage)."""
     print(job.derivation["text"])
 
 
 def print_certificates(job) -> None:
-    """Print the certificates: Lyapunov, gamma interval, eps*, linearized eps*.
-
-    Parameters
-    ----------
-    job : Job
-        After the certify stage.
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_certificates
-    >>> job = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
-    >>> print_certificates(job)  # doctest: +ELLIPSIS
-    Design: EHGO eps = 0.05 s...
-    """
+    """Print the certificates: Lyapunov, gamma interval, eps*, linearized eps*."""
     cert = job.results["certify"]
     print(f"Design: {design_label(job.design)} on {job.plant.name}")
     for key in ("lyapunov", "gamma", "eps"):
@@ -81,21 +71,7 @@ print_certify = print_certificates
 
 
 def print_sweep(job) -> None:
-    """Print the stability map's counts and its empirical eps* per gamma.
-
-    Parameters
-    ----------
-    job : Job
-        After the sweep stage.
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_sweep
-    >>> print_sweep(run_job(load_config(None), quick=True, stages=("sweep",), progress=False))
-    ... # doctest: +ELLIPSIS
-    Stability map 5 x 5...
-    """
+    """Print the stability map's counts and its empirical eps* per gamma."""
     smap = job.results["sweep"]
     counts = map_counts(smap)
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
@@ -115,21 +91,7 @@ def print_sweep(job) -> None:
 
 
 def print_simulate(job) -> None:
-    """Print every run's verdict and overshoot (the paper's comparison).
-
-    Parameters
-    ----------
-    job : Job
-        After the simulate stage.
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_simulate
-    >>> print_simulate(run_job(load_config(None), quick=True, stages=("simulate",),
-    ...                        progress=False))  # doctest: +ELLIPSIS
-    This design (EHGO eps = 0.05 s...
-    """
+    """Print every run's verdict and overshoot (the paper's comparison)."""
     sim = job.results["simulate"]
     main = sim["main"]
     print(f"This design ({design_label(job.design)}), {sim['duration']:g} s: {main.verdict()}")
@@ -149,21 +111,7 @@ def print_simulate(job) -> None:
 
 
 def print_codegen(job) -> None:
-    """Print the C package, its SIL result and the cost table.
-
-    Parameters
-    ----------
-    job : Job
-        After the codegen stage.
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_codegen
-    >>> print_codegen(run_job(load_config(None), quick=True, stages=("codegen",),
-    ...                       progress=False))  # doctest: +ELLIPSIS
-    C package...
-    """
+    """Print the C package, its SIL result and the cost table."""
     cg = job.results["codegen"]
     if "skipped" in cg:
         print(f"C package skipped: {cg['skipped']}")
@@ -196,22 +144,7 @@ def _line(answer) -> str:
 
 
 def print_summary(job) -> None:
-    """Print the summary's short answers and the compared runs (one screen).
-
-    Parameters
-    ----------
-    job : Job
-        A finished job.
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_summary
-    >>> print_summary(run_job(load_config(None), quick=True, stages=("derive",),
-    ...                       progress=False))  # doctest: +ELLIPSIS
-    trms_yaw: EHGO eps = 0.05 s, gamma = 0.0003, ... (quick mode)
-    ...
-    """
+    """Print the summary's short answers and the compared runs (one screen)."""
     mode = " (quick mode)" if job.quick else ""
     print(f"{job.plant.name}: {design_label(job.design)}{mode}")
     rows = summary_rows(job)
@@ -246,14 +179,6 @@ def print_job(job, *, verbose: bool = False) -> None:
         A finished job.
     verbose : bool, optional
         Also every stage's tables (the derivation, the certificates, the map, the runs, C).
-
-    Examples
-    --------
-    >>> from fl_design.app import load_config, run_job
-    >>> from fl_design.app._console import print_job
-    >>> print_job(run_job(load_config(None), quick=True, stages=("derive",), progress=False),
-    ...           verbose=True)  # doctest: +ELLIPSIS
-    Plant: trms_yaw...
     """
     if verbose:
         printers = (("derive", print_derive), ("certify", print_certificates),

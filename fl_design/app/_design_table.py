@@ -34,6 +34,12 @@ def estimate_limits(value) -> tuple | None:
     Returns
     -------
     tuple or None
+        A positive bound per estimate (None: that one unbounded); None: no limits at all.
+
+    Raises
+    ------
+    ParameterError
+        Not an array, or an entry neither a positive number nor ``"none"``.
 
     Examples
     --------
@@ -146,10 +152,6 @@ class DesignTable:
             Override the observer's eps.
         window : int, optional
             A least-squares baseline with this window instead.
-
-        Returns
-        -------
-        fl_design.Design
 
         Examples
         --------

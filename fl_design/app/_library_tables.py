@@ -159,10 +159,6 @@ def plain_toml(tables: dict) -> str:
     tables : dict
         ``{table: {key: value}}``.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> plain_toml({"scenario": {"reference": 0.3}})
@@ -179,10 +175,6 @@ def full_tables(name: str) -> dict:
     ----------
     name : str
         A library plant.
-
-    Returns
-    -------
-    dict
 
     Examples
     --------

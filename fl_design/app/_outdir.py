@@ -32,6 +32,7 @@ def check_out_dir(path, *, force: bool = False) -> Path:
     Returns
     -------
     pathlib.Path
+        The folder, existing and writable.
 
     Raises
     ------

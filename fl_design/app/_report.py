@@ -2,7 +2,6 @@
 
 Examples
 --------
->>> import fl_design as fl
 >>> from fl_design.app._report import derivation_report
 >>> text = derivation_report(fl.plants.trms_yaw())
 >>> "relative degree rho = 2" in text
@@ -39,7 +38,6 @@ def derivation_report(plant, *, latex: bool = False) -> str:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._report import derivation_report
     >>> print(derivation_report(fl.plants.pendulum()).splitlines()[0])
     Plant: pendulum

@@ -33,10 +33,6 @@ def csv_rows(n: int, most: int | None) -> np.ndarray:
     most : int or None
         Most rows (None: all).
 
-    Returns
-    -------
-    numpy.ndarray
-
     Examples
     --------
     >>> from fl_design.app._report_csv import csv_rows
@@ -60,13 +56,8 @@ def csv_text(resp, most: int | None = CSV_MAX_ROWS) -> str:
     most : int or None, optional
         Most rows (None: every sample, as :meth:`~fl_design.Response.to_csv`).
 
-    Returns
-    -------
-    str
-
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._report_csv import csv_text
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
     >>> len(csv_text(r, 100).splitlines()) - 1 <= 100, csv_text(r, None) == r.to_csv()
@@ -87,10 +78,6 @@ def run_csv_name(design: str, std: float) -> str:
         The design's label (``"EHGO eps=0.05"``, ``"LS(9)"``, or ``"main"``).
     std : float
         Noise standard deviation of the run.
-
-    Returns
-    -------
-    str
 
     Examples
     --------
@@ -131,6 +118,7 @@ def write_runs_csv(job, folder, *, main: bool = False, full: bool = False) -> li
     Returns
     -------
     list of str
+        The files written, relative to ``folder`` (``runs/<design>_noise<std>.csv``).
 
     Examples
     --------

@@ -4,9 +4,18 @@ stability map (tables, ``summary.json``, the console); the stage is
 
 Examples
 --------
->>> from fl_design.app._report_family import LEVELS
->>> LEVELS
-(1.0, 0.9)
+One quick robustness job on the pendulum family, printed and summarized:
+
+>>> from fl_design.app import parse_config, run_job
+>>> from fl_design.app._report_family import print_robust_map, summary
+>>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
+...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
+...               stages=("robustness",), progress=False)
+>>> print_robust_map(job)  # doctest: +ELLIPSIS
+Robust stability map 5 x 5 (eps x gamma), 3 s runs, 8 plants drawn from c ~ ...
+>>> mc = summary(job)["monte_carlo"]
+>>> mc["n"], mc["distributions"], round(sum(mc["fractions"].values()), 9)
+(16, {'c': 'Uniform(0.1, 1)'}, 1.0)
 """
 
 from __future__ import annotations
@@ -19,6 +28,12 @@ from .._json import jsonable
 
 #: Fractions of converging plants the robust eps* is given for (every plant; 90 %).
 LEVELS = (1.0, 0.9)
+
+
+def _robust_map(job) -> tuple:
+    """The job's robust map, or None and why it was skipped (None if it was not asked for)."""
+    rmap = job.results.get("robust_map")
+    return rmap, (job.results.get("robust_map_skipped") if rmap is None else None)
 
 
 def _nearest(grid, gamma: float) -> float:
@@ -42,14 +57,12 @@ def at_design_gamma(job) -> dict:
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.app._report_family import at_design_gamma
     >>> class Job:
     ...     class design:
     ...         class controller:
     ...             gamma = 1.1
-    ...     results = {"robust_map": RobustMap(
+    ...     results = {"robust_map": fl.RobustMap(
     ...         np.array([0.1, 0.2]), np.array([1.0, 2.0]),
     ...         np.array([[[2, 2], [2, 2]], [[2, -1], [-1, -1]]]), {}, {"b": np.ones(2)},
     ...         1e-3, 1.0)}
@@ -73,18 +86,11 @@ def covers(rmap) -> str:
     rmap : RobustMap
         A robust sweep's result.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
-    >>> import numpy as np
-    >>> import fl_design as fl
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.app._report_family import covers
-    >>> covers(RobustMap(np.array([0.1]), np.array([1.0]), np.array([[[2, 2]]]), {},
-    ...                  {"b": np.ones(2)}, 1e-3, 1.0, {"b": fl.Uniform(0.5, 2.0)}, 3))
+    >>> covers(fl.RobustMap(np.array([0.1]), np.array([1.0]), np.array([[[2, 2]]]), {},
+    ...                     {"b": np.ones(2)}, 1e-3, 1.0, {"b": fl.Uniform(0.5, 2.0)}, 3))
     '2 plants drawn from b ~ Uniform(0.5, 2), seed 3'
     """
     dists = ", ".join(f"{k} ~ {v}" for k, v in rmap.distributions.items())
@@ -101,23 +107,22 @@ def map_summary(job) -> dict:
     Parameters
     ----------
     job : Job
-        A finished job.
+        A finished job (its robust map, the sweep's map for the nominal eps*, the timings).
 
     Returns
     -------
     dict
+        ``{"skipped": why}`` when the stage skipped the map (a design without eps).
 
     Examples
     --------
+    >>> from types import SimpleNamespace
     >>> from fl_design.app._report_family import map_summary
-    >>> class Job:
-    ...     results = {}
-    >>> map_summary(Job())
-    {}
+    >>> map_summary(SimpleNamespace(results={"robust_map_skipped": "no robust map: no eps"}))
+    {'skipped': 'no robust map: no eps'}
     """
-    rmap = job.results.get("robust_map")
+    rmap, skipped = _robust_map(job)
     if rmap is None:
-        skipped = job.results.get("robust_map_skipped")
         return {"skipped": skipped} if skipped else {}
     out = {k: v for k, v in rmap.to_dict().items() if k not in ("status", "metrics")}
     out["eps_star"] = [{"gamma": float(g), **{f"level_{lv:g}": rmap.eps_star(g, level=lv)
@@ -143,21 +148,15 @@ def blocks(job, figures) -> list:
     figures : sequence of str
         The figure files written (``robust_map.png`` is shown only if among them).
 
-    Returns
-    -------
-    list
-
     Examples
     --------
+    >>> from types import SimpleNamespace
     >>> from fl_design.app._report_family import blocks
-    >>> class Job:
-    ...     results = {}
-    >>> blocks(Job(), [])
-    []
+    >>> blocks(SimpleNamespace(results={"robust_map_skipped": "no robust map: no eps"}), [])
+    [('p', 'No robust map: no eps.')]
     """
-    rmap = job.results.get("robust_map")
+    rmap, skipped = _robust_map(job)
     if rmap is None:
-        skipped = job.results.get("robust_map_skipped")
         return [("p", skipped[0].upper() + skipped[1:] + ".")] if skipped else []
     here = at_design_gamma(job)
     seconds = job.timings.get("robust_map")
@@ -192,16 +191,6 @@ def print_robust_map(job) -> None:
     ----------
     job : Job
         After the robustness stage (and the sweep stage for the nominal column).
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config, run_job
-    >>> from fl_design.app._report_family import print_robust_map
-    >>> job = run_job(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                            '[uncertainty.params]\\nc = [0.1, 1.0]'), quick=True,
-    ...               stages=("robustness",), progress=False)
-    >>> print_robust_map(job)  # doctest: +ELLIPSIS
-    Robust stability map 5 x 5 (eps x gamma), 3 s runs, 8 plants drawn from c ~ ...
     """
     rmap, smap = job.results["robust_map"], job.results.get("sweep")
     seconds = job.timings.get("robust_map")
@@ -232,10 +221,6 @@ def report_blocks(job, figures=()) -> list:
         A finished job.
     figures : sequence of str, optional
         The figure files written (the robust map's is shown only if among them).
-
-    Returns
-    -------
-    list
 
     Examples
     --------
@@ -273,22 +258,14 @@ def summary(job) -> dict:
     Parameters
     ----------
     job : Job
-        A finished job.
+        A job, with or without its robustness stage.
 
     Returns
     -------
     dict
-        Empty when the robustness stage did not run.
-
-    Examples
-    --------
-    >>> from fl_design.app._report_family import summary
-    >>> class Job:
-    ...     results = {}
-    >>> summary(Job())
-    {}
+        ``{"monte_carlo": ..., "robust_map": ...}`` (:func:`map_summary`, None without a
+        map); empty when the robustness stage did not run.
     """
-
     ens = job.results.get("robustness")
     if ens is None:
         return {}

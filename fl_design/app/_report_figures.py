@@ -53,16 +53,31 @@ def figure_context(job):
         gamma_bound=bound, gamma_bound_text=text, u_eq=(job.derivation or {}).get("u_eq"))
 
 
-def _map(job, ctx):
-    from ..plotting._report import stability_map_figure
+def map_curves(job) -> dict:
+    """Legend label -> ``(gamma, eps_star)`` of the curves the certify stage drew over the
+    stability map: certified (LMI) and linearized (none without that stage).
 
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from fl_design.app._report_figures import map_curves
+    >>> map_curves(SimpleNamespace(results={"certify": {"linearized": {
+    ...     "gamma": [1.0], "eps_star": [0.1]}}}))
+    {'linearized eps*': ([1.0], [0.1])}
+    """
     cert = job.results.get("certify", {})
     curves = {}
     if "curve" in cert:
         curves["certified eps* (LMI)"] = (cert["curve"].gamma, cert["curve"].eps_star_certified)
     if "linearized" in cert:
         curves["linearized eps*"] = (cert["linearized"]["gamma"], cert["linearized"]["eps_star"])
-    return stability_map_figure(job.results["sweep"], ctx, curves=curves)
+    return curves
+
+
+def _map(job, ctx):
+    from ..plotting._report import stability_map_figure
+
+    return stability_map_figure(job.results["sweep"], ctx, curves=map_curves(job))
 
 
 def _eps_star(job, ctx):
@@ -111,11 +126,27 @@ def _tradeoff(job, ctx):
     return tradeoff_figure(job.results["simulate"]["tradeoff"], ctx)
 
 
+def response_title(job, ctx) -> str:
+    """The main run's figure title: ``ctx``'s plant and the run's short verdict, one line.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from fl_design.plotting import FigureContext
+    >>> from fl_design.app._report_figures import response_title
+    >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
+    >>> response_title(SimpleNamespace(results={"simulate": {"main": r}}), FigureContext("p"))
+    'p: converged — overshoot 0 %, in the band from 9.08 s'
+    """
+    resp = job.results["simulate"]["main"]
+    return " ".join(f"{ctx.plant}: {run_brief(resp)}".replace(" (beyond the run)", "").split())
+
+
 def _response(job, ctx):
     from ..plotting._report import response_figure
 
     resp = job.results["simulate"]["main"]
-    title = " ".join(f"{ctx.plant}: {run_brief(resp)}".replace(" (beyond the run)", "").split())
+    title = response_title(job, ctx)
     words = title.split(" ")
     while len(" ".join(words)) > 86 and len(words) > 1:  # one line: whole words
         words.pop()
@@ -188,4 +219,5 @@ def write_figures(job, folder) -> tuple[list, dict]:
     return written, failed
 
 
-__all__ = ["FIGURES", "figure_context", "step_labels", "write_figures"]
+__all__ = ["FIGURES", "figure_context", "map_curves", "response_title", "step_labels",
+           "write_figures"]

@@ -62,10 +62,6 @@ figure.live-figure.live img{display:none}
 def plotly_bundle() -> str:
     """Plotly.js as the installed ``plotly`` package ships it (read, never fetched).
 
-    Returns
-    -------
-    str
-
     Raises
     ------
     MissingDependencyError
@@ -108,10 +104,6 @@ def script_json(value) -> str:
     ----------
     value : object
         Plain data (:func:`fl_design._json.jsonable` is applied).
-
-    Returns
-    -------
-    str
 
     Examples
     --------
@@ -181,29 +173,18 @@ class LiveFigures:
                           f"<script>{INIT_JS}</script>"])
 
 
-def _response_title(job, ctx) -> str:
-    from ._brief import run_brief
-
-    resp = job.results["simulate"]["main"]
-    return " ".join(f"{ctx.plant}: {run_brief(resp)}".replace(" (beyond the run)", "").split())
-
-
 def _response(job, ctx):
     from ..plotting._plotly import response_spec
+    from ._report_figures import response_title
 
-    return response_spec(job.results["simulate"]["main"], ctx, title=_response_title(job, ctx))
+    return response_spec(job.results["simulate"]["main"], ctx, title=response_title(job, ctx))
 
 
 def _map(job, ctx):
     from ..plotting._plotly import stability_map_spec
+    from ._report_figures import map_curves
 
-    cert = job.results.get("certify", {})
-    curves = {}
-    if "curve" in cert:
-        curves["certified eps* (LMI)"] = (cert["curve"].gamma, cert["curve"].eps_star_certified)
-    if "linearized" in cert:
-        curves["linearized eps*"] = (cert["linearized"]["gamma"], cert["linearized"]["eps_star"])
-    return stability_map_spec(job.results["sweep"], ctx, curves=curves)
+    return stability_map_spec(job.results["sweep"], ctx, curves=map_curves(job))
 
 
 def _steps(job, ctx):

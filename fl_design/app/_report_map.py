@@ -4,11 +4,9 @@ Shared by the console (``fl-design run`` and ``sweep``) and the report's map sec
 
 Examples
 --------
->>> import numpy as np
->>> from fl_design.sim import StabilityMap
 >>> from fl_design.app._report_map import map_counts
->>> map_counts(StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[2]]), {}, 1e-3, 5.0,
-...                         0.02))
+>>> map_counts(fl.StabilityMap(np.array([0.1]), np.array([1.0]), np.array([[2]]), {}, 1e-3, 5.0,
+...                            0.02))
 '1 converged'
 """
 
@@ -28,20 +26,19 @@ def slow_runs(smap) -> np.ndarray:
     Parameters
     ----------
     smap : fl_design.StabilityMap
-        A map.
+        A map (its ``input_moving`` and ``envelope_change`` metrics are read).
 
     Returns
     -------
     numpy.ndarray of bool
+        The map's shape (eps x gamma).
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._report_map import slow_runs
-    >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[3, 3]]),
-    ...                  {"input_moving": np.array([[1.0, 0.0]]),
-    ...                   "envelope_change": np.array([[0.0, 0.2]])}, 1e-3, 10.0, 0.02)
+    >>> m = fl.StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[3, 3]]),
+    ...                     {"input_moving": np.array([[1.0, 0.0]]),
+    ...                      "envelope_change": np.array([[0.0, 0.2]])}, 1e-3, 10.0, 0.02)
     >>> slow_runs(m).tolist()
     [[True, False]]
     """
@@ -71,19 +68,18 @@ def map_counts(smap) -> str:
     Returns
     -------
     str
+        ``"k status, ..."``; then ``"; "`` and the undecided runs' split, the extension.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._report_map import map_counts
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[2, 3], [3, 3]]),
-    ...                  {"input_moving": np.array([[0.0, 1.0], [1.0, 0.0]]),
-    ...                   "decay_rate": np.array([[0.0, 0.01], [0.02, 0.0]])}, 1e-3, 10.0, 0.02)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[2, 3], [3, 3]]),
+    ...                     {"input_moving": np.array([[0.0, 1.0], [1.0, 0.0]]),
+    ...                      "decay_rate": np.array([[0.0, 0.01], [0.02, 0.0]])}, 1e-3, 10.0, 0.02)
     >>> map_counts(m)
     '1 converged, 3 undecided (2 of them slow: still moving towards the reference at 10 s, fitted time constants 50-100 s)'
-    >>> m = StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 1]]), {}, 1e-3,
-    ...                  10.0, 0.02, durations=np.array([[10.0, 40.0]]), max_duration=40.0)
+    >>> m = fl.StabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 1]]), {}, 1e-3,
+    ...                     10.0, 0.02, durations=np.array([[10.0, 40.0]]), max_duration=40.0)
     >>> map_counts(m)
     '1 converged, 1 converging; 1 run undecided at 10 s re-run at 40 s: now 1 converging'
     """

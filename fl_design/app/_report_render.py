@@ -38,11 +38,12 @@ def md(text) -> str:
     Parameters
     ----------
     text : object
-        ``str()`` of it is used.
+        Written as ``str(text)``, white space folded.
 
     Returns
     -------
     str
+        Also a leading ``1.``, ``-``, ``+`` or ``=`` escaped (no list, no heading).
 
     Examples
     --------

@@ -39,16 +39,8 @@ DERIVATION = "Derivation"
 
 
 def anchor(title: str) -> str:
-    """The HTML ``id`` (and Markdown anchor) of a section title: lower case, dashes.
-
-    Parameters
-    ----------
-    title : str
-        Section title.
-
-    Returns
-    -------
-    str
+    """The HTML ``id`` (and Markdown anchor) of a section ``title``: lower case, every run of
+    other characters one dash.
 
     Examples
     --------
@@ -125,10 +117,6 @@ def summary_rows(job) -> list:
     job : Job
         A finished (or partial) job.
 
-    Returns
-    -------
-    list of tuple
-
     Examples
     --------
     >>> from fl_design.app import load_config, run_job
@@ -169,10 +157,6 @@ def summary_blocks(job, figures) -> list:
         A finished (or partial) job.
     figures : sequence of str
         Figures written.
-
-    Returns
-    -------
-    list
 
     Examples
     --------

@@ -8,16 +8,11 @@ The sections come from :mod:`fl_design.app._report_sections`, the renderers from
 
 Examples
 --------
->>> from fl_design.app import render_markdown
->>> print(render_markdown([("Title", [("p", "text"), ("table", ["a"], [[1]])])]))
-## Title
-<BLANKLINE>
-text
-<BLANKLINE>
-| a |
-| --- |
-| 1 |
-<BLANKLINE>
+>>> from pathlib import Path
+>>> from fl_design.app import load_config, run_job, write_report
+>>> job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
+>>> Path(write_report(job, "report")["markdown"]).read_text().startswith("# ")
+True
 """
 
 from __future__ import annotations
@@ -47,6 +42,8 @@ def summary(job) -> dict:
     Returns
     -------
     dict
+        The config, the design, the derivation, each stage's results and timings; every
+        float finite or None.
 
     Examples
     --------

@@ -63,7 +63,7 @@ def source_version(presentation: bool = False) -> str:
     Returns
     -------
     str
-        64 hexadecimal digits.
+        The hex digest of :func:`~fl_design.symbolic._derivation_cache.versions_and_sources`.
 
     Examples
     --------
@@ -77,13 +77,14 @@ def source_version(presentation: bool = False) -> str:
     return versions_and_sources((FORMAT, sys.version), _PACKAGES, paths)
 
 
-def stage_key(job, stage: str, quick: bool) -> str | None:
-    """The content key of ``job``'s ``stage``; None when the plant has no derivation key.
+def stage_key(setup, stage: str, quick: bool) -> str | None:
+    """The content key of ``stage`` for ``setup``; None when the plant has no derivation key.
 
     Parameters
     ----------
-    job : Job
-        Prepared (plant and design set).
+    setup : Setup
+        The config's objects (:func:`fl_design.app._build.build_setup`): its config and plant
+        are read.
     stage : str
         ``"certify"`` or ``"derive"`` (:data:`TABLES`).
     quick : bool
@@ -92,23 +93,25 @@ def stage_key(job, stage: str, quick: bool) -> str | None:
     Returns
     -------
     str or None
-        64 hexadecimal digits.
+        A SHA-256 hex digest of the stage's tables, the plant's key and the sources.
 
     Examples
     --------
+    The quick mode and every table the stage reads are part of the key:
+
     >>> from fl_design.app import load_config
-    >>> from fl_design.app._job import prepare
+    >>> from fl_design.app._build import build_setup
     >>> from fl_design.app._stage_cache import stage_key
-    >>> job = prepare(load_config(None))
-    >>> stage_key(job, "certify", True) != stage_key(job, "certify", False)
+    >>> s = build_setup(load_config(None))
+    >>> stage_key(s, "certify", True) != stage_key(s, "certify", False)
     True
     """
-    plant_key = getattr(getattr(job.plant, "_store", None), "key", None)
+    plant_key = getattr(getattr(setup.plant, "_store", None), "key", None)
     if plant_key is None:
         return None
     from ._tables import table_dict
 
-    cfg = job.config
+    cfg = setup.config
     read = {"sweep_eps": cfg.sweep.eps} if "sweep_eps" in TABLES[stage] else {}
     read |= {name: None if getattr(cfg, name) is None else table_dict(getattr(cfg, name))
              for name in TABLES[stage] if name != "sweep_eps"}
@@ -120,13 +123,13 @@ def stage_key(job, stage: str, quick: bool) -> str | None:
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
-def cached_stage(job, stage: str, quick: bool, compute) -> tuple[dict, bool]:
+def cached_stage(setup, stage: str, quick: bool, compute) -> tuple[dict, bool]:
     """A stage's results: from the signed cache, else ``compute()`` (then stored).
 
     Parameters
     ----------
-    job : Job
-        Prepared (plant and design set).
+    setup : Setup
+        The config's objects (its config and plant are read).
     stage : str
         ``"certify"`` or ``"derive"``.
     quick : bool
@@ -141,7 +144,7 @@ def cached_stage(job, stage: str, quick: bool, compute) -> tuple[dict, bool]:
 
     Examples
     --------
-    A job whose plant has no derivation key is always computed:
+    A setup whose plant has no derivation key is always computed:
 
     >>> from types import SimpleNamespace
     >>> from fl_design.app._stage_cache import cached_stage
@@ -154,7 +157,7 @@ def cached_stage(job, stage: str, quick: bool, compute) -> tuple[dict, bool]:
         hit.append(False)
         return compute()
 
-    store = PlantStore(stage_key(job, stage, quick), prefix=stage)
+    store = PlantStore(stage_key(setup, stage, quick), prefix=stage)
     return store.get("results", fresh, dict), not hit
 
 

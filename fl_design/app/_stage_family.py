@@ -9,9 +9,22 @@ eps* stands beside the nominal eps* at the same gamma. The report's words and fi
 
 Examples
 --------
->>> from fl_design.app._stage_family import QUICK_MAP_SAMPLES
->>> QUICK_MAP_SAMPLES
-8
+One setup, both stages (quick: 16 plants in the Monte Carlo, :data:`QUICK_MAP_SAMPLES` per map
+point), and the map skipped for a design without eps:
+
+>>> from dataclasses import replace
+>>> from fl_design.app import parse_config
+>>> from fl_design.app._build import build_setup
+>>> from fl_design.app._stage_family import robust_map, robustness
+>>> s = build_setup(parse_config('[plant]\\nlibrary = "pendulum"\\n'
+...                              '[uncertainty.params]\\nc = [0.1, 1.0]'))
+>>> out = robustness(s, True)
+>>> out["robustness"].n, out["robust_map"].status.shape
+(16, (5, 5, 8))
+>>> robust_map(s, True, samples=2)["robust_map"].status.shape
+(5, 5, 2)
+>>> robust_map(replace(s, design=fl.presets.least_squares_design(9)), True)
+{'robust_map_skipped': "no robust map: it runs over the observer's eps, ... has none"}
 """
 
 from __future__ import annotations
@@ -37,10 +50,6 @@ def map_grid(config, quick: bool) -> tuple:
         The job's configuration.
     quick : bool
         The quick grid and run length.
-
-    Returns
-    -------
-    tuple
 
     Examples
     --------
@@ -78,16 +87,6 @@ def robust_map(setup: Setup, quick: bool, executor=None, progress: bool = False,
     dict
         ``robust_map`` (:class:`~fl_design.sim.RobustMap`) and ``robust_map_seconds``; or
         ``robust_map_skipped`` (a design without eps); empty without params or samples.
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config
-    >>> from fl_design.app._build import build_setup
-    >>> from fl_design.app._stage_family import robust_map
-    >>> s = build_setup(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                              '[uncertainty.params]\\nc = [0.1, 1.0]'))
-    >>> robust_map(s, True)["robust_map"].status.shape
-    (5, 5, 8)
     """
     from ..sim import sweep
 
@@ -118,17 +117,6 @@ def robustness(setup: Setup, quick: bool, executor=None, progress: bool = False)
     -------
     dict
         ``robustness`` (:class:`~fl_design.Ensemble`) and :func:`robust_map`'s keys.
-
-    Examples
-    --------
-    >>> from fl_design.app import parse_config
-    >>> from fl_design.app._build import build_setup
-    >>> from fl_design.app._stage_family import robustness
-    >>> s = build_setup(parse_config('[plant]\\nlibrary = "pendulum"\\n'
-    ...                              '[uncertainty.params]\\nc = [0.1, 1.0]'))
-    >>> out = robustness(s, True)
-    >>> out["robustness"].n, out["robust_map"].n
-    (16, 8)
     """
     from ..sim import monte_carlo
 

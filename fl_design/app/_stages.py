@@ -245,7 +245,6 @@ def noise_levels(resp) -> dict:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._stages import noise_levels
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
     >>> noise_levels(r)["u_noise"] < 1e-3
@@ -281,7 +280,6 @@ def compare_window(setup: Setup, main, quick: bool) -> tuple[float, str]:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app import load_config
     >>> from fl_design.app._build import build_setup
     >>> from fl_design.app._stages import compare_window

@@ -234,10 +234,6 @@ class ScenarioTable:
         seed : int, optional
             Override.
 
-        Returns
-        -------
-        fl_design.Scenario
-
         Examples
         --------
         >>> from fl_design.app._tables import ScenarioTable

@@ -62,10 +62,6 @@ def render(cfg, header: str) -> str:
     header : str
         Comment lines put first (without the ``#``).
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.app import load_config
@@ -182,10 +178,6 @@ def config_toml(plant: str | None = "trms", *, from_ode: bool = False) -> str:
         other plant-specific number: the reference, the design (:func:`fl_design.tune`), the
         ranges and the compared noise are derived from the plant at run time
         (:data:`DERIVED`); edit ``[plant]`` only.
-
-    Returns
-    -------
-    str
 
     Examples
     --------

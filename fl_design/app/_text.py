@@ -58,10 +58,6 @@ def fmt(value, missing: str = "-", digits: int = 4) -> str:
     digits : int, optional
         Significant digits.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.app._text import fmt
@@ -81,17 +77,12 @@ def linearized_text(star) -> str:
     star : fl_design.sim.EpsStar
         The result of :func:`fl_design.linearized_eps_star`.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
-    >>> from fl_design.sim import EpsStar
     >>> from fl_design.app._text import linearized_text
-    >>> linearized_text(EpsStar(1.0, float("inf")))
+    >>> linearized_text(fl.EpsStar(1.0, float("inf")))
     '> 1 s (stable on the whole scanned range: no boundary found up to 1 s)'
-    >>> linearized_text(EpsStar(0.0417, 0.0418))
+    >>> linearized_text(fl.EpsStar(0.0417, 0.0418))
     '0.0417 s (unstable at 0.0418 s)'
     """
     if star.above_range:
@@ -120,11 +111,9 @@ def bounded_up_to(smap, gamma: float) -> str:
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.app._text import bounded_up_to
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[0], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> bounded_up_to(m, 1.0)
     '0.1 (diverges at 0.2)'
     """
@@ -138,21 +127,40 @@ def bounded_up_to(smap, gamma: float) -> str:
     return f"{smap.eps[first - 1]:g} (diverges at {smap.eps[first]:g})"
 
 
+#: A run whose output's largest excursion stays below this fraction of the step never reaches
+#: the reference: its "overshoot" is not one.
+REACHES = 0.9
+
+
+def step_reach(resp) -> float:
+    """The output's largest excursion from its start, as a fraction of the step.
+
+    Examples
+    --------
+    >>> from fl_design.app._text import step_reach
+    >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
+    >>> step_reach(r) >= REACHES
+    True
+    """
+    return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
+
+
 def overshoot_text(resp) -> str:
     """Overshoot in %, or why it is not one (diverged; does not track).
 
     Parameters
     ----------
     resp : fl_design.Response
-        A run.
+        A run (its status, output and overshoot are read).
 
     Returns
     -------
     str
+        A number (``"12.3"``, no ``%``), ``"n/a (diverged)"``, or a phrase starting
+        ``"none: "``.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._text import overshoot_text
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 20.0))
     >>> overshoot_text(r)
@@ -160,8 +168,8 @@ def overshoot_text(resp) -> str:
     """
     if resp.status == "diverged":
         return "n/a (diverged)"
-    reach = np.nanmax(np.abs(resp.y - resp.y0)) / max(abs(resp.step), 1e-300)
-    if reach < 0.9:
+    reach = step_reach(resp)
+    if reach < REACHES:
         return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
     return f"{resp.overshoot:.3g}"
 
@@ -174,13 +182,8 @@ def design_label(design) -> str:
     design : fl_design.Design
         The design.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.app._text import design_label
     >>> design_label(fl.presets.least_squares_design(9))[:5]
     'LS(9)'
@@ -192,5 +195,5 @@ def design_label(design) -> str:
             f"T = {design.T:g} s")
 
 
-__all__ = ["bounded_up_to", "design_label", "fmt", "linearized_text", "overshoot_text",
-           "paper_gamma_bound"]
+__all__ = ["REACHES", "bounded_up_to", "design_label", "fmt", "linearized_text", "overshoot_text",
+           "paper_gamma_bound", "step_reach"]

@@ -10,11 +10,9 @@ figure. Modules: ``_base`` (colours, axes, log labels, legends, literal text), `
 
 Examples
 --------
->>> import numpy as np
->>> from fl_design.sim import StabilityMap
 >>> from fl_design.plotting import plot_stability_map
->>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
-...                  {}, 1e-3, 1.0, 0.1)
+>>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
+...                     {}, 1e-3, 1.0, 0.1)
 >>> fig = plot_stability_map(m, curves={"theory": (np.array([1.0, 2.0]), np.array([0.2, 0.1]))})
 >>> fig.axes[0].get_xscale(), fig.axes[0].get_yscale()
 ('log', 'log')

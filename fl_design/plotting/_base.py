@@ -23,6 +23,83 @@ STATUS_LABELS = ("solver failed", "diverged", "oscillating", "converging", "conv
                  "undecided (run longer)", "stalled")
 
 
+def status_legend(status) -> list:
+    """``(code, colour, label)`` of each status code present in ``status``, in code order.
+
+    Examples
+    --------
+    >>> from fl_design.plotting._base import status_legend
+    >>> [label for _, _, label in status_legend([[1, -1], [1, 1]])]
+    ['diverged', 'converging']
+    """
+    present = set(np.unique(np.asarray(status)).tolist())
+    return [(code, color, label) for code, color, label
+            in zip(range(-2, 5), STATUS_COLORS, STATUS_LABELS) if code in present]
+
+
+#: How an eps* bracket outside the scanned range is drawn, by kind (:func:`bracket_points`):
+#: legend words, matplotlib marker, Plotly symbol.
+OUTSIDE_RANGE = {
+    "above": ("eps* above the range (> top)", "^", "triangle-up-open"),
+    "below": ("eps* below the range (< bottom)", "v", "triangle-down-open"),
+    "undecided": ("undecided at the bottom (run longer)", "d", "diamond-open"),
+}
+
+
+def is_bracket(obj) -> bool:
+    """Whether ``obj`` is shaped like :class:`~fl_design.sim.EpsStar` (a protocol, not an
+    import of ``sim``: results are drawn here, the simulation layer draws with this package).
+
+    Examples
+    --------
+    >>> from fl_design.plotting._base import is_bracket
+    >>> is_bracket(fl.sim.EpsStar(0.1, 0.2)), is_bracket(0.1)
+    (True, False)
+    """
+    return all(hasattr(obj, name) for name in ("lower", "upper", "upper_status"))
+
+
+def bracket_points(gamma, stars) -> dict:
+    """Where the eps* brackets ``stars`` over ``gamma`` (one each) are drawn: kind -> list of
+    ``(|gamma|, eps)`` points, kinds without points left out.
+
+    ``"value"``: a line over every gamma at the brackets' ``lower`` ends inside the range, NaN
+    where a bracket is outside (the line breaks there); then the kinds of
+    :data:`OUTSIDE_RANGE`: ``"above"`` at ``lower`` (the range's top), ``"below"`` and
+    ``"undecided"`` at ``upper`` (the range's bottom; undecided: the run there is too short to
+    call, not a failure). An outside bracket is never drawn as a value. Lengths that differ
+    raise :class:`~fl_design.errors.ParameterError`.
+
+    Examples
+    --------
+    >>> from fl_design.plotting._base import bracket_points
+    >>> bracket_points([1e-3, -1e-2], [fl.sim.EpsStar(1.0, float("inf")), fl.sim.EpsStar(0.1, 0.2)])
+    {'value': [(0.001, nan), (0.01, 0.1)], 'above': [(0.001, 1.0)]}
+    """
+    g = np.abs(np.asarray(gamma, dtype=float).ravel()).tolist()
+    stars = list(stars)
+    if len(stars) != len(g):
+        raise ParameterError(f"gamma has {len(g)} values but {len(stars)} eps* brackets were "
+                             "given; give one bracket per gamma")
+    value = [(gi, s.lower if s.value is not None else float("nan")) for gi, s in zip(g, stars)]
+    out = {"value": value} if any(s.value is not None for s in stars) else {}
+    for kind in OUTSIDE_RANGE:
+        pts = [(gi, s.lower if kind == "above" else s.upper) for gi, s in zip(g, stars)
+               if _outside(s) == kind]
+        if pts:
+            out[kind] = pts
+    return out
+
+
+def _outside(star) -> str | None:
+    """Which kind of :data:`OUTSIDE_RANGE` a bracket is (None: inside the range)."""
+    if star.above_range:
+        return "above"
+    if star.below_range:
+        return "undecided" if getattr(star, "undecided", False) else "below"
+    return None
+
+
 #: Time buckets per line in the report's figures (:func:`thin_line`): more than the pixel
 #: columns of any axes it draws (at most about 700 at 100 dpi).
 REPORT_BUCKETS = 2000
@@ -60,7 +137,6 @@ def thin_line(t, y, buckets: int | None = REPORT_BUCKETS):
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.plotting import thin_line
     >>> t = np.arange(100_000) * 1e-3
     >>> tt, yy = thin_line(t, np.sin(t), buckets=100)
@@ -198,10 +274,6 @@ def literal(text) -> str:
     text : object
         Anything; ``str()`` of it is used.
 
-    Returns
-    -------
-    str
-
     Examples
     --------
     >>> from fl_design.plotting._base import literal
@@ -233,9 +305,9 @@ def legend_below(ax, ncol: int = 3, **kwargs):
     >>> import matplotlib.pyplot as plt
     >>> from fl_design.plotting._base import legend_below
     >>> fig, ax = plt.subplots()
-    >>> _ = ax.plot([1, 2], label="a")
-    >>> legend_below(ax).get_texts()[0].get_text()
-    'a'
+    >>> lines = ax.plot([1, 2], label="a") + ax.plot([2, 1], label="b")
+    >>> [t.get_text() for t in legend_below(ax, ncol=2, handles=lines[::-1]).get_texts()]
+    ['b', 'a']
     >>> plt.close(fig)
     """
     return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), borderaxespad=0.0,

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from ._base import STATUS_COLORS, STATUS_LABELS, literal
+from ._base import literal, status_legend
 
 
 def plot_ensemble(ens, *, metrics=("tail_error", "settling_time", "input_rms"), x=None, y=None):
@@ -42,7 +42,6 @@ def plot_ensemble(ens, *, metrics=("tail_error", "settling_time", "input_rms"), 
 
     Examples
     --------
-    >>> import numpy as np
     >>> from fl_design.sim._ensemble import Ensemble
     >>> from fl_design.plotting import plot_ensemble
     >>> ens = Ensemble({"c": np.array([0.1, 0.5])}, np.array([2, 1]),
@@ -80,11 +79,10 @@ def plot_ensemble(ens, *, metrics=("tail_error", "settling_time", "input_rms"), 
     xs = np.asarray(ens.params[x])
     ys = np.asarray(ens.params[y]) if y is not None else codes.astype(float)
     handles = []
-    for code, color, label in zip(range(-2, 5), STATUS_COLORS, STATUS_LABELS):
+    for code, color, label in status_legend(codes):
         sel = codes == code
-        if sel.any():
-            ax.scatter(xs[sel], ys[sel], s=10, color=color)
-            handles.append(Patch(color=color, label=f"{label} ({sel.sum()})"))
+        ax.scatter(xs[sel], ys[sel], s=10, color=color)
+        handles.append(Patch(color=color, label=f"{label} ({sel.sum()})"))
     ax.set_xlabel(literal(x))
     ax.set_ylabel(literal(y) if y is not None else "status code")
     ax.legend(handles=handles, fontsize=8)

@@ -39,7 +39,6 @@ def plot_identification(cls, fit=None) -> dict:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.sim._rig import chain_rig
     >>> d = fl.tune(fl.PlantClass(rho=2, T=1e-3, b=(2, 10)), reference=1.0).design
     >>> log = chain_rig(2, b=4.0, T=1e-3, noise_std=1e-3).run(d, lambda t: (t // 2) % 2, 12.0)

@@ -1,15 +1,6 @@
-"""Maps over (gamma, eps): the stability map, eps*(gamma) brackets and curves, the robust map.
-
-Examples
---------
->>> import numpy as np
->>> from fl_design.sim import StabilityMap
->>> from fl_design.plotting import plot_stability_map
->>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]), np.array([[1, 1], [0, -1]]),
-...                  {}, 1e-3, 1.0, 0.1)
->>> fig = plot_stability_map(m, curves={"theory": (np.array([1.0, 2.0]), np.array([0.2, 0.1]))})
->>> fig.axes[0].get_xscale(), fig.axes[0].get_yscale()
-('log', 'log')
+"""Maps over (gamma, eps): the stability map (:func:`plot_stability_map`), eps*(gamma) brackets
+(:func:`plot_eps_star`) and curves (:func:`plot_eps_star_curve`), the robust map
+(:func:`plot_robust_map`); each function's docstring has its example.
 """
 
 from __future__ import annotations
@@ -17,7 +8,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
-from ._base import STATUS_COLORS, STATUS_LABELS, edges, legend_below, literal, log_axes, new_axes
+from ._base import (
+    OUTSIDE_RANGE,
+    STATUS_COLORS,
+    bracket_points,
+    edges,
+    is_bracket,
+    legend_below,
+    literal,
+    log_axes,
+    new_axes,
+    status_legend,
+)
 
 
 def _curve_points(curve, gamma: np.ndarray):
@@ -35,17 +37,11 @@ def _curve_points(curve, gamma: np.ndarray):
     return g, e
 
 
-def _is_bracket(obj) -> bool:
-    """Anything shaped like :class:`~fl_design.sim.EpsStar` (a protocol, not an import of
-    ``sim``: results are drawn here, the simulation layer draws with this module)."""
-    return all(hasattr(obj, name) for name in ("lower", "upper", "upper_status"))
-
-
 def _holds_eps_stars(curve) -> bool:
     """A pair ``(gamma_values, [EpsStar, ...])``."""
     return (isinstance(curve, (tuple, list)) and len(curve) == 2
             and not callable(curve) and np.ndim(curve[1]) == 1 and len(curve[1]) > 0
-            and all(_is_bracket(s) for s in curve[1]))
+            and all(is_bracket(s) for s in curve[1]))
 
 
 def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = "-",
@@ -86,37 +82,30 @@ def plot_eps_star(ax, gamma, stars, *, label: str, color: str = "C0", ls: str = 
     Examples
     --------
     >>> import matplotlib.pyplot as plt
-    >>> from fl_design.sim import EpsStar
     >>> from fl_design.plotting import plot_eps_star
     >>> fig, ax = plt.subplots()
-    >>> hs = plot_eps_star(ax, [1e-3, 1e-2], [EpsStar(1.0, float("inf")), EpsStar(0.1, 0.2)],
+    >>> hs = plot_eps_star(ax, [1e-3, 1e-2], [fl.EpsStar(1.0, float("inf")), fl.EpsStar(0.1, 0.2)],
     ...                    label="linearized")
     >>> [h.get_label() for h in hs]
     ['linearized', 'linearized: eps* above the range (> top)']
     """
-    g = np.abs(np.asarray(gamma, dtype=float).ravel())  # gamma < 0 (b < 0): at |gamma|
-    stars = list(stars)
-    if len(stars) != g.size:
-        raise ParameterError(f"gamma has {g.size} values but {len(stars)} eps* brackets were "
-                             "given; give one bracket per gamma")
-    value = np.array([s.lower if s.value is not None else np.nan for s in stars])
+    points = bracket_points(gamma, stars)
     handles = []
-    if np.any(np.isfinite(value)):
-        (h,) = ax.plot(g, value, color=color, ls=ls, marker=marker, ms=4, label=label)
+    if "value" in points:
+        (h,) = ax.plot(*zip(*points["value"]), color=color, ls=ls, marker=marker, ms=4,
+                       label=label)
         handles.append(h)
-    undecided = [bool(getattr(s, "undecided", False)) for s in stars]
-    outside = ((lambda s, u: s.above_range, "lower", "^", "eps* above the range (> top)"),
-               (lambda s, u: s.below_range and not u, "upper", "v",
-                "eps* below the range (< bottom)"),
-               (lambda s, u: s.below_range and u, "upper", "d",
-                "undecided at the bottom (run longer)"))
-    for pick, edge, mark, words in outside:
-        pts = [(gi, getattr(s, edge)) for gi, s, u in zip(g, stars, undecided) if pick(s, u)]
-        if pts:
-            (h,) = ax.plot(*zip(*pts), ls="none", marker=mark, ms=8, color=color, mfc="none",
-                           mew=1.5, label=f"{label}: {words}")
+    for kind, (words, mark, _) in OUTSIDE_RANGE.items():
+        if kind in points:
+            (h,) = ax.plot(*zip(*points[kind]), ls="none", marker=mark, ms=8, color=color,
+                           mfc="none", mew=1.5, label=f"{label}: {words}")
             handles.append(h)
     return handles
+
+
+#: The map's own eps* markers (white triangles), by :func:`bracket_points` kind: legend text
+#: and opacity (above the range: pale, eps* lies beyond the largest eps scanned).
+MAP_EPS_STAR = (("value", "eps* (this map)", 1.0), ("above", "eps* > largest eps scanned", 0.5))
 
 
 def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True):
@@ -138,14 +127,13 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     Returns
     -------
     matplotlib.figure.Figure
+        ``ax``'s figure, or a new one: the map on log-log axes, its legend below.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import plot_stability_map
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> plot_stability_map(m).axes[0].get_xlabel()
     'controller gain gamma'
     """
@@ -166,20 +154,14 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     ax.set_xlabel("controller gain |gamma| (gamma < 0, as b)" if negative
                   else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
-    present = set(np.unique(np.asarray(smap.status)).tolist())
-    handles = [Patch(color=c, label=n) for code, c, n in zip(range(-2, 5), STATUS_COLORS,
-                                                              STATUS_LABELS) if code in present]
+    handles = [Patch(color=c, label=n) for _, c, n in status_legend(smap.status)]
     if show_eps_star:
-        stars = [smap.eps_star(g) for g in smap.gamma]
-        inside = [(g, b.lower) for g, b in zip(gx, stars) if b.value is not None]
-        above = [(g, b.lower) for g, b in zip(gx, stars) if b.above_range]
-        if inside:
-            (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6, label="eps* (this map)")
-            handles.append(h)
-        if above:
-            (h,) = ax.plot(*zip(*above), "w^", mec="k", ms=6, alpha=0.5,
-                           label="eps* > largest eps scanned")
-            handles.append(h)
+        points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
+        for kind, label, alpha in MAP_EPS_STAR:
+            if kind in points:
+                (h,) = ax.plot(*zip(*points[kind]), "w^", mec="k", ms=6, alpha=alpha,
+                               label=label)
+                handles.append(h)
     for i, (label, curve) in enumerate((curves or {}).items()):
         if _holds_eps_stars(curve):
             handles += plot_eps_star(ax, *curve, label=str(label), color=f"C{i % 10}")
@@ -208,14 +190,13 @@ def plot_eps_star_curve(curve, *, ax=None):
     Returns
     -------
     matplotlib.figure.Figure
+        ``ax``'s figure, or a new one: both curves on log-log axes.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.analysis import EpsStarCurve
     >>> from fl_design.plotting import plot_eps_star_curve
-    >>> c = EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
-    ...                  np.array([0.09, np.nan]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
+    >>> c = fl.EpsStarCurve(np.array([1e-3, 2e-3]), np.array([0.1, 0.05]),
+    ...                     np.array([0.09, np.nan]), (1.0, 2.0), 1e-3, (1e-3, 1.0))
     >>> [l.get_label() for l in plot_eps_star_curve(c).axes[0].get_lines()]
     ['eps* frozen b grid', 'eps* certified (LMI)']
     """
@@ -251,14 +232,13 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
     Returns
     -------
     matplotlib.figure.Figure
+        ``ax``'s figure, or a new one, with a colour bar for the fractions.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.plotting import plot_robust_map
-    >>> m = RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
-    ...               {}, {"b": np.ones(2)}, 1e-3, 1.0)
+    >>> m = fl.RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
+    ...                  {}, {"b": np.ones(2)}, 1e-3, 1.0)
     >>> plot_robust_map(m).axes[0].get_xlabel()
     'controller gain gamma'
     """
@@ -274,8 +254,9 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
     ax.set_xlabel("controller gain |gamma| (gamma < 0, as b)" if np.any(rmap.gamma < 0)
                   else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
-    stars = [rmap.eps_star(g, level=level) for g in rmap.gamma]
-    inside = [(g, b.lower) for g, b in zip(gx, stars) if b.value is not None or b.above_range]
+    points = bracket_points(rmap.gamma, [rmap.eps_star(g, level=level) for g in rmap.gamma])
+    inside = [(g, e) for g, e in points.get("value", []) + points.get("above", [])
+              if np.isfinite(e)]
     handles = []
     if inside:
         (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6,

@@ -23,7 +23,16 @@ import math
 
 import numpy as np
 
-from ._base import STATUS_COLORS, STATUS_LABELS, edges, thin_line
+from ._base import (
+    OUTSIDE_RANGE,
+    STATUS_COLORS,
+    bracket_points,
+    edges,
+    is_bracket,
+    status_legend,
+    thin_line,
+)
+from ._maps import MAP_EPS_STAR
 
 #: Time buckets per line (:func:`thin_line`): at most 5 points each, 2500 per trace.
 INTERACTIVE_BUCKETS = 500
@@ -42,10 +51,6 @@ def plotly_text(text) -> str:
     ----------
     text : object
         ``str()`` of it is used.
-
-    Returns
-    -------
-    str
 
     Examples
     --------
@@ -128,7 +133,6 @@ def response_spec(resp, ctx, *, title: str) -> dict:
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import response_spec
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -194,10 +198,10 @@ def step_spec(runs, designs, stds, ctx, *, labels=None, window: str = "") -> dic
     Returns
     -------
     dict
+        ``{"data", "layout"}``: a panel per noise level, each with its legend below it.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import step_spec
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -249,32 +253,21 @@ def step_spec(runs, designs, stds, ctx, *, labels=None, window: str = "") -> dic
 
 def _bracket_traces(gamma, stars, *, label: str, color: str) -> list:
     """eps*(gamma) brackets as :func:`~fl_design.plotting.plot_eps_star` draws them."""
-    g = np.abs(np.asarray(gamma, dtype=float).ravel())
-    value = [s.lower if s.value is not None else math.nan for s in stars]
+    points = bracket_points(gamma, stars)
     out = []
-    if np.any(np.isfinite(value)):
-        out.append({"type": "scatter", "mode": "lines+markers", "x": _num(g), "y": _num(value),
+    if "value" in points:
+        xs, ys = zip(*points["value"])
+        out.append({"type": "scatter", "mode": "lines+markers", "x": _num(xs), "y": _num(ys),
                     "name": label, "line": {"color": color, "width": 1.8},
                     "marker": {"symbol": "square", "size": 6, "color": color}})
-    outside = ((lambda s: s.above_range, "lower", "triangle-up-open",
-                "eps* above the range (> top)"),
-               (lambda s: s.below_range and not getattr(s, "undecided", False), "upper",
-                "triangle-down-open", "eps* below the range (< bottom)"),
-               (lambda s: s.below_range and getattr(s, "undecided", False), "upper",
-                "diamond-open", "undecided at the bottom (run longer)"))
-    for pick, edge, symbol, words in outside:
-        pts = [(gi, getattr(s, edge)) for gi, s in zip(g, stars) if pick(s)]
-        if pts:
-            xs, ys = zip(*pts)
+    for kind, (words, _, symbol) in OUTSIDE_RANGE.items():
+        if kind in points:
+            xs, ys = zip(*points[kind])
             out.append({"type": "scatter", "mode": "markers", "x": _num(xs), "y": _num(ys),
                         "name": f"{label}: {words}",
                         "marker": {"symbol": symbol, "size": 10, "color": color,
                                    "line": {"width": 1.5, "color": color}}})
     return out
-
-
-def _is_bracket(obj) -> bool:
-    return all(hasattr(obj, name) for name in ("lower", "upper", "upper_status"))
 
 
 def stability_map_spec(smap, ctx, *, curves=None) -> dict:
@@ -293,22 +286,25 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
     Returns
     -------
     dict
+        ``{"data", "layout"}``: the heat map first, then one trace per legend entry.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
+    A map with a linearized eps* curve whose second bracket lies above the range:
+
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._plotly import stability_map_spec
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
-    >>> spec = stability_map_spec(m, FigureContext("p", design_gamma=1.0, design_eps=0.1))
-    >>> [d["name"] for d in spec["data"]][1:]
-    ['diverged', 'converging', 'eps* (this map)', 'this design']
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0, 2.0]),
+    ...                     np.array([[1, 2], [-1, 2]]), {}, 1e-3, 1.0, 0.1)
+    >>> lin = ([1.0, 2.0], [fl.EpsStar(0.1, 0.2), fl.EpsStar(0.2, float("inf"))])
+    >>> spec = stability_map_spec(m, FigureContext("p", design_gamma=1.0, design_eps=0.1),
+    ...                           curves={"lin": lin})
+    >>> [d["name"] for d in spec["data"]][1:]  # doctest: +NORMALIZE_WHITESPACE
+    ['diverged', 'converging', 'converged', 'eps* (this map)', 'eps* > largest eps scanned',
+     'lin', 'lin: eps* above the range (> top)', 'this design']
     """
     gx = np.abs(np.asarray(smap.gamma, dtype=float))
     status = np.asarray(smap.status, dtype=int)
-    codes = list(range(-2, 5))
     labels = np.asarray(smap.labels)
     z = (status + 2).astype(float)
     text = [[f"{labels[i, j]}<br>|gamma| {gx[j]:.4g}<br>eps {smap.eps[i]:.4g}"
@@ -321,25 +317,21 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
              "z": z.tolist(), "zmin": -0.5, "zmax": n - 0.5, "colorscale": scale,
              "showscale": False, "text": text, "hovertemplate": "%{text}<extra></extra>",
              "name": "runs", "showlegend": False}]
-    present = set(np.unique(status).tolist())
-    for code, color, name in zip(codes, STATUS_COLORS, STATUS_LABELS):
-        if code in present:
-            data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None],
-                         "name": name, "marker": {"symbol": "square", "size": 12,
-                                                  "color": color}, "hoverinfo": "skip"})
-    stars = [smap.eps_star(g) for g in smap.gamma]
-    for pick, name, opacity in ((lambda b: b.value is not None, "eps* (this map)", 1.0),
-                                (lambda b: b.above_range, "eps* > largest eps scanned", 0.5)):
-        pts = [(g, b.lower) for g, b in zip(gx, stars) if pick(b)]
-        if pts:
-            xs, ys = zip(*pts)
+    for _, color, name in status_legend(status):
+        data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None],
+                     "name": name, "marker": {"symbol": "square", "size": 12, "color": color},
+                     "hoverinfo": "skip"})
+    points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
+    for kind, name, opacity in MAP_EPS_STAR:
+        if kind in points:
+            xs, ys = zip(*points[kind])
             data.append({"type": "scatter", "mode": "markers", "x": _num(xs), "y": _num(ys),
                          "name": name, "opacity": opacity,
                          "marker": {"symbol": "triangle-up", "size": 9, "color": "#ffffff",
                                     "line": {"color": "#000000", "width": 1}}})
     for i, (label, (g, e)) in enumerate((curves or {}).items()):
         color = CYCLE[i % 10]
-        if len(e) and all(_is_bracket(s) for s in e):
+        if len(e) and all(is_bracket(s) for s in e):
             data += _bracket_traces(g, list(e), label=plotly_text(label), color=color)
         else:
             data.append({"type": "scatter", "mode": "lines", "x": _num(np.abs(np.asarray(g))),

@@ -78,6 +78,11 @@ class FigureContext:
         """The unit of gamma: input unit times s^rho over output unit (literal)."""
         return literal(f"{self.u_unit} s^{self.rho}/{self.y_unit}")
 
+    @property
+    def gamma_label(self) -> str:
+        """The gamma axis' label: ``controller gain |gamma| (unit)``."""
+        return f"controller gain |gamma| ({self.gamma_unit})"
+
     def y_label(self, what: str) -> str:
         """``what (output unit)`` (literal)."""
         return f"{what} ({literal(self.y_unit)})" if self.y_unit else what
@@ -90,6 +95,18 @@ class FigureContext:
         """The configured design's point on (|gamma|, eps) axes (nothing without eps)."""
         if self.design_eps is not None and math.isfinite(self.design_gamma):
             ax.plot([abs(self.design_gamma)], [self.design_eps], label="this design", **STAR)
+
+    def finish_map(self, ax, title: str) -> None:
+        """A map's last touches: the legend below (the map's own entries first, then what was
+        drawn since, such as the star), the gamma label in units, the plant's name and
+        ``title`` on top."""
+        old = ax.get_legend()
+        handles = list(old.legend_handles) if old is not None else []
+        known = {h.get_label() for h in handles}
+        handles += [h for h in ax.get_legend_handles_labels()[0] if h.get_label() not in known]
+        legend_below(ax, ncol=2, handles=handles)
+        ax.set_xlabel(self.gamma_label)
+        ax.set_title(f"{self.name}: {title}", fontsize="medium")
 
     def bound_line(self, ax, right: float | None = None) -> None:
         """The paper's ``|gamma| < 1/max|b|``, a dotted vertical line (if inside the view)."""
@@ -115,33 +132,23 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
     Returns
     -------
     matplotlib.figure.Figure
+        :func:`~fl_design.plotting.plot_stability_map`'s, in ``ctx``'s units, with the
+        design's star and the paper's bound.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim import StabilityMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import stability_map_figure
-    >>> m = StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
-    ...                  1e-3, 1.0, 0.1)
+    >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[1], [-1]]), {},
+    ...                     1e-3, 1.0, 0.1)
     >>> stability_map_figure(m, FigureContext("p", design_gamma=1.0, design_eps=0.1)
     ...                      ).axes[0].get_title()
     'p: stability map, noise-free runs of 1 s'
     """
     fig = plot_stability_map(smap, curves=curves)
-    ax = fig.axes[0]
-    ctx.star(ax)
-    ctx.bound_line(ax, right=float(np.max(np.abs(smap.gamma))) * 1.5)
-    old = ax.get_legend()
-    handles = list(old.legend_handles) if old is not None else []
-    new, _ = ax.get_legend_handles_labels()
-    known = {h.get_label() for h in handles}
-    handles += [h for h in new if h.get_label() not in known]
-    legend_below(ax, ncol=2, handles=handles)
-    ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
-    ax.set_ylabel("observer time constant eps (s)")
-    ax.set_title(f"{ctx.name}: stability map, noise-free runs of {smap.duration:g} s",
-                 fontsize="medium")
+    ctx.star(fig.axes[0])
+    ctx.bound_line(fig.axes[0], right=float(np.max(np.abs(smap.gamma))) * 1.5)
+    ctx.finish_map(fig.axes[0], f"stability map, noise-free runs of {smap.duration:g} s")
     return fig
 
 
@@ -162,6 +169,7 @@ def eps_star_figure(ctx: FigureContext, *, curve=None, linearized=None, smap=Non
     Returns
     -------
     matplotlib.figure.Figure
+        One axes, log-log once a curve is drawn.
 
     Examples
     --------
@@ -188,7 +196,7 @@ def eps_star_figure(ctx: FigureContext, *, curve=None, linearized=None, smap=Non
     ctx.star(ax)
     if ax.has_data():
         log_axes(ax)
-    ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
+    ax.set_xlabel(ctx.gamma_label)
     ax.set_ylabel("eps* (s)")
     ax.set_title(f"{ctx.name}: largest stable eps against gamma", fontsize="medium")
     if ax.get_legend_handles_labels()[0]:
@@ -218,10 +226,10 @@ def step_figure(runs, designs, stds, ctx: FigureContext, *, labels=None, window:
     Returns
     -------
     matplotlib.figure.Figure
+        One axes per noise level, top to bottom, sharing the time axis.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import step_figure
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -267,6 +275,7 @@ def tradeoff_figure(rows, ctx: FigureContext):
     Returns
     -------
     matplotlib.figure.Figure
+        Two axes sharing eps: the estimate's noise above, the input's below.
 
     Examples
     --------
@@ -311,10 +320,11 @@ def response_figure(resp, ctx: FigureContext, *, title: str):
     Returns
     -------
     matplotlib.figure.Figure
+        :func:`~fl_design.plotting.plot_response`'s three axes (output, input, sigma)
+        in ``ctx``'s units.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import response_figure
     >>> r = fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
@@ -348,26 +358,22 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
     Returns
     -------
     matplotlib.figure.Figure
+        Log-log axes of the fractions (the colour bar has its own axes); the star marks
+        this design.
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from fl_design.sim._robust_map import RobustMap
     >>> from fl_design.plotting import FigureContext
     >>> from fl_design.plotting._report import robust_map_figure
-    >>> m = RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
-    ...               {}, {"b": np.ones(2)}, 1e-3, 1.0)
+    >>> m = fl.RobustMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[[2, 2]], [[2, -1]]]),
+    ...                  {}, {"b": np.ones(2)}, 1e-3, 1.0)
     >>> robust_map_figure(m, FigureContext("p", design_gamma=1.0, design_eps=0.1)
     ...                   ).axes[0].get_ylabel()
     'observer time constant eps (s)'
     """
     fig = plot_robust_map(rmap, level=level)
-    ax = fig.axes[0]
-    ctx.star(ax)
-    legend_below(ax, ncol=2)
-    ax.set_xlabel(f"controller gain |gamma| ({ctx.gamma_unit})")
-    ax.set_title(f"{ctx.name}: robust stability map, {rmap.n} plants, seed {rmap.seed}",
-                 fontsize="medium")
+    ctx.star(fig.axes[0])
+    ctx.finish_map(fig.axes[0], f"robust stability map, {rmap.n} plants, seed {rmap.seed}")
     return fig
 
 

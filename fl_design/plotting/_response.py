@@ -2,7 +2,6 @@
 
 Examples
 --------
->>> import fl_design as fl
 >>> from fl_design.plotting import plot_response
 >>> fig = plot_response(fl.simulate(fl.plants.pendulum(), fl.presets.pendulum_design(),
 ...                                 fl.Scenario(0.1, 0.2)))
@@ -36,10 +35,10 @@ def plot_response(resp, *, axes=None, title: str | None = None, buckets: int | N
     Returns
     -------
     matplotlib.figure.Figure
+        ``axes``' figure, or a new one: output, input and sigma, top to bottom, sharing time.
 
     Examples
     --------
-    >>> import fl_design as fl
     >>> from fl_design.plotting import plot_response
     >>> d = fl.presets.pendulum_design()
     >>> fig = plot_response(fl.simulate(fl.plants.pendulum(), d, fl.Scenario(0.1, 0.5)))
@@ -73,7 +72,7 @@ def plot_response(resp, *, axes=None, title: str | None = None, buckets: int | N
     legend_inside(axes[2])
     if resp.diverged:
         for a in axes:
-            a.axvline(resp.divergence_time, color=STATUS_COLORS[0], lw=1.0)
+            a.axvline(resp.divergence_time, color=STATUS_COLORS[1], lw=1.0)  # diverged
     if title is None:
         title = f"{resp.status}, overshoot {resp.overshoot:.3g} %"
     axes[0].set_title(title)
