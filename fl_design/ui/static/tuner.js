@@ -12,7 +12,8 @@
   function api(path, body) {
     const opts = body === undefined ? {} : { method: 'POST', body: JSON.stringify(body),
       headers: { 'Content-Type': 'application/json' } };
-    return fetch(path, opts).then((r) => r.json().then((j) => ({ ok: r.ok, j })));
+    return fetch(path, opts).then((r) => r.text().then((t) => ({ ok: r.ok, j: JSON.parse(t),
+                                                                 bytes: t.length })));
   }
   function fmt(v, unit) {
     if (v === null || v === undefined) return 'none';
@@ -80,11 +81,27 @@
     S.inflight = true;
     S.pending = false;
     const since = S.lastInput;
-    api('api/redraw', collect()).then(({ ok, j }) => {
+    const sent = performance.now();
+    api('api/redraw', collect()).then(({ ok, j, bytes }) => {
+      S.lastFetchMs = performance.now() - sent;
+      S.lastBytes = bytes;
+      netTiming();
       if (!ok || j.error) showError(j.error || 'the server refused the request');
       else return draw(j, since);
     }).catch((e) => showError('no answer from the tuner: ' + e))
       .finally(() => { S.inflight = false; if (S.pending) request(); });
+  }
+
+  // The last redraw request's network timing (Resource Timing, Server-Timing): how long the
+  // answer took to arrive, apart from waiting for the page's main thread.
+  function netTiming() {
+    const all = performance.getEntriesByType('resource').filter((e) => e.name.endsWith('api/redraw'));
+    const e = all[all.length - 1];
+    performance.clearResourceTimings();
+    if (!e) return;
+    S.lastNetMs = e.responseEnd - e.startTime;
+    const st = (e.serverTiming || []).find((x) => x.name === 'server');
+    S.lastHandlerMs = st ? st.duration : null;
   }
 
   function showError(msg) {
@@ -103,8 +120,9 @@
   }
   const PLOT_CONFIG = { displayModeBar: false, responsive: true, scrollZoom: true };
   const responseLayout = {
-    margin: { l: 55, r: 10, t: 10, b: 35 }, showlegend: true,
-    legend: { orientation: 'h', y: 1.04 }, hovermode: 'x unified',
+    // the legend is HTML beside the plot (#keys-response): a Plotly legend is about 50 SVG
+    // nodes, and every node costs a DOM walk (WebDriver's text reading walks them all)
+    margin: { l: 55, r: 10, t: 10, b: 35 }, showlegend: false, hovermode: 'x unified',
     xaxis: { title: { text: 't (s)' }, anchor: 'y3' },
     yaxis: { domain: [0.68, 1], title: { text: 'y, r' } },
     yaxis2: { domain: [0.36, 0.63], title: { text: 'u' } },
@@ -112,27 +130,34 @@
     uirevision: 'keep',
   };
 
+  // The verdict's text is set as soon as the answer arrives, the traces drawn in the next task:
+  // the numbers are on screen about one Plotly.react (30-50 ms) before the curves.
   function draw(d, since) {
-    return Plotly.react('plot-response', responseTraces(d), responseLayout,
-                        PLOT_CONFIG).then(() => {
-      const v = d.verdict;
-      $('verdict').className = 'verdict ' + v.status;
-      $('status').textContent = v.status;
-      $('overshoot').textContent = fmt(v.overshoot, ' %');
-      $('settling').textContent = v.settling_time === null ? 'not settled in ' + fmt(v.duration, ' s')
-        : fmt(v.settling_time, ' s');
-      $('verdict-text').textContent = v.text;
-      $('noise-gain').textContent = d.noise_gain.text;
-      $('error').textContent = '';
-      showValues(d.values);
-      S.drawn = d.values;
-      S.redraws += 1;
-      S.lastServerMs = d.compute_ms;
-      S.lastRedrawMs = since === null ? null : performance.now() - since;
-      $('timing').textContent = (S.lastRedrawMs === null ? 'drawn' :
-        'redrawn in ' + S.lastRedrawMs.toFixed(0) + ' ms') + ' (server ' +
-        d.compute_ms.toFixed(0) + ' ms' + (d.kernel === 'compiled' ? ')' : ', ' + d.kernel + ')');
-      window.requestAnimationFrame(drawMap);
+    const v = d.verdict;
+    $('verdict').className = 'verdict ' + v.status;
+    $('status').textContent = v.status;
+    $('overshoot').textContent = fmt(v.overshoot, ' %');
+    $('settling').textContent = v.settling_time === null ? 'not settled in ' + fmt(v.duration, ' s')
+      : fmt(v.settling_time, ' s');
+    $('verdict-text').textContent = v.text;
+    $('noise-gain').textContent = d.noise_gain.text;
+    $('error').textContent = '';
+    showValues(d.values);
+    S.drawn = d.values;
+    S.lastServerMs = d.compute_ms;
+    return new Promise((resolve) => window.setTimeout(resolve, 0)).then(() => {
+      const t0 = performance.now();
+      return Plotly.react('plot-response', responseTraces(d), responseLayout, PLOT_CONFIG)
+        .then(() => {
+          S.lastPlotMs = performance.now() - t0;
+          S.lastPoints = d.t.length;
+          S.redraws += 1;
+          S.lastRedrawMs = since === null ? null : performance.now() - since;
+          $('timing').textContent = (S.lastRedrawMs === null ? 'drawn' :
+            'redrawn in ' + S.lastRedrawMs.toFixed(0) + ' ms') + ' (server ' +
+            d.compute_ms.toFixed(0) + ' ms' + (d.kernel === 'compiled' ? ')' : ', ' + d.kernel + ')');
+          window.requestAnimationFrame(drawMap);
+        });
     });
   }
 
@@ -159,15 +184,44 @@
   }
   function usable(s) { return s && s.data && (s.state === 'ready' || s.state === 'stale'); }
 
+  // One key of an HTML legend: a swatch (a line or a square, CSS) and its name.
+  function key(name, style) {
+    const span = document.createElement('span');
+    span.className = 'key';
+    const i = document.createElement('i');
+    if (style.square) i.className = 'sq';
+    if (style.glyph) {
+      i.className = 'glyph';
+      i.textContent = style.glyph;
+    }
+    Object.assign(i.style, style.glyph ? { color: style.color } : style.square ? { background: style.color } : {
+      borderTopColor: style.color, borderTopStyle: style.dash || 'solid',
+      borderTopWidth: (style.width || 2) + 'px' });
+    span.appendChild(i);
+    span.appendChild(document.createTextNode(name));
+    return span;
+  }
+
   function drawMap() {
     const bg = S.bg, v = S.drawn;
     if (!v) return;
-    // redraw only when something it shows changed (the poll comes every 0.8 s)
+    const g = Math.abs(v.gamma);
+    // the background's part (heatmap, lines, legend) is rebuilt only when a result changed;
+    // a move of eps or gamma only moves the design point and the bracket (Plotly.restyle)
     const part = (s) => s ? [s.state, s.seconds] : null;
-    const sig = JSON.stringify([v.eps, v.gamma, bg && [part(bg.map), part(bg.curve), part(bg.eps)]]);
-    if (sig === S.mapSig) return;
+    const sig = JSON.stringify(bg && [part(bg.map), part(bg.curve), part(bg.eps)]);
+    if (sig === S.mapSig && S.mapMoving) {
+      if (S.mapAt[0] === g && S.mapAt[1] === v.eps) return;
+      S.mapAt = [g, v.eps];
+      const idx = S.mapMoving, last = idx.length - 1;  // [the bracket,] the design point
+      Plotly.restyle('plot-map', { x: idx.map((_, k) => (k === last ? [g] : [g, g])),
+                                   y: idx.map((_, k) => (k === last ? [v.eps] : S.mapBracketY)) },
+                     idx);
+      return;
+    }
     S.mapSig = sig;
-    const traces = [];
+    S.mapAt = [g, v.eps];
+    const traces = [], keys = [];
     const m = bg && bg.map;
     if (usable(m) && !m.data.error) {
       // one heatmap (a single image: a light DOM) coloured by status, on log axes
@@ -180,32 +234,41 @@
                     customdata: m.data.status.map((row) => row.map((code) => m.data.labels[code])),
                     hovertemplate: '%{customdata}<br>gamma %{x:.3g}<br>eps %{y:.3g}<extra></extra>' });
       const seen = new Set(m.data.status.flat().map((code) => m.data.labels[code]));
-      names.filter((n) => seen.has(n)).forEach((n) => traces.push({ x: [null], y: [null], name: n,
-        type: 'scatter', mode: 'markers', marker: { symbol: 'square', size: 12, color: COLORS[n] } }));
+      names.filter((n) => seen.has(n)).forEach((n) => keys.push(key(n, { square: true, color: COLORS[n] })));
       const star = m.data.eps_star.map((s) => s.lower);
       traces.push({ x: m.data.gamma, y: star, name: 'empirical eps*', type: 'scatter',
                     mode: 'lines', line: { color: '#000', width: 2 } });
+      keys.push(key('empirical eps*', { color: '#000' }));
     }
     const c = bg && bg.curve;
     if (usable(c) && !c.data.error) {
-      traces.push({ x: c.data.gamma, y: c.data.certified, name: 'certified eps* (' + c.data.covers + ' b)',
-                    type: 'scatter', mode: 'lines+markers', line: { color: '#1f5fbf', dash: 'dot' } });
+      const name = 'certified eps* (' + c.data.covers + ' b)';
+      traces.push({ x: c.data.gamma, y: c.data.certified, name, type: 'scatter',
+                    mode: 'lines+markers', line: { color: '#1f5fbf', dash: 'dot' } });
+      keys.push(key(name, { color: '#1f5fbf', dash: 'dotted' }));
     }
     const e = bg && bg.eps;
+    const moving = [];
     if (usable(e) && !e.data.error && e.data.brackets.length) {
       const b = e.data.brackets[e.data.brackets.length - 1];
-      const g = Math.abs(v.gamma);
-      traces.push({ x: [g, g], y: [b.certified, b.refuted === null ? b.certified : b.refuted],
-                    name: 'bracket [certified, refuted] (' + b.covers + ' b)', type: 'scatter',
-                    mode: 'lines+markers', line: { color: '#a02090', width: 4 } });
+      const name = 'bracket [certified, refuted] (' + b.covers + ' b)';
+      S.mapBracketY = [b.certified, b.refuted === null ? b.certified : b.refuted];
+      moving.push(traces.length);
+      traces.push({ x: [g, g], y: S.mapBracketY, name, type: 'scatter', mode: 'lines+markers',
+                    line: { color: '#a02090', width: 4 } });
+      keys.push(key(name, { color: '#a02090', width: 4 }));
     }
-    traces.push({ x: [Math.abs(v.gamma)], y: [v.eps], name: 'design', type: 'scatter', mode: 'markers',
+    moving.push(traces.length);
+    traces.push({ x: [g], y: [v.eps], name: 'design', type: 'scatter', mode: 'markers',
                   marker: { symbol: 'star', size: 16, color: '#ffd000', line: { color: '#000', width: 1 } } });
+    keys.push(key('design', { glyph: '\u2605', color: '#e0b000' }));
+    S.mapMoving = null;
     Plotly.react('plot-map', traces, {
-      margin: { l: 55, r: 10, t: 10, b: 40 }, showlegend: true, legend: { font: { size: 10 } },
+      margin: { l: 55, r: 10, t: 10, b: 40 }, showlegend: false,
       xaxis: { type: 'log', title: { text: '|gamma|' }, dtick: 1, showgrid: false },
       yaxis: { type: 'log', title: { text: 'eps (s)' }, dtick: 1, showgrid: false },
-      uirevision: 'keep' }, PLOT_CONFIG);
+      uirevision: 'keep' }, PLOT_CONFIG).then(() => { S.mapMoving = moving; });
+    $('keys-map').replaceChildren(...keys);
   }
 
   function text(id, stage, render) {
