@@ -171,6 +171,9 @@ class _Handler(BaseHTTPRequestHandler):
     # TCP_NODELAY: the headers and the body are two writes; with Nagle's algorithm the body
     # waits for the client's delayed ACK of the headers (about 40 ms on Linux) on every redraw
     disable_nagle_algorithm = True
+    # keep-alive: the page's redraws reuse one connection (no new socket and thread per move);
+    # every answer has its Content-Length
+    protocol_version = "HTTP/1.1"
     app: TunerApp = None  # set per server (a subclass)
     hosts: tuple = ()
 

@@ -131,7 +131,7 @@
   };
 
   // The verdict's text is set as soon as the answer arrives, the traces drawn in the next task:
-  // the numbers are on screen about one Plotly.react (30-50 ms) before the curves.
+  // the curves in the next animation frame (the usual place to draw).
   function draw(d, since) {
     const v = d.verdict;
     $('verdict').className = 'verdict ' + v.status;
@@ -145,7 +145,7 @@
     showValues(d.values);
     S.drawn = d.values;
     S.lastServerMs = d.compute_ms;
-    return new Promise((resolve) => window.setTimeout(resolve, 0)).then(() => {
+    return new Promise((resolve) => window.requestAnimationFrame(resolve)).then(() => {
       const t0 = performance.now();
       return Plotly.react('plot-response', responseTraces(d), responseLayout, PLOT_CONFIG)
         .then(() => {
