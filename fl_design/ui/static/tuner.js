@@ -145,6 +145,7 @@
     showValues(d.values);
     S.drawn = d.values;
     S.lastServerMs = d.compute_ms;
+    S.lastServerCpuMs = d.cpu_ms;
     return new Promise((resolve) => window.requestAnimationFrame(resolve)).then(() => {
       const t0 = performance.now();
       return Plotly.react('plot-response', responseTraces(d), responseLayout, PLOT_CONFIG)
