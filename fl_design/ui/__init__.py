@@ -5,14 +5,17 @@ from a background process.
 
 Why this library
 ----------------
-A small server on the standard library (:mod:`http.server`, one thread per request) and
+A small server on the standard library (:mod:`http.server`, one thread per connection, kept
+alive) and
 Plotly.js served from the ``plotly`` PyPI package (``pip install 'fl_design[ui]'``), rather
 than Panel/Bokeh:
 
-* the redraw budget (150 ms on 2 cores for a 20 s TRMS run) is spent in the simulation (about
-  50 ms with the compiled kernel): one JSON request per move and ``Plotly.react`` on the page
-  add a few milliseconds; a Bokeh server adds a websocket session, document diffs and a
-  Tornado loop beside the kernel;
+* the redraw budget (150 ms on 2 cores for a 20 s TRMS run): the server's part is about 15 ms
+  of CPU (the compiled kernel's 20 000 samples about 7 ms; the verdict, the noise gain, the
+  decimation to at most 2000 points a trace and the JSON the rest), one JSON request per move
+  on a kept-alive connection, and ``Plotly.react`` of about 400 points a trace on the page
+  (30-40 ms); ``verify/bench_ui.py`` measures each part. A Bokeh server adds a websocket
+  session, document diffs and a Tornado loop beside the kernel;
 * the safety rules are a few lines we own and test: bind 127.0.0.1 only, a random token as the
   first path segment of every URL (403 without it), a ``Host`` check against DNS rebinding,
   JSON bodies of bounded size, no file path ever taken from the browser;
