@@ -136,3 +136,25 @@ def test_save_takes_no_path_from_the_browser(served):
                                {"what": "toml", "values": {"gamma": 1e-3}})
     written = Path(json.loads(body)["written"])
     assert status == 200 and written.parent == app.out and written.name.startswith("design_")
+
+
+def test_redraws_share_one_kept_alive_connection_and_a_refusal_closes_it(served):
+    app, port = served
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    hdrs = {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"}
+    try:
+        for gamma in (5e-4, 1e-3):  # two answers on one connection
+            conn.request("POST", f"/{app.token}/api/redraw",
+                         body=json.dumps({"gamma": gamma}).encode(), headers=hdrs)
+            r = conn.getresponse()
+            view = json.loads(r.read())
+            assert r.status == 200 and view["values"]["gamma"] == gamma
+            assert r.getheader("Connection") != "close"
+            assert r.getheader("Server-Timing").startswith("server;dur=")
+        # a body too large is refused unread: the connection closes (its bytes are no request)
+        conn.request("POST", f"/{app.token}/api/redraw", body=b"x" * 70_000, headers=hdrs)
+        r = conn.getresponse()
+        r.read()
+        assert r.status == 413 and r.getheader("Connection") == "close"
+    finally:
+        conn.close()
