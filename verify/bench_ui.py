@@ -2,7 +2,8 @@
 
 Starts ``fl-design ui --plant trms`` (or ``--class SPEC``) as its own process, exactly as a
 user does (its background process included), drives headless Chromium (Selenium + Debian's
-chromium-driver) to move gamma from 3e-4 to 3e-3 in log steps, and prints for each step:
+chromium-driver) to move gamma from 3e-4 to 3e-3 in log steps (a config or class: over the middle
+60 % of its gamma slider), and prints for each step:
 
 * ``seen``: from the slider's input event (fired by Selenium) until the page's text shows the
   new verdict, measured from here as ``/work/shared/checks/tuner_page.py`` does (Selenium
@@ -30,6 +31,7 @@ Usage::
     python verify/bench_ui.py            # 9 steps
     python verify/bench_ui.py --quick    # 5 steps
     python verify/bench_ui.py --class "rho=2,T=1e-3,b=1:50"
+    python verify/bench_ui.py --config rig_class.toml   # e.g. from fl-design init --class
 """
 
 from __future__ import annotations
@@ -90,6 +92,8 @@ def main(argv=None) -> int:
     ap.add_argument("--plant", default="trms", help="library plant (default trms)")
     ap.add_argument("--class", dest="cls", default=None, help="a plant class instead "
                     "(fl-design ui --class SPEC)")
+    ap.add_argument("--config", default=None, help="a config file instead (a [plant] model or "
+                    "a [class] config: fl-design ui CONFIG.toml)")
     args = ap.parse_args(argv)
     try:
         from selenium import webdriver
@@ -106,7 +110,8 @@ def main(argv=None) -> int:
         return 0
     print(f"machine: {_machine()}; {_load()}")
     start = time.perf_counter()
-    proc, url = _start(["--class", args.cls] if args.cls else ["--plant", args.plant])
+    proc, url = _start([args.config] if args.config else ["--class", args.cls] if args.cls
+                       else ["--plant", args.plant])
     if url is None:
         print("FAILS: fl-design ui printed no URL")
         return 1
@@ -123,7 +128,13 @@ def main(argv=None) -> int:
             print("FAILS: the page did not draw within 60 s")
             return 1
         steps = 5 if args.quick else 9
-        gammas = [3e-4 * 10 ** (i / (steps - 1)) for i in range(steps)]
+        if args.config or args.cls:  # the slider's own range, from 20 % to 80 % of it (log)
+            lo, hi = drv.execute_script("const c = window.flTuner.controls.find((x) => "
+                                        "x.name === 'gamma'); return [c.min, c.max]")
+            g0, g1 = lo * (hi / lo) ** 0.2, lo * (hi / lo) ** 0.8
+        else:  # the issue's move: gamma from 3e-4 to 3e-3
+            g0, g1 = 3e-4, 3e-3
+        gammas = [g0 * (g1 / g0) ** (i / (steps - 1)) for i in range(steps)]
         seen, rows = [], []
         for g in gammas[1:] + gammas[:1]:  # the first move changes the view
             before = drv.find_element("tag name", "body").text
