@@ -17,6 +17,7 @@ import time
 import pytest
 
 import fl_design as fl
+from fl_design.ui._model import MAX_POINTS
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed "
                                 "(pip install 'fl_design[dev]')")
@@ -103,6 +104,13 @@ def test_moving_gamma_redraws_the_verdict(page, record_property):
     assert drv.find_element("id", "overshoot").text != before
     timing = drv.find_element("id", "timing").text
     assert timing.startswith("redrawn in ") and "server" in timing
+    # the redraw's parts, as the page measured them, nest: the answer's network time holds the
+    # server's handler time, which holds the redraw's computation; the traces are decimated
+    parts = drv.execute_script("const S = window.flTuner; return [S.lastFetchMs, S.lastNetMs, "
+                               "S.lastHandlerMs, S.lastServerMs, S.lastPlotMs, S.lastPoints]")
+    fetch, net, handler, server, plot, points = parts
+    assert fetch >= net >= handler >= server > 0 and plot > 0, parts
+    assert points == len(app.tuner.redraw(drawn)["t"]) <= MAX_POINTS
     record_property("redraw_ms", times)
     print(f"redraw times (input to drawn, page-measured): {times} ms")
 

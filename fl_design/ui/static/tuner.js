@@ -6,7 +6,11 @@
   const N = 1000;  // slider positions
   const S = { controls: [], inflight: false, pending: false, lastInput: null,
               lastRedrawMs: null, lastServerMs: null, redraws: 0, drawn: null, bg: null };
-  window.flTuner = S;  // read by the browser tests (redraw times)
+  // read by the browser tests and verify/bench_ui.py: lastRedrawMs (input event to drawn),
+  // lastFetchMs (request to JSON parsed), lastNetMs (its Resource Timing), lastHandlerMs (the
+  // server's Server-Timing), lastServerMs / lastServerCpuMs (the redraw's wall and CPU time),
+  // lastPlotMs (Plotly.react), lastPoints, lastBytes
+  window.flTuner = S;
   const $ = (id) => document.getElementById(id);
 
   function api(path, body) {
