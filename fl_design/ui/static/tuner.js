@@ -124,8 +124,8 @@
   }
   const PLOT_CONFIG = { displayModeBar: false, responsive: true, scrollZoom: true };
   const responseLayout = {
-    // the legend is HTML beside the plot (#keys-response): a Plotly legend is about 50 SVG
-    // nodes, and every node costs a DOM walk (WebDriver's text reading walks them all)
+    // the legend is HTML above the plot (#keys-response), drawn once: a Plotly legend is about
+    // 50 more SVG nodes, laid out again at each move (and walked by every reader of the page)
     margin: { l: 55, r: 10, t: 10, b: 35 }, showlegend: false, hovermode: 'x unified',
     xaxis: { title: { text: 't (s)' }, anchor: 'y3' },
     yaxis: { domain: [0.68, 1], title: { text: 'y, r' } },
@@ -134,8 +134,8 @@
     uirevision: 'keep',
   };
 
-  // The verdict's text is set as soon as the answer arrives, the traces drawn in the next task:
-  // the curves in the next animation frame (the usual place to draw).
+  // The verdict's text is set as soon as the answer arrives; the traces are drawn in the next
+  // animation frame (the usual place to draw).
   function draw(d, since) {
     const v = d.verdict;
     $('verdict').className = 'verdict ' + v.status;
