@@ -3,7 +3,8 @@
 Routes, all under ``/<token>/`` (anything else, or a wrong token: 403):
 
 * ``GET /<token>/`` the page; ``GET /<token>/static/<name>`` one of :data:`ASSETS` (the page's
-  script and style from this package, Plotly.js from the installed ``plotly`` package);
+  script and style and uPlot from this package, Plotly.js from the installed ``plotly``
+  package);
 * ``GET /<token>/api/init`` the controls and the plant's description;
 * ``POST /<token>/api/redraw`` (JSON controls) the response, verdict and noise gain
   (:meth:`fl_design.ui._model.Tuner.redraw`); it also tells the background what to compute;
@@ -38,11 +39,14 @@ from ..errors import FlDesignError, MissingDependencyError, ParameterError
 
 #: Largest request body (bytes).
 MAX_BODY = 65536
-#: Files the page may load: name -> (content type, where it comes from).
+#: Files the page may load: name -> content type. Plotly.js comes from the installed ``plotly``
+#: package, the others from ``static/`` of this package (uPlot 1.6.32, MIT: ``uPlot.LICENSE``).
 ASSETS = {
     "tuner.js": "text/javascript; charset=utf-8",
     "tuner.css": "text/css; charset=utf-8",
     "plotly.min.js": "text/javascript; charset=utf-8",
+    "uPlot.iife.min.js": "text/javascript; charset=utf-8",
+    "uPlot.min.css": "text/css; charset=utf-8",
 }
 
 
@@ -120,8 +124,8 @@ class TunerApp:
         self.token = token or secrets.token_urlsafe(24)
         self.background = Background(tuner.setup, enabled=background)
         self._lock = threading.Lock()  # one simulation at a time (the kernel's buffers)
-        self.assets = {"tuner.js": _static("tuner.js"), "tuner.css": _static("tuner.css"),
-                       "plotly.min.js": plotly_js()}
+        self.assets = {name: plotly_js() if name == "plotly.min.js" else _static(name)
+                       for name in ASSETS}
         self.page = _static("index.html")
 
     def init(self) -> dict:

@@ -91,6 +91,13 @@ def test_page_and_assets_are_local(served):
     status, js, _ = _request(port, "GET", f"/{app.token}/static/plotly.min.js")
     shipped = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
     assert status == 200 and js == shipped.read_bytes()
+    import fl_design.ui as ui_package
+
+    static = Path(ui_package.__file__).parent / "static"  # the response charts' uPlot
+    status, js, ctype = _request(port, "GET", f"/{app.token}/static/uPlot.iife.min.js")
+    assert status == 200 and js == (static / "uPlot.iife.min.js").read_bytes()
+    assert ctype.startswith("text/javascript") and b"uPlot (v1.6.32)" in js[:100]
+    assert "MIT License" in (static / "uPlot.LICENSE").read_text()  # shipped beside it
     status, own, _ = _request(port, "GET", f"/{app.token}/static/tuner.js")
     assert status == 200 and b"fetch('http" not in own
     assert _request(port, "GET", f"/{app.token}/static/../_server.py")[0] == 404

@@ -1,6 +1,6 @@
-// fl-design tuner page: binds sliders to the server's /api/redraw; draws with Plotly.js
-// (served by the tuner from the installed plotly package). Every URL is relative: the token
-// is the first path segment of the page's own URL.
+// fl-design tuner page: binds sliders to the server's /api/redraw; draws the response with
+// uPlot (static/, MIT) and the map with Plotly.js (served from the installed plotly package).
+// Every URL is relative: the token is the first path segment of the page's own URL.
 'use strict';
 (function () {
   const N = 1000;  // slider positions
@@ -9,7 +9,7 @@
   // read by the browser tests and verify/bench_ui.py: lastRedrawMs (input event to drawn),
   // lastFetchMs (request to JSON parsed), lastNetMs (its Resource Timing), lastHandlerMs (the
   // server's Server-Timing), lastServerMs / lastServerCpuMs (the redraw's wall and CPU time),
-  // lastPlotMs (Plotly.react), lastPoints, lastBytes
+  // lastPlotMs (the response charts' redraw), lastPoints, lastBytes; response (the charts)
   window.flTuner = S;
   const $ = (id) => document.getElementById(id);
 
@@ -113,26 +113,71 @@
     $('status').textContent = 'not run';
   }
 
-  function responseTraces(d) {
-    const line = (y, name, axis, extra) => Object.assign({ x: d.t, y, name, type: 'scatter',
-      mode: 'lines', xaxis: 'x', yaxis: axis, hovertemplate: '%{y:.4g}' }, extra || {});
-    return [line(d.r, 'r', 'y', { line: { dash: 'dash', color: '#888' } }),
-            line(d.y, 'y', 'y', { line: { color: '#1f5fbf' } }),
-            line(d.u, 'u', 'y2', { line: { color: '#c05010' } }),
-            line(d.sigma, 'sigma', 'y3', { line: { color: '#2a8a2a' } }),
-            line(d.sigmahat, 'sigmahat', 'y3', { line: { color: '#a02090', width: 1 } })];
-  }
   const PLOT_CONFIG = { displayModeBar: false, responsive: true, scrollZoom: true };
-  const responseLayout = {
-    // the legend is HTML above the plot (#keys-response), drawn once: a Plotly legend is about
-    // 50 more SVG nodes, laid out again at each move (and walked by every reader of the page)
-    margin: { l: 55, r: 10, t: 10, b: 35 }, showlegend: false, hovermode: 'x unified',
-    xaxis: { title: { text: 't (s)' }, anchor: 'y3' },
-    yaxis: { domain: [0.68, 1], title: { text: 'y, r' } },
-    yaxis2: { domain: [0.36, 0.63], title: { text: 'u' } },
-    yaxis3: { domain: [0, 0.31], title: { text: 'sigma' } },
-    uirevision: 'keep',
-  };
+
+  // --- the response: three uPlot charts (canvas), one x axis --------------------------------
+  // uPlot redraws 5 traces of a few hundred points in 1-2 ms (setData on a canvas) where an SVG
+  // figure of three subplots is laid out again in 30-40 ms: it is redrawn at every move.
+  // Cursor and x zoom are shared (drag to zoom, double-click for the whole run); the legend
+  // under each chart shows the values at the cursor. Plotly draws the map (it moves rarely).
+  const CHARTS = [
+    { label: 'y, r', series: [{ label: 'r', stroke: '#888', dash: [6, 4], width: 1.5 },
+                              { label: 'y', stroke: '#1f5fbf', width: 2 }], cols: ['r', 'y'] },
+    { label: 'u', series: [{ label: 'u', stroke: '#c05010', width: 2 }], cols: ['u'] },
+    { label: 'sigma', series: [{ label: 'sigma', stroke: '#2a8a2a', width: 2 },
+                               { label: 'sigmahat', stroke: '#a02090', width: 1 }],
+      cols: ['sigma', 'sigmahat'] }];
+  const R = { charts: null, zoom: null, syncing: false };
+  const num = (u, v) => (v === null || v === undefined ? '-' : +v.toPrecision(4));
+
+  function fullX(u) { const t = u.data[0]; return { min: t[0], max: t[t.length - 1] }; }
+  function zoomAll(src, range) {  // one chart zoomed (or reset): the others follow
+    R.zoom = range;
+    if (R.syncing) return;
+    R.syncing = true;
+    R.charts.forEach((u) => {
+      if (u !== src) u.setScale('x', range ? { min: range[0], max: range[1] } : fullX(u));
+    });
+    R.syncing = false;
+  }
+  function responseData(d, c) { return [d.t].concat(c.cols.map((k) => d[k])); }
+
+  function makeCharts(d) {
+    const box = $('plot-response');
+    const last = CHARTS.length - 1;
+    R.charts = CHARTS.map((c, i) => {
+      const chart = new uPlot({
+        width: box.clientWidth, height: i === last ? 200 : 150,
+        scales: { x: { time: false } },
+        cursor: { sync: { key: 'fl-response' }, drag: { x: true, y: false } },
+        legend: { live: true },
+        axes: [i === last ? { label: 't (s)', size: 50 }  // tick labels under the last only
+          : { size: 8, values: (u, ticks) => ticks.map(() => '') },
+               { label: c.label, size: 60 }],
+        series: [{ label: 't (s)', value: num }].concat(
+          c.series.map((x) => Object.assign({ value: num }, x))),
+        hooks: { setSelect: [(u) => {
+          if (u.select.width > 0) {
+            zoomAll(u, [u.posToVal(u.select.left, 'x'),
+                        u.posToVal(u.select.left + u.select.width, 'x')]);
+          }
+        }] },
+      }, responseData(d, c), box);
+      chart.over.addEventListener('dblclick', () => zoomAll(chart, null));  // uPlot resets it
+      return chart;
+    });
+    window.addEventListener('resize', () => R.charts.forEach((u) => u.setSize({
+      width: box.clientWidth, height: u.height })));
+  }
+
+  function drawResponse(d) {
+    if (!R.charts) { makeCharts(d); return; }
+    R.charts.forEach((u, i) => {
+      u.setData(responseData(d, CHARTS[i]));
+      if (R.zoom) u.setScale('x', { min: R.zoom[0], max: R.zoom[1] });  // the user's zoom stays
+    });
+  }
+  S.response = R;  // read by the browser tests
 
   // The verdict's text is set as soon as the answer arrives; the traces are drawn in the next
   // animation frame (the usual place to draw).
@@ -152,17 +197,18 @@
     S.lastServerCpuMs = d.cpu_ms;
     return new Promise((resolve) => window.requestAnimationFrame(resolve)).then(() => {
       const t0 = performance.now();
-      return Plotly.react('plot-response', responseTraces(d), responseLayout, PLOT_CONFIG)
-        .then(() => {
-          S.lastPlotMs = performance.now() - t0;
-          S.lastPoints = d.t.length;
-          S.redraws += 1;
-          S.lastRedrawMs = since === null ? null : performance.now() - since;
-          $('timing').textContent = (S.lastRedrawMs === null ? 'drawn' :
-            'redrawn in ' + S.lastRedrawMs.toFixed(0) + ' ms') + ' (server ' +
-            d.compute_ms.toFixed(0) + ' ms' + (d.kernel === 'compiled' ? ')' : ', ' + d.kernel + ')');
-          window.requestAnimationFrame(drawMap);
-        });
+      drawResponse(d);
+      // uPlot draws in a microtask queued by setData: this one runs after it
+      return Promise.resolve().then(() => {
+        S.lastPlotMs = performance.now() - t0;
+        S.lastPoints = d.t.length;
+        S.redraws += 1;
+        S.lastRedrawMs = since === null ? null : performance.now() - since;
+        $('timing').textContent = (S.lastRedrawMs === null ? 'drawn' :
+          'redrawn in ' + S.lastRedrawMs.toFixed(0) + ' ms') + ' (server ' +
+          d.compute_ms.toFixed(0) + ' ms' + (d.kernel === 'compiled' ? ')' : ', ' + d.kernel + ')');
+        window.requestAnimationFrame(drawMap);
+      });
     });
   }
 
