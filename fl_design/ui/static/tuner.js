@@ -253,6 +253,7 @@
     return span;
   }
 
+  const MAP_WAIT_MS = 400;
   function drawMap() {
     const bg = S.bg, v = S.drawn;
     if (!v) return;
@@ -268,6 +269,13 @@
       Plotly.restyle('plot-map', { x: idx.map((_, k) => (k === last ? [g] : [g, g])),
                                    y: idx.map((_, k) => (k === last ? [v.eps] : S.mapBracketY)) },
                      idx);
+      return;
+    }
+    // a rebuild (tens of ms) waits while a slider moves: the response's redraws come first
+    const still = S.lastInput === null ? Infinity : performance.now() - S.lastInput;
+    if (still < MAP_WAIT_MS) {
+      window.clearTimeout(S.mapTimer);
+      S.mapTimer = window.setTimeout(drawMap, MAP_WAIT_MS - still);
       return;
     }
     S.mapSig = sig;
