@@ -13,14 +13,14 @@ chromium-driver) to move gamma from 3e-4 to 3e-3 in log steps (a config or class
   included), ``network`` (the request's Resource Timing: sent to last byte received),
   ``handler`` (the server's whole part, its ``Server-Timing``), ``redraw`` (the simulation,
   verdict, noise gain and decimation, wall clock) with its CPU time (the server thread's:
-  what it costs apart from the machine's load) and ``plot`` (``Plotly.react`` of the
-  response's traces);
+  what it costs apart from the machine's load) and ``plot`` (the response charts' redraw,
+  uPlot's ``setData``);
 * the points per trace and the JSON size.
 
 WebDriver's text read walks the whole page's DOM on the page's main thread (tens of
-milliseconds with two Plotly figures on a loaded machine), so the answer often waits for it;
-the same moves are then repeated watched by cheap script polls only, which gives the page's
-own input-to-drawn time.
+milliseconds on a loaded machine: it was 100-200 ms while the response was a Plotly figure of
+about 300 SVG nodes), so the answer often waits for it; the same moves are then repeated
+watched by cheap script polls only, which gives the page's own input-to-drawn time.
 
 It prints the machine (CPU model, cores) and the load before and after. Exit status 1 when the
 median ``seen`` time exceeds 150 ms (the issue's target for the TRMS on 2 cores: a loaded
