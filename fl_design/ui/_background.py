@@ -355,13 +355,15 @@ class Background:
         proc.start()
         child.close()
         with self._lock:
-            if self._closed or self._proc is not None:  # closed, or another start won
-                _end(proc, False)
-                parent.close()
-                return
-            self._proc, self._todo = proc, todo
-            if self._moves != moves:  # the controls moved while it started: paused too
-                self._signal_locked(signal.SIGSTOP)
+            lost = self._closed or self._proc is not None  # closed, or another start won
+            if not lost:
+                self._proc, self._todo = proc, todo
+                if self._moves != moves:  # the controls moved while it started: paused too
+                    self._signal_locked(signal.SIGSTOP)
+        if lost:
+            _end(proc, False)
+            parent.close()
+            return
         threading.Thread(target=self._read, args=(proc, parent), daemon=True).start()
 
     def _read(self, proc, conn) -> None:
