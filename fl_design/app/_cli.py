@@ -442,7 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _ui_parser(sub) -> None:
     ui = sub.add_parser("ui", help="the tuner page on 127.0.0.1: sliders redraw the response, "
                         "the verdict, the map and the certificates")
-    ui.add_argument("config", nargs="?", default=None, help="TOML configuration")
+    ui.add_argument("config", nargs="?", default=None, help="TOML configuration (a [plant] "
+                    "model, or a [class] config as `fl-design init --class` writes)")
     ui.add_argument("--plant", choices=PLANT_CHOICES, default=None,
                     help="a library plant with its bench design instead of a config")
     ui.add_argument("--class", dest="plant_class", default=None, metavar="SPEC",
@@ -480,7 +481,14 @@ def _cmd_ui(args) -> int:
     from ..ui import serve
     from ..ui._class_mode import class_toml, parse_class_spec
 
-    if args.plant_class is None:
+    if args.plant_class is None and not args.plant and is_class_config(args.config):
+        from ._class_table import load_class_config
+
+        cc = load_class_config(args.config)  # a [class] config: as --class, its [tune] step
+        cfg = parse_config(class_toml(cc.plant_class, reference=cc.tune.reference),
+                           source=str(args.config))
+        setup = ui_setup(cfg, plant_class=cc.plant_class)
+    elif args.plant_class is None:
         setup = ui_setup(_config(args))
     elif args.config is not None or args.plant:
         raise ParameterError("give a config, --plant or --class, not two of them")

@@ -248,6 +248,27 @@ def _work(blob: bytes, values: dict, todo: list, conn) -> None:  # pragma: no co
     conn.close()
 
 
+def _end(proc, paused: bool) -> None:
+    """End a background process and its whole group (a paused one is resumed to end)."""
+    if proc is None or not proc.is_alive():
+        return
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+        if paused:
+            os.killpg(proc.pid, signal.SIGCONT)
+    except (ProcessLookupError, PermissionError):  # before its setsid: the process alone
+        proc.terminate()
+        if paused:
+            try:
+                os.kill(proc.pid, signal.SIGCONT)
+            except ProcessLookupError:
+                pass
+    proc.join(timeout=5)
+    if proc.is_alive():
+        proc.kill()
+        proc.join(timeout=5)
+
+
 class Background:
     """The slow results of the current controls (module docstring).
 
@@ -279,10 +300,22 @@ class Background:
         self._timer = None
         self._closed = False
         self._paused = False
+        self._moves = 0  # redraws so far (a start that raced with one leaves its process paused)
+        self._values: dict = {}
+
+    def pause(self) -> None:
+        """A redraw starts: pause the background at once (the page's redraw gets the cores)."""
+        with self._lock:
+            self._moves += 1
+            if self._timer is not None:
+                self._timer.cancel()
+            if self.enabled and not self._closed:
+                self._signal_locked(signal.SIGSTOP)
 
     def submit(self, values: dict) -> None:
         """The controls moved: compute what their keys lack, once they stay still."""
         with self._lock:
+            self._moves += 1
             self._keys = stage_keys(values)
             self._values = dict(values)
             if self._timer is not None:
@@ -295,6 +328,11 @@ class Background:
             self._timer.start()
 
     def _start(self) -> None:
+        """The controls have been still: resume, or end the old process and start a new one.
+
+        Ending and spawning happen outside the lock: a redraw meanwhile (``pause``,
+        ``submit``) never waits for a process to end or start.
+        """
         with self._lock:
             if self._closed:
                 return
@@ -304,17 +342,29 @@ class Background:
             if running and all(item in self._todo for item in todo):
                 self._signal_locked(signal.SIGCONT)
                 return  # the running process already computes these keys
-            self._stop_locked()
-            if not todo:
-                return
-            ctx = multiprocessing.get_context("spawn")
-            parent, child = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_work, args=(dumps(self.setup), self._values, todo, child),
-                               daemon=True, name="fl-design-ui-background")
-            proc.start()
-            child.close()
-            self._proc, self._todo = proc, todo
-            threading.Thread(target=self._read, args=(proc, parent), daemon=True).start()
+            old, paused = self._proc, self._paused
+            self._proc, self._todo, self._paused = None, [], False
+            values, moves = self._values, self._moves
+        _end(old, paused)
+        if not todo:
+            return
+        ctx = multiprocessing.get_context("spawn")
+        parent, child = ctx.Pipe(duplex=False)
+        proc = ctx.Process(target=_work, args=(dumps(self.setup), values, todo, child),
+                           daemon=True, name="fl-design-ui-background")
+        proc.start()
+        child.close()
+        with self._lock:
+            lost = self._closed or self._proc is not None  # closed, or another start won
+            if not lost:
+                self._proc, self._todo = proc, todo
+                if self._moves != moves:  # the controls moved while it started: paused too
+                    self._signal_locked(signal.SIGSTOP)
+        if lost:
+            _end(proc, False)
+            parent.close()
+            return
+        threading.Thread(target=self._read, args=(proc, parent), daemon=True).start()
 
     def _read(self, proc, conn) -> None:
         while True:
@@ -344,20 +394,6 @@ class Background:
                 return
         self._paused = sig == signal.SIGSTOP
 
-    def _stop_locked(self) -> None:
-        proc = self._proc
-        if proc is not None and proc.is_alive():
-            try:
-                os.killpg(proc.pid, signal.SIGTERM)
-            except (ProcessLookupError, PermissionError):
-                proc.terminate()
-            self._signal_locked(signal.SIGCONT)  # a paused process must run to end
-            proc.join(timeout=5)
-            if proc.is_alive():
-                proc.kill()
-                proc.join(timeout=5)
-        self._proc, self._todo, self._paused = None, [], False
-
     def snapshot(self) -> dict:
         """Each stage's state (ready, computing, waiting, stale) and its data when ready.
 
@@ -386,7 +422,9 @@ class Background:
             self._closed = True
             if self._timer is not None:
                 self._timer.cancel()
-            self._stop_locked()
+            old, paused = self._proc, self._paused
+            self._proc, self._todo, self._paused = None, [], False
+        _end(old, paused)
 
 
 __all__ = ["BENCH_STEPS", "MAP_POINTS", "QUIET_S", "STAGES", "Background", "class_words",

@@ -113,13 +113,16 @@ def member_b(cls) -> float:
     return math.copysign(math.sqrt(lo * hi), lo)
 
 
-def class_toml(cls) -> str:
+def class_toml(cls, *, reference: float | None = None) -> str:
     """The configuration of the class's simulated member and its starting design (TOML).
 
     Parameters
     ----------
     cls : fl_design.PlantClass
         A class with ``T``.
+    reference : float, optional
+        The step target (a ``[class]`` config's ``[tune] reference``); default the class's
+        operating point (0 when it states none) plus 1, as ``fl-design run`` steps a class.
 
     Returns
     -------
@@ -149,20 +152,22 @@ def class_toml(cls) -> str:
     gamma = sign * min(2 * T / lo, 0.5 / hi)
     gains = [float(g) for g in gains_from_poles([-1.0] * rho)]
     q = ", ".join(f'"{s}"' for s in states)
-    r = ", ".join(f'"{e}"' for e in rhs)
+    eqs = ", ".join(f'"{e}"' for e in rhs)
     limits = "" if cls.u_limits is None else f"u_limits = [{cls.u_limits[0]!r}, " \
         f"{cls.u_limits[1]!r}]\n"
+    y0 = float(cls.operating_point or 0.0)
+    r = float(y0 + 1.0 if reference is None else reference)
     return (f'[plant]\nname = "member of the class (chain, b = {b:.4g})"\n'
             f"states = [{q}]\n"
             'input = "u"\n'
             "# the chain of integrators y^(rho) = b u, b at the geometric mean of the class\n"
-            f"rhs = [{r}]\n"
+            f"rhs = [{eqs}]\n"
             'output = "x1"\n'
             f"params = {{ b = {b!r} }}\n"
-            "operating_point = { x1 = 0.0 }\n\n"
+            f"operating_point = {{ x1 = {y0!r} }}\n\n"
             f"[design]\neps = {50 * T!r}\nT = {T!r}\ngains = {gains!r}\ngamma = {gamma!r}\n"
             f"{limits}\n"
-            f"[scenario]\nreference = 1.0\nduration = 20.0\nnoise_std = {cls.noise_std!r}\n\n"
+            f"[scenario]\nreference = {r!r}\nduration = 20.0\nnoise_std = {cls.noise_std!r}\n\n"
             f"[sweep]\neps = [{5 * T!r}, {1000 * T!r}]\n"
             f"gamma = [{sign * min(0.05 * T / lo, 0.01 / hi)!r}, {sign * 1.0 / hi!r}]\n")
 

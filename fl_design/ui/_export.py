@@ -32,9 +32,14 @@ def _fresh(folder: Path, stem: str, suffix: str) -> Path:
     return folder / f"{stem}_{i}{suffix}"
 
 
-def _write_new(path: Path, text: str) -> None:
+def _write_new(out, stem: str, suffix: str, text: str) -> Path:
+    """Claim ``out`` (the no-overwrite rule), write ``text`` to a new ``stem_N.suffix``, record it."""
+    folder = claim_output_folder(out, what="ui output folder")
+    path = _fresh(folder, stem, suffix)
     with open(path, "x", encoding="utf-8") as fh:  # "x": never replaces a file
         fh.write(text)
+    record_outputs(folder, [path])
+    return path
 
 
 def toml_text(tuner, values: dict) -> str:
@@ -78,12 +83,7 @@ def save_toml(tuner, values: dict, out) -> Path:
     OutputExistsError
         ``out`` holds files fl_design did not write.
     """
-    v = tuner.check(values)
-    folder = claim_output_folder(out, what="ui output folder")
-    path = _fresh(folder, "design", ".toml")
-    _write_new(path, toml_text(tuner, v))
-    record_outputs(folder, [path])
-    return path
+    return _write_new(out, "design", ".toml", toml_text(tuner, tuner.check(values)))
 
 
 def write_c(tuner, values: dict, out):
@@ -193,11 +193,7 @@ def save_snippet(tuner, values: dict, out) -> tuple:
     (pathlib.Path, str)
     """
     text = snippet_text(tuner, values)
-    folder = claim_output_folder(out, what="ui output folder")
-    path = _fresh(folder, "snippet", ".py")
-    _write_new(path, text)
-    record_outputs(folder, [path])
-    return path, text
+    return _write_new(out, "snippet", ".py", text), text
 
 
 __all__ = ["save_snippet", "save_toml", "snippet_text", "toml_text", "write_c"]

@@ -110,6 +110,8 @@ class LoopCache:
         self._lock = threading.Lock()
         self._closed = False
         self.last_compiled = True
+        self._memo = None  # (design, substeps, structure key) of the last design asked
+        self._substeps: dict = {}  # (id(plant), T) -> (plant, RK4 steps per sample)
 
     def _compile(self, key, plant, design, substeps: int) -> None:
         """Compile a structure's kernel in a child process (into the kernel cache).
@@ -145,6 +147,13 @@ class LoopCache:
             if proc.is_alive():
                 proc.terminate()
             proc.join(timeout=10)
+
+    def _key(self, design, substeps: int) -> str:
+        """:func:`structure_key`, once per design object (a redraw asks twice: run and noise)."""
+        memo = self._memo
+        if memo is None or memo[0] is not design or memo[1] != substeps:
+            memo = self._memo = (design, substeps, structure_key(design, substeps))
+        return memo[2]
 
     def _kept(self, table: OrderedDict, key, make):
         with self._lock:
@@ -185,7 +194,11 @@ class LoopCache:
         from ..sim._loop_jacobian import LoopLinearizer
         from ..sim.kernel._loop import ClosedLoop, resolve_substeps
 
-        steps = resolve_substeps(plant, design.T, None)
+        steps = self._substeps.get((id(plant), design.T), (None, None))
+        if steps[0] is not plant:  # the plant's linearization, once per plant and T
+            steps = (plant, resolve_substeps(plant, design.T, None))
+            self._substeps[(id(plant), design.T)] = steps
+        steps = steps[1]
 
         def make():
             loop = ClosedLoop(plant, design, substeps=steps)
@@ -197,7 +210,7 @@ class LoopCache:
                 ca.jacobian(F, X), ca.jacobian(F, w), ca.jacobian(u, X), ca.jacobian(u, w)])
             return LoopLinearizer(loop), fun
 
-        lin_of, fun = self._kept(self._noise, (id(plant), structure_key(design, steps)), make)
+        lin_of, fun = self._kept(self._noise, (id(plant), self._key(design, steps)), make)
         p = design.parameter_vector()
         lin = lin_of(float(r), p)
         if not lin.spectral_radius < 1.0:
@@ -238,7 +251,7 @@ class LoopCache:
         check_memory(8.0 * run.N * (run.loop.record_layout.size + 4),
                      f"recording a run of {run.N:.3g} samples",
                      "shorten the run length or sample slower (a larger T)")
-        key = (id(plant), structure_key(design, run.loop.substeps))
+        key = (id(plant), self._key(design, run.loop.substeps))
         compiled_aside = False
         with self._lock:
             entry = self._loops.get(key)

@@ -3,7 +3,8 @@
 Routes, all under ``/<token>/`` (anything else, or a wrong token: 403):
 
 * ``GET /<token>/`` the page; ``GET /<token>/static/<name>`` one of :data:`ASSETS` (the page's
-  script and style from this package, Plotly.js from the installed ``plotly`` package);
+  script and style and uPlot from this package, Plotly.js from the installed ``plotly``
+  package);
 * ``GET /<token>/api/init`` the controls and the plant's description;
 * ``POST /<token>/api/redraw`` (JSON controls) the response, verdict and noise gain
   (:meth:`fl_design.ui._model.Tuner.redraw`); it also tells the background what to compute;
@@ -38,11 +39,14 @@ from ..errors import FlDesignError, MissingDependencyError, ParameterError
 
 #: Largest request body (bytes).
 MAX_BODY = 65536
-#: Files the page may load: name -> (content type, where it comes from).
+#: Files the page may load: name -> content type. Plotly.js comes from the installed ``plotly``
+#: package, the others from ``static/`` of this package (uPlot 1.6.32, MIT: ``uPlot.LICENSE``).
 ASSETS = {
     "tuner.js": "text/javascript; charset=utf-8",
     "tuner.css": "text/css; charset=utf-8",
     "plotly.min.js": "text/javascript; charset=utf-8",
+    "uPlot.iife.min.js": "text/javascript; charset=utf-8",
+    "uPlot.min.css": "text/css; charset=utf-8",
 }
 
 
@@ -120,8 +124,8 @@ class TunerApp:
         self.token = token or secrets.token_urlsafe(24)
         self.background = Background(tuner.setup, enabled=background)
         self._lock = threading.Lock()  # one simulation at a time (the kernel's buffers)
-        self.assets = {"tuner.js": _static("tuner.js"), "tuner.css": _static("tuner.css"),
-                       "plotly.min.js": plotly_js()}
+        self.assets = {name: plotly_js() if name == "plotly.min.js" else _static(name)
+                       for name in ASSETS}
         self.page = _static("index.html")
 
     def init(self) -> dict:
@@ -132,6 +136,7 @@ class TunerApp:
                 "out": str(self.out), "defaults": t.defaults()}
 
     def redraw(self, values) -> dict:
+        self.background.pause()  # before the simulation: the redraw gets the cores
         with self._lock:
             view = self.tuner.redraw(values)
         if "error" not in view:
@@ -167,6 +172,12 @@ def _static(name: str) -> bytes:
 
 class _Handler(BaseHTTPRequestHandler):
     server_version = "fl-design-ui"
+    # TCP_NODELAY: the headers and the body are two writes; with Nagle's algorithm the body
+    # waits for the client's delayed ACK of the headers (about 40 ms on Linux) on every redraw
+    disable_nagle_algorithm = True
+    # keep-alive: the page's redraws reuse one connection (no new socket and thread per move);
+    # every answer has its Content-Length
+    protocol_version = "HTTP/1.1"
     app: TunerApp = None  # set per server (a subclass)
     hosts: tuple = ()
 
@@ -175,11 +186,16 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _send(self, code: int, body: bytes, ctype: str) -> None:
         self.send_response(code)
+        if code >= 400:  # a refused request's body may be unread: never parse it as a request
+            self.close_connection = True
+            self.send_header("Connection", "close")
         self.send_header("Content-Type", ctype)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
         self.send_header("X-Content-Type-Options", "nosniff")
         self.send_header("Referrer-Policy", "no-referrer")
+        if getattr(self, "_timing", None):
+            self.send_header("Server-Timing", self._timing)
         # Plotly sets inline styles (style-src 'unsafe-inline'); no script but ours and Plotly.js
         self.send_header("Content-Security-Policy", "default-src 'self'; script-src 'self'; "
                          "style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
@@ -187,8 +203,11 @@ class _Handler(BaseHTTPRequestHandler):
         self.end_headers()
         self.wfile.write(body)
 
-    def _json(self, code: int, data) -> None:
-        self._send(code, json.dumps(data, allow_nan=False).encode(), "application/json")
+    def _json(self, code: int, data, started: float | None = None) -> None:
+        body = json.dumps(data, allow_nan=False).encode()
+        if started is not None:  # the server's whole part, for the page's timing line
+            self._timing = f"server;dur={1e3 * (time.perf_counter() - started):.1f}"
+        self._send(code, body, "application/json")
 
     def _refuse(self, code: int, why: str) -> None:
         self._send(code, (why + "\n").encode(), "text/plain; charset=utf-8")
@@ -221,6 +240,7 @@ class _Handler(BaseHTTPRequestHandler):
             self._refuse(404, "not found")
 
     def do_POST(self):
+        started = time.perf_counter()
         route = self._route()
         if route is None:
             return
@@ -253,7 +273,7 @@ class _Handler(BaseHTTPRequestHandler):
             self._json(500, {"error": f"the tuner failed on this request ({msg}); the "
                              "terminal says the same"})
             return
-        self._json(200, data)
+        self._json(200, data, started)
 
 
 def make_server(app: TunerApp, port: int = 0) -> ThreadingHTTPServer:

@@ -72,3 +72,46 @@ def test_margins_arrive_from_the_child_and_match_the_library(trms_setup, trms_tu
     if pid is not None:
         assert not os.path.exists(f"/proc/{pid}") or \
             _state(pid) == "Z"
+
+
+def test_a_redraw_never_waits_for_the_background_process_to_end(trms_setup, trms_tuner,
+                                                                 monkeypatch):
+    """Ending (and starting) a background process happens outside the lock the redraws take:
+    while a slow end is under way, pause, submit and snapshot answer at once."""
+    import threading
+
+    from fl_design.ui import _background
+
+    class OldProcess:  # a process that takes 1.5 s to end
+        pid = None
+
+        def is_alive(self):
+            return False
+
+    old, ended = OldProcess(), threading.Event()
+    real_end = _background._end
+
+    def slow_end(proc, paused):
+        if proc is old:
+            time.sleep(1.5)
+            ended.set()
+        else:
+            real_end(proc, paused)
+
+    monkeypatch.setattr(_background, "_end", slow_end)
+    bg = Background(trms_setup)
+    bg._proc, bg._keys = old, {}  # nothing left to compute: _start only ends the old one
+    starter = threading.Thread(target=bg._start)
+    starter.start()
+    try:
+        time.sleep(0.2)  # _start is inside the slow end
+        assert not ended.is_set()
+        t = time.perf_counter()
+        bg.pause()
+        bg.snapshot()
+        waited = time.perf_counter() - t
+        assert not ended.is_set() and waited < 1.0, waited  # did not wait for the end
+    finally:
+        starter.join(timeout=10)
+        bg.close()
+    assert ended.is_set() and bg._proc is None

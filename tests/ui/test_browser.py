@@ -16,6 +16,7 @@ import time
 import pytest
 
 import fl_design as fl
+from fl_design.ui._model import MAX_POINTS
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed "
                                 "(pip install 'fl_design[dev]')")
@@ -94,6 +95,13 @@ def test_moving_gamma_redraws_the_verdict(page, record_property):
     assert drv.find_element("id", "overshoot").text != before
     timing = drv.find_element("id", "timing").text
     assert timing.startswith("redrawn in ") and "server" in timing
+    # the redraw's parts, as the page measured them, nest: the answer's network time holds the
+    # server's handler time, which holds the redraw's computation; the traces are decimated
+    parts = drv.execute_script("const S = window.flTuner; return [S.lastFetchMs, S.lastNetMs, "
+                               "S.lastHandlerMs, S.lastServerMs, S.lastPlotMs, S.lastPoints]")
+    fetch, net, handler, server, plot, points = parts
+    assert fetch >= net >= handler >= server > 0 and plot > 0, parts
+    assert points == len(app.tuner.redraw(drawn)["t"]) <= MAX_POINTS
     record_property("redraw_ms", times)
     print(f"redraw times (input to drawn, page-measured): {times} ms")
 
@@ -136,3 +144,31 @@ def test_every_resource_came_from_the_tuner(page):
     origin = drv.execute_script("return location.origin")
     foreign = [u for u in urls if not u.startswith(origin + "/" + app.token + "/")]
     assert urls and not foreign, foreign
+
+
+def test_the_response_charts_show_the_server_s_traces_and_share_the_zoom(page):
+    drv, app = page
+    drawn = drv.execute_script("return window.flTuner.drawn")
+    view = app.tuner.redraw(drawn)
+    data = drv.execute_script("return window.flTuner.response.charts.map((u) => u.data)")
+    assert [len(d) for d in data] == [3, 2, 3]  # t with (r, y), (u), (sigma, sigmahat)
+    for d, cols in zip(data, (("r", "y"), ("u",), ("sigma", "sigmahat"))):
+        assert d[0] == view["t"]
+        assert [d[i + 1] for i in range(len(cols))] == [view[c] for c in cols]
+    # a zoom on one chart (a drag's selection) is the x range of all three, and stays through
+    # the next redraw; a double-click gives back the whole run
+    drv.execute_script("const u = window.flTuner.response.charts[0];"
+                       "u.setSelect({left: 100, top: 0, width: 150, height: 10});")
+    zoom = drv.execute_script("return window.flTuner.response.zoom")
+    assert zoom is not None and 0 < zoom[0] < zoom[1] < view["t"][-1]
+    n = _move(drv, "gamma", 1.5e-3)
+    _wait(drv, f"return window.flTuner.redraws > {n} && !window.flTuner.inflight", 30)
+    scales = drv.execute_script("return window.flTuner.response.charts.map((u) => "
+                                "[u.scales.x.min, u.scales.x.max])")
+    assert all(s == pytest.approx(zoom) for s in scales), (scales, zoom)
+    drv.execute_script("window.flTuner.response.charts[1].over.dispatchEvent("
+                       "new MouseEvent('dblclick', {bubbles: true}))")
+    assert drv.execute_script("return window.flTuner.response.zoom") is None
+    scales = drv.execute_script("return window.flTuner.response.charts.map((u) => "
+                                "[u.scales.x.min, u.scales.x.max])")
+    assert scales[0] == scales[2] == [view["t"][0], view["t"][-1]]

@@ -80,3 +80,79 @@ def test_cli_refuses_a_bad_class_and_two_sources(capsys):
     assert "missing: b" in capsys.readouterr().err
     assert main(["ui", "--plant", "trms", "--class", SPEC]) == 2
     assert "not two of them" in capsys.readouterr().err
+
+
+# --- a [class] config file (`fl-design init --class`) works as --class does ------------------
+@pytest.fixture
+def served(monkeypatch):
+    """``fl-design ui ...`` up to the server: the setup it would serve (nothing is served)."""
+    import fl_design.ui
+
+    got = {}
+
+    def fake_serve(setup, **kw):
+        got["setup"], got["kw"] = setup, kw
+        return 0
+
+    monkeypatch.setattr(fl_design.ui, "serve", fake_serve)
+    return got
+
+
+def _init_class(capsys, tmp_path, edit=None):
+    assert main(["init", "--class"]) == 0
+    text = capsys.readouterr().out
+    path = tmp_path / "rig_class.toml"
+    path.write_text(edit(text) if edit else text)
+    return path
+
+
+def test_a_class_config_from_init_is_tuned_as_its_class(capsys, tmp_path, served):
+    from fl_design.app._class_table import load_class_config
+
+    path = _init_class(capsys, tmp_path)
+    assert main(["ui", str(path), "--port", "0"]) == 0
+    setup, stated = served["setup"], load_class_config(path).plant_class
+    assert setup.plant_class == stated  # the file's class, every stated field
+    assert setup.config.source == str(path)
+    tuner = Tuner(setup)
+    assert tuner.cert_target is setup.plant_class and tuner.b_bounds == (1.0, 50.0)
+    assert setup.config.design.u_limits == (-10.0, 10.0)  # the file's actuator limits
+    assert setup.config.scenario.reference == 1.0  # no [tune] reference: operating point + 1
+    # the member is the chain at the geometric mean of b, as --class makes it
+    nf = tuner.plant.normal_form()
+    assert float(nf.b.subs(tuner.plant.params)) == pytest.approx(50 ** 0.5)
+    low, high = tuner.redraw({"gamma": 2e-4}), tuner.redraw({"gamma": 2e-3})
+    assert low["y"] != high["y"] and high["verdict"]["status"]
+    # the same as --class with the same numbers (the spec has no u_limits: compare without)
+    spec = "rho=2,T=1e-3,b=1:50,noise_std=1e-3"
+    assert main(["ui", "--class", spec]) == 0
+    other = served["setup"]
+    assert other.plant_class == fl.PlantClass(**{
+        k: getattr(stated, k) for k in ("rho", "T", "b", "noise_std")})
+    assert (other.config.design.gains, other.config.design.eps, other.config.design.gamma) == (
+        setup.config.design.gains, setup.config.design.eps, setup.config.design.gamma)
+
+
+def test_a_class_config_s_reference_and_operating_point_are_used(capsys, tmp_path, served):
+    path = _init_class(capsys, tmp_path, lambda t: t.replace(
+        "# operating_point = 0.0 ", "operating_point = 0.5 ").replace(
+        "# reference = 1.0 ", "reference = 0.8 "))
+    assert main(["ui", str(path)]) == 0
+    setup = served["setup"]
+    assert setup.plant_class.operating_point == 0.5
+    assert setup.config.scenario.reference == 0.8
+    path.write_text(path.read_text().replace("reference = 0.8 ", "# reference = 0.8 "))
+    assert main(["ui", str(path)]) == 0
+    assert served["setup"].config.scenario.reference == 1.5  # operating point + 1
+
+
+def test_a_bad_class_config_or_two_sources_are_refused(capsys, tmp_path, served):
+    path = _init_class(capsys, tmp_path, lambda t: t.replace("b = [1.0, 50.0]", "b = [1.0, -50.0]"))
+    assert main(["ui", str(path)]) == 2
+    assert str(path) in capsys.readouterr().err and "setup" not in served
+    path = _init_class(capsys, tmp_path)
+    assert main(["ui", str(path), "--class", SPEC]) == 2
+    assert "not two of them" in capsys.readouterr().err
+    assert main(["ui", str(path), "--plant", "trms"]) == 2
+    assert "not both" in capsys.readouterr().err
+    assert "setup" not in served

@@ -137,10 +137,24 @@ def test_decimate_keeps_each_bucket_extremes_against_numpy():
     tt, cols = decimate(t, {"y": y}, max_points=400)
     assert cols["y"].max() == y.max() and cols["y"].min() == y.min()
     assert np.all(np.diff(tt) > 0) and tt[0] == t[0] and tt[-1] == t[-1]
-    size = math.ceil(t.size / 100)
-    for b in range(100):  # every bucket's min and max are kept
+    assert tt.size <= 400
+    buckets = (400 - 2) // 2  # one column: two points a bucket, plus the first and last
+    size = math.ceil(t.size / buckets)
+    for b in range(buckets):  # every bucket's min and max are kept
         block = y[b * size:(b + 1) * size]
         assert block.max() in cols["y"] and block.min() in cols["y"]
+
+
+def test_decimate_of_several_columns_keeps_at_most_max_points():
+    rng = np.random.default_rng(5)
+    t = np.arange(20_000) * 1e-3
+    cols = {k: np.cumsum(rng.standard_normal(t.size)) for k in "abcde"}  # extremes apart
+    tt, kept = decimate(t, cols, max_points=300)
+    assert tt.size <= 300
+    for k, x in cols.items():  # same indices for every column, extremes kept
+        assert kept[k].size == tt.size
+        assert kept[k].max() == x.max() and kept[k].min() == x.min()
+        assert np.array_equal(kept[k], x[np.searchsorted(t, tt)])
 
 
 def test_decimate_with_nan_after_a_divergence():

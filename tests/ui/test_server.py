@@ -82,6 +82,13 @@ def test_page_and_assets_are_local(served):
     status, js, _ = _request(port, "GET", f"/{app.token}/static/plotly.min.js")
     shipped = Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
     assert status == 200 and js == shipped.read_bytes()
+    import fl_design.ui as ui_package
+
+    static = Path(ui_package.__file__).parent / "static"  # the response charts' uPlot
+    status, js, ctype = _request(port, "GET", f"/{app.token}/static/uPlot.iife.min.js")
+    assert status == 200 and js == (static / "uPlot.iife.min.js").read_bytes()
+    assert ctype.startswith("text/javascript") and b"uPlot (v1.6.32)" in js[:100]
+    assert "MIT License" in (static / "uPlot.LICENSE").read_text()  # shipped beside it
     status, own, _ = _request(port, "GET", f"/{app.token}/static/tuner.js")
     assert status == 200 and b"fetch('http" not in own
     assert _request(port, "GET", f"/{app.token}/static/../_server.py")[0] == 404
@@ -127,3 +134,25 @@ def test_save_takes_no_path_from_the_browser(served):
                                {"what": "toml", "values": {"gamma": 1e-3}})
     written = Path(json.loads(body)["written"])
     assert status == 200 and written.parent == app.out and written.name.startswith("design_")
+
+
+def test_redraws_share_one_kept_alive_connection_and_a_refusal_closes_it(served):
+    app, port = served
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    hdrs = {"Host": f"127.0.0.1:{port}", "Content-Type": "application/json"}
+    try:
+        for gamma in (5e-4, 1e-3):  # two answers on one connection
+            conn.request("POST", f"/{app.token}/api/redraw",
+                         body=json.dumps({"gamma": gamma}).encode(), headers=hdrs)
+            r = conn.getresponse()
+            view = json.loads(r.read())
+            assert r.status == 200 and view["values"]["gamma"] == gamma
+            assert r.getheader("Connection") != "close"
+            assert r.getheader("Server-Timing").startswith("server;dur=")
+        # a body too large is refused unread: the connection closes (its bytes are no request)
+        conn.request("POST", f"/{app.token}/api/redraw", body=b"x" * 70_000, headers=hdrs)
+        r = conn.getresponse()
+        r.read()
+        assert r.status == 413 and r.getheader("Connection") == "close"
+    finally:
+        conn.close()
