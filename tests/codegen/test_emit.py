@@ -159,8 +159,8 @@ int main(void) {{
                                   check=True, timeout=60).stdout.split(), dtype=float)
 
     def c_semantics(a, b, c, d):  # (x > y ? x : y), (x < y ? x : y), IEEE comparisons
-        m = a if a > b else b
-        w = m if m < c else c
+        m = a if a > b else b  # noqa: FURB136 - written as the C select (NaN order)
+        w = m if m < c else c  # noqa: FURB136
         held = (c <= w and d > 0) or (w <= b and d < 0)
         return [w, 1.0 if held else 2.0, 3.0 if c <= w else 4.0]
 
