@@ -22,7 +22,11 @@ the same timed loop, ``run_on_model(..., step=...)``). Targets:
 4. the generated step within 1.3x the hand-written one's time on this machine (each precision);
 5. the float step at most 120 instructions per call on the Cortex-M4F model;
 6. the float step's common path (the default checks on) within 1.3x the hand-written step's
-   instructions on the Cortex-M4F model (issue 32).
+   instructions on the Cortex-M4F model (issue 32);
+7. the paper's design in ``precision="q31"`` at most 200 instructions per step on the
+   Cortex-M3 model (QEMU ``mps2-an385``) and at most 1000 for the Cortex-M0+ build (QEMU
+   ``microbit``, its Cortex-M0: the same ARMv6-M instructions), ``u`` bit-exact with the host
+   build; the maglev and flexible-joint presets measured alongside (no target).
 
 Exits with status 1 when a target is missed. ``--quick`` times short runs (targets on the
 operation counts still checked, the timing and instruction targets not): the tests run it.
@@ -36,6 +40,7 @@ import argparse
 import json
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -46,12 +51,14 @@ from fl_design import presets
 from fl_design.codegen import compare_costs, generate_c
 from fl_design.codegen._compare import recorded_run
 from fl_design.codegen._pil import pil_tools, run_on_model
+from fl_design.codegen._pil_q31 import q31_on_model
 
 MAX_FLOPS = 60
 MAX_NS = 50.0
 MAX_HAND_RATIO = 1.3
 MAX_M4_INSTRUCTIONS = 120
 MAX_M4_HAND_RATIO = 1.3
+MAX_Q31 = {"cortex-m3": 200, "cortex-m0plus": 1000}
 
 
 def _table(out_dir: str, precision: str, steps: int):
@@ -171,6 +178,44 @@ def _paths_on_cortex_m4(pkg, ym, r, u0) -> dict:
     return rows
 
 
+def _q31_on_fpu_less(tmp: str, *, timing: bool) -> tuple[dict, list[str]]:
+    """The Q31 step on the Cortex-M3 and M0+ models: instructions per call, bit-exact with the
+    host build (the paper's TRMS design has the targets; two presets for scale)."""
+    _, _, reason = pil_tools()
+    if reason:
+        print(f"\n  Q31 on the Cortex-M3 / M0+ models: skipped ({reason})")
+        return {"skipped": reason}, []
+    cases = {"paper TRMS": (presets.paper_design, fl.plants.trms_yaw, 0.3),
+             "maglev": (presets.maglev_design, fl.plants.maglev, 0.0005),
+             "flexible joint": (presets.flexible_joint_design, fl.plants.flexible_joint, 0.05)}
+    out, misses = {}, []
+    print("\n  Q31 step, instructions per call beyond an empty call (QEMU -icount, 1000 recorded "
+          "samples):\n\n  | design | Cortex-M3 | Cortex-M0+ | u vs host |\n  | --- | --- | --- | --- |")
+    for name, (design, make_plant, step) in cases.items():
+        plant = make_plant()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", fl.errors.FloatPrecisionWarning)
+            pkg = generate_c(design(), f"{tmp}/q31_{name.replace(' ', '_')}", precision="q31",
+                             plant=plant)
+        r0 = 0.3 if name == "paper TRMS" else float(plant.x_op[0]) + step
+        ym, r, _ = recorded_run(plant, pkg.design, fl.Scenario(r0, 1.0), max_samples=1000)
+        host = pkg.run(ym, r, start=True)
+        row = {}
+        for cpu, limit in MAX_Q31.items():
+            u, n = q31_on_model(pkg, ym, r, cpu=cpu)
+            row[cpu] = n
+            row[f"{cpu}_max_diff"] = float(np.max(np.abs(u - host)))
+            if row[f"{cpu}_max_diff"] != 0.0:
+                misses.append(f"q31 {name} on {cpu}: u differs from the host build")
+            if timing and name == "paper TRMS" and n > limit:
+                misses.append(f"q31 {name} on {cpu}: {n:.0f} instructions > {limit}")
+        same = max(row["cortex-m3_max_diff"], row["cortex-m0plus_max_diff"]) == 0.0
+        print(f"  | {name} | {row['cortex-m3']:.0f} | {row['cortex-m0plus']:.0f} | "
+              f"{'bit-exact' if same else 'DIFFERS'} |")
+        out[name] = row
+    return out, misses
+
+
 def main(argv=None) -> int:
     """Print the tables and check the targets; the exit status (1 on a miss)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -199,6 +244,8 @@ def main(argv=None) -> int:
         hand = _against_hand(tmp, steps, timing=not args.quick)
         misses += hand.pop("misses")
         tables["hand"] = hand
+        tables["q31"], q31_misses = _q31_on_fpu_less(tmp, timing=not args.quick)
+        misses += q31_misses
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(tables, fh, indent=1, allow_nan=False)
