@@ -130,3 +130,22 @@ def test_the_step_on_the_fpu_less_models_is_bit_exact_with_the_host(packages, cp
     u, n = q31_on_model(pkg, y, r, cpu=cpu)
     np.testing.assert_array_equal(u, pkg.run(y, r, start=True))
     assert 50 < n < 5000
+
+
+def test_q15_is_refused_with_its_predicted_quantization_error(packages, tmp_path):
+    """precision='q15': the Q31 program with every word 16 bits shorter, run by the integer
+    model on the vector record, misses the bound by orders of magnitude (u's 16-bit
+    resolution swallows the controller's per-sample increments): a named refusal with the
+    number, nothing written."""
+    from fl_design.codegen._compare import FLOAT_BOUND
+    from fl_design.errors import PrecisionError
+
+    with pytest.raises(PrecisionError, match="precision='q15' is refused") as info:
+        generate_c(presets.paper_design(), tmp_path / "q15", precision="q15",
+                   plant=fl.plants.trms_yaw())
+    err = float(re.search(r"predicted quantization error is ([0-9.e+-]+)",
+                          str(info.value)).group(1))
+    assert err > 100 * FLOAT_BOUND and err > 1000 * packages["trms"].predicted_float_error
+    assert "u's resolution becomes" in str(info.value) and not (tmp_path / "q15").exists()
+    with pytest.raises(ParameterError, match="q31' is generated for the EHGO"):
+        generate_c(presets.least_squares_design(9), tmp_path / "ls", precision="q15")
