@@ -67,9 +67,11 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     out_dir : path-like
         Folder to write (created if needed): empty, or holding this package's earlier output
         unchanged (:mod:`fl_design._output`); a folder with other files is refused.
-    precision : {"double", "float"}, optional
+    precision : {"double", "float", "q31"}, optional
         ``"float"``: true single precision everywhere (literals, math calls, API), with the
-        EHGO in its delta realization (module docstring).
+        EHGO in its delta realization (module docstring). ``"q31"``: fixed point for
+        FPU-less chips (an EHGO with input limits). ``"q15"`` is refused with its predicted
+        quantization error (:class:`~fl_design.errors.PrecisionError`).
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
@@ -101,7 +103,8 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         Unknown ``precision`` or ``float_policy``, ``prefix`` not a C identifier, ``design``
         not a Design, ``scenario`` without ``plant``.
     PrecisionError
-        ``float_policy="refuse"`` and the float build is predicted to miss its bound.
+        ``float_policy="refuse"`` and the float build is predicted to miss its bound;
+        ``precision="q15"`` (the message gives its predicted error).
 
     Warns
     -----
