@@ -183,15 +183,9 @@ def q31_expected(design, prog, guard, n: int):
     >>> int(u[20]) == int(u[19])  # the out-of-range sample 10 is held... and 20 too
     True
     """
-    lo, hi = prog.y_range
-    mid, amp = 0.5 * (lo + hi), 0.05 * (hi - lo)
-    k = np.arange(n)
-    r = mid + amp * np.where(k < n // 2, 1.0, -0.5)
-    y = np.empty(n)
-    y[0] = mid
-    for i in range(1, n):
-        y[i] = y[i - 1] + (r[i] - y[i - 1]) / 40.0
-    y += 0.02 * amp * np.sin(2 * np.pi * k / 97.0)
+    from ._vectors import held, stepping_record
+
+    y, r = stepping_record(*prog.y_range, n)
     yq = np.array([_q(v, prog.f_y) for v in y], dtype=np.int64)
     rq = np.array([_q(v, prog.f_y) for v in r], dtype=np.int64)
     bad = [n // 5, (2 * n) // 5]
@@ -202,14 +196,7 @@ def q31_expected(design, prog, guard, n: int):
     keep = np.ones(n, bool)
     keep[bad] = False
     u_kept, _ = emulate_q31(prog, yq[keep], rq[keep], start_state(prog, int(yq[0]), u0))
-    u = np.empty(n, dtype=np.int64)
-    j, last = 0, u0
-    for i in range(n):
-        if keep[i]:
-            last = int(u_kept[j])
-            j += 1
-        u[i] = last
-    return yq, rq, u
+    return yq, rq, held(u_kept, keep, u0)
 
 
 def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
