@@ -135,6 +135,11 @@ def c_body_q31(prog: Q31Program) -> str:
         F[k], name[k] = fk, f"q{k}"
         q = lambda j: f"(int64_t) {name[j]}"
         op = data
+        if op == "select":  # c ? x : y, each at the result's fraction bits (it fits)
+            c, x, y = a
+            lines.append(f"  const int32_t q{k} = ({name[c]} ? {_shift32(name[x], F[x] - fk)} : "
+                         f"{_shift32(name[y], F[y] - fk)});")
+            continue
         if not isinstance(op, int) or isinstance(op, bool):  # a constant
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
             const[k] = round(data * 2.0**fk)
@@ -183,12 +188,16 @@ def c_body_q31(prog: Q31Program) -> str:
 
 
 def _used(lines, const) -> list[str]:
-    """The lines without the constants no statement reads (a product by ``2^m`` became a
-    shift): ``-Wunused-variable``."""
-    text = "\n".join(lines)
-    return [ln for ln in lines if not any(ln.startswith(f"  const int32_t q{k} = ") and
-                                          len(re.findall(rf"\bq{k}\b", text)) == 1
-                                          for k in const)]
+    """The lines without the values no statement reads (a product by ``2^m`` became a shift,
+    a select reads its two values, not their zero-padded terms): ``-Wunused-variable``."""
+    del const
+    while True:
+        text = "\n".join(lines)
+        dead = [ln for ln in lines if (m := re.match(r"  const (?:int32_t|bool) (q\d+) = ", ln))
+                and len(re.findall(rf"\b{m.group(1)}\b", text)) == 1]
+        if not dead:
+            return lines
+        lines = [ln for ln in lines if ln not in dead]
 
 
 def _const(c: float, f: int) -> str:
@@ -268,6 +277,9 @@ def _sat(v: int) -> int:
 
 def _py_op(prog, w, k, a, fk, op):
     F = _fmap(prog)
+    if op == "select":
+        c, x, y = a
+        return _py_shift(w[x], F[x], fk) if w[c] else _py_shift(w[y], F[y], fk)
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
     if op in _SYM:
