@@ -14,7 +14,9 @@ Modules: ``_generate`` (:func:`generate_c`); ``_package`` (:class:`CPackage`); `
 and ``_verdict`` (closed-loop SIL, the C loop's status); ``_pil`` (the Cortex-M4F model);
 ``_cost``; ``_template`` (the C files of ``templates/``); ``_guard`` (the checks' defaults,
 the design hash, a Python model of the guard); ``_vectors`` (the test-vector file);
-``_misra`` (the deviation report); ``_telemetry`` (:func:`read_telemetry`). The compiler, its flag sets and the
+``_misra`` (the deviation report); ``_telemetry`` (:func:`read_telemetry`); ``_episode``
+(the SIL's saturation episode, :meth:`CPackage.saturation_episode`); ``_pil_q31`` (the Q31
+step on the Cortex-M3 and M0+ models). The compiler, its flag sets and the
 cache are the ground floor's (:mod:`fl_design._toolchain`).
 
 Examples

@@ -12,6 +12,13 @@ precision (``f``-suffixed in float: ``-Wdouble-promotion`` clean). Elementary fu
 library's estimators never use (``sin``, ``sqrt``...) are printed as ``<math.h>`` calls in the
 build's precision and reported by :func:`math_calls`.
 
+A saturation ``min(max(v, lo), hi)`` whose result is afterwards compared with its own bounds
+(``hi <= u``, ``u <= lo``: the conditional-integration test) is printed as one ``if``/``else``
+whose unsaturated branch (``lo < v < hi``) knows both tests false, so the common path tests
+``v`` twice and nothing else; the two saturated branches compute the selects and the tests as
+written. It computes what the two selects and the two comparisons compute for every ``v``,
+``lo`` and ``hi`` (NaN, crossed bounds included).
+
 Examples
 --------
 >>> import casadi as ca
@@ -128,7 +135,7 @@ def _switch_test(op: int, args, names: _Namer, consts: dict):
 
 
 def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
-           switches=frozenset()) -> str:
+           switches=frozenset(), rare: str = "") -> str:
     """The statements computing ``f``'s outputs from its inputs (see the module docstring).
 
     Parameters
@@ -145,6 +152,9 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         Line prefix.
     switches : collection of str, optional
         Input expressions that are C ``int`` holding 0 or 1 (compared as integers).
+    rare : str, optional
+        A macro ``RARE(c)`` the saturation's two tests are wrapped in (e.g. a
+        ``__builtin_expect`` hint that ``u`` is mostly within its limits); "" for none.
 
     Returns
     -------
@@ -166,9 +176,29 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
     >>> g = ca.Function("g", [x, s], [ca.if_else(s > 0.5, x, 2 * x)])
     >>> "(on != 0) ? x :" in c_body(g, [["x"], ["on"]], [["*o"]], "float", switches={"on"})
     True
+    >>> u = ca.fmin(ca.fmax(x, -1), 1)
+    >>> h = ca.Function("h", [x, s], [u, ca.if_else(u >= 1, s, 0)])
+    >>> print(c_body(h, [["x"], ["s"]], [["*u"], ["*o"]], "float"))  # doctest: +NORMALIZE_WHITESPACE
+      const float a1 = (-1.0f);
+      const float a3 = 1.0f;
+      float a4;
+      bool a4_hi = false;
+      if (!(x > a1)) {
+        a4 = (a1 < a3 ? a1 : a3);
+        a4_hi = (a3 <= a4);
+      } else if (!(x < a3)) {
+        a4 = a3;
+        a4_hi = (a3 <= a4);
+      } else {
+        a4 = x;  /* lo < v < hi: no test holds */
+      }
+      const float a8 = ((a4_hi) ? s : 0.0f);
+      *u = a4;
+      *o = a8;
     """
     names, lines, stores, node, live, consts = _Namer(real), [], [], {}, set(), {}
     cur = {}  # work index -> SSA id (int)
+    blocks, bound_tests = _saturations(f)
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
@@ -186,6 +216,16 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         if op == ca.OP_CONST:
             consts[k] = f.instruction_constant(k)
             text = literal(consts[k], real)
+        elif k in blocks:  # min(max(v, lo), hi) tested against its bounds: one if/else
+            v, lo, hi = blocks[k]
+            args = [v, lo, hi]
+            names.name[k], names.kind[k] = f"a{k}", "real"
+            lines.append((k, args, _saturation_text(k, *(names.as_real(a) for a in args),
+                                                    real, indent, bound_tests, rare)))
+            cur[outs[0]] = k
+            continue
+        elif k in bound_tests:  # hi <= u or u <= lo of a saturation: its branch's flag
+            kind, text, args = "int", f"a{bound_tests[k][0]}_{bound_tests[k][1]}", [bound_tests[k][0]]
         elif op == ca.OP_ADD and _select(node, *args):
             c, x, y = args = _select(node, *args)
             text = f"({names.as_bool(c)} ? {names.as_real(x)} : {names.as_real(y)})"
@@ -227,14 +267,18 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
 
 def _inline_logic(lines, names) -> list[str]:
     """Truth values used once are written into their user: ``&&``/``||`` then short-circuit
-    (e.g. the conditional-integration test is skipped when the switch is off)."""
+    (e.g. the conditional-integration test is skipped when the switch is off). A block (a
+    list of statements) is printed as it is."""
     uses = {}
     for _, args, _ in lines:
         for a in args:
             uses[a] = uses.get(a, 0) + 1
-    text = {k: t.split(" = ", 1)[1][:-1] for k, _, t in lines}
+    text = {k: t.split(" = ", 1)[1][:-1] for k, _, t in lines if isinstance(t, str)}
     out, inlined = [], {}
     for k, args, line in lines:
+        if not isinstance(line, str):
+            out += line
+            continue
         body = text[k]
         for a in sorted(args, reverse=True):
             if a in inlined:
@@ -243,6 +287,49 @@ def _inline_logic(lines, names) -> list[str]:
             inlined[k] = body if body.startswith(("(", "!")) else f"({body})"
             continue
         out.append(line.split(" = ", 1)[0] + " = " + body + ";")
+    return out
+
+
+def _saturations(f: ca.Function) -> tuple[dict, dict]:
+    """The saturations ``min(max(v, lo), hi)`` of ``f`` compared with their bounds afterwards:
+    ``({k_min: (v, lo, hi)}, {k_test: (k_min, "hi" or "lo")})`` (SSA ids). The ``max`` must
+    feed only the ``min``; a test is ``hi <= u`` or ``u <= lo``."""
+    cur, op_of, args_of, uses = {}, {}, {}, {}
+    for k in range(f.n_instructions()):
+        op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
+        args = [cur[i] for i in ins if i >= 0] if op not in (ca.OP_INPUT, ca.OP_CONST) else []
+        for a in args:
+            uses[a] = uses.get(a, 0) + 1
+        if op != ca.OP_OUTPUT:
+            op_of[k], args_of[k] = op, args
+            cur[outs[0]] = k
+    blocks, tests = {}, {}
+    for k, op in op_of.items():
+        if op != ca.OP_FMIN or op_of.get(args_of[k][0]) != ca.OP_FMAX:
+            continue
+        inner, hi = args_of[k]
+        v, lo = args_of[inner]
+        found = {j: (k, "hi" if args_of[j] == [hi, k] else "lo") for j, o in op_of.items()
+                 if o == ca.OP_LE and args_of[j] in ([hi, k], [k, lo])}
+        if found and uses.get(inner) == 1:
+            blocks[k] = (v, lo, hi)
+            tests.update(found)
+    return blocks, tests
+
+
+def _saturation_text(k: int, v: str, lo: str, hi: str, real: str, indent: str,
+                     tests: dict, rare: str = "") -> list[str]:
+    """The statements of ``a<k> = min(max(v, lo), hi)`` and its tests ``a<k>_hi = (hi <= a<k>)``,
+    ``a<k>_lo = (a<k> <= lo)``: one ``if``/``else``, exact for every value (module docstring)."""
+    flags = sorted({side for (kk, side) in tests.values() if kk == k}, reverse=True)
+    test = {"hi": f"({hi} <= a{k})", "lo": f"(a{k} <= {lo})"}
+    i2, hint = indent * 2, (lambda c: f"({rare}({c}))" if rare else f"({c})")
+    sets = [f"{i2}a{k}_{side} = {test[side]};" for side in flags]
+    out = [f"{indent}{real} a{k};"] + [f"{indent}bool a{k}_{side} = false;" for side in flags]
+    out += [f"{indent}if {hint(f'!({v} > {lo})')} {{", f"{i2}a{k} = ({lo} < {hi} ? {lo} : {hi});",
+            *sets, f"{indent}}} else if {hint(f'!({v} < {hi})')} {{", f"{i2}a{k} = {hi};", *sets,
+            f"{indent}}} else {{", f"{i2}a{k} = {v};  /* lo < v < hi: no test holds */",
+            f"{indent}}}"]
     return out
 
 

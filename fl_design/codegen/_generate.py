@@ -67,9 +67,11 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     out_dir : path-like
         Folder to write (created if needed): empty, or holding this package's earlier output
         unchanged (:mod:`fl_design._output`); a folder with other files is refused.
-    precision : {"double", "float"}, optional
+    precision : {"double", "float", "q31"}, optional
         ``"float"``: true single precision everywhere (literals, math calls, API), with the
-        EHGO in its delta realization (module docstring).
+        EHGO in its delta realization (module docstring). ``"q31"``: fixed point for
+        FPU-less chips (an EHGO with input limits). ``"q15"`` is refused with its predicted
+        quantization error (:class:`~fl_design.errors.PrecisionError`).
     prefix : str, optional
         Prefix of the C names and files (default ``"fl"``): ``fl_step``, ``fl_state_t``,
         ``fl.h``.
@@ -101,7 +103,8 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         Unknown ``precision`` or ``float_policy``, ``prefix`` not a C identifier, ``design``
         not a Design, ``scenario`` without ``plant``.
     PrecisionError
-        ``float_policy="refuse"`` and the float build is predicted to miss its bound.
+        ``float_policy="refuse"`` and the float build is predicted to miss its bound;
+        ``precision="q15"`` (the message gives its predicted error).
 
     Warns
     -----
@@ -121,6 +124,8 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
     >>> "float trms_step(trms_state_t *s, float y, float r);" in (pkg.out_dir / "trms.h").read_text()
     True
     """
+    if precision == "q15":
+        _refuse_q15(design, guard_settings(design, plant))
     precision, prefix = check_precision(precision), check_prefix(prefix)
     if not isinstance(design, Design):
         raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
@@ -143,13 +148,40 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
                     guard=guard)
 
 
-def _q31_files(design, prefix, guard):
-    """The Q31 package's writer (a function of the folder) and its measured error."""
-    import warnings
+def _refuse_q15(design, guard) -> None:
+    """``precision="q15"``: the named refusal, with the predicted quantization error.
 
+    The Q31 program with every word 16 bits shorter (:func:`~fl_design.codegen._q31_files.
+    q15_program`: ``int16_t`` values, one bit of headroom, constants rounded to 16 bits) run by
+    the integer model on the Q31 package's vector record, against ``Design.step``."""
+    from ..errors import PrecisionError
+    from ._compare import FLOAT_BOUND
+    from ._q31 import q31_program
+    from ._q31_files import q15_program, q31_error, q31_range
+
+    if not isinstance(design, Design):
+        raise ParameterError(f"design must be a fl.Design, got {type(design).__name__}")
+    used = step_design(design, "q31")
+    _q31_checks(used)
+    lo, hi, _ = q31_range(guard)
+    prog = q31_program(used, (lo, hi))
+    err15, err31 = q31_error(used, q15_program(prog), guard), q31_error(used, prog, guard)
+    verdict = (f"above the bound {FLOAT_BOUND:g} of max |u|" if err15 > FLOAT_BOUND else
+               f"within the bound {FLOAT_BOUND:g}, but the Q15 step is not built")
+    lsb = 2.0 ** -(prog.f_state[-2] - 16)
+    raise PrecisionError(
+        f"precision='q15' is refused: its predicted quantization error is {err15:.3g} of "
+        f"max |u| on the vector record ({verdict}; Q31: {err31:.2g}). Every value in 16 bits "
+        "(one of headroom) from the same interval analysis: u's resolution becomes "
+        f"{lsb:.3g} (u units), and the controller's increments gamma (v - sigmahat) per "
+        "sample below it are lost, as are the observer's and the integrator's small updates. "
+        "Use precision='q31' (the paper's TRMS design: 910 instructions per step on a "
+        "Cortex-M0+, 213 on a Cortex-M3).")
+
+
+def _q31_checks(design) -> None:
+    """The designs the fixed-point builds take: an EHGO with input limits."""
     from ..design import EHGO
-    from ..errors import FloatPrecisionWarning
-    from ._q31_files import q31_base, q31_error, q31_range, q31_substitutions, q31_vector_text
 
     if not isinstance(design.estimator, EHGO):
         raise ParameterError(f"precision='q31' is generated for the EHGO; the "
@@ -158,6 +190,16 @@ def _q31_files(design, prefix, guard):
     if design.controller.u_range is None:
         raise ParameterError("precision='q31' needs u_limits on the controller (the input's "
                              "fixed-point range)")
+
+
+def _q31_files(design, prefix, guard):
+    """The Q31 package's writer (a function of the folder) and its measured error."""
+    import warnings
+
+    from ..errors import FloatPrecisionWarning
+    from ._q31_files import q31_base, q31_error, q31_range, q31_substitutions, q31_vector_text
+
+    _q31_checks(design)
     _, _, why = q31_range(guard)
     if "assumed" in why:
         warnings.warn(f"precision='q31': {why}", FloatPrecisionWarning, stacklevel=3)

@@ -254,6 +254,34 @@ class CPackage:
         return processor_in_the_loop(self, plant, scenario, max_samples=max_samples,
                                      timeout=timeout, cflags=cflags)
 
+    def saturation_episode(self, plant, reference: float, **options):
+        """The SIL's saturation episode: ``u`` pinned at its limit, released, the recovery.
+
+        Parameters
+        ----------
+        plant, reference, **options
+            As in :func:`fl_design.codegen._episode.saturation_episode`, which this calls
+            with this package: the plant, the constant reference, and ``x0``, ``at``,
+            ``pinned`` (default 10 s), ``within`` (default 3 s), ``after``.
+
+        Returns
+        -------
+        SaturationEpisode
+            Seconds pinned and recovery in C and in Python; ``passed``.
+
+        Examples
+        --------
+        >>> import fl_design as fl
+        >>> from fl_design import presets
+        >>> pkg = fl.generate_c(presets.paper_design(gamma=0.1), "pse")
+        >>> e = pkg.saturation_episode(fl.plants.trms_yaw(), 0.3, x0=[0.3, 0.0], pinned=1.0)
+        >>> e.pinned_c == e.pinned_py
+        True
+        """
+        from ._episode import saturation_episode
+
+        return saturation_episode(self, plant, reference, **options)
+
     def cost(self, *, name: str | None = None, bench_steps: int = 2_000_000, compiler=None):
         """Operations per step, stack, code size and time per step (:class:`StepCost`).
 

@@ -274,9 +274,9 @@ def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
     return PilResult(pkg.precision, ym, u_c, u_ref, bound_for(pkg.precision), instructions)
 
 
-def _run_qemu(qemu: str, elf: Path, timeout: float) -> str:
+def _run_qemu(qemu: str, elf: Path, timeout: float, *, args=QEMU_ARGS) -> str:
     try:
-        proc = subprocess.run([qemu, *QEMU_ARGS, "-kernel", str(elf)], capture_output=True,
+        proc = subprocess.run([qemu, *args, "-kernel", str(elf)], capture_output=True,
                               text=True, stdin=subprocess.DEVNULL, timeout=timeout, check=False)
     except subprocess.TimeoutExpired:
         raise CompilationError(f"QEMU (PIL run) timed out after {timeout:g} s") from None

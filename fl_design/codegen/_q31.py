@@ -200,9 +200,23 @@ def _fixed_core(design):
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 
 
+def _select_args(node: dict, a, b):
+    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None."""
+    na, nb = node.get(a), node.get(b)
+    if not (na and nb and na[0] == nb[0] == "ifz"):
+        return None
+    (_, ca_, xa), (_, cb, yb) = na, nb
+    if node.get(cb) == ("not", ca_):
+        return ca_, xa, yb
+    if node.get(ca_) == ("not", cb):
+        return cb, yb, xa
+    return None
+
+
 def _analyse(f, boxes, y_range):
-    """Intervals of every instruction of ``f`` (x, y, r) from the input boxes."""
-    iv, kind = {}, {}
+    """Intervals of every instruction of ``f`` (x, y, r) from the input boxes; a select
+    (:func:`_select_args`) has the hull of its two values' intervals (it is one of them)."""
+    iv, kind, node = {}, {}, {}
     cur = {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
@@ -217,6 +231,10 @@ def _analyse(f, boxes, y_range):
         if op == ca.OP_CONST:
             c = f.instruction_constant(k)
             iv[k], kind[k] = (c, c), "q"
+        elif op == ca.OP_ADD and _select_args(node, *a):
+            _, x, y = _select_args(node, *a)
+            iv[k] = (min(iv[x][0], iv[y][0]), max(iv[x][1], iv[y][1]))
+            kind[k] = "q"
         elif op in (ca.OP_ADD, ca.OP_SUB, ca.OP_MUL, ca.OP_FMIN, ca.OP_FMAX):
             (l1, h1), (l2, h2) = iv[a[0]], iv[a[1]]
             if op == ca.OP_ADD:
@@ -244,8 +262,11 @@ def _analyse(f, boxes, y_range):
         elif op == ca.OP_IF_ELSE_ZERO:
             lo, hi = iv[a[1]]
             iv[k], kind[k] = (min(lo, 0.0), max(hi, 0.0)), "q"
+            node[k] = ("ifz", a[0], a[1])
         elif op in _CMP or op in (ca.OP_NOT, ca.OP_AND, ca.OP_OR):
             iv[k], kind[k] = (0.0, 1.0), "b"
+            if op == ca.OP_NOT:
+                node[k] = ("not", a[0])
         else:
             raise ComputationError(f"CasADi operation {op} has no Q31 translation (the "
                                    "library's estimators use +, -, *, min, max, compare)")
@@ -294,7 +315,7 @@ def q31_program(design, y_range) -> Q31Program:
     iv, kind = _analyse(f, boxes, (lo, hi))
     f_state = tuple(frac_bits(*b) for b in boxes)
     f_y = frac_bits(lo, hi)
-    ops, F, cur = [], {}, {}
+    ops, F, cur, node = [], {}, {}, {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
@@ -309,6 +330,12 @@ def q31_program(design, y_range) -> Q31Program:
             cur[outs[0]] = k
             continue
         a = tuple(cur[i] for i in ins if i >= 0) if op != ca.OP_CONST else ()
+        if op == ca.OP_IF_ELSE_ZERO:
+            node[k] = ("ifz", a[0], a[1])
+        elif op == ca.OP_NOT:
+            node[k] = ("not", a[0])
+        elif op == ca.OP_ADD and _select_args(node, *a):
+            a, op = _select_args(node, *a), "select"  # (c, x, y): c ? x : y
         if kind[k] == "b":
             F[k] = 0
         elif op == ca.OP_CONST:

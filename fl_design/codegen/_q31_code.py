@@ -6,6 +6,16 @@ below ``2^62``), products of two ``int32_t`` in ``int64_t``, results shifted to 
 bits (floor: the arithmetic right shift, written on the unsigned pattern in C). The Python
 model applies the same integer operations to Python integers, so C and model agree bit for bit.
 
+Where an identity of integer floors makes it exact, an instruction is printed in ``int32_t``
+instead (no 64-bit pair: on an ARMv6-M/ARMv7-M core half the registers and instructions):
+every value of the program lies within ``2^30`` (its fraction bits are chosen so: one bit of
+headroom), so the sum ``w + floor(x / 2^k)`` of two of them, when it *is* the result, cannot
+overflow. ``floor((w 2^k + x) / 2^k) = w + floor(x / 2^k)``, ``floor((w 2^k - x) / 2^k) =
+w + floor(-x / 2^k)``, ``floor((x - w 2^k) / 2^k) = floor(x / 2^k) - w`` (a sum whose operand
+of fewer fraction bits has the result's); ``floor(max(w 2^k, x) / 2^k) = max(w, floor(x /
+2^k))`` (floor is monotone); a product by a constant ``+-2^m`` is a shift; ``2 w`` and ``-w``
+likewise.
+
 Examples
 --------
 >>> from fl_design import presets
@@ -16,6 +26,8 @@ True
 """
 
 from __future__ import annotations
+
+import re
 
 import casadi as ca
 import numpy as np
@@ -42,6 +54,49 @@ def _align(fa: int, fb: int) -> int:
     return min(max(fa, fb), min(fa, fb) + 31)
 
 
+def _shift32(v: str, s: int) -> str:
+    """``v 2^-s`` of an ``int32_t`` expression whose result fits (floor for s > 0)."""
+    if s > 0:
+        return f"{{PFX}}_asr32({v}, {s}u)"
+    return f"({v} * INT32_C({1 << -s}))" if s < 0 else v
+
+
+def _narrow(op, a, F, name, fk, const):
+    """The ``int32_t`` text of a sum, min/max, product by ``+-2^m``, twice or negation when an
+    identity of floors makes it exact (module docstring), else None."""
+    if op in _SYM or op in (ca.OP_FMIN, ca.OP_FMAX):
+        (i, j), fm = a, _align(F[a[0]], F[a[1]])
+        if fm != max(F[i], F[j]):
+            return None  # operands more than 31 bits apart
+        if F[i] == F[j] == fk:
+            w, x, k = i, j, 0
+        elif fk == min(F[i], F[j]) and F[i] != F[j]:
+            (w, x), k = ((i, j) if F[i] < F[j] else (j, i)), fm - fk
+        else:
+            return None
+        if op in (ca.OP_FMIN, ca.OP_FMAX):
+            xs = _shift32(name[x], k)
+            return f"(({name[w]} {'<' if op == ca.OP_FMIN else '>'} {xs}) ? {name[w]} : {xs})"
+        if op == ca.OP_ADD:
+            return f"({name[w]} + {_shift32(name[x], k)})"
+        if w == i:  # w 2^k - x
+            return f"({name[w]} + {_shift32(f'(-{name[x]})', k)})"
+        return f"({_shift32(name[x], k)} - {name[w]})"
+    if op == ca.OP_MUL:
+        for c, v in ((a[0], a[1]), (a[1], a[0])):
+            m = const.get(c)
+            if m is not None and m != 0 and (abs(m) & (abs(m) - 1)) == 0:
+                e = abs(m).bit_length() - 1
+                src = name[v] if m > 0 else f"(-{name[v]})"
+                return _shift32(src, F[a[0]] + F[a[1]] - fk - e)
+        return None
+    if op == ca.OP_TWICE:
+        return _shift32(name[a[0]], F[a[0]] - fk - 1)
+    if op == ca.OP_NEG:
+        return _shift32(f"(-{name[a[0]]})", F[a[0]] - fk)
+    return None
+
+
 _SYM = {ca.OP_ADD: "+", ca.OP_SUB: "-"}
 
 
@@ -66,7 +121,7 @@ def c_body_q31(prog: Q31Program) -> str:
     >>> "float" in body or "double" in body, "int64_t" in body
     (False, True)
     """
-    F, lines, name = {}, [], {}
+    F, lines, name, const = {}, [], {}, {}
     for kind, k, a, fk, data in prog.ops:
         if kind == "in":
             F[k] = fk
@@ -80,8 +135,18 @@ def c_body_q31(prog: Q31Program) -> str:
         F[k], name[k] = fk, f"q{k}"
         q = lambda j: f"(int64_t) {name[j]}"
         op = data
+        if op == "select":  # c ? x : y, each at the result's fraction bits (it fits)
+            c, x, y = a
+            lines.append(f"  const int32_t q{k} = ({name[c]} ? {_shift32(name[x], F[x] - fk)} : "
+                         f"{_shift32(name[y], F[y] - fk)});")
+            continue
         if not isinstance(op, int) or isinstance(op, bool):  # a constant
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
+            const[k] = round(data * 2.0**fk)
+            continue
+        narrow = _narrow(op, a, F, name, fk, const)
+        if narrow is not None:
+            lines.append(f"  const int32_t q{k} = {narrow};")
             continue
         if op in _SYM:
             fm = _align(F[a[0]], F[a[1]])
@@ -119,7 +184,20 @@ def c_body_q31(prog: Q31Program) -> str:
         else:
             raise ComputationError(f"CasADi operation {op} has no Q31 translation")
         lines.append(f"  const int32_t q{k} = {text};")
-    return "\n".join(lines)
+    return "\n".join(_used(lines, const))
+
+
+def _used(lines, const) -> list[str]:
+    """The lines without the values no statement reads (a product by ``2^m`` became a shift,
+    a select reads its two values, not their zero-padded terms): ``-Wunused-variable``."""
+    del const
+    while True:
+        text = "\n".join(lines)
+        dead = [ln for ln in lines if (m := re.match(r"  const (?:int32_t|bool) (q\d+) = ", ln))
+                and len(re.findall(rf"\b{m.group(1)}\b", text)) == 1]
+        if not dead:
+            return lines
+        lines = [ln for ln in lines if ln not in dead]
 
 
 def _const(c: float, f: int) -> str:
@@ -199,6 +277,9 @@ def _sat(v: int) -> int:
 
 def _py_op(prog, w, k, a, fk, op):
     F = _fmap(prog)
+    if op == "select":
+        c, x, y = a
+        return _py_shift(w[x], F[x], fk) if w[c] else _py_shift(w[y], F[y], fk)
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
     if op in _SYM:

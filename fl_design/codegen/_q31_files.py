@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+import casadi as ca
 import numpy as np
 
 from ._q31 import q31_program
@@ -182,15 +183,9 @@ def q31_expected(design, prog, guard, n: int):
     >>> int(u[20]) == int(u[19])  # the out-of-range sample 10 is held... and 20 too
     True
     """
-    lo, hi = prog.y_range
-    mid, amp = 0.5 * (lo + hi), 0.05 * (hi - lo)
-    k = np.arange(n)
-    r = mid + amp * np.where(k < n // 2, 1.0, -0.5)
-    y = np.empty(n)
-    y[0] = mid
-    for i in range(1, n):
-        y[i] = y[i - 1] + (r[i] - y[i - 1]) / 40.0
-    y += 0.02 * amp * np.sin(2 * np.pi * k / 97.0)
+    from ._vectors import held, stepping_record
+
+    y, r = stepping_record(*prog.y_range, n)
     yq = np.array([_q(v, prog.f_y) for v in y], dtype=np.int64)
     rq = np.array([_q(v, prog.f_y) for v in r], dtype=np.int64)
     bad = [n // 5, (2 * n) // 5]
@@ -201,14 +196,7 @@ def q31_expected(design, prog, guard, n: int):
     keep = np.ones(n, bool)
     keep[bad] = False
     u_kept, _ = emulate_q31(prog, yq[keep], rq[keep], start_state(prog, int(yq[0]), u0))
-    u = np.empty(n, dtype=np.int64)
-    j, last = 0, u0
-    for i in range(n):
-        if keep[i]:
-            last = int(u_kept[j])
-            j += 1
-        u[i] = last
-    return yq, rq, u
+    return yq, rq, held(u_kept, keep, u0)
 
 
 def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
@@ -284,5 +272,47 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
     return float(np.max(np.abs(u_q - u_ref)) / scale)
 
 
-__all__ = ["Q31_DEFAULT_RANGE", "q31_base", "q31_error", "q31_expected", "q31_range", "q31_substitutions",
-           "q31_vector_text"]
+#: bits a Q15 word has fewer than a Q31 word
+Q15_SHORTER = 16
+
+
+def q15_program(prog):
+    """The Q31 program with every value 16 bits shorter: ``int16_t`` words with the same one
+    bit of headroom, constants rounded to them, products of two words in 32 bits. The integer
+    model (:func:`~fl_design.codegen._q31_code.emulate_q31`) runs it as it runs the Q31 one.
+
+    Parameters
+    ----------
+    prog : Q31Program
+        The Q31 program.
+
+    Returns
+    -------
+    Q31Program
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._q31 import q31_program
+    >>> from fl_design.codegen._q31_files import q15_program
+    >>> p = q31_program(presets.paper_design(), (-1.0, 1.0))
+    >>> q15_program(p).f_y == p.f_y - 16
+    True
+    """
+    from dataclasses import replace
+
+    from ._q31 import _CMP
+
+    logic = set(_CMP) | {ca.OP_NOT, ca.OP_AND, ca.OP_OR}
+    d = Q15_SHORTER
+    # truth values (comparisons, logic: F = 0) keep theirs; a constant's data is a float
+    ops = tuple(op if (op[0] == "op" and not isinstance(op[4], float) and op[4] in logic)
+                else (op[0], op[1], op[2], op[3] - d, op[4]) for op in prog.ops)
+    shorter = lambda v: round(v / 2.0**d)
+    return replace(prog, ops=ops, f_state=tuple(f - d for f in prog.f_state), f_y=prog.f_y - d,
+                   start0=tuple(shorter(v) for v in prog.start0),
+                   start1=tuple(shorter(v) for v in prog.start1), f_start1=prog.f_start1 - d)
+
+
+__all__ = ["Q15_SHORTER", "Q31_DEFAULT_RANGE", "q15_program", "q31_base", "q31_error",
+           "q31_expected", "q31_range", "q31_substitutions", "q31_vector_text"]

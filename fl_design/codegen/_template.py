@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 
 import casadi as ca
+import numpy as np
 
 from ..design import EHGO, Design, LeastSquaresEstimator
 from ..errors import ComputationError
@@ -195,7 +196,8 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
     body = c_body(f, [[f"x[{i}]" for i in range(n)], ["y"], ["r"], names],
                   [[f"x_next[{i}]" for i in range(n)], ["*u"],
                    [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
-                  switches={"p->antiwindup"})
+                  switches={"p->antiwindup"},
+                  rare=f"{prefix.upper()}_RARE")
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
@@ -257,9 +259,10 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
         "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
                              for i in range(design.state_size)]
-                            + [f"  s->xhat[{i}] = xhat[{i}]{' + s->y_c' if i == 0 else ''};"
+                            + [f"  s->xhat[{i}] = xhat[{i}];"
                                for i in range(design.rho + 1)]),
         "STATE_BYTES": str(size * design.state_size),
+        "REAL_MAX": lit(float(np.finfo(np.float32 if precision == "float" else np.float64).max)),
         "RATE": (f"{1e-3 / design.T:g} kHz" if design.T <= 1e-3 else f"{1.0 / design.T:g} Hz"),
         "T": f"{design.T:g}",
     }

@@ -33,8 +33,27 @@ import numpy as np
 N_VECTORS = 1500
 
 
-def _record(design, guard, n: int):
-    lo, hi = guard.y_min, guard.y_max
+def stepping_record(lo: float, hi: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(y, r)``: the vector files' record in ``[lo, hi]`` (module docstring), no fault yet.
+
+    Parameters
+    ----------
+    lo, hi : float
+        The range (a span of 1e6 or more: an amplitude of 0.1 around its middle).
+    n : int
+        Samples.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+
+    Examples
+    --------
+    >>> from fl_design.codegen._vectors import stepping_record
+    >>> y, r = stepping_record(-1.0, 1.0, 400)
+    >>> float(r[0]), float(r[-1]), abs(float(y[199]) - 0.1) < 0.01
+    (0.1, -0.05, True)
+    """
     mid = 0.5 * (lo + hi)
     amp = 0.05 * (hi - lo) if hi - lo < 1e6 else 0.1
     k = np.arange(n)
@@ -45,6 +64,47 @@ def _record(design, guard, n: int):
     for i in range(1, n):
         y[i] = y[i - 1] + (r[i] - y[i - 1]) / tau
     y += 0.02 * amp * np.sin(2 * np.pi * k / 97.0)
+    return y, r
+
+
+def held(u_kept: np.ndarray, keep: np.ndarray, first) -> np.ndarray:
+    """The step's outputs over every sample: ``u_kept`` on the accepted ones (``keep``), the
+    last accepted one (``first`` before any) held over each rejected one.
+
+    Parameters
+    ----------
+    u_kept : numpy.ndarray
+        Outputs of the accepted samples, in order.
+    keep : numpy.ndarray
+        ``(N,)`` booleans.
+    first : float or int
+        Output held before the first accepted sample.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N,)``, ``u_kept``'s type.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.codegen._vectors import held
+    >>> held(np.array([1, 2]), np.array([False, True, False, True]), 7).tolist()
+    [7, 1, 1, 2]
+    """
+    u = np.empty(keep.size, dtype=np.asarray(u_kept).dtype)
+    j, last = 0, first
+    for i in range(keep.size):
+        if keep[i]:
+            last = u_kept[j]
+            j += 1
+        u[i] = last
+    return u
+
+
+def _record(design, guard, n: int):
+    lo, hi = guard.y_min, guard.y_max
+    y, r = stepping_record(lo, hi, n)
     bad = {n // 5: math.nan, (3 * n) // 5: 2.0 * max(abs(hi), abs(lo)) + 1.0}
     for i, v in bad.items():
         y[i] = v
@@ -88,13 +148,7 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
     keep[bad] = False
     state0 = design.initial_state(y0=float(y[0]), u0=guard.u_op)
     u_kept = reference_run(design, y[keep], r[keep], state0=state0)[0]
-    u = np.empty(n)
-    j, last = 0, guard.u_op
-    for i in range(n):
-        if keep[i]:
-            last = u_kept[j]
-            j += 1
-        u[i] = last
+    u = held(np.asarray(u_kept, dtype=float), keep, guard.u_op)
     scale = max(float(np.max(np.abs(u))), np.finfo(float).tiny)
     if precision == "float":
         from ._float_check import emulate

@@ -71,8 +71,10 @@ def test_cortex_m4f_float_build_calls_no_double_helper(tmp_path):
         bench_steps=10)
     assert cost.arm is not None and cost.arm["double_helpers"] == []
     assert set(cost.arm["undefined"]) <= {"fminf", "fmaxf"}
-    # the common path runs in registers (step and run: no frame); the rare path's frames count
-    assert 0 < cost.arm["code_bytes"] < 4096 and 0 < cost.arm["stack_bytes"] < 1024
+    # the common path runs in registers (step and run: no frame); the rare path's frames count.
+    # The arithmetic is in line twice (the common path and the slow path: no call on the
+    # common path): 4288 B measured with gcc 12 (3144 B with one out-of-line copy before).
+    assert 0 < cost.arm["code_bytes"] < 5120 and 0 < cost.arm["stack_bytes"] < 1024
     # control: the double package on the same FPU needs the software double helpers
     dbl = generate_c(presets.paper_design(), tmp_path / "d")
     obj = tmp_path / "d.o"

@@ -116,3 +116,53 @@ int main(void) {{
                                   timeout=60).stdout.split(), dtype=float)
     ref = np.concatenate([np.asarray(f(1.5, v), dtype=float).ravel() for v in (0, 1)])
     np.testing.assert_array_equal(got, ref)
+
+
+def test_a_saturation_tested_against_its_bounds_is_one_branch_exact_for_every_value(tmp_path):
+    """``min(max(v, lo), hi)`` followed by ``hi <= u`` / ``u <= lo`` (the conditional
+    integration's test) prints as one if/else; it computes what the two ``?:`` selects and the
+    two comparisons compute (C semantics, written out in Python below) for every v, lo, hi:
+    NaN, infinities, equal and crossed bounds included."""
+    v, lo, hi, z = (ca.SX.sym(n) for n in ("v", "lo", "hi", "z"))
+    u = ca.fmin(ca.fmax(v, lo), hi)
+    hold = ca.logic_or(ca.logic_and(u >= hi, z > 0), ca.logic_and(u <= lo, z < 0))
+    f = ca.Function("f", [v, lo, hi, z], [ca.vertcat(u, ca.if_else(hold, 1.0, 2.0),
+                                                     ca.if_else(u >= hi, 3.0, 4.0))])
+    body = c_body(f, [["v"], ["lo"], ["hi"], ["z"]], [[f"o[{i}]" for i in range(3)]], "double",
+                  rare="RARE")
+    assert "} else if" in body and "_hi = " in body  # the block, not two selects
+    src = tmp_path / "sat.c"
+    src.write_text(f"""#include <stdio.h>
+#include <stdbool.h>
+#define RARE(c) (c)
+static void f(double v, double lo, double hi, double z, double *o) {{
+{body}
+}}
+int main(void) {{
+  double v, lo, hi, z, o[3];
+  while (scanf("%lf %lf %lf %lf", &v, &lo, &hi, &z) == 4) {{
+    f(v, lo, hi, z, o);
+    printf("%.17g %.17g %.17g\\n", o[0], o[1], o[2]);
+  }}
+  return 0;
+}}
+""")
+    exe = tmp_path / "sat"
+    proc = subprocess.run([find_compiler(), *FLAGS, "-o", str(exe), str(src)],
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 0, proc.stderr
+    vals = [-3.0, -1.0, -0.5, 0.0, 0.5, 1.0, 3.0, np.nan, np.inf, -np.inf]
+    grid = [(a, b, c, d) for a in vals for b in (-1.0, 1.0, 0.5, np.nan)
+            for c in (1.0, -1.0, 0.5, np.nan) for d in (-1.0, 1.0)]
+    text = "\n".join(" ".join(repr(float(x)) for x in row) for row in grid) + "\n"
+    got = np.array(subprocess.run([str(exe)], input=text, capture_output=True, text=True,
+                                  check=True, timeout=60).stdout.split(), dtype=float)
+
+    def c_semantics(a, b, c, d):  # (x > y ? x : y), (x < y ? x : y), IEEE comparisons
+        m = a if a > b else b  # noqa: FURB136 - written as the C select (NaN order)
+        w = m if m < c else c  # noqa: FURB136
+        held = (c <= w and d > 0) or (w <= b and d < 0)
+        return [w, 1.0 if held else 2.0, 3.0 if c <= w else 4.0]
+
+    ref = np.array([c_semantics(*row) for row in grid]).ravel()
+    np.testing.assert_array_equal(got, ref)  # NaN where NaN, every other value bit for bit

@@ -160,10 +160,11 @@ def test_plausibility_rate_sensor_lost_and_saturating_counters(packages):
   printf("%d %u %.9g %.9g %.9g ", s.sensor_lost, (unsigned) s.n_rejected, (double) s.x[0],
          (double) s.y_last, (double) u1);
   s.n_rejected = 0xFFFFFFFEu;
-  s.n_steps = 0xFFFFFFFFu;
+  s.n_base = 0xFFFFFFFEu;                       /* fl_steps counts from here */
   (void) fl_step(&s, 0.0f / 0.0f, 0.1f);
   (void) fl_step(&s, 0.0f / 0.0f, 0.1f);
-  printf("%lu %lu", (unsigned long) s.n_rejected, (unsigned long) s.n_steps);""")
+  (void) fl_step(&s, 0.4f, 0.1f);               /* a common-path sample */
+  printf("%lu %lu", (unsigned long) s.n_rejected, (unsigned long) fl_steps(&s));""")
     assert out[:3] == ["1", "2", "0"]            # held u, FL_FAULT_RANGE, not lost yet
     assert out[3:5] == ["4", "6"]                # FL_FAULT_RATE; sticky RANGE | RATE
     assert out[5:8] == ["65", "1", "3"]          # FL_FAULT_NONFINITE | LOST; lost after 3

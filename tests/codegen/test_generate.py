@@ -79,13 +79,13 @@ def test_strict_compile_no_library_call_one_step_exported(paper_packages, precis
     exported = set(re.findall(r" T (\w+)", nm("-g", "--defined-only")))
     assert exported == {"fl_init", "fl_reset", "fl_start", "fl_step", "fl_set_params",
                         "fl_default_params", "fl_disengage", "fl_manual_input", "fl_engage",
-                        "fl_telemetry", "fl_excitation_init", "fl_excite"}
+                        "fl_telemetry", "fl_steps", "fl_excitation_init", "fl_excite"}
     assert exe.exists()
 
 
 def test_float_code_is_single_precision(paper_packages):
     core = (paper_packages["float"].out_dir / "fl.c").read_text()
-    body = core.split("static void fl_core(")[1].split("\n}\n")[0]
+    body = core.split("static FL_INLINE void fl_core(")[1].split("\n}\n")[0]
     assert not re.search(r"(?<![\w.])\d+\.\d*(e[+-]?\d+)?(?![\w.f])", body)  # no double literal
     assert "double" not in body and not re.search(r"\bf(max|min)f?\(", core)
     assert "-Wdouble-promotion" in paper_packages["float"].flags()

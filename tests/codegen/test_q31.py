@@ -15,6 +15,8 @@ from fl_design import presets
 from fl_design._toolchain import find_compiler
 from fl_design.codegen import generate_c, step_design
 from fl_design.codegen._guard import guard_settings
+from fl_design.codegen._pil import pil_tools
+from fl_design.codegen._pil_q31 import q31_on_model
 from fl_design.codegen._q31 import q31_program, state_box
 from fl_design.codegen._q31_code import emulate_q31, start_state
 from fl_design.errors import FloatPrecisionWarning, ParameterError
@@ -114,3 +116,36 @@ def test_host_harness_tracks_design_step(packages):
     ref = pkg.step_design.run(y, 0.2, state0=pkg.step_design.initial_state(y0=y[0],
                                                                         u0=g.u_op)).u
     assert np.max(np.abs(u_q - ref)) <= 1e-4 * np.max(np.abs(ref))
+
+
+@pytest.mark.skipif(bool(pil_tools()[2]), reason="arm-none-eabi-gcc or qemu-system-arm missing")
+@pytest.mark.parametrize("cpu", ["cortex-m3", "cortex-m0plus"])
+def test_the_step_on_the_fpu_less_models_is_bit_exact_with_the_host(packages, cpu):
+    """The Q31 step on QEMU's Cortex-M3 (mps2-an385) and Cortex-M0 (microbit, running the M0+
+    build) computes the host build's u bit for bit; its cost is the bench's concern, here only
+    that it was counted (a step of ~100 integer operations: hundreds of instructions)."""
+    pkg = packages["trms"]
+    y = 0.2 * (1 - np.exp(-np.arange(300) * 3e-3))
+    r = np.full(y.size, 0.2)
+    u, n = q31_on_model(pkg, y, r, cpu=cpu)
+    np.testing.assert_array_equal(u, pkg.run(y, r, start=True))
+    assert 50 < n < 5000
+
+
+def test_q15_is_refused_with_its_predicted_quantization_error(packages, tmp_path):
+    """precision='q15': the Q31 program with every word 16 bits shorter, run by the integer
+    model on the vector record, misses the bound by orders of magnitude (u's 16-bit
+    resolution swallows the controller's per-sample increments): a named refusal with the
+    number, nothing written."""
+    from fl_design.codegen._compare import FLOAT_BOUND
+    from fl_design.errors import PrecisionError
+
+    with pytest.raises(PrecisionError, match="precision='q15' is refused") as info:
+        generate_c(presets.paper_design(), tmp_path / "q15", precision="q15",
+                   plant=fl.plants.trms_yaw())
+    err = float(re.search(r"predicted quantization error is ([0-9.e+-]+)",
+                          str(info.value)).group(1))
+    assert err > 100 * FLOAT_BOUND and err > 1000 * packages["trms"].predicted_float_error
+    assert "u's resolution becomes" in str(info.value) and not (tmp_path / "q15").exists()
+    with pytest.raises(ParameterError, match="q31' is generated for the EHGO"):
+        generate_c(presets.least_squares_design(9), tmp_path / "ls", precision="q15")
