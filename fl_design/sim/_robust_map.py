@@ -195,10 +195,9 @@ class RobustMap:
 
         Parameters
         ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default a new figure).
-        level : float, optional
-            The fraction the drawn eps* requires (default 1).
+        ax, level
+            As in :func:`fl_design.plotting.plot_robust_map`, which draws it: the axes
+            (default a new figure) and the fraction the drawn eps* requires (default 1).
 
         Returns
         -------
