@@ -17,6 +17,7 @@ import numpy as np
 
 from ._q31 import q31_program
 from ._q31_code import c_body_q31, emulate_q31, start_c, start_state
+from ._vectors import hold_rejected, vector_record
 
 #: the range of ``y`` a Q31 build assumes when no plant gives one
 Q31_DEFAULT_RANGE = (-10.0, 10.0)
@@ -182,15 +183,7 @@ def q31_expected(design, prog, guard, n: int):
     >>> int(u[20]) == int(u[19])  # the out-of-range sample 10 is held... and 20 too
     True
     """
-    lo, hi = prog.y_range
-    mid, amp = 0.5 * (lo + hi), 0.05 * (hi - lo)
-    k = np.arange(n)
-    r = mid + amp * np.where(k < n // 2, 1.0, -0.5)
-    y = np.empty(n)
-    y[0] = mid
-    for i in range(1, n):
-        y[i] = y[i - 1] + (r[i] - y[i - 1]) / 40.0
-    y += 0.02 * amp * np.sin(2 * np.pi * k / 97.0)
+    y, r = vector_record(*prog.y_range, n)
     yq = np.array([_q(v, prog.f_y) for v in y], dtype=np.int64)
     rq = np.array([_q(v, prog.f_y) for v in r], dtype=np.int64)
     bad = [n // 5, (2 * n) // 5]
@@ -201,14 +194,7 @@ def q31_expected(design, prog, guard, n: int):
     keep = np.ones(n, bool)
     keep[bad] = False
     u_kept, _ = emulate_q31(prog, yq[keep], rq[keep], start_state(prog, int(yq[0]), u0))
-    u = np.empty(n, dtype=np.int64)
-    j, last = 0, u0
-    for i in range(n):
-        if keep[i]:
-            last = int(u_kept[j])
-            j += 1
-        u[i] = last
-    return yq, rq, u
+    return yq, rq, hold_rejected(np.asarray(u_kept, dtype=np.int64), keep, u0)
 
 
 def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
@@ -276,8 +262,7 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
     keep = yq != 2**31 - 1
     y, r = yq[keep] / 2.0**prog.f_y, rq[keep] / 2.0**prog.f_y
     f_u = prog.f_state[-2]
-    u0 = float(uq[0] * 0) + min(max(guard.u_op, design.controller.u_range[0]),
-                                design.controller.u_range[1])
+    u0 = min(max(guard.u_op, design.controller.u_range[0]), design.controller.u_range[1])
     u_ref = reference_run(design, y, r, state0=design.initial_state(y0=y[0], u0=u0))[0]
     u_q = uq[keep] / 2.0**f_u
     scale = max(float(np.max(np.abs(u_ref))), math.ldexp(1.0, -f_u))
