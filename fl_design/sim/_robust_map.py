@@ -27,7 +27,7 @@ from .. import _validate as V
 from .._json import jsonable
 from ..errors import ParameterError
 from ._ensemble import SEVERITY
-from ._stability_map import EpsStar
+from ._stability_map import EpsStar, grid_index
 from ._status import CONVERGENT_CODES, Status
 
 
@@ -135,7 +135,7 @@ class RobustMap:
         level = V.real_scalar("level", level)
         if not 0 < level <= 1:
             raise ParameterError(f"level must be in (0, 1], got {level!r}")
-        j = self._gamma_index(gamma)
+        j = grid_index(self.gamma, gamma, "gamma")
         ok = self.fraction[:, j] >= level - 1e-12
         bad = np.flatnonzero(~ok)
         if not bad.size:
@@ -145,14 +145,6 @@ class RobustMap:
         failing = [Status(int(c)) for c in codes if int(c) not in CONVERGENT_CODES]
         worst = min(failing, key=SEVERITY.index).label if failing else None
         return EpsStar(lower, float(self.eps[bad[0]]), worst)
-
-    def _gamma_index(self, gamma) -> int:
-        g = V.nonzero("gamma", gamma)
-        hits = np.flatnonzero(np.isclose(self.gamma, g, rtol=1e-9, atol=0.0))
-        if hits.size == 0:
-            raise ParameterError(f"gamma={g!r} is not on the sweep's grid; choose one of "
-                                 f"{[float(v) for v in self.gamma]}")
-        return int(hits[0])
 
     def to_dict(self) -> dict:
         """Grid, plants, per-point fractions, robust eps* per gamma and the verdicts (labels).

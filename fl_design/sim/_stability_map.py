@@ -105,6 +105,42 @@ class EpsStar:
 
 
 # --- the result ------------------------------------------------------------------------------
+def grid_index(grid: np.ndarray, value, name: str) -> int:
+    """The index of ``value`` in a sweep's ``grid`` (equal to a relative ``1e-9``).
+
+    Parameters
+    ----------
+    grid : numpy.ndarray
+        The sweep's eps or gamma values.
+    value : float
+        A value of the grid: positive, or for ``gamma`` nonzero (negative when ``b < 0``).
+    name : str
+        The argument's name, for the error.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ParameterError
+        ``value`` is not on the grid (the message lists the grid).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim._stability_map import grid_index
+    >>> grid_index(np.array([0.01, 0.02]), 0.02, "eps")
+    1
+    """
+    value = V.nonzero(name, value) if name == "gamma" else V.positive(name, value)
+    hits = np.flatnonzero(np.isclose(grid, value, rtol=1e-9, atol=0.0))
+    if hits.size == 0:
+        raise ParameterError(f"{name}={value!r} is not on the sweep's grid; choose one of "
+                             f"{[float(g) for g in grid]}")
+    return int(hits[0])
+
+
 @dataclass(frozen=True)
 class StabilityMap:
     """Classification and metrics of every (eps, gamma) run of a sweep.
@@ -220,16 +256,6 @@ class StabilityMap:
         labels = np.array([Status(int(c)).label for c in np.ravel(self.status)], dtype=object)
         return labels.reshape(np.shape(self.status)).astype(str)
 
-    def _index(self, grid: np.ndarray, value, name: str) -> int:
-        value = V.nonzero(name, value) if name == "gamma" else V.positive(name, value)  # gamma < 0 when b < 0
-        hits = np.flatnonzero(np.isclose(grid, value, rtol=1e-9, atol=0.0))
-        if hits.size == 0:
-            raise ParameterError(
-                f"{name}={value!r} is not on the sweep's grid; choose one of "
-                f"{[float(g) for g in grid]}"
-            )
-        return int(hits[0])
-
     def _convergent(self) -> np.ndarray:
         return np.isin(np.asarray(self.status), CONVERGENT_CODES)
 
@@ -258,12 +284,12 @@ class StabilityMap:
         >>> str(m.eps_star(0.5)), str(m.eps_star(1.0))
         ('< 1', '> 2')
         """
-        col = self._convergent()[:, self._index(self.gamma, gamma, "gamma")]
+        col = self._convergent()[:, grid_index(self.gamma, gamma, "gamma")]
         bad = np.flatnonzero(~col)
         if not bad.size:
             return EpsStar(float(self.eps[-1]), math.inf)
         lower = math.nan if bad[0] == 0 else float(self.eps[bad[0] - 1])
-        code = int(np.asarray(self.status)[bad[0], self._index(self.gamma, gamma, "gamma")])
+        code = int(np.asarray(self.status)[bad[0], grid_index(self.gamma, gamma, "gamma")])
         return EpsStar(lower, float(self.eps[bad[0]]), Status(code).label)
 
     def gamma_bounds(self, eps: float, *, around: float | None = None) -> tuple[float, float]:
@@ -293,7 +319,7 @@ class StabilityMap:
         >>> m.gamma_bounds(0.1), m.gamma_bounds(0.1, around=1.0)
         ((3.0, 4.0), (1.0, 1.0))
         """
-        row = self._convergent()[self._index(self.eps, eps, "eps")]
+        row = self._convergent()[grid_index(self.eps, eps, "eps")]
         runs, start = [], None
         for j, ok in enumerate([*row, False]):
             if ok and start is None:
@@ -302,7 +328,7 @@ class StabilityMap:
                 runs.append((start, j - 1))
                 start = None
         if around is not None:
-            j = self._index(self.gamma, around, "around")
+            j = grid_index(self.gamma, around, "around")
             runs = [run for run in runs if run[0] <= j <= run[1]]
         if not runs:
             return (math.nan, math.nan)
@@ -452,4 +478,4 @@ class EpsStarEstimate:
         return str(self.bound)
 
 
-__all__ = ["EpsStar", "EpsStarEstimate", "StabilityMap"]
+__all__ = ["EpsStar", "EpsStarEstimate", "StabilityMap", "grid_index"]
