@@ -17,7 +17,7 @@ import numpy as np
 
 from ._q31 import q31_program
 from ._q31_code import c_body_q31, emulate_q31, start_c, start_state
-from ._vectors import hold_rejected, vector_record
+from ._vectors import hold_rejected, vector_file, vector_record
 
 #: the range of ``y`` a Q31 build assumes when no plant gives one
 Q31_DEFAULT_RANGE = (-10.0, 10.0)
@@ -224,13 +224,12 @@ def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
     'tol 0'
     """
     y, r, u = q31_expected(design, prog, guard, n)
-    head = [f"# test vectors of the generated Q31 step; design hash {digest}",
-            (f"# y, r in Q{prog.f_y} (y * 2^{prog.f_y}), u in Q{prog.f_state[-2]}; start: "
-            "PREFIX_start(first y, PREFIX_U_OP)"),
-            "# u_expected: the same integer program run in Python (bit-exact: tolerance 0)",
-            "tol 0"]
-    rows = [f"{a} {b} {c}" for a, b, c in zip(y.tolist(), r.tolist(), u.tolist())]
-    return "\n".join(head + rows) + "\n"
+    comments = [
+        f"test vectors of the generated Q31 step; design hash {digest}",
+        (f"y, r in Q{prog.f_y} (y * 2^{prog.f_y}), u in Q{prog.f_state[-2]}; start: "
+         "PREFIX_start(first y, PREFIX_U_OP)"),
+        "u_expected: the same integer program run in Python (bit-exact: tolerance 0)"]
+    return vector_file(comments, 0, y, r, u)
 
 
 def q31_error(design, prog, guard, n: int = 3000) -> float:

@@ -191,12 +191,44 @@ def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: st
     True
     """
     y, r, u, tol = expected_inputs(design, guard, precision, n)
-    head = [f"# test vectors of the generated step ({precision}); design hash {digest}",
-            "# start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
-            "# |u - u_expected| <= tol on every line (u_expected: Design.step in double)",
-            f"tol {tol!r}"]
+    comments = [
+        f"test vectors of the generated step ({precision}); design hash {digest}",
+        "start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
+        "|u - u_expected| <= tol on every line (u_expected: Design.step in double)"]
+    return vector_file(comments, tol, y, r, u)
+
+
+def vector_file(comments, tol, y, r, u) -> str:
+    """The text of a vector file as the package's ``check`` program reads it: ``#`` comment
+    lines, ``tol <abs>``, then one ``y r u_expected`` line per sample.
+
+    Parameters
+    ----------
+    comments : list of str
+        The comment lines (without the ``#``).
+    tol : float or int
+        The absolute tolerance on ``u`` (``0`` for the bit-exact Q31 step).
+    y, r, u : numpy.ndarray
+        ``(N,)`` measurements, references and expected inputs (floats, or the Q31 step's
+        raw integers), each written exactly (``repr``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.codegen._vectors import vector_file
+    >>> print(vector_file(["a record"], 0, np.array([1]), np.array([2]), np.array([3])), end="")
+    # a record
+    tol 0
+    1 2 3
+    """
+    head = [f"# {line}" for line in comments] + [f"tol {tol!r}"]
     rows = [f"{a!r} {b!r} {c!r}" for a, b, c in zip(y.tolist(), r.tolist(), u.tolist())]
     return "\n".join(head + rows) + "\n"
 
 
-__all__ = ["N_VECTORS", "expected_inputs", "hold_rejected", "vector_record", "vector_text"]
+__all__ = ["N_VECTORS", "expected_inputs", "hold_rejected", "vector_file", "vector_record",
+           "vector_text"]
