@@ -120,6 +120,7 @@ def grid_index(grid: np.ndarray, value, name: str) -> int:
     Returns
     -------
     int
+        The position of ``value`` in ``grid`` (the first, were it there twice).
 
     Raises
     ------
