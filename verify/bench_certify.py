@@ -33,6 +33,7 @@ import numpy as np
 from _shared import load_line
 
 import fl_design as fl
+from fl_design._isa import cpu_model
 
 TARGET_S = 5.0
 ISSUE_GAMMAS = (3e-4, 1e-3, 3e-3)
@@ -62,20 +63,6 @@ WARM_UP = {"b in [1, 50] curve (12 gains, warm)": (
     "fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0)), [1e-2])")}
 
 
-def cpu_name() -> str:
-    """The CPU model (``/proc/cpuinfo``), else the platform's processor string."""
-    import platform
-
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
     """Wall seconds of ``code`` in a fresh interpreter (imports included unless a ``warm``
     call runs first, untimed), or (inf, why)."""
@@ -100,7 +87,7 @@ def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
 
 def bench_classes(names, repeat: int) -> bool:
     """The class certificates' times, interleaved over ``repeat`` rounds; True when all meet."""
-    print(f"class certificates, cold (fresh process each), CPU: {cpu_name()}, "
+    print(f"class certificates, cold (fresh process each), CPU: {cpu_model()}, "
           f"{os.cpu_count()} logical CPUs")
     times = {n: [] for n in names}
     for _ in range(repeat):

@@ -50,6 +50,13 @@ fl.plants.pendulum().normal_form()
 
 _GEN = "from fl_design import presets\nd = presets.least_squares_design(9)\n"
 
+
+def _regenerate(tamper: str, again: str = "") -> str:
+    """Generate a package into ``TMP / 'c'``, run ``tamper`` on it, then generate again
+    (``again``: extra arguments of the second ``generate_c``, e.g. ``", force=True"``)."""
+    return (_GEN + "fl.generate_c(d, TMP / 'c')\n" + tamper
+            + f"\nfl.generate_c(d, TMP / 'c'{again})")
+
 _HOLDER = r'''
 import subprocess, time
 hold = ("import sys, time\nfrom fl_design._output import claim_output_folder\n"
@@ -120,18 +127,18 @@ def cases() -> list[tuple]:
         ("cache: planted kernel with a constructor and a matching sidecar", _PLANTED_SO, "env",
          cache, False, "result"),
         ("cache: copied from another user", _COPIED, "env", cache, False, "result"),
-        ("output: symlink at c/build/sil.c", _GEN + "fl.generate_c(d, TMP / 'c')\n"
-         "(TMP / 'c' / 'build').mkdir()\n(TMP / 'c' / 'build' / 'sil.c').symlink_to(VICTIM)\n"
-         "fl.generate_c(d, TMP / 'c')", "env", {}, True, "error"),
-        ("output: c/build a link to a user folder", _GEN + "fl.generate_c(d, TMP / 'c')\n"
-         "(TMP / 'c' / 'build').symlink_to(TMP, target_is_directory=True)\n"
-         "fl.generate_c(d, TMP / 'c')", "env", {}, False, "error"),
-        ("output: --force with a symlinked Makefile", _GEN + "fl.generate_c(d, TMP / 'c')\n"
-         "(TMP / 'c' / 'Makefile').unlink(); (TMP / 'c' / 'Makefile').symlink_to(VICTIM)\n"
-         "fl.generate_c(d, TMP / 'c', force=True)", "env", {}, False, "result"),
-        ("output: a hard link in the folder", _GEN + "fl.generate_c(d, TMP / 'c')\n"
-         "(TMP / 'c' / 'fl.c').unlink(); os.link(VICTIM, TMP / 'c' / 'fl.c')\n"
-         "fl.generate_c(d, TMP / 'c')", "env", {}, False, "error"),
+        ("output: symlink at c/build/sil.c", _regenerate(
+            "(TMP / 'c' / 'build').mkdir()\n(TMP / 'c' / 'build' / 'sil.c').symlink_to(VICTIM)"),
+         "env", {}, True, "error"),
+        ("output: c/build a link to a user folder", _regenerate(
+            "(TMP / 'c' / 'build').symlink_to(TMP, target_is_directory=True)"),
+         "env", {}, False, "error"),
+        ("output: --force with a symlinked Makefile", _regenerate(
+            "(TMP / 'c' / 'Makefile').unlink(); (TMP / 'c' / 'Makefile').symlink_to(VICTIM)",
+            ", force=True"), "env", {}, False, "result"),
+        ("output: a hard link in the folder", _regenerate(
+            "(TMP / 'c' / 'fl.c').unlink(); os.link(VICTIM, TMP / 'c' / 'fl.c')"),
+         "env", {}, False, "error"),
         ("output: a FIFO named report.html", ("from fl_design._output import claim_output_folder\n"
          "(TMP / 'o').mkdir(); os.mkfifo(TMP / 'o' / 'report.html')\n"
          "claim_output_folder(TMP / 'o')"), "env", {}, False, "error"),

@@ -19,13 +19,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import statistics
 import sys
 import tempfile
 import threading
 import time
 from pathlib import Path
+
+from screenshots import driver
 
 TARGET_MS = 150.0
 ROOT = Path(__file__).resolve().parents[1]
@@ -51,18 +52,18 @@ def main(argv=None) -> int:
                     help="seconds to wait for the background results (default 240)")
     args = ap.parse_args(argv)
     try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.options import Options
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        print("skipped: selenium is not installed (pip install 'fl_design[dev]')")
+        drv = driver(1400, 1000)
+    except RuntimeError as exc:  # selenium, Chromium or chromedriver missing
+        print(f"skipped: {exc}")
         return 0
-    browser = shutil.which("chromium") or shutil.which("chromium-browser")
-    driver = shutil.which("chromedriver")
-    if not (browser and driver):
-        print("skipped: no chromium / chromedriver on PATH (apt-get install chromium "
-              "chromium-driver)")
-        return 0
+    try:
+        return _drive(drv, args)
+    finally:
+        drv.quit()
+
+
+def _drive(drv, args) -> int:
+    """Serve the tuner, move gamma in ``drv``, time the redraws, save the screenshot."""
     from fl_design.app import parse_config
     from fl_design.app._cli import ui_setup
     from fl_design.ui import Tuner, TunerApp, make_server, url_of
@@ -77,13 +78,6 @@ def main(argv=None) -> int:
     thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1},
                               daemon=True)
     thread.start()
-    opts = Options()
-    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000",
-              "--hide-scrollbars"):
-        opts.add_argument(a)
-    opts.binary_location = browser
-    drv = webdriver.Chrome(service=Service(driver), options=opts)
-    drv.set_page_load_timeout(60)
     try:
         drv.get(url_of(httpd, app))
         if not _wait(drv, "return window.flTuner && window.flTuner.redraws >= 1", 60):
@@ -131,7 +125,6 @@ def main(argv=None) -> int:
         print(f"wrote {png}")
         return 0 if ok else 1
     finally:
-        drv.quit()
         httpd.shutdown()
         httpd.server_close()
         app.close()

@@ -18,6 +18,7 @@ import numpy as np
 
 from ._q31 import q31_program
 from ._q31_code import c_body_q31, emulate_q31, start_c, start_state
+from ._vectors import hold_rejected, vector_file, vector_record
 
 #: the range of ``y`` a Q31 build assumes when no plant gives one
 Q31_DEFAULT_RANGE = (-10.0, 10.0)
@@ -183,9 +184,7 @@ def q31_expected(design, prog, guard, n: int):
     >>> int(u[20]) == int(u[19])  # the out-of-range sample 10 is held... and 20 too
     True
     """
-    from ._vectors import held, stepping_record
-
-    y, r = stepping_record(*prog.y_range, n)
+    y, r = vector_record(*prog.y_range, n)
     yq = np.array([_q(v, prog.f_y) for v in y], dtype=np.int64)
     rq = np.array([_q(v, prog.f_y) for v in r], dtype=np.int64)
     bad = [n // 5, (2 * n) // 5]
@@ -196,7 +195,7 @@ def q31_expected(design, prog, guard, n: int):
     keep = np.ones(n, bool)
     keep[bad] = False
     u_kept, _ = emulate_q31(prog, yq[keep], rq[keep], start_state(prog, int(yq[0]), u0))
-    return yq, rq, held(u_kept, keep, u0)
+    return yq, rq, hold_rejected(np.asarray(u_kept, dtype=np.int64), keep, u0)
 
 
 def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
@@ -226,13 +225,12 @@ def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
     'tol 0'
     """
     y, r, u = q31_expected(design, prog, guard, n)
-    head = [f"# test vectors of the generated Q31 step; design hash {digest}",
-            (f"# y, r in Q{prog.f_y} (y * 2^{prog.f_y}), u in Q{prog.f_state[-2]}; start: "
-            "PREFIX_start(first y, PREFIX_U_OP)"),
-            "# u_expected: the same integer program run in Python (bit-exact: tolerance 0)",
-            "tol 0"]
-    rows = [f"{a} {b} {c}" for a, b, c in zip(y.tolist(), r.tolist(), u.tolist())]
-    return "\n".join(head + rows) + "\n"
+    comments = [
+        f"test vectors of the generated Q31 step; design hash {digest}",
+        (f"y, r in Q{prog.f_y} (y * 2^{prog.f_y}), u in Q{prog.f_state[-2]}; start: "
+         "PREFIX_start(first y, PREFIX_U_OP)"),
+        "u_expected: the same integer program run in Python (bit-exact: tolerance 0)"]
+    return vector_file(comments, 0, y, r, u)
 
 
 def q31_error(design, prog, guard, n: int = 3000) -> float:
@@ -264,8 +262,7 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
     keep = yq != 2**31 - 1
     y, r = yq[keep] / 2.0**prog.f_y, rq[keep] / 2.0**prog.f_y
     f_u = prog.f_state[-2]
-    u0 = float(uq[0] * 0) + min(max(guard.u_op, design.controller.u_range[0]),
-                                design.controller.u_range[1])
+    u0 = min(max(guard.u_op, design.controller.u_range[0]), design.controller.u_range[1])
     u_ref = reference_run(design, y, r, state0=design.initial_state(y0=y[0], u0=u0))[0]
     u_q = uq[keep] / 2.0**f_u
     scale = max(float(np.max(np.abs(u_ref))), math.ldexp(1.0, -f_u))

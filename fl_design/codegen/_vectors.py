@@ -33,26 +33,32 @@ import numpy as np
 N_VECTORS = 1500
 
 
-def stepping_record(lo: float, hi: float, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(y, r)``: the vector files' record in ``[lo, hi]`` (module docstring), no fault yet.
+def vector_record(lo: float, hi: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(y, r)``: the fault-free record of a vector file over the output range ``[lo, hi]``.
+
+    A first-order approach (40 samples) to a reference stepping from the middle of the range
+    to ``+5 %`` of its width, then at half time to ``-2.5 %``, with a slow ripple (period 97
+    samples, 2 % of the step); a range of ``1e6`` or wider (no plausibility range) gives
+    steps of ``0.1``. The float and Q31 vector files add their own rejected samples.
 
     Parameters
     ----------
     lo, hi : float
-        The range (a span of 1e6 or more: an amplitude of 0.1 around its middle).
+        The output range (the guard's, or the one a Q31 build is scaled for).
     n : int
         Samples.
 
     Returns
     -------
     tuple of numpy.ndarray
+        ``(n,)`` measurements and references.
 
     Examples
     --------
-    >>> from fl_design.codegen._vectors import stepping_record
-    >>> y, r = stepping_record(-1.0, 1.0, 400)
-    >>> float(r[0]), float(r[-1]), abs(float(y[199]) - 0.1) < 0.01
-    (0.1, -0.05, True)
+    >>> from fl_design.codegen._vectors import vector_record
+    >>> y, r = vector_record(-10.0, 10.0, 200)
+    >>> float(r[0]), float(r[-1]), float(y[0])
+    (1.0, -0.5, 0.0)
     """
     mid = 0.5 * (lo + hi)
     amp = 0.05 * (hi - lo) if hi - lo < 1e6 else 0.1
@@ -67,44 +73,43 @@ def stepping_record(lo: float, hi: float, n: int) -> tuple[np.ndarray, np.ndarra
     return y, r
 
 
-def held(u_kept: np.ndarray, keep: np.ndarray, first) -> np.ndarray:
-    """The step's outputs over every sample: ``u_kept`` on the accepted ones (``keep``), the
-    last accepted one (``first`` before any) held over each rejected one.
+def hold_rejected(u_kept: np.ndarray, keep: np.ndarray, first) -> np.ndarray:
+    """The input at every sample: ``u_kept`` on the accepted ones, held over the rejected.
+
+    The step rejects a sample (``keep`` False) by keeping its last input; before any accepted
+    sample that is ``first`` (the operating point's input, as ``PREFIX_start`` sets it).
 
     Parameters
     ----------
     u_kept : numpy.ndarray
-        Outputs of the accepted samples, in order.
+        The inputs computed on the accepted samples, in order.
     keep : numpy.ndarray
-        ``(N,)`` booleans.
+        ``(n,)`` bool, which samples were accepted (``u_kept.size == keep.sum()``).
     first : float or int
-        Output held before the first accepted sample.
+        The input held before the first accepted sample.
 
     Returns
     -------
     numpy.ndarray
-        ``(N,)``, ``u_kept``'s type.
+        ``(n,)``, of ``u_kept``'s dtype.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from fl_design.codegen._vectors import held
-    >>> held(np.array([1, 2]), np.array([False, True, False, True]), 7).tolist()
-    [7, 1, 1, 2]
+    >>> from fl_design.codegen._vectors import hold_rejected
+    >>> hold_rejected(np.array([1.0, 2.0]), np.array([False, True, False, True]), 0.5).tolist()
+    [0.5, 1.0, 1.0, 2.0]
     """
-    u = np.empty(keep.size, dtype=np.asarray(u_kept).dtype)
-    j, last = 0, first
-    for i in range(keep.size):
-        if keep[i]:
-            last = u_kept[j]
-            j += 1
-        u[i] = last
-    return u
+    u_kept = np.asarray(u_kept)
+    last = np.cumsum(keep) - 1  # index in u_kept of the last accepted sample so far
+    held = u_kept[np.maximum(last, 0)] if u_kept.size else np.zeros(last.size, u_kept.dtype)
+    return np.where(last >= 0, held, first).astype(u_kept.dtype)
 
 
-def _record(design, guard, n: int):
+def _record(guard, n: int):
+    """:func:`vector_record` over the guard's range, with a NaN and an out-of-range sample."""
     lo, hi = guard.y_min, guard.y_max
-    y, r = stepping_record(lo, hi, n)
+    y, r = vector_record(lo, hi, n)
     bad = {n // 5: math.nan, (3 * n) // 5: 2.0 * max(abs(hi), abs(lo)) + 1.0}
     for i, v in bad.items():
         y[i] = v
@@ -141,14 +146,14 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
     """
     from ._compare import reference_run
 
-    y, r, bad = _record(design, guard, n)
+    y, r, bad = _record(guard, n)
     if precision == "float":
         y, r = y.astype(np.float32).astype(float), r.astype(np.float32).astype(float)
     keep = np.ones(n, bool)
     keep[bad] = False
     state0 = design.initial_state(y0=float(y[0]), u0=guard.u_op)
     u_kept = reference_run(design, y[keep], r[keep], state0=state0)[0]
-    u = held(np.asarray(u_kept, dtype=float), keep, guard.u_op)
+    u = hold_rejected(np.asarray(u_kept, dtype=float), keep, guard.u_op)
     scale = max(float(np.max(np.abs(u))), np.finfo(float).tiny)
     if precision == "float":
         from ._float_check import emulate
@@ -186,12 +191,44 @@ def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: st
     True
     """
     y, r, u, tol = expected_inputs(design, guard, precision, n)
-    head = [f"# test vectors of the generated step ({precision}); design hash {digest}",
-            "# start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
-            "# |u - u_expected| <= tol on every line (u_expected: Design.step in double)",
-            f"tol {tol!r}"]
+    comments = [
+        f"test vectors of the generated step ({precision}); design hash {digest}",
+        "start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
+        "|u - u_expected| <= tol on every line (u_expected: Design.step in double)"]
+    return vector_file(comments, tol, y, r, u)
+
+
+def vector_file(comments, tol, y, r, u) -> str:
+    """The text of a vector file as the package's ``check`` program reads it: ``#`` comment
+    lines, ``tol <abs>``, then one ``y r u_expected`` line per sample.
+
+    Parameters
+    ----------
+    comments : list of str
+        The comment lines (without the ``#``).
+    tol : float or int
+        The absolute tolerance on ``u`` (``0`` for the bit-exact Q31 step).
+    y, r, u : numpy.ndarray
+        ``(N,)`` measurements, references and expected inputs (floats, or the Q31 step's
+        raw integers), each written exactly (``repr``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.codegen._vectors import vector_file
+    >>> print(vector_file(["a record"], 0, np.array([1]), np.array([2]), np.array([3])), end="")
+    # a record
+    tol 0
+    1 2 3
+    """
+    head = [f"# {line}" for line in comments] + [f"tol {tol!r}"]
     rows = [f"{a!r} {b!r} {c!r}" for a, b, c in zip(y.tolist(), r.tolist(), u.tolist())]
     return "\n".join(head + rows) + "\n"
 
 
-__all__ = ["N_VECTORS", "expected_inputs", "vector_text"]
+__all__ = ["N_VECTORS", "expected_inputs", "hold_rejected", "vector_file", "vector_record",
+           "vector_text"]

@@ -4,59 +4,25 @@ The C driver of :func:`~fl_design.codegen.software_in_the_loop` records, per sam
 output, the measurement, the input and the plant state before and after the sample. This
 module classifies that run with the simulation layer's own rules, through its public
 functions: the divergence rule (``ClosedLoop.within_bounds``), the accumulator table
-(:func:`fl_design.sim._metrics.signals`, :func:`fl_design.sim._metrics.update`) replayed over the samples, and
+(:func:`fl_design.sim._simulate.metric_step`, the update the ``cvodes`` loop of
+:func:`fl_design.simulate` replays too) replayed over the samples, and
 :class:`fl_design.sim.Response` (metrics and status from the accumulators). The estimates
 ``xhat`` the accumulators need are those of ``Design.step`` fed the same measurements.
 
 Examples
 --------
->>> from fl_design.codegen._verdict import metric_step
->>> metric_step(2).name()
-'fl_sil_metrics'
+>>> from fl_design.sim._simulate import metric_step
+>>> metric_step(2).size1_in(2)  # the run constants y0, step, tol, k_tail, k_mid, noise
+6
 """
 
 from __future__ import annotations
 
-import functools
-
-import casadi as ca
 import numpy as np
 
 from ..sim import Response
-from ..sim._metrics import ACCUMULATORS, metric_layout, signals, update
-
-
-@functools.lru_cache(maxsize=8)
-def metric_step(rho: int) -> ca.Function:
-    """``fl_sil_metrics(m, sig, c) -> m_next``: one update of the run's accumulator table.
-
-    ``sig = [e, u, u_prev, k, y, outside, est_err (rho + 1)]``, ``c = [y0, step, tol, k_tail,
-    k_mid]`` (the signals of :func:`fl_design.sim._metrics.signals`).
-
-    Parameters
-    ----------
-    rho : int
-        Relative degree.
-
-    Returns
-    -------
-    casadi.Function
-
-    Examples
-    --------
-    >>> from fl_design.codegen._verdict import metric_step
-    >>> metric_step(2).size1_in(1)
-    9
-    """
-    lay = metric_layout(rho)
-    m = ca.SX.sym("m", lay.size)
-    sig, c = ca.SX.sym("sig", 6 + rho + 1), ca.SX.sym("c", 5)
-    acc = {name: m[sl] for name, sl in lay.slices.items()}
-    s = signals(e=sig[0], u=sig[1], u_prev=sig[2], k=sig[3], y=sig[4], outside=sig[5],
-                est_err=sig[6:], y0=c[0], step=c[1], tol=c[2], k_tail=c[3], k_mid=c[4])
-    new = update(acc, s)
-    return ca.Function("fl_sil_metrics", [m, sig, c],
-                       [ca.vertcat(*[new[n] for n, _ in lay.fields])])
+from ..sim._metrics import ACCUMULATORS, metric_layout
+from ..sim._simulate import metric_step
 
 
 def _first_out_of_bounds(run, X_next, S_next, u) -> int | None:
@@ -118,13 +84,15 @@ def c_loop_response(run, y, ym, u, X, X_next, xhat, S_next) -> Response:
     from ..sim._metrics import initial_values
 
     m = lay.pack(**initial_values(rho))[:, 0]
+    step_m = metric_step(rho, loop.design.controller.u_range)
     maps, chunk = {}, 20_000  # a mapaccum per chunk size, reused (building one costs most)
     for start in range(0, K, chunk):
         part = sig[start:start + chunk].T
         n = part.shape[1]
         if n not in maps:
-            maps[n] = metric_step(rho).mapaccum("fl_sil_acc", n)
-        c = np.tile([[run.y0], [run.step], [run.tol], [run.k_tail], [run.k_mid]], (1, n))
+            maps[n] = step_m.mapaccum("fl_sil_acc", n)
+        c = np.tile([[run.y0], [run.step], [run.tol], [run.k_tail], [run.k_mid],
+                     [run.noise_level]], (1, n))
         m = np.asarray(maps[n](m, part, c), dtype=float)[:, -1]
     acc = lay.unpack(m)
     keep = {a.name for a in ACCUMULATORS}
@@ -148,4 +116,4 @@ def c_loop_response(run, y, ym, u, X, X_next, xhat, S_next) -> Response:
                     duration_reason=run.duration_reason)
 
 
-__all__ = ["c_loop_response", "metric_step"]
+__all__ = ["c_loop_response"]

@@ -15,7 +15,7 @@ Modules, one concept each: ``_scenario`` and ``_options`` (the option objects), 
 ``_run`` (:func:`prepare_run`: samples and constants of a run), ``_duration`` (the adaptive
 run length), ``_loop_jacobian`` (the loop's equilibrium and Jacobian), ``_simulate`` and
 ``_response``, ``_grid`` (many runs in this process) and ``_executor`` (as tasks of an
-executor), ``_sweep`` and ``_stability_map``; ``_family`` (a family of plants: distributions and the
+executor), ``_sweep`` and ``_stability_map`` (its eps*: ``_eps_star``); ``_family`` (a family of plants: distributions and the
 per-sample setup), ``_monte_carlo`` and ``_ensemble``, ``_robust_map`` (their figures: :mod:`fl_design.plotting`); the compiled kernel in the subpackage
 :mod:`fl_design.sim.kernel`. Helpers other layers need are imported from their module.
 
@@ -27,12 +27,13 @@ Examples
 """
 
 from ._disturbance import Disturbance, Sine, Step
+from ._eps_star import EpsStar
 from ._metrics import STATUS_CODES, Status
 from ._monte_carlo import monte_carlo
 from ._options import RK4, Classifier, Cvodes, Kernel, Noise, Scenario
 from ._response import Response
 from ._simulate import simulate
-from ._stability_map import EpsStar, EpsStarEstimate, StabilityMap
+from ._stability_map import EpsStarEstimate, StabilityMap
 from ._sweep import estimate_eps_star, sweep
 from .kernel import ClosedLoop
 

@@ -18,7 +18,6 @@ Examples
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,7 +26,7 @@ from .. import _validate as V
 from .._json import jsonable
 from ..errors import ParameterError
 from ._ensemble import SEVERITY
-from ._stability_map import EpsStar
+from ._eps_star import EpsStar, eps_boundary, grid_index
 from ._status import CONVERGENT_CODES, Status
 
 
@@ -135,24 +134,13 @@ class RobustMap:
         level = V.real_scalar("level", level)
         if not 0 < level <= 1:
             raise ParameterError(f"level must be in (0, 1], got {level!r}")
-        j = self._gamma_index(gamma)
-        ok = self.fraction[:, j] >= level - 1e-12
-        bad = np.flatnonzero(~ok)
-        if not bad.size:
-            return EpsStar(float(self.eps[-1]), math.inf)
-        lower = math.nan if bad[0] == 0 else float(self.eps[bad[0] - 1])
-        codes = np.asarray(self.status)[bad[0], j]
-        failing = [Status(int(c)) for c in codes if int(c) not in CONVERGENT_CODES]
-        worst = min(failing, key=SEVERITY.index).label if failing else None
-        return EpsStar(lower, float(self.eps[bad[0]]), worst)
+        j = grid_index(self.gamma, gamma, "gamma")
+        def worst(i: int) -> str | None:  # the worst verdict among the plants at eps[i]
+            codes = np.asarray(self.status)[i, j]
+            failing = [Status(int(c)) for c in codes if int(c) not in CONVERGENT_CODES]
+            return min(failing, key=SEVERITY.index).label if failing else None
 
-    def _gamma_index(self, gamma) -> int:
-        g = V.nonzero("gamma", gamma)
-        hits = np.flatnonzero(np.isclose(self.gamma, g, rtol=1e-9, atol=0.0))
-        if hits.size == 0:
-            raise ParameterError(f"gamma={g!r} is not on the sweep's grid; choose one of "
-                                 f"{[float(v) for v in self.gamma]}")
-        return int(hits[0])
+        return eps_boundary(self.eps, self.fraction[:, j] >= level - 1e-12, worst)
 
     def to_dict(self) -> dict:
         """Grid, plants, per-point fractions, robust eps* per gamma and the verdicts (labels).
@@ -195,10 +183,9 @@ class RobustMap:
 
         Parameters
         ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default a new figure).
-        level : float, optional
-            The fraction the drawn eps* requires (default 1).
+        ax, level
+            As in :func:`fl_design.plotting.plot_robust_map`, which draws it: the axes
+            (default a new figure) and the fraction the drawn eps* requires (default 1).
 
         Returns
         -------

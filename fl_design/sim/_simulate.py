@@ -152,9 +152,39 @@ def _response(run: RunSetup, out: np.ndarray, summary: dict, method: str) -> Res
     )
 
 
+def metric_step(rho: int, u_range=None) -> ca.Function:
+    """``fl_metrics(m, sig, c) -> m_next``: one update of a run's accumulator table, to replay
+    a run sample by sample (the ``cvodes`` loop, the C step's closed loop of
+    :mod:`fl_design.codegen`) by the kernel's rules.
+
+    ``sig = [e, u, u_prev, k, y, outside, est_err (rho + 1)]``, ``c = [y0, step, tol, k_tail,
+    k_mid, noise]`` (the signals of :func:`fl_design.sim._metrics.signals`).
+
+    Parameters
+    ----------
+    rho : int
+        Relative degree.
+    u_range : (float, float) or None, optional
+        The controller's input saturation (``Design.controller.u_range``): ``u`` at either
+        end counts as saturated.
+
+    Returns
+    -------
+    casadi.Function
+        Built once per ``(rho, u_range)`` in a process.
+
+    Examples
+    --------
+    >>> from fl_design.sim._simulate import metric_step
+    >>> f = metric_step(2)
+    >>> f.name(), f.size1_in(1), f.size1_in(2)
+    ('fl_metrics', 9, 6)
+    """
+    return _metric_step(int(rho), None if u_range is None else tuple(map(float, u_range)))
+
+
 @functools.lru_cache(maxsize=16)
-def _metric_step(rho: int, u_range: tuple | None = None) -> ca.Function:
-    """``fl_metrics(m, sig, c) -> m_next``: the accumulator update of the table, for replay."""
+def _metric_step(rho: int, u_range: tuple | None) -> ca.Function:
     lay = metric_layout(rho)
     m = ca.SX.sym("m", lay.size)
     sig = ca.SX.sym("sig", 6 + rho + 1)  # e, u, u_prev, k, y, outside, est_err
@@ -182,8 +212,7 @@ def _cvodes_loop(run: RunSetup, p: np.ndarray, opts: Cvodes) -> tuple[np.ndarray
     lay = metric_layout(loop.rho)
     m = lay.pack(**initial_values(loop.rho))[:, 0]
     c = [run.y0, run.step, run.tol, run.k_tail, run.k_mid, run.noise_level]
-    u_range = loop.design.controller.u_range
-    step_m = _metric_step(loop.rho, None if u_range is None else tuple(map(float, u_range)))
+    step_m = metric_step(loop.rho, loop.design.controller.u_range)
     status = {"diverged": 0.0, "k_div": -1.0, "solver_failed": 0.0}
     for k in range(run.N):
         s_next, uk, y, ym, xhat, sigma, coords = (
@@ -243,4 +272,4 @@ def _escaped(loop, opts: Cvodes, xk: np.ndarray, uk, run: RunSetup) -> bool:
     return float(np.max(np.abs(x - x_op))) > ESCAPE_GROWTH * (start + 1.0)
 
 
-__all__ = ["simulate"]
+__all__ = ["metric_step", "simulate"]

@@ -17,91 +17,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import _validate as V
 from .._json import jsonable
 from ..errors import ParameterError
+from ._eps_star import EpsStar, eps_boundary, grid_index
 from ._status import CONVERGENT_CODES, Status
-
-
-@dataclass(frozen=True)
-class EpsStar:
-    """Where the boundary eps* lies on a grid: ``lower <= eps* < upper``.
-
-    ``lower`` is the largest grid eps such that every grid eps' <= it converges (converging or
-    converged); ``upper`` the first grid eps that does not. No boundary in the scanned range
-    is said as such: ``upper = inf`` ("> eps_max": every eps converged, eps* lies above the
-    range) or ``lower = nan`` ("< eps_min": even the smallest eps failed). When the run at
-    ``upper`` is ``undecided`` (bounded, a trend the run is too short to call),
-    the text says so instead of "fails at": the bracket is then a lower bound that a longer run
-    may raise.
-
-    Parameters
-    ----------
-    lower, upper : float
-        The bracket on the grid.
-    upper_status : str, optional
-        Status label of the run at ``upper`` (None when unknown or ``upper`` is infinite).
-
-    Examples
-    --------
-    >>> from fl_design.sim import EpsStar
-    >>> str(EpsStar(1.0, float("inf"))), EpsStar(1.0, float("inf")).value
-    ('> 1', None)
-    >>> str(EpsStar(float("nan"), 0.01)), EpsStar(0.02, 0.04).value
-    ('< 0.01', 0.02)
-    >>> str(EpsStar(0.0417487, 0.04174874))  # a narrow bracket keeps the digits it needs
-    '0.0417487 (fails at 0.04174874)'
-    >>> str(EpsStar(0.35, 0.49, "undecided")), str(EpsStar(float("nan"), 0.005, "undecided"))
-    ('0.35 (undecided at 0.49: run longer)', '< 0.005 (undecided at 0.005: run longer)')
-    """
-
-    lower: float
-    upper: float
-    upper_status: str | None = None
-
-    @property
-    def undecided(self) -> bool:
-        """The first eps that does not converge is ``undecided``, not a failure."""
-        return self.upper_status == Status.UNDECIDED.label
-
-    @property
-    def value(self) -> float | None:
-        """``lower`` when the boundary lies inside the range, else None (it is outside)."""
-        return self.lower if math.isfinite(self.lower) and math.isfinite(self.upper) else None
-
-    @property
-    def above_range(self) -> bool:
-        """Every scanned eps converged: eps* is larger than the range."""
-        return not math.isfinite(self.upper)
-
-    @property
-    def below_range(self) -> bool:
-        """Even the smallest scanned eps failed: eps* is below the range."""
-        return math.isnan(self.lower)
-
-    def __str__(self) -> str:
-        if self.above_range:
-            return f"> {self.lower:g}"
-        if self.below_range:
-            return f"< {self.upper:g}" + (
-                f" (undecided at {self.upper:g}: run longer)" if self.undecided else "")
-        digits = next((n for n in range(6, 18) if f"{self.lower:.{n}g}" != f"{self.upper:.{n}g}"),
-                      17)  # enough digits to tell a narrow bisection bracket's ends apart
-        if self.undecided:
-            return f"{self.lower:.{digits}g} (undecided at {self.upper:.{digits}g}: run longer)"
-        return f"{self.lower:.{digits}g} (fails at {self.upper:.{digits}g})"
-
-    def to_dict(self) -> dict:
-        """Strict JSON: ``lower``, ``upper`` (None when unbounded), ``upper_status``, ``text``.
-
-        Examples
-        --------
-        >>> from fl_design.sim import EpsStar
-        >>> EpsStar(0.5, float("inf")).to_dict()
-        {'lower': 0.5, 'upper': None, 'upper_status': None, 'text': '> 0.5'}
-        """
-        return jsonable({"lower": self.lower, "upper": self.upper,
-                         "upper_status": self.upper_status, "text": str(self)})
 
 
 # --- the result ------------------------------------------------------------------------------
@@ -220,16 +139,6 @@ class StabilityMap:
         labels = np.array([Status(int(c)).label for c in np.ravel(self.status)], dtype=object)
         return labels.reshape(np.shape(self.status)).astype(str)
 
-    def _index(self, grid: np.ndarray, value, name: str) -> int:
-        value = V.nonzero(name, value) if name == "gamma" else V.positive(name, value)  # gamma < 0 when b < 0
-        hits = np.flatnonzero(np.isclose(grid, value, rtol=1e-9, atol=0.0))
-        if hits.size == 0:
-            raise ParameterError(
-                f"{name}={value!r} is not on the sweep's grid; choose one of "
-                f"{[float(g) for g in grid]}"
-            )
-        return int(hits[0])
-
     def _convergent(self) -> np.ndarray:
         return np.isin(np.asarray(self.status), CONVERGENT_CODES)
 
@@ -258,13 +167,9 @@ class StabilityMap:
         >>> str(m.eps_star(0.5)), str(m.eps_star(1.0))
         ('< 1', '> 2')
         """
-        col = self._convergent()[:, self._index(self.gamma, gamma, "gamma")]
-        bad = np.flatnonzero(~col)
-        if not bad.size:
-            return EpsStar(float(self.eps[-1]), math.inf)
-        lower = math.nan if bad[0] == 0 else float(self.eps[bad[0] - 1])
-        code = int(np.asarray(self.status)[bad[0], self._index(self.gamma, gamma, "gamma")])
-        return EpsStar(lower, float(self.eps[bad[0]]), Status(code).label)
+        j = grid_index(self.gamma, gamma, "gamma")
+        return eps_boundary(self.eps, self._convergent()[:, j],
+                            lambda i: Status(int(np.asarray(self.status)[i, j])).label)
 
     def gamma_bounds(self, eps: float, *, around: float | None = None) -> tuple[float, float]:
         """``(lowest, highest)`` grid gamma of a contiguous run of converging gammas at ``eps``.
@@ -293,7 +198,7 @@ class StabilityMap:
         >>> m.gamma_bounds(0.1), m.gamma_bounds(0.1, around=1.0)
         ((3.0, 4.0), (1.0, 1.0))
         """
-        row = self._convergent()[self._index(self.eps, eps, "eps")]
+        row = self._convergent()[grid_index(self.eps, eps, "eps")]
         runs, start = [], None
         for j, ok in enumerate([*row, False]):
             if ok and start is None:
@@ -302,7 +207,7 @@ class StabilityMap:
                 runs.append((start, j - 1))
                 start = None
         if around is not None:
-            j = self._index(self.gamma, around, "around")
+            j = grid_index(self.gamma, around, "around")
             runs = [run for run in runs if run[0] <= j <= run[1]]
         if not runs:
             return (math.nan, math.nan)
@@ -452,4 +357,4 @@ class EpsStarEstimate:
         return str(self.bound)
 
 
-__all__ = ["EpsStar", "EpsStarEstimate", "StabilityMap"]
+__all__ = ["EpsStarEstimate", "StabilityMap"]

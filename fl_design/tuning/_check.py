@@ -21,6 +21,34 @@ from ..sim import Scenario, simulate
 SWEEP_EPS = (0.5, 1.0)
 SWEEP_GAMMA = (0.5, 1.0, 2.0)
 CONVERGENT = ("converged", "converging")
+#: the default step of a tuning's check, as a fraction of the output's range
+STEP_FRACTION = 0.05
+
+
+def step_target(y0: float, y_range: tuple[float, float]) -> float:
+    """The default reference of a tuning's check: a step of :data:`STEP_FRACTION` of the
+    output's range from ``y0``, up, or down when up would leave the range.
+
+    Parameters
+    ----------
+    y0 : float
+        The output at the operating point.
+    y_range : (float, float)
+        The output's range (the plant region's, or the class's ``y_range``).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> from fl_design.tuning._check import step_target
+    >>> step_target(0.0, (-1.0, 1.0)), step_target(1.0, (-1.0, 1.0))
+    (0.1, 0.9)
+    """
+    lo, hi = y_range
+    step = STEP_FRACTION * (hi - lo)
+    return float(y0 + step if y0 + step <= hi else y0 - step)
 
 
 def check_candidate(plant, design, r: float) -> dict:
@@ -124,4 +152,4 @@ def baseline_for(plant, baseline, r: float) -> dict | None:
             "overshoot": float(resp.overshoot), "status": resp.status}
 
 
-__all__ = ["baseline_for", "check_candidate"]
+__all__ = ["STEP_FRACTION", "baseline_for", "check_candidate", "step_target"]

@@ -64,7 +64,7 @@ from ..design import Design
 from ..errors import FlDesignError, NoDesignError, ParameterError, RelativeDegreeError
 from ..symbolic import Plant
 from ._candidate import CONVERGENT, MIN_PHASE_MARGIN, Setup, candidate, certified_eps, g_text
-from ._check import baseline_for
+from ._check import baseline_for, step_target
 from ._tune_class import PlantClass, tune_class
 from ._tuning import Tuning
 
@@ -112,9 +112,7 @@ def _reference(plant, reference, y_op) -> float:
         return V.real_scalar("reference", reference)
     out = plant.output
     if plant.region is not None and out in plant.region:
-        lo, hi = plant.region[out]
-        step = 0.05 * (hi - lo)
-        return float(y_op + step if y_op + step <= hi else y_op - step)
+        return step_target(y_op, plant.region[out])
     raise ParameterError("reference is needed: the output is not a state with a range in the "
                          "plant's region; give reference=... (the step target, absolute)")
 

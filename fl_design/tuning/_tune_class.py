@@ -42,6 +42,7 @@ from ..analysis import certify_eps, eps_star_curve, synthesize_gains
 from ..analysis._plant_class import PlantClass
 from ..design import EHGO, Design, DynamicController
 from ..errors import NoDesignError, ParameterError
+from ._check import step_target
 from ._class_checks import class_margins, member_runs, surrogate_noise_gain
 from ._class_tuning import ClassTuning
 
@@ -67,9 +68,7 @@ def _reference(cls: PlantClass, reference) -> float:
         return V.real_scalar("reference", reference)
     y0 = 0.0 if cls.operating_point is None else cls.operating_point
     if cls.y_range is not None:
-        lo, hi = cls.y_range
-        step = 0.05 * (hi - lo)
-        return float(y0 + step if y0 + step <= hi else y0 - step)
+        return step_target(y0, cls.y_range)
     return float(y0 + 1.0)
 
 

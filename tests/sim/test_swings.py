@@ -17,7 +17,7 @@ import pytest
 import fl_design as fl
 from fl_design.sim import EpsStar, EpsStarEstimate, StabilityMap, Status
 from fl_design.sim._metrics import initial_values, metric_layout, metrics_from_summary
-from fl_design.sim._simulate import _metric_step
+from fl_design.sim._simulate import metric_step
 from fl_design.sim._status import classify, evidence
 from tests.oracles import evidence_from_errors, status_from_trajectories
 
@@ -34,7 +34,7 @@ def _run_table(e: np.ndarray, k_tail: int, noise: float = 0.0, u=None,
     sig = np.vstack([e, u, np.zeros(n), k, e, np.zeros(n), np.zeros((2, n))])
     k_mid = k_tail + (n - k_tail) // 2
     c = np.tile([[0.0], [1.0], [TOL], [k_tail], [k_mid], [noise]], (1, n))
-    m = np.asarray(_metric_step(1, u_range).mapaccum(n)(m0, sig, c), dtype=float)[:, -1]
+    m = np.asarray(metric_step(1, u_range).mapaccum(n)(m0, sig, c), dtype=float)[:, -1]
     out = {name: np.asarray(v).ravel() for name, v in lay.unpack(m).items()}
     out = {name: (v if name == "est2_sum" else float(v[0])) for name, v in out.items()}
     return out | {"N": n, "k_tail": k_tail, "k_mid": k_mid, "y0": 0.0, "step": 1.0,

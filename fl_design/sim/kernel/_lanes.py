@@ -159,10 +159,9 @@ class LanesRunner:
 
     Parameters
     ----------
-    accumulate, record : casadi.Function
-        ``fl_acc(acc, d) -> acc_next`` and ``fl_rec(acc, d) -> (acc_next, out)``.
-    indices : dict
-        Accumulator positions of ``k``, ``diverged`` and ``N`` (keys ``k``, ``div``, ``N``).
+    accumulate, record, indices
+        As in :class:`~fl_design.sim.kernel._runners.NativeRunner` (the step functions and
+        the accumulator positions of ``k``, ``diverged`` and ``N``).
     cache_dir : path-like, optional
         Cache of compiled kernels.
     scalar : callable
