@@ -51,7 +51,7 @@ def compiler_or_raise(compiler: str | None = None) -> str:
 
 
 def run_command(cmd: list[str], *, what: str, stdin: str | None = None, cwd=None,
-                timeout: float = 600) -> str:
+                timeout: float = 600, env=None) -> str:
     """Run ``cmd``; its stdout, or CompilationError with the tail of its stderr.
 
     Parameters
@@ -65,7 +65,9 @@ def run_command(cmd: list[str], *, what: str, stdin: str | None = None, cwd=None
     cwd : path-like, optional
         Working directory.
     timeout : float, optional
-        Seconds.
+        Seconds; past them a CompilationError says so.
+    env : dict, optional
+        The environment (default: this process's).
 
     Returns
     -------
@@ -79,7 +81,7 @@ def run_command(cmd: list[str], *, what: str, stdin: str | None = None, cwd=None
     """
     try:
         proc = subprocess.run(cmd, input=stdin, capture_output=True, text=True, cwd=cwd,
-                              timeout=timeout, check=False)
+                              timeout=timeout, check=False, env=env)
     except FileNotFoundError as exc:
         raise CompilerNotFoundError(f"{what}: {cmd[0]!r} not found ({exc})") from None
     except subprocess.TimeoutExpired:

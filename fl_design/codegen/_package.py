@@ -18,14 +18,13 @@ True
 
 from __future__ import annotations
 
-import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .._toolchain import STRICT_CFLAGS
-from ..errors import CompilationError, ParameterError
+from ..errors import ParameterError
 from ._build import FLOAT_WARNINGS, SANITIZE_FLAGS, compiler_or_raise, run_command
 
 
@@ -179,12 +178,9 @@ class CPackage:
             raise ParameterError(f"y and r must have the same length, got {y.size} and {r.size}")
         exe = executable or self.build()
         lines = "\n".join(f"{a!r} {b!r}" for a, b in zip(y.tolist(), r.tolist())) + "\n"
-        proc = subprocess.run([str(exe)] + ([] if start else ["--init"]), input=lines, capture_output=True, text=True,
-                              env=env, timeout=600, check=False)
-        if proc.returncode != 0:
-            raise CompilationError(f"the harness {exe} failed (exit {proc.returncode}): "
-                                   f"{proc.stderr[-3000:]}")
-        return np.array(proc.stdout.split(), dtype=float)
+        out = run_command([str(exe)] + ([] if start else ["--init"]), what=f"the harness {exe}",
+                          stdin=lines, env=env, timeout=600)
+        return np.array(out.split(), dtype=float)
 
     def verify(self, plant, scenario, *, integrator=None, compiler=None, telemetry=None,
                excitation=None):
