@@ -18,6 +18,7 @@ Examples
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -137,8 +138,8 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
         job.derivation = _cached(job, "derive", False, lambda: _stages.derive(s))
 
     def certify():
-        job.results["certify"] = _cached(job, "certify", quick,
-                                         lambda: _stages.certify(s, job.derivation, quick))
+        job.results["certify"] = _cached(job, "certify", quick, lambda: _stages.certify(
+            s, job.derivation, quick, progress=lambda line: note(line, enabled=progress)))
 
     def sweep():
         job.results["sweep"] = _stages.sweep(s, quick, executor, progress)
@@ -165,7 +166,9 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     """Run the main job's stages (derive, certify, sweep, simulate, robustness, codegen).
 
     ``robustness`` (:func:`fl_design.monte_carlo` over the ``[uncertainty]`` family) runs only
-    when the config gives ``[uncertainty] params``.
+    when the config gives ``[uncertainty] params``. The stages of :data:`BESIDE` (certify) run
+    in a thread beside the later stages when any follow (the same results, the two cores
+    used); the job waits for them before it returns and re-raises their errors.
 
     Parameters
     ----------
@@ -204,7 +207,13 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     todo = [s for s in STAGES if s in stages or (s == "derive" and "certify" in stages)]
     if not config.uncertainty.params:  # robustness only with [uncertainty] params
         todo = [s for s in todo if s != "robustness"]
+    beside = None
     for i, stage in enumerate(todo, 1):
+        if stage in BESIDE and todo[-1] != stage:  # later stages to run beside it
+            note(f"{i}/{len(todo)} {stage} ... (in a thread beside the next stages)",
+                 enabled=progress)
+            beside = _Beside(stage, f"{i}/{len(todo)}", steps[stage])
+            continue
         note(f"{i}/{len(todo)} {stage} ...", enabled=progress)
         start, cpu = time.perf_counter(), time.process_time()
         steps[stage]()
@@ -213,9 +222,57 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         how = " from the cache" if stage in job.cached else ""
         note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s (CPU "
              f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
+        if beside is not None:
+            beside.raise_error()  # it failed: stop here, as it would have run alone
         if after is not None:
             after(stage, job)
+    if beside is not None:
+        beside.join(job, progress)
+        if after is not None:
+            after(beside.stage, job)
     return job
 
 
-__all__ = ["QUICK", "STAGES", "Job", "noise_levels", "note", "prepare", "run_job"]
+#: Stages run in a thread beside the later ones: the certificates (NumPy, CVXPY/Clarabel:
+#: one core) overlap the sweep's compiled kernel and the C compilers of simulate and codegen,
+#: which wait on other cores or on child processes (every stage's results are unchanged).
+BESIDE = ("certify",)
+
+
+class _Beside:
+    """One stage run in a daemon thread; :meth:`join` waits for it and re-raises its error."""
+
+    def __init__(self, stage: str, label: str, step):
+        self.stage, self.label, self.error = stage, label, None
+        self.wall = self.cpu = 0.0
+        self.thread = threading.Thread(target=self._work, args=(step,),
+                                       name=f"fl-design-{stage}", daemon=True)
+        self.thread.start()
+
+    def _work(self, step) -> None:
+        start, cpu = time.perf_counter(), time.thread_time()
+        try:
+            step()
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
+            self.error = exc
+        self.wall, self.cpu = time.perf_counter() - start, time.thread_time() - cpu
+
+    def raise_error(self) -> None:
+        """Re-raise the stage's exception, if it has ended with one."""
+        if self.error is not None and not self.thread.is_alive():
+            raise self.error
+
+    def join(self, job: Job, progress: bool) -> None:
+        """Wait for the stage (interruptible: one-second waits), store its time, re-raise."""
+        start = time.perf_counter()
+        while self.thread.is_alive():
+            self.thread.join(timeout=1.0)
+        self.raise_error()
+        job.timings[self.stage] = self.wall
+        how = " from the cache" if self.stage in job.cached else ""
+        note(f"{self.label} {self.stage} done in {self.wall:.1f} s (CPU {self.cpu:.1f} s{how}; "
+             f"beside the other stages, {time.perf_counter() - start:.1f} s waited after them)",
+             enabled=progress)
+
+
+__all__ = ["BESIDE", "QUICK", "STAGES", "Job", "noise_levels", "note", "prepare", "run_job"]
