@@ -12,9 +12,11 @@ cores, the kernels' instruction-set level) first.
 
 Targets (issue 33): the cold job <= 15 s and the quick warm job <= 5 s, medians over the rounds
 (exit status 1 on a miss). ``--quick`` runs the quick job cold and warm once and checks no
-target (the tests run it). ``--config`` times another configuration (its own [plant]).
+target (the tests run it). ``--config`` times another configuration (its own [plant]);
+``--serial`` adds, in each round, a cold job whose stages run one after the other (the certify
+stage not in its thread) and prints the median ratio of the wall times.
 
-    python verify/bench_job.py [--quick] [--rounds R] [--config FILE.toml]
+    python verify/bench_job.py [--quick] [--rounds R] [--config FILE.toml] [--serial]
 """
 
 from __future__ import annotations
@@ -50,11 +52,17 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def run_once(cache: Path, out: Path, *, quick: bool, config: str | None,
+#: ``fl-design run`` in a fresh interpreter; ``{serial}`` True runs every stage in turn (the
+#: certify stage not beside the others: the comparison of ``--serial``).
+ENTRY = ("import sys\nimport fl_design.app._job as job\nif {serial}:\n    job.BESIDE = ()\n"
+         "from fl_design.app._cli import main\nsys.exit(main(sys.argv[1:]))\n")
+
+
+def run_once(cache: Path, out: Path, *, quick: bool, config: str | None, serial: bool = False,
              timeout: float = 900.0) -> dict:
     """One ``fl-design run``: wall and CPU seconds, load, stage times (or the failure)."""
-    fld = str(Path(sys.executable).parent / "fl-design")
-    cmd = [fld, "run"] + ([config] if config else []) + ["--out", str(out), "--no-progress"]
+    cmd = [sys.executable, "-c", ENTRY.format(serial=bool(serial)), "run"]
+    cmd += ([config] if config else []) + ["--out", str(out), "--no-progress"]
     cmd += ["--quick"] if quick else []
     env = dict(os.environ, FL_DESIGN_CACHE=str(cache), MPLBACKEND="Agg")
     cpu0, t0 = _children_cpu(), time.perf_counter()
@@ -86,14 +94,21 @@ def main(argv=None) -> int:
                         help="the quick job cold and warm once, no target")
     parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds (default 3)")
     parser.add_argument("--config", default=None, help="a TOML config (default the TRMS demo)")
+    parser.add_argument("--serial", action="store_true",
+                        help="also time the cold job with every stage in turn (interleaved)")
     args = parser.parse_args(argv)
     rounds = 1 if args.quick else max(1, args.rounds)
     print(machine(), flush=True)
-    cold, warm = [], []
+    cold, warm, serial = [], [], []
     with tempfile.TemporaryDirectory(prefix="bench_job_") as tmp:
         tmp = Path(tmp)
         for k in range(rounds):
             cache = tmp / f"cache{k}"
+            if args.serial:
+                r = run_once(tmp / f"cache_s{k}", tmp / f"serial{k}", quick=args.quick,
+                             config=args.config, serial=True)
+                serial.append(r)
+                print(line(f"round {k + 1} cold, stages in turn", r), flush=True)
             r = run_once(cache, tmp / f"cold{k}", quick=args.quick, config=args.config)
             cold.append(r)
             print(line(f"round {k + 1} cold{' (--quick)' if args.quick else ''}", r), flush=True)
@@ -101,7 +116,7 @@ def main(argv=None) -> int:
             r = run_once(cache, tmp / f"warm{k}", quick=True, config=args.config)
             warm.append(r)
             print(line(f"round {k + 1} --quick warm", r), flush=True)
-    ok = all(r["rc"] == 0 for r in cold + warm)
+    ok = all(r["rc"] == 0 for r in cold + warm + serial)
     if not ok:
         print("a run failed: FAILS")
         return 1
@@ -116,6 +131,10 @@ def main(argv=None) -> int:
           + ("" if args.quick else f"; target <= {QUICK_WARM_TARGET_S:g} s"
              + ("" if w <= QUICK_WARM_TARGET_S else
                 f": MISS by {w - QUICK_WARM_TARGET_S:.1f} s")))
+    if serial:
+        ratio = statistics.median(a["wall"] / b["wall"] for a, b in zip(cold, serial))
+        print(f"cold, certify beside the other stages / every stage in turn: median wall ratio "
+              f"{ratio:.2f} over {rounds} interleaved round(s)")
     print("load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
     if args.quick:
         return 0
