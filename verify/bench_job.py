@@ -54,7 +54,7 @@ def _children_cpu() -> float:
 
 #: ``fl-design run`` in a fresh interpreter; ``{serial}`` True runs every stage in turn (the
 #: certify stage not beside the others: the comparison of ``--serial``).
-ENTRY = ("import sys\nimport fl_design.app._job as job\nif {serial}:\n    job.BESIDE = ()\n"
+ENTRY = ("import sys\nimport fl_design.app._job as job\nif {serial}:\n    job.BESIDE = {{}}\n"
          "from fl_design.app._cli import main\nsys.exit(main(sys.argv[1:]))\n")
 
 

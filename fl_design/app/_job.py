@@ -207,36 +207,66 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     todo = [s for s in STAGES if s in stages or (s == "derive" and "certify" in stages)]
     if not config.uncertainty.params:  # robustness only with [uncertainty] params
         todo = [s for s in todo if s != "robustness"]
-    beside = None
-    for i, stage in enumerate(todo, 1):
-        if stage in BESIDE and todo[-1] != stage:  # later stages to run beside it
-            note(f"{i}/{len(todo)} {stage} ... (in a thread beside the next stages)",
+    label = {stage: f"{i}/{len(todo)}" for i, stage in enumerate(todo, 1)}
+    starts = _beside_starts(todo)
+    running = []
+    for k, stage in enumerate(todo):
+        if k in starts:  # a stage of BESIDE starts in its thread before this one
+            name = starts[k]
+            note(f"{label[name]} {name} ... (in a thread beside the next stages)",
                  enabled=progress)
-            beside = _Beside(stage, f"{i}/{len(todo)}", steps[stage])
+            running.append(_Beside(name, label[name], steps[name]))
+        if stage in starts.values():
             continue
-        note(f"{i}/{len(todo)} {stage} ...", enabled=progress)
+        note(f"{label[stage]} {stage} ...", enabled=progress)
         start, cpu = time.perf_counter(), time.process_time()
         steps[stage]()
         job.timings[stage] = time.perf_counter() - start
         # this process's CPU time beside the wall time: on a loaded machine they differ
         how = " from the cache" if stage in job.cached else ""
-        note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s (CPU "
+        note(f"{label[stage]} {stage} done in {job.timings[stage]:.1f} s (CPU "
              f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
-        if beside is not None:
-            beside.raise_error()  # it failed: stop here, as it would have run alone
+        for b in running:
+            b.raise_error()  # it failed: stop here, as it would have run alone
         if after is not None:
             after(stage, job)
-    if beside is not None:
-        beside.join(job, progress)
+    for b in running:
+        b.join(job, progress)
         if after is not None:
-            after(beside.stage, job)
+            after(b.stage, job)
     return job
 
 
-#: Stages run in a thread beside the later ones: the certificates (NumPy, CVXPY/Clarabel:
-#: one core) overlap the sweep's compiled kernel and the C compilers of simulate and codegen,
-#: which wait on other cores or on child processes (every stage's results are unchanged).
-BESIDE = ("certify",)
+#: Stages run in a thread beside the later ones, and the stage after which each starts: the
+#: certificates (NumPy, CVXPY/Clarabel: one core) start once the sweep (whose kernel keeps
+#: both cores busy) is done, beside simulate and codegen, which leave a core to the C
+#: compilers' single-threaded runs (every stage's results are unchanged).
+BESIDE = {"certify": "sweep"}
+
+
+def _beside_starts(todo) -> dict:
+    """``{position in todo: stage of BESIDE started in its thread just before it}``.
+
+    A stage of :data:`BESIDE` starts after the stage it names (or at its own place when that
+    one is not run) and only when some stage is left to run beside it; otherwise it runs in
+    turn.
+
+    Examples
+    --------
+    >>> from fl_design.app._job import _beside_starts
+    >>> _beside_starts(["derive", "certify", "sweep", "simulate", "codegen"])
+    {3: 'certify'}
+    >>> _beside_starts(["derive", "certify", "sweep"]), _beside_starts(["derive", "certify"])
+    ({}, {})
+    """
+    out = {}
+    for k, stage in enumerate(todo):
+        if stage not in BESIDE:
+            continue
+        first = todo.index(BESIDE[stage], k) if BESIDE[stage] in todo[k:] else k
+        if first + 1 < len(todo):
+            out[first + 1] = stage
+    return out
 
 
 class _Beside:

@@ -21,10 +21,11 @@ def _certificates(job) -> str:
 def test_certify_beside_the_sweep_gives_the_certificates_of_certify_alone(tmp_path, monkeypatch,
                                                                           capsys):
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path / "a"))
-    beside = run_job(load_config(None), quick=True, stages=("certify", "sweep"))
+    beside = run_job(load_config(None), quick=True, stages=("certify", "sweep", "simulate"))
     err = capsys.readouterr().err
-    assert "certify ... (in a thread beside the next stages)" in err
-    assert "certify: the eps* brackets" in err and "2/3 certify done in" in err
+    # it starts once the sweep is done, beside simulate
+    assert err.index("3/4 sweep done") < err.index("2/4 certify ... (in a thread beside the")
+    assert "certify: the eps* brackets" in err and "2/4 certify done in" in err
     assert beside.timings["certify"] > 0 and "certify" not in beside.cached
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path / "b"))  # computed again, alone
     alone = run_job(load_config(None), quick=True, stages=("certify",), progress=False)
@@ -39,6 +40,6 @@ def test_an_error_of_the_certify_thread_is_raised_by_the_job(monkeypatch):
     monkeypatch.setattr(_stages, "certify", fails)
     ran = []
     with pytest.raises(CertificationError, match="stub"):
-        run_job(load_config(None), quick=True, stages=("certify", "sweep"), progress=False,
-                after=lambda stage, job: ran.append(stage))
-    assert "certify" not in ran
+        run_job(load_config(None), quick=True, stages=("certify", "sweep", "simulate"),
+                progress=False, after=lambda stage, job: ran.append(stage))
+    assert "certify" not in ran and ran[:2] == ["derive", "sweep"]
