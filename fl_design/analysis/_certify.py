@@ -160,7 +160,8 @@ class _Loop:
         return float(np.max(m)) if np.all(np.isfinite(m)) else math.inf
 
     def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
-        """:meth:`frozen_margin` at many eps: one stacked eigenvalue call (no Jacobian box)."""
+        """:meth:`frozen_margin` at many eps (``gamma``: one, or one per eps): one stacked
+        eigenvalue call."""
         if self.box is not None:
             from ._class_bracket import box_frozen_margins
 

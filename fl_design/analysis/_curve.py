@@ -10,6 +10,7 @@ Examples
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -30,7 +31,8 @@ if TYPE_CHECKING:  # annotations only (no import at run time)
 def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                    eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
                    rtol: float = 1e-2, max_pieces: int = 8,
-                   certified: bool = True) -> EpsStarCurve:
+                   certified: bool = True, time_budget: float | None = None,
+                   progress=None) -> EpsStarCurve:
     """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
 
     Continuation along the curve: the certified search at each gamma starts from the ratio
@@ -58,6 +60,12 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         As in :func:`certify_eps`.
     certified : bool, optional
         False: frozen curve only (certified entries NaN).
+    time_budget : float, optional
+        Seconds after which no more certified searches start: the later gains keep their
+        frozen eps* (eigenvalues, fast) and a NaN certified entry, and ``uncovered`` names
+        them (never a hang on a plant whose LMIs are slow). Default: no budget.
+    progress : callable, optional
+        ``progress(done, total)`` after each gain (a caller's progress line).
 
     Returns
     -------
@@ -78,15 +86,24 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     g = V.real_vector("gammas", gammas)
     if g.size == 0 or np.any(g <= 0):
         raise ParameterError(f"gammas must be a non-empty sequence of numbers > 0, got {g.tolist()}")
+    if time_budget is not None:
+        time_budget = V.nonnegative("time_budget", time_budget)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     L.scs = False  # the fast curve: Clarabel only (SCS took ~1 s per failed LMI)
     frozen, cert, hint = np.full(g.size, np.nan), np.full(g.size, np.nan), 0.9
+    start, late = time.perf_counter(), []
     for i, gamma in enumerate(g):
+        if progress is not None and i:
+            progress(i, g.size)
         fb = frozen_bracket(lambda e, g_=gamma: L.screened_margin(e, g_), lo, hi, n_scan,
                             rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
         if fb is None:
             continue
         frozen[i] = f = fb[0]
+        if (certified and time_budget is not None
+                and time.perf_counter() - start > time_budget):
+            late.append(float(gamma))
+            continue
         if certified and L.box is not None and not L.search_ok(max(lo, 0.5 * f), gamma):
             continue  # a class with a slope box not certified at half its frozen eps*: skipped
         if certified:
@@ -98,10 +115,17 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                                    max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95)
             if c is not None:
                 cert[i], hint = c, c / f
+    fields = class_fields(r.cls)
+    if late:
+        words = (f"the certified eps* at gamma = {', '.join(f'{x:.3g}' for x in late)}: not "
+                 f"searched, the time budget of {time_budget:g} s was spent (NaN there means "
+                 "not searched, not refuted)")
+        fields["uncovered"] += (words,)
+    if progress is not None:
+        progress(g.size, g.size)
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
                         b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi),
-                        covers="frozen" if L.box is None else "nonlinear",
-                        **class_fields(r.cls))
+                        covers="frozen" if L.box is None else "nonlinear", **fields)
 
 
 __all__ = ["eps_star_curve"]

@@ -97,10 +97,13 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
     grid_eps = np.unique(np.concatenate([grid_eps, [eps]]))
     if np.any(grid_eps <= 0):
         raise ParameterError(f"eps_grid must be > 0, got {grid_eps.tolist()}")
+    def scan(e):  # the whole gamma scan at one eps: one stacked eigenvalue call
+        return lambda gs: L.frozen_margins(np.full(len(gs), float(e)), gs) < 0.0
+
     g_min, g_max = gamma_interval(lambda g: L.frozen_ok(eps, g), gamma, g_lo, g_hi, n_scan,
-                                   rtol)
+                                  rtol, scan(eps))
     mins = [gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan,
-                            rtol)[0] for e in grid_eps]
+                           rtol, scan(e))[0] for e in grid_eps]
     mins = [m for m in mins if m is not None]
     lower = min(mins) if mins else None
     if lower is not None:

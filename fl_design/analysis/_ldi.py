@@ -209,8 +209,33 @@ def _vertex_loops(L, eps: float, gamma: float):
     return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row
 
 
-def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
-    """Common-P certificate of the sampled LDI at one eps (see the module docstring)."""
+def vertex_switching(Ms, pairs: int):
+    """``(i, j, Refutation)``: a periodic switching between two vertex loops ``Ms[i]``,
+    ``Ms[j]`` that grows (the first of at most ``pairs`` pairs, in order), else None.
+
+    A common ``P`` with ``||M_v||_P < 1`` at every vertex contracts every product of vertex
+    loops, so a growing period proves that no common quadratic ``P`` exists (the LMI would be
+    infeasible): a refutation of the certificate, not of the plant.
+    """
+    from ._refute import switching_refutation
+
+    for n, (i, j) in enumerate(itertools.combinations(range(len(Ms)), 2)):
+        if n >= pairs:
+            break
+        r = switching_refutation(lambda t, a=Ms[i], b=Ms[j]: a if t < 0.5 else b, 0.0, 1.0,
+                                 None)
+        if r.refuted:
+            return i, j, r
+    return None
+
+
+def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCertificate:
+    """Common-P certificate of the sampled LDI at one eps (see the module docstring).
+
+    ``refute_pairs > 0``: before the LMIs, periodic switchings between that many pairs of
+    vertex loops are tried (:func:`vertex_switching`, tens of milliseconds); one that grows
+    answers "no common P" without an LMI (the answer the LMIs would give, and why).
+    """
     T, loop = L.T, L.loop
     verts, Xs, maps, Rbar, model, Ms, D, margins, u_row = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
@@ -223,6 +248,15 @@ def ldi_point(L, eps: float, gamma: float) -> PointCertificate:
             float(eps), False, None, 0, False, None, "not solved", None,
             f"LDI ({model}): the loop of corner {v + 1} of {len(maps)} of the enclosure is not "
             f"Schur (spectral radius {rad:.9f}): no common P; a smaller region narrows the box")
+    found = vertex_switching(Ms, refute_pairs) if refute_pairs > 0 and len(Ms) > 1 else None
+    if found is not None:
+        i, j, r = found
+        return PointCertificate(
+            float(eps), False, None, 0, False, None, "not solved", None,
+            f"LDI ({model}): every vertex loop is Schur, but switching between vertex loops "
+            f"{i + 1} and {j + 1} of {len(maps)} grows (spectral radius {r.radius:.9f} over a "
+            f"{r.period}-sample period): no common quadratic P exists, no LMI solved; a "
+            "smaller region narrows the Jacobian box")
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
     notes = []
     for W in _coordinates(D):

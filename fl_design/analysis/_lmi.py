@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 import warnings
 from dataclasses import dataclass
 
@@ -170,10 +171,29 @@ def recheck_stack(P, G, D, T: float, kappa: float = 0.0) -> np.ndarray:
     return out
 
 
+_SOLVES = threading.local()
+
+
+def solve_count() -> int:
+    """Conic programs (LMIs, SOS) this thread has solved through :func:`_solve` so far.
+
+    A counter for progress lines (the difference between two readings); nothing reads it
+    to decide anything.
+
+    Examples
+    --------
+    >>> from fl_design.analysis._lmi import solve_count
+    >>> solve_count() >= 0
+    True
+    """
+    return getattr(_SOLVES, "n", 0)
+
+
 def _solve(problem, solver: str) -> str:
     """Solve ``problem`` with ``solver``, its warnings silenced; the CVXPY status."""
     import cvxpy as cp
 
+    _SOLVES.n = solve_count() + 1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if solver == "SCS":
@@ -300,4 +320,4 @@ def balance(deltas) -> list[np.ndarray]:
 
 
 __all__ = ["RECHECK_TOL", "LMISolution", "balance", "balance_scaling", "recheck", "recheck_stack",
-           "vertex_lmi"]
+           "solve_count", "vertex_lmi"]

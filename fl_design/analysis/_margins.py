@@ -129,7 +129,7 @@ def _gain_margins(A, B, C) -> tuple:
 
 
 def loop_margins(design, b: float, *, eps: float | None = None, gamma: float | None = None,
-                 n_freq: int = 4000) -> LoopMargins:
+                 n_freq: int = 4000, statespace: bool = True) -> LoopMargins:
     """Gain, phase and delay margins at the plant input, ``b`` frozen.
 
     Parameters
@@ -142,6 +142,9 @@ def loop_margins(design, b: float, *, eps: float | None = None, gamma: float | N
         Other numbers than the design's.
     n_freq : int, optional
         Points of the log frequency grid (default 4000).
+    statespace : bool, optional
+        Build the python-control ``StateSpace`` of the open loop (its import takes about a
+        second the first time); False: ``statespace`` is None, every number the same.
 
     Returns
     -------
@@ -180,12 +183,14 @@ def loop_margins(design, b: float, *, eps: float | None = None, gamma: float | N
         if abs(margin) < abs(pm):
             pm, wc = margin, x
     delay = math.radians(pm) / wc if math.isfinite(wc) else math.inf
-    try:
-        import control
+    ss = None
+    if statespace:
+        try:
+            import control
 
-        ss = control.ss(A, B[:, None], -C[None, :], np.zeros((1, 1)), dt=T)
-    except ImportError:
-        ss = None
+            ss = control.ss(A, B[:, None], -C[None, :], np.zeros((1, 1)), dt=T)
+        except ImportError:
+            pass
     return LoopMargins(b, _gain_margins(A, B, C), float(pm), float(wc), float(delay),
                        np.linalg.eigvals(A + np.outer(B, C)), ss)
 

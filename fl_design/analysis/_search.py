@@ -199,11 +199,13 @@ def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float,
     return tuple(out)
 
 
-def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
+def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol, preds=None):
     """Stable run of a log gamma scan containing ``design_gamma`` (else the lowest run).
 
     Returns ``(gamma_min, gamma_max)`` refined by bisection to ``rtol`` (an end of the scan
-    when the run reaches it), or ``(None, None)`` when no scan point is stable.
+    when the run reaches it), or ``(None, None)`` when no scan point is stable. ``preds``
+    (optional) evaluates the whole scan at once (``array -> bools``, stacked eigenvalue
+    problems); the refinement uses ``pred``.
 
     Examples
     --------
@@ -212,7 +214,7 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol):
     (0.1, 0.5)
     """
     grid = np.geomspace(lo, hi, n_scan)
-    ok = [pred(g) for g in grid]
+    ok = [bool(v) for v in preds(grid)] if preds is not None else [pred(g) for g in grid]
     runs, i = [], 0
     while i < n_scan:
         if ok[i]:

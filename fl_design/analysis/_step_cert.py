@@ -57,6 +57,9 @@ import numpy as np
 from ..errors import ParameterError
 from ._cert_results import _Result
 
+#: Pairs of LDI vertex loops whose switching is tried before the LMIs of a region (a growing
+#: one shows no common P exists: the region is passed over without an LMI).
+REFUTE_PAIRS = 8
 #: Scales of the plant's region (about the target) tried in turn.
 REGION_SCALES = ((1.0, 1.0), (0.1, 0.1), (1e-2, 1e-2), (1e-3, 1e-3), (1e-4, 1e-3),
                  (3e-5, 1e-3))
@@ -141,7 +144,8 @@ def _sigma_uses_top_only(plant) -> bool:
 
 
 def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None = None,
-                 region_scales=REGION_SCALES, friction=None) -> StepCertificate:
+                 region_scales=REGION_SCALES, friction=None, time_budget: float | None = None,
+                 progress=None) -> StepCertificate:
     """Is the scenario's step certified (bounded and converging)? By which argument?
 
     Parameters
@@ -166,6 +170,11 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
         ``b``'s range (``rho = 2``, ``u_eq = 0``). The global Lur'e certificate of
         :mod:`._lure` is tried first; if it holds, every start is certified for that class,
         else its reason is listed as not covered and the ellipsoid argument follows.
+    time_budget : float, optional
+        Seconds after which no further (smaller) region is tried; the regions not tried are
+        named in ``uncovered``. Default: no budget.
+    progress : callable, optional
+        ``progress(done, total)`` before each region (a caller's progress line).
 
     Returns
     -------
@@ -272,7 +281,18 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
                      "arbitrarily in its range: conservative)")
     step = r - float(X0[0] + r)
     best, fails = None, []
-    for scale, b, box, ueq, rooms_fn, words in tries:
+    if time_budget is not None and not (math.isfinite(float(time_budget))
+                                        and float(time_budget) >= 0):
+        raise ParameterError(f"time_budget must be a finite number >= 0 seconds, got "
+                             f"{time_budget!r}")
+    n_tries = 1 if isinstance(plant_or_class, PlantClass) else len(region_scales)
+    for k, (scale, b, box, ueq, rooms_fn, words) in enumerate(tries):
+        if time_budget is not None and k and time.perf_counter() - t0 > time_budget:
+            uncovered.append(f"regions at scales {', '.join(str(x) for x in region_scales[k:])}"
+                             f": not tried, the time budget of {time_budget:g} s was spent")
+            break
+        if progress is not None:
+            progress(k, n_tries)
         out = _one(design, b, box, ueq, rooms_fn, X0, nbar, words, scale)
         if isinstance(out, str):
             fails.append(out)
@@ -372,6 +392,7 @@ def _plant_tries(plant, design, x_eq, u_eq, scales):
 def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     """One region: LDI ``P``, then the sector ellipsoid; a tuple or the reason (str)."""
     from ._certify import _Loop
+    from ._covered_lmi import widest_start_p
     from ._ldi import ldi_point
     from ._sector import loop_channels, solve_ellipsoid
 
@@ -379,14 +400,14 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
         return f"at scales {scale} the region leaves no room after the inter-sample margin"
     eps, gamma = float(design.estimator.eps), float(design.controller.gamma)
     L = _Loop(design, b, box, 41, 8)
-    pc = ldi_point(L, eps, gamma)
+    pc = ldi_point(L, eps, gamma, refute_pairs=REFUTE_PAIRS)
     if not pc.certified:
         return f"at scales {scale}: {pc.reason}"
     ch = loop_channels(design, b, box, u_eq=u_eq)
     keep = L.loop.keep
     Xk = X0[keep]
     cands = [("the LDI certificate's", np.asarray(pc.lyapunov[0][0], float))]
-    wide = _widest_p(L, ch, eps, gamma, rooms, Xk)
+    wide = widest_start_p(L, ch, eps, gamma, rooms, Xk)
     if wide is not None:
         cands.append(("chosen for this start (LMI)", wide))
     best, notes = None, []
@@ -437,52 +458,6 @@ def _contraction(ch, P) -> float:
     Lc = np.linalg.cholesky((P + P.T) / 2)
     Li = np.linalg.inv(Lc)
     return max(float(np.linalg.norm(Lc.T @ M @ Li.T, 2)) for M in ch.Ms)
-
-
-def _widest_p(L, ch, eps, gamma, rooms, Xk):
-    """A ``P`` whose unit set covers ``Xk`` best inside the rooms and the limits' linear
-    regions (one LMI, as :func:`._covered_lmi.widest_covered_p` with general rows): a candidate
-    that :func:`._sector.solve_ellipsoid` re-checks, or None."""
-    import cvxpy as cp
-
-    from ._ldi import DECAY_FRACTION, _coordinates, _vertex_loops
-    from ._lmi import solve_quietly
-
-    out = _vertex_loops(L, eps, gamma)
-    D, margins = out[6], out[7]
-    if np.max(margins) >= 0.0 or not np.any(Xk):
-        return None
-    n = Xk.size
-    rows = [(np.eye(n)[i], r) for i, r in rooms.items()]
-    rows += [(ch.K[j], ch.room[j]) for j in range(ch.K.shape[0])]
-    if not rows:
-        return None
-    kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
-    sT = math.sqrt(L.T)
-    for W in _coordinates(D):
-        Wi = np.linalg.inv(W)
-        Db = [Wi @ x @ W for x in D]
-        x0 = Wi @ Xk
-        for k in (0.25 * kappa, 0.02 * kappa):
-            P = cp.Variable((n, n), symmetric=True)
-            t = cp.Variable()
-            cons = []
-            for Dv in Db:
-                S = cp.bmat([[-(P @ Dv + Dv.T @ P) - 2.0 * k * P, sT * Dv.T @ P],
-                             [sT * P @ Dv, P]])
-                cons.append((S + S.T) / 2 >> 0)
-            for c, r in rows:
-                cw = (c @ W).reshape(n, 1)
-                B = cp.bmat([[P, cw], [cw.T, np.array([[r * r]])]])
-                cons.append((B + B.T) / 2 >> 0)
-            cons.append(cp.quad_form(x0, P) <= t)
-            prob = cp.Problem(cp.Minimize(t), cons)
-            if solve_quietly(prob) is not None or P.value is None:
-                continue
-            Pb = (P.value + P.value.T) / 2
-            if np.linalg.eigvalsh(Pb)[0] > 0.0:
-                return Wi.T @ Pb @ Wi
-    return None
 
 
 __all__ = ["StepCertificate", "certify_step"]

@@ -246,8 +246,10 @@ class SurrogateLoop:
             M0, M1 = (M[:, self.keep][:, :, self.keep] for M in (M0, M1))
         return M0, M1
 
-    def parts_many(self, eps_values, gamma: float) -> tuple[np.ndarray, np.ndarray]:
+    def parts_many(self, eps_values, gamma) -> tuple[np.ndarray, np.ndarray]:
         """Stacked ``(M0, M1)`` at many eps (one mapped CasADi call), ``(k, n, n)`` each.
+
+        ``gamma`` is one gain or one per eps (a gain scan at one eps repeats that eps).
 
         Examples
         --------
@@ -259,8 +261,9 @@ class SurrogateLoop:
         """
         eps_values = [float(e) for e in eps_values]
         k = len(eps_values)
-        p = np.stack([np.concatenate([self.estimator_vector(e), [float(gamma)]])
-                      for e in eps_values], axis=1)
+        gammas = np.broadcast_to(np.asarray(gamma, dtype=float), (k,))
+        p = np.stack([np.concatenate([self.estimator_vector(e), [float(g)]])
+                      for e, g in zip(eps_values, gammas)], axis=1)
         Js, Jy, us, uy = (np.asarray(m, dtype=float) for m in
                           self._jac.map(k)(np.tile(self._s0[:, None], (1, k)), 0.0, p))
         n_s = self._s0.size

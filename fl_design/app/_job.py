@@ -18,6 +18,7 @@ Examples
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -137,8 +138,8 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
         job.derivation = _cached(job, "derive", False, lambda: _stages.derive(s))
 
     def certify():
-        job.results["certify"] = _cached(job, "certify", quick,
-                                         lambda: _stages.certify(s, job.derivation, quick))
+        job.results["certify"] = _cached(job, "certify", quick, lambda: _stages.certify(
+            s, job.derivation, quick, progress=lambda line: note(line, enabled=progress)))
 
     def sweep():
         job.results["sweep"] = _stages.sweep(s, quick, executor, progress)
@@ -165,7 +166,9 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     """Run the main job's stages (derive, certify, sweep, simulate, robustness, codegen).
 
     ``robustness`` (:func:`fl_design.monte_carlo` over the ``[uncertainty]`` family) runs only
-    when the config gives ``[uncertainty] params``.
+    when the config gives ``[uncertainty] params``. The stages of :data:`BESIDE` (certify) run
+    in a thread beside the later stages when any follow (the same results, the two cores
+    used); the job waits for them before it returns and re-raises their errors.
 
     Parameters
     ----------
@@ -204,18 +207,102 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     todo = [s for s in STAGES if s in stages or (s == "derive" and "certify" in stages)]
     if not config.uncertainty.params:  # robustness only with [uncertainty] params
         todo = [s for s in todo if s != "robustness"]
-    for i, stage in enumerate(todo, 1):
-        note(f"{i}/{len(todo)} {stage} ...", enabled=progress)
+    label = {stage: f"{i}/{len(todo)}" for i, stage in enumerate(todo, 1)}
+    starts = _beside_starts(todo)
+    running = []
+    for k, stage in enumerate(todo):
+        if k in starts:  # a stage of BESIDE starts in its thread before this one
+            name = starts[k]
+            note(f"{label[name]} {name} ... (in a thread beside the next stages)",
+                 enabled=progress)
+            running.append(_Beside(name, label[name], steps[name]))
+        if stage in starts.values():
+            continue
+        note(f"{label[stage]} {stage} ...", enabled=progress)
         start, cpu = time.perf_counter(), time.process_time()
         steps[stage]()
         job.timings[stage] = time.perf_counter() - start
         # this process's CPU time beside the wall time: on a loaded machine they differ
         how = " from the cache" if stage in job.cached else ""
-        note(f"{i}/{len(todo)} {stage} done in {job.timings[stage]:.1f} s (CPU "
+        note(f"{label[stage]} {stage} done in {job.timings[stage]:.1f} s (CPU "
              f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
+        for b in running:
+            b.raise_error()  # it failed: stop here, as it would have run alone
         if after is not None:
             after(stage, job)
+    for b in running:
+        b.join(job, progress)
+        if after is not None:
+            after(b.stage, job)
     return job
 
 
-__all__ = ["QUICK", "STAGES", "Job", "noise_levels", "note", "prepare", "run_job"]
+#: Stages run in a thread beside the later ones, and the stage after which each starts: the
+#: certificates (NumPy, CVXPY/Clarabel: one core) start once the sweep (whose kernel keeps
+#: both cores busy) is done, beside simulate and codegen, which leave a core to the C
+#: compilers' single-threaded runs (every stage's results are unchanged).
+BESIDE = {"certify": "sweep"}
+
+
+def _beside_starts(todo) -> dict:
+    """``{position in todo: stage of BESIDE started in its thread just before it}``.
+
+    A stage of :data:`BESIDE` starts after the stage it names (or at its own place when that
+    one is not run) and only when some stage is left to run beside it; otherwise it runs in
+    turn.
+
+    Examples
+    --------
+    >>> from fl_design.app._job import _beside_starts
+    >>> _beside_starts(["derive", "certify", "sweep", "simulate", "codegen"])
+    {3: 'certify'}
+    >>> _beside_starts(["derive", "certify", "sweep"]), _beside_starts(["derive", "certify"])
+    ({}, {})
+    """
+    out = {}
+    for k, stage in enumerate(todo):
+        if stage not in BESIDE:
+            continue
+        first = todo.index(BESIDE[stage], k) if BESIDE[stage] in todo[k:] else k
+        if first + 1 < len(todo):
+            out[first + 1] = stage
+    return out
+
+
+class _Beside:
+    """One stage run in a daemon thread; :meth:`join` waits for it and re-raises its error."""
+
+    def __init__(self, stage: str, label: str, step):
+        self.stage, self.label, self.error = stage, label, None
+        self.wall = self.cpu = 0.0
+        self.thread = threading.Thread(target=self._work, args=(step,),
+                                       name=f"fl-design-{stage}", daemon=True)
+        self.thread.start()
+
+    def _work(self, step) -> None:
+        start, cpu = time.perf_counter(), time.thread_time()
+        try:
+            step()
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
+            self.error = exc
+        self.wall, self.cpu = time.perf_counter() - start, time.thread_time() - cpu
+
+    def raise_error(self) -> None:
+        """Re-raise the stage's exception, if it has ended with one."""
+        if self.error is not None and not self.thread.is_alive():
+            raise self.error
+
+    def join(self, job: Job, progress: bool) -> None:
+        """Wait for the stage (interruptible: one-second waits), store its time, re-raise."""
+        start = time.perf_counter()
+        while self.thread.is_alive():
+            self.thread.join(timeout=1.0)
+        self.raise_error()
+        job.timings[self.stage] = self.wall
+        how = " from the cache" if self.stage in job.cached else ""
+        note(f"{self.label} {self.stage} done in {self.wall:.1f} s (CPU {self.cpu:.1f} s{how}; "
+             f"beside the other stages, {time.perf_counter() - start:.1f} s waited after them)",
+             enabled=progress)
+
+
+__all__ = ["BESIDE", "QUICK", "STAGES", "Job", "noise_levels", "note", "prepare", "run_job"]

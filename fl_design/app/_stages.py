@@ -17,6 +17,7 @@ Examples
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,9 @@ from ._build import Setup, design_name
 STAGES = ("derive", "certify", "sweep", "simulate", "robustness", "codegen")
 QUICK = {"duration": 4.0, "sweep_points": 5, "sweep_duration": 3.0, "certify_points": 3,
          "bench_steps": 20_000, "sil_duration": 1.0}
+#: Seconds of the certify stage after which the curve's certified searches and the step
+#: certificate's smaller regions are no longer started (the results name what was left).
+CERTIFY_BUDGET_S = 120.0
 #: ``[compare] duration = "adaptive"``: the compared runs last this many rise times (10-90 %)
 #: of this design's run: the transient (overshoot, noise), not the slow final approach.
 COMPARE_RISE_TIMES = 15.0
@@ -78,8 +82,12 @@ def derive(setup: Setup) -> dict:
     }
 
 
-def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
+def certify(setup: Setup, derivation: dict, quick: bool, progress=None) -> dict:
     """Lyapunov, gamma and eps* certificates, margins, the nonlinear region, linearized eps*.
+
+    The curve's certified searches and the step certificate's regions stop starting after
+    :data:`CERTIFY_BUDGET_S` seconds of the stage (what was not searched is named in the
+    results: never a hang on a plant whose LMIs are slow).
 
     Parameters
     ----------
@@ -89,6 +97,9 @@ def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
         :func:`derive`'s results (its b-range).
     quick : bool
         Fewer gamma points; no nonlinear region search.
+    progress : callable, optional
+        ``progress(line)``: one line per step (what it does, seconds so far, conic programs
+        solved, the curve's gains done and its time to go).
 
     Returns
     -------
@@ -112,8 +123,19 @@ def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
         linearized_eps_star,
         loop_margins,
     )
+    from ..analysis._lmi import solve_count
 
     cfg, design, plant = setup.config.certify, setup.design, setup.plant
+    start, solves = time.perf_counter(), solve_count()
+
+    def say(what: str) -> None:
+        if progress is not None:
+            progress(f"certify: {what} ({time.perf_counter() - start:.1f} s, "
+                     f"{solve_count() - solves} conic programs solved)")
+
+    def left() -> float:  # seconds of the stage's budget left
+        return max(0.0, CERTIFY_BUDGET_S - (time.perf_counter() - start))
+
     b = derivation["b_bounds"]
     out = {"lyapunov": certify_lyapunov(design.controller.gains, T=design.T)}
     box = setup.config.uncertainty.box()
@@ -133,24 +155,41 @@ def certify(setup: Setup, derivation: dict, quick: bool) -> dict:
         # of sigma and b's rate over its region, or over the [uncertainty] box given as a
         # PlantBounds), never the a = 0 chain of its b range
         bb = b if "box" in out else setup.plant
+        say("the gamma interval")
         out["gamma"] = certify_gamma(design, bb)
+        say("the eps* brackets")
         out["eps"] = certify_eps(design, bb, eps_range=eps_range)
-        out["curve"] = eps_star_curve(design, bb, np.abs(gammas), eps_range=eps_range)  # |gamma|
+        say(f"the eps*(gamma) curve, {gammas.size} gains")
+        curve_start = time.perf_counter()
+
+        def gains_done(k, n):
+            if 0 < k < n:
+                eta = (time.perf_counter() - curve_start) / k * (n - k)
+                say(f"the curve: {k}/{n} gains, about {eta:.0f} s to go")
+
+        out["curve"] = eps_star_curve(design, bb, np.abs(gammas), eps_range=eps_range,
+                                      time_budget=left(), progress=gains_done)  # |gamma|
         # margins at both ends of b, as plain numbers and text (cached without python-control)
         out["margins"] = [{**m.to_dict(), "text": m._repr_lines()[0]}
-                          for m in (loop_margins(design, bb) for bb in out["eps"].b_bounds)]
-        out["nonlinear"], out["nonlinear_summary"] = step_line(design, plant,
-                                                               setup.config.scenario, quick)
+                          for m in (loop_margins(design, bb, statespace=False)
+                                    for bb in out["eps"].b_bounds)]
+        if not quick:
+            say("the step certificate (regions about the target)")
+        out["nonlinear"], out["nonlinear_summary"] = step_line(
+            design, plant, setup.config.scenario, quick, time_budget=left(),
+            progress=lambda k, n: say(f"the step certificate: region {k + 1}/{n}"))
     elif b is None:
         out["skipped"] = "the plant declares no region and input range: no b-range to certify"
     out["linearized"] = {"gamma": gammas, "eps_range": eps_range, "eps_star": [
         linearized_eps_star(plant, design, gamma=float(g), eps_range=eps_range)
         for g in gammas]}  # fl.EpsStar brackets: "> eps_max" / "< eps_min" outside the range
     out["linearized_design"] = linearized_eps_star(plant, design, eps_range=eps_range)
+    say("done")
     return out
 
 
-def step_line(design, plant, scenario, quick: bool) -> tuple[str, str]:
+def step_line(design, plant, scenario, quick: bool, *, time_budget=None,
+              progress=None) -> tuple[str, str]:
     """The step certificate's text and summary words (:func:`fl_design.certify_step`).
 
     The user's question on the nonlinear plant: is this step, from the plant's operating point
@@ -166,6 +205,10 @@ def step_line(design, plant, scenario, quick: bool) -> tuple[str, str]:
     scenario : ScenarioTable
         The config's ``[scenario]`` (its reference).
     quick : bool
+    time_budget : float, optional
+        Seconds after which no smaller region is tried (:func:`fl_design.certify_step`).
+    progress : callable, optional
+        ``progress(done, total)`` before each region.
 
     Returns
     -------
@@ -190,7 +233,8 @@ def step_line(design, plant, scenario, quick: bool) -> tuple[str, str]:
     if callable(r) or not isinstance(r, (int, float)):
         return "this step: a constant reference only", "not certified (a varying reference)"
     try:
-        c = certify_step(plant, design, Scenario(float(r)))
+        c = certify_step(plant, design, Scenario(float(r)), time_budget=time_budget,
+                         progress=progress)
     except FlDesignError as err:
         return f"this step: not analysed: {err}", "not certified (see Certificates)"
     text = "the step on the nonlinear plant: " + "; ".join(c._repr_lines())
@@ -395,6 +439,6 @@ def codegen(setup: Setup, quick: bool, out_dir, force: bool = False) -> dict:
             "sil_noise_std": std}
 
 
-__all__ = ["COMPARE_MAX_SAMPLES", "COMPARE_RISE_TIMES", "QUICK", "STAGES", "certify",
+__all__ = ["CERTIFY_BUDGET_S", "COMPARE_MAX_SAMPLES", "COMPARE_RISE_TIMES", "QUICK", "STAGES", "certify",
            "codegen", "compare_window", "derive", "design_name", "noise_levels",
            "simulate", "step_line", "sweep"]
