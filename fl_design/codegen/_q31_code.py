@@ -56,15 +56,19 @@ def _align(fa: int, fb: int) -> int:
 
 def _shift32(v: str, s: int) -> str:
     """``v 2^-s`` of an ``int32_t`` expression whose result fits (floor for s > 0)."""
-    if s > 0:
-        return f"{{PFX}}_asr32({v}, {s}u)"
+    if s >= 32:  # |v| < 2^31: floor(v / 2^s) is -1 or 0
+        return f"(({v} < 0) ? INT32_C(-1) : INT32_C(0))"
+    if s > 0:  # the multiplier 2^(32 - s) as a literal (see the template's _asr32)
+        return f"{{PFX}}_asr32({v}, INT64_C({1 << (32 - s)}))"
     return f"({v} * INT32_C({1 << -s}))" if s < 0 else v
 
 
 def _narrow(op, a, F, name, fk, const):
     """The ``int32_t`` text of a sum, min/max, product by ``+-2^m``, twice or negation when an
     identity of floors makes it exact (module docstring), else None."""
-    if op in _SYM or op in (ca.OP_FMIN, ca.OP_FMAX):
+    if op in (ca.OP_FMIN, ca.OP_FMAX):
+        return _narrow_minmax(op, a, F, name, fk)
+    if op in _SYM:
         (i, j), fm = a, _align(F[a[0]], F[a[1]])
         if fm != max(F[i], F[j]):
             return None  # operands more than 31 bits apart
@@ -74,9 +78,6 @@ def _narrow(op, a, F, name, fk, const):
             (w, x), k = ((i, j) if F[i] < F[j] else (j, i)), fm - fk
         else:
             return None
-        if op in (ca.OP_FMIN, ca.OP_FMAX):
-            xs = _shift32(name[x], k)
-            return f"(({name[w]} {'<' if op == ca.OP_FMIN else '>'} {xs}) ? {name[w]} : {xs})"
         if op == ca.OP_ADD:
             return f"({name[w]} + {_shift32(name[x], k)})"
         if w == i:  # w 2^k - x
@@ -95,6 +96,44 @@ def _narrow(op, a, F, name, fk, const):
     if op == ca.OP_NEG:
         return _shift32(f"(-{name[a[0]]})", F[a[0]] - fk)
     return None
+
+
+def _narrow_minmax(op, a, F, name, fk):
+    """``min``/``max`` in ``int32_t``: with ``A`` at ``F_A <= F_B``, ``floor(min(A 2^(F_B -
+    F_A), B) / 2^s) = min(A 2^j, B')`` (``B' = floor(B / 2^(F_B - fk))``, ``j = fk - F_A``,
+    floor is monotone), and ``A 2^j < B' <=> A <= floor((B' - 1) / 2^j)``, ``A 2^j > B' <=>
+    A > floor(B' / 2^j)``: the comparison in 32 bits, ``A 2^j`` formed only when it is the
+    result (which fits)."""
+    (i, j), fm = a, _align(F[a[0]], F[a[1]])
+    lo, hi = (i, j) if F[i] <= F[j] else (j, i)
+    if fm != F[hi] or fk > F[hi]:
+        return None  # operands more than 31 bits apart, or a result finer than both
+    if fk <= F[lo]:
+        xa, xb = _shift32(name[i], F[i] - fk), _shift32(name[j], F[j] - fk)
+        return f"(({xa} {'<' if op == ca.OP_FMIN else '>'} {xb}) ? {xa} : {xb})"
+    up, b = fk - F[lo], _shift32(name[hi], F[hi] - fk)
+    cond = (f"{name[lo]} <= {_shift32(f'({b} - 1)', up)}" if op == ca.OP_FMIN
+            else f"{name[lo]} > {_shift32(b, up)}")
+    return f"(({cond}) ? ({name[lo]} * INT32_C({1 << up})) : {b})"
+
+
+def _narrow_cmp(op, a, F, name):
+    """``<`` / ``<=`` of two values in ``int32_t`` (``k = |F_A - F_B| <= 31``): ``A 2^k < B
+    <=> A <= floor((B - 1) / 2^k)``, ``A 2^k <= B <=> A <= floor(B / 2^k)``, ``A < B 2^k <=>
+    floor(A / 2^k) < B``, ``A <= B 2^k <=> floor((A - 1) / 2^k) < B`` (every value lies within
+    ``2^30``: ``B - 1`` does not overflow); None for ``==``, ``!=``."""
+    (i, j), fm = a, _align(F[a[0]], F[a[1]])
+    if op not in (ca.OP_LT, ca.OP_LE) or fm != max(F[i], F[j]):
+        return None
+    if F[i] == F[j]:
+        return f"({name[i]} {_CMP[op]} {name[j]})"
+    if F[i] < F[j]:
+        k = F[j] - F[i]
+        b = f"({name[j]} - 1)" if op == ca.OP_LT else name[j]
+        return f"({name[i]} <= {_shift32(b, k)})"
+    k = F[i] - F[j]
+    x = name[i] if op == ca.OP_LT else f"({name[i]} - 1)"
+    return f"({_shift32(x, k)} < {name[j]})"
 
 
 _SYM = {ca.OP_ADD: "+", ca.OP_SUB: "-"}
@@ -167,6 +206,9 @@ def c_body_q31(prog: Q31Program) -> str:
             A, B = _shift(q(a[0]), F[a[0]], fm), _shift(q(a[1]), F[a[1]], fm)
             cmp = "<" if op == ca.OP_FMIN else ">"
             text = f"(int32_t) {_shift(f'(({A} {cmp} {B}) ? {A} : {B})', fm, fk)}"
+        elif op in _CMP and (cmp := _narrow_cmp(op, a, F, name)) is not None:
+            lines.append(f"  const bool q{k} = {cmp};")
+            continue
         elif op in _CMP:
             fm = _align(F[a[0]], F[a[1]])
             A, B = _shift(q(a[0]), F[a[0]], fm), _shift(q(a[1]), F[a[1]], fm)

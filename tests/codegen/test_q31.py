@@ -149,3 +149,71 @@ def test_q15_is_refused_with_its_predicted_quantization_error(packages, tmp_path
     assert "u's resolution becomes" in str(info.value) and not (tmp_path / "q15").exists()
     with pytest.raises(ParameterError, match="q31' is generated for the EHGO"):
         generate_c(presets.least_squares_design(9), tmp_path / "ls", precision="q15")
+
+
+@pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
+def test_the_int32_min_max_and_comparisons_equal_the_aligned_int64_ones(tmp_path):
+    """The narrowed C of min/max/</<= (exact floor identities, ``_q31_code``), compiled with
+    the template's ``_asr32``, against the 64-bit reference (both operands aligned to the
+    finer one, the result floored to its fraction bits) on random operands within ``2^30``
+    whose result fits (the interval analysis' guarantee), boundaries included."""
+    import casadi as ca
+
+    from fl_design.codegen._q31_code import _align, _narrow_cmp, _narrow_minmax
+
+    rng = np.random.default_rng(11)
+    cases, funcs = [], []
+    for op in (ca.OP_FMIN, ca.OP_FMAX, ca.OP_LT, ca.OP_LE):
+        for _ in range(12):
+            fa, fb = (int(v) for v in rng.integers(0, 40, 2))
+            if abs(fa - fb) > 31 or fa == fb and op in (ca.OP_LT, ca.OP_LE):
+                fb = fa + int(rng.integers(1, 31))
+            fk = int(rng.integers(min(fa, fb) - 5, max(fa, fb) + 1))
+            F, name = {0: fa, 1: fb}, {0: "a", 1: "b"}
+            text = (_narrow_cmp(op, (0, 1), F, name) if op in (ca.OP_LT, ca.OP_LE)
+                    else _narrow_minmax(op, (0, 1), F, name, fk))
+            assert text is not None
+            funcs.append(f"static int32_t f{len(cases)}(int32_t a, int32_t b) {{\n"
+                         f"  return (int32_t) {text.replace('{PFX}', 'fl')};\n}}")
+            cases.append((op, fa, fb, fk))
+    asr = re.search(r"static int32_t @PREFIX@_asr32.*?\n}\n", (
+        __import__("importlib").resources.files("fl_design.codegen") / "templates" /
+        "step_q31.c.in").read_text(), re.DOTALL).group(0).replace("@PREFIX@", "fl")
+    calls = "\n".join(f"    case {i}: out = f{i}(a, b); break;" for i in range(len(cases)))
+    src = tmp_path / "narrow.c"
+    src.write_text("#include <stdint.h>\n#include <stdio.h>\n#include <stdbool.h>\n" + asr
+                   + "\n".join(funcs) + "\nint main(void) {\n  int i; long a_, b_;\n"
+                   "  while (scanf(\"%d %ld %ld\", &i, &a_, &b_) == 3) {\n"
+                   "    const int32_t a = (int32_t) a_, b = (int32_t) b_; int32_t out = 0;\n"
+                   f"    switch (i) {{\n{calls}\n    default: break;\n    }}\n"
+                   "    printf(\"%ld\\n\", (long) out);\n  }\n  return 0;\n}\n")
+    exe = tmp_path / "narrow"
+    subprocess.run([find_compiler(), "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror",
+                    "-fsanitize=undefined", "-fno-sanitize-recover=all", str(src), "-o",
+                    str(exe)], check=True, timeout=120)
+    lines, expected = [], []
+    lim = 2**30
+    for i, (op, fa, fb, fk) in enumerate(cases):
+        fm = _align(fa, fb)
+        n = 0
+        for _ in range(2000):  # about half the draws fit; 60 of them kept
+            if n == 60:
+                break
+            a, b = (int(v) for v in rng.integers(-lim, lim + 1, 2))
+            if n % 3 == 0:  # near the boundary of the comparison
+                b = int(np.clip((a << (fm - fa)) >> (fm - fb), -lim, lim)) + int(
+                    rng.integers(-2, 3))
+            A, B = a << (fm - fa), b << (fm - fb)
+            if op in (ca.OP_LT, ca.OP_LE):
+                ref = int(A < B) if op == ca.OP_LT else int(A <= B)
+            else:
+                ref = (min(A, B) if op == ca.OP_FMIN else max(A, B)) >> (fm - fk)
+                if abs(ref) > lim or abs(b) > lim:
+                    continue  # outside what the analysis admits
+            lines.append(f"{i} {a} {b}")
+            expected.append(ref)
+            n += 1
+        assert n == 60, (op, fa, fb, fk)
+    out = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True,
+                         text=True, check=True, timeout=60).stdout.split()
+    assert [int(v) for v in out] == expected
