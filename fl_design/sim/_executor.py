@@ -291,7 +291,7 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
     if isinstance(broken, WorkerLostError):
         workers = broken.workers or workers
     elif type(broken).__name__ == "KilledWorker":
-        workers = workers or [f"Dask worker ({_first_line(broken)})"]
+        workers = workers or [_killed_worker(broken)]
     reason = _reason(broken)
     if named and named not in reason:
         reason += f"; {named}"
@@ -311,6 +311,15 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
     raise err
 
 
+def _killed_worker(exc) -> str:
+    """``"Dask worker tcp://... died running task (tries: n)"`` of a ``KilledWorker``."""
+    last = getattr(exc, "last_worker", None)
+    address = getattr(last, "address", last) or "(address unknown)"
+    tries = getattr(exc, "allowed_failures", None)
+    tries = f", {tries + 1} worker(s) tried" if isinstance(tries, int) else ""
+    return f"Dask worker {address} died running a task of the grid{tries}"
+
+
 def _first_line(exc) -> str:
     return (str(exc).strip().splitlines() or [type(exc).__name__])[0][:200]
 
@@ -318,6 +327,8 @@ def _first_line(exc) -> str:
 def _reason(broken) -> str:
     if isinstance(broken, WorkerLostError):
         return str(broken)
+    if type(broken).__name__ == "KilledWorker":
+        return f"KilledWorker: {_killed_worker(broken)}"
     return f"{type(broken).__name__}: {_first_line(broken)}"
 
 

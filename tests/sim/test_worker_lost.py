@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -187,3 +188,72 @@ def test_a_partial_map_checks_its_mask_shape():
     with pytest.raises(ParameterError, match=r"lost must have the status' shape \(1, 2\)"):
         PartialStabilityMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[2, 3]]), {},
                             1e-3, 1.0, 0.1, lost=np.array([True]))
+
+
+_DASK = textwrap.dedent("""
+    import json, os, sys
+    from concurrent.futures import Executor
+    import numpy as np
+    import dask
+    import fl_design as fl
+    from fl_design.errors import WorkerLostError
+
+    class DiesAt(Executor):
+        '''A Dask client's executor whose task number `at` (1-based) kills its worker.'''
+        def __init__(self, inner, at):
+            self.inner, self.at, self.n, self._client = inner, at, 0, inner._client
+        def submit(self, fn, /, *args, **kwargs):
+            self.n += 1
+            return self.inner.submit(*((os._exit, 3) if self.n == self.at else (fn, *args)),
+                                     **kwargs)
+
+    if __name__ == "__main__":
+        from distributed import Client, LocalCluster
+        dask.config.set({"distributed.scheduler.allowed-failures": 0,
+                         "logging.distributed": "critical"})
+        p, d = fl.plants.pendulum(), fl.presets.pendulum_design()
+        sc = fl.Scenario(0.05, 1.0)
+        grid = dict(eps=np.geomspace(0.005, 0.2, 4), gamma=np.geomspace(3e-3, 0.1, 4),
+                    progress=False, kernel=fl.Kernel(chunk_size=2))
+        clean = fl.sweep(p, d, sc, **grid)
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                          dashboard_address=None) as cluster, Client(cluster) as client:
+            try:
+                fl.sweep(p, d, sc, executor=DiesAt(client.get_executor(), 4), **grid)
+                print(json.dumps({"error": None}))
+            except WorkerLostError as err:
+                part, kept = err.partial, ~err.partial.lost
+                same = all(np.array_equal(np.asarray(v)[kept], np.asarray(clean.metrics[k])[kept],
+                                          equal_nan=True) for k, v in part.metrics.items())
+                print(json.dumps({
+                    "error": str(err), "lost": err.lost, "workers": err.workers,
+                    "type": type(part).__name__, "reason": part.lost_reason,
+                    "mask": np.flatnonzero(part.lost.ravel()).tolist(),
+                    "same": bool(same and np.array_equal(part.status[kept], clean.status[kept])),
+                    "lost_undecided": bool((part.status[~kept] == 3).all()),
+                    "lost_nan": all(np.isnan(np.asarray(v)[~kept]).all()
+                                    for v in part.metrics.values())}))
+""")
+
+
+@pytest.mark.slow
+def test_a_dask_worker_killed_mid_map_keeps_the_finished_chunks_and_names_the_worker(tmp_path):
+    pytest.importorskip("distributed")
+    script = tmp_path / "dask_dies.py"
+    script.write_text(_DASK)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=240)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, err = proc.communicate()
+        pytest.fail(f"no answer within 240 s (a hang)\n{out}\n{err[-2000:]}")
+    assert proc.returncode == 0, err[-3000:]
+    res = json.loads(out.strip().splitlines()[-1])
+    assert res["error"] is not None and res["type"] == "PartialStabilityMap"
+    # task 4 (columns 3 and 11) killed its worker; Dask may lose the task it ran beside it
+    assert {3, 11} <= set(res["lost"]) and res["lost"] == res["mask"] and len(res["lost"]) < 16
+    assert res["same"] and res["lost_undecided"] and res["lost_nan"]
+    assert re.search(r"Dask worker tcp://[\d.]+:\d+ died", res["workers"][0]), res["workers"]
+    assert res["reason"].startswith("worker lost: Dask worker tcp://")
