@@ -27,30 +27,33 @@ def pend(name="pendulum", y="theta", w="omega", yu="rad", uu="N m", extra="", de
     return toml(text + "[scenario]\nreference = 0.1\n" + extra)
 
 def fences(text):
-    """Lines outside Markdown code fences; fails when a fence is left open."""
-    out, inside = [], False
+    """Lines outside Markdown code fences (CommonMark: a fence closes on a line of at least as
+    many backticks and nothing else); fails when a fence is left open."""
+    out, fence = [], None
     for line in text.splitlines():
-        if line.lstrip().startswith("```"):
-            inside = not inside
-            continue
-        if not inside:
-            out.append(line)
-    assert not inside, "a code fence of report.md is left open (a name closed or opened one)"
+        m = re.match(r" {0,3}(`{3,})(.*)$", line)
+        if fence is None:
+            if m:
+                fence = len(m.group(1))
+            else:
+                out.append(line)
+        elif m and len(m.group(1)) >= fence and not m.group(2).strip():
+            fence = None
+    assert fence is None, "a code fence of report.md is left open (a name opened one)"
     return out
 
-def check_outputs(folder, marks=("<img", "<b>", "<svg", "<script", "</pre")):
+def check_outputs(folder):
     """Every output format of a run escapes what the user named (no markup, no new block)."""
     folder = Path(folder)
     md = (folder / "report.md").read_text(encoding="utf-8")
     for line in fences(md):
-        for m in marks:
-            assert m not in line, f"raw {m!r} in report.md: {line[:200]!r}"
+        raw = re.search(r"(?<!\\)<(img|svg|b>|script|/script|!--|/pre)", line)
+        assert raw is None, f"raw markup in report.md: {line[:200]!r}"
         assert not re.match(r"\s*#+\s*pwn", line), f"a name added a heading: {line[:120]!r}"
         assert not re.match(r"\s*\[pwn\]:", line), f"a name added a link definition: {line!r}"
     html = (folder / "report.html").read_text(encoding="utf-8")
-    for m in ("<img", "<b>", "<svg", "<script>alert", "</pre"):
+    for m in ("<img src=x", "<b>N", "<svg onload", "<script>alert"):
         assert m not in html, f"raw {m!r} in report.html"
-    assert "onerror=" not in re.sub(r"&lt;[^<>]*", "", html), "an attribute escaped its text"
     json.loads((folder / "summary.json").read_text(encoding="utf-8"),
                parse_constant=lambda c: (_ for _ in ()).throw(ValueError(c)))
     for f in sorted((folder / "runs").glob("*.csv")) if (folder / "runs").is_dir() else []:
@@ -94,6 +97,7 @@ assert 'sin' in str(nf.a) or 'sin' in str(getattr(nf, 'alpha', nf)), nf
 '''
 
 _KEY_GUESS = r'''
+import subprocess
 # a kernel whose sidecar is signed with a guessed key (zeros): must be rebuilt, not loaded
 import hashlib, hmac, shutil
 if shutil.which('cc') is None:
@@ -113,6 +117,7 @@ for key in (b'\0' * 32, b'', b'fl_design'):
 '''
 
 _SO_LINK = r'''
+import subprocess
 # the kernel's path is a symlink to a library elsewhere (with the real sidecar kept)
 import shutil
 if shutil.which('cc') is None:
@@ -171,6 +176,7 @@ fl.generate_c(d, PROJECT)
 '''
 
 _CONCURRENT_CODEGEN = r'''
+import subprocess
 # two codegen processes into one folder at once: one writes, the other fails clearly
 import time
 cmd = [sys.executable, '-c', "import sys, fl_design as fl; from fl_design import presets; "
@@ -258,7 +264,8 @@ finally:
 
 _SHORT_RUN = r'''
 resp = simulate(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, DUR))
-assert resp.status.label in ('undecided', 'converging', 'converged'), resp.status.label
+label = getattr(resp.status, 'label', resp.status)
+assert label in ('undecided', 'converging', 'converged'), (label, getattr(resp, 'status_reason', ''))
 '''
 
 _STDERR_CLOSED = r'''
@@ -333,7 +340,9 @@ def cases() -> list[tuple]:
         ("held-out markup: a unit of only dollars", h + _markup("yu", "$$"), "input", {},
          False, None),
         ("held-out markup: a name with a terminal escape sequence",
-         h + _markup("name", "p\x1b]0;pwn\x07\x1b[2J"), "input", {}, False, None),
+         h + _markup("name", "p\x1b]0;pwn\x07\x1b[2J") + "r = proc(['derive', pend(name="
+         "'p\\x1b]0;pwn\\x07\\x1b[2J')])\nassert '\\x1b' not in r.stdout + r.stderr, "
+         "'a terminal escape reached the terminal'\n", "input", {}, False, None),
         ("held-out markup: a name closing a C comment",
          h + _markup("name", "*/ int pwn = 1; /*"), "input", {}, False, None),
         ("held-out markup: a name with </script> and <!--",
