@@ -437,7 +437,108 @@ def cases() -> list[tuple]:
         ("held-out raw: a SymPy Matrix as the rhs", ("fl.Plant.from_ode([x1, x2], u, "
          "sp.Matrix([x2, u]), x1).relative_degree()"), "input", {}, False, None),
     ]
-    return out
+    return out + more_cases()
 
 
-__all__ = ["HELPERS", "cases"]
+_DEEP_TOML = r"""
+p = TMP / 'deep.toml'
+p.write_text('[plant]\nlibrary = "pendulum"\n[sweep]\neps = ' + '[' * 5000 + ']' * 5000 + '\n')
+cli('derive', p)
+"""
+
+_ENTRY_LINK = r"""
+# a cache entry replaced by a link to a copy elsewhere (same bytes, same sidecar): not followed
+fl.plants.pendulum().normal_form()
+cache = TMP / 'cache'
+f = sorted(cache.glob('plant_*.pkl'))[0]
+(TMP / 'elsewhere.pkl').write_bytes(f.read_bytes())
+f.unlink(); f.symlink_to(TMP / 'elsewhere.pkl')
+nf = fl.plants.pendulum().normal_form()
+assert nf.rho == 2
+"""
+
+_SHORT_STATES = r"""
+# states named like the loop's own quantities, through simulate and C code
+import sympy as sp
+T, gamma, r = sp.symbols('T gamma r', real=True)
+p = fl.Plant.from_ode([T, gamma], u, [gamma, -T - gamma + u], T)
+resp = simulate(p, design(), fl.Scenario(0.1, 2.0))
+assert abs(resp.y[-1] - 0.1) < 0.05, resp.y[-1]
+fl.generate_c(design(), TMP / 'c')
+"""
+
+
+def more_cases() -> list[tuple]:
+    """A second batch of held-out variants."""
+    cache = {"FL_DESIGN_CACHE": "@TMP@/cache"}
+    h = HELPERS
+    ok = "result"
+    return [
+        ("held-out cache: an entry replaced by a link to a copy", _ENTRY_LINK, "env", cache,
+         False, ok),
+        ("held-out cache: an entry truncated to 0 bytes",
+         ("fl.plants.pendulum().normal_form()\n"
+         "[f.write_bytes(b'') for f in (TMP / 'cache').glob('plant_*.pkl')]\n"
+         "assert fl.plants.pendulum().normal_form().rho == 2"), "env", cache, False, ok),
+        ("held-out output: report.md is a directory",
+         h + "(TMP / 'o').mkdir(); (TMP / 'o' / 'report.md').mkdir()\n"
+         "cli('run', pend(), '--quick', '--no-progress', '--out', TMP / 'o')", "env", {},
+         False, "error"),
+        ("held-out output: the marker is a directory",
+         ("(TMP / 'c').mkdir(); (TMP / 'c' / '.fl_design_output.json').mkdir()\n"
+         "fl.generate_c(fl.presets.pendulum_design(), TMP / 'c')"), "env", {}, False, "error"),
+        ("held-out output: c/build a FIFO",
+         ("d = fl.presets.pendulum_design(); fl.generate_c(d, TMP / 'c')\n"
+         "import shutil; shutil.rmtree(TMP / 'c' / 'build', ignore_errors=True)\n"
+         "os.mkfifo(TMP / 'c' / 'build')\nfl.generate_c(d, TMP / 'c')"), "env", {}, False,
+         "error"),
+        ("held-out raw: a config that is a directory",
+         "(TMP / 'cfg.toml').mkdir()\ncli('derive', TMP / 'cfg.toml')", "input", {}, False,
+         "error"),
+        ("held-out raw: a config in Latin-1", ("p = TMP / 'l1.toml'\n"
+         "p.write_bytes('[plant]\\nname = \"Pendel \\xe4\"\\nlibrary = \"pendulum\"\\n'"
+         ".encode('latin-1'))\ncli('derive', p)"), "input", {}, False, "error"),
+        ("held-out raw: a TOML array nested 5000 deep", _DEEP_TOML, "input", {}, False,
+         "error"),
+        ("held-out raw: a 20 MB config", ("p = TMP / 'big.toml'\n"
+         "p.write_text('[plant]\\nlibrary = \"pendulum\"\\n# ' + 'x' * 20_000_000 + '\\n')\n"
+         "cli('derive', p)"), "input", {}, False, None),
+        ("held-out raw: states named T and gamma", _SHORT_STATES, "input", {}, False, ok),
+        ("held-out raw: a parameter named pi", ("fl.Plant.from_ode([x1, x2], u, "
+         "[x2, '-k*x1 + u'], x1, params={'pi': 2.0, 'k': 1.0})"), "input", {}, False,
+         "error"),
+        ("held-out raw: (-1)**x1 in the rhs", "ode('(-1)**x1 + u').relative_degree()",
+         "input", {}, False, None),
+        ("held-out raw: x1**(1/3) at the operating point 0",
+         "ode('-x1**(1/3) + u').relative_degree()", "input", {}, False, None),
+        ("held-out bounds: exp(1000*x1) over the region",
+         ("fl.Plant.from_ode([x1, x2], u, [x2, '-exp(1000*x1) + 1 + u'], x1, "
+         "region={x1: (-1, 1), x2: (-1, 1)}, input_range=(-5, 5)).b_bounds()"), "input", {},
+         False, None),
+        ("held-out bounds: (x1 + x2 + x1*x2 + u)**30",
+         "ode('(x1 + x2 + x1*x2 + u)**30 - x1').relative_degree()", "input", {}, False,
+         "error"),
+        ("held-out bounds: a 1e9 s scenario", ("simulate(fl.plants.pendulum(), design(), "
+         "fl.Scenario(0.1, 1e9))"), "input", {}, False, "error"),
+        ("held-out bounds: a sweep of 10**8 points", ("sweep(fl.plants.pendulum(), design(), "
+         "fl.Scenario(0.1, 1.0), eps=np.geomspace(1e-3, 1, 10**4), "
+         "gamma=np.geomspace(1e-3, 1, 10**4), progress=False)"), "input", {}, False, "error"),
+        ("held-out structure: b = -(1 + 3 u**2) has rho 1 and b < 0",
+         ("p = fl.Plant.from_ode([x1], u, ['-x1 - u - u**3'], x1, input_range=(-2, 2))\n"
+         "assert p.relative_degree() == 1\nlo, hi = p.b_bounds()\nassert hi < 0, (lo, hi)"),
+         "input", {}, False, ok),
+        ("held-out structure: b = 2 + sin(x1) on a rho-2 plant",
+         ("p = ode('(2 + sin(x1))*u - x1')\nassert p.relative_degree() == 2\n"
+         "lo, hi = p.b_bounds()\nassert 1 - 1e-9 <= lo <= hi <= 3 + 1e-9, (lo, hi)"), "input",
+         {}, False, ok),
+        ("held-out structure: b = x1 - 5 nonzero on the region",
+         ("p = fl.Plant.from_ode([x1, x2], u, [x2, '(x1 - 5)*u'], x1, region={x1: (-1, 1), "
+         "x2: (-1, 1)})\nassert p.relative_degree() == 2"), "input", {}, False, ok),
+        ("held-out structure: b = x1 changing sign on the region",
+         ("p = fl.Plant.from_ode([x1, x2], u, [x2, 'x1*u - x2 + 1'], x1, region={x1: (-1, 1), "
+         "x2: (-1, 1)}, operating_point={x1: 0.5})\n"
+         "simulate(p, design(), fl.Scenario(0.6, 1.0))"), "input", {}, False, None),
+    ]
+
+
+__all__ = ["HELPERS", "cases", "more_cases"]
