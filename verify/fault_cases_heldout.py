@@ -528,7 +528,8 @@ def more_cases() -> list[tuple]:
          "assert p.relative_degree() == 1\nlo, hi = p.b_bounds()\nassert hi < 0, (lo, hi)"),
          "input", {}, False, ok),
         ("held-out structure: b = 2 + sin(x1) on a rho-2 plant",
-         ("p = ode('(2 + sin(x1))*u - x1')\nassert p.relative_degree() == 2\n"
+         ("p = fl.Plant.from_ode([x1, x2], u, [x2, '(2 + sin(x1))*u - x1'], x1, region={x1: (-3, "
+          "3), x2: (-1, 1)}, input_range=(-5, 5))\nassert p.relative_degree() == 2\n"
          "lo, hi = p.b_bounds()\nassert 1 - 1e-9 <= lo <= hi <= 3 + 1e-9, (lo, hi)"), "input",
          {}, False, ok),
         ("held-out structure: b = x1 - 5 nonzero on the region",

@@ -101,3 +101,32 @@ def test_derive_never_prints_a_terminal_escape_of_a_plant_name(tmp_path):
                           capture_output=True, text=True, timeout=120, check=False)
     assert proc.returncode == 0, proc.stderr[-1500:]
     assert "\x1b" not in proc.stdout and "\\x1b" in proc.stdout
+
+
+def test_a_config_nested_thousands_deep_is_a_clear_error():
+    from fl_design.app import parse_config
+    from fl_design.app._config import ConfigError
+
+    text = '[plant]\nlibrary = "pendulum"\n[sweep]\neps = ' + "[" * 5000 + "]" * 5000 + "\n"
+    with pytest.raises(ConfigError, match="nested too deeply"):
+        parse_config(text)
+
+
+def test_the_report_is_written_by_name_never_into_a_folder_or_link_in_the_way(tmp_path):
+    from fl_design.app import load_config, run_job, write_report
+    from fl_design.errors import OutputPathError
+
+    job = run_job(load_config(None), quick=True, stages=("derive",), progress=False)
+    out = tmp_path / "out"
+    (out / "report.md").mkdir(parents=True)
+    with pytest.raises(OutputPathError, match="report.md' is a folder, where fl_design writes"):
+        write_report(job, out)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("mine")
+    (out / "report.md").rmdir()
+    write_report(job, out)
+    (out / "summary.json").unlink()
+    (out / "summary.json").symlink_to(victim)
+    write_report(job, out, force=True)
+    assert victim.read_text() == "mine" and not (out / "summary.json").is_symlink()
+    assert (out / "summary.json").read_text().startswith("{")
