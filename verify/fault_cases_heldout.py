@@ -437,7 +437,7 @@ def cases() -> list[tuple]:
         ("held-out raw: a SymPy Matrix as the rhs", ("fl.Plant.from_ode([x1, x2], u, "
          "sp.Matrix([x2, u]), x1).relative_degree()"), "input", {}, False, None),
     ]
-    return out + more_cases()
+    return out + more_cases() + third_cases()
 
 
 _DEEP_TOML = r"""
@@ -542,4 +542,58 @@ def more_cases() -> list[tuple]:
     ]
 
 
-__all__ = ["HELPERS", "cases", "more_cases"]
+_SHELL_DIR = r"""
+# an output folder whose name is shell and make syntax: never run as a command
+import shutil
+if shutil.which('cc') is None or shutil.which('make') is None:
+    raise ApiMissing('a C compiler and make')
+out = TMP / ('c $(touch ' + str(PWNED) + ') `touch ' + str(PWNED) + '`; touch ' + str(PWNED))
+pkg = fl.generate_c(fl.presets.pendulum_design(), out)
+pkg.verify(fl.plants.pendulum(), fl.Scenario(0.1, 0.5))
+"""
+
+_INTERNAL_NAMES = r"""
+# states named like the pipeline's own symbols
+import sympy as sp
+xi, q, D = sp.symbols(NAMES, real=True)
+p = fl.Plant.from_ode([xi, q], u, [q, -D * 0 - xi - q + u], xi) if False else \
+    fl.Plant.from_ode([xi, q], u, [q, -xi - q + u], xi)
+resp = simulate(p, design(), fl.Scenario(0.1, 3.0))
+assert abs(resp.y[-1] - 0.1) < 0.05, resp.y[-1]
+"""
+
+
+def third_cases() -> list[tuple]:
+    """A third batch: C packages, names the pipeline uses itself, format strings."""
+    h = HELPERS
+    g = "d = fl.presets.pendulum_design()\n"
+    return [
+        ("held-out output: a folder named with shell and make syntax", _SHELL_DIR, "env", {},
+         False, "result"),
+        ("held-out output: prefix 'sil'", g + "fl.generate_c(d, TMP / 'c', prefix='sil')",
+         "env", {}, False, None),
+        ("held-out output: prefix 'Makefile'", g + "fl.generate_c(d, TMP / 'c', "
+         "prefix='Makefile')", "env", {}, False, None),
+        ("held-out output: prefix with a slash", g + "fl.generate_c(d, TMP / 'c', "
+         "prefix='../x')", "env", {}, False, "error"),
+        ("held-out output: prefix 'double'", g + "fl.generate_c(d, TMP / 'c', "
+         "prefix='double')", "env", {}, False, "error"),
+        ("held-out output: prefix of 300 characters", g + "fl.generate_c(d, TMP / 'c', "
+         "prefix='p' * 300)", "env", {}, False, None),
+        ("held-out output: prefix with a non-ASCII letter", g + "fl.generate_c(d, TMP / 'c', "
+         "prefix='\u03c0_loop')", "env", {}, False, "error"),
+        ("held-out raw: states named xi and q", _INTERNAL_NAMES.replace("NAMES", "'xi q D'"),
+         "input", {}, False, "result"),
+        ("held-out raw: states named int and float",
+         _INTERNAL_NAMES.replace("NAMES", "'int float D'"), "input", {}, False, None),
+        ("held-out markup: a unit with format fields",
+         h + _markup("yu", "{0} {__class__} %s %(x)s {{"), "input", {}, False, None),
+        ("held-out markup: a name with format fields",
+         h + _markup("name", "{} {0!r:>{1}} %s%s%n"), "input", {}, False, None),
+        ("held-out structure: a parameter and a state of one name",
+         "fl.Plant.from_ode([x1, x2], u, [x2, '-x1 + u'], x1, params={'x1': 1.0})", "input",
+         {}, False, "error"),
+    ]
+
+
+__all__ = ["HELPERS", "cases", "more_cases", "third_cases"]
