@@ -17,7 +17,9 @@ that cheap diverging runs and full-length converging ones are spread over every 
 A worker that dies (killed, out of memory, a crash in native code) breaks a process pool:
 every chunk it had not returned is lost. :func:`run_tasks` keeps the finished ones and raises
 :class:`~fl_design.errors.WorkerLostError`, which names the lost grid points and carries the
-partial result; never a raw ``BrokenProcessPool``.
+partial result (a map of the caller's type, the lost runs marked: :mod:`fl_design.sim._partial`);
+never a raw ``BrokenProcessPool``. A stopped or deadlocked worker process is named within
+seconds (:class:`_Heartbeat`).
 
 Examples
 --------
@@ -43,6 +45,7 @@ import numpy as np
 
 from ..errors import WorkerLostError
 from ._options import Kernel
+from ._procs import proc_stats, tree_cpu
 from ._scheduler import CONNECT_SECONDS, bounded_call, connect_scheduler  # noqa: F401 - re-exported
 
 #: Tasks per worker of an executor (balance against per-task pickling and kernel calls).
@@ -341,42 +344,6 @@ STOPPED_SECONDS = 3.0
 IDLE_SECONDS = 20.0
 
 
-def _proc_stats() -> dict | None:
-    """``{pid: (ppid, state, cpu ticks)}`` of this machine's processes (Linux ``/proc``);
-    None where there is no ``/proc``."""
-    if not os.path.isdir("/proc/self/task"):
-        return None
-    stats = {}
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{name}/stat", "rb") as fh:
-                text = fh.read().decode("ascii", "replace")
-        except OSError:
-            continue
-        fields = text[text.rfind(")") + 2:].split()
-        try:
-            stats[int(name)] = (int(fields[1]), fields[0], int(fields[11]) + int(fields[12]))
-        except (IndexError, ValueError):
-            continue
-    return stats
-
-
-def _tree_cpu(stats: dict, pid: int) -> int:
-    """CPU ticks of ``pid`` and its descendants (a worker and the compiler it runs)."""
-    children: dict = {}
-    for p, (ppid, _, _) in stats.items():
-        children.setdefault(ppid, []).append(p)
-    total, todo = 0, [pid]
-    while todo:
-        p = todo.pop()
-        if p in stats:
-            total += stats[p][2]
-            todo.extend(children.get(p, ()))
-    return total
-
-
 class _Heartbeat:
     """Who is alive among the executor's workers, checked every :data:`HEARTBEAT_SECONDS`:
     process-pool processes (exit codes; on Linux their state and CPU use, so a stopped or
@@ -465,7 +432,7 @@ class _Heartbeat:
                                workers=[f"Dask worker {w}" for w in sorted(self.gone)])
 
     def _processes_stuck(self, pending: int) -> WorkerLostError | None:
-        stats = _proc_stats()
+        stats = proc_stats()
         if stats is None:
             return None
         now = time.monotonic()
@@ -485,7 +452,7 @@ class _Heartbeat:
                      for pid in stopped]
             return WorkerLostError(f"{'; '.join(names)} while {pending} task(s) wait",
                                    workers=names)
-        cpu = {pid: _tree_cpu(stats, pid) for pid in alive}
+        cpu = {pid: tree_cpu(stats, pid) for pid in alive}
         moved = any(self.cpu.get(pid) != c for pid, c in cpu.items()) or not cpu
         self.cpu = cpu
         if moved:

@@ -257,3 +257,33 @@ def test_a_dask_worker_killed_mid_map_keeps_the_finished_chunks_and_names_the_wo
     assert res["same"] and res["lost_undecided"] and res["lost_nan"]
     assert re.search(r"Dask worker tcp://[\d.]+:\d+ died", res["workers"][0]), res["workers"]
     assert res["reason"].startswith("worker lost: Dask worker tcp://")
+
+
+def test_the_heartbeat_names_worker_processes_idle_while_tasks_wait(monkeypatch):
+    """Every worker process (with its children) using no CPU while tasks wait is a
+    deadlock; CPU moving anywhere in a worker's tree (a compiler it runs) is progress."""
+    import time
+    from types import SimpleNamespace
+
+    from fl_design.sim import _executor
+
+    ticks = {"w": 10, "cc": 5}
+    monkeypatch.setattr(_executor, "IDLE_SECONDS", 0.2)
+    monkeypatch.setattr(_executor, "proc_stats", lambda: {
+        101: (1, "S", ticks["w"]), 102: (1, "S", 3), 201: (101, "R", ticks["cc"])})
+    pool = SimpleNamespace(_processes={101: SimpleNamespace(exitcode=None),
+                                       102: SimpleNamespace(exitcode=None)})
+    beat = _executor._Heartbeat(pool)
+    assert beat.beat(2) is None  # first look
+    ticks["cc"] += 1  # the compiler under worker 101 works: progress
+    assert beat.beat(2) is None
+    time.sleep(0.3)
+    ticks["cc"] += 1
+    assert beat.beat(2) is None  # still progress after the idle limit
+    assert beat.beat(2) is None  # idle from now on (the limit starts)
+    time.sleep(0.3)
+    err = beat.beat(2)
+    assert err is not None and "every worker process is idle while 2 task(s) wait" in str(err)
+    assert [w.split(" (")[0] for w in err.workers] == ["worker process 101",
+                                                       "worker process 102"]
+    assert beat.stuck == [101, 102]
