@@ -49,3 +49,5 @@ def test_fault_matrix_quick_has_no_exec_loss_false_diagnosis_raw_crash_or_hang(t
     assert re.search(r"clear\s+input\s+held-out structure: fi and the ligature", proc.stdout)
     assert re.search(r"result\s+input\s+held-out structure: a 0.05 s run is undecided",
                      proc.stdout)
+    assert re.search(r"clear\s+env\s+held-out waits: a worker killed mid-map keeps a partial "
+                     r"map: WorkerLostError", proc.stdout)

@@ -563,6 +563,11 @@ assert abs(resp.y[-1] - 0.1) < 0.05, resp.y[-1]
 """
 
 
+_SWEEP_ON = ("sweep(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.05, 0.3), "
+             "eps=[0.01, 0.02, 0.04], gamma=[1e-2, 2e-2], executor=ex, progress=False, "
+             "kernel=fl.Kernel(chunk_size=1))\n")
+
+
 def third_cases() -> list[tuple]:
     """A third batch: C packages, names the pipeline uses itself, format strings."""
     h = HELPERS
@@ -590,6 +595,23 @@ def third_cases() -> list[tuple]:
          h + _markup("yu", "{0} {__class__} %s %(x)s {{"), "input", {}, False, None),
         ("held-out markup: a name with format fields",
          h + _markup("name", "{} {0!r:>{1}} %s%s%n"), "input", {}, False, None),
+        ("held-out waits: a shut-down thread pool", "from concurrent.futures import "
+         "ThreadPoolExecutor\nex = ThreadPoolExecutor(2); ex.shutdown()\n" + _SWEEP_ON,
+         "env", {}, False, "error"),
+        ("held-out waits: a process pool whose workers exit at start",
+         "from concurrent.futures import ProcessPoolExecutor\n"
+         "ex = ProcessPoolExecutor(1, initializer=os._exit, initargs=(3,))\n" + _SWEEP_ON,
+         "env", {}, False, "error"),
+        ("held-out waits: a worker killed mid-map keeps a partial map",
+         "from concurrent.futures import ProcessPoolExecutor\nimport multiprocessing as mp\n"
+         "class Dies(ProcessPoolExecutor):\n    n = 0\n"
+         "    def submit(self, fn, *a, **k):\n        Dies.n += 1\n"
+         "        return super().submit(*((os._exit, 3) if Dies.n == 2 else (fn, *a)), **k)\n"
+         "ex = Dies(1, mp_context=mp.get_context('fork'))\ntry:\n"
+         "    " + _SWEEP_ON.strip() + "\nexcept fl.errors.WorkerLostError as err:\n"
+         "    assert isinstance(err.partial, fl.StabilityMap) and err.partial.lost.any()\n"
+         "    assert (err.partial.labels[err.partial.lost] == 'undecided').all()\n    raise\n",
+         "env", {}, True, "error"),
         ("held-out structure: a parameter and a state of one name",
          "fl.Plant.from_ode([x1, x2], u, [x2, '-x1 + u'], x1, params={'x1': 1.0})", "input",
          {}, False, "error"),

@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import WorkerLostError
+from ..errors import ParameterError, WorkerLostError
 from ._options import Kernel
 from ._procs import proc_stats, tree_cpu
 from ._scheduler import CONNECT_SECONDS, bounded_call, connect_scheduler  # noqa: F401 - re-exported
@@ -252,7 +252,15 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
     watch = _Heartbeat(executor)
     try:
         for idx in groups:
-            futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
+            try:
+                futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
+            except BrokenExecutor as exc:  # broke while tasks were submitted: these are lost
+                lost.append(idx)
+                broken = exc
+            except RuntimeError as exc:  # shut down ("cannot schedule new futures...")
+                raise ParameterError(
+                    f"the executor {type(executor).__name__} takes no tasks ({exc}): it was "
+                    "shut down; pass a running executor (or none: this process)") from None
         watch.note()  # the pool's processes exist once tasks are submitted
         pending, start = set(futures), time.monotonic()
         while pending:

@@ -287,3 +287,16 @@ def test_the_heartbeat_names_worker_processes_idle_while_tasks_wait(monkeypatch)
     assert [w.split(" (")[0] for w in err.workers] == ["worker process 101",
                                                        "worker process 102"]
     assert beat.stuck == [101, 102]
+
+
+def test_a_shut_down_executor_is_a_clear_error():
+    from concurrent.futures import ThreadPoolExecutor
+
+    import fl_design as fl
+    from fl_design.errors import ParameterError
+
+    ex = ThreadPoolExecutor(2)
+    ex.shutdown()
+    with pytest.raises(ParameterError, match="ThreadPoolExecutor takes no tasks .* shut down"):
+        fl.sweep(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.05, 0.2),
+                 eps=[0.01, 0.02], gamma=[1e-2], executor=ex, progress=False)
