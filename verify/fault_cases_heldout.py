@@ -96,17 +96,22 @@ nf = fl.plants.pendulum().normal_form()
 assert 'sin' in str(nf.a) or 'sin' in str(getattr(nf, 'alpha', nf)), nf
 '''
 
-_KEY_GUESS = r'''
-import subprocess
-# a kernel whose sidecar is signed with a guessed key (zeros): must be rebuilt, not loaded
-import hashlib, hmac, shutil
+#: A library whose constructor writes the payload's marker, built as ``TMP/evil.so``.
+_EVIL = r'''
+import hashlib, hmac, shutil, subprocess
 if shutil.which('cc') is None:
     raise ApiMissing('a C compiler')
 lib = prebuilt(TMP / 'cache')
-src = TMP / 'evil.c'
-src.write_text('#include <stdio.h>\n__attribute__((constructor)) static void boom(void) '
-               '{ FILE *f = fopen("%s", "w"); if (f) fclose(f); }\n' % PWNED)
-subprocess.run(['cc', '-shared', '-fPIC', '-o', str(lib), str(src)], check=True, timeout=120)
+(TMP / 'evil.c').write_text('#include <stdio.h>\n__attribute__((constructor)) static void '
+                            'boom(void) { FILE *f = fopen("%s", "w"); if (f) fclose(f); }\n'
+                            % PWNED)
+subprocess.run(['cc', '-shared', '-fPIC', '-o', str(TMP / 'evil.so'), str(TMP / 'evil.c')],
+               check=True, timeout=120)
+'''
+
+# a kernel whose sidecar is signed with guessed keys: must be rebuilt, not loaded
+_KEY_GUESS = _EVIL + r'''
+shutil.copy(TMP / 'evil.so', lib)
 data = lib.read_bytes()
 rec = {'size': len(data), 'sha256': hashlib.sha256(data).hexdigest()}
 for key in (b'\0' * 32, b'', b'fl_design'):
@@ -116,18 +121,8 @@ for key in (b'\0' * 32, b'', b'fl_design'):
     kernel(TMP / 'cache')
 '''
 
-_SO_LINK = r'''
-import subprocess
 # the kernel's path is a symlink to a library elsewhere (with the real sidecar kept)
-import shutil
-if shutil.which('cc') is None:
-    raise ApiMissing('a C compiler')
-lib = prebuilt(TMP / 'cache')
-src = TMP / 'evil.c'
-src.write_text('#include <stdio.h>\n__attribute__((constructor)) static void boom(void) '
-               '{ FILE *f = fopen("%s", "w"); if (f) fclose(f); }\n' % PWNED)
-subprocess.run(['cc', '-shared', '-fPIC', '-o', str(TMP / 'evil.so'), str(src)], check=True,
-               timeout=120)
+_SO_LINK = _EVIL + r'''
 lib.unlink(); lib.symlink_to(TMP / 'evil.so')
 kernel(TMP / 'cache')
 '''

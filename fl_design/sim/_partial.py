@@ -43,10 +43,16 @@ from ._stability_map import StabilityMap
 from ._status import Status
 
 
+@dataclass(frozen=True)
 class _Lost:
-    """The ``lost`` mask and its reason, added to a result's ``to_dict()``."""
+    """The ``lost`` mask and its reason (fields after the result's own), checked against the
+    status' shape, added to the result's ``to_dict()``."""
 
-    def _check_lost(self) -> None:
+    lost: np.ndarray | None = field(default=None, repr=False)
+    lost_reason: str = LOST_REASON
+
+    def __post_init__(self) -> None:
+        getattr(super(), "__post_init__", lambda: None)()
         shape = np.shape(self.status)
         lost = np.zeros(shape, bool) if self.lost is None else np.asarray(self.lost, bool)
         if lost.shape != shape:
@@ -71,36 +77,15 @@ class _Lost:
 class PartialStabilityMap(_Lost, StabilityMap):
     """A :class:`~fl_design.sim.StabilityMap` some of whose runs were lost (module doc)."""
 
-    lost: np.ndarray | None = field(default=None, repr=False)
-    lost_reason: str = LOST_REASON
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        self._check_lost()
-
 
 @dataclass(frozen=True)
 class PartialRobustMap(_Lost, RobustMap):
     """A :class:`~fl_design.sim.RobustMap` some of whose runs were lost (module doc)."""
 
-    lost: np.ndarray | None = field(default=None, repr=False)
-    lost_reason: str = LOST_REASON
-
-    def __post_init__(self) -> None:
-        getattr(super(), "__post_init__", lambda: None)()
-        self._check_lost()
-
 
 @dataclass(frozen=True)
 class PartialEnsemble(_Lost, Ensemble):
     """An :class:`~fl_design.sim.Ensemble` some of whose runs were lost (module doc)."""
-
-    lost: np.ndarray | None = field(default=None, repr=False)
-    lost_reason: str = LOST_REASON
-
-    def __post_init__(self) -> None:
-        getattr(super(), "__post_init__", lambda: None)()
-        self._check_lost()
 
 
 def lost_mask(err: WorkerLostError, n: int) -> np.ndarray:
