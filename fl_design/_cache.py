@@ -348,10 +348,11 @@ def user_key(cache_dir: str | os.PathLike | None = None) -> bytes:
                 pass
         finally:
             os.unlink(tmp)
-    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    # O_NONBLOCK: a FIFO (or device) planted at the key's name is refused, never waited on
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
     try:
         st = os.fstat(fd)
-        data = os.read(fd, _KEY_BYTES + 1)
+        data = os.read(fd, _KEY_BYTES + 1) if stat.S_ISREG(st.st_mode) else b""
     finally:
         os.close(fd)
     if not stat.S_ISREG(st.st_mode) or st.st_uid != os.geteuid() or st.st_mode & 0o077 \

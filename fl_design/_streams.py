@@ -11,7 +11,11 @@ cannot be shown. :func:`guard_streams` replaces ``sys.stdout`` and ``sys.stderr`
 * text the stream's encoding cannot hold (a plant named ``Pendel θ`` on an ASCII-only
   terminal, ``PYTHONIOENCODING=ascii``) is written with backslash escapes (``\\u03b8``);
 * a closed pipe (``| head``) still raises :class:`BrokenPipeError`, which the command line
-  turns into its quiet exit.
+  turns into its quiet exit;
+* on standard output, control characters other than newline and tab (a terminal escape
+  sequence in a plant name: ``\x1b]0;title\x07``, ``\x1b[2J``) are written as visible
+  escapes (``\x1b``), never acted on by the terminal (standard error keeps them: progress
+  bars move the cursor there).
 
 Examples
 --------
@@ -28,7 +32,11 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import sys
+
+#: Control characters a terminal acts on (escape sequences, bell, carriage return...).
+_TERMINAL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
 
 
 class TolerantStream(io.TextIOBase):
@@ -50,6 +58,7 @@ class TolerantStream(io.TextIOBase):
     def __init__(self, stream, name: str):
         super().__init__()
         self._stream, self.name = stream, name
+        self._literal = name == "stdout"  # control characters shown, never acted on
         self.failed = None if stream is not None else "it is closed"
         if stream is not None and hasattr(stream, "reconfigure"):
             try:
@@ -74,7 +83,9 @@ class TolerantStream(io.TextIOBase):
             return None
 
     def write(self, text) -> int:
-        self._call("write", text)
+        shown = _TERMINAL.sub(lambda m: f"\\x{ord(m.group()):02x}", text) \
+            if self._literal and isinstance(text, str) else text
+        self._call("write", shown)
         return len(text)
 
     def flush(self) -> None:

@@ -72,20 +72,60 @@ class CertificationError(ComputationError):
 
 
 class WorkerLostError(ComputationError):
-    """A worker process of an executor died while it ran part of a grid.
+    """A worker of an executor died (or hung) while it ran part of a grid.
+
+    The finished chunks are not lost: :attr:`partial` is the result the call would have
+    returned (a :class:`~fl_design.sim.StabilityMap`, :class:`~fl_design.sim.RobustMap` or
+    :class:`~fl_design.sim.Ensemble`, of the subclass that marks what is missing), holding
+    every finished run's status and metrics exactly as a complete run gives them; the lost
+    runs are ``undecided`` with NaN metrics, flagged in its ``lost`` mask, with the reason
+    ``"worker lost"`` (:data:`LOST_REASON`) in its ``lost_reason``.
 
     Attributes
     ----------
     lost : list of int
-        Grid indices (eps-major) whose results were lost.
-    partial : numpy.ndarray or None
-        The grid's final accumulators with the lost columns NaN (the finished chunks kept).
+        Flat (row-major) indices of the lost runs in the result the caller asked for
+        (eps-major for a map; sample fastest for a robust map).
+    partial : object or None
+        The partial result (None when no result type applies, e.g. an internal grid).
+    accumulators : numpy.ndarray or None
+        The grid's final accumulators, the lost columns NaN (for internal use).
+    workers : list of str
+        The workers named dead or stuck (``"worker process 1234 (killed by signal 9)"``,
+        ``"Dask worker tcp://...:4001"``); empty when the executor could not say.
+
+    Examples
+    --------
+    >>> from fl_design.errors import WorkerLostError
+    >>> err = WorkerLostError("lost", lost=[3, 1], workers=["worker process 7 (exit code 1)"])
+    >>> err.lost, err.partial, err.workers
+    ([1, 3], None, ['worker process 7 (exit code 1)'])
     """
 
-    def __init__(self, message: str, *, lost=(), partial=None):
+    def __init__(self, message: str, *, lost=(), partial=None, accumulators=None,
+                 workers=()):
         super().__init__(message)
-        self.lost = list(lost)
+        self.lost = sorted(int(i) for i in lost)
         self.partial = partial
+        self.accumulators = accumulators
+        self.workers = list(workers)
+
+    def with_partial(self, partial, lost=None) -> WorkerLostError:
+        """This error, carrying ``partial`` (and the lost indices of that result).
+
+        Returns
+        -------
+        WorkerLostError
+            ``self`` (raise it again).
+        """
+        self.partial = partial
+        if lost is not None:
+            self.lost = sorted(int(i) for i in lost)
+        return self
+
+
+#: The reason a partial result gives for its missing runs (:class:`WorkerLostError`).
+LOST_REASON = "worker lost"
 
 
 class DerivationTimeoutError(ComputationError):

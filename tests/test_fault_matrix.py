@@ -38,3 +38,16 @@ def test_fault_matrix_quick_has_no_exec_loss_false_diagnosis_raw_crash_or_hang(t
     assert re.search(r"clear\s+input\s+bounds: \(x1 \+ x2 \+ u\)\*\*1000 - x1", proc.stdout)
     assert re.search(r"result\s+input\s+structure: -x1 \+ u \+ u\*\*40", proc.stdout)
     assert re.search(r"clear\s+env\s+raw: stdout closed", proc.stdout)
+    # held-out variants (verify/fault_cases_heldout.py)
+    assert re.search(r"result\s+env\s+held-out cache: two valid entries swapped", proc.stdout)
+    assert re.search(r"clear\s+env\s+held-out output: unsigned marker with the user's true "
+                     r"hashes", proc.stdout)
+    assert re.search(r"result\s+input\s+held-out markup: a name closing the report's code "
+                     r"fence", proc.stdout)
+    assert re.search(r"clear\s+input\s+held-out bounds: 2\*\*2\*\*2", proc.stdout)
+    assert re.search(r"result\s+input\s+held-out structure: -x1 \+ 2\*u \+ u\*\*3", proc.stdout)
+    assert re.search(r"clear\s+input\s+held-out structure: fi and the ligature", proc.stdout)
+    assert re.search(r"result\s+input\s+held-out structure: a 0.05 s run is undecided",
+                     proc.stdout)
+    assert re.search(r"clear\s+env\s+held-out waits: a worker killed mid-map keeps a partial "
+                     r"map: WorkerLostError", proc.stdout)

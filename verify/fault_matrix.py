@@ -21,7 +21,7 @@ lost, falsediag, silent, raw, crash and hang are all zero. ``--quick`` runs a re
 subset (the tests run it); ``-v`` prints every case.
 
     python verify/fault_matrix.py [--quick] [-v] [--timeout SECONDS] [--jobs N]
-                                  [--match REGEX] [--issue36]
+                                  [--match REGEX] [--issue36] [--heldout]
 """
 
 from __future__ import annotations
@@ -504,6 +504,14 @@ def _issue36() -> list[Case]:
             for name, code, kind, env, quick, expect in cases()]
 
 
+def _heldout() -> list[Case]:
+    """Held-out variants of issue 36's classes (``verify/fault_cases_heldout.py``)."""
+    from fault_cases_heldout import cases
+
+    return [Case(name, code, kind, env, quick, expect)
+            for name, code, kind, env, quick, expect in cases()]
+
+
 def run_case(case: Case, timeout: float) -> dict:
     """Run one case in a fresh interpreter; its class, detail and time."""
     with tempfile.TemporaryDirectory(prefix="fl_fault-") as tmp:
@@ -581,8 +589,13 @@ def main(argv=None) -> int:
     parser.add_argument("--match", default=None, metavar="REGEX",
                         help="only the cases whose name matches")
     parser.add_argument("--issue36", action="store_true", help="only the issue-36 cases")
+    parser.add_argument("--heldout", action="store_true",
+                        help="only the held-out variants of issue 36's classes")
     args = parser.parse_args(argv)
-    cases = _issue36() if args.issue36 else _inputs() + _envs() + _safety() + _issue36()
+    if args.issue36 or args.heldout:
+        cases = (_issue36() if args.issue36 else []) + (_heldout() if args.heldout else [])
+    else:
+        cases = _inputs() + _envs() + _safety() + _issue36() + _heldout()
     if args.quick:
         cases = [c for c in cases if c.quick]
     if args.match:

@@ -308,6 +308,9 @@ def parse_config(text: str, *, source: str = "<string>") -> Config:
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"{source}: not valid TOML: {err}{_toml_line(text, str(err))}") \
             from None
+    except RecursionError:  # tomllib recurses per nesting level: [[[[...]]]] 5000 deep
+        raise ConfigError(f"{source}: arrays or inline tables nested too deeply for a config "
+                          "(a config needs two levels); write it flat") from None
     try:
         notes = _deprecated(data) if isinstance(data.get("scenario"), dict) else ()
     except ConfigError as err:

@@ -91,6 +91,10 @@ class PlantTable:
         V.boolean("motor_lag", self.motor_lag)
         for key in ("output_unit", "input_unit") + (("name",) if self.name is not None else ()):
             V.instance(key, getattr(self, key), str, "a string")
+            if len(getattr(self, key)) > 200:  # printed in every figure (long text: minutes)
+                raise ParameterError(f"{key} has {len(getattr(self, key))} characters, above "
+                                     "the limit of 200 (it is printed in every figure): "
+                                     "shorten it")
         if self.motor_lag and self.library not in (None, "trms"):
             raise ParameterError(f'motor_lag = true applies to library = "trms" only (the '
                                  f"TRMS's motor lag), got library = {self.library!r}")

@@ -20,7 +20,7 @@ from __future__ import annotations
 import time
 
 from .._json import dumps, jsonable
-from .._output import claim_output_folder, record_outputs
+from .._output import claim_output_folder, record_outputs, write_output
 from ._brief import run_brief
 from ._report_csv import CSV_MAX_ROWS, BackgroundCsv, run_csv_name, write_runs_csv
 from ._report_family import summary as robustness_summary
@@ -164,9 +164,12 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
     title = f"fl_design report: {job.plant.name}"
     paths = {"html": folder / "report.html", "markdown": folder / "report.md",
              "summary": folder / "summary.json"}
-    paths["html"].write_text(render_html(secs, folder, title=title, live=live), encoding="utf-8")
-    paths["markdown"].write_text(f"# {md(title)}\n\n" + render_markdown(secs), encoding="utf-8")
-    paths["summary"].write_text(dumps(summary(job), indent=2), encoding="utf-8")
+    # by name, never through a link or into a folder in the way (a temporary file, replaced)
+    write_output(folder, "report.html", render_html(secs, folder, title=title, live=live),
+                 record=False)
+    write_output(folder, "report.md", f"# {md(title)}\n\n" + render_markdown(secs),
+                 record=False)
+    write_output(folder, "summary.json", dumps(summary(job), indent=2), record=False)
     record_outputs(folder, [*paths.values(), *(folder / name for name in figures),
                             *(folder / name for name in csv)])
     return {**{k: str(v) for k, v in paths.items()}, "figures": figures, "csv": csv,

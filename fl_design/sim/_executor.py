@@ -17,7 +17,9 @@ that cheap diverging runs and full-length converging ones are spread over every 
 A worker that dies (killed, out of memory, a crash in native code) breaks a process pool:
 every chunk it had not returned is lost. :func:`run_tasks` keeps the finished ones and raises
 :class:`~fl_design.errors.WorkerLostError`, which names the lost grid points and carries the
-partial result; never a raw ``BrokenProcessPool``.
+partial result (a map of the caller's type, the lost runs marked: :mod:`fl_design.sim._partial`);
+never a raw ``BrokenProcessPool``. A stopped or deadlocked worker process is named within
+seconds (:class:`_Heartbeat`).
 
 Examples
 --------
@@ -41,8 +43,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import WorkerLostError
+from ..errors import ParameterError, WorkerLostError
 from ._options import Kernel
+from ._procs import proc_stats, tree_cpu
+from ._scheduler import CONNECT_SECONDS, bounded_call, connect_scheduler  # noqa: F401 - re-exported
 
 #: Tasks per worker of an executor (balance against per-task pickling and kernel calls).
 TASKS_PER_WORKER = 4
@@ -210,16 +214,30 @@ def _ranges(idx: np.ndarray) -> str:
     return ", ".join(parts[:12]) + (", ..." if len(parts) > 12 else "")
 
 
+#: Exceptions a Dask future raises when its worker died or the cluster dropped the task
+#: (matched by name: ``distributed`` is optional).
+_DASK_LOST = ("KilledWorker", "CommClosedError", "FutureCancelledError", "CancelledError",
+              "StreamClosedError")
+
+
+def _lost_cause(exc: BaseException) -> bool:
+    """Whether a task's exception says its worker was lost (not an error of the task)."""
+    return isinstance(exc, BrokenExecutor) or type(exc).__name__ in _DASK_LOST
+
+
 def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: int,
               out: np.ndarray, bar) -> None:
     """Submit one task per group of grid indices; fill ``out``; interrupt- and death-safe.
 
-    On an interrupt the pending tasks are cancelled and the interrupt re-raised. When the
-    executor breaks (a worker died) the finished tasks are kept and
-    :class:`~fl_design.errors.WorkerLostError` names the lost grid points. The wait is bounded:
-    when no task has come back within :data:`STUCK_STEP_SECONDS` per step of the grid (over
-    the workers) plus :data:`STUCK_GRACE_SECONDS`, the grid is declared stuck
-    (:class:`~fl_design.errors.WorkerLostError`, the finished runs kept), never a silent hang.
+    On an interrupt the pending tasks are cancelled and the interrupt re-raised. When a
+    worker dies (a process pool breaks, a Dask task's worker is killed) or is stuck (a worker
+    process stopped, or every worker process idle while tasks wait: :class:`_Heartbeat`), the
+    finished tasks are kept and :class:`~fl_design.errors.WorkerLostError` names the lost grid
+    points and the workers; its ``accumulators`` are ``out`` with the lost columns NaN (the
+    public calls turn them into a partial result, :mod:`fl_design.sim._partial`). The wait is
+    bounded: when no task has come back within :data:`STUCK_STEP_SECONDS` per step of the grid
+    (over the workers) plus :data:`STUCK_GRACE_SECONDS`, the grid is declared stuck, never a
+    silent hang.
 
     Examples
     --------
@@ -234,7 +252,15 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
     watch = _Heartbeat(executor)
     try:
         for idx in groups:
-            futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
+            try:
+                futures[executor.submit(run_task, task, acc0_of(idx), threads)] = idx
+            except BrokenExecutor as exc:  # broke while tasks were submitted: these are lost
+                lost.append(idx)
+                broken = exc
+            except RuntimeError as exc:  # shut down ("cannot schedule new futures...")
+                raise ParameterError(
+                    f"the executor {type(executor).__name__} takes no tasks ({exc}): it was "
+                    "shut down; pass a running executor (or none: this process)") from None
         watch.note()  # the pool's processes exist once tasks are submitted
         pending, start = set(futures), time.monotonic()
         while pending:
@@ -244,15 +270,21 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
                 idx = futures[fut]
                 try:
                     out[:, idx] = fut.result()
-                except BrokenExecutor as exc:
+                except Exception as exc:  # a lost worker (kept), or the task's own error (raised)
+                    if not _lost_cause(exc):
+                        raise
                     lost.append(idx)
                     broken = exc
                     continue
                 bar.update(idx.size)
+            if done:
+                watch.progress()
             if not pending:
                 break
-            dead = watch.beat()
+            dead = watch.beat(len(pending))
             if dead is not None or time.monotonic() - start > limit:
+                if watch.end_stuck():  # the pool breaks by itself: its futures fail, then
+                    wait(pending, timeout=10.0)  # its `with` block can exit (no hang)
                 for fut in pending:
                     fut.cancel()
                 lost.extend(futures[f] for f in pending)
@@ -263,149 +295,69 @@ def run_tasks(executor: Executor, task: KernelTask, acc0_of, groups, threads: in
         for fut in futures:
             fut.cancel()
         raise
-    if lost and broken is not None and not isinstance(broken, WorkerLostError):
-        named = watch.dead_named()
-        if named:
-            broken = type(broken)(f"{broken}; {named}") if isinstance(broken, TimeoutError) \
-                else WorkerLostError(f"{type(broken).__name__}: {named}")
-    if lost:
-        where = np.concatenate(lost)
-        out[:, where] = np.nan
-        done = len(groups) - len(lost)
-        raise WorkerLostError(
-            f"a worker of the executor died or hung ({_reason(broken)}) and the "
-            f"results of {where.size} of {out.shape[1]} runs were lost (grid indices "
-            f"{_ranges(where)}; eps-major); {done} of {len(groups)} tasks finished and are kept "
-            "in this exception's .partial. Usual causes: memory exhausted (the OS killed it), "
-            "a crash in native code, or a script that starts a 'spawn'/'forkserver' pool "
-            "without `if __name__ == \"__main__\":`. Run the sweep again with a new executor",
-            lost=sorted(int(i) for i in where), partial=out.copy())
+    if not lost:
+        return
+    named = watch.dead_named()
+    workers = [w for w in named.split("; ") if w]
+    if isinstance(broken, WorkerLostError):
+        workers = broken.workers or workers
+    elif type(broken).__name__ == "KilledWorker":
+        workers = workers or [_killed_worker(broken)]
+    reason = _reason(broken)
+    if named and named not in reason:
+        reason += f"; {named}"
+    where = np.concatenate(lost)
+    out[:, where] = np.nan
+    done = len(groups) - len(lost)
+    err = WorkerLostError(
+        f"a worker of the executor died or hung ({reason}) and the "
+        f"results of {where.size} of {out.shape[1]} runs were lost (grid indices "
+        f"{_ranges(where)}; eps-major); {done} of {len(groups)} tasks finished and are kept "
+        "in this exception's .partial (the lost runs marked 'worker lost'). Usual causes: "
+        "memory exhausted (the OS killed it), a crash in native code, or a script that starts "
+        "a 'spawn'/'forkserver' pool without `if __name__ == \"__main__\":`. Run the sweep "
+        "again with a new executor",
+        lost=where, accumulators=out.copy(), workers=workers)
+    err.probe = acc0_of(where[:1])  # a column to learn the metrics' names from, all lost
+    raise err
+
+
+def _killed_worker(exc) -> str:
+    """``"Dask worker tcp://... died running task (tries: n)"`` of a ``KilledWorker``."""
+    last = getattr(exc, "last_worker", None)
+    address = getattr(last, "address", last) or "(address unknown)"
+    tries = getattr(exc, "allowed_failures", None)
+    tries = f", {tries + 1} worker(s) tried" if isinstance(tries, int) else ""
+    return f"Dask worker {address} died running a task of the grid{tries}"
+
+
+def _first_line(exc) -> str:
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0][:200]
 
 
 def _reason(broken) -> str:
     if isinstance(broken, WorkerLostError):
         return str(broken)
-    return f"{type(broken).__name__}: {broken}"
+    if type(broken).__name__ == "KilledWorker":
+        return f"KilledWorker: {_killed_worker(broken)}"
+    return f"{type(broken).__name__}: {_first_line(broken)}"
 
 
-def bounded_call(fn, seconds: float, what: str):
-    """``fn()`` run in a daemon thread, waited for at most ``seconds``.
-
-    Returns ``fn()``'s value; re-raises its exception; raises :class:`TimeoutError` naming
-    ``what`` when it has not answered in time (the thread is abandoned).
-
-    Examples
-    --------
-    >>> from fl_design.sim._executor import bounded_call
-    >>> bounded_call(lambda: 42, 1.0, "the answer")
-    42
-    """
-    box: dict = {}
-    done = threading.Event()
-
-    def call():
-        try:
-            box["value"] = fn()
-        except BaseException as exc:  # noqa: BLE001 - handed to the waiting thread
-            box["error"] = exc
-        finally:
-            done.set()
-
-    threading.Thread(target=call, name=f"fl_design: {what}", daemon=True).start()
-    if not done.wait(seconds):
-        raise TimeoutError(f"{what} did not answer within {seconds:g} s")
-    if "error" in box:
-        raise box["error"]
-    return box.get("value")
-
-
-#: Seconds allowed to connect to a Dask scheduler and get its first answer.
-CONNECT_SECONDS = 10.0
-_SCHEMES = ("tcp", "tls", "ws", "wss", "inproc", "ucx")
-
-
-def connect_scheduler(address: str, *, timeout: float = CONNECT_SECONDS):
-    """A ``distributed.Client`` of the scheduler at ``address``, connected and answering
-    within ``timeout`` seconds, else a clear error (never a hang, never a raw traceback).
-
-    A server that accepts the connection but never answers (not a Dask scheduler, or frozen)
-    is refused after ``timeout`` seconds; ``tls://`` without certificates is refused with
-    what to configure.
-
-    Parameters
-    ----------
-    address : str
-        ``tcp://host:port`` (or ``host:port``), ``tls://...``, ``ws://...``...
-    timeout : float, optional
-        Seconds for the connection and the scheduler's first answer.
-
-    Returns
-    -------
-    distributed.Client
-
-    Raises
-    ------
-    ParameterError
-        Not an address, an unknown scheme, refused, silent, or misconfigured TLS.
-    MissingDependencyError
-        ``dask.distributed`` is not installed.
-
-    Examples
-    --------
-    >>> from fl_design.sim._executor import connect_scheduler
-    >>> connect_scheduler("gopher://example:8786")
-    Traceback (most recent call last):
-    ...
-    fl_design.errors.ParameterError: the Dask scheduler address 'gopher://example:8786' has the scheme 'gopher'; ...
-    """
-    from ..errors import MissingDependencyError, ParameterError
-
-    if not isinstance(address, str) or not address.strip():
-        raise ParameterError(f"the Dask scheduler address must be a non-empty string such as "
-                             f"tcp://host:8786, got {address!r}")
-    scheme = address.split("://", 1)[0].lower() if "://" in address else "tcp"
-    if scheme not in _SCHEMES:
-        raise ParameterError(f"the Dask scheduler address {address!r} has the scheme {scheme!r}; "
-                             f"valid: {', '.join(s + '://' for s in _SCHEMES)}")
-    try:
-        from distributed import Client
-    except ImportError:
-        raise MissingDependencyError("a Dask scheduler needs dask.distributed: pip install "
-                                     "'fl_design[dask]'") from None
-    abandoned = threading.Event()
-
-    def connect():
-        client = Client(address, timeout=f"{timeout:g}s")
-        try:
-            client.scheduler_info()  # its first answer
-        except BaseException:
-            client.close()
-            raise
-        if abandoned.is_set():
-            client.close()
-        return client
-
-    try:
-        return bounded_call(connect, timeout + 2.0, f"the Dask scheduler {address!r}")
-    except TimeoutError:
-        abandoned.set()
-        raise ParameterError(
-            f"cannot connect to the Dask scheduler {address!r}: no answer within {timeout:g} s "
-            "(something accepts connections there but does not answer as a Dask scheduler, or "
-            "it is frozen); check the address and that `dask scheduler` runs there") from None
-    except Exception as err:  # noqa: BLE001 - whatever distributed raises: one clear line
-        first = (str(err).splitlines() or [""])[0][:300] or type(err).__name__
-        hint = ("; a tls:// scheduler needs certificates: configure "
-                "distributed.comm.tls (ca-file, client cert and key) in the Dask config"
-                if scheme in ("tls", "wss") else "")
-        raise ParameterError(f"cannot connect to the Dask scheduler {address!r}: "
-                             f"{type(err).__name__}: {first}{hint}") from None
+#: Seconds a worker process may stay stopped (SIGSTOP, a debugger) while tasks wait before
+#: the grid is declared stuck.
+STOPPED_SECONDS = 3.0
+#: Seconds every worker process (with the compilers it started) may use no CPU at all while
+#: tasks wait and none returns before the grid is declared stuck (a deadlocked worker; a
+#: running or compiling one always uses CPU).
+IDLE_SECONDS = 20.0
 
 
 class _Heartbeat:
-    """Who is alive among the executor's workers: process-pool processes (exit codes) or a
+    """Who is alive among the executor's workers, checked every :data:`HEARTBEAT_SECONDS`:
+    process-pool processes (exit codes; on Linux their state and CPU use, so a stopped or
+    deadlocked worker is named within :data:`STOPPED_SECONDS` / :data:`IDLE_SECONDS`) or a
     Dask cluster's workers (asked with a bounded wait); :meth:`beat` returns a
-    :class:`~fl_design.errors.WorkerLostError` when the grid cannot go on."""
+    :class:`~fl_design.errors.WorkerLostError` naming them when the grid cannot go on."""
 
     def __init__(self, executor: Executor):
         self.executor = executor
@@ -414,12 +366,40 @@ class _Heartbeat:
         self.workers: set = set()
         self.gone: set = set()
         self.workerless_since = None
+        self.stopped_since: dict = {}
+        self.cpu: dict = {}
+        self.idle_since = None
+        self.stuck: list = []
         self.note()
 
     def note(self) -> None:
         procs = getattr(self.executor, "_processes", None)
         if isinstance(procs, dict):
             self.processes.update(procs)
+
+    def end_stuck(self) -> bool:
+        """Kill the worker processes found stuck (stopped or deadlocked children of this
+        process, running this grid's tasks): the pool then breaks as after a crash, fails its
+        pending tasks, and can be shut down (a stopped worker would block its shutdown
+        forever). True when one was killed."""
+        import signal
+
+        killed = False
+        for pid in self.stuck:
+            proc = self.processes.get(pid)
+            if proc is None or getattr(proc, "exitcode", 0) is not None:
+                continue
+            try:
+                os.kill(pid, signal.SIGKILL)
+                killed = True
+            except (ProcessLookupError, PermissionError):
+                pass
+        self.stuck = []
+        return killed
+
+    def progress(self) -> None:
+        """A task came back: the workers are not stuck."""
+        self.idle_since = None
 
     def dead_named(self, settle: float = 1.0) -> str:
         """The workers known dead (a killed process is reaped within ``settle`` seconds)."""
@@ -436,10 +416,11 @@ class _Heartbeat:
         dead.extend(f"Dask worker {w} left the cluster" for w in sorted(self.gone))
         return "; ".join(dead)
 
-    def beat(self) -> WorkerLostError | None:
+    def beat(self, pending: int = 1) -> WorkerLostError | None:
+        """None while the grid can go on, else the error naming the dead or stuck workers."""
         self.note()
         if self.client is None:
-            return None
+            return self._processes_stuck(pending) if self.processes else None
         try:
             now = set(bounded_call(self.client.nthreads, ASK_SECONDS,
                                    "the Dask scheduler (asked for its workers)"))
@@ -455,7 +436,44 @@ class _Heartbeat:
             return None
         left = ", ".join(sorted(self.gone)) or "none had joined"
         return WorkerLostError(f"the Dask cluster has had no worker for "
-                               f"{WORKERLESS_SECONDS:g} s (workers that left: {left})")
+                               f"{WORKERLESS_SECONDS:g} s (workers that left: {left})",
+                               workers=[f"Dask worker {w}" for w in sorted(self.gone)])
+
+    def _processes_stuck(self, pending: int) -> WorkerLostError | None:
+        stats = proc_stats()
+        if stats is None:
+            return None
+        now = time.monotonic()
+        alive = [pid for pid, p in self.processes.items()
+                 if getattr(p, "exitcode", None) is None and pid in stats]
+        stopped = []
+        for pid in alive:
+            if stats[pid][1] in ("T", "t"):
+                since = self.stopped_since.setdefault(pid, now)
+                if now - since >= STOPPED_SECONDS:
+                    stopped.append(pid)
+            else:
+                self.stopped_since.pop(pid, None)
+        if stopped:
+            self.stuck = stopped
+            names = [f"worker process {pid} (stopped for {now - self.stopped_since[pid]:.0f} s)"
+                     for pid in stopped]
+            return WorkerLostError(f"{'; '.join(names)} while {pending} task(s) wait",
+                                   workers=names)
+        cpu = {pid: tree_cpu(stats, pid) for pid in alive}
+        moved = any(self.cpu.get(pid) != c for pid, c in cpu.items()) or not cpu
+        self.cpu = cpu
+        if moved:
+            self.idle_since = None
+            return None
+        self.idle_since = self.idle_since or now
+        if now - self.idle_since < IDLE_SECONDS:
+            return None
+        names = [f"worker process {pid} (no CPU used for {now - self.idle_since:.0f} s)"
+                 for pid in sorted(cpu)]
+        self.stuck = sorted(cpu)
+        return WorkerLostError(f"every worker process is idle while {pending} task(s) wait "
+                               f"(deadlocked or stuck): {'; '.join(names)}", workers=names)
 
 
 __all__ = ["KernelTask", "bounded_call", "connect_scheduler", "executor_workers", "run_task",

@@ -25,12 +25,14 @@ from concurrent.futures import Executor
 import numpy as np
 
 from .. import _validate as V
+from ..errors import WorkerLostError
 from ._disturbance import summary_metrics
 from ._ensemble import Ensemble
 from ._family import draw, parse_distributions, prepare_family
 from ._grid import run_grid
 from ._metrics import metrics_from_summary
 from ._options import RK4, Classifier, Kernel, Scenario
+from ._partial import PartialEnsemble, finished_only, lost_mask, reason_of
 
 
 class _SampleColumns:
@@ -131,12 +133,23 @@ def monte_carlo(plant, design, scenario: Scenario, *, params: dict, n: int = 100
     values = draw(dists, n, seed)
     family = prepare_family(plant, design, scenario, values, integrator=integrator,
                             classifier=classifier, allow_unmodeled=allow_unmodeled)
-    acc = run_grid(family, _SampleColumns(family, design.parameter_vector()), kernel=kernel,
-                   executor=executor, progress=progress, desc="monte carlo")
-    status, metrics = summarize(family, acc)
-    return Ensemble(params=values, status=status, metrics=metrics, T=family.T,
-                    duration=family.duration, tol=family.tols, distributions=dists, seed=seed,
-                    duration_reason=family.duration_reason)
+    def result(status, metrics, lost=None, reason=""):
+        cls, extra = ((Ensemble, {}) if lost is None else
+                      (PartialEnsemble, {"lost": lost, "lost_reason": reason}))
+        return cls(params=values, status=status, metrics=metrics, T=family.T,
+                   duration=family.duration, tol=family.tols, distributions=dists, seed=seed,
+                   duration_reason=family.duration_reason, **extra)
+
+    try:
+        acc = run_grid(family, _SampleColumns(family, design.parameter_vector()),
+                       kernel=kernel, executor=executor, progress=progress,
+                       desc="monte carlo")
+    except WorkerLostError as err:  # the finished chunks (fl_design.sim._partial)
+        lost = lost_mask(err, err.accumulators.shape[1])
+        status, metrics = finished_only(lambda a: summarize(family, a), err.accumulators,
+                                        lost, getattr(err, "probe", None))
+        raise err.with_partial(result(status, metrics, lost, reason_of(err))) from None
+    return result(*summarize(family, acc))
 
 
 __all__ = ["monte_carlo"]

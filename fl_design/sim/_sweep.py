@@ -30,11 +30,19 @@ import numpy as np
 
 from .. import _validate as V
 from .._numerics import bisect_log
-from ..errors import ParameterError
+from ..errors import ParameterError, WorkerLostError
 from ._adaptive import assemble, extension_options, longest_rerun, rerun_undecided, run_points
 from ._grid import _Columns, run_grid
 from ._metrics import Status
 from ._options import RK4, Classifier, Kernel, Scenario, option
+from ._partial import (
+    PartialRobustMap,
+    PartialStabilityMap,
+    finished_only,
+    grid_lost,
+    lost_mask,
+    reason_of,
+)
 from ._robust_map import RobustMap
 from ._run import prepare_run, signed_gammas
 from ._stability_map import EpsStarEstimate, StabilityMap
@@ -186,22 +194,40 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                       gammas=gammas, allow_unmodeled=allow_unmodeled, metrics=metrics)
     extend, max_duration = extension_options(scenario, extend, max_duration)  # scenario validated
     columns = _Columns(design, eps_grid, gammas)
-    acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
-    status, metrics = assemble(run, acc, (eps_grid.size, gamma_grid.size))
+    shape, cap = (eps_grid.size, gamma_grid.size), math.nan
+
+    def result(status, metrics, durations, lost=None, reason=""):
+        cls, extra = ((StabilityMap, {}) if lost is None else
+                      (PartialStabilityMap, {"lost": lost, "lost_reason": reason}))
+        return cls(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics, T=run.T,
+                   duration=run.duration, tol=run.tol, duration_reason=run.duration_reason,
+                   durations=durations,
+                   max_duration=cap if np.any(durations > run.duration) else math.nan, **extra)
+
+    try:
+        acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
+    except WorkerLostError as err:  # the finished chunks, as a map (fl_design.sim._partial)
+        status, metrics, lost = grid_lost(err, run, shape)
+        raise err.with_partial(result(status, metrics, np.full(shape, run.duration), lost,
+                                      reason_of(err)), np.flatnonzero(lost)) from None
+    status, metrics = assemble(run, acc, shape)
     durations = np.full(status.shape, run.duration)
-    cap = math.nan
     if extend > 1.0:
         cap = longest_rerun(run, extend, max_duration)
-        rerun_undecided(run, columns, status, metrics, durations, extend, cap,
-                        lambda longer: prepare_run(
-                            plant, design, longer, integrator=integrator,
-                            classifier=classifier, gammas=gammas,
-                            allow_unmodeled=allow_unmodeled, metrics=metrics),
-                        kernel=kernel, executor=executor, progress=progress, acc=acc)
-    return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
-                        T=run.T, duration=run.duration, tol=run.tol,
-                        duration_reason=run.duration_reason, durations=durations,
-                        max_duration=cap if np.any(durations > run.duration) else math.nan)
+        try:
+            rerun_undecided(run, columns, status, metrics, durations, extend, cap,
+                            lambda longer: prepare_run(
+                                plant, design, longer, integrator=integrator,
+                                classifier=classifier, gammas=gammas,
+                                allow_unmodeled=allow_unmodeled, metrics=metrics),
+                            kernel=kernel, executor=executor, progress=progress, acc=acc)
+        except WorkerLostError as err:  # the points still undecided lost their re-run
+            lost = status == int(Status.UNDECIDED)
+            raise err.with_partial(result(status, metrics, durations, lost, reason_of(err) +
+                                          " (re-run of the undecided points; each keeps its "
+                                          "verdict at its own duration)"),
+                                   np.flatnonzero(lost)) from None
+    return result(status, metrics, durations)
 
 
 def sweep_points(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma, points,
@@ -279,15 +305,26 @@ def _robust_sweep(plant, design, scenario, eps_grid, gamma_grid, gammas, *, para
                             classifier=classifier, gammas=gammas,
                             allow_unmodeled=allow_unmodeled)
     grid = _Columns(design, eps_grid, gammas)
-    acc = run_grid(family, _FamilyGridColumns(grid, family), kernel=kernel, executor=executor,
-                   progress=progress, desc="robust sweep")
-    status, m = summarize(family, acc)
     shape = (eps_grid.size, gamma_grid.size, samples)
-    metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
-               for k, v in m.items()}
-    return RobustMap(eps=eps_grid, gamma=gamma_grid, status=status.reshape(shape),
-                     metrics=metrics, params=values, T=family.T, duration=family.duration,
-                     distributions=dists, seed=seed, duration_reason=family.duration_reason)
+
+    def result(status, m, lost=None, reason=""):
+        cls, extra = ((RobustMap, {}) if lost is None else
+                      (PartialRobustMap, {"lost": lost.reshape(shape), "lost_reason": reason}))
+        return cls(eps=eps_grid, gamma=gamma_grid, status=status.reshape(shape),
+                   metrics={k: (v.reshape(*shape, -1) if k == "estimation_rms"
+                                else v.reshape(shape)) for k, v in m.items()},
+                   params=values, T=family.T, duration=family.duration, distributions=dists,
+                   seed=seed, duration_reason=family.duration_reason, **extra)
+
+    try:
+        acc = run_grid(family, _FamilyGridColumns(grid, family), kernel=kernel,
+                       executor=executor, progress=progress, desc="robust sweep")
+    except WorkerLostError as err:  # the finished chunks, as a map (fl_design.sim._partial)
+        lost = lost_mask(err, err.accumulators.shape[1])
+        status, m = finished_only(lambda a: summarize(family, a), err.accumulators,
+                                        lost, getattr(err, "probe", None))
+        raise err.with_partial(result(status, m, lost, reason_of(err))) from None
+    return result(*summarize(family, acc))
 
 
 def estimate_eps_star(plant: Plant, design: Design, scenario: Scenario, *, eps_range=None,

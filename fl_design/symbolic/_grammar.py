@@ -334,12 +334,25 @@ def check_names(names, *, what: str = "the declared names"):
     return dict(out) if isinstance(names, Mapping) else [n for n, _ in out]
 
 
+#: Most exponentials nested in one another (``exp``, ``sinh``, ``cosh``, a power with a
+#: variable exponent): ``exp(exp(exp(exp(exp(x)))))`` at a point is a number of millions of
+#: digits whose evaluation SymPy cannot interrupt (it hung ``derive``).
+MAX_EXP_NESTING = 3
+_GROWTH = (sp.exp, sp.sinh, sp.cosh)
+
+
+def _grows(node: sp.Basic) -> bool:
+    return isinstance(node, _GROWTH) or (isinstance(node, sp.Pow) and not node.exp.is_number)
+
+
 def _walk_size(expr: sp.Basic) -> tuple[int, int, int]:
     """``(terms, degree, depth)``: the most terms and highest degree of any part of ``expr``
     once expanded (inside function arguments too: ``expand`` goes there), and the tree's depth;
-    bottom-up without recursion, saturating above the limits."""
+    bottom-up without recursion, saturating above the limits. Exponentials nested more than
+    :data:`MAX_EXP_NESTING` deep are refused here (:class:`ExpressionError`)."""
     cap = 10 * MAX_TERMS
     done: dict = {}
+    growth: dict = {}
     stack = [(expr, 0, False)]
     deepest = worst_terms = worst_degree = 0
     while stack:
@@ -370,6 +383,13 @@ def _walk_size(expr: sp.Basic) -> tuple[int, int, int]:
             terms, degree = 1, 0
         done[node] = (terms, degree)
         worst_terms, worst_degree = max(worst_terms, terms), max(worst_degree, degree)
+        growth[node] = max((growth[a] for a in node.args), default=0) + _grows(node)
+        if growth[node] > MAX_EXP_NESTING:
+            raise ExpressionError(
+                f"exponentials nested more than {MAX_EXP_NESTING} deep ({_short(str(node))}; limit "
+                f"MAX_EXP_NESTING = {MAX_EXP_NESTING}): its values overflow every number "
+                "format and cannot be evaluated in bounded time; write it with fewer nested "
+                "exp/sinh/cosh/powers")
     return worst_terms, worst_degree, deepest
 
 
@@ -409,7 +429,10 @@ def check_size(expr: sp.Basic, what: str = "expression") -> sp.Basic:
     """
     if not isinstance(expr, sp.Basic):
         return expr
-    terms, degree, depth = _walk_size(expr)
+    try:
+        terms, degree, depth = _walk_size(expr)
+    except ExpressionError as exc:
+        raise ExpressionError(f"{what}: {exc}") from None
     if depth > MAX_TREE_DEPTH:
         raise ExpressionError(f"{what}: the expression tree is more than {MAX_TREE_DEPTH} "
                               "levels deep; build it from simpler terms")
@@ -426,5 +449,5 @@ def check_size(expr: sp.Basic, what: str = "expression") -> sp.Basic:
 
 
 __all__ = ["CONSTANTS", "FUNCTIONS", "MAX_DEGREE", "MAX_DEPTH", "MAX_DIGITS", "MAX_EXPONENT",
-           "MAX_LENGTH", "MAX_TERMS", "MAX_TREE_DEPTH", "check_names", "check_size",
+           "MAX_EXP_NESTING", "MAX_LENGTH", "MAX_TERMS", "MAX_TREE_DEPTH", "check_names", "check_size",
            "parse_expression"]

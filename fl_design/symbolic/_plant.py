@@ -50,6 +50,11 @@ def _from_recipe(recipe: Recipe) -> Plant:
     return self
 
 
+#: Longest plant name (it titles every figure: matplotlib lays out 100 000 characters for
+#: minutes).
+MAX_NAME = 200
+
+
 class Plant(Derivations):
     """A SISO plant ``x' = f(x, u)``, ``y = h(x)`` defined by SymPy expressions.
 
@@ -116,6 +121,9 @@ class Plant(Derivations):
         d = define(states, input, rhs, output, params, region, operating_point)
         if name is not None and not isinstance(name, str):
             raise PlantDefinitionError(f"name must be a string, got {name!r}")
+        if name is not None and len(name) > MAX_NAME:  # it titles every figure and table
+            raise PlantDefinitionError(f"name has {len(name)} characters, above the limit of "
+                                       f"{MAX_NAME} (it titles every figure): shorten it")
         name = name or "plant"
         input_range = V.interval("input_range", input_range)
         self._setup(d, None, name, input_range, plant_key(

@@ -126,9 +126,12 @@ def test_a_cluster_whose_workers_all_die_names_them_within_seconds(monkeypatch):
                                               r"tcp://10.0.0.8:4001") as info:
         _sweep(ex)
     assert time.perf_counter() - start < 10.0
-    kept = ~np.isnan(info.value.partial).all(axis=0)
+    kept = ~info.value.partial.lost.ravel()  # a partial StabilityMap
     assert kept.sum() == 4 and len(info.value.lost) == 12  # 2 finished tasks of 2 runs kept
     assert sorted(np.flatnonzero(~kept).tolist()) == info.value.lost
+    assert (info.value.partial.labels.ravel()[~kept] == "undecided").all()
+    assert info.value.workers == ["Dask worker tcp://10.0.0.7:4001",
+                                  "Dask worker tcp://10.0.0.8:4001"]
 
 
 def test_a_scheduler_that_stops_answering_is_a_lost_grid_not_a_hang(monkeypatch):
