@@ -392,9 +392,9 @@ def _plant_tries(plant, design, x_eq, u_eq, scales):
 def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     """One region: LDI ``P``, then the sector ellipsoid; a tuple or the reason (str)."""
     from ._certify import _Loop
-    from ._covered_lmi import widest_start_p
     from ._ldi import ldi_point
     from ._sector import loop_channels, solve_ellipsoid
+    from ._start_lmi import widest_start_p
 
     if any(r <= 0 for r in rooms.values()):
         return f"at scales {scale} the region leaves no room after the inter-sample margin"
