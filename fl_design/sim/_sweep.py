@@ -187,18 +187,20 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     extend, max_duration = extension_options(scenario, extend, max_duration)  # scenario validated
     columns = _Columns(design, eps_grid, gammas)
     acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
-    status, metrics = assemble(run, acc, (eps_grid.size, gamma_grid.size))
+    status, values = assemble(run, acc, (eps_grid.size, gamma_grid.size))
     durations = np.full(status.shape, run.duration)
     cap = math.nan
     if extend > 1.0:
         cap = longest_rerun(run, extend, max_duration)
-        rerun_undecided(run, columns, status, metrics, durations, extend, cap,
+        # the re-runs ask for the metrics the caller asked for (``metrics``, not the names
+        # of the map's ``values``): the same accumulators, the same compiled kernel
+        rerun_undecided(run, columns, status, values, durations, extend, cap,
                         lambda longer: prepare_run(
                             plant, design, longer, integrator=integrator,
                             classifier=classifier, gammas=gammas,
                             allow_unmodeled=allow_unmodeled, metrics=metrics),
                         kernel=kernel, executor=executor, progress=progress, acc=acc)
-    return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics,
+    return StabilityMap(eps=eps_grid, gamma=gamma_grid, status=status, metrics=values,
                         T=run.T, duration=run.duration, tol=run.tol,
                         duration_reason=run.duration_reason, durations=durations,
                         max_duration=cap if np.any(durations > run.duration) else math.nan)
