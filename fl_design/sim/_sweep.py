@@ -196,10 +196,10 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     columns = _Columns(design, eps_grid, gammas)
     shape, cap = (eps_grid.size, gamma_grid.size), math.nan
 
-    def result(status, metrics, durations, lost=None, reason=""):
+    def result(status, values, durations, lost=None, reason=""):
         cls, extra = ((StabilityMap, {}) if lost is None else
                       (PartialStabilityMap, {"lost": lost, "lost_reason": reason}))
-        return cls(eps=eps_grid, gamma=gamma_grid, status=status, metrics=metrics, T=run.T,
+        return cls(eps=eps_grid, gamma=gamma_grid, status=status, metrics=values, T=run.T,
                    duration=run.duration, tol=run.tol, duration_reason=run.duration_reason,
                    durations=durations,
                    max_duration=cap if np.any(durations > run.duration) else math.nan, **extra)
@@ -207,15 +207,17 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
     try:
         acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
     except WorkerLostError as err:  # the finished chunks, as a map (fl_design.sim._partial)
-        status, metrics, lost = grid_lost(err, run, shape)
-        raise err.with_partial(result(status, metrics, np.full(shape, run.duration), lost,
+        status, values, lost = grid_lost(err, run, shape)
+        raise err.with_partial(result(status, values, np.full(shape, run.duration), lost,
                                       reason_of(err)), np.flatnonzero(lost)) from None
-    status, metrics = assemble(run, acc, shape)
+    status, values = assemble(run, acc, shape)
     durations = np.full(status.shape, run.duration)
     if extend > 1.0:
         cap = longest_rerun(run, extend, max_duration)
+        # the re-runs ask for the metrics the caller asked for (``metrics``, not the names
+        # of the map's ``values``): the same accumulators, the same compiled kernel
         try:
-            rerun_undecided(run, columns, status, metrics, durations, extend, cap,
+            rerun_undecided(run, columns, status, values, durations, extend, cap,
                             lambda longer: prepare_run(
                                 plant, design, longer, integrator=integrator,
                                 classifier=classifier, gammas=gammas,
@@ -223,11 +225,11 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                             kernel=kernel, executor=executor, progress=progress, acc=acc)
         except WorkerLostError as err:  # the points still undecided lost their re-run
             lost = status == int(Status.UNDECIDED)
-            raise err.with_partial(result(status, metrics, durations, lost, reason_of(err) +
+            raise err.with_partial(result(status, values, durations, lost, reason_of(err) +
                                           " (re-run of the undecided points; each keeps its "
                                           "verdict at its own duration)"),
                                    np.flatnonzero(lost)) from None
-    return result(status, metrics, durations)
+    return result(status, values, durations)
 
 
 def sweep_points(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma, points,

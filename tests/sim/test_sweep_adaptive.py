@@ -200,3 +200,27 @@ def test_demo_map_slow_corner_is_decided_without_stripes():
     codes, _ = sweep_points(plant, design, fl.Scenario(0.3, 2400.0), eps=eps, gamma=gamma,
                             points=smap.extended)  # the re-run ones at 4 times their length
     assert set(codes.tolist()) <= {int(Status.CONVERGING), int(Status.CONVERGED)}
+
+
+@pytest.mark.parametrize("asked", [None, ["overshoot"]])
+def test_reruns_ask_for_the_callers_metrics(asked, pendulum, design, maps, monkeypatch):
+    """The re-runs of undecided points are prepared with the metrics the caller asked for (the
+    same accumulators, so the same compiled kernel as the map's runs), not with the names of
+    the map's metrics; the map's status and asked metrics are those of the full map."""
+    import fl_design.sim._sweep as sweep_module
+
+    seen, prepare = [], sweep_module.prepare_run
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("metrics"))
+        return prepare(*args, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "prepare_run", spy)
+    smap = fl.sweep(pendulum, design, fl.Scenario(REF), eps=EPS, gamma=GAMMA, metrics=asked,
+                    progress=False)
+    adaptive, _ = maps
+    assert len(seen) == 2 and seen == [asked, asked]  # the map's runs, then one re-run
+    np.testing.assert_array_equal(smap.status, adaptive.status)
+    np.testing.assert_array_equal(smap.durations, adaptive.durations)
+    for name in asked or adaptive.metrics:
+        np.testing.assert_array_equal(smap.metrics[name], adaptive.metrics[name], err_msg=name)

@@ -143,7 +143,13 @@ def _body(ops, load, store, rename) -> list[str]:
 #: out-of-order core overlaps the latency of one vector ``tanh`` (about 32 ns for 4 lanes on
 #: AVX2, its throughput 14 ns) with the other groups': the RK4 stages are a chain of dependent
 #: calls. Measured on the TRMS (AVX2): 2 groups 1.36x faster than 1 with one substep (3 and 4:
-#: slower again), with 10 substeps 1.69x, and 4 groups 1.19x faster than 2.
+#: slower again), with 10 substeps 1.69x, and 4 groups 1.19x faster than 2. But GCC 12 may
+#: give up vectorising a grouped loop ("no vectype for stmt"; the TRMS step of today, with
+#: its 106 accumulators, at 2 and 4 groups): the lanes then run as scalar code, 3-6x slower
+#: than one vectorised group. :func:`~fl_design.sim.kernel._lanes.build_lanes` checks the
+#: library and falls back to 1 group (ns per run-sample on AVX-512, GCC 12: pendulum with 4
+#: substeps, vectorised at every count: 1 group 32, 2 groups 26, 4 groups 31; TRMS: 1 group
+#: 35, 2 groups unvectorised 195; TRMS with 10 substeps: 1 group 239, 4 groups 623).
 GROUPS = {"plain": 2, "substeps": 4}
 _DEFINED = re.compile(r"^(?:const )?double (\w+) =")
 _WORD = re.compile(r"\b\w+\b")
@@ -193,9 +199,11 @@ UNROLL_LINES = 2400
 BLOCK_LINES = 600
 
 
-def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int) -> tuple[str, int]:
-    """C of ``fl_lanes_step`` and its number of lane groups."""
-    groups = GROUPS["plain"] if substeps == 1 else GROUPS["substeps"]
+def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int,
+               groups: int | None = None) -> tuple[str, int]:
+    """C of ``fl_lanes_step`` and its number of lane groups (default :data:`GROUPS`)."""
+    if groups is None:
+        groups = GROUPS["plain"] if substeps == 1 else GROUPS["substeps"]
     _segment = functools.partial(_segment_groups, groups=groups)
     ops, call = _in_place(*_program(acc))
     store = lambda res, nz: f"A[{nz} * FL_W + l]"
@@ -355,7 +363,7 @@ def fill_template(text: str, values: dict) -> str:
 
 
 def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
-                 vector_math: tuple[str, ...] = ()) -> str:
+                 vector_math: tuple[str, ...] = (), groups: int | None = None) -> str:
     """C source of the lane step and its driver ``fl_lanes_run`` (see the module docstring).
 
     Parameters
@@ -368,6 +376,9 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
         Lanes W per vector.
     vector_math : tuple of str, optional
         Math functions declared ``omp declare simd`` (vector versions in libmvec).
+    groups : int, optional
+        Lane groups per loop iteration (default :data:`GROUPS`; 1 when the compiler does not
+        vectorise the grouped loop, see :func:`~fl_design.sim.kernel._lanes.build_lanes`).
 
     Returns
     -------
@@ -391,7 +402,7 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     rk4, substeps = rk4_fold(accumulate)
     decls = "".join(f"#pragma omp declare simd notinbranch\ndouble {name}(double);\n"
                     for name in vector_math)
-    step, groups = _step_body(accumulate, rk4, substeps)
+    step, groups = _step_body(accumulate, rk4, substeps, groups)
     return fill_template(_template(), {
         "W": int(width), "G": groups, "NACC": accumulate.size1_in(0),
         "ND": accumulate.size1_in(1), "I_K": indices["k"],
