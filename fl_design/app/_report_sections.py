@@ -109,6 +109,13 @@ def _sweep(job, figures) -> list:
                     f"failed."))]
     if smap.duration_reason != "given":
         blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
+    if getattr(smap, "n_lost", 0):  # a worker died mid-sweep: the partial map
+        from ._brief import lost_line
+
+        blocks.append(("p", (f"PARTIAL MAP: {lost_line(smap)} (marked x in the figure; "
+                             "their metrics are NaN, and eps* reads them as not converging, "
+                             "so it can only be more cautious than the complete map's). "
+                             "Run again for the lost points.")))
     if "stability_map.png" in figures:
         blocks.append(("fig", "stability_map.png", (
             f"Stability map, {job.plant.name}: {smap.duration:g} s noise-free runs to the "

@@ -155,6 +155,11 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
                   else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
     handles = [Patch(color=c, label=n) for _, c, n in status_legend(smap.status)]
+    lost = lost_points(smap)
+    if lost:  # a partial map (a worker died): its lost cells crossed, never read as results
+        (h,) = ax.plot(*zip(*lost), ls="none", marker="x", ms=7, mew=1.6, color="k",
+                       label=LOST_LABEL.format(n=len(lost)))
+        handles.append(h)
     if show_eps_star:
         points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
         for kind, label, alpha in MAP_EPS_STAR:
@@ -173,8 +178,32 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     ax.set_ylim(edges(smap.eps)[[0, -1]])
     log_axes(ax)
     legend_below(ax, ncol=2, handles=handles)
-    ax.set_title(f"closed-loop runs of {smap.duration:g} s")
+    ax.set_title(f"closed-loop runs of {smap.duration:g} s"
+                 + (f" (PARTIAL: {len(lost)} lost)" if lost else ""))
     return fig
+
+
+#: Legend text of a partial map's lost cells (``n``: how many).
+LOST_LABEL = "lost: worker died ({n} runs, undecided)"
+
+
+def lost_points(smap) -> list:
+    """``[(|gamma|, eps)]`` of the cells a partial map lost (empty for a complete map).
+
+    Examples
+    --------
+    >>> from fl_design.plotting._maps import lost_points
+    >>> from fl_design.sim._partial import PartialStabilityMap
+    >>> m = PartialStabilityMap(np.array([0.1, 0.2]), np.array([-1.0]), np.array([[2], [3]]),
+    ...                         {}, 1e-3, 1.0, 0.1, lost=np.array([[False], [True]]))
+    >>> lost_points(m)
+    [(1.0, 0.2)]
+    """
+    mask = getattr(smap, "lost", None)
+    if mask is None:
+        return []
+    rows, cols = np.nonzero(np.asarray(mask, bool).reshape(np.shape(smap.status)))
+    return [(float(abs(smap.gamma[j])), float(smap.eps[i])) for i, j in zip(rows, cols)]
 
 
 def plot_eps_star_curve(curve, *, ax=None):
