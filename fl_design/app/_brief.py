@@ -297,8 +297,8 @@ def lost_line(result, what: str = "map") -> str:
         return ""
     reason = str(getattr(result, "lost_reason", "worker lost"))
     who = reason.split(": ", 1)[1] if ": " in reason else "a worker"
-    return (f"{what}: {n} of {np.size(result.status)} runs lost ({who} died); "
-            "those points are undecided")
+    those = "those runs are" if what == "ensemble" else "those points are"
+    return f"{what}: {n} of {np.size(result.status)} runs lost ({who} died); {those} undecided"
 
 
 def code_brief(cg: dict | None) -> Brief:

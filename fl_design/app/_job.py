@@ -166,6 +166,11 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
 
     def robustness():
         out = family.robustness(s, quick, executor, progress)
+        for key, what in (("robustness", "ensemble"), ("robust_map", "robust map")):
+            line = lost_line(out.get(key), what)
+            if line:  # as the sweep: the partial result kept, the report marked partial
+                job.lost[key] = line
+                note(f"robustness: {line}; the report is marked partial", enabled=True)
         if "robust_map_seconds" in out:
             job.timings["robust_map"] = out.pop("robust_map_seconds")
         job.results.update(out)

@@ -250,7 +250,7 @@ def sections(job, figures, failed=None) -> list:
     """
     timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
-    robust = ([("Robustness: a family of plants", report_blocks(job, figures))]
+    robust = ([(S.ROBUSTNESS, report_blocks(job, figures))]
               if "robustness" in job.results else [])
     return [("Summary", S.summary_blocks(job, figures)),
             (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),

@@ -36,6 +36,7 @@ MAP = "Stability map and eps*"
 CERTIFICATES = "Certificates"
 CODE = "C code"
 DERIVATION = "Derivation"
+ROBUSTNESS = "Robustness: a family of plants"
 
 
 def anchor(title: str) -> str:
@@ -136,7 +137,7 @@ def summary_rows(job) -> list:
         nonlinear = Brief("assumptions fail", "bad", why, nonlinear.long)
     lost = [(stage, line) for stage, line in (getattr(job, "lost", None) or {}).items()]
     partial = [("Complete?", Brief("PARTIAL", "bad", line),  # first: never looks complete
-                MAP if stage == "sweep" else SIMULATIONS) for stage, line in lost]
+                MAP if stage == "sweep" else ROBUSTNESS) for stage, line in lost]
     return [*partial,
             (f"Plant {job.plant.name}", _plant_brief(job) if job.derivation else "not derived",
              DERIVATION),
@@ -186,5 +187,5 @@ def summary_blocks(job, figures) -> list:
     return blocks
 
 
-__all__ = ["CERTIFICATES", "CODE", "DERIVATION", "MAP", "SIMULATIONS", "anchor",
+__all__ = ["CERTIFICATES", "CODE", "DERIVATION", "MAP", "ROBUSTNESS", "SIMULATIONS", "anchor",
            "assumptions_fail", "summary_blocks", "summary_rows"]
