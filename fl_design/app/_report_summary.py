@@ -176,8 +176,8 @@ def summary_blocks(job, figures) -> list:
                      "show the output only, its internal states may leave the region."))]
               if why else [])
     for line in (getattr(job, "lost", None) or {}).values():
-        blocks.append(("p", f"PARTIAL REPORT: {line} (a worker of the executor died; the "
-                       "finished runs are exactly a complete run's)."))
+        blocks.append(("p", (f"PARTIAL REPORT: {line} (a worker of the executor died; the "
+                             "finished runs are exactly a complete run's).")))
     blocks.append(("links", summary_rows(job)))
     sim = job.results.get("simulate")
     if "response.png" in figures:
