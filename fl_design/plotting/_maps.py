@@ -188,7 +188,8 @@ LOST_LABEL = "lost: worker died ({n} runs, undecided)"
 
 
 def lost_points(smap) -> list:
-    """``[(|gamma|, eps)]`` of the cells a partial map lost (empty for a complete map).
+    """``[(|gamma|, eps)]`` of the cells a partial map lost a run of (empty for a complete
+    map; a robust map's cell: any of its plants' runs).
 
     Examples
     --------
@@ -202,7 +203,8 @@ def lost_points(smap) -> list:
     mask = getattr(smap, "lost", None)
     if mask is None:
         return []
-    rows, cols = np.nonzero(np.asarray(mask, bool).reshape(np.shape(smap.status)))
+    cells = np.asarray(mask, bool).reshape(len(smap.eps), len(smap.gamma), -1).any(axis=2)
+    rows, cols = np.nonzero(cells)
     return [(float(abs(smap.gamma[j])), float(smap.eps[i])) for i, j in zip(rows, cols)]
 
 
@@ -291,9 +293,15 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
         (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6,
                        label=f"robust eps* ({100 * level:g}% of plants)")
         handles.append(h)
+    lost = lost_points(rmap)
+    if lost:  # a partial robust map: the cells with a lost run crossed
+        (h,) = ax.plot(*zip(*lost), ls="none", marker="x", ms=7, mew=1.6, color="k",
+                       label=LOST_LABEL.format(n=rmap.n_lost))
+        handles.append(h)
+    if handles:
         legend_below(ax, ncol=2, handles=handles)
     ax.set_title(f"{rmap.n} plants ({literal(', '.join(rmap.params))}), runs of "
-                 f"{rmap.duration:g} s")
+                 f"{rmap.duration:g} s" + (f" (PARTIAL: {rmap.n_lost} lost)" if lost else ""))
     return fig
 
 

@@ -376,7 +376,10 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
     """
     fig = plot_robust_map(rmap, level=level)
     ctx.star(fig.axes[0])
-    ctx.finish_map(fig.axes[0], f"robust stability map, {rmap.n} plants, seed {rmap.seed}")
+    lost = int(getattr(rmap, "n_lost", 0))  # a partial map says so in its title
+    ctx.finish_map(fig.axes[0], f"robust stability map, {rmap.n} plants, seed {rmap.seed}"
+                   + (f" (PARTIAL: {lost} of {np.size(rmap.status)} runs lost, x)" if lost
+                      else ""))
     return fig
 
 
