@@ -183,3 +183,19 @@ def test_the_run_help_documents_exit_3():
 
     run = build_parser()._subparsers._group_actions[0].choices["run"]
     assert EXIT_PARTIAL == 3 and "3 the report is written but PARTIAL" in run.format_help()
+
+
+def test_the_robust_map_figure_crosses_the_cells_with_a_lost_run():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from fl_design.plotting import plot_robust_map
+    from fl_design.sim._partial import PartialRobustMap
+
+    lost = np.array([[[False, False], [True, False]]])  # cell (eps 0.1, gamma 2): 1 of 2 runs
+    m = PartialRobustMap(np.array([0.1]), np.array([1.0, 2.0]), np.array([[[2, 1], [3, 0]]]),
+                         {}, {"b": np.array([0.9, 1.1])}, 1e-3, 1.0, lost=lost)
+    ax = plot_robust_map(m).axes[0]
+    (line,) = [h for h in ax.get_lines() if h.get_label().startswith("lost: worker died (1 ")]
+    assert list(zip(line.get_xdata(), line.get_ydata())) == [(2.0, 0.1)]
+    assert "PARTIAL: 1 lost" in ax.get_title()
