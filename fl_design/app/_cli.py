@@ -17,13 +17,14 @@ Sub-commands
 Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
 checked before the work starts; a closed pipe (``| head``) too.
 
-``run`` exits 3 (:data:`EXIT_PARTIAL`) when the report is written but partial: a worker of the
-executor died mid-sweep, so some of the map's runs are lost (``undecided``, NaN metrics,
+``run`` exits 3 (:data:`EXIT_PARTIAL`) when the report is written but partial: a worker of
+the executor died mid-sweep, so some of the map's runs are lost (``undecided``, NaN metrics,
 crossed in the figure; the finished ones exactly a complete run's). The report says so in its
-first line, ``summary.json`` has ``"complete": false`` and the counts. Not 0: a script or CI
-job that checks the exit code must not take a partial map for a complete one (as a partial
-test bench log is not a pass); not 1 (a failed check, e.g. the SIL test) or 2 (nothing
-computed, bad input): the report is there to read, and a new run fills the lost points.
+first line, ``summary.json`` has ``"complete": false`` and the counts (``sweep`` prints the
+partial map and exits 3 too). Not 0: a script or CI job that checks the exit code must not
+take a partial map for a complete one (as a partial test bench log is not a pass); not 1 (a
+failed check, e.g. the SIL test) or 2 (nothing computed, bad input): the report is there to
+read, and a new run fills the lost points.
 
 Examples
 --------
@@ -254,7 +255,14 @@ def _cmd_sweep(args) -> int:
         print_robust_map(job)
     elif "robust_map_skipped" in job.results:
         print(f"\n{job.results['robust_map_skipped']}")
-    return 0
+    from ._brief import lost_line
+
+    line = lost_line(job.results.get("robust_map"), "robust map")
+    if line:
+        job.lost["robust_map"] = line
+    for line in job.lost.values():  # as `run`: a partial map is not a complete one
+        print(f"PARTIAL (exit {EXIT_PARTIAL}): {line}")
+    return EXIT_PARTIAL if job.lost else 0
 
 
 def _cmd_codegen(args) -> int:
@@ -427,7 +435,10 @@ def build_parser() -> argparse.ArgumentParser:
     _common(simulate)
     simulate.set_defaults(func=_cmd_stage("simulate"))
     sweep = sub.add_parser("sweep", help="the empirical (eps, gamma) stability map; with "
-                           "[uncertainty] params also the robust map")
+                           "[uncertainty] params also the robust map",
+                           epilog=f"exit status: 0 complete; {EXIT_PARTIAL} PARTIAL (a worker "
+                           "died mid-sweep: the lost runs are undecided and counted); 2 bad "
+                           "input; 130 interrupted")
     _common(sweep, scheduler=True)
     sweep.add_argument("--samples", type=int, default=None, metavar="N",
                        help="plants per grid point of the robust map (default [uncertainty] "

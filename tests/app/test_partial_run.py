@@ -38,12 +38,12 @@ _SCRIPT = textwrap.dedent("""
 
     if __name__ == "__main__":
         from fl_design.app import _cli
-        config, out, at = sys.argv[1], sys.argv[2], int(sys.argv[3])
+        config, out, at, command = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
         ex = DiesAt(at) if at else None
         _cli._executor = lambda address: ex
+        args = ["--out", out, "--static-report"] if command == "run" else []
         try:
-            code = _cli.main(["run", config, "--quick", "--no-progress", "--out", out,
-                              "--static-report"])
+            code = _cli.main([command, config, "--quick", "--no-progress", *args])
         finally:
             if ex is not None:
                 ex.shutdown(wait=True, cancel_futures=True)
@@ -53,13 +53,14 @@ _SCRIPT = textwrap.dedent("""
 _CONFIG = '[plant]\nlibrary = "pendulum"\n[codegen]\nenabled = false\n'
 
 
-def _run(tmp_path, out: str, at: int, timeout: float = 240.0) -> tuple[dict, str, str]:
+def _run(tmp_path, out: str, at: int, command: str = "run",
+         timeout: float = 240.0) -> tuple[dict, str, str]:
     script, config = tmp_path / "dies_run.py", tmp_path / "quick.toml"
     script.write_text(_SCRIPT)
     config.write_text(_CONFIG)
     env = {**os.environ, "FL_DESIGN_CACHE": str(tmp_path / "cache"), "MPLBACKEND": "Agg"}
     proc = subprocess.Popen([sys.executable, str(script), str(config), str(tmp_path / out),
-                             str(at)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             str(at), command], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True, env=env)
     try:
         stdout, stderr = proc.communicate(timeout=timeout)
@@ -114,6 +115,14 @@ def test_a_worker_lost_mid_sweep_gives_a_partial_report_exit_3_and_nothing_cache
         cv = np.asarray(clean["sweep"]["metrics"][name], dtype=float).reshape(25, -1)
         assert np.array_equal(pv[kept], cv[kept], equal_nan=True), name
         assert np.isnan(pv[mask]).all(), name
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX process pools")
+def test_the_sweep_command_prints_the_partial_map_and_exits_3(tmp_path):
+    res, stdout, stderr = _run(tmp_path, "unused", at=2, command="sweep")
+    assert res["code"] == 3, stderr[-2000:]
+    assert stdout.splitlines()[-2].startswith("PARTIAL (exit 3): map: 12 of 25 runs lost")
 
 
 def _partial_map():
