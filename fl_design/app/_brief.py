@@ -255,9 +255,50 @@ def map_brief(smap, gamma: float) -> Brief:
     star = str(smap.eps_star(g))
     short = re.split(r" \(", star)[0]
     level = "warn" if "undecided" in star or short.startswith("<") else "good"
+    lost = getattr(smap, "n_lost", 0)
+    if lost:  # a partial map: never looks complete (its lost points read undecided)
+        return Brief(f"eps* {short} s (PARTIAL map)", "bad",
+                     f"at gamma {g:.3g}, {lost} of {np.size(smap.status)} runs lost",
+                     f"{star}; {lost_line(smap)}")
     return Brief(f"eps* {short} s", level,
                  f"at gamma {g:.3g}, {smap.eps.size} x {smap.gamma.size} noise-free runs of "
                  f"{smap.duration:g} s", star)
+
+
+def lost_line(result, what: str = "map") -> str:
+    """One line saying how many runs of ``result`` were lost and which worker died ("" when
+    none were: a complete result, or one that is not partial).
+
+    A partial result (:class:`~fl_design.sim._partial.PartialStabilityMap` and its siblings)
+    holds every finished run exactly as a complete one does; its lost runs are ``undecided``
+    with NaN metrics. The line is what the report's summary, the console and stderr say.
+
+    Parameters
+    ----------
+    result : object
+        A map or ensemble; partial when it has ``n_lost`` > 0.
+    what : str, optional
+        What the result is called in the line.
+
+    Examples
+    --------
+    >>> from fl_design.app._brief import lost_line
+    >>> from fl_design.sim._partial import PartialStabilityMap
+    >>> m = PartialStabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [3]]), {},
+    ...                         1e-3, 1.0, 0.1, lost=np.array([[False], [True]]),
+    ...                         lost_reason="worker lost: worker process 7 (exit code 3)")
+    >>> lost_line(m)
+    'map: 1 of 2 runs lost (worker process 7 (exit code 3) died); those points are undecided'
+    >>> lost_line(None)
+    ''
+    """
+    n = int(getattr(result, "n_lost", 0) or 0)
+    if n == 0:
+        return ""
+    reason = str(getattr(result, "lost_reason", "worker lost"))
+    who = reason.split(": ", 1)[1] if ": " in reason else "a worker"
+    those = "those runs are" if what == "ensemble" else "those points are"
+    return f"{what}: {n} of {np.size(result.status)} runs lost ({who} died); {those} undecided"
 
 
 def code_brief(cg: dict | None) -> Brief:
@@ -321,4 +362,4 @@ def compare_brief(sim: dict | None) -> Brief:
 
 
 __all__ = ["DASH", "MAX_WORDS", "Brief", "cert_brief", "cert_long", "clip", "code_brief", "compare_brief",
-           "design_brief", "map_brief", "nonlinear_brief", "run_brief", "window_brief"]
+           "design_brief", "lost_line", "map_brief", "nonlinear_brief", "run_brief", "window_brief"]

@@ -17,6 +17,15 @@ Sub-commands
 Bad input (a config, an output folder, a scheduler address) is one line on stderr and exit 2,
 checked before the work starts; a closed pipe (``| head``) too.
 
+``run`` exits 3 (:data:`EXIT_PARTIAL`) when the report is written but partial: a worker of
+the executor died mid-sweep, so some of the map's runs are lost (``undecided``, NaN metrics,
+crossed in the figure; the finished ones exactly a complete run's). The report says so in its
+first line, ``summary.json`` has ``"complete": false`` and the counts (``sweep`` prints the
+partial map and exits 3 too). Not 0: a script or CI job that checks the exit code must not
+take a partial map for a complete one (as a partial test bench log is not a pass); not 1 (a
+failed check, e.g. the SIL test) or 2 (nothing computed, bad input): the report is there to
+read, and a new run fills the lost points.
+
 Examples
 --------
 >>> from fl_design.app import main
@@ -42,6 +51,8 @@ from ._class_table import CLASS_TOML, is_class_config
 from ._config import LIBRARY, load_config, parse_config
 from ._outdir import check_out_dir
 
+#: ``fl-design run``'s exit code for a written but partial report (runs lost to a dead worker).
+EXIT_PARTIAL = 3
 #: ``--plant`` choices: the library plants of the config.
 PLANT_CHOICES = tuple(LIBRARY)
 
@@ -164,6 +175,8 @@ def _cmd_run(args) -> int:
                   + "; ".join(f"{k}: {v}" for k, v in paths["failed_figures"].items()))
         if not args.verbose:
             print("(--verbose: every stage's detail)")
+        for line in job.lost.values():  # the last line too: a partial report is not complete
+            print(f"PARTIAL REPORT (exit {EXIT_PARTIAL}): {line}")
         sys.stdout.flush()
     except BrokenPipeError:
         raise
@@ -171,7 +184,7 @@ def _cmd_run(args) -> int:
         print(f"fl-design: error: the report is written ({paths['html']}) but stdout "
               f"failed: {getattr(err, 'strerror', None) or err}", file=sys.stderr)
         return 2
-    return 0
+    return EXIT_PARTIAL if job.lost else 0
 
 
 def _cmd_derive(args) -> int:
@@ -242,7 +255,14 @@ def _cmd_sweep(args) -> int:
         print_robust_map(job)
     elif "robust_map_skipped" in job.results:
         print(f"\n{job.results['robust_map_skipped']}")
-    return 0
+    from ._brief import lost_line
+
+    line = lost_line(job.results.get("robust_map"), "robust map")
+    if line:
+        job.lost["robust_map"] = line
+    for line in job.lost.values():  # as `run`: a partial map is not a complete one
+        print(f"PARTIAL (exit {EXIT_PARTIAL}): {line}")
+    return EXIT_PARTIAL if job.lost else 0
 
 
 def _cmd_codegen(args) -> int:
@@ -373,7 +393,11 @@ def build_parser() -> argparse.ArgumentParser:
         "(EHGO + dynamic controller): derive, certify, sweep, simulate, generate C, report.")
     parser.add_argument("--version", action="version", version=f"fl-design {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    run = sub.add_parser("run", help="the main job: every stage and the report")
+    run = sub.add_parser("run", help="the main job: every stage and the report",
+                         epilog=f"exit status: 0 the report is complete; {EXIT_PARTIAL} the "
+                         "report is written but PARTIAL (a worker died mid-sweep: the lost "
+                         "runs are undecided, counted in the report and summary.json; run "
+                         "again to fill them); 2 bad input or nothing written; 130 interrupted")
     _common(run, out=True, scheduler=True)
     run.add_argument("--main-csv", action="store_true",
                      help="also write the main run as CSV (runs/main_noise<std>.csv); the "
@@ -411,7 +435,10 @@ def build_parser() -> argparse.ArgumentParser:
     _common(simulate)
     simulate.set_defaults(func=_cmd_stage("simulate"))
     sweep = sub.add_parser("sweep", help="the empirical (eps, gamma) stability map; with "
-                           "[uncertainty] params also the robust map")
+                           "[uncertainty] params also the robust map",
+                           epilog=f"exit status: 0 complete; {EXIT_PARTIAL} PARTIAL (a worker "
+                           "died mid-sweep: the lost runs are undecided and counted); 2 bad "
+                           "input; 130 interrupted")
     _common(sweep, scheduler=True)
     sweep.add_argument("--samples", type=int, default=None, metavar="N",
                        help="plants per grid point of the robust map (default [uncertainty] "
@@ -528,8 +555,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        0 on success; 2 on a bad input or a closed pipe (one line on stderr, no traceback);
-        130 on Ctrl-C.
+        0 on success; 3 (:data:`EXIT_PARTIAL`) for ``run`` whose report is written but
+        partial (a worker died mid-sweep: module doc); 2 on a bad input or a closed pipe (one
+        line on stderr, no traceback); 130 on Ctrl-C.
 
     Examples
     --------

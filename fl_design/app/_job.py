@@ -25,6 +25,7 @@ from pathlib import Path
 
 from . import _stage_family as family
 from . import _stages
+from ._brief import lost_line
 from ._build import build_setup
 from ._config import Config
 from ._stage_cache import cached_stage
@@ -56,6 +57,11 @@ class Job:
         :mod:`fl_design.app._stage_cache`).
     setup : fl_design.app._build.Setup
         The config's objects (set by :func:`prepare`).
+    lost : dict
+        Stage name -> one line saying how many of its runs were lost and which worker died
+        (a worker of the executor died mid-sweep: the stage's result is the partial one,
+        :func:`fl_design.app._brief.lost_line`). Empty for a complete job; the report and
+        ``fl-design run``'s exit code (3) say a job with lost runs is partial.
 
     Examples
     --------
@@ -73,6 +79,12 @@ class Job:
     timings: dict = field(default_factory=dict)
     cached: set = field(default_factory=set)
     setup: object = None
+    lost: dict = field(default_factory=dict)
+
+    @property
+    def partial(self) -> bool:
+        """True when some stage lost runs to a dead worker (:attr:`lost`)."""
+        return bool(self.lost)
 
 
 def note(message: str, *, enabled: bool = True) -> None:
@@ -142,13 +154,23 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
             s, job.derivation, quick, progress=lambda line: note(line, enabled=progress)))
 
     def sweep():
-        job.results["sweep"] = _stages.sweep(s, quick, executor, progress)
+        smap = job.results["sweep"] = _stages.sweep(s, quick, executor, progress)
+        line = lost_line(smap)
+        if line:  # a worker died: the partial map is kept (never cached), the job goes on
+            job.lost["sweep"] = line
+            note(f"sweep: {line}; the later stages do not read the map's points, the report "
+                 "is marked partial", enabled=True)
 
     def simulate():
         job.results["simulate"] = _stages.simulate(s, quick)
 
     def robustness():
         out = family.robustness(s, quick, executor, progress)
+        for key, what in (("robustness", "ensemble"), ("robust_map", "robust map")):
+            line = lost_line(out.get(key), what)
+            if line:  # as the sweep: the partial result kept, the report marked partial
+                job.lost[key] = line
+                note(f"robustness: {line}; the report is marked partial", enabled=True)
         if "robust_map_seconds" in out:
             job.timings["robust_map"] = out.pop("robust_map_seconds")
         job.results.update(out)

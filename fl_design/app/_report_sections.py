@@ -109,6 +109,13 @@ def _sweep(job, figures) -> list:
                     f"failed."))]
     if smap.duration_reason != "given":
         blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
+    if getattr(smap, "n_lost", 0):  # a worker died mid-sweep: the partial map
+        from ._brief import lost_line
+
+        blocks.append(("p", (f"PARTIAL MAP: {lost_line(smap)} (marked x in the figure; "
+                             "their metrics are NaN, and eps* reads them as not converging, "
+                             "so it can only be more cautious than the complete map's). "
+                             "Run again for the lost points.")))
     if "stability_map.png" in figures:
         blocks.append(("fig", "stability_map.png", (
             f"Stability map, {job.plant.name}: {smap.duration:g} s noise-free runs to the "
@@ -243,7 +250,7 @@ def sections(job, figures, failed=None) -> list:
     """
     timing = ", ".join(f"{k} {v:.1f} s" for k, v in job.timings.items())
     mode = "quick mode (short runs, small grids: not for conclusions)" if job.quick else "full"
-    robust = ([("Robustness: a family of plants", report_blocks(job, figures))]
+    robust = ([(S.ROBUSTNESS, report_blocks(job, figures))]
               if "robustness" in job.results else [])
     return [("Summary", S.summary_blocks(job, figures)),
             (S.SIMULATIONS, _simulations(job, figures)), (S.MAP, _sweep(job, figures)),

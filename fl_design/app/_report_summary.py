@@ -36,6 +36,7 @@ MAP = "Stability map and eps*"
 CERTIFICATES = "Certificates"
 CODE = "C code"
 DERIVATION = "Derivation"
+ROBUSTNESS = "Robustness: a family of plants"
 
 
 def anchor(title: str) -> str:
@@ -134,7 +135,11 @@ def summary_rows(job) -> list:
     if why:  # no cell says "certified" for a plant outside the method's assumptions
         cert = Brief("assumptions fail", "bad", why, cert.long)
         nonlinear = Brief("assumptions fail", "bad", why, nonlinear.long)
-    return [(f"Plant {job.plant.name}", _plant_brief(job) if job.derivation else "not derived",
+    lost = [(stage, line) for stage, line in (getattr(job, "lost", None) or {}).items()]
+    partial = [("Complete?", Brief("PARTIAL", "bad", line),  # first: never looks complete
+                MAP if stage == "sweep" else ROBUSTNESS) for stage, line in lost]
+    return [*partial,
+            (f"Plant {job.plant.name}", _plant_brief(job) if job.derivation else "not derived",
              DERIVATION),
             ("Design", design_brief(job.design), SIMULATIONS),
             ("Does it work?", verdict, SIMULATIONS),
@@ -170,6 +175,9 @@ def summary_blocks(job, figures) -> list:
     blocks = ([("p", (f"The method's assumptions fail for this plant: {why}; the runs below "
                      "show the output only, its internal states may leave the region."))]
               if why else [])
+    for line in (getattr(job, "lost", None) or {}).values():
+        blocks.append(("p", (f"PARTIAL REPORT: {line} (a worker of the executor died; the "
+                             "finished runs are exactly a complete run's).")))
     blocks.append(("links", summary_rows(job)))
     sim = job.results.get("simulate")
     if "response.png" in figures:
@@ -179,5 +187,5 @@ def summary_blocks(job, figures) -> list:
     return blocks
 
 
-__all__ = ["CERTIFICATES", "CODE", "DERIVATION", "MAP", "SIMULATIONS", "anchor",
+__all__ = ["CERTIFICATES", "CODE", "DERIVATION", "MAP", "ROBUSTNESS", "SIMULATIONS", "anchor",
            "assumptions_fail", "summary_blocks", "summary_rows"]

@@ -56,7 +56,10 @@ def summary(job) -> dict:
     out = {"config": job.config.to_dict(), "quick": job.quick, "design": design_label(job.design),
            "derivation": {k: v for k, v in job.derivation.items()
                           if k not in ("text", "a_mathml", "b_mathml")},
-           "timings_s": dict(job.timings)}
+           "timings_s": dict(job.timings),
+           # a worker died mid-sweep: the counts, so a script never reads it as complete
+           "complete": not getattr(job, "lost", None),
+           "lost": {stage: line for stage, line in (getattr(job, "lost", None) or {}).items()}}
     if "sweep" in res:  # the machine and instruction set the sweep's kernel ran on
         from ..sim import Kernel
 
@@ -67,7 +70,9 @@ def summary(job) -> dict:
                           for k, v in cert.items()}
     if "sweep" in res:
         smap = res["sweep"]
-        out["sweep"] = smap.to_dict() | {"eps_star": [
+        out["sweep"] = smap.to_dict() | {"n_runs": int(smap.status.size),
+                                         "n_lost": int(getattr(smap, "n_lost", 0)),
+                                         "eps_star": [
             {"gamma": float(g), **smap.eps_star(g).to_dict()} for g in smap.gamma]}
     sim = res.get("simulate")
     if sim:

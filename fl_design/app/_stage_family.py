@@ -101,12 +101,35 @@ def robust_map(setup: Setup, quick: bool, executor=None, progress: bool = False,
             f"({type(setup.design.estimator).__name__}) has none")}
     eps, gamma, duration = map_grid(setup.config, quick)
     start = time.perf_counter()
-    rmap = sweep(setup.plant, setup.design, setup.run_scenario(duration=duration,
-                                                               noise_std=0.0),
-                 eps=eps, gamma=gamma, classifier=setup.classifier, executor=executor,
-                 progress=progress, params=table.distributions(), samples=samples,
-                 seed=table.seed)
+    rmap = kept_partial(lambda: sweep(
+        setup.plant, setup.design, setup.run_scenario(duration=duration, noise_std=0.0),
+        eps=eps, gamma=gamma, classifier=setup.classifier, executor=executor,
+        progress=progress, params=table.distributions(), samples=samples, seed=table.seed))
     return {"robust_map": rmap, "robust_map_seconds": time.perf_counter() - start}
+
+
+def kept_partial(call):
+    """``call()``; when a worker of its executor dies, the error's partial result instead
+    (finished runs exact, lost ones ``undecided``, ``n_lost`` > 0: the job goes on and the
+    report says so, as the sweep stage does). A lost worker with no partial is re-raised.
+
+    Examples
+    --------
+    >>> from fl_design.app._stage_family import kept_partial
+    >>> from fl_design.errors import WorkerLostError
+    >>> def lost():
+    ...     raise WorkerLostError("x", partial="the finished runs")
+    >>> kept_partial(lost), kept_partial(lambda: 1)
+    ('the finished runs', 1)
+    """
+    from ..errors import WorkerLostError
+
+    try:
+        return call()
+    except WorkerLostError as err:
+        if err.partial is None:
+            raise
+        return err.partial
 
 
 def robustness(setup: Setup, quick: bool, executor=None, progress: bool = False) -> dict:
@@ -122,12 +145,11 @@ def robustness(setup: Setup, quick: bool, executor=None, progress: bool = False)
 
     table = setup.config.uncertainty
     duration = QUICK["duration"] if quick else table.duration
-    ens = monte_carlo(setup.plant, setup.design,
-                      setup.run_scenario(duration=duration, noise_std=0.0),
-                      params=table.distributions(), n=QUICK_SAMPLES if quick else table.samples,
-                      seed=table.seed, classifier=setup.classifier, executor=executor,
-                      progress=progress)
+    ens = kept_partial(lambda: monte_carlo(
+        setup.plant, setup.design, setup.run_scenario(duration=duration, noise_std=0.0),
+        params=table.distributions(), n=QUICK_SAMPLES if quick else table.samples,
+        seed=table.seed, classifier=setup.classifier, executor=executor, progress=progress))
     return {"robustness": ens, **robust_map(setup, quick, executor, progress)}
 
 
-__all__ = ["QUICK_MAP_SAMPLES", "map_grid", "robust_map", "robustness"]
+__all__ = ["QUICK_MAP_SAMPLES", "kept_partial", "map_grid", "robust_map", "robustness"]

@@ -247,9 +247,19 @@ def step_line(design, plant, scenario, quick: bool, *, time_budget=None,
 def sweep(setup: Setup, quick: bool, executor=None, progress: bool = False):
     """The noise-free stability map over the ``[sweep]`` grid.
 
+    A worker of ``executor`` that dies (or hangs) mid-sweep does not end the job: the
+    :class:`~fl_design.errors.WorkerLostError`'s partial map is this stage's map (a
+    :class:`~fl_design.sim._partial.PartialStabilityMap`: every finished run exactly as a
+    complete sweep gives it, the lost ones ``undecided`` with NaN metrics, flagged in its
+    ``lost`` mask). No later stage reads the map's points (certify, simulate and codegen run
+    their own computations; eps* read from it treats a lost point as undecided, never as
+    converging), and the report says how many runs were lost (:func:`fl_design.app._brief.
+    lost_line`). The map is never cached. A lost worker with no partial map is re-raised.
+
     Returns
     -------
     fl_design.StabilityMap
+        Or its partial subclass, ``n_lost`` > 0.
 
     Examples
     --------
@@ -259,16 +269,22 @@ def sweep(setup: Setup, quick: bool, executor=None, progress: bool = False):
     >>> sweep(build_setup(load_config(None)), True).status.shape
     (5, 5)
     """
+    from ..errors import WorkerLostError
     from ..sim import sweep as run_sweep
 
     cfg = setup.config.sweep
     n = QUICK["sweep_points"] if quick else cfg.points
     duration = QUICK["sweep_duration"] if quick else cfg.duration
     eps, gamma = np.geomspace(*cfg.eps, n), np.geomspace(*cfg.gamma, n)
-    return run_sweep(setup.plant, setup.design, setup.run_scenario(duration=duration,
-                                                                   noise_std=0.0),
-                     eps=eps, gamma=gamma, classifier=setup.classifier, executor=executor,
-                     progress=progress)
+    try:
+        return run_sweep(setup.plant, setup.design,
+                         setup.run_scenario(duration=duration, noise_std=0.0), eps=eps,
+                         gamma=gamma, classifier=setup.classifier, executor=executor,
+                         progress=progress)
+    except WorkerLostError as err:  # the finished runs are kept: the job goes on (above)
+        if err.partial is None:
+            raise
+        return err.partial
 
 
 def noise_levels(resp) -> dict:

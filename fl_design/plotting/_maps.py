@@ -155,6 +155,11 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
                   else "controller gain gamma")
     ax.set_ylabel("observer time constant eps (s)")
     handles = [Patch(color=c, label=n) for _, c, n in status_legend(smap.status)]
+    lost = lost_points(smap)
+    if lost:  # a partial map (a worker died): its lost cells crossed, never read as results
+        (h,) = ax.plot(*zip(*lost), ls="none", marker="x", ms=7, mew=1.6, color="k",
+                       label=LOST_LABEL.format(n=len(lost)))
+        handles.append(h)
     if show_eps_star:
         points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
         for kind, label, alpha in MAP_EPS_STAR:
@@ -173,8 +178,34 @@ def plot_stability_map(smap, *, ax=None, curves=None, show_eps_star: bool = True
     ax.set_ylim(edges(smap.eps)[[0, -1]])
     log_axes(ax)
     legend_below(ax, ncol=2, handles=handles)
-    ax.set_title(f"closed-loop runs of {smap.duration:g} s")
+    ax.set_title(f"closed-loop runs of {smap.duration:g} s"
+                 + (f" (PARTIAL: {len(lost)} lost)" if lost else ""))
     return fig
+
+
+#: Legend text of a partial map's lost cells (``n``: how many).
+LOST_LABEL = "lost: worker died ({n} runs, undecided)"
+
+
+def lost_points(smap) -> list:
+    """``[(|gamma|, eps)]`` of the cells a partial map lost a run of (empty for a complete
+    map; a robust map's cell: any of its plants' runs).
+
+    Examples
+    --------
+    >>> from fl_design.plotting._maps import lost_points
+    >>> from fl_design.sim._partial import PartialStabilityMap
+    >>> m = PartialStabilityMap(np.array([0.1, 0.2]), np.array([-1.0]), np.array([[2], [3]]),
+    ...                         {}, 1e-3, 1.0, 0.1, lost=np.array([[False], [True]]))
+    >>> lost_points(m)
+    [(1.0, 0.2)]
+    """
+    mask = getattr(smap, "lost", None)
+    if mask is None:
+        return []
+    cells = np.asarray(mask, bool).reshape(len(smap.eps), len(smap.gamma), -1).any(axis=2)
+    rows, cols = np.nonzero(cells)
+    return [(float(abs(smap.gamma[j])), float(smap.eps[i])) for i, j in zip(rows, cols)]
 
 
 def plot_eps_star_curve(curve, *, ax=None):
@@ -262,9 +293,15 @@ def plot_robust_map(rmap, *, ax=None, level: float = 1.0):
         (h,) = ax.plot(*zip(*inside), "w^", mec="k", ms=6,
                        label=f"robust eps* ({100 * level:g}% of plants)")
         handles.append(h)
+    lost = lost_points(rmap)
+    if lost:  # a partial robust map: the cells with a lost run crossed
+        (h,) = ax.plot(*zip(*lost), ls="none", marker="x", ms=7, mew=1.6, color="k",
+                       label=LOST_LABEL.format(n=rmap.n_lost))
+        handles.append(h)
+    if handles:
         legend_below(ax, ncol=2, handles=handles)
     ax.set_title(f"{rmap.n} plants ({literal(', '.join(rmap.params))}), runs of "
-                 f"{rmap.duration:g} s")
+                 f"{rmap.duration:g} s" + (f" (PARTIAL: {rmap.n_lost} lost)" if lost else ""))
     return fig
 
 

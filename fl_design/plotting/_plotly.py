@@ -32,7 +32,7 @@ from ._base import (
     status_legend,
     thin_line,
 )
-from ._maps import MAP_EPS_STAR
+from ._maps import LOST_LABEL, MAP_EPS_STAR, lost_points
 
 #: Time buckets per line (:func:`thin_line`): at most 5 points each, 2500 per trace.
 INTERACTIVE_BUCKETS = 500
@@ -321,6 +321,13 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
         data.append({"type": "scatter", "mode": "markers", "x": [None], "y": [None],
                      "name": name, "marker": {"symbol": "square", "size": 12, "color": color},
                      "hoverinfo": "skip"})
+    lost = lost_points(smap)
+    if lost:  # a partial map (a worker died): its lost cells crossed
+        xs, ys = zip(*lost)
+        data.append({"type": "scatter", "mode": "markers", "x": _num(xs), "y": _num(ys),
+                     "name": LOST_LABEL.format(n=len(lost)),
+                     "marker": {"symbol": "x", "size": 9, "color": "#000000"},
+                     "hoverinfo": "skip"})
     points = bracket_points(smap.gamma, [smap.eps_star(g) for g in smap.gamma])
     for kind, name, opacity in MAP_EPS_STAR:
         if kind in points:
@@ -351,8 +358,9 @@ def stability_map_spec(smap, ctx, *, curves=None) -> dict:
                      "y": _num([ctx.design_eps]), "name": "this design",
                      "marker": {"symbol": "star", "size": 16, "color": "#ffd700",
                                 "line": {"color": "#000000", "width": 1}}})
+    part = f" (PARTIAL: {len(lost)} of {status.size} runs lost, x)" if lost else ""
     layout = _layout(plotly_text(f"{ctx.plant}: stability map, noise-free runs of "
-                                 f"{smap.duration:g} s"), 600, hovermode="closest",
+                                 f"{smap.duration:g} s{part}"), 600, hovermode="closest",
                      xaxis=_axis(f"controller gain |gamma| ({_gamma_unit(ctx)})",
                                  **_log_axis(*xr)),
                      yaxis=_axis("observer time constant eps (s)", **_log_axis(*yr)),

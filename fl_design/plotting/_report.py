@@ -148,7 +148,10 @@ def stability_map_figure(smap, ctx: FigureContext, *, curves=None):
     fig = plot_stability_map(smap, curves=curves)
     ctx.star(fig.axes[0])
     ctx.bound_line(fig.axes[0], right=float(np.max(np.abs(smap.gamma))) * 1.5)
-    ctx.finish_map(fig.axes[0], f"stability map, noise-free runs of {smap.duration:g} s")
+    lost = int(getattr(smap, "n_lost", 0))  # a partial map says so in its title
+    ctx.finish_map(fig.axes[0], f"stability map, noise-free runs of {smap.duration:g} s"
+                   + (f" (PARTIAL: {lost} of {np.size(smap.status)} runs lost, x)" if lost
+                      else ""))
     return fig
 
 
@@ -373,7 +376,10 @@ def robust_map_figure(rmap, ctx: FigureContext, *, level: float = 1.0):
     """
     fig = plot_robust_map(rmap, level=level)
     ctx.star(fig.axes[0])
-    ctx.finish_map(fig.axes[0], f"robust stability map, {rmap.n} plants, seed {rmap.seed}")
+    lost = int(getattr(rmap, "n_lost", 0))  # a partial map says so in its title
+    ctx.finish_map(fig.axes[0], f"robust stability map, {rmap.n} plants, seed {rmap.seed}"
+                   + (f" (PARTIAL: {lost} of {np.size(rmap.status)} runs lost, x)" if lost
+                      else ""))
     return fig
 
 
