@@ -49,6 +49,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ComputationError, ParameterError
+from ._emit import _select
 
 _LIMIT = 2.0**30  # one bit of headroom below 2^31
 _F_MAX = 60
@@ -200,22 +201,9 @@ def _fixed_core(design):
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 
 
-def _select_args(node: dict, a, b):
-    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None."""
-    na, nb = node.get(a), node.get(b)
-    if not (na and nb and na[0] == nb[0] == "ifz"):
-        return None
-    (_, ca_, xa), (_, cb, yb) = na, nb
-    if node.get(cb) == ("not", ca_):
-        return ca_, xa, yb
-    if node.get(ca_) == ("not", cb):
-        return cb, yb, xa
-    return None
-
-
 def _analyse(f, boxes, y_range):
     """Intervals of every instruction of ``f`` (x, y, r) from the input boxes; a select
-    (:func:`_select_args`) has the hull of its two values' intervals (it is one of them)."""
+    (:func:`._emit._select`) has the hull of its two values' intervals (it is one of them)."""
     iv, kind, node = {}, {}, {}
     cur = {}
     for k in range(f.n_instructions()):
@@ -231,8 +219,8 @@ def _analyse(f, boxes, y_range):
         if op == ca.OP_CONST:
             c = f.instruction_constant(k)
             iv[k], kind[k] = (c, c), "q"
-        elif op == ca.OP_ADD and _select_args(node, *a):
-            _, x, y = _select_args(node, *a)
+        elif op == ca.OP_ADD and _select(node, *a):
+            _, x, y = _select(node, *a)
             iv[k] = (min(iv[x][0], iv[y][0]), max(iv[x][1], iv[y][1]))
             kind[k] = "q"
         elif op in (ca.OP_ADD, ca.OP_SUB, ca.OP_MUL, ca.OP_FMIN, ca.OP_FMAX):
@@ -334,8 +322,8 @@ def q31_program(design, y_range) -> Q31Program:
             node[k] = ("ifz", a[0], a[1])
         elif op == ca.OP_NOT:
             node[k] = ("not", a[0])
-        elif op == ca.OP_ADD and _select_args(node, *a):
-            a, op = _select_args(node, *a), "select"  # (c, x, y): c ? x : y
+        elif op == ca.OP_ADD and _select(node, *a):
+            a, op = _select(node, *a), "select"  # (c, x, y): c ? x : y
         if kind[k] == "b":
             F[k] = 0
         elif op == ca.OP_CONST:
