@@ -20,6 +20,17 @@ def load_line() -> str:
     return "load average (1, 5, 15 min): " + ", ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
+def machine() -> str:
+    """CPU, cores, the kernels' instruction-set level and the load average."""
+    import fl_design as fl
+
+    d = fl.Kernel().describe()
+    return (f"machine: {d['cpu']} ({d['machine']}), {os.cpu_count()} cores; kernel ISA "
+            f"{d['isa']} ({d['isa_source']}, {d['lanes']} lanes; available "
+            f"{', '.join(d['available'])}); load average "
+            + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+
+
 def finish(ok: bool) -> int:
     """Print :func:`load_line` and ``holds`` or ``FAILS``; the exit status (0 when ``ok``)."""
     print(load_line())

@@ -32,19 +32,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from _shared import machine
+
 COLD_TARGET_S = 15.0
 QUICK_WARM_TARGET_S = 5.0
-
-
-def machine() -> str:
-    """CPU, cores, the kernels' instruction-set level and the load average."""
-    import fl_design as fl
-
-    d = fl.Kernel().describe()
-    return (f"machine: {d['cpu']} ({d['machine']}), {os.cpu_count()} cores; kernel ISA "
-            f"{d['isa']} ({d['isa_source']}, {d['lanes']} lanes; available "
-            f"{', '.join(d['available'])}); load average "
-            + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 
 def _children_cpu() -> float:

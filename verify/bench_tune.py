@@ -25,24 +25,13 @@ import subprocess
 import sys
 import tempfile
 
-from _shared import load_line
+from _shared import load_line, machine
 
 TARGET_S = 10.0
 #: fl-design's library names and the factory that builds each.
 PLANTS = {"trms": "fl.plants.trms_yaw()", "trms-lag": "fl.plants.trms_yaw(True)",
           "pendulum": "fl.plants.pendulum()", "flexible-joint": "fl.plants.flexible_joint()",
           "cart-pendulum": "fl.plants.cart_pendulum()", "maglev": "fl.plants.maglev()"}
-
-
-def machine() -> str:
-    """CPU, cores, the kernels' instruction-set level and the load average."""
-    import fl_design as fl
-
-    d = fl.Kernel().describe()
-    return (f"machine: {d['cpu']} ({d['machine']}), {os.cpu_count()} cores; kernel ISA "
-            f"{d['isa']} ({d['isa_source']}, {d['lanes']} lanes; available "
-            f"{', '.join(d['available'])}); load average "
-            + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 
 def one(expr: str, timeout: float = 600.0) -> tuple[float, str]:
