@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import subprocess
 import sys
 import textwrap
 
 import numpy as np
 import pytest
+
+from tests.processes import run_script
 
 _SCRIPT = textwrap.dedent("""
     import json, os, sys
@@ -59,16 +59,11 @@ def _run(tmp_path, out: str, at: int, command: str = "run",
     script.write_text(_SCRIPT)
     config.write_text(_CONFIG)
     env = {**os.environ, "FL_DESIGN_CACHE": str(tmp_path / "cache"), "MPLBACKEND": "Agg"}
-    proc = subprocess.Popen([sys.executable, str(script), str(config), str(tmp_path / out),
-                             str(at), command], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True, env=env)
-    try:
-        stdout, stderr = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        stdout, stderr = proc.communicate()
+    code, stdout, stderr = run_script(script, str(config), str(tmp_path / out), str(at),
+                                      command, timeout=timeout, env=env)
+    if code is None:
         pytest.fail(f"no answer within {timeout} s (a hang)\n{stdout}\n{stderr[-2000:]}")
-    assert proc.returncode == 0, stderr[-3000:]
+    assert code == 0, stderr[-3000:]
     return json.loads(stdout.strip().splitlines()[-1]), stdout, stderr
 
 

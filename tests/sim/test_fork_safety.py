@@ -6,13 +6,12 @@ test (it never hangs the suite).
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
 import sys
 import textwrap
 
 import pytest
+
+from tests.processes import run_script
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX start methods")
 
@@ -53,24 +52,11 @@ _SEQUENCE = textwrap.dedent("""
 """)
 
 
-def _run(script, *args: str, timeout: float = 240.0) -> tuple[int | None, str, str]:
-    """Run a script file (spawn and forkserver workers re-import it) in its own session."""
-    proc = subprocess.Popen([sys.executable, str(script), *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=timeout)
-        return proc.returncode, out, err
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, err = proc.communicate()
-        return None, out, err
-
-
 @pytest.mark.parametrize("method", ["fork", "forkserver", "spawn"])
 def test_process_pool_after_threaded_sweep_finishes_with_identical_results(tmp_path, method):
     script = tmp_path / "seq.py"  # spawn/forkserver re-import __main__: a real file
     script.write_text(_SEQUENCE)
-    rc, out, err = _run(script, method)
+    rc, out, err = run_script(script, method)
     assert rc is not None, f"{method}: deadlocked (killed after 240 s)\n{out}\n{err[-2000:]}"
     assert rc == 0, err[-2000:]
     assert "SAME True True" in out, out
@@ -106,7 +92,7 @@ _DIES = textwrap.dedent("""
 def test_a_killed_worker_gives_a_clear_error_with_the_finished_chunks(tmp_path):
     script = tmp_path / "dies.py"
     script.write_text(_DIES)
-    rc, out, err = _run(script)
+    rc, out, err = run_script(script)
     assert rc == 0, (out, err[-2000:])
     words = dict(line.split(" ", 1) for line in out.splitlines() if " " in line)
     assert "LOST" in words, out

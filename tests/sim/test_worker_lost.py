@@ -20,6 +20,8 @@ import textwrap
 import numpy as np
 import pytest
 
+from tests.processes import run_script
+
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX process pools")
 
 _SCRIPT = textwrap.dedent("""
@@ -102,15 +104,10 @@ _SCRIPT = textwrap.dedent("""
 def _run(tmp_path, *args: str, timeout: float = 240.0) -> dict:
     script = tmp_path / "dies.py"
     script.write_text(_SCRIPT)
-    proc = subprocess.Popen([sys.executable, str(script), *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        out, err = proc.communicate()
+    code, out, err = run_script(script, *args, timeout=timeout)
+    if code is None:
         pytest.fail(f"no answer within {timeout} s (a hang)\n{out}\n{err[-2000:]}")
-    assert proc.returncode == 0, err[-3000:]
+    assert code == 0, err[-3000:]
     return json.loads(out.strip().splitlines()[-1])
 
 
