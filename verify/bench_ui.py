@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import shutil
 import signal
 import statistics
 import subprocess
@@ -48,19 +47,11 @@ import time
 from pathlib import Path
 
 # this folder (run as a script): the screenshot script's target and wait
+from _shared import load_line, machine
+from screenshots import driver
 from ui_screenshot import TARGET_MS, _wait
 
 FLD = Path(sys.executable).parent / "fl-design"
-
-
-def _machine() -> str:
-    from fl_design._isa import cpu_model
-
-    return f"{cpu_model()}, {os.cpu_count()} cores"
-
-
-def _load() -> str:
-    return "load " + ", ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def _start(argv: list) -> tuple:
@@ -96,32 +87,19 @@ def main(argv=None) -> int:
                     "a [class] config: fl-design ui CONFIG.toml)")
     args = ap.parse_args(argv)
     try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.options import Options
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        print("skipped: selenium is not installed (pip install 'fl_design[dev]')")
+        drv = driver(1400, 1000)
+    except RuntimeError as exc:  # selenium, Chromium or chromedriver missing: say which
+        print(f"skipped: {exc}")
         return 0
-    browser = shutil.which("chromium") or shutil.which("chromium-browser")
-    driver = shutil.which("chromedriver")
-    if not (browser and driver):
-        print("skipped: no chromium / chromedriver on PATH (apt-get install chromium "
-              "chromium-driver)")
-        return 0
-    print(f"machine: {_machine()}; {_load()}")
+    print(machine())
     start = time.perf_counter()
     proc, url = _start([args.config] if args.config else ["--class", args.cls] if args.cls
                        else ["--plant", args.plant])
     if url is None:
+        drv.quit()
         print("FAILS: fl-design ui printed no URL")
         return 1
     print(f"fl-design ui ready in {time.perf_counter() - start:.1f} s")
-    opts = Options()
-    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000"):
-        opts.add_argument(a)
-    opts.binary_location = browser
-    drv = webdriver.Chrome(service=Service(driver), options=opts)
-    drv.set_page_load_timeout(60)
     try:
         drv.get(url)
         if not _wait(drv, "return window.flTuner && window.flTuner.redraws >= 1", 60):
@@ -179,7 +157,7 @@ def main(argv=None) -> int:
         ok = med <= TARGET_MS
         print(f"{'holds' if ok else 'FAILS'}: median seen {med:.0f} ms against {TARGET_MS:.0f} ms"
               f" (page {part[0]:.0f} ms = fetch {part[1]:.0f} ms, of which server "
-              f"{part[2]:.0f} ms (CPU {part[4]:.0f} ms), + plot {part[3]:.0f} ms); {_load()}")
+              f"{part[2]:.0f} ms (CPU {part[4]:.0f} ms), + plot {part[3]:.0f} ms); {load_line()}")
         return 0 if ok else 1
     finally:
         drv.quit()
