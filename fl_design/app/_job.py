@@ -17,14 +17,15 @@ Examples
 
 from __future__ import annotations
 
+import pickle
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import _stage_family as family
 from . import _stages
+from ._beside import TARGETS, Beside
 from ._brief import lost_line
 from ._build import build_setup
 from ._config import Config
@@ -189,8 +190,9 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
 
     ``robustness`` (:func:`fl_design.monte_carlo` over the ``[uncertainty]`` family) runs only
     when the config gives ``[uncertainty] params``. The stages of :data:`BESIDE` (certify) run
-    in a thread beside the later stages when any follow (the same results, the two cores
-    used); the job waits for them before it returns and re-raises their errors.
+    in a child process beside the later stages when any follow (the same results, the two
+    cores used; a process because CasADi is not thread safe); the job waits for them before it
+    returns, re-raises their errors, and kills them when it stops early.
 
     Parameters
     ----------
@@ -231,38 +233,41 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
         todo = [s for s in todo if s != "robustness"]
     label = {stage: f"{i}/{len(todo)}" for i, stage in enumerate(todo, 1)}
     starts = _beside_starts(todo)
+    early = {name: _spawn_beside(job, name, quick, progress) for name in starts.values()}
     running = []
-    for k, stage in enumerate(todo):
-        if k in starts:  # a stage of BESIDE starts in its thread before this one
-            name = starts[k]
-            note(f"{label[name]} {name} ... (in a thread beside the next stages)",
-                 enabled=progress)
-            running.append(_Beside(name, label[name], steps[name]))
-        if stage in starts.values():
-            continue
-        note(f"{label[stage]} {stage} ...", enabled=progress)
-        start, cpu = time.perf_counter(), time.process_time()
-        steps[stage]()
-        job.timings[stage] = time.perf_counter() - start
-        # this process's CPU time beside the wall time: on a loaded machine they differ
-        how = " from the cache" if stage in job.cached else ""
-        note(f"{label[stage]} {stage} done in {job.timings[stage]:.1f} s (CPU "
-             f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
+    try:
+        for k, stage in enumerate(todo):
+            if k in starts:  # a stage of BESIDE starts in its process before this one
+                name = starts[k]
+                b = _start_beside(job, early.pop(name), name, label[name], quick, progress,
+                                  steps[name])
+                if b is not None:
+                    running.append(b)
+                elif after is not None:
+                    after(name, job)
+            if stage in starts.values():
+                continue
+            _run_stage(job, stage, label[stage], steps[stage], progress)
+            for b in running:
+                b.raise_error()  # it failed: stop here, as it would have run alone
+            if after is not None:
+                after(stage, job)
         for b in running:
-            b.raise_error()  # it failed: stop here, as it would have run alone
-        if after is not None:
-            after(stage, job)
-    for b in running:
-        b.join(job, progress)
-        if after is not None:
-            after(b.stage, job)
+            _join_beside(job, b, progress)
+            if after is not None:
+                after(b.stage, job)
+    finally:
+        for b in [*running, *early.values()]:
+            if b is not None:
+                b.close()  # an error or Ctrl-C in the main stages: no orphan child left
     return job
 
 
-#: Stages run in a thread beside the later ones, and the stage after which each starts: the
-#: certificates (NumPy, CVXPY/Clarabel: one core) start once the sweep (whose kernel keeps
+#: Stages run in a child process beside the later ones, and the stage after which each starts:
+#: the certificates (NumPy, CVXPY/Clarabel: one core) start once the sweep (whose kernel keeps
 #: both cores busy) is done, beside simulate and codegen, which leave a core to the C
-#: compilers' single-threaded runs (every stage's results are unchanged).
+#: compilers' single-threaded runs (every stage's results are unchanged). A process, not a
+#: thread: CasADi is not thread safe (:mod:`fl_design.app._beside`).
 BESIDE = {"certify": "sweep"}
 
 
@@ -291,40 +296,77 @@ def _beside_starts(todo) -> dict:
     return out
 
 
-class _Beside:
-    """One stage run in a daemon thread; :meth:`join` waits for it and re-raises its error."""
+def _run_stage(job: Job, stage: str, label: str, step, progress: bool) -> None:
+    """Run one stage in this thread, timed (wall and this process's CPU)."""
+    note(f"{label} {stage} ...", enabled=progress)
+    start, cpu = time.perf_counter(), time.process_time()
+    step()
+    job.timings[stage] = time.perf_counter() - start
+    # this process's CPU time beside the wall time: on a loaded machine they differ
+    how = " from the cache" if stage in job.cached else ""
+    note(f"{label} {stage} done in {job.timings[stage]:.1f} s (CPU "
+         f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
 
-    def __init__(self, stage: str, label: str, step):
-        self.stage, self.label, self.error = stage, label, None
-        self.wall = self.cpu = 0.0
-        self.thread = threading.Thread(target=self._work, args=(step,),
-                                       name=f"fl-design-{stage}", daemon=True)
-        self.thread.start()
 
-    def _work(self, step) -> None:
-        start, cpu = time.perf_counter(), time.thread_time()
+class _Miss(Exception):
+    """Raised by a cache lookup's compute: the results are not cached."""
+
+
+def _spawn_beside(job: Job, stage: str, quick: bool, progress: bool):
+    """A child process for ``stage`` started now (its imports overlap the earlier stages).
+
+    None when the stage's results are cached (they are read when the stage's turn comes, no
+    process for a lookup) or when no process can be started (the stage then runs in turn).
+    """
+    from ._stage_cache import cached_stage
+
+    def miss():
+        raise _Miss
+
+    try:
+        cached_stage(job.setup, stage, quick, miss)
+    except _Miss:
+        pass
+    else:
+        return None
+    try:
+        return Beside(stage, "", say=(lambda line: note(line)) if progress else None)
+    except OSError as err:
+        note(f"{stage}: runs in turn (no child process: {err})", enabled=progress)
+        return None
+
+
+def _start_beside(job: Job, b, stage: str, label: str, quick: bool, progress: bool, step):
+    """Send ``stage`` to its child process ``b``, or run it now (cached, no child, not sendable).
+
+    Returns the running :class:`~fl_design.app._beside.Beside`, or None when the stage is
+    done.
+    """
+    if b is not None:
+        b.label = label
         try:
-            step()
-        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
-            self.error = exc
-        self.wall, self.cpu = time.perf_counter() - start, time.thread_time() - cpu
+            b.submit(TARGETS[stage], (job.setup, job.derivation, quick))
+        except (pickle.PicklingError, TypeError, AttributeError) as err:
+            note(f"{label} {stage}: runs in turn (no child process: {err})", enabled=progress)
+        else:
+            note(f"{label} {stage} ... (in a process beside the next stages)", enabled=progress)
+            return b
+    _run_stage(job, stage, label, step, progress)
+    return None
 
-    def raise_error(self) -> None:
-        """Re-raise the stage's exception, if it has ended with one."""
-        if self.error is not None and not self.thread.is_alive():
-            raise self.error
 
-    def join(self, job: Job, progress: bool) -> None:
-        """Wait for the stage (interruptible: one-second waits), store its time, re-raise."""
-        start = time.perf_counter()
-        while self.thread.is_alive():
-            self.thread.join(timeout=1.0)
-        self.raise_error()
-        job.timings[self.stage] = self.wall
-        how = " from the cache" if self.stage in job.cached else ""
-        note(f"{self.label} {self.stage} done in {self.wall:.1f} s (CPU {self.cpu:.1f} s{how}; "
-             f"beside the other stages, {time.perf_counter() - start:.1f} s waited after them)",
-             enabled=progress)
+def _join_beside(job: Job, b: Beside, progress: bool) -> None:
+    """Wait for a stage run beside the others, store its results and time, re-raise."""
+    start = time.perf_counter()
+    results, hit = b.wait()
+    job.results[b.stage] = results
+    if hit:
+        job.cached.add(b.stage)
+    job.timings[b.stage] = b.wall
+    how = " from the cache" if hit else ""
+    note(f"{b.label} {b.stage} done in {b.wall:.1f} s (CPU {b.cpu:.1f} s{how}; in a process "
+         f"beside the other stages, {time.perf_counter() - start:.1f} s waited after them)",
+         enabled=progress)
 
 
 __all__ = ["BESIDE", "QUICK", "STAGES", "Job", "noise_levels", "note", "prepare", "run_job"]

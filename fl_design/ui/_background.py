@@ -35,7 +35,7 @@ import tempfile
 import threading
 import time
 
-from ._pickle import dumps
+from .._pickle import dumps
 
 #: Stages, cheapest first, and the controls each depends on.
 STAGES = {

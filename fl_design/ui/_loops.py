@@ -120,7 +120,7 @@ class LoopCache:
         does not start a compiler per position (an unfinished one is ended; its structure
         stays interpreted and is compiled again if it is asked for again).
         """
-        from ._pickle import dumps
+        from .._pickle import dumps
 
         with self._lock:
             stale = [(k, p) for k, p in self._compiling.items() if p.is_alive()]

@@ -1,4 +1,6 @@
-"""Pickling for the tuner's child processes: read-only mappings pickled as themselves.
+"""Pickling for our own child processes: read-only mappings pickled as themselves.
+
+Used by the tuner's background process and the main job's certify stage (a child process).
 
 The config's tables hold read-only mappings (``types.MappingProxyType``), which the standard
 pickler refuses; :func:`dumps` pickles them as read-only mappings again. The bytes go only from
@@ -7,7 +9,7 @@ this process to its own children through a pipe (never to or from a file).
 Examples
 --------
 >>> import pickle
->>> from fl_design.ui._pickle import dumps
+>>> from fl_design._pickle import dumps
 >>> pickle.loads(dumps([1, 2]))
 [1, 2]
 """
@@ -39,7 +41,7 @@ def dumps(obj) -> bytes:
     --------
     >>> import pickle
     >>> from types import MappingProxyType
-    >>> from fl_design.ui._pickle import dumps
+    >>> from fl_design._pickle import dumps
     >>> pickle.loads(dumps({"t": MappingProxyType({"b": 2.0})}))["t"]["b"]
     2.0
     """
