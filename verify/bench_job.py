@@ -6,7 +6,7 @@ Each measurement is ``fl-design run`` in a fresh process: **cold** with an empty
 Rounds are interleaved (cold, quick warm, cold, ...), so a change of the machine's load falls on
 both. Each line gives the wall time, the CPU time of the process and its children (the C
 compilers), the 1-minute load average, and the time of every stage read back from the run's
-``summary.json`` (``timings_s``: the certify stage runs in a thread beside sweep, simulate and
+``summary.json`` (``timings_s``: the certify stage runs in a child process beside simulate and
 codegen, so the stages' times add up to more than the wall time). It prints the machine (CPU,
 cores, the kernels' instruction-set level) first.
 
@@ -14,7 +14,7 @@ Targets (issue 33): the cold job <= 15 s and the quick warm job <= 5 s, medians 
 (exit status 1 on a miss). ``--quick`` runs the quick job cold and warm once and checks no
 target (the tests run it). ``--config`` times another configuration (its own [plant]);
 ``--serial`` adds, in each round, a cold job whose stages run one after the other (the certify
-stage not in its thread) and prints the median ratio of the wall times.
+stage not in its process) and prints the median ratio of the wall times.
 
     python verify/bench_job.py [--quick] [--rounds R] [--config FILE.toml] [--serial]
 """
