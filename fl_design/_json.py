@@ -86,6 +86,7 @@ def dumps(value, **kwargs) -> str:
     Returns
     -------
     str
+        Strict JSON text (a non-finite float written as ``null``).
 
     Examples
     --------

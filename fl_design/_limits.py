@@ -135,6 +135,7 @@ def memory_budget() -> tuple[float, str]:
     Returns
     -------
     (float, str)
+        The bytes, and which of the three bounds set them (in words).
 
     Examples
     --------

@@ -138,6 +138,7 @@ def snippet_text(tuner, values: dict) -> str:
     Returns
     -------
     str
+        The script's text (it runs on its own with fl_design installed).
 
     Examples
     --------

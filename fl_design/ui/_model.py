@@ -236,6 +236,7 @@ class Tuner:
         Returns
         -------
         list of dict
+            One per slider, in the page's order.
 
         Examples
         --------
