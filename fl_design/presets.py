@@ -178,7 +178,7 @@ def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Des
     Returns
     -------
     Design
-        EHGO of order 4 and the dynamic controller, input in ``[-2.5, 2.5]``.
+        Gains ``(6, 11, 6)`` on a fourth-order EHGO; the TRMS's input range.
 
     Examples
     --------
@@ -210,7 +210,7 @@ def flexible_joint_design(eps: float = 5e-3, gamma: float = 3e-5, **controller) 
     Returns
     -------
     Design
-        EHGO of order 5 and the dynamic controller, input in ``[-10, 10]``.
+        Closed loop ``(s + 5)^4``, EHGO of order 5, ``|u| <= 10``.
 
     Examples
     --------

@@ -215,16 +215,30 @@ def _ui_parser(sub) -> None:
     ui.set_defaults(func=_cmd_ui)
 
 
-def ui_setup(cfg, *, plant_class=None):
+def ui_setup(cfg=None, *, plant_class=None):
     """The tuner's :class:`fl_design.ui.TunerSetup` of a config (checked as ``run`` checks it).
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        Default: the paper's TRMS experiment (``load_config(None)``).
+    plant_class : PlantClass, optional
+        The class the page certifies (``--class``), its simulated member the config's plant.
+
+    Returns
+    -------
+    fl_design.ui.TunerSetup
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
-    >>> ui_setup(load_config(None)).design.estimator.eps
+    >>> ui_setup().design.estimator.eps
     0.05
     """
+    if cfg is None:
+        from ._config import load_config
+
+        cfg = load_config(None)
     from ..ui import TunerSetup
     from ._plant_table import LIBRARY
     from ._template import render

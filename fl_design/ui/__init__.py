@@ -42,10 +42,9 @@ no-overwrite rule), ``_server`` (HTTP, token, :func:`serve`), ``static/`` (the p
 
 Examples
 --------
->>> from fl_design.app import load_config
 >>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui import Tuner
->>> Tuner(ui_setup(load_config(None))).defaults()["eps"]
+>>> Tuner(ui_setup()).defaults()["eps"]
 0.05
 """
 
