@@ -44,8 +44,9 @@ Examples
 --------
 >>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui import Tuner
->>> Tuner(ui_setup()).defaults()["eps"]
-0.05
+>>> tuner = Tuner(ui_setup())  # what `fl-design ui` serves, without the server
+>>> [c["name"] for c in tuner.controls()][:2], tuner.defaults()["eps"]
+(['gamma', 'eps'], 0.05)
 """
 
 from ._model import Tuner, TunerSetup

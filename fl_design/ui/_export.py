@@ -173,7 +173,9 @@ def save_snippet(tuner, values: dict, out) -> tuple:
 
     Parameters
     ----------
-    tuner, values, out
+    tuner, values
+        As for :func:`snippet_text`.
+    out : path-like
         As for :func:`save_toml`.
 
     Returns
