@@ -135,9 +135,9 @@ def snippet_text(tuner, values: dict) -> str:
     Examples
     --------
     >>> from fl_design.app._cli import ui_setup
-    >>> from fl_design.ui._model import Tuner
-    >>> from fl_design.ui._export import snippet_text
+    >>> from fl_design.ui import Tuner
     >>> t = Tuner(ui_setup())
+    >>> from fl_design.ui._export import snippet_text
     >>> print(snippet_text(t, t.defaults()).splitlines()[2])
     plant = fl.plants.trms_yaw()
     """
