@@ -40,7 +40,7 @@ def jsonable(value):
     Raises
     ------
     TypeError
-        A value with no JSON form.
+        A value with no JSON form (the message names its type).
 
     Examples
     --------

@@ -85,7 +85,7 @@ def env_flag(name: str, default: bool) -> bool:
     Parameters
     ----------
     name : str
-        Environment variable.
+        The variable's name, without ``$``.
     default : bool
 
     Returns

@@ -392,7 +392,8 @@ class EpsCertificate(_OfClass):
 
 @dataclass(frozen=True, repr=False)
 class GammaCertificate(_OfClass):
-    """Result of :func:`fl_design.certify_gamma`.
+    """Whether the design's gamma is certified, and the gamma interval that is
+    (:func:`fl_design.certify_gamma`).
 
     Parameters
     ----------
