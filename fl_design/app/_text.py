@@ -100,9 +100,9 @@ def bounded_up_to(smap, gamma: float) -> str:
     Parameters
     ----------
     smap : fl_design.StabilityMap
-        A sweep.
+        A sweep; only its statuses are read.
     gamma : float
-        A grid gamma.
+        One of the map's gammas.
 
     Returns
     -------

@@ -47,13 +47,15 @@ def structure_key(design, substeps: int) -> str:
     Parameters
     ----------
     design : fl_design.Design
-        The design.
+        All of it but eps and the size of gamma (gamma's sign stays) makes the key.
     substeps : int
         RK4 steps per sample.
 
     Returns
     -------
     str
+        Equal for two designs when one compiled loop serves both (eps and gamma are its
+        run-time parameters).
 
     Examples
     --------
