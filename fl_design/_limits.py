@@ -192,10 +192,12 @@ def check_substeps(value) -> int:
     Parameters
     ----------
     value : int
+        RK4 steps per sample, as the caller gave it.
 
     Returns
     -------
     int
+        ``value`` as an ``int``, within the limit.
 
     Raises
     ------
