@@ -33,7 +33,6 @@ import math
 import numpy as np
 
 from ..errors import ParameterError
-from ..symbolic._enclosure import NotEnclosable, enclosure
 
 #: Most sub-boxes :func:`interval_range` evaluates.
 MAX_BOXES = 4096
@@ -71,6 +70,8 @@ def interval_range(expr, box: dict, *, splits: int = 1) -> tuple[float, float]:
     (3.59..., 6.8...)
     """
     import sympy as sp
+
+    from ..symbolic._enclosure import NotEnclosable, enclosure  # SymPy: imported on use
 
     expr = sp.sympify(expr)
     free = sorted(expr.free_symbols, key=str)
