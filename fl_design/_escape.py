@@ -51,6 +51,7 @@ def markdown_text(text) -> str:
     Returns
     -------
     str
+        The escaped text, without line breaks.
 
     Examples
     --------

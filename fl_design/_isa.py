@@ -106,6 +106,7 @@ def available_isas(compiler: str | None = None) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
+        Level names from :data:`LEVELS` (``avx512``, ``avx2``, ...), ``scalar`` last.
 
     Examples
     --------

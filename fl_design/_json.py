@@ -40,7 +40,7 @@ def jsonable(value):
     Raises
     ------
     TypeError
-        A value with no JSON form.
+        A value with no JSON form (the message names its type).
 
     Examples
     --------
@@ -86,6 +86,7 @@ def dumps(value, **kwargs) -> str:
     Returns
     -------
     str
+        Strict JSON text (a non-finite float written as ``null``).
 
     Examples
     --------

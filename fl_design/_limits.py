@@ -85,7 +85,7 @@ def env_flag(name: str, default: bool) -> bool:
     Parameters
     ----------
     name : str
-        Environment variable.
+        The variable's name, without ``$``.
     default : bool
 
     Returns
@@ -135,6 +135,7 @@ def memory_budget() -> tuple[float, str]:
     Returns
     -------
     (float, str)
+        The bytes, and which of the three bounds set them (in words).
 
     Examples
     --------
@@ -191,10 +192,12 @@ def check_substeps(value) -> int:
     Parameters
     ----------
     value : int
+        RK4 steps per sample, as the caller gave it.
 
     Returns
     -------
     int
+        ``value`` as an ``int``, within the limit.
 
     Raises
     ------

@@ -140,6 +140,7 @@ def generate_source(*functions: ca.Function) -> str:
     Returns
     -------
     str
+        One C translation unit defining every function.
 
     Examples
     --------
@@ -180,6 +181,7 @@ def native_macros(compiler: str | None = None) -> frozenset:
     Returns
     -------
     frozenset of str
+        The macro names; empty without a compiler.
 
     Examples
     --------

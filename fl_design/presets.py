@@ -57,6 +57,7 @@ def paper_controller(gamma: float = 3e-4, *, u_limits=_DEFAULT_U_LIMITS) -> Dyna
     Returns
     -------
     DynamicController
+        The gains ``(2, 4)``, ``gamma``, the integrator and the estimate limits.
 
     Examples
     --------
@@ -86,6 +87,7 @@ def paper_design(eps: float = 0.05, gamma: float = 3e-4, *, u_limits=_DEFAULT_U_
     Returns
     -------
     Design
+        EHGO and :func:`paper_controller`, both at ``T = 1 ms``.
 
     Examples
     --------
@@ -113,6 +115,7 @@ def least_squares_design(window: int, gamma: float = 3e-4, *,
     Returns
     -------
     Design
+        Least-squares estimator of ``window`` samples and :func:`paper_controller`.
 
     Examples
     --------
@@ -140,6 +143,7 @@ def pendulum_design(eps: float = 0.02, gamma: float = 1e-2, **controller) -> Des
     Returns
     -------
     Design
+        EHGO of order 3 and the dynamic controller, ``T = 1 ms``.
 
     Examples
     --------
@@ -174,6 +178,7 @@ def trms_lag_design(eps: float = 0.05, gamma: float = 3e-3, **controller) -> Des
     Returns
     -------
     Design
+        Gains ``(6, 11, 6)`` on a fourth-order EHGO; the TRMS's input range.
 
     Examples
     --------
@@ -205,6 +210,7 @@ def flexible_joint_design(eps: float = 5e-3, gamma: float = 3e-5, **controller) 
     Returns
     -------
     Design
+        Closed loop ``(s + 5)^4``, EHGO of order 5, ``|u| <= 10``.
 
     Examples
     --------
@@ -235,6 +241,7 @@ def cart_pendulum_design(eps: float = 5e-3, gamma: float = 0.05, **controller) -
     Returns
     -------
     Design
+        EHGO of order 3 and the dynamic controller for the crane.
 
     Examples
     --------
@@ -271,6 +278,7 @@ def maglev_design(eps: float = 2e-3, gamma: float = -1.6e-3, **controller) -> De
     Returns
     -------
     Design
+        EHGO of order 4 and the dynamic controller (negative ``gamma``).
 
     Examples
     --------
@@ -301,6 +309,7 @@ def bench_design(name: str) -> Design:
     Returns
     -------
     Design
+        That plant's ``*_design()`` with its defaults.
 
     Raises
     ------

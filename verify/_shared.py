@@ -5,6 +5,7 @@ Imported by the scripts next to it (their folder is on ``sys.path`` when run as 
 
 from __future__ import annotations
 
+import argparse
 import os
 
 import numpy as np
@@ -29,6 +30,14 @@ def machine() -> str:
             f"{d['isa']} ({d['isa_source']}, {d['lanes']} lanes; available "
             f"{', '.join(d['available'])}); load average "
             + ", ".join(f"{x:.2f}" for x in os.getloadavg()))
+
+
+def quick_args(doc: str, quick_help: str, argv=None) -> argparse.Namespace:
+    """The command line of a script whose only option is ``--quick`` (``quick_help`` says what
+    it shortens); its description is the first line of ``doc``."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help=quick_help)
+    return parser.parse_args(argv)
 
 
 def finish(ok: bool) -> int:

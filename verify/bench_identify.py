@@ -17,7 +17,6 @@ calls' wall time. Exits with status 1 on a miss.
 
 from __future__ import annotations
 
-import argparse
 import resource
 import subprocess
 import sys
@@ -27,7 +26,7 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-from _shared import load_line
+from _shared import load_line, quick_args
 
 import fl_design as fl
 from fl_design.sim._rig import Rig
@@ -52,9 +51,7 @@ def _log(duration: float, path: Path):
 
 def main(argv=None) -> int:
     """Run the benchmark; return the exit status."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="short log, narrow class")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "short log, narrow class", argv)
     ok = True
     tmp = Path(tempfile.mkdtemp())
     duration = 10.0 if args.quick else 60.0

@@ -48,8 +48,8 @@ from pathlib import Path
 
 # this folder (run as a script): the screenshot script's target and wait
 from _shared import load_line, machine
-from screenshots import driver
-from ui_screenshot import TARGET_MS, _wait
+from screenshots import driver, wait_for
+from ui_screenshot import TARGET_MS
 
 FLD = Path(sys.executable).parent / "fl-design"
 
@@ -102,7 +102,7 @@ def main(argv=None) -> int:
     print(f"fl-design ui ready in {time.perf_counter() - start:.1f} s")
     try:
         drv.get(url)
-        if not _wait(drv, "return window.flTuner && window.flTuner.redraws >= 1", 60):
+        if not wait_for(drv, "return window.flTuner && window.flTuner.redraws >= 1", 60):
             print("FAILS: the page did not draw within 60 s")
             return 1
         steps = 5 if args.quick else 9
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
                     changed = time.time() - t
                     break
                 time.sleep(0.01)
-            if not _wait(drv, f"return window.flTuner.redraws > {n} && "
+            if not wait_for(drv, f"return window.flTuner.redraws > {n} && "
                          "!window.flTuner.inflight", 30):
                 print(f"FAILS: no redraw for gamma = {g:.3g} within 30 s")
                 return 1
@@ -144,7 +144,7 @@ def main(argv=None) -> int:
         clean = []
         for g in gammas[1:] + gammas[:1]:
             n = drv.execute_script(MOVE, g)
-            if not _wait(drv, f"return window.flTuner.redraws > {n} && "
+            if not wait_for(drv, f"return window.flTuner.redraws > {n} && "
                          "!window.flTuner.inflight", 30):
                 print(f"FAILS: no redraw for gamma = {g:.3g} within 30 s")
                 return 1

@@ -23,10 +23,8 @@ plant's true ``sigma``; "after the peaking" is ``t >= 10 eps``. Checked (exit 1 
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
-from _shared import claim_verdict, slope
+from _shared import claim_verdict, quick_args, slope
 
 import fl_design as fl
 
@@ -54,9 +52,7 @@ def run(eps: float, clamp: bool):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="three eps values")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "three eps values", argv)
     eps = [0.01, 0.05, 0.1] if args.quick else [0.01, 0.02, 0.05, 0.1, 0.2]
     ok = True
     print("Paper: estimates 'peak to a negative power of eps before they decay'; Theorem 1: "

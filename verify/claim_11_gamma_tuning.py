@@ -23,9 +23,7 @@ Checked (exit 1 otherwise), with the TRMS's b interval [3.6, 6.8]:
 
 from __future__ import annotations
 
-import argparse
-
-from _shared import claim_verdict
+from _shared import claim_verdict, quick_args
 
 import fl_design as fl
 
@@ -45,9 +43,7 @@ def double_integrator(b: float) -> fl.Plant:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer TRMS gammas")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "fewer TRMS gammas", argv)
     ok = True
     trms, design = fl.plants.trms_yaw(), fl.presets.paper_design()
     b_lo, b_hi = trms.b_bounds()

@@ -29,13 +29,12 @@ inequality re-checked in NumPy) is checked against ``fl.simulate`` (exit 1 on a 
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 
 import numpy as np
 import sympy as sp
-from _shared import claim_verdict
+from _shared import claim_verdict, quick_args
 
 import fl_design as fl
 
@@ -98,9 +97,7 @@ def lure_item(quick: bool) -> bool:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="items 1 and 2 only")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "items 1 and 2 only", argv)
     ok = True
     load = os.getloadavg()[0]
 

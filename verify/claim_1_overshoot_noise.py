@@ -9,9 +9,8 @@ tracks. Exit 1 when the ordering fails. ``--quick``: 12 s runs, 2 seeds.
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
+from _shared import quick_args
 
 import fl_design as fl
 from fl_design.app._report_sections import overshoot_text
@@ -31,9 +30,7 @@ def runs(std: float, duration: float, seeds) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="12 s runs, 2 seeds")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "12 s runs, 2 seeds", argv)
     duration, seeds = (12.0, (1, 2)) if args.quick else (30.0, (1, 2, 3, 4, 5))
     free = runs(0.0, duration, (1,))
     print(f"TRMS yaw, 0.3 rad step, {duration:g} s runs (overshoot %, median over seeds "

@@ -7,18 +7,15 @@ Exit 1 unless both fall by at least a factor 10. ``--quick``: 6 s runs.
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
+from _shared import quick_args
 
 import fl_design as fl
 from fl_design.app._job import noise_levels
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="6 s runs")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "6 s runs", argv)
     duration = 6.0 if args.quick else 30.0
     plant, std = fl.plants.trms_yaw(), float(np.sqrt(1e-3))
     levels = {}

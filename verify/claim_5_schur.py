@@ -7,18 +7,16 @@ alpha. Exit 1 on any bilinear A_d with spectral radius >= 1.
 
 from __future__ import annotations
 
-import argparse
 import warnings
 
 import numpy as np
+from _shared import quick_args
 
 import fl_design as fl
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="40 alphas instead of 400")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "40 alphas instead of 400", argv)
     alphas = np.geomspace(1e-6, 1e6, 40 if args.quick else 400)
     T, worst, worst_eig, euler_bad = 1e-3, 0.0, 0.0, 0
     for rho in range(1, 6):

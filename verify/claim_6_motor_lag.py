@@ -24,12 +24,12 @@ period of about 80 s, for every eps), which a 2 % band calls oscillating.
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 import warnings
 
 import numpy as np
+from _shared import quick_args
 
 import fl_design as fl
 from fl_design.errors import UnmodeledDynamicsWarning
@@ -134,10 +134,7 @@ def thresholds() -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true",
-                        help="only the checked eps* cells, no threshold bisections")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "only the checked eps* cells, no threshold bisections", argv)
     print("TRMS yaw, 0.3 rad step; motor-lag plant: relative degree 3, design rho = 2 "
           "(allow_unmodeled=True, UnmodeledDynamicsWarning silenced here)")
     warnings.simplefilter("ignore", UnmodeledDynamicsWarning)

@@ -22,10 +22,8 @@ not attain the l1 norm. ``--quick``: fewer points (the same checks).
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
-from _shared import claim_verdict, slope
+from _shared import claim_verdict, quick_args, slope
 
 import fl_design as fl
 
@@ -63,9 +61,7 @@ def ehgo(eps: float) -> fl.EHGO:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer eps and T values")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "fewer eps and T values", argv)
     n_pts = 4 if args.quick else 8
     ok = True
     print("Paper: 'the states can be shown to converge to a ball of radius proportional to "

@@ -18,10 +18,10 @@ Exit 1 when the ordering with noise fails. ``--quick``: one seed.
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
+from _shared import quick_args
 
 import fl_design as fl
 
@@ -49,9 +49,7 @@ def text(t: float) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one seed")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "one seed", argv)
     seeds = (1,) if args.quick else (1, 2, 3, 4, 5)
     print("Paper (Conclusions): better 'overshoot, settling time, and robustness to sensor "
           "noise' than the data-driven estimator.")

@@ -22,10 +22,8 @@ Exit 1 when a check fails. ``--quick``: fewer alphas (the same checks).
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
-from _shared import claim_verdict, slope
+from _shared import claim_verdict, quick_args, slope
 
 import fl_design as fl
 
@@ -43,9 +41,7 @@ def sigma_error(alpha: float) -> float:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer alphas")
-    args = parser.parse_args(argv)
+    args = quick_args(__doc__, "fewer alphas", argv)
     ok = True
     print("Paper (Sec. 5): 'we show O_x(T) = O_x(eps) when, in T = alpha eps, alpha <= 1'.")
     below = [0.01, 0.1, 1.0] if args.quick else [0.01, 0.03, 0.1, 0.3, 1.0]

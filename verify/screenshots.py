@@ -21,6 +21,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -55,6 +56,18 @@ def driver(width: int, height: int):
     drv.set_page_load_timeout(60)
     drv.set_script_timeout(30)
     return drv
+
+
+def wait_for(drv, script: str, timeout: float):
+    """The first truthy value of ``script`` run in the page (polled every 20 ms), or None after
+    ``timeout`` seconds."""
+    end = time.time() + timeout
+    while time.time() < end:
+        value = drv.execute_script(script)
+        if value:
+            return value
+        time.sleep(0.02)
+    return None
 
 
 def measure(drv) -> dict:

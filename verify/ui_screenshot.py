@@ -26,20 +26,10 @@ import threading
 import time
 from pathlib import Path
 
-from screenshots import driver
+from screenshots import driver, wait_for
 
 TARGET_MS = 150.0
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _wait(drv, script, timeout):
-    end = time.time() + timeout
-    while time.time() < end:
-        value = drv.execute_script(script)
-        if value:
-            return value
-        time.sleep(0.02)
-    return None
 
 
 def main(argv=None) -> int:
@@ -80,7 +70,7 @@ def _drive(drv, args) -> int:
     thread.start()
     try:
         drv.get(url_of(httpd, app))
-        if not _wait(drv, "return window.flTuner && window.flTuner.redraws >= 1", 60):
+        if not wait_for(drv, "return window.flTuner && window.flTuner.redraws >= 1", 60):
             print("FAILS: the page did not draw within 60 s")
             return 1
         steps = 4 if args.quick else 9
@@ -93,7 +83,7 @@ def _drive(drv, args) -> int:
                 c.input.value = String(Math.round(1000 * (Math.log10(arguments[0]) - lo) / (hi - lo)));
                 c.input.dispatchEvent(new Event('input', {bubbles: true}));
                 return window.flTuner.redraws;""", g)
-            if not _wait(drv, f"return window.flTuner.redraws > {n} && "
+            if not wait_for(drv, f"return window.flTuner.redraws > {n} && "
                          "!window.flTuner.inflight", 60):
                 print(f"FAILS: no redraw for gamma = {g:.3g} within 60 s")
                 return 1

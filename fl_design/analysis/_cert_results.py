@@ -65,12 +65,18 @@ class _OfClass(_Result):
     ``plant_class`` is the :class:`fl_design.PlantClass` certified (a Plant given to a
     certificate is read as its class, ``PlantClass.from_plant``; a bare ``b`` range as the
     named chain class ``PlantClass.chain``); ``class_description`` its one line;
-    ``uncovered`` what the certificate does not cover, in words.
+    ``uncovered`` what the certificate does not cover, in words. A subclass's docstring gets
+    these three documented at the end of its Parameters (:data:`CLASS_FIELDS_DOC`, added by
+    ``__init_subclass__``): written once, rendered and checked with each certificate.
     """
 
     plant_class: object = field(default=None, kw_only=True)
     class_description: str = field(default="", kw_only=True)
     uncovered: tuple = field(default=(), kw_only=True)
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.__doc__ = _with_class_fields(cls.__doc__ or "")
 
     def to_dict(self) -> dict:
         out = super().to_dict()
@@ -84,6 +90,46 @@ class _OfClass(_Result):
         if self.uncovered:
             out.append("not covered: " + "; ".join(self.uncovered))
         return out
+
+
+#: The numpydoc entry of :class:`_OfClass`'s fields, written once: every certificate's docstring
+#: gets it at the end of its Parameters section (:func:`_with_class_fields`).
+CLASS_FIELDS_DOC = (
+    "plant_class, class_description, uncovered",
+    "    Keyword-only: the :class:`fl_design.PlantClass` certified (or None), its one line,",
+    "    and what the certificate does not cover (tuple of str).",
+)
+
+
+def _with_class_fields(doc: str) -> str:
+    r"""``doc`` with :data:`CLASS_FIELDS_DOC` inserted before its Examples section (at the end
+    when it has none), indented as that section's header.
+
+    Examples
+    --------
+    >>> print(_with_class_fields("A result.\n\nParameters\n----------\nx : float\n    A value."
+    ...                          "\n\nExamples\n--------\nx = 1.0\n"))
+    A result.
+    <BLANKLINE>
+    Parameters
+    ----------
+    x : float
+        A value.
+    plant_class, class_description, uncovered
+        Keyword-only: the :class:`fl_design.PlantClass` certified (or None), its one line,
+        and what the certificate does not cover (tuple of str).
+    <BLANKLINE>
+    Examples
+    --------
+    x = 1.0
+    <BLANKLINE>
+    """
+    lines = doc.split("\n")
+    at = next((i for i in range(len(lines) - 1) if lines[i].strip() == "Examples"
+               and set(lines[i + 1].strip()) == {"-"}), len(lines))
+    indent = lines[at][: len(lines[at]) - len(lines[at].lstrip())] if at < len(lines) else ""
+    end = at - 1 if 0 < at < len(lines) and not lines[at - 1].strip() else at  # after the last entry
+    return "\n".join(lines[:end] + [indent + x for x in CLASS_FIELDS_DOC] + [""] + lines[at:])
 
 
 def class_fields(cls) -> dict:
@@ -272,12 +318,6 @@ class EpsCertificate(_OfClass):
         For a nonlinear certificate from a ``PlantBounds`` of a chain plant: the initial loop
         states covered, the largest sublevel set of ``V`` in the region
         (:class:`fl_design.analysis._ldi.CoveredSet`).
-    plant_class : PlantClass or None
-        The class certified (keyword; see :class:`_OfClass`).
-    class_description : str
-        Its one line.
-    uncovered : tuple of str
-        What the certificate does not cover.
 
     Examples
     --------
@@ -352,7 +392,8 @@ class EpsCertificate(_OfClass):
 
 @dataclass(frozen=True, repr=False)
 class GammaCertificate(_OfClass):
-    """Result of :func:`fl_design.certify_gamma`.
+    """Whether the design's gamma is certified, and the gamma interval that is
+    (:func:`fl_design.certify_gamma`).
 
     Parameters
     ----------
@@ -380,12 +421,6 @@ class GammaCertificate(_OfClass):
         Why (not).
     params : tuple of (str, float, float)
         The plant parameters covered with their ranges (from a ``PlantBounds``), else empty.
-    plant_class : PlantClass or None
-        The class certified (keyword; see :class:`_OfClass`).
-    class_description : str
-        Its one line.
-    uncovered : tuple of str
-        What the certificate does not cover.
 
     Examples
     --------

@@ -39,7 +39,7 @@ import numpy as np
 
 from ._coverage import bracket
 from ._refute import Refutation, switching_refutation
-from ._search import certified_eps_star
+from ._search import certified_eps_star, first_refuted
 from ._surrogate import chain_zoh, delta, schur_margins
 
 #: Most corner pairs the switching refutation tries (each a periodic + greedy search).
@@ -106,26 +106,9 @@ def refuted_by_switching(L, gamma: float, start: float, frozen_bad, rtol: float,
     top = frozen_bad if frozen_bad is not None else hi
     if start >= top or not admissible_pairs(L):
         return frozen_bad, None
-    prev, found = start, None
-    for e in np.geomspace(start, top, 6)[1:]:
-        if frozen_bad is not None and e >= frozen_bad:
-            break
-        r = switching_refute(L, float(e), gamma)
-        if r.refuted:
-            found = (float(e), r)
-            break
-        prev = float(e)
-    if found is None:
-        return frozen_bad, None
-    bad, rbad = found
-    while bad / prev - 1.0 > rtol:
-        mid = math.sqrt(prev * bad)
-        r = switching_refute(L, mid, gamma)
-        if r.refuted:
-            bad, rbad = mid, r
-        else:
-            prev = mid
-    return bad, rbad
+    out = first_refuted(lambda e: switching_refute(L, e, gamma), start, top, 6, rtol,
+                        below=frozen_bad)
+    return (frozen_bad, None) if out is None else out
 
 
 def class_brackets(L, gamma: float, lo: float, fb, rtol: float) -> dict:

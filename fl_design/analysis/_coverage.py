@@ -30,14 +30,12 @@ Examples
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ._analytic import modal_lyapunov
 from ._cert_results import EpsBracket, PointCertificate
 from ._refute import Refutation, switching_refutation
-from ._search import certified_eps_star
+from ._search import certified_eps_star, first_refuted
 from ._sos import SOSSolution, sos_certificate
 from ._surrogate import delta
 
@@ -166,24 +164,8 @@ def refuted_eps(L, gamma: float, db, start: float, frozen_bad: float | None, rto
     top = frozen_bad if frozen_bad is not None else hi
     if start >= top or L.b_lo == L.b_hi:  # one b: switching is no more than frozen
         return frozen_bad, None
-    prev, found = start, None
-    for e in np.geomspace(start, top, 10)[1:]:
-        r = refute(L, float(e), gamma, db)
-        if r.refuted:
-            found = (float(e), r)
-            break
-        prev = float(e)
-    if found is None:
-        return frozen_bad, None
-    bad, rbad = found
-    while bad / prev - 1.0 > rtol:
-        mid = math.sqrt(prev * bad)
-        r = refute(L, mid, gamma, db)
-        if r.refuted:
-            bad, rbad = mid, r
-        else:
-            prev = mid
-    return bad, rbad
+    out = first_refuted(lambda e: refute(L, e, gamma, db), start, top, 10, rtol)
+    return (frozen_bad, None) if out is None else out
 
 
 def bracket(covers: str, certified, refuted, how_certified: str,

@@ -38,12 +38,6 @@ class EpsStarCurve(_OfClass):
     covers : str
         What the certified curve covers: ``"frozen"`` (every constant ``b``; the curve is the
         fast search, see :func:`fl_design.certify_eps` for varying ``b``).
-    plant_class : PlantClass or None
-        The class certified (keyword; see :class:`_OfClass`).
-    class_description : str
-        Its one line.
-    uncovered : tuple of str
-        What the certificate does not cover.
 
     Examples
     --------

@@ -87,6 +87,33 @@ def noise_gain(plant: Plant, design: Design, *, r: float | None = None,
                                             ca.jacobian(u, X), ca.jacobian(u, w)])
     M, G, C, D = (np.asarray(a, dtype=float) for a in fun(np.concatenate([lin.x_eq, lin.s_eq]),
                                                             0.0))
+    return stationary_std(M, G, C, D)
+
+
+def stationary_std(M, G, C, D) -> float:
+    """Stationary standard deviation of ``u = C X + D w`` for ``X' = M X + G w``, unit white w.
+
+    States that only integrate themselves and feed nothing (column ``j`` of ``M`` the unit
+    vector, ``C[0, j] = 0``) are left out first; ``M`` must then be Schur.
+
+    Parameters
+    ----------
+    M, G, C, D : numpy.ndarray
+        ``(n, n)``, ``(n, 1)``, ``(1, n)`` and ``(1, 1)``: the linearized loop from the noise.
+
+    Returns
+    -------
+    float
+        ``sqrt(C W C^T + D^2)`` with ``W = M W M^T + G G^T``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = 0.5  # x' = a x + w, u = x: variance 1 / (1 - a^2)
+    >>> round(stationary_std(np.array([[a]]), np.ones((1, 1)), np.ones((1, 1)),
+    ...                      np.zeros((1, 1))) ** 2, 12)
+    1.333333333333
+    """
     eye = np.eye(M.shape[0])
     keep = [j for j in range(M.shape[0])
             if not (np.array_equal(M[:, j], eye[:, j]) and C[0, j] == 0.0)]
@@ -95,4 +122,4 @@ def noise_gain(plant: Plant, design: Design, *, r: float | None = None,
     return float(math.sqrt(max(0.0, float((C @ W @ C.T)[0, 0] + D[0, 0] ** 2))))
 
 
-__all__ = ["noise_gain"]
+__all__ = ["noise_gain", "stationary_std"]

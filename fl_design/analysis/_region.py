@@ -160,9 +160,9 @@ class NonlinearRegion(_Result):
         Examples
         --------
         >>> import fl_design as fl
-        >>> r = nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(), steps=0)
-        >>> r.summary().startswith("certified in the plant's whole region; covered starts")
-        True
+        >>> nonlinear_region(fl.presets.pendulum_design(), fl.plants.pendulum(),
+        ...                  steps=0).summary()  # doctest: +ELLIPSIS
+        "certified in the plant's whole region; covered starts ..."
         """
         if not self.certified:
             return "not certified in any region tried"

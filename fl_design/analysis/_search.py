@@ -167,6 +167,57 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     return None
 
 
+def first_refuted(refute_at, start: float, top: float, n_scan: int, rtol: float, *,
+                  below: float | None = None):
+    """Smallest eps refuted above ``start``: a log scan up to ``top``, then log-bisection.
+
+    Parameters
+    ----------
+    refute_at : callable
+        ``eps -> Refutation`` (anything with a ``refuted`` flag).
+    start, top : float
+        The scan's ends (``start`` is not evaluated: the caller knows it holds).
+    n_scan : int
+        Points of the log-spaced scan, ``start`` included.
+    rtol : float
+        Relative width of the final bracket.
+    below : float or None, optional
+        The scan stops before reaching it (a counterexample already known there).
+
+    Returns
+    -------
+    (float, Refutation) or None
+        The first refuted eps of the bracket and its refutation; None when no scanned point
+        is refuted.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> eps, r = first_refuted(lambda e: SimpleNamespace(refuted=e > 0.3), 0.01, 1.0, 6, 1e-6)
+    >>> round(eps, 4), r.refuted
+    (0.3, True)
+    """
+    prev, found = start, None
+    for e in np.geomspace(start, top, n_scan)[1:]:
+        if below is not None and e >= below:
+            break
+        r = refute_at(float(e))
+        if r.refuted:
+            found = (float(e), r)
+            break
+        prev = float(e)
+    if found is None:
+        return None
+    seen = {found[0]: found[1]}
+
+    def holds(eps: float) -> bool:
+        seen[eps] = refute_at(eps)
+        return not seen[eps].refuted
+
+    out = bisect_log(holds, prev, found[0], rtol=rtol)
+    return out.hi, seen[out.hi]
+
+
 def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float,
                      preds=None) -> tuple:
     """Runs of a log scan where ``pred`` holds, each end refined by bisection to ``rtol``.
@@ -235,5 +286,5 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol, preds=None):
     return float(g_min), float(g_max)
 
 
-__all__ = ["certified_eps_star", "frozen_bracket", "frozen_eps_star",
+__all__ = ["certified_eps_star", "first_refuted", "frozen_bracket", "frozen_eps_star",
            "gamma_interval", "stable_intervals"]

@@ -54,7 +54,6 @@ Examples
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -113,7 +112,7 @@ class LoopChannels:
 
 def _psi_box(L, eps, gamma):
     """Corners of an entrywise box holding every sample map ``Psi`` of the LDI, and its words."""
-    from ._ldi import _metzler_box, _remainder_bound, _vertices
+    from ._ldi import _box_corners, _metzler_box, _remainder_bound, _vertices
     from ._surrogate import chain_matrices
 
     rho, T = L.loop.rho, L.T
@@ -134,18 +133,12 @@ def _psi_box(L, eps, gamma):
         pad = Rbar + 8.0 * np.finfo(float).eps * np.abs(maps).max(axis=0)
         lo, hi = maps.min(axis=0) - pad, maps.max(axis=0) + pad
         words = "box hull of the first-order model expm(T X_c) + T (X - X_c) +- remainder"
-    var = np.argwhere(hi > lo)
-    if len(var) > 10:
-        raise ParameterError(f"the sample-map box has {len(var)} varying entries (at most 10: "
+    n_var = int(np.count_nonzero(hi > lo))
+    if n_var > 10:
+        raise ParameterError(f"the sample-map box has {n_var} varying entries (at most 10: "
                              f"2^10 corners); narrow the slope box")
-    out = []
-    for bits in itertools.product((0, 1), repeat=len(var)):
-        Psi = lo.copy()
-        for (i, j), bit in zip(var, bits):
-            if bit:
-                Psi[i, j] = hi[i, j]
-        out.append(Psi)
-    return out, f"{words}, {len(var)} varying entries, {len(out)} corners"
+    out, _ = _box_corners(lo, hi)
+    return out, f"{words}, {n_var} varying entries, {len(out)} corners"
 
 
 def loop_channels(design, b_bounds, a_jacobian_bounds, *, u_eq: float = 0.0) -> LoopChannels:

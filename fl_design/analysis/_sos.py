@@ -142,7 +142,7 @@ class SOSSolution:
     Parameters
     ----------
     certified : bool
-        True only when the NumPy re-check passed.
+        The NumPy re-check of ``Q`` passed (the solver's status alone never certifies).
     status : str
         The solver's status (or its error).
     Q : numpy.ndarray or None

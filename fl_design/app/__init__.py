@@ -14,7 +14,8 @@ design, scenario, classifier, compared designs, built once), ``_stages`` and ``_
 readers of a finished job: ``_text`` and ``_brief`` (numbers and short forms in words),
 ``_report_summary``, ``_report_sections``, ``_report_family``, ``_report_figures`` (which
 figures; drawn by :mod:`fl_design.plotting`), ``_report_render`` (HTML, Markdown),
-``_report_csv``, ``_report_write``, ``_console``; ``_cli`` on top.
+``_report_csv``, ``_report_write``, ``_console``; ``_commands`` (the sub-commands) and
+``_cli`` (the parser) on top.
 
 Examples
 --------

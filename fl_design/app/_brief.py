@@ -222,8 +222,10 @@ def nonlinear_brief(cert: dict | None) -> Brief:
     Examples
     --------
     >>> from fl_design.app._brief import nonlinear_brief
-    >>> str(nonlinear_brief({"nonlinear_summary": "not searched in --quick"}))
-    'not searched — in --quick'
+    >>> for cert in (None, {"nonlinear_summary": "not searched in --quick"}):
+    ...     print(nonlinear_brief(cert))
+    no certificate — the plant gives no region
+    not searched — in --quick
     """
     text = (cert or {}).get("nonlinear_summary")
     if not text:

@@ -39,31 +39,28 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from collections.abc import Sequence
-from dataclasses import replace
-from pathlib import Path
 
 from .. import __version__
 from ..errors import FlDesignError, ParameterError
-from ._class_run import add_identify_parser, run_class
-from ._class_table import CLASS_TOML, is_class_config
-from ._config import LIBRARY, load_config, parse_config
-from ._outdir import check_out_dir
+from ._class_run import add_identify_parser
+from ._class_table import is_class_config
+from ._commands import (
+    EXIT_PARTIAL,
+    cmd_certify,
+    cmd_codegen,
+    cmd_derive,
+    cmd_init,
+    cmd_run,
+    cmd_stage,
+    cmd_sweep,
+    config_of,
+    prepare_config,
+)
+from ._config import LIBRARY, parse_config
 
-#: ``fl-design run``'s exit code for a written but partial report (runs lost to a dead worker).
-EXIT_PARTIAL = 3
 #: ``--plant`` choices: the library plants of the config.
 PLANT_CHOICES = tuple(LIBRARY)
-
-
-def _executor(address: str | None):
-    if address is None:
-        return None
-    from ..sim._executor import connect_scheduler
-
-    # connected and answering within a bounded time, else one clear line (no hang)
-    return connect_scheduler(address).get_executor()
 
 
 def _run_guarded(args) -> int:
@@ -87,273 +84,6 @@ def _run_guarded(args) -> int:
     finally:  # a stream closed from the start stays the tolerant one (writes nowhere)
         sys.stdout = saved[0] if saved[0] is not None else sys.stdout
         sys.stderr = saved[1] if saved[1] is not None else sys.stderr
-
-
-def _config(args):
-    """The config of any subcommand: a TOML file (positional) or ``--plant P``, not both."""
-    path, plant = getattr(args, "config", None), getattr(args, "plant", None)
-    if path is not None and plant:
-        raise ParameterError(f"give a config file or --plant, not both (got {path!r} and "
-                             f"--plant {plant})")
-    if plant:
-        return parse_config(f'[plant]\nlibrary = "{plant}"', source=f"--plant {plant}")
-    return load_config(path)
-
-
-def _prepare(cfg):
-    """Plant and design fit, reference inside the region: refuse before any work; warn.
-
-    A plant from expressions without ``[design]`` gets a proposed design
-    (:func:`fl_design.app._propose.propose_design`; the reasons go to stderr and the report).
-    Returns the (possibly completed) config and its job.
-    """
-    # --- issue 31: the method's assumptions first, a design and a step derived from the plant,
-    # ranges that hold the design (fl_design.symbolic._assumptions, app._template.fit_ranges)
-    from ..symbolic._assumptions import check_assumptions
-    from ._build import build_plant, check_fit
-    from ._job import prepare
-    from ._template import fit_ranges
-
-    plant = build_plant(cfg)
-    check_assumptions(plant, what="fl-design")
-    if cfg.design is None:
-        from ._propose import propose_design
-
-        print("fl-design: no [design] given: proposing one from the plant ...",
-              file=sys.stderr, flush=True)
-        cfg = propose_design(cfg, plant)
-    cfg, widened = fit_ranges(cfg)
-    for line in widened:
-        print(f"fl-design: {line}", file=sys.stderr)
-    # --- end issue 31
-    job = prepare(cfg)
-    for line in check_fit(cfg, job.plant):
-        print(f"fl-design: warning: {line}" if not line.startswith("[design] proposed")
-              else f"fl-design: {line}", file=sys.stderr)
-    return cfg, job
-
-
-def _cmd_run(args) -> int:
-    from ._console import print_job
-    from ._job import note, run_job
-    from ._report_csv import BackgroundCsv
-    from ._report_write import write_report
-
-    if is_class_config(args.config):  # a [class] config: the model-free route (_class_run)
-        return run_class(args, args.config)
-    cfg, _ = _prepare(_config(args))  # plant and design fit: fail before any work
-    out = check_out_dir(args.out, force=args.force)
-    executor = _executor(args.scheduler)
-    csv = BackgroundCsv(out, main=args.main_csv, full=args.full_csv)
-    try:
-        job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
-                      progress=not args.no_progress, force=args.force, after=csv.after)
-    except Exception:
-        csv.wait()  # a later stage failed: no half-written CSV file left behind
-        raise
-    start = time.perf_counter()
-    written = csv.result()
-    waited = time.perf_counter() - start
-    start = time.perf_counter()
-    paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
-                         csv_written=written, full_csv=args.full_csv,
-                         interactive=not args.static_report)
-    during = (f" (CPU {csv.cpu:.1f} s, also counted in the stages running beside it; from the "
-              f"end of simulate, {waited:.1f} s of it after the C stage)"
-              if written is not None else "")
-    note(f"report (figures, HTML, Markdown, JSON) written in "
-         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
-         f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
-         enabled=not args.no_progress)
-    try:  # the report is written: a terminal that fails now loses only the console copy
-        print_job(job, verbose=args.verbose)
-        runs = f", {len(paths['csv'])} runs as CSV under {out / 'runs'}" if paths["csv"] else ""
-        print(f"\nwrote {paths['html']}, {paths['markdown']}, {paths['summary']}, "
-              f"{len(paths['figures'])} figures{runs}")
-        if paths["failed_figures"]:
-            print("figures not drawn (named in the report): "
-                  + "; ".join(f"{k}: {v}" for k, v in paths["failed_figures"].items()))
-        if not args.verbose:
-            print("(--verbose: every stage's detail)")
-        for line in job.lost.values():  # the last line too: a partial report is not complete
-            print(f"PARTIAL REPORT (exit {EXIT_PARTIAL}): {line}")
-        sys.stdout.flush()
-    except BrokenPipeError:
-        raise
-    except (OSError, ValueError) as err:  # stdout full or closed
-        print(f"fl-design: error: the report is written ({paths['html']}) but stdout "
-              f"failed: {getattr(err, 'strerror', None) or err}", file=sys.stderr)
-        return 2
-    return EXIT_PARTIAL if job.lost else 0
-
-
-def _cmd_derive(args) -> int:
-    from ._build import build_plant
-    from ._report import derivation_report
-
-    print(derivation_report(build_plant(_config(args)), latex=args.latex))
-    return 0
-
-
-def _cmd_certify(args) -> int:
-    from ._console import print_certificates
-    from ._job import run_job
-
-    cfg, _ = _prepare(_config(args))
-    if args.eps is not None or args.gamma is not None:
-        d = replace(cfg.design, eps=cfg.design.eps if args.eps is None else args.eps,
-                    gamma=cfg.design.gamma if args.gamma is None else args.gamma)
-        cfg = replace(cfg, design=d)
-    job = run_job(cfg, quick=args.quick, stages=("certify",), progress=not args.no_progress)
-    print_certificates(job)
-    return 0
-
-
-def _cmd_stage(stage: str):
-    def command(args) -> int:
-        from . import _console
-        from ._job import run_job
-
-        cfg, _ = _prepare(_config(args))
-        out = check_out_dir(args.out, force=getattr(args, "force", False)) \
-            if getattr(args, "out", None) else Path(".")
-        executor = _executor(getattr(args, "scheduler", None))
-        job = run_job(cfg, quick=args.quick, stages=(stage,), out_dir=out, executor=executor,
-                      progress=not args.no_progress)
-        getattr(_console, f"print_{stage}")(job)
-        return 0
-    return command
-
-
-def _cmd_sweep(args) -> int:
-    """The stability map; with ``[uncertainty] params`` also the robust map (``--samples N``
-    plants per point, default ``[uncertainty] map_samples``)."""
-    from ._console import print_sweep
-    from ._job import run_job
-    from ._report_family import print_robust_map
-    from ._stage_family import robust_map
-    from ._uncertainty import MAX_SAMPLES
-
-    cfg, _ = _prepare(_config(args))
-    if args.samples is not None:
-        if not cfg.uncertainty.params:
-            raise ParameterError(f"--samples {args.samples} needs a family of plants: give "
-                                 "[uncertainty.params] in the config (e.g. c = [0.05, 1.0])")
-        if not 1 <= args.samples <= MAX_SAMPLES:
-            raise ParameterError(f"--samples must be in 1 .. {MAX_SAMPLES}, got {args.samples}")
-    executor = _executor(args.scheduler)
-    progress = not args.no_progress
-    job = run_job(cfg, quick=args.quick, stages=("sweep",), executor=executor,
-                  progress=progress)
-    print_sweep(job)
-    out = robust_map(job.setup, args.quick, executor, progress, samples=args.samples)
-    if "robust_map_seconds" in out:
-        job.timings["robust_map"] = out.pop("robust_map_seconds")
-    job.results.update(out)
-    if "robust_map" in job.results:
-        print()
-        print_robust_map(job)
-    elif "robust_map_skipped" in job.results:
-        print(f"\n{job.results['robust_map_skipped']}")
-    from ._brief import lost_line
-
-    line = lost_line(job.results.get("robust_map"), "robust map")
-    if line:
-        job.lost["robust_map"] = line
-    for line in job.lost.values():  # as `run`: a partial map is not a complete one
-        print(f"PARTIAL (exit {EXIT_PARTIAL}): {line}")
-    return EXIT_PARTIAL if job.lost else 0
-
-
-def _cmd_codegen(args) -> int:
-    from ..codegen import generate_c
-    from ._build import build_design
-    from ._job import run_job
-
-    _codegen_paths(args)
-    cfg, job = _prepare(_config(args))
-    cg = replace(cfg.codegen, precision=args.precision or cfg.codegen.precision,
-                 prefix=args.prefix or cfg.codegen.prefix)
-    cfg = replace(cfg, codegen=cg)
-    out = check_out_dir(args.out, force=args.force)
-    if args.verify:
-        from ._console import print_codegen
-
-        job = run_job(cfg, quick=args.quick, stages=("codegen",), out_dir=out,
-                      progress=not args.no_progress, force=args.force)
-        print_codegen(job)
-        cg = job.results["codegen"]
-        if "sil" in cg and not cg["sil"].passed:  # a failed SIL is a failed command
-            print(f"fl-design: the software-in-the-loop check failed: "
-                  f"{_sil_reason(cg['sil'])}", file=sys.stderr)
-            return 1
-        return 0
-    design = job.design if args.design == "config" else build_design(
-        cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
-    pkg = generate_c(design, out, precision=cg.precision, prefix=cg.prefix,
-                     force=args.force)
-    print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) to "
-          f"{pkg.out_dir}:")
-    for path in pkg.files:
-        print(f"  {path.name}")
-    return _pil(pkg, job, cfg) if args.pil else 0
-
-
-def _sil_reason(sil) -> str:
-    """One line: why a SIL result did not pass."""
-    why = []
-    if not sil.matches:
-        why.append(f"C vs Design.step {sil.max_rel_error:.3g} > bound {sil.bound:g}")
-    if not sil.verdicts_agree:
-        why.append(f"C loop {sil.c_status!r}, simulation {sil.sim_status!r}")
-    if sil.c_failed:
-        why.append(f"the C loop is {sil.c_status!r}")
-    return "; ".join(why) or "see the result"
-
-
-def _codegen_paths(args) -> None:
-    """``codegen [CONFIG] --out DIR``; the older ``codegen DIR [--config C]`` still works."""
-    if args.config_alias is not None:  # --config C: deprecated alias of the positional
-        print("fl-design: note: codegen --config is deprecated: give the config as the "
-              "positional argument and the folder as --out", file=sys.stderr)
-        if args.config is not None and args.out is None:
-            args.out = args.config
-        elif args.config is not None:
-            raise ParameterError(f"give the config once (positional {args.config!r} or "
-                                 f"--config {args.config_alias!r})")
-        args.config = args.config_alias
-    elif args.config is not None and args.out is None and \
-            not str(args.config).lower().endswith(".toml"):
-        args.out, args.config = args.config, None  # `codegen DIR`: the older form
-    if args.out is None:
-        args.out = "c"
-
-
-def _cmd_init(args) -> int:
-    from ._template import config_toml
-
-    if args.from_ode and args.plant:
-        raise ParameterError("give --plant P or --from-ode, not both")
-    if args.class_:  # what a rig owner knows, no model (_class_table)
-        sys.stdout.write(CLASS_TOML)
-        return 0
-    sys.stdout.write(config_toml(args.plant or "trms", from_ode=args.from_ode))
-    return 0
-
-
-def _pil(pkg, job, cfg) -> int:
-    from ..codegen._pil import pil_tools
-    from ..sim import Scenario
-
-    reason = pil_tools()[2]
-    if reason:
-        print(f"error: --pil: {reason}", file=sys.stderr)
-        return 2
-    res = pkg.pil(job.plant, Scenario(cfg.scenario.reference, 2000 * pkg.design.T))
-    print(f"PIL on a Cortex-M4F (QEMU mps2-an386): {res.instructions:.0f} instructions per step; "
-          f"u within {res.max_rel_error:.3g} of max|u| of Design.step over {res.u_c.size} "
-          f"samples (bound {res.bound:g}): {'passed' if res.passed else 'FAILED'}")
-    return 0 if res.passed else 1
 
 
 def _common(p, *, config=True, out=False, scheduler=False) -> None:
@@ -410,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--static-report", action="store_true",
                      help="report.html with PNG figures only and no script (default: the main "
                      "figures interactive, Plotly.js inlined: about 5 MB, opens offline)")
-    run.set_defaults(func=_cmd_run)
+    run.set_defaults(func=cmd_run)
     init = sub.add_parser("init", help="write a commented config (every table and key) to "
                           "stdout; `fl-design run` accepts it as is")
     init.add_argument("--plant", choices=PLANT_CHOICES, default=None,
@@ -420,20 +150,20 @@ def build_parser() -> argparse.ArgumentParser:
                       "region, input range, operating point) to replace by yours")
     init.add_argument("--class", dest="class_", action="store_true", help="a [class] config: "
                       "what you know of a rig (rho, T, b range, noise, limits), no model")
-    init.set_defaults(func=_cmd_init)
+    init.set_defaults(func=cmd_init)
     add_identify_parser(sub)  # `fl-design identify LOG.csv` (_class_run)
     derive = sub.add_parser("derive", help="relative degree, a, b, b-range, F^a, residuals")
     _common(derive)
     derive.add_argument("--latex", action="store_true", help="also print LaTeX")
-    derive.set_defaults(func=_cmd_derive)
+    derive.set_defaults(func=cmd_derive)
     cert = sub.add_parser("certify", help="P_x, lambda_x, gamma interval, eps* certificates")
     _common(cert)
     cert.add_argument("--eps", type=float, default=None, help="override [design] eps")
     cert.add_argument("--gamma", type=float, default=None, help="override [design] gamma")
-    cert.set_defaults(func=_cmd_certify)
+    cert.set_defaults(func=cmd_certify)
     simulate = sub.add_parser("simulate", help="the design and the least-squares baselines")
     _common(simulate)
-    simulate.set_defaults(func=_cmd_stage("simulate"))
+    simulate.set_defaults(func=cmd_stage("simulate"))
     sweep = sub.add_parser("sweep", help="the empirical (eps, gamma) stability map; with "
                            "[uncertainty] params also the robust map",
                            epilog=f"exit status: 0 complete; {EXIT_PARTIAL} PARTIAL (a worker "
@@ -443,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--samples", type=int, default=None, metavar="N",
                        help="plants per grid point of the robust map (default [uncertainty] "
                        "map_samples; needs [uncertainty.params])")
-    sweep.set_defaults(func=_cmd_sweep)
+    sweep.set_defaults(func=cmd_sweep)
     code = sub.add_parser("codegen", help="the loop step as a C99 package (SIL, cost)")
     code.add_argument("--out", default=None, help="output folder (default c; created if "
                       "needed); must be empty or hold fl_design's own earlier output")
@@ -460,7 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
     code.add_argument("--pil", action="store_true",
                       help="also run the step on a Cortex-M4F model (arm-none-eabi-gcc, QEMU)")
     _common(code)
-    code.set_defaults(func=_cmd_codegen)
+    code.set_defaults(func=cmd_codegen)
     _ui_parser(sub)
     return parser
 
@@ -485,21 +215,35 @@ def _ui_parser(sub) -> None:
     ui.set_defaults(func=_cmd_ui)
 
 
-def ui_setup(cfg, *, plant_class=None):
+def ui_setup(cfg=None, *, plant_class=None):
     """The tuner's :class:`fl_design.ui.TunerSetup` of a config (checked as ``run`` checks it).
+
+    Parameters
+    ----------
+    cfg : Config, optional
+        Default: the paper's TRMS experiment (``load_config(None)``).
+    plant_class : PlantClass, optional
+        The class the page certifies (``--class``), its simulated member the config's plant.
+
+    Returns
+    -------
+    fl_design.ui.TunerSetup
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
-    >>> ui_setup(load_config(None)).design.estimator.eps
+    >>> ui_setup().design.estimator.eps
     0.05
     """
+    if cfg is None:
+        from ._config import load_config
+
+        cfg = load_config(None)
     from ..ui import TunerSetup
     from ._plant_table import LIBRARY
     from ._template import render
 
-    cfg, job = _prepare(cfg)
+    cfg, job = prepare_config(cfg)
     return TunerSetup(config=cfg, plant=job.plant, design=job.design, render=render,
                       library=LIBRARY, plant_class=plant_class)
 
@@ -516,7 +260,7 @@ def _cmd_ui(args) -> int:
                            source=str(args.config))
         setup = ui_setup(cfg, plant_class=cc.plant_class)
     elif args.plant_class is None:
-        setup = ui_setup(_config(args))
+        setup = ui_setup(config_of(args))
     elif args.config is not None or args.plant:
         raise ParameterError("give a config, --plant or --class, not two of them")
     else:  # the class's simulated member and a starting design (fl_design.ui._class_mode)

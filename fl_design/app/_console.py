@@ -37,7 +37,14 @@ import sys
 from ._brief import DASH, Brief, window_brief
 from ._report_map import map_counts
 from ._report_summary import summary_rows
-from ._text import bounded_up_to, design_label, fmt, linearized_text, overshoot_text
+from ._text import (
+    bounded_up_to,
+    design_label,
+    fmt,
+    linearized_text,
+    overshoot_text,
+    run_length_note,
+)
 
 
 def print_derive(job) -> None:
@@ -76,8 +83,9 @@ def print_sweep(job) -> None:
     counts = map_counts(smap)
     print(f"Stability map {smap.eps.size} x {smap.gamma.size} (eps x gamma), {smap.duration:g} "
           f"s runs: {counts}")
-    if smap.duration_reason != "given":
-        print(f"  run length chosen from the loop: {smap.duration_reason}")
+    note = run_length_note(smap, "from the loop")
+    if note:
+        print(f"  {note}")
     brackets = [str(smap.eps_star(g)) for g in smap.gamma]
     bounded = [bounded_up_to(smap, g) for g in smap.gamma]
     width = max([18, *map(len, brackets)])

@@ -174,7 +174,12 @@ def full_tables(name: str) -> dict:
     Parameters
     ----------
     name : str
-        A library plant.
+        A library plant's config name (``--plant`` choices: ``trms``, ``pendulum``, ...).
+
+    Returns
+    -------
+    dict
+        ``{table: {key: value}}``, every range filled.
 
     Examples
     --------

@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from .._json import jsonable
+from ._text import run_length_note
 
 #: Fractions of converging plants the robust eps* is given for (every plant; 90 %).
 LEVELS = (1.0, 0.9)
@@ -240,8 +241,9 @@ def report_blocks(job, figures=()) -> list:
                     f"noise-free runs of {ens.duration:g} s classified as the simulations: "
                     f"{verdicts} ({100 * ens.convergent_fraction:.1f} % converge: converging "
                     f"or converged)."))]
-    if ens.duration_reason != "given":
-        out.append(("p", f"Run length chosen on the nominal plant: {ens.duration_reason}."))
+    note = run_length_note(ens, "on the nominal plant")
+    if note:
+        out.append(("p", note))
     names = list(ens.params)
     rows = [[str(w["index"]), *(f"{w[k]:.4g}" for k in names), w["status"],
              f"{w['tail_error']:.3g}" if math.isfinite(w["tail_error"]) else "-",

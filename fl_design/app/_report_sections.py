@@ -26,6 +26,7 @@ from ._text import (
     linearized_text,
     overshoot_text,
     paper_gamma_bound,
+    run_length_note,
 )
 
 
@@ -107,8 +108,9 @@ def _sweep(job, figures) -> list:
                     f"below which every run converges (converging or converged); '> x' means "
                     f"no boundary inside the scanned range, '< x' that even the smallest eps "
                     f"failed."))]
-    if smap.duration_reason != "given":
-        blocks.append(("p", f"Run length chosen from the loop: {smap.duration_reason}."))
+    note = run_length_note(smap, "from the loop")
+    if note:
+        blocks.append(("p", note))
     if getattr(smap, "n_lost", 0):  # a worker died mid-sweep: the partial map
         from ._brief import lost_line
 

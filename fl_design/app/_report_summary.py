@@ -95,6 +95,11 @@ def _plant_brief(job) -> Brief:
 def assumptions_fail(job) -> str:
     """Why the method's assumptions fail for this plant (empty when they hold or are unknown).
 
+    Parameters
+    ----------
+    job : Job
+        Only its ``derivation`` (the derive stage's results, or None) is read.
+
     Examples
     --------
     >>> from types import SimpleNamespace

@@ -43,7 +43,7 @@ _PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel")
 #: Sources that only present results (never part of the key): editing a figure or the report's
 #: wording keeps the cached certificates.
 PRESENTATION = ("plotting/*.py", "app/_report*.py", "app/_text.py", "app/_brief.py",
-                "app/_console.py", "app/_cli.py")
+                "app/_console.py", "app/_cli.py", "app/_commands.py")
 #: Stage -> the configuration it reads (``sweep_eps``: ``[sweep] eps``, the certificates'
 #: default range).
 TABLES = {"certify": ("plant", "design", "certify", "uncertainty", "sweep_eps"),

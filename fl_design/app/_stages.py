@@ -48,6 +48,8 @@ def derive(setup: Setup) -> dict:
     Returns
     -------
     dict
+        JSON-ready: ``plant``, ``rho``, ``a``, ``b`` (SymPy text, LaTeX, MathML), ``b_bounds``,
+        zero dynamics, ``F_a`` and its residual orders, ``text`` (the derivation in words).
 
     Examples
     --------
@@ -104,6 +106,8 @@ def certify(setup: Setup, derivation: dict, quick: bool, progress=None) -> dict:
     Returns
     -------
     dict
+        The certificates by name (``gamma``, ``eps``, ``curve``, ``margins``, ``nonlinear``,
+        ``linearized``, ``box``), or ``skipped`` with the reason.
 
     Examples
     --------
@@ -337,6 +341,7 @@ def compare_window(setup: Setup, main, quick: bool) -> tuple[float, str]:
     Returns
     -------
     (float, str)
+        The run length in seconds and where it came from (in words).
 
     Examples
     --------

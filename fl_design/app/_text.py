@@ -100,9 +100,9 @@ def bounded_up_to(smap, gamma: float) -> str:
     Parameters
     ----------
     smap : fl_design.StabilityMap
-        A sweep.
+        A sweep; only its statuses are read.
     gamma : float
-        A grid gamma.
+        One of the map's gammas.
 
     Returns
     -------
@@ -130,6 +130,34 @@ def bounded_up_to(smap, gamma: float) -> str:
 #: A run whose output's largest excursion stays below this fraction of the step never reaches
 #: the reference: its "overshoot" is not one.
 REACHES = 0.9
+
+
+def run_length_note(result, chosen_on: str) -> str:
+    """``Run length chosen <chosen_on>: <why>.`` for a result whose run length was adaptive;
+    empty when it was given.
+
+    Parameters
+    ----------
+    result : fl_design.StabilityMap or fl_design.Ensemble or fl_design.RobustMap
+        Anything with a ``duration_reason``.
+    chosen_on : str
+        Where the rule looked (``"from the loop"``, ``"on the nominal plant"``).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from fl_design.app._text import run_length_note
+    >>> run_length_note(SimpleNamespace(duration_reason="8 x tau"), "from the loop")
+    'Run length chosen from the loop: 8 x tau.'
+    >>> run_length_note(SimpleNamespace(duration_reason="given"), "from the loop")
+    ''
+    """
+    why = result.duration_reason
+    return "" if why == "given" else f"Run length chosen {chosen_on}: {why}."
 
 
 def step_reach(resp) -> float:
@@ -196,4 +224,4 @@ def design_label(design) -> str:
 
 
 __all__ = ["REACHES", "bounded_up_to", "design_label", "fmt", "linearized_text", "overshoot_text",
-           "paper_gamma_bound", "step_reach"]
+           "paper_gamma_bound", "run_length_note", "step_reach"]

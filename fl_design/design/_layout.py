@@ -101,6 +101,7 @@ class Layout(Mapping):
         Returns
         -------
         int
+            Its position in the flat vector.
 
         Examples
         --------

@@ -16,7 +16,11 @@ Modules, one concept each: ``_scenario`` and ``_options`` (the option objects), 
 run length), ``_loop_jacobian`` (the loop's equilibrium and Jacobian), ``_simulate`` and
 ``_response``, ``_grid`` (many runs in this process) and ``_executor`` (as tasks of an
 executor), ``_sweep`` and ``_stability_map`` (its eps*: ``_eps_star``); ``_family`` (a family of plants: distributions and the
-per-sample setup), ``_monte_carlo`` and ``_ensemble``, ``_robust_map`` (their figures: :mod:`fl_design.plotting`); the compiled kernel in the subpackage
+per-sample setup), ``_monte_carlo`` and ``_ensemble``, ``_robust_map`` (their figures: :mod:`fl_design.plotting`); ``_partial`` (what a grid gives
+when a worker dies: ``PartialStabilityMap``, ``PartialRobustMap``, ``PartialEnsemble``,
+subclasses of the three results that add a ``lost`` mask; only received, in
+``WorkerLostError.partial``, never constructed by a user, so not exported here: a layer exports
+at most 20 names); the compiled kernel in the subpackage
 :mod:`fl_design.sim.kernel`. Helpers other layers need are imported from their module.
 
 Examples

@@ -384,8 +384,6 @@ def run_points(run, columns, idx, *, kernel, executor, progress, desc):
 
     Examples
     --------
-    >>> import numpy as np
-    >>> import fl_design as fl
     >>> from fl_design.sim._adaptive import run_points
     >>> from fl_design.sim._grid import _Columns
     >>> from fl_design.sim._run import prepare_run

@@ -36,11 +36,9 @@ classification of every point uses the same tail window).
 Examples
 --------
 >>> import fl_design as fl
->>> from fl_design.sim import ClosedLoop
 >>> from fl_design.sim._duration import resolve_duration
->>> d = fl.presets.pendulum_design()
->>> length = resolve_duration(ClosedLoop(fl.plants.pendulum(), d, substeps=4), fl.Scenario(0.1),
-...                           fl.Classifier())
+>>> loop = fl.sim.ClosedLoop(fl.plants.pendulum(), fl.presets.pendulum_design(), substeps=4)
+>>> length = resolve_duration(loop, fl.Scenario(0.1), fl.Classifier())
 >>> round(length.duration, 2), length.reason
 (17.55, '7.77 x tau = 2.26 s (slowest mode of the loop linearized at r = 0.1, eps = 0.02, gamma = 0.01)')
 """

@@ -98,7 +98,7 @@ class Classifier:
         Returns
         -------
         numpy.ndarray
-            ``(n,)`` bounds.
+            One bound on ``|x_i - x_op,i|`` per state, ``(n,)``.
 
         Examples
         --------

@@ -51,7 +51,8 @@ class RobustMap:
     seed : int or None, optional
         Seed of the draw.
     duration_reason : str, optional
-        ``"given"`` or how the run length was chosen (on the nominal plant).
+        How ``duration`` was chosen: ``"given"``, else the adaptive rule's words (applied to
+        the nominal plant, as :class:`~fl_design.Ensemble`).
 
     Examples
     --------

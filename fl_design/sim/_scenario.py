@@ -254,7 +254,7 @@ class Scenario:
         Parameters
         ----------
         T : float
-            Sampling time.
+            As for :meth:`n_samples`.
 
         Returns
         -------

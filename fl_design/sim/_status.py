@@ -117,6 +117,7 @@ class Status(enum.IntEnum):
         Returns
         -------
         Status
+            The member of that name.
 
         Examples
         --------

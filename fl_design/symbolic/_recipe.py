@@ -51,7 +51,7 @@ def package_version(folder: str) -> str:
     Parameters
     ----------
     folder : str
-        A directory.
+        The package's directory (only its top-level ``*.py`` files count).
 
     Returns
     -------

@@ -42,11 +42,11 @@ no-overwrite rule), ``_server`` (HTTP, token, :func:`serve`), ``static/`` (the p
 
 Examples
 --------
->>> from fl_design.app import load_config
 >>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui import Tuner
->>> Tuner(ui_setup(load_config(None))).defaults()["eps"]
-0.05
+>>> tuner = Tuner(ui_setup())  # what `fl-design ui` serves, without the server
+>>> [c["name"] for c in tuner.controls()][:2], tuner.defaults()["eps"]
+(['gamma', 'eps'], 0.05)
 """
 
 from ._model import Tuner, TunerSetup

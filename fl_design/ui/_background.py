@@ -281,10 +281,9 @@ class Background:
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
     >>> from fl_design.ui._background import Background
-    >>> bg = Background(ui_setup(load_config(None)), enabled=False)
+    >>> bg = Background(ui_setup(), enabled=False)
     >>> bg.snapshot()["map"]["state"]
     'waiting'
     >>> bg.close()

@@ -8,11 +8,10 @@ unchanged output) at each write, and every file gets a new numbered name (``desi
 
 Examples
 --------
->>> from fl_design.app import load_config
 >>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui._model import Tuner
 >>> from fl_design.ui._export import save_toml
->>> tuner = Tuner(ui_setup(load_config(None)))
+>>> tuner = Tuner(ui_setup())
 >>> save_toml(tuner, tuner.defaults() | {"gamma": 1e-3}, "tuned").name
 'design_1.toml'
 """
@@ -50,7 +49,7 @@ def toml_text(tuner, values: dict) -> str:
     tuner : fl_design.ui._model.Tuner
         The tuner.
     values : dict
-        Checked controls.
+        The page's controls, checked (:meth:`~fl_design.ui.Tuner.check`).
 
     Returns
     -------
@@ -66,10 +65,8 @@ def save_toml(tuner, values: dict, out) -> Path:
 
     Parameters
     ----------
-    tuner : fl_design.ui._model.Tuner
-        The tuner.
-    values : dict
-        The page's controls (checked here).
+    tuner, values
+        As for :func:`toml_text` (the controls are checked here).
     out : path-like
         The output folder (claimed under the no-overwrite rule).
 
@@ -91,16 +88,13 @@ def write_c(tuner, values: dict, out):
 
     Parameters
     ----------
-    tuner : fl_design.ui._model.Tuner
-        The tuner.
-    values : dict
-        The page's controls.
-    out : path-like
-        The output folder.
+    tuner, values, out
+        As for :func:`save_toml`.
 
     Returns
     -------
     fl_design.CPackage
+        The package, in a new folder ``c_N`` of ``out``.
     """
     from ..codegen import generate_c
 
@@ -130,22 +124,20 @@ def snippet_text(tuner, values: dict) -> str:
 
     Parameters
     ----------
-    tuner : fl_design.ui._model.Tuner
-        The tuner.
-    values : dict
-        The page's controls.
+    tuner, values
+        As for :func:`toml_text`.
 
     Returns
     -------
     str
+        The script's text (it runs on its own with fl_design installed).
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
-    >>> from fl_design.ui._model import Tuner
+    >>> from fl_design.ui import Tuner
+    >>> t = Tuner(ui_setup())
     >>> from fl_design.ui._export import snippet_text
-    >>> t = Tuner(ui_setup(load_config(None)))
     >>> print(snippet_text(t, t.defaults()).splitlines()[2])
     plant = fl.plants.trms_yaw()
     """
@@ -181,16 +173,15 @@ def save_snippet(tuner, values: dict, out) -> tuple:
 
     Parameters
     ----------
-    tuner : fl_design.ui._model.Tuner
-        The tuner.
-    values : dict
-        The page's controls.
+    tuner, values
+        As for :func:`snippet_text`.
     out : path-like
-        The output folder.
+        As for :func:`save_toml`.
 
     Returns
     -------
     (pathlib.Path, str)
+        The file written and its text.
     """
     text = snippet_text(tuner, values)
     return _write_new(out, "snippet", ".py", text), text

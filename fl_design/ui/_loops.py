@@ -47,13 +47,15 @@ def structure_key(design, substeps: int) -> str:
     Parameters
     ----------
     design : fl_design.Design
-        The design.
+        All of it but eps and the size of gamma (gamma's sign stays) makes the key.
     substeps : int
         RK4 steps per sample.
 
     Returns
     -------
     str
+        Equal for two designs when one compiled loop serves both (eps and gamma are its
+        run-time parameters).
 
     Examples
     --------
@@ -189,8 +191,8 @@ class LoopCache:
             No equilibrium of the loop (as ``noise_gain``).
         """
         import casadi as ca
-        import scipy.linalg
 
+        from ..analysis._noise import stationary_std
         from ..sim._loop_jacobian import LoopLinearizer
         from ..sim.kernel._loop import ClosedLoop, resolve_substeps
 
@@ -217,12 +219,7 @@ class LoopCache:
             return math.inf
         M, G, C, D = (np.asarray(a, dtype=float) for a in fun(
             np.concatenate([lin.x_eq, lin.s_eq]), 0.0, float(r), p))
-        eye = np.eye(M.shape[0])
-        keep = [j for j in range(M.shape[0])
-                if not (np.array_equal(M[:, j], eye[:, j]) and C[0, j] == 0.0)]
-        M, G, C = M[np.ix_(keep, keep)], G[keep], C[:, keep]
-        W = scipy.linalg.solve_discrete_lyapunov(M, G @ G.T, method="bilinear")
-        return float(math.sqrt(max(0.0, float((C @ W @ C.T)[0, 0] + D[0, 0] ** 2))))
+        return stationary_std(M, G, C, D)
 
     def simulate(self, plant, design, scenario, *, classifier=None):
         """As :func:`fl_design.simulate` (RK4, compiled kernel, default options).

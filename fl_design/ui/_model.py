@@ -11,10 +11,9 @@ gain. The computation is the library's (:func:`fl_design.simulate`, the compiled
 
 Examples
 --------
->>> from fl_design.app import load_config
 >>> from fl_design.app._cli import ui_setup
 >>> from fl_design.ui._model import Tuner
->>> tuner = Tuner(ui_setup(load_config(None)))
+>>> tuner = Tuner(ui_setup())
 >>> view = tuner.redraw(tuner.defaults() | {"duration": 2.0})
 >>> view["verdict"]["status"] in ("converged", "converging", "undecided", "oscillating")
 True
@@ -132,9 +131,8 @@ class TunerSetup:
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
-    >>> ui_setup(load_config(None)).plant.name
+    >>> ui_setup().plant.name
     'trms_yaw'
     """
 
@@ -166,10 +164,9 @@ class Tuner:
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
     >>> from fl_design.ui import Tuner
-    >>> Tuner(ui_setup(load_config(None))).defaults()["gamma"]
+    >>> Tuner(ui_setup()).defaults()["gamma"]
     0.0003
     """
 
@@ -217,10 +214,9 @@ class Tuner:
 
         Examples
         --------
-        >>> from fl_design.app import load_config
         >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> Tuner(ui_setup(load_config(None))).defaults()["gains"]
+        >>> Tuner(ui_setup()).defaults()["gains"]
         [2.0, 4.0]
         """
         d, s = self.config.design, self.config.scenario
@@ -236,13 +232,13 @@ class Tuner:
         Returns
         -------
         list of dict
+            One per slider, in the page's order.
 
         Examples
         --------
-        >>> from fl_design.app import load_config
         >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> [c["name"] for c in Tuner(ui_setup(load_config(None))).controls()][:3]
+        >>> [c["name"] for c in Tuner(ui_setup()).controls()][:3]
         ['gamma', 'eps', 'k1']
         """
         v, cfg = self.defaults(), self.config
@@ -302,10 +298,9 @@ class Tuner:
 
         Examples
         --------
-        >>> from fl_design.app import load_config
         >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> Tuner(ui_setup(load_config(None))).check({"eps": "x"})
+        >>> Tuner(ui_setup()).check({"eps": "x"})
         Traceback (most recent call last):
         ...
         fl_design.errors.ParameterError: eps must be a finite number, got 'x'
@@ -341,10 +336,9 @@ class Tuner:
 
         Examples
         --------
-        >>> from fl_design.app import load_config
         >>> from fl_design.app._cli import ui_setup
         >>> from fl_design.ui._model import Tuner
-        >>> t = Tuner(ui_setup(load_config(None)))
+        >>> t = Tuner(ui_setup())
         >>> t.design_for(t.defaults() | {"gamma": 1e-3}).controller.gamma
         0.001
         """

@@ -108,10 +108,9 @@ class TunerApp:
 
     Examples
     --------
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
     >>> from fl_design.ui import Tuner, TunerApp
-    >>> app = TunerApp(Tuner(ui_setup(load_config(None))), "ui_out", background=False)
+    >>> app = TunerApp(Tuner(ui_setup()), "ui_out", background=False)
     >>> len(app.token) >= 32, app.init()["plant"]
     (True, 'trms_yaw')
     >>> app.close()
@@ -299,10 +298,9 @@ def make_server(app: TunerApp, port: int = 0) -> ThreadingHTTPServer:
     Examples
     --------
     >>> import threading, urllib.request, urllib.error
-    >>> from fl_design.app import load_config
     >>> from fl_design.app._cli import ui_setup
     >>> from fl_design.ui import Tuner, TunerApp, make_server, url_of
-    >>> app = TunerApp(Tuner(ui_setup(load_config(None))), "ui_out", background=False)
+    >>> app = TunerApp(Tuner(ui_setup()), "ui_out", background=False)
     >>> httpd = make_server(app, 0)
     >>> _ = threading.Thread(target=httpd.serve_forever, daemon=True).start()
     >>> urllib.request.urlopen(url_of(httpd, app), timeout=30).status

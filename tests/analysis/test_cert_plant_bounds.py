@@ -55,6 +55,20 @@ def test_enclosure_is_exact_for_monotone_single_occurrences_and_splits_shrink_de
     assert coarse == (0.0, 1.0) and 0.25 <= fine[1] < 0.26 and fine[0] <= 0.0
 
 
+def test_one_interval_evaluator_serves_enclose_and_interval_range():
+    """``interval_range`` (analysis) encloses each sub-box with the symbolic layer's evaluator:
+    on one box the two agree exactly, and both contain every sampled value (a square root
+    reaching 0, a Max of three arguments, a rational power)."""
+    from fl_design.symbolic._enclosure import enclose
+
+    box = {x: (-1.5, 2.0), y: (-3.0, 0.5)}
+    for expr in (sp.Max(x, x ** 2, -y), sp.sqrt(x + 1.5) * sp.cosh(y), (x + 2) ** sp.Rational(1, 3)):
+        lo, hi = interval_range(expr, box)
+        assert enclose(expr, box) == (lo, hi)
+        vals = _values(expr, box, 300, seed=2)
+        assert lo <= vals.min() and vals.max() <= hi
+
+
 def test_enclosure_refuses_what_it_cannot_bound():
     with pytest.raises(ParameterError, match="no range"):
         interval_range(x + y, {x: (0.0, 1.0)})

@@ -37,10 +37,10 @@ _SCRIPT = textwrap.dedent("""
             return super().submit(fn, *args, **kwargs)
 
     if __name__ == "__main__":
-        from fl_design.app import _cli
+        from fl_design.app import _cli, _commands
         config, out, at, command = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
         ex = DiesAt(at) if at else None
-        _cli._executor = lambda address: ex
+        _commands._executor = lambda address: ex
         args = ["--out", out, "--static-report"] if command == "run" else []
         try:
             code = _cli.main([command, config, "--quick", "--no-progress", *args])

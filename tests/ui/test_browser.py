@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 import shutil
-import time
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -53,13 +54,16 @@ def page(served_tuner):
 
 
 def _wait(drv, script, timeout):
-    end = time.time() + timeout
-    while time.time() < end:
-        value = drv.execute_script(script)
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError(f"the page did not reach `{script}` within {timeout} s")
+    """``verify/screenshots.wait_for`` (the one polling loop), failing the test on a timeout."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "verify"))
+    try:
+        from screenshots import wait_for
+    finally:
+        sys.path.pop(0)
+    value = wait_for(drv, script, timeout)
+    if not value:
+        raise AssertionError(f"the page did not reach `{script}` within {timeout} s")
+    return value
 
 
 def _move(drv, name, value):
