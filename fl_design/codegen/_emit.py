@@ -45,6 +45,7 @@ import casadi as ca
 
 from .._cmath import ELEMENTARY
 from ..errors import ComputationError
+from ..sim.kernel._emit import _select as _lane_select
 from ._finite import check_terms
 
 _ARITH = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})",
@@ -109,17 +110,32 @@ class _Namer:
         return f"({self.name[w]} < {z} || {self.name[w]} > {z})"
 
 
+class _Lanes:
+    """The view of a ``{id: ("ifz", c, x) | ("not", c)}`` table that the lane emitter's
+    matcher reads: names ``a<id>`` and CasADi's operation codes."""
+
+    def __init__(self, node: dict):
+        self.node = node
+
+    def get(self, name: str):
+        entry = self.node.get(int(name[1:]))
+        if entry is None:
+            return None
+        op = ca.OP_IF_ELSE_ZERO if entry[0] == "ifz" else ca.OP_NOT
+        return (op, *(f"a{v}" for v in entry[1:]))
+
+
 def _select(node: dict, a: int, b: int):
-    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None."""
-    na, nb = node.get(a), node.get(b)
-    if not (na and nb and na[0] == nb[0] == "ifz"):
+    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None.
+
+    The match is :func:`fl_design.sim.kernel._emit._select`'s (one home for the pattern): its
+    select names ``c``, ``x`` and ``y`` in that order.
+    """
+    text = _lane_select(_Lanes(node), f"a{a}", f"a{b}")
+    if text is None:
         return None
-    (_, ca_, xa), (_, cb, yb) = na, nb
-    if node.get(cb) == ("not", ca_):
-        return ca_, xa, yb
-    if node.get(ca_) == ("not", cb):
-        return cb, yb, xa
-    return None
+    c, x, y = (int(v) for v in re.findall(r"\ba(\d+)\b", text))
+    return c, x, y
 
 
 def _switch_test(op: int, args, names: _Namer, consts: dict):
