@@ -83,7 +83,7 @@ def _sum(terms) -> ca.SX:
     for group in groups.values():
         if len(group) == 1:
             sign, c, t = group[0]
-            part, sign = (t if c is None else ca.SX(c) * t), sign
+            part = t if c is None else ca.SX(c) * t
         else:
             c0 = max((c for _, c, _ in group), key=abs)
             inner = None
