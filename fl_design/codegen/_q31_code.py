@@ -63,6 +63,14 @@ def _shift32(v: str, s: int) -> str:
     return f"({v} * INT32_C({1 << -s}))" if s < 0 else v
 
 
+def _product(x: str, y: str, s: int) -> str:
+    """``floor(x y / 2^s)`` of two ``int32_t`` as ``int32_t`` (it fits: the interval analysis):
+    the template's ``_mulsh`` for ``1 <= s <= 63``, else the long product scaled up."""
+    if 1 <= s <= 63:
+        return f"{{PFX}}_mulsh({x}, {y}, {s}u)"
+    return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
+
+
 def _narrow(op, a, F, name, fk, const):
     """The ``int32_t`` text of a sum, min/max, product by ``+-2^m``, twice or negation when an
     identity of floors makes it exact (module docstring), else None."""
@@ -192,9 +200,9 @@ def c_body_q31(prog: Q31Program) -> str:
             expr = f"({_shift(q(a[0]), F[a[0]], fm)} {_SYM[op]} {_shift(q(a[1]), F[a[1]], fm)})"
             text = f"(int32_t) {_shift(expr, fm, fk)}"
         elif op == ca.OP_MUL:
-            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[1])})', F[a[0]] + F[a[1]], fk)}"
+            text = _product(name[a[0]], name[a[1]], F[a[0]] + F[a[1]] - fk)
         elif op == ca.OP_SQ:
-            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[0])})', 2 * F[a[0]], fk)}"
+            text = _product(name[a[0]], name[a[0]], 2 * F[a[0]] - fk)
         elif op == ca.OP_NEG:
             text = f"(int32_t) {_shift(f'(-{q(a[0])})', F[a[0]], fk)}"
         elif op == ca.OP_TWICE:

@@ -49,6 +49,21 @@ def test_make_check_is_bit_exact_with_the_integer_model(packages, name):
     assert proc.returncode == 0 and "PASS: 1500 samples, 0 outside" in proc.stdout, proc.stdout
 
 
+@pytest.mark.skipif(find_compiler() is None or shutil.which("make") is None,
+                    reason="no C compiler or no make")
+@pytest.mark.parametrize("name", list(CASES))
+def test_the_products_by_halves_are_bit_exact_on_the_host(packages, name, tmp_path):
+    """The ARMv6-M products (four 16 x 16 -> 32 products, FL_MUL_HALVES) forced on the host:
+    the same vectors pass bit for bit."""
+    out = shutil.copytree(packages[name].out_dir, tmp_path / "pkg",
+                          ignore=shutil.ignore_patterns("build", "fl_check", "fl_main"))
+    assert "fl_mulsh(" in (out / "fl.c").read_text()
+    flags = "CFLAGS=-O2 -std=c99 -pedantic -Wall -Wextra -Werror -DFL_MUL_HALVES"
+    proc = subprocess.run(["make", "-s", "-C", str(out), flags, "check"], capture_output=True,
+                          text=True, timeout=300, check=False)
+    assert proc.returncode == 0 and "PASS: 1500 samples, 0 outside" in proc.stdout, proc.stdout
+
+
 @pytest.mark.parametrize("name, bound", [("trms", 1e-4), ("maglev", 2e-3),
                                          ("flexible_joint", 2e-2)])
 def test_the_quantization_error_against_design_step(packages, name, bound):
