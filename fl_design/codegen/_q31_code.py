@@ -63,6 +63,28 @@ def _shift32(v: str, s: int) -> str:
     return f"({v} * INT32_C({1 << -s}))" if s < 0 else v
 
 
+#: the template's saturating scale-up in 32 bits (written into the C only where a store uses it)
+SAT_SHL = """/* q 2^k (1 <= k <= 30) saturated to int32_t, compared in 32 bits: q 2^k fits exactly when
+ * -2^(31-k) <= q <= 2^(31-k) - 1 */
+static int32_t {PFX}_sat_shl(int32_t q, uint32_t k) {
+  const uint32_t top_bits = 0x7FFFFFFFu >> k;
+  const uint32_t scale_bits = 1u << k;
+  const int32_t top = (int32_t) top_bits;
+  const int32_t scale = (int32_t) scale_bits;
+  int32_t out;
+  if (q > top) {
+    out = (int32_t) INT32_MAX;
+  } else if (q < (-top - 1)) {
+    out = (int32_t) INT32_MIN;
+  } else {
+    out = q * scale;
+  }
+  return out;
+}
+
+"""
+
+
 def _product(x: str, y: str, s: int) -> str:
     """``floor(x y / 2^s)`` of two ``int32_t`` as ``int32_t`` (it fits: the interval analysis):
     the template's ``_mulsh`` for ``1 <= s <= 63``, else the long product scaled up."""
@@ -177,7 +199,10 @@ def c_body_q31(prog: Q31Program) -> str:
         if kind == "out":
             (which, i), (w,) = k, a
             dst = f"x_next[{i}]" if which == 0 else "*u"
-            lines.append(f"  {dst} = {{PFX}}_sat32({_shift(f'(int64_t) {name[w]}', F[w], fk)});")
+            if 1 <= fk - F[w] <= 30:  # scaled up: saturated in 32 bits (no int64_t)
+                lines.append(f"  {dst} = {{PFX}}_sat_shl({name[w]}, {fk - F[w]}u);")
+            else:
+                lines.append(f"  {dst} = {{PFX}}_sat32({_shift(f'(int64_t) {name[w]}', F[w], fk)});")
             continue
         F[k], name[k] = fk, f"q{k}"
         q = lambda j: f"(int64_t) {name[j]}"
@@ -407,4 +432,4 @@ def start_c(prog: Q31Program) -> str:
     return "\n".join(rows)
 
 
-__all__ = ["c_body_q31", "emulate_q31", "start_c", "start_state"]
+__all__ = ["SAT_SHL", "c_body_q31", "emulate_q31", "start_c", "start_state"]
