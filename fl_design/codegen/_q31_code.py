@@ -97,6 +97,10 @@ def _narrow(op, a, F, name, fk, const):
     """The ``int32_t`` text of a sum, min/max, product by ``+-2^m``, twice or negation when an
     identity of floors makes it exact (module docstring), else None."""
     if op in (ca.OP_FMIN, ca.OP_FMAX):
+        for z, v in ((a[0], a[1]), (a[1], a[0])):  # max(v, 0) = v > 0 ? v : 0, any scaling
+            if const.get(z) == 0:
+                cmp = ">" if op == ca.OP_FMAX else "<"
+                return f"(({name[v]} {cmp} 0) ? {_shift32(name[v], F[v] - fk)} : INT32_C(0))"
         return _narrow_minmax(op, a, F, name, fk)
     if op in _SYM:
         (i, j), fm = a, _align(F[a[0]], F[a[1]])
