@@ -320,27 +320,27 @@ def _sum_first(extra: dict, terms) -> bool:
 
 
 def _extra_text(k: int, extra: dict, terms, names) -> str:
-    """What the saturated branches of ``k`` do for the check: add ``v`` and the result to the
-    sum (set before), or raise the flag ``a<k>_sat`` (added after the sum); "" for none."""
+    """What the saturated branches of ``k`` do for the check: add the result to the sum (set
+    before), or raise the flag ``a<k>_sat`` (added after the sum); "" for none."""
     if k not in extra:
         return ""
     if _sum_first(extra, terms):
-        return f"a_sum = (a_sum + {names.as_real(extra[k][0])}) + a{k};"
+        return f"a_sum = a_sum + a{k};"
     return f"a{k}_sat = true;"
 
 
 def _with_check(lines, terms, extra, names, real, indent) -> list:
     """``lines`` with the check's sum ``a_sum`` (after its last term, or last of all when
-    saturations come before it: then their flagged additions of ``v`` and the result)."""
+    saturations come before it: then their flagged additions of the result)."""
     total = " + ".join(names.as_real(t) for t in terms) or literal(0.0, real)
     text = [f"{indent}{real} a_sum = {total};"]
     at = next((i for i, line in enumerate(lines) if line[0] > max(terms, default=-1)),
               len(lines))
     if not _sum_first(extra, terms):
         at = len(lines)
-        for k, (v, _) in extra.items():
-            text += [f"{indent}if (a{k}_sat) {{",
-                     f"{indent * 2}a_sum = (a_sum + {names.as_real(v)}) + a{k};", f"{indent}}}"]
+        for k in extra:
+            text += [f"{indent}if (a{k}_sat) {{", f"{indent * 2}a_sum = a_sum + a{k};",
+                     f"{indent}}}"]
     return [*lines[:at], (-1 - at, list(terms), text), *lines[at:]]
 
 

@@ -12,16 +12,17 @@ Not all of them need to be terms: a value is known finite when the test passes i
   whenever an operand is (IEEE 754: ``inf - inf``, ``0 * inf`` are NaN);
 - it is a select (``c ? a : b``, ``min``, ``max``, ``c ? a : 0``) all of whose values are known
   finite (the select returns one of them);
-- it is a saturation ``min(max(v, lo), hi)`` printed as one ``if``/``else`` (:mod:`._emit`),
-  on the branch where ``lo < v < hi`` held: there ``v`` is finite (a NaN fails both comparisons,
-  an infinity one of them) and the result is ``v``. Only arithmetic *forward* is never trusted
-  (finite operands may overflow).
+- it is a saturation ``min(max(v, lo), hi)`` printed as one ``if``/``else`` (:mod:`._emit`)
+  whose input ``v`` is known finite, on the branch where ``lo < v < hi`` held: there the
+  result is ``v`` (``v`` is always a term: the comparisons alone would prove it finite under
+  IEEE semantics, which ``-ffast-math`` does not keep). Only arithmetic *forward* is never
+  trusted (finite operands may overflow).
 
 :func:`check_terms` picks the terms greedily from the required values (so that the test says
 "any of x, y, r, x_next, u is not finite", and, on a saturated branch, "or the unsaturated
 value v is not finite"): the terms of the common path, where every saturation is inside its
-limits, and for each saturation the two terms its saturated branches add (``v`` and the
-result: then everything the common path derived from ``v`` is known again). A non-finite
+limits (each saturation's ``v`` among them), and for each saturation the term its saturated
+branches add (the result, ``lo`` or ``hi`` there; ``v`` is already a term). A non-finite
 required value always fails the test; a test that fails with all of them finite (a sum that
 overflows, a non-finite ``v`` with a finite result) rejects the sample: the safe side.
 
@@ -31,7 +32,7 @@ Examples
 >>> nodes = {0: ("input", ()), 1: ("input", ()), 2: ("strict", (0, 1)),
 ...          3: ("const", ()), 4: ("sat", (2, 3, 3)), 5: ("strict", (0, 3))}
 >>> check_terms(nodes, required=[0, 1, 4, 5], blocks=[4])  # 0, 1 from v = node 2
-([5], {4: (2, 4)})
+([2, 5], {4: (2, 4)})
 """
 
 from __future__ import annotations
@@ -109,8 +110,8 @@ def check_terms(nodes: dict, required, blocks) -> tuple[list[int], dict[int, tup
     Returns
     -------
     tuple
-        The common path's terms (sorted), and per saturation the two terms its saturated
-        branches add.
+        The common path's terms (sorted), and per saturation ``(v, result)``: its saturated
+        branches add the result.
 
     Examples
     --------
@@ -120,7 +121,9 @@ def check_terms(nodes: dict, required, blocks) -> tuple[list[int], dict[int, tup
     ([1, 2], {})
     """
     required, blocks = list(dict.fromkeys(required)), list(blocks)
-    terms: list[int] = []
+    # each saturation's input v is a term: its branches' comparisons prove it finite only
+    # under IEEE semantics, which -ffast-math does not keep (a NaN may take any branch)
+    terms: list[int] = [nodes[k][1][0] for k in blocks]
     known = known_finite(nodes, terms, blocks)
     while not all(k in known for k in required):
         # the term that proves the most required values still open (ties: the latest)
@@ -134,7 +137,7 @@ def check_terms(nodes: dict, required, blocks) -> tuple[list[int], dict[int, tup
                 best, best_known = t, now
         terms.append(best)
         known = best_known
-    return sorted(terms), {k: (nodes[k][1][0], k) for k in blocks}
+    return sorted(set(terms)), {k: (nodes[k][1][0], k) for k in blocks}
 
 
 __all__ = ["KINDS", "check_terms", "known_finite"]

@@ -28,7 +28,7 @@ def test_the_rules_on_a_small_graph():
     assert known_finite(nodes, [2]) == {0, 1, 2}
     assert 4 not in known_finite(nodes, [0])  # a select needs every value: 3 unknown
     assert known_finite(nodes, [], [6]) >= {0, 1, 2, 6}  # inside the limits: v finite
-    assert check_terms(nodes, [0, 1, 6], [6]) == ([], {6: (2, 6)})
+    assert check_terms(nodes, [0, 1, 6], [6]) == ([2], {6: (2, 6)})  # v: always a term
     assert check_terms(nodes, [0, 1, 2, 5], [])[0] == [2, 5]  # 2 = 0 + 1 proves both
 
 
