@@ -339,15 +339,15 @@ def _F_of(prog, j):
     return _fmap(prog)[j]
 
 
-_FCACHE: dict = {}
+#: the fraction bits of the last program asked for (the program itself is kept: a cache keyed
+#: by ``id`` alone returned a freed program's map to a new one at the same address)
+_FCACHE: list = [None, None]
 
 
 def _fmap(prog):
-    key = id(prog)
-    if key not in _FCACHE:
-        _FCACHE.clear()
-        _FCACHE[key] = {k: fk for kind, k, a, fk, data in prog.ops if kind != "out"}
-    return _FCACHE[key]
+    if _FCACHE[0] is not prog:
+        _FCACHE[:] = [prog, {k: fk for kind, k, a, fk, data in prog.ops if kind != "out"}]
+    return _FCACHE[1]
 
 
 def _sat(v: int) -> int:
