@@ -262,16 +262,11 @@ COST_FORMAT = "fl_design step cost 1"
 
 
 def _machine() -> str:
-    """This machine's identity for timings: host, architecture and CPU model."""
-    model = ""
-    try:
-        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{platform.node()}|{platform.machine()}|{model or platform.processor()}"
+    """This machine's identity for timings: host, architecture and CPU model
+    (:func:`fl_design._isa.cpu_model`)."""
+    from .._isa import cpu_model
+
+    return f"{platform.node()}|{platform.machine()}|{cpu_model()}"
 
 
 def _tool(cc: str | None) -> str:

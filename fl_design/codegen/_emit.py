@@ -45,6 +45,8 @@ import casadi as ca
 
 from .._cmath import ELEMENTARY
 from ..errors import ComputationError
+from ..sim.kernel._emit import _select as _lane_select
+from ._finite import check_terms
 
 _ARITH = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})",
           ca.OP_DIV: "({0}/{1})", ca.OP_FMIN: "({0} < {1} ? {0} : {1})",
@@ -108,17 +110,32 @@ class _Namer:
         return f"({self.name[w]} < {z} || {self.name[w]} > {z})"
 
 
+class _Lanes:
+    """The view of a ``{id: ("ifz", c, x) | ("not", c)}`` table that the lane emitter's
+    matcher reads: names ``a<id>`` and CasADi's operation codes."""
+
+    def __init__(self, node: dict):
+        self.node = node
+
+    def get(self, name: str):
+        entry = self.node.get(int(name[1:]))
+        if entry is None:
+            return None
+        op = ca.OP_IF_ELSE_ZERO if entry[0] == "ifz" else ca.OP_NOT
+        return (op, *(f"a{v}" for v in entry[1:]))
+
+
 def _select(node: dict, a: int, b: int):
-    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None."""
-    na, nb = node.get(a), node.get(b)
-    if not (na and nb and na[0] == nb[0] == "ifz"):
+    """``(c ? x : 0) + (!c ? y : 0)`` (CasADi's ``if_else``) as ``(c, x, y)``, else None.
+
+    The match is :func:`fl_design.sim.kernel._emit._select`'s (one home for the pattern): its
+    select names ``c``, ``x`` and ``y`` in that order.
+    """
+    text = _lane_select(_Lanes(node), f"a{a}", f"a{b}")
+    if text is None:
         return None
-    (_, ca_, xa), (_, cb, yb) = na, nb
-    if node.get(cb) == ("not", ca_):
-        return ca_, xa, yb
-    if node.get(ca_) == ("not", cb):
-        return cb, yb, xa
-    return None
+    c, x, y = (int(v) for v in re.findall(r"\ba(\d+)\b", text))
+    return c, x, y
 
 
 def _switch_test(op: int, args, names: _Namer, consts: dict):
@@ -135,7 +152,7 @@ def _switch_test(op: int, args, names: _Namer, consts: dict):
 
 
 def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
-           switches=frozenset(), rare: str = "") -> str:
+           switches=frozenset(), rare: str = "", check: str = "", required=((), ())) -> str:
     """The statements computing ``f``'s outputs from its inputs (see the module docstring).
 
     Parameters
@@ -155,6 +172,12 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
     rare : str, optional
         A macro ``RARE(c)`` the saturation's two tests are wrapped in (e.g. a
         ``__builtin_expect`` hint that ``u`` is mostly within its limits); "" for none.
+    check : str, optional
+        A C lvalue given the sum of the finiteness test's terms (:mod:`._finite`: finite
+        whenever every required value is; "" for none).
+    required : tuple of two collections of int, optional
+        The inputs and the outputs (indices) whose every nonzero must be finite when the
+        check's sum is.
 
     Returns
     -------
@@ -199,38 +222,46 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
     names, lines, stores, node, live, consts = _Namer(real), [], [], {}, set(), {}
     cur = {}  # work index -> SSA id (int)
     blocks, bound_tests = _saturations(f)
+    graph, needed = {}, []  # the finiteness test's view of each node (._finite)
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
             w = cur[ins[0]]
             stores.append(f"{indent}{outputs[outs[0]][outs[1]]} = {names.as_real(w)};")
             live.add(w)
+            if outs[0] in required[1]:
+                needed.append(w)
             continue
         args = [cur[i] for i in ins if i >= 0] if op not in (ca.OP_INPUT, ca.OP_CONST) else []
         kind, text = "real", None
+        graph[k] = (_FINITE_KIND.get(op, "other"), tuple(args))
         if op == ca.OP_INPUT:
             name = inputs[ins[0]][ins[1]]
             names.name[k], names.kind[k] = name, "switch" if name in switches else "real"
             cur[outs[0]] = k
+            graph[k] = ("int" if name in switches else "input", ())
+            if ins[0] in required[0]:
+                needed.append(k)
             continue
         if op == ca.OP_CONST:
             consts[k] = f.instruction_constant(k)
             text = literal(consts[k], real)
         elif k in blocks:  # min(max(v, lo), hi) tested against its bounds: one if/else
-            v, lo, hi = blocks[k]
-            args = [v, lo, hi]
+            args = list(blocks[k])
+            graph[k] = ("sat", tuple(args))
             names.name[k], names.kind[k] = f"a{k}", "real"
-            lines.append((k, args, _saturation_text(k, *(names.as_real(a) for a in args),
-                                                    real, indent, bound_tests, rare)))
+            lines.append((k, args, None))  # printed below, with the check's terms
             cur[outs[0]] = k
             continue
         elif k in bound_tests:  # hi <= u or u <= lo of a saturation: its branch's flag
             kind, text, args = "int", f"a{bound_tests[k][0]}_{bound_tests[k][1]}", [bound_tests[k][0]]
         elif op == ca.OP_ADD and _select(node, *args):
             c, x, y = args = _select(node, *args)
+            graph[k] = ("select", (x, y))
             text = f"({names.as_bool(c)} ? {names.as_real(x)} : {names.as_real(y)})"
         elif op == ca.OP_IF_ELSE_ZERO:
             node[k] = ("ifz", args[0], args[1])
+            graph[k] = ("select", (args[1],))  # c ? a : 0
             text = (f"({names.as_bool(args[0])} ? {names.as_real(args[1])} : "
                     f"{literal(0.0, real)})")
         elif op in _ARITH:
@@ -255,14 +286,62 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         else:
             raise ComputationError(f"CasADi operation {op} of {f.name()} has no C translation")
         names.name[k], names.kind[k] = f"a{k}", kind
+        if kind == "int":
+            graph[k] = ("int", tuple(args))
         ctype = real if kind == "real" else "bool"  # <stdbool.h>: MISRA's essential Boolean
         lines.append((k, args, f"{indent}const {ctype} a{k} = {text};"))
         cur[outs[0]] = k
+    terms, extra = check_terms(graph, sorted(set(needed)), blocks) if check else ([], {})
+    live.update(terms)
     for k, args, _ in reversed(lines):  # drop what no output needs (-Wunused-variable)
         if k in live:
             live.update(args)
     lines = [line for line in lines if line[0] in live]
+    if check:
+        lines = _with_check(lines, terms, extra, names, real, indent)
+        stores.append(f"{indent}{check} = a_sum;")
+    lines = [(k, args, _saturation_text(k, *(names.as_real(a) for a in args), real, indent,
+                                        bound_tests, rare, _extra_text(k, extra, terms, names)))
+             if text is None else (k, args, text) for k, args, text in lines]
     return "\n".join(_inline_logic(lines, names) + stores)
+
+
+#: how the finiteness test sees each operation (._finite.KINDS); comparisons are "int"
+_FINITE_KIND = {ca.OP_ADD: "strict", ca.OP_SUB: "strict", ca.OP_MUL: "strict",
+                ca.OP_NEG: "strict", ca.OP_SQ: "strict", ca.OP_TWICE: "strict",
+                ca.OP_ASSIGN: "strict", ca.OP_FABS: "strict", ca.OP_DIV: "div",
+                ca.OP_FMIN: "select", ca.OP_FMAX: "select", ca.OP_CONST: "const"}
+
+
+def _sum_first(extra: dict, terms) -> bool:
+    """True when the check's sum can be set before every saturation (their saturated
+    branches then add to it); else each raises a flag and the sum comes last."""
+    return not terms or not extra or max(terms) < min(extra)
+
+
+def _extra_text(k: int, extra: dict, terms, names) -> str:
+    """What the saturated branches of ``k`` do for the check: add the result to the sum (set
+    before), or raise the flag ``a<k>_sat`` (added after the sum); "" for none."""
+    if k not in extra:
+        return ""
+    if _sum_first(extra, terms):
+        return f"a_sum = a_sum + a{k};"
+    return f"a{k}_sat = true;"
+
+
+def _with_check(lines, terms, extra, names, real, indent) -> list:
+    """``lines`` with the check's sum ``a_sum`` (after its last term, or last of all when
+    saturations come before it: then their flagged additions of the result)."""
+    total = " + ".join(names.as_real(t) for t in terms) or literal(0.0, real)
+    text = [f"{indent}{real} a_sum = {total};"]
+    at = next((i for i, line in enumerate(lines) if line[0] > max(terms, default=-1)),
+              len(lines))
+    if not _sum_first(extra, terms):
+        at = len(lines)
+        for k in extra:
+            text += [f"{indent}if (a{k}_sat) {{", f"{indent * 2}a_sum = a_sum + a{k};",
+                     f"{indent}}}"]
+    return [*lines[:at], (-1 - at, list(terms), text), *lines[at:]]
 
 
 def _inline_logic(lines, names) -> list[str]:
@@ -318,14 +397,17 @@ def _saturations(f: ca.Function) -> tuple[dict, dict]:
 
 
 def _saturation_text(k: int, v: str, lo: str, hi: str, real: str, indent: str,
-                     tests: dict, rare: str = "") -> list[str]:
+                     tests: dict, rare: str = "", extra: str = "") -> list[str]:
     """The statements of ``a<k> = min(max(v, lo), hi)`` and its tests ``a<k>_hi = (hi <= a<k>)``,
-    ``a<k>_lo = (a<k> <= lo)``: one ``if``/``else``, exact for every value (module docstring)."""
+    ``a<k>_lo = (a<k> <= lo)``: one ``if``/``else``, exact for every value (module docstring);
+    ``extra``: a statement of the saturated branches (the finiteness check's, :func:`c_body`)."""
     flags = sorted({side for (kk, side) in tests.values() if kk == k}, reverse=True)
     test = {"hi": f"({hi} <= a{k})", "lo": f"(a{k} <= {lo})"}
     i2, hint = indent * 2, (lambda c: f"({rare}({c}))" if rare else f"({c})")
     sets = [f"{i2}a{k}_{side} = {test[side]};" for side in flags]
+    sets += [f"{i2}{extra}"] if extra else []
     out = [f"{indent}{real} a{k};"] + [f"{indent}bool a{k}_{side} = false;" for side in flags]
+    out += [f"{indent}bool a{k}_sat = false;"] if extra.endswith("_sat = true;") else []
     out += [f"{indent}if {hint(f'!({v} > {lo})')} {{", f"{i2}a{k} = ({lo} < {hi} ? {lo} : {hi});",
             *sets, f"{indent}}} else if {hint(f'!({v} < {hi})')} {{", f"{i2}a{k} = {hi};", *sets,
             f"{indent}}} else {{", f"{i2}a{k} = {v};  /* lo < v < hi: no test holds */",

@@ -175,7 +175,7 @@ def _refuse_q15(design, guard) -> None:
         "(one of headroom) from the same interval analysis: u's resolution becomes "
         f"{lsb:.3g} (u units), and the controller's increments gamma (v - sigmahat) per "
         "sample below it are lost, as are the observer's and the integrator's small updates. "
-        "Use precision='q31' (the paper's TRMS design: 949 instructions per step on a "
+        "Use precision='q31' (the paper's TRMS design: 764 instructions per step on a "
         "Cortex-M0+, 178 on a Cortex-M3).")
 
 

@@ -149,6 +149,47 @@ def parametric_core(design: Design, name: str = "fl_core") -> ca.Function:
                        ["x", "y", "r", "p"], ["x_next", "u", "xhat"])
 
 
+def unsaturated_input(core: ca.Function) -> ca.Function:
+    """``v(x, y, r, p)``: the input of ``core`` (:func:`parametric_core`) before its limits.
+
+    The ``v`` of ``u = min(max(v, u_min), u_max)`` (through the least-squares estimator's hold
+    select): the value whose finiteness the C's saturated branches test (:mod:`._finite`).
+
+    Parameters
+    ----------
+    core : casadi.Function
+        The parametric step.
+
+    Returns
+    -------
+    casadi.Function
+
+    Raises
+    ------
+    ComputationError
+        ``u`` has no input limit (the parametric step always has one).
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._graph import parameter_fields, parametric_core, unsaturated_input
+    >>> d = presets.paper_design()
+    >>> p = [f.value for f in parameter_fields(d)]
+    >>> s = d.initial_state(y0=0.0)
+    >>> float(unsaturated_input(parametric_core(d))(s, 0.0, -1e4, p)) < -2.5  # beyond u_min
+    True
+    """
+    args = [ca.SX.sym(n, core.size1_in(i)) for i, n in enumerate(core.name_in())]
+    stack = [core(*args)[1]]
+    while stack:
+        e = stack.pop()
+        if e.is_op(ca.OP_FMIN) and e.dep(0).is_op(ca.OP_FMAX):
+            return ca.Function("v", args, [e.dep(0).dep(0)], core.name_in(), ["v"])
+        if e.is_op(ca.OP_ADD) or e.is_op(ca.OP_IF_ELSE_ZERO):
+            stack += [e.dep(i) for i in range(e.n_dep())]
+    raise ComputationError(f"{core.name()}: u has no input limit min(max(v, lo), hi)")
+
+
 def start_map(design: Design) -> tuple[np.ndarray, np.ndarray]:
     """``(c0, c1)``: the estimator's state at rest at a constant output ``y0`` is ``c0 + c1 y0``.
 
@@ -190,4 +231,5 @@ def start_map(design: Design) -> tuple[np.ndarray, np.ndarray]:
     return c0, c1
 
 
-__all__ = ["U_OPEN", "ParameterField", "parameter_fields", "parametric_core", "start_map"]
+__all__ = ["U_OPEN", "ParameterField", "parameter_fields", "parametric_core", "start_map",
+           "unsaturated_input"]

@@ -185,8 +185,8 @@ class FirmwareModel:
 
     Mirrors ``templates/step.c.in`` (the fault rules of the header's comment): rejection and
     resumption, the widening rate window, the frozen and lost sensor with ``u_safe``, the
-    observer's restart after a non-finite result, the parameter block's periodic check, manual
-    mode. The arithmetic is the design's parametric step in double.
+    observer's restart after a non-finite result (or a non-finite input before its limits, e.g.
+    a NaN gain), the parameter block's periodic check, manual mode. The arithmetic is the design's parametric step in double.
 
     Parameters
     ----------
@@ -208,12 +208,13 @@ class FirmwareModel:
     """
 
     def __init__(self, design, settings: GuardSettings, *, period: int = PARAM_CHECK_PERIOD):
-        from ._graph import parameter_fields, parametric_core
+        from ._graph import parameter_fields, parametric_core, unsaturated_input
 
         self.design, self.settings, self.period = design, settings, int(period)
         self.fields = [f.name for f in parameter_fields(design)]
         self.p = {f.name: f.value for f in parameter_fields(design)}
         self.core = parametric_core(design)
+        self.unsaturated = unsaturated_input(self.core)
         self.c0, self.c1 = _start_map(design)
         self.m = int(design.estimator.state_size)
         self.x = np.asarray(design.initial_state(), dtype=float)
@@ -289,9 +290,12 @@ class FirmwareModel:
         lim = s.dy_max * (self.n_consecutive + 1)
         if s.dy_max > 0 and self.last_known and abs(y - self.y_last) > lim:
             return self._reject(FAULT["rate"])
-        x_next, u, _ = (np.asarray(v, dtype=float).ravel() for v in
-                        self.core(self.x, y, r, [self.p[f] for f in self.fields]))
-        if not (np.all(np.isfinite(x_next)) and math.isfinite(self.x[self.m])):
+        p = [self.p[f] for f in self.fields]
+        x_next, u, _ = (np.asarray(v, dtype=float).ravel() for v in self.core(self.x, y, r, p))
+        # the C's test (._finite): the results, u_(k-1) and the input before its limits
+        v = float(self.unsaturated(self.x, y, r, p))
+        if not (np.all(np.isfinite(x_next)) and math.isfinite(self.x[self.m])
+                and math.isfinite(v)):
             self.restart_due = True
             return self._reject(FAULT["result"])
         z_before = self.x[self.m + 1]

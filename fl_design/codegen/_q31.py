@@ -50,6 +50,7 @@ import numpy as np
 
 from ..errors import ComputationError, ParameterError
 from ._emit import _select
+from ._q31_factor import factor_constants
 
 _LIMIT = 2.0**30  # one bit of headroom below 2^31
 _F_MAX = 60
@@ -195,7 +196,7 @@ def _fixed_core(design):
     n = design.state_size
     x, y, r = ca.SX.sym("x", n), ca.SX.sym("y"), ca.SX.sym("r")
     x_next, u, _ = f(x, y, r, [fl.value for fl in parameter_fields(design)])
-    return ca.Function("q31_core", [x, y, r], [x_next, u])
+    return factor_constants(ca.Function("q31_core", [x, y, r], [x_next, u]))
 
 
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}

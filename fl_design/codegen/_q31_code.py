@@ -63,10 +63,44 @@ def _shift32(v: str, s: int) -> str:
     return f"({v} * INT32_C({1 << -s}))" if s < 0 else v
 
 
+#: the template's saturating scale-up in 32 bits (written into the C only where a store uses it)
+SAT_SHL = """/* q 2^k (1 <= k <= 30) saturated to int32_t, compared in 32 bits: q 2^k fits exactly when
+ * -2^(31-k) <= q <= 2^(31-k) - 1 */
+static int32_t {PFX}_sat_shl(int32_t q, uint32_t k) {
+  const uint32_t top_bits = 0x7FFFFFFFu >> k;
+  const uint32_t scale_bits = 1u << k;
+  const int32_t top = (int32_t) top_bits;
+  const int32_t scale = (int32_t) scale_bits;
+  int32_t out;
+  if (q > top) {
+    out = (int32_t) INT32_MAX;
+  } else if (q < (-top - 1)) {
+    out = (int32_t) INT32_MIN;
+  } else {
+    out = q * scale;
+  }
+  return out;
+}
+
+"""
+
+
+def _product(x: str, y: str, s: int) -> str:
+    """``floor(x y / 2^s)`` of two ``int32_t`` as ``int32_t`` (it fits: the interval analysis):
+    the template's ``_mulsh`` for ``1 <= s <= 63``, else the long product scaled up."""
+    if 1 <= s <= 63:
+        return f"{{PFX}}_mulsh({x}, {y}, {s}u)"
+    return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
+
+
 def _narrow(op, a, F, name, fk, const):
     """The ``int32_t`` text of a sum, min/max, product by ``+-2^m``, twice or negation when an
     identity of floors makes it exact (module docstring), else None."""
     if op in (ca.OP_FMIN, ca.OP_FMAX):
+        for z, v in ((a[0], a[1]), (a[1], a[0])):  # max(v, 0) = v > 0 ? v : 0, any scaling
+            if const.get(z) == 0:
+                cmp = ">" if op == ca.OP_FMAX else "<"
+                return f"(({name[v]} {cmp} 0) ? {_shift32(name[v], F[v] - fk)} : INT32_C(0))"
         return _narrow_minmax(op, a, F, name, fk)
     if op in _SYM:
         (i, j), fm = a, _align(F[a[0]], F[a[1]])
@@ -169,7 +203,10 @@ def c_body_q31(prog: Q31Program) -> str:
         if kind == "out":
             (which, i), (w,) = k, a
             dst = f"x_next[{i}]" if which == 0 else "*u"
-            lines.append(f"  {dst} = {{PFX}}_sat32({_shift(f'(int64_t) {name[w]}', F[w], fk)});")
+            if 1 <= fk - F[w] <= 30:  # scaled up: saturated in 32 bits (no int64_t)
+                lines.append(f"  {dst} = {{PFX}}_sat_shl({name[w]}, {fk - F[w]}u);")
+            else:
+                lines.append(f"  {dst} = {{PFX}}_sat32({_shift(f'(int64_t) {name[w]}', F[w], fk)});")
             continue
         F[k], name[k] = fk, f"q{k}"
         q = lambda j: f"(int64_t) {name[j]}"
@@ -192,9 +229,9 @@ def c_body_q31(prog: Q31Program) -> str:
             expr = f"({_shift(q(a[0]), F[a[0]], fm)} {_SYM[op]} {_shift(q(a[1]), F[a[1]], fm)})"
             text = f"(int32_t) {_shift(expr, fm, fk)}"
         elif op == ca.OP_MUL:
-            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[1])})', F[a[0]] + F[a[1]], fk)}"
+            text = _product(name[a[0]], name[a[1]], F[a[0]] + F[a[1]] - fk)
         elif op == ca.OP_SQ:
-            text = f"(int32_t) {_shift(f'({q(a[0])} * {q(a[0])})', 2 * F[a[0]], fk)}"
+            text = _product(name[a[0]], name[a[0]], 2 * F[a[0]] - fk)
         elif op == ca.OP_NEG:
             text = f"(int32_t) {_shift(f'(-{q(a[0])})', F[a[0]], fk)}"
         elif op == ca.OP_TWICE:
@@ -302,15 +339,15 @@ def _F_of(prog, j):
     return _fmap(prog)[j]
 
 
-_FCACHE: dict = {}
+#: the fraction bits of the last program asked for (the program itself is kept: a cache keyed
+#: by ``id`` alone returned a freed program's map to a new one at the same address)
+_FCACHE: list = [None, None]
 
 
 def _fmap(prog):
-    key = id(prog)
-    if key not in _FCACHE:
-        _FCACHE.clear()
-        _FCACHE[key] = {k: fk for kind, k, a, fk, data in prog.ops if kind != "out"}
-    return _FCACHE[key]
+    if _FCACHE[0] is not prog:
+        _FCACHE[:] = [prog, {k: fk for kind, k, a, fk, data in prog.ops if kind != "out"}]
+    return _FCACHE[1]
 
 
 def _sat(v: int) -> int:
@@ -399,4 +436,4 @@ def start_c(prog: Q31Program) -> str:
     return "\n".join(rows)
 
 
-__all__ = ["c_body_q31", "emulate_q31", "start_c", "start_state"]
+__all__ = ["SAT_SHL", "c_body_q31", "emulate_q31", "start_c", "start_state"]

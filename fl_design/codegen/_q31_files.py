@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from ._q31 import q31_program
-from ._q31_code import c_body_q31, emulate_q31, start_c, start_state
+from ._q31_code import SAT_SHL, c_body_q31, emulate_q31, start_c, start_state
 from ._vectors import hold_rejected, vector_file, vector_record
 
 #: the range of ``y`` a Q31 build assumes when no plant gives one
@@ -137,8 +137,10 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
     u_lo, u_hi = design.controller.u_range
     x0 = [_q(v, prog.f_state[i]) for i, v in enumerate(design.initial_state())]
     subs = dict(base)
+    body = c_body_q31(prog).replace("{PFX}", prefix)
     subs.update({
-        "BODY_Q31": c_body_q31(prog).replace("{PFX}", prefix),
+        "BODY_Q31": body,
+        "SAT_SHL": SAT_SHL.replace("{PFX}", prefix) if f"{prefix}_sat_shl(" in body else "",
         "START_Q31": start_c(prog).replace("{PFX}", prefix),
         "COMMIT_Q31": "\n".join(f"    s->x[{i}] = x_next[{i}];" for i in range(len(x0))),
         "F_Y": str(prog.f_y), "F_U": str(f_u),

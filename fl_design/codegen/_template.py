@@ -197,7 +197,7 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
                   [[f"x_next[{i}]" for i in range(n)], ["*u"],
                    [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
                   switches={"p->antiwindup"},
-                  rare=f"{prefix.upper()}_RARE")
+                  rare=f"{prefix.upper()}_RARE", check="*chk", required=((0, 1, 2), (0, 1)))
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
@@ -256,7 +256,6 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "ARM_FP_BIT": "4" if precision == "float" else "8",  # ACLE __ARM_FP: single, double
         "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
         "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
-        "SUM_NEXT": " + ".join(f"x_next[{i}]" for i in range(design.state_size)),
         "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
                              for i in range(design.state_size)]
                             + [f"  s->xhat[{i}] = xhat[{i}];"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 import shutil
 import subprocess
@@ -46,6 +47,21 @@ def test_no_floating_point_in_the_source(packages):
 def test_make_check_is_bit_exact_with_the_integer_model(packages, name):
     proc = subprocess.run(["make", "-s", "-C", str(packages[name].out_dir), "check"],
                           capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0 and "PASS: 1500 samples, 0 outside" in proc.stdout, proc.stdout
+
+
+@pytest.mark.skipif(find_compiler() is None or shutil.which("make") is None,
+                    reason="no C compiler or no make")
+@pytest.mark.parametrize("name", list(CASES))
+def test_the_products_by_halves_are_bit_exact_on_the_host(packages, name, tmp_path):
+    """The ARMv6-M products (four 16 x 16 -> 32 products, FL_MUL_HALVES) forced on the host:
+    the same vectors pass bit for bit."""
+    out = shutil.copytree(packages[name].out_dir, tmp_path / "pkg",
+                          ignore=shutil.ignore_patterns("build", "fl_check", "fl_main"))
+    assert "fl_mulsh(" in (out / "fl.c").read_text()
+    flags = "CFLAGS=-O2 -std=c99 -pedantic -Wall -Wextra -Werror -DFL_MUL_HALVES"
+    proc = subprocess.run(["make", "-s", "-C", str(out), flags, "check"], capture_output=True,
+                          text=True, timeout=300, check=False)
     assert proc.returncode == 0 and "PASS: 1500 samples, 0 outside" in proc.stdout, proc.stdout
 
 
@@ -217,3 +233,42 @@ def test_the_int32_min_max_and_comparisons_equal_the_aligned_int64_ones(tmp_path
     out = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True,
                          text=True, check=True, timeout=60).stdout.split()
     assert [int(v) for v in out] == expected
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_shared_products_compute_the_same_step(name):
+    """The Q31 graph with constants equal up to a power of two sharing one product equals the
+    design's step in double (random states and inputs), with fewer products where it applies."""
+    import casadi as ca
+
+    from fl_design.codegen._q31 import _fixed_core
+
+    d = step_design(CASES[name][0](), "q31")
+    g = _fixed_core(d)  # factored
+    n = d.state_size
+    x, y, r = ca.SX.sym("x", n), ca.SX.sym("y"), ca.SX.sym("r")
+    from fl_design.codegen._graph import parameter_fields, parametric_core
+
+    x_next, u, _ = parametric_core(d)(x, y, r, [f.value for f in parameter_fields(d)])
+    f = ca.Function("plain", [x, y, r], [x_next, u])
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        args = [rng.standard_normal(n), rng.standard_normal(), rng.standard_normal()]
+        a, b = (np.concatenate([np.asarray(v, dtype=float).ravel() for v in h(*args)])
+                for h in (f, g))
+        np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * np.abs(a).max())
+    muls = lambda h: sum(h.instruction_id(k) == ca.OP_MUL for k in range(h.n_instructions()))
+    assert muls(g) <= muls(f)
+    if name == "maglev":  # the observer's rows of gains equal up to powers of two
+        def odd(h):  # products by a constant that is not a power of two
+            cur, n_odd = {}, 0
+            for k in range(h.n_instructions()):
+                op, ins, out = h.instruction_id(k), h.instruction_input(k), h.instruction_output(k)
+                if op == ca.OP_MUL:
+                    n_odd += any(cur.get(i) is not None and math.frexp(abs(cur[i]))[0] != 0.5
+                                 for i in ins)
+                if op != ca.OP_OUTPUT:
+                    cur[out[0]] = h.instruction_constant(k) if op == ca.OP_CONST else None
+            return n_odd
+
+        assert odd(g) < odd(f)  # fewer products by constants that are not powers of two
