@@ -184,6 +184,7 @@ def c_body_q31(prog: Q31Program) -> str:
     Returns
     -------
     str
+        C statements (one per line), to be placed in the step's body by the template.
 
     Examples
     --------

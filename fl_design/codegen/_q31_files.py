@@ -76,6 +76,7 @@ def q31_base(design, prefix: str, guard) -> dict:
     Returns
     -------
     dict
+        Template name -> value (``PREFIX``, sizes, version, design hash, precision).
 
     Examples
     --------
@@ -119,6 +120,7 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
     Returns
     -------
     tuple of (dict, Q31Program, tuple)
+        The template values, the integer program and the input range it was scaled for.
 
     Examples
     --------
@@ -213,6 +215,7 @@ def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
     Returns
     -------
     str
+        The file's text (comment lines, ``tol 0``, one ``y r u`` line of integers per sample).
 
     Examples
     --------
@@ -246,6 +249,7 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
     Returns
     -------
     float
+        The relative error (divided by at least one unit in the last place of ``u``).
 
     Examples
     --------

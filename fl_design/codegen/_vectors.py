@@ -133,6 +133,7 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
     Returns
     -------
     tuple
+        ``(y, r, u_expected, tolerance)``: three arrays of ``n`` samples and a float.
 
     Examples
     --------
@@ -180,6 +181,7 @@ def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: st
     Returns
     -------
     str
+        The file's text, ready to write as the package's vector file.
 
     Examples
     --------
