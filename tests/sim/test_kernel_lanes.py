@@ -183,24 +183,28 @@ def test_serial_blas_gives_the_same_columns():
 
 
 @pytest.mark.parametrize("isa", ISAS)
-def test_trms_lanes_kernel_is_vectorised(tmp_path, isa):
-    """The TRMS step is too much for GCC 12 to vectorise in lane groups (scalar code, 3-6x
-    slower): the build falls back to one group, and the library links libmvec's vectors."""
+def test_trms_lanes_kernel_calls_vector_math_in_every_group(tmp_path, isa):
+    """The step is written in vector types: every lane group calls libmvec's vector tanh of
+    the level's width (no scalar fallback the compiler could choose), and the library links it."""
     from pathlib import Path
 
-    from fl_design.sim.kernel._lanes import vector_math, vectorised
+    from fl_design.sim.kernel._emit import groups
+    from fl_design.sim.kernel._lanes import vector_math
 
     if not vector_math(LEVELS[isa]):
         pytest.skip(f"no vector math at {isa}")
     run = prepare_run(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario(0.3, 0.1))
-    _idx, runners = _runners(run, tmp_path, isa)
+    idx, runners = _runners(run, tmp_path, isa)
     lib = runners["vector", isa].library
-    assert lib is not None and b"_ZGV" in Path(lib._name).read_bytes()
-    grouped = "#define FL_G 2\nstatic void fl_lanes_step(double* A) { A[0] = tanh(A[0]); }"
-    scalar = tmp_path / "scalar.so"
-    scalar.write_bytes(b"tanh")  # calls glibc's scalar tanh only
-    assert not vectorised(grouped, scalar, ("tanh",))
-    assert vectorised(grouped.replace("FL_G 2", "FL_G 1"), scalar, ("tanh",))
+    lvl = LEVELS[isa]
+    name = f"_ZGV{lvl.mvec}N{lvl.width}v_tanh"
+    assert lib is not None and name.encode() in Path(lib._name).read_bytes()
+    src = lanes_source(run.loop.accumulate, idx, width=lvl.width, vector_math=("tanh",),
+                       variant=lvl.mvec)
+    n = groups(lvl.width, 1)
+    assert f"#define FL_G {n}" in src and "#pragma omp" not in src
+    tanh_calls = re.findall(r"fl_v v\d+_g(\d+) = fl_tanh\(", src)
+    assert tanh_calls and sorted(set(tanh_calls)) == [str(g) for g in range(n)]
 
 
 def test_trms_map_equals_the_scalar_code_map():

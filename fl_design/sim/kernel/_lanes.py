@@ -34,12 +34,10 @@ from __future__ import annotations
 import ctypes
 import functools
 import os
-import re
 import threading
 import warnings
 import weakref
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -140,49 +138,10 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, isa: Isa | None = Non
         return None
     maths = vector_math(isa) if vector_math_ok else ()
 
-    def compiled(groups):
-        source = lanes_source(accumulate, indices, width=isa.width, vector_math=maths,
-                              groups=groups)
-        path = build(source, f"fl_lanes_{isa.name}", cache_dir=cache_dir,
-                     extra_flags=(*isa.flags, *LANES_CFLAGS), libs=("-lmvec",) if maths else ())
-        return source, path
-
-    source, path = compiled(None)
-    if path is not None and not vectorised(source, path, maths):
-        # the compiler gave up on the grouped lane loop (scalar code, 3-6x slower): one group
-        # (same results lane by lane: the groups only interleave independent lanes)
-        one = compiled(1)[1]
-        path = one if one is not None else path
-    return path
-
-
-def vectorised(source: str, path, maths: tuple[str, ...]) -> bool:
-    """False when the lane loop of ``source`` calls vector math but the library ``path`` links
-    none of libmvec's vector functions (``_ZGV...``): the compiler did not vectorise the loop.
-
-    Only a grouped source (``FL_G > 1``) is judged (one group is the fallback); a step without
-    math calls is taken as vectorised.
-
-    Examples
-    --------
-    >>> import json
-    >>> from fl_design.sim.kernel._lanes import vectorised
-    >>> vectorised("#define FL_G 1", "no-such.so", ("tanh",))
-    True
-    >>> vectorised("#define FL_G 2\\nvoid fl_lanes_step(double* A) { A[0] = tanh(A[0]); }",
-    ...            json.__file__, ("tanh",))  # a file without libmvec's symbols
-    False
-    """
-    groups = re.search(r"^#define FL_G (\d+)", source, re.MULTILINE)
-    step = source.partition("fl_lanes_step(")[2]
-    if groups is None or int(groups.group(1)) == 1 or not maths:
-        return True
-    if not any(re.search(rf"\b{name}\(", step) for name in maths):
-        return True
-    try:
-        return b"_ZGV" in Path(path).read_bytes()
-    except OSError:
-        return True
+    source = lanes_source(accumulate, indices, width=isa.width, vector_math=maths,
+                          variant=isa.mvec)
+    return build(source, f"fl_lanes_{isa.name}", cache_dir=cache_dir,
+                 extra_flags=(*isa.flags, *LANES_CFLAGS), libs=("-lmvec",) if maths else ())
 
 
 _LIVE: weakref.WeakSet = weakref.WeakSet()  # runners of this process (reset in a forked child)
@@ -377,4 +336,4 @@ class LanesRunner:
         return self.scalar.record(acc, D)
 
 
-__all__ = ["LanesRunner", "build_lanes", "lane_width", "vector_math", "vectorised"]
+__all__ = ["LanesRunner", "build_lanes", "lane_width", "vector_math"]
