@@ -59,31 +59,61 @@ def _const(value: float) -> str:
     return f"({float(value)!r})"
 
 
-def _select(node: dict, x: str, y: str) -> str | None:
+def _select(node: dict, x: str, y: str, mask) -> str | None:
     """``if_else(c, a, b)`` as CasADi builds it, ``(c ? a : 0) + (!c ? b : 0)``, as one select.
 
     Exact: the sum is ``a + 0.0`` when ``c != 0`` (NaN included) and ``0.0 + b`` otherwise,
-    and so is the select (the additions keep the sign of zero as the sum does).
+    and so is the select plus ``0.0`` (the addition turns ``-0.0`` into ``+0.0`` as the sum
+    does, and quiets a NaN as the sum does; one addition instead of one per branch).
     """
     nx, ny = node.get(x), node.get(y)
     if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
         return None
     (_, cx, ax), (_, cy, by) = nx, ny
     if node.get(cy) == (ca.OP_NOT, cx):
-        return f"FL_SEL({cx}!=FL_Z, ({ax}+FL_Z), (FL_Z+{by}))"
+        return f"(FL_SEL({mask(cx)}, {ax}, {by})+FL_Z)"
     if node.get(cx) == (ca.OP_NOT, cy):
-        return f"FL_SEL({cy}!=FL_Z, (FL_Z+{by}), ({ax}+FL_Z))"
+        return f"(FL_SEL({mask(cy)}, {by}, {ax})+FL_Z)"
     return None
 
 
+#: Operations whose value is a truth value (``1.0`` or ``+0.0``), written as a lane mask.
+_MASKS = {ca.OP_LT: "({0}<{1})", ca.OP_LE: "({0}<={1})", ca.OP_EQ: "({0}=={1})",
+          ca.OP_NE: "({0}!={1})", ca.OP_AND: "({m0} & {m1})", ca.OP_OR: "({m0} | {m1})",
+          ca.OP_NOT: "(~{m0})"}
+
+
 def _program(f: ca.Function):
-    """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index."""
-    cur, ops, call, node = {}, [], None, {}
-    for k in range(f.n_instructions()):
+    """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index.
+
+    A truth value (comparison, and, or, not, the product of two truth values) is also kept
+    as a lane mask, named ``v<n + k>`` for instruction ``k`` of ``n`` (stored in a vector's
+    bits): a condition on it (``if_else``, ``and``...) uses the mask directly instead of
+    comparing ``1.0``/``0.0`` with zero again (the same lanes are selected).
+    """
+    cur, ops, call, node, masks = {}, [], None, {}, {}
+    n = f.n_instructions()
+
+    def mask(x: str) -> str:  # lanes where x != 0 (NaN included)
+        return f"FL_M({masks[x]})" if x in masks else f"({x}!=FL_Z)"
+
+    for k in range(n):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op in (ca.OP_IF_ELSE_ZERO, ca.OP_NOT):
             node[f"v{k}"] = (op, *(cur[i] for i in ins))
-        if op == ca.OP_INPUT:
+        args = [cur[i] for i in ins] if op not in (ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST) \
+            else []
+        if op == ca.OP_MUL and all(a in masks for a in args):  # 1.0 or +0.0 times the same
+            op_mask = f"(FL_M({masks[args[0]]}) & FL_M({masks[args[1]]}))"
+        elif op in _MASKS:
+            op_mask = _MASKS[op].format(*args, m0=mask(args[0]), m1=mask(args[-1]))
+        else:
+            op_mask = None
+        if op_mask is not None:
+            masks[f"v{k}"] = f"v{n + k}"
+            ops.append(("let", f"((fl_v){op_mask})", f"v{n + k}"))
+            ops.append(("let", f"FL_B(FL_M(v{n + k}))", f"v{k}"))
+        elif op == ca.OP_INPUT:
             ops.append(("in", (ins[0], ins[1]), f"v{k}"))
         elif op == ca.OP_OUTPUT:
             ops.append(("out", (outs[0], outs[1]), cur[ins[0]]))
@@ -94,21 +124,23 @@ def _program(f: ca.Function):
             if call is not None:
                 raise LanesUnsupported("more than one call in the step")
             call = len(ops)
-            ops.append(("call", [cur[i] for i in ins], [f"c{j}" for j in range(len(outs))]))
+            ops.append(("call", args, [f"c{j}" for j in range(len(outs))]))
             for j, o in enumerate(outs):
                 cur[o] = f"c{j}"
             continue
-        elif op == ca.OP_ADD and _select(node, cur[ins[0]], cur[ins[1]]):
-            ops.append(("let", _select(node, cur[ins[0]], cur[ins[1]]), f"v{k}"))
+        elif op == ca.OP_ADD and _select(node, *args, mask):
+            ops.append(("let", _select(node, *args, mask), f"v{k}"))
+        elif op == ca.OP_IF_ELSE_ZERO:
+            ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", f"v{k}"))
         elif op in BINARY:
-            ops.append(("let", BINARY[op].format(cur[ins[0]], cur[ins[1]]), f"v{k}"))
+            ops.append(("let", BINARY[op].format(*args), f"v{k}"))
         elif op in UNARY:
-            ops.append(("let", UNARY[op].format(cur[ins[0]]), f"v{k}"))
+            ops.append(("let", UNARY[op].format(*args), f"v{k}"))
         elif op in MATH:
-            ops.append(("let", f"fl_{MATH[op]}({cur[ins[0]]})", f"v{k}"))
+            ops.append(("let", f"fl_{MATH[op]}({args[0]})", f"v{k}"))
         else:
             raise LanesUnsupported(f"CasADi operation {op} has no lane translation")
-        cur[outs[0]] = ops[-1][2]
+        cur[outs[0]] = f"v{k}"
     return ops, call
 
 

@@ -101,7 +101,8 @@ def prelude(width: int, vector_math: tuple[str, ...], variant: str | None,
            "#define FL_Z FL_C(0.0)",
            "#define FL_SEL(m, a, b) ((fl_v)(((m) & (fl_m)(a)) | (~(m) & (fl_m)(b))))",
            "#define FL_AND(m, a) ((fl_v)((m) & (fl_m)(a)))",
-           "#define FL_B(m) FL_AND(m, FL_C(1.0))"]
+           "#define FL_B(m) FL_AND(m, FL_C(1.0))",
+           "#define FL_M(x) ((fl_m)(x))  /* a mask kept in a vector's bits */"]
     pcs = "\n#ifdef __aarch64__\n__attribute__((aarch64_vector_pcs))\n#endif\n"
     for name in sorted(used):
         if name == "fabs":
