@@ -164,17 +164,18 @@ def groups(width: int, substeps: int) -> int:
     and at 8 on AVX-512; its throughput 11-13 ns) with the other groups': the RK4 stages are
     a chain of dependent calls.
 
-    Measured on the TRMS sweep step (106 accumulators; ns per run-sample, one thread, Xeon with
-    AVX-512, GCC 12, load 2-3): one substep, AVX2 1/2/4 groups 74/55/52, AVX-512 42/34/44 (4
-    groups spill: about 32 KB of code); 10 substeps, AVX2 430/254/182, AVX-512 241/141/125.
+    Measured on the TRMS sweep step (106 accumulators; ns per run-sample, one thread, Xeon
+    with AVX-512, GCC 12, load 2-3): one substep, AVX2 2/4 groups 46.7/47.1, AVX-512
+    27.5/30.9 (4 groups: twice the code, compiled in 0.84 s instead of 0.35 s); 10 substeps,
+    AVX2 2/4/8 groups 246/179/191, AVX-512 137/113/120. The width does not change the choice.
 
     Examples
     --------
     >>> from fl_design.sim.kernel._emit import groups
     >>> groups(8, 1), groups(4, 1), groups(8, 10)
-    (2, 4, 4)
+    (2, 2, 4)
     """
-    return 2 if substeps == 1 and width >= 8 else 4
+    return 2 if substeps == 1 else 4
 
 
 _DEFINED = re.compile(r"^(?:const )?fl_v (\w+) =")

@@ -110,7 +110,10 @@ def prelude(width: int, vector_math: tuple[str, ...], variant: str | None,
                        "{ return (fl_v)(~(fl_m)FL_C(-0.0) & (fl_m)x); }")
         elif name in vector_math and variant:
             mangled = f"_ZGV{variant}N{width}v_{name}"
-            out.append(f"{pcs}fl_v {mangled}(fl_v);\n#define fl_{name} {mangled}")
+            # const: a pure function of its argument, so GCC merges calls on equal arguments
+            # (the TRMS step computes tanh(1000 x2) twice: RK4 stage 1 and the true sigma)
+            out.append(f"{pcs}fl_v {mangled}(fl_v) __attribute__((const));\n"
+                       f"#define fl_{name} {mangled}")
         elif name in BINARY_MATH:
             out.append(f"static inline fl_v fl_{name}(fl_v x, fl_v y) {{ fl_v r; int i; "
                        f"for (i = 0; i < {width}; ++i) r[i] = {name}(x[i], y[i]); return r; }}")
