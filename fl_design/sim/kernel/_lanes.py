@@ -34,6 +34,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import os
+import shutil
 import threading
 import warnings
 import weakref
@@ -52,7 +53,7 @@ from ..._toolchain import (
     open_verified,
 )
 from ...errors import CompilationWarning, ComputationError
-from ._emit import MATH, LanesUnsupported, lanes_source
+from ._emit import MATH, LanesUnsupported, groups, lanes_source
 
 
 def lane_width(isa: str | None = None) -> int:
@@ -107,8 +108,9 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, isa: Isa | None = Non
 
     Raises :class:`~fl_design.sim.kernel._emit.LanesUnsupported` for a step it cannot
     translate. With ``vector_math_ok=False`` math functions are glibc's scalar ones (bitwise
-    the results of the scalar kernel and of the interpreter, 4x slower on the TRMS loop).
-    None for the ``scalar`` level or without a compiler.
+    the results of the scalar kernel and of the interpreter; the TRMS sweep 1.2x slower on
+    AVX2, 1.7x on AVX-512). None for the ``scalar`` level or without a compiler. Compiled
+    by :func:`preferred_compiler` when there is one (else, or if it fails, the default).
 
     Parameters
     ----------
@@ -137,11 +139,40 @@ def build_lanes(accumulate: ca.Function, indices: dict, *, isa: Isa | None = Non
     if find_compiler() is None or not isa.lanes:
         return None
     maths = vector_math(isa) if vector_math_ok else ()
-
+    flags, libs = (*isa.flags, *LANES_CFLAGS), ("-lmvec",) if maths else ()
+    clang = preferred_compiler()
+    if clang is not None:
+        source = lanes_source(accumulate, indices, width=isa.width, vector_math=maths,
+                              variant=isa.mvec, groups=groups(isa.width, 1, clang=True))
+        with warnings.catch_warnings():  # a clang that fails: the default compiler, quietly
+            warnings.simplefilter("ignore", CompilationWarning)
+            path = build(source, f"fl_lanes_{isa.name}", cache_dir=cache_dir, compiler=clang,
+                         extra_flags=flags, libs=libs)
+        if path is not None:
+            return path
     source = lanes_source(accumulate, indices, width=isa.width, vector_math=maths,
                           variant=isa.mvec)
-    return build(source, f"fl_lanes_{isa.name}", cache_dir=cache_dir,
-                 extra_flags=(*isa.flags, *LANES_CFLAGS), libs=("-lmvec",) if maths else ())
+    return build(source, f"fl_lanes_{isa.name}", cache_dir=cache_dir, extra_flags=flags,
+                 libs=libs)
+
+
+def preferred_compiler() -> str | None:
+    """Clang for the lanes kernel when ``$CC`` is not set and ``clang`` is on the ``PATH``.
+
+    Clang 14 compiles the TRMS step in 4 lane groups 3x faster than GCC 12 (0.5 s against
+    1.5 s) and runs it faster (ns per run-sample, one thread, load 2-3: AVX2 41.8 against
+    GCC's best 47.0, AVX-512 22.6 against 27.5; 10 substeps 175 / 108 against 179 / 113);
+    the results are the same bit for bit. ``$CC`` set means that compiler, for everything.
+
+    Examples
+    --------
+    >>> from fl_design.sim.kernel._lanes import preferred_compiler
+    >>> preferred_compiler() is None or "clang" in preferred_compiler()
+    True
+    """
+    if os.environ.get("CC", "").strip():
+        return None
+    return shutil.which("clang")
 
 
 _LIVE: weakref.WeakSet = weakref.WeakSet()  # runners of this process (reset in a forked child)
@@ -336,4 +367,4 @@ class LanesRunner:
         return self.scalar.record(acc, D)
 
 
-__all__ = ["LanesRunner", "build_lanes", "lane_width", "vector_math"]
+__all__ = ["LanesRunner", "build_lanes", "lane_width", "preferred_compiler", "vector_math"]
