@@ -467,11 +467,15 @@ def memory_per_point(cache: str, quick: bool = False) -> float:
 
 
 def machine() -> str:
+    from fl_design.sim.kernel._lanes import preferred_compiler
+
     d = fl.Kernel().describe()
+    lanes_cc = preferred_compiler() or d["compiler"]
     return (f"machine: {d['cpu']} ({d['machine']}), {os.cpu_count()} cores, load average "
             f"{os.getloadavg()[0]:.2f}; kernel ISA {d['isa']} ({d['isa_source']}), "
             f"{d['lanes']} lanes per vector; levels available here: "
-            f"{', '.join(d['available'])}; compiler {d['compiler']}")
+            f"{', '.join(d['available'])}; compiler {d['compiler']} (lanes kernel: "
+            f"{lanes_cc})")
 
 
 def main(argv=None) -> int:

@@ -207,6 +207,37 @@ def test_trms_lanes_kernel_calls_vector_math_in_every_group(tmp_path, isa):
     assert tanh_calls and sorted(set(tanh_calls)) == [str(g) for g in range(n)]
 
 
+def test_lanes_compiler_is_cc_when_set_else_clang_if_present(monkeypatch):
+    from fl_design.sim.kernel import _lanes
+
+    monkeypatch.setenv("CC", "gcc")
+    assert _lanes.preferred_compiler() is None  # $CC is the compiler of everything
+    monkeypatch.delenv("CC")
+    monkeypatch.setattr(_lanes.shutil, "which", lambda name: f"/opt/{name}")
+    assert _lanes.preferred_compiler() == "/opt/clang"
+
+
+def test_a_clang_that_fails_leaves_the_default_compiler_quietly(tmp_path, monkeypatch):
+    """A preferred compiler that cannot compile: the default one builds the kernel, no
+    warning, the same results bit for bit."""
+    import warnings
+
+    from fl_design.sim.kernel import _lanes
+
+    isa = ISAS[0]
+    d = _pendulum_design()
+    run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.3))
+    _, runners = _runners(run, tmp_path / "ref", isa)
+    acc0 = run.initial_accumulator(parameter_columns(d, [0.02, 0.3, 1.0], [1e-2, 0.1]))
+    monkeypatch.setattr(_lanes, "preferred_compiler", lambda: str(tmp_path / "no-such-clang"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _idx, fallback = _runners(run, tmp_path / "fallback", isa)
+        assert fallback["exact", isa].library is not None
+    np.testing.assert_array_equal(fallback["exact", isa].run(acc0, run.D),
+                                  runners["native"].run(acc0, run.D))
+
+
 def test_trms_map_equals_the_scalar_code_map():
     """The demo map's slow corner (re-runs included) by the vectorised lanes against the
     lanes with glibc's scalar math (bitwise the scalar kernel and the interpreter): the same
