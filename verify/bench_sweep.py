@@ -14,12 +14,12 @@ classified with a 20 % settling band and a divergence bound of 1 rad (yaw) and 6
    ``pip install fl_design[bench]``) and the independent plain C loop
    ``verify/peers/trms_loop.c``. The peers get the design numbers ready-made (their time is the
    loop only). The final states agree to about 1e-14 relative (median); a run or two that
-   sits on a knife edge (undecided, here) amplifies the last bits of ``tanh`` (libmvec's
-   against glibc's: the bitwise-exact kernel differs from the default there too). Ratios are medians over interleaved rounds of ``t_peer / t_sweep`` in the same
-   round; ns per step count the steps computed (a diverged run stops at its divergence); the
+   sits on a knife edge amplifies the last bits of ``tanh`` (libmvec's against glibc's).
+   Ratios are medians over interleaved rounds of ``t_peer / t_sweep`` in the same round; ns per step count the steps computed (a diverged run stops at its divergence); the
    same for ``fl.sweep(..., metrics=[])`` (the status alone, what the peers compute). Every
-   peer must reproduce the sweep's classification of every run (diverged / within the band /
-   neither) and the kernel's divergence samples;
+   peer, and the exact kernel, must reproduce the sweep's verdict of every run (diverged /
+   within the band / neither); divergence samples and final states are printed against the
+   bitwise-exact kernel (``fl.Kernel(vector_math=False)``), see :func:`check_results`;
 2. the same on an 8 x 8 x 5 s grid, with where the fixed costs of a sweep go (``prepare_run``,
    parameter columns and discretizations, kernel lookup and load, the runs, the
    classification; medians of the same rounds);
@@ -202,32 +202,49 @@ def make_peers(mods, cache: str, names) -> dict:
     return peers
 
 
-def compare(w: Workload, name: str, out: np.ndarray, ref: np.ndarray,
+def compare(w: Workload, name: str, out: np.ndarray, exact: np.ndarray,
             sweep_status: np.ndarray) -> bool:
-    """Same class as the sweep and same divergence sample as the kernel for every run."""
+    """Verdicts against the sweep's (the check), divergence samples and final states against
+    the bitwise-exact kernel (printed: libmvec's last bits move a knife-edge run by a sample)."""
     n_class = int(np.sum(w.status(out) != sweep_status))
-    moved = out[:, 0] != ref[:, 0]
+    moved = out[:, 0] != exact[:, 0]
     n_div = int(np.sum(moved))
-    same = n_class == 0 and n_div == 0
-    shift = int(np.max(np.abs(out[moved, 0] - ref[moved, 0]))) if n_div else 0
-    scale = np.maximum(np.abs(ref[:, 4:]), 1e-300)
-    dx = np.max(np.abs(out[:, 4:] - ref[:, 4:]) / scale, axis=1)
-    print(f"  {name:<8} same classification of all {len(out)} runs and divergence samples: "
-          f"{'yes' if same else f'NO ({n_class} classes, {n_div} divergence samples differ, by <= {shift})'}; "
-          f"final x: median rel. difference {np.median(dx):.1e}, "
+    shift = int(np.max(np.abs(out[moved, 0] - exact[moved, 0]))) if n_div else 0
+    scale = np.maximum(np.abs(exact[:, 4:]), 1e-300)
+    dx = np.max(np.abs(out[:, 4:] - exact[:, 4:]) / scale, axis=1)
+    n_diverged = int(np.sum(exact[:, 0] >= 0))
+    print(f"  {name:<12} verdicts: {'same' if n_class == 0 else f'NO, {n_class} differ'}; "
+          f"divergence samples: "
+          + (f"same ({n_diverged} diverged runs)" if n_div == 0 else
+             f"{n_div} of {n_diverged} differ, by <= {shift} sample(s)")
+          + f"; final x: median rel. difference {np.median(dx):.1e}, "
           f"{int(np.sum(dx > 1e-6))} runs above 1e-6 (max {np.max(dx):.1e})")
-    return same
+    return n_class == 0
 
 
 def check_results(w: Workload, peers: dict, smap) -> bool:
-    """Warm-up of every peer (JIT compilation) and the results check; prints the classes."""
-    ref = w.summary(w.kernel())
+    """Warm-up of every peer (JIT compilation) and the results check; prints the classes.
+
+    What is checked (the run fails otherwise): every run's verdict class (diverged, within
+    the band over the tail, neither) is the sweep's, for the sweep's own kernel and every peer.
+    What is printed beside it, against the kernel with glibc's scalar math
+    (``fl.Kernel(vector_math=False)``, bitwise the interpreter's): the sample each run
+    diverged at and the final states. The default kernel's libmvec ``tanh`` differs from
+    glibc's in the last bit, which moves a run on a knife edge by a sample; a peer with its
+    own ``tanh`` (JAX's) may too.
+    """
+    exact = w.summary(w.run.loop.runner(
+        kernel=fl.Kernel(cache_dir=w.cache, threads=1, vector_math=False)).run(w.acc0, w.run.D))
     sweep_status = w.sweep_status(smap)
-    ok = bool(np.array_equal(w.status(ref), sweep_status))  # the sweep runs this kernel
+    print(f"  results of the {len(exact)} runs: verdicts against fl.sweep's (checked); divergence "
+          "samples and final states against fl.Kernel(vector_math=False) (glibc's scalar math, "
+          "bitwise the interpreter's; printed)")
+    ok = compare(w, "fl.sweep", w.summary(w.kernel()), exact, sweep_status)
+    ok &= compare(w, "exact kernel", exact, exact, sweep_status)
     for name, fn in peers.items():
-        ok &= compare(w, name, fn(*w.args), ref, sweep_status)
+        ok &= compare(w, name, fn(*w.args), exact, sweep_status)
     labels = {s.label: int(np.sum(smap.status == s)) for s in Status if s.value >= -1}
-    print(f"  the sweep's classes: {labels}")
+    print(f"  the sweep's classes: {labels}; results check: {'PASS' if ok else 'FAIL'}")
     return ok
 
 
@@ -450,11 +467,15 @@ def memory_per_point(cache: str, quick: bool = False) -> float:
 
 
 def machine() -> str:
+    from fl_design.sim.kernel._lanes import preferred_compiler
+
     d = fl.Kernel().describe()
+    lanes_cc = preferred_compiler() or d["compiler"]
     return (f"machine: {d['cpu']} ({d['machine']}), {os.cpu_count()} cores, load average "
             f"{os.getloadavg()[0]:.2f}; kernel ISA {d['isa']} ({d['isa_source']}), "
             f"{d['lanes']} lanes per vector; levels available here: "
-            f"{', '.join(d['available'])}; compiler {d['compiler']}")
+            f"{', '.join(d['available'])}; compiler {d['compiler']} (lanes kernel: "
+            f"{lanes_cc})")
 
 
 def main(argv=None) -> int:

@@ -183,24 +183,101 @@ def test_serial_blas_gives_the_same_columns():
 
 
 @pytest.mark.parametrize("isa", ISAS)
-def test_trms_lanes_kernel_is_vectorised(tmp_path, isa):
-    """The TRMS step is too much for GCC 12 to vectorise in lane groups (scalar code, 3-6x
-    slower): the build falls back to one group, and the library links libmvec's vectors."""
+def test_trms_lanes_kernel_calls_vector_math_in_every_group(tmp_path, isa):
+    """The step is written in vector types: every lane group calls libmvec's vector tanh of
+    the level's width (no scalar fallback the compiler could choose), and the library links it."""
     from pathlib import Path
 
-    from fl_design.sim.kernel._lanes import vector_math, vectorised
+    from fl_design.sim.kernel._emit import groups
+    from fl_design.sim.kernel._lanes import vector_math
 
     if not vector_math(LEVELS[isa]):
         pytest.skip(f"no vector math at {isa}")
     run = prepare_run(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario(0.3, 0.1))
-    _idx, runners = _runners(run, tmp_path, isa)
+    idx, runners = _runners(run, tmp_path, isa)
     lib = runners["vector", isa].library
-    assert lib is not None and b"_ZGV" in Path(lib._name).read_bytes()
-    grouped = "#define FL_G 2\nstatic void fl_lanes_step(double* A) { A[0] = tanh(A[0]); }"
-    scalar = tmp_path / "scalar.so"
-    scalar.write_bytes(b"tanh")  # calls glibc's scalar tanh only
-    assert not vectorised(grouped, scalar, ("tanh",))
-    assert vectorised(grouped.replace("FL_G 2", "FL_G 1"), scalar, ("tanh",))
+    lvl = LEVELS[isa]
+    name = f"_ZGV{lvl.mvec}N{lvl.width}v_tanh"
+    assert lib is not None and name.encode() in Path(lib._name).read_bytes()
+    src = lanes_source(run.loop.accumulate, idx, width=lvl.width, vector_math=("tanh",),
+                       variant=lvl.mvec)
+    n = groups(lvl.width, 1)
+    assert f"#define FL_G {n}" in src and "#pragma omp" not in src
+    tanh_calls = re.findall(r"fl_v v\d+_g(\d+) = fl_tanh\(", src)
+    assert tanh_calls and sorted(set(tanh_calls)) == [str(g) for g in range(n)]
+
+
+def test_lanes_compiler_is_cc_when_set_else_clang_if_present(monkeypatch):
+    from fl_design.sim.kernel import _lanes
+
+    monkeypatch.setenv("CC", "gcc")
+    assert _lanes.preferred_compiler() is None  # $CC is the compiler of everything
+    monkeypatch.delenv("CC")
+    monkeypatch.setattr(_lanes.shutil, "which", lambda name: f"/opt/{name}")
+    assert _lanes.preferred_compiler() == "/opt/clang"
+
+
+def test_a_clang_that_fails_leaves_the_default_compiler_quietly(tmp_path, monkeypatch):
+    """A preferred compiler that cannot compile: the default one builds the kernel, no
+    warning, the same results bit for bit."""
+    import warnings
+
+    from fl_design.sim.kernel import _lanes
+
+    isa = ISAS[0]
+    d = _pendulum_design()
+    run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.3))
+    _, runners = _runners(run, tmp_path / "ref", isa)
+    acc0 = run.initial_accumulator(parameter_columns(d, [0.02, 0.3, 1.0], [1e-2, 0.1]))
+    monkeypatch.setattr(_lanes, "preferred_compiler", lambda: str(tmp_path / "no-such-clang"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _idx, fallback = _runners(run, tmp_path / "fallback", isa)
+        assert fallback["exact", isa].library is not None
+    np.testing.assert_array_equal(fallback["exact", isa].run(acc0, run.D),
+                                  runners["native"].run(acc0, run.D))
+
+
+@pytest.mark.parametrize("isa", ISAS)
+def test_every_operation_in_vector_types_is_bitwise_casadi(tmp_path, isa):
+    """Every operation the emitter translates (selects, masks, NaN, -0.0, two-argument and
+    one-argument math), iterated 50 times on 13 lanes: the exact kernel equals CasADi's
+    interpreter bit for bit (the sign of zero included; NaN where it has NaN)."""
+    import casadi as ca
+
+    from fl_design.sim.kernel._lanes import _load, build_lanes
+
+    a, d = ca.SX.sym("a", 7), ca.SX.sym("d", 3)
+    x, y = a[3], a[4]
+    terms = [ca.power(x, y), ca.atan2(x, y), ca.fmin(x, y), ca.fmax(x, y), ca.sign(x),
+             ca.copysign(x, y), ca.fmod(x, y), ca.hypot(x, y), ca.floor(x), ca.ceil(y),
+             ca.erf(x), ca.sqrt(ca.fabs(y)), ca.exp(x) + ca.log(ca.fabs(y) + 1),
+             ca.sin(x) * ca.cos(y), ca.tan(x), ca.asin(ca.tanh(x)), ca.acos(ca.tanh(y)),
+             ca.atan(x), ca.sinh(x), ca.cosh(y), ca.asinh(x), ca.acosh(ca.fabs(y) + 1),
+             ca.atanh(ca.tanh(x) * 0.5), ca.log1p(ca.fabs(x)), ca.expm1(y),
+             ca.if_else(x < y, x * 2, y / 3), ca.logic_and(x > 0, y > 0)
+             + ca.logic_or(x > 1, y < -1) + ca.logic_not(x == y),
+             (x <= y) * (x != y) + (x == 0) * 4.0, ca.constpow(x, 3), -x, 1 / y, x * x,
+             ca.if_else(x > y, x, y), ca.fabs(x) * ca.sign(y)]
+    out = sum(t * (k + 1) for k, t in enumerate(terms))
+    f = ca.Function("fl_acc", [a, d], [ca.vertcat(a[0] + 1, a[1], a[2],
+                                                  x * 0.999 + 0.01 * ca.sin(out),
+                                                  y * 0.999 + 1e-3 * ca.tanh(out), out, a[6])])
+    rng = np.random.default_rng(0)
+    acc = np.zeros((7, 13))
+    acc[2], acc[3], acc[4] = 50, rng.uniform(-2, 2, 13), rng.uniform(-2, 2, 13)
+    acc[4, 0], acc[3, 1], acc[3, 2] = 0.0, -0.0, np.nan
+    ref, D = acc.copy(), np.zeros((3, 50))
+    for k in range(50):
+        ref = np.column_stack([np.asarray(f(ref[:, j], D[:, k])).ravel() for j in range(13)])
+    lib = _load(str(build_lanes(f, {"k": 0, "div": 1, "N": 2}, isa=LEVELS[isa],
+                                cache_dir=tmp_path, vector_math_ok=False)))
+    cols = np.ascontiguousarray(acc.T)
+    lib.fl_lanes_run(cols, 13, np.ascontiguousarray(D.T), 50, np.zeros(1, np.int64))
+    got, number = cols.T, ~np.isnan(ref)
+    assert np.isnan(ref[5, 2])  # the NaN lane stays NaN (its sign and payload are the
+    np.testing.assert_array_equal(np.isnan(got), ~number)  # compiler's operand order's)
+    np.testing.assert_array_equal(got[number].view(np.int64), ref[number].view(np.int64))
 
 
 def test_trms_map_equals_the_scalar_code_map():

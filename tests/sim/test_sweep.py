@@ -254,11 +254,14 @@ def test_bench_quick_runs():
                           capture_output=True, text=True, timeout=300, check=False)
     assert proc.returncode == 0, proc.stderr
     for text in ("ns per step per grid point per core", "numpy", "plain C", "lanes per vector",
-                 "RK4 substeps per sample", "same classification of all", "solve_ivp",
+                 "RK4 substeps per sample", "verdicts against fl.sweep's (checked)",
+                 "against fl.Kernel(vector_math=False)", "solve_ivp",
                  "TRMS map", "from an empty cache", "bytes per extra run",
                  "10,000 RK4 substeps", "where a sweep's time goes", "two threads"):
         assert text in proc.stdout
-    assert "divergence samples: NO" not in proc.stdout  # every peer reproduces the kernel
+    # every peer and the kernel give every run the sweep's verdict
+    assert "verdicts: NO" not in proc.stdout and "results check: FAIL" not in proc.stdout
+    assert "results check: PASS" in proc.stdout
 
 
 def test_sweep_stays_callable_whatever_is_imported_first():

@@ -2,7 +2,8 @@
 
 Modules: ``_loop`` (:class:`ClosedLoop`: plant, design and integrator as CasADi functions, the
 accumulating step ``fl_acc`` and the recording step ``fl_rec``), ``_emit`` (C for W grid
-points per SIMD vector, emitted from ``fl_acc``'s instruction list), ``_lanes`` (the lanes
+points per SIMD vector, emitted from ``fl_acc``'s instruction list), ``_vector`` (that C's
+vector types, lane masks and math functions), ``_lanes`` (the lanes
 runner, built for the CPU's instruction-set level), ``_runners`` (the scalar compiled runner and
 CasADi's interpreter; :func:`make_runner` picks one), ``templates/`` (the C drivers).
 

@@ -2,23 +2,24 @@
 
 :func:`lanes_source` walks the instructions of ``fl_acc`` (and, when the plant step is a call
 to ``fold(fl_rk4_step)``, those of the single RK4 step) and writes each one as a C statement
-on one lane ``l`` of a ``#pragma omp simd`` loop over the ``FL_V`` doubles of a vector: the
-accumulators are stored structure-of-arrays (``A[i * FL_W + l]``, updated in place: an
+on a vector of ``FL_V`` doubles, one lane per run (:mod:`fl_design.sim.kernel._vector`: explicit
+vector types, so the step is vectorised whatever the compiler's auto-vectoriser makes of it):
+the accumulators are stored structure-of-arrays (``A[i * FL_W + l]``, updated in place: an
 accumulator entry the step only copies is not touched), every instruction result is a fresh
-local (the compiler keeps them in vector registers), and math calls are vectorised by glibc's
-libmvec where it has them. Each statement is written for :data:`GROUPS` independent lane groups
-(``FL_W = groups * FL_V`` runs per block), so the dependent ``tanh`` calls of the RK4 stages of
-one group overlap with the other's. The RK4 substeps are unrolled inside the lane loop (the
-state stays in registers; what depends only on the held input is computed once per sample);
-beyond :data:`UNROLL_LINES` they run as a C loop over blocks of unrolled substeps, so the
-source stops growing with their number. Nothing is written by hand: an operation the table
-below does not know raises :class:`LanesUnsupported` and the caller keeps the scalar kernel.
+local, and math calls go to glibc's libmvec where it has them. Each statement is written for
+:func:`groups` independent lane groups (``FL_W = groups * FL_V`` runs per block), so the
+dependent ``tanh`` calls of the RK4 stages of one group overlap with the other's. The RK4
+substeps are unrolled (the state stays in registers; what depends only on the held input is
+computed once per sample); beyond :data:`UNROLL_LINES` they run as a C loop over blocks of
+unrolled substeps, so the source stops growing with their number. Nothing is written by
+hand: an operation the tables do not know raises :class:`LanesUnsupported` and the caller
+keeps the scalar kernel.
 
 Operations are printed as CasADi's code generator prints them (``casadi_sq(x) = x*x``,
-``c ? a : 0``, ``fmin``/``fmax`` as glibc computes them on x86-64, ``casadi_sign``), and the
-kernel is compiled without floating-point contraction, so a lane computes what the scalar
-kernel and the interpreter compute (up to the last bits of libmvec's vector ``tanh``, ``sin``,
-... against glibc's scalar ones).
+``c ? a : 0`` as a lane mask, ``fmin``/``fmax`` as glibc computes them on x86-64,
+``casadi_sign``), and the kernel is compiled without floating-point contraction, so a lane
+computes what the scalar kernel and the interpreter compute (up to the last bits of libmvec's
+vector ``tanh``, ``sin``, ... against glibc's scalar ones).
 
 Examples
 --------
@@ -40,22 +41,8 @@ from importlib import resources
 import casadi as ca
 
 from ..._cmath import ELEMENTARY
+from ._vector import BINARY, BINARY_MATH, UNARY, constant, load, prelude, store
 
-_BIN = {ca.OP_ADD: "({0}+{1})", ca.OP_SUB: "({0}-{1})", ca.OP_MUL: "({0}*{1})",
-        ca.OP_DIV: "({0}/{1})", ca.OP_LT: "({0}<{1} ? 1.0 : 0.0)",
-        ca.OP_LE: "({0}<={1} ? 1.0 : 0.0)", ca.OP_EQ: "({0}=={1} ? 1.0 : 0.0)",
-        ca.OP_NE: "({0}!={1} ? 1.0 : 0.0)",
-        ca.OP_AND: "(({0}!=0) & ({1}!=0) ? 1.0 : 0.0)",
-        ca.OP_OR: "(({0}!=0) | ({1}!=0) ? 1.0 : 0.0)",
-        ca.OP_IF_ELSE_ZERO: "({0}!=0 ? {1} : 0.0)",
-        ca.OP_FMIN: "(({0}<{1} || {1}!={1}) ? {0} : {1})",
-        ca.OP_FMAX: "(({0}>{1} || {1}!={1}) ? {0} : {1})",
-        ca.OP_POW: "pow({0},{1})", ca.OP_CONSTPOW: "pow({0},{1})",
-        ca.OP_ATAN2: "atan2({0},{1})", ca.OP_COPYSIGN: "copysign({0},{1})",
-        ca.OP_FMOD: "fmod({0},{1})", ca.OP_HYPOT: "hypot({0},{1})"}
-_UN = {ca.OP_NEG: "(-{0})", ca.OP_SQ: "({0}*{0})", ca.OP_TWICE: "(2.*{0})",
-       ca.OP_INV: "(1./{0})", ca.OP_NOT: "({0}==0 ? 1.0 : 0.0)",
-       ca.OP_SIGN: "({0}<0 ? -1.0 : ({0}>0 ? 1.0 : {0}))", ca.OP_ASSIGN: "{0}"}
 #: C math functions printed by name (CasADi's ``casadi_fabs`` etc. are these in C99).
 MATH = {**ELEMENTARY, ca.OP_FABS: "fabs"}
 
@@ -72,92 +59,135 @@ def _const(value: float) -> str:
     return f"({float(value)!r})"
 
 
-def _select(node: dict, x: str, y: str) -> str | None:
+def _select(node: dict, x: str, y: str, mask) -> str | None:
     """``if_else(c, a, b)`` as CasADi builds it, ``(c ? a : 0) + (!c ? b : 0)``, as one select.
 
     Exact: the sum is ``a + 0.0`` when ``c != 0`` (NaN included) and ``0.0 + b`` otherwise,
-    and so is the select (the additions keep the sign of zero as the sum does).
+    and so is the select plus ``0.0`` (the addition turns ``-0.0`` into ``+0.0`` as the sum
+    does, and quiets a NaN as the sum does; one addition instead of one per branch).
     """
     nx, ny = node.get(x), node.get(y)
     if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
         return None
     (_, cx, ax), (_, cy, by) = nx, ny
     if node.get(cy) == (ca.OP_NOT, cx):
-        return f"({cx}!=0 ? ({ax}+0.0) : (0.0+{by}))"
+        return f"(FL_SEL({mask(cx)}, {ax}, {by})+FL_Z)"
     if node.get(cx) == (ca.OP_NOT, cy):
-        return f"({cy}!=0 ? (0.0+{by}) : ({ax}+0.0))"
+        return f"(FL_SEL({mask(cy)}, {by}, {ax})+FL_Z)"
     return None
 
 
+#: Operations whose value is a truth value (``1.0`` or ``+0.0``), written as a lane mask.
+_MASKS = {ca.OP_LT: "({0}<{1})", ca.OP_LE: "({0}<={1})", ca.OP_EQ: "({0}=={1})",
+          ca.OP_NE: "({0}!={1})", ca.OP_AND: "({m0} & {m1})", ca.OP_OR: "({m0} | {m1})",
+          ca.OP_NOT: "(~{m0})"}
+
+
 def _program(f: ca.Function):
-    """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index."""
-    cur, ops, call, node = {}, [], None, {}
-    for k in range(f.n_instructions()):
+    """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index.
+
+    A truth value (comparison, and, or, not, the product of two truth values) is also kept
+    as a lane mask, named ``v<n + k>`` for instruction ``k`` of ``n`` (stored in a vector's
+    bits): a condition on it (``if_else``, ``and``...) uses the mask directly instead of
+    comparing ``1.0``/``0.0`` with zero again (the same lanes are selected).
+    """
+    cur, ops, call, node, masks = {}, [], None, {}, {}
+    n = f.n_instructions()
+
+    def mask(x: str) -> str:  # lanes where x != 0 (NaN included)
+        return f"FL_M({masks[x]})" if x in masks else f"({x}!=FL_Z)"
+
+    for k in range(n):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op in (ca.OP_IF_ELSE_ZERO, ca.OP_NOT):
             node[f"v{k}"] = (op, *(cur[i] for i in ins))
-        if op == ca.OP_INPUT:
+        args = [cur[i] for i in ins] if op not in (ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST) \
+            else []
+        if op == ca.OP_MUL and all(a in masks for a in args):  # 1.0 or +0.0 times the same
+            op_mask = f"(FL_M({masks[args[0]]}) & FL_M({masks[args[1]]}))"
+        elif op in _MASKS:
+            op_mask = _MASKS[op].format(*args, m0=mask(args[0]), m1=mask(args[-1]))
+        else:
+            op_mask = None
+        if op_mask is not None:
+            masks[f"v{k}"] = f"v{n + k}"
+            ops.append(("let", f"((fl_v){op_mask})", f"v{n + k}"))
+            ops.append(("let", f"FL_B(FL_M(v{n + k}))", f"v{k}"))
+        elif op == ca.OP_INPUT:
             ops.append(("in", (ins[0], ins[1]), f"v{k}"))
         elif op == ca.OP_OUTPUT:
             ops.append(("out", (outs[0], outs[1]), cur[ins[0]]))
             continue
         elif op == ca.OP_CONST:
-            ops.append(("let", _const(f.instruction_constant(k)), f"v{k}"))
+            ops.append(("let", constant(_const(f.instruction_constant(k))), f"v{k}"))
         elif op == ca.OP_CALL:
             if call is not None:
                 raise LanesUnsupported("more than one call in the step")
             call = len(ops)
-            ops.append(("call", [cur[i] for i in ins], [f"c{j}" for j in range(len(outs))]))
+            ops.append(("call", args, [f"c{j}" for j in range(len(outs))]))
             for j, o in enumerate(outs):
                 cur[o] = f"c{j}"
             continue
-        elif op == ca.OP_ADD and _select(node, cur[ins[0]], cur[ins[1]]):
-            ops.append(("let", _select(node, cur[ins[0]], cur[ins[1]]), f"v{k}"))
-        elif op in _BIN:
-            ops.append(("let", _BIN[op].format(cur[ins[0]], cur[ins[1]]), f"v{k}"))
-        elif op in _UN:
-            ops.append(("let", _UN[op].format(cur[ins[0]]), f"v{k}"))
+        elif op == ca.OP_ADD and _select(node, *args, mask):
+            ops.append(("let", _select(node, *args, mask), f"v{k}"))
+        elif op == ca.OP_IF_ELSE_ZERO:
+            ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", f"v{k}"))
+        elif op in BINARY:
+            ops.append(("let", BINARY[op].format(*args), f"v{k}"))
+        elif op in UNARY:
+            ops.append(("let", UNARY[op].format(*args), f"v{k}"))
         elif op in MATH:
-            ops.append(("let", f"{MATH[op]}({cur[ins[0]]})", f"v{k}"))
+            ops.append(("let", f"fl_{MATH[op]}({args[0]})", f"v{k}"))
         else:
             raise LanesUnsupported(f"CasADi operation {op} has no lane translation")
-        cur[outs[0]] = ops[-1][2]
+        cur[outs[0]] = f"v{k}"
     return ops, call
 
 
-def _body(ops, load, store, rename) -> list[str]:
-    """Statements of ``ops`` on lane ``l``; outputs stored last (in-place updates are safe)."""
-    lines, stores = [], []
+def _body(ops, ref, target, rename) -> list[str]:
+    """Statements of ``ops`` (vectors of lanes ``l``...), in their order (see :func:`_in_place`)."""
+    lines = []
     for kind, data, name in ops:
         if kind == "in":
-            lines.append(f"double {name} = {load(*data)};")
+            lines.append(f"fl_v {name} = {load(ref(*data))};")
         elif kind == "let":
-            lines.append(f"double {name} = {rename(data)};")
+            lines.append(f"fl_v {name} = {rename(data)};")
         elif kind == "out":
-            stores.append(f"{store(*data)} = {rename(name)};")
-    return lines + stores
+            lines.append(store(target(*data), rename(name)))
+    return lines
 
 
-#: Independent lane groups per loop iteration: every statement is written ``groups`` times,
-#: for lanes ``l``, ``l + FL_V``, ... (``FL_W = groups * FL_V`` lanes per block), so the
-#: out-of-order core overlaps the latency of one vector ``tanh`` (about 32 ns for 4 lanes on
-#: AVX2, its throughput 14 ns) with the other groups': the RK4 stages are a chain of dependent
-#: calls. Measured on the TRMS (AVX2): 2 groups 1.36x faster than 1 with one substep (3 and 4:
-#: slower again), with 10 substeps 1.69x, and 4 groups 1.19x faster than 2. But GCC 12 may
-#: give up vectorising a grouped loop ("no vectype for stmt"; the TRMS step of today, with
-#: its 106 accumulators, at 2 and 4 groups): the lanes then run as scalar code, 3-6x slower
-#: than one vectorised group. :func:`~fl_design.sim.kernel._lanes.build_lanes` checks the
-#: library and falls back to 1 group (ns per run-sample on AVX-512, GCC 12: pendulum with 4
-#: substeps, vectorised at every count: 1 group 32, 2 groups 26, 4 groups 31; TRMS: 1 group
-#: 35, 2 groups unvectorised 195; TRMS with 10 substeps: 1 group 239, 4 groups 623).
-GROUPS = {"plain": 2, "substeps": 4}
-_DEFINED = re.compile(r"^(?:const )?double (\w+) =")
+def groups(width: int, substeps: int, *, clang: bool = False) -> int:
+    """Independent lane groups per block: every statement is written ``groups`` times, for
+    lanes ``l``, ``l + FL_V``, ... (``FL_W = groups * FL_V`` lanes per block), so the
+    out-of-order core overlaps the latency of one vector ``tanh`` (34 ns at 4 lanes on AVX2
+    and at 8 on AVX-512; its throughput 11-13 ns) with the other groups': the RK4 stages are
+    a chain of dependent calls.
+
+    Measured on the TRMS sweep step (106 accumulators; ns per run-sample, one thread, Xeon
+    with AVX-512, GCC 12, load 2-3): one substep, AVX2 2/4 groups 46.7/47.1, AVX-512
+    27.5/30.9 (4 groups: twice the code, compiled in 0.84 s instead of 0.35 s); 10 substeps,
+    AVX2 2/4/8 groups 246/179/191, AVX-512 137/113/120. The width does not change the choice.
+    Clang 14 (``clang=True``) is faster with 4 groups in every case (one substep: AVX2 2/4
+    groups 46.5/41.8, AVX-512 24.4/22.6; 10 substeps 242/175 and 134/108) and compiles them
+    in 0.5 s.
+
+    Examples
+    --------
+    >>> from fl_design.sim.kernel._emit import groups
+    >>> groups(8, 1), groups(4, 1), groups(8, 10), groups(8, 1, clang=True)
+    (2, 2, 4, 4)
+    """
+    return 2 if substeps == 1 and not clang else 4
+
+
+_DEFINED = re.compile(r"^(?:const )?fl_v (\w+) =")
 _WORD = re.compile(r"\b\w+\b")
 
 
 def _segment_groups(lines: list[str], groups: int) -> str:
-    """A ``#pragma omp simd`` loop over ``FL_V`` lanes running ``lines`` (written for lane
-    ``l``) on each of ``groups`` lane groups, statements interleaved."""
+    """A block running ``lines`` (vector statements written for the lanes from ``l``) on each
+    of ``groups`` lane groups, statements interleaved."""
     names = {m.group(1) for m in map(_DEFINED.match, lines) if m}
 
     def copy(g: int) -> list[str]:  # whole words only: a local gets _g<g>, the lane l is l<g>
@@ -166,10 +196,9 @@ def _segment_groups(lines: list[str], groups: int) -> str:
         return [_WORD.sub(sub, line) for line in lines]
 
     copies = [copy(g) for g in range(groups)]
-    lanes = ", ".join(f"l{g} = l + {g} * FL_V" for g in range(groups))
+    lanes = ", ".join(f"l{g} = {g} * FL_V" for g in range(groups))
     inner = "\n".join("    " + line for group in zip(*copies) for line in group)
-    return (f"  #pragma omp simd\n  for (l = 0; l < FL_V; ++l) {{\n    const long {lanes};\n"
-            f"{inner}\n  }}\n")
+    return f"  {{\n    const long {lanes};\n{inner}\n  }}\n"
 
 
 def _acc_load(arg: int, nz: int) -> str:
@@ -177,38 +206,78 @@ def _acc_load(arg: int, nz: int) -> str:
 
 
 def _in_place(ops: list, call: int | None) -> tuple[list, int | None]:
-    """Outputs that only copy their own input are dropped (the step updates ``A`` in place);
-    with a call, every output moves after it (no input is overwritten before it is read)."""
+    """The step's operations in the order they are written, and the call's index.
+
+    Outputs that only copy their own input are dropped (the step updates ``A`` in place).
+    The rest is ordered depth first from the roots, the call then each output in turn: an
+    operation comes just before the first one that needs it, an output is stored as soon as
+    its value exists (after the load of the entry it overwrites). Values then live briefly:
+    with 16 vector registers (AVX2) the order decides how much is spilled, and everything
+    alive across a call of vector math is saved and restored around it.
+    """
     loads = {name: data for kind, data, name in ops if kind == "in"}
     kept = [op for op in ops if op[0] != "out" or loads.get(op[2]) != (0, op[1][1])]
+    producer, load_of = {}, {}
+    for i, (kind, data, name) in enumerate(kept):
+        if kind == "call":
+            producer.update((n, i) for n in name)
+        elif kind != "out":
+            producer[name] = i
+            if kind == "in" and data[0] == 0:
+                load_of[data[1]] = i
+
+    def needs(i: int) -> list[int]:
+        kind, data, name = kept[i]
+        if kind == "in":
+            return []
+        if kind == "call":
+            names = data
+        elif kind == "out":
+            names = [name]
+            if data[1] in load_of:  # the entry is read before it is overwritten
+                names = [kept[load_of[data[1]]][2], name]
+        else:
+            names = re.findall(r"\b[vc]\d+\b", data)
+        return [producer[n] for n in names if n in producer]
+
+    order, done = [], set()
+    roots = [i for i, op in enumerate(kept) if op[0] == "call"] + \
+        [i for i, op in enumerate(kept) if op[0] == "out"]
+    for root in roots:
+        stack = [(root, iter(needs(root)))]
+        while stack:
+            i, todo = stack[-1]
+            j = next((j for j in todo if j not in done), None)
+            if j is not None:
+                done.add(j)
+                stack.append((j, iter(needs(j))))
+                continue
+            stack.pop()
+            done.add(i)
+            order.append(kept[i])
     if call is None:
-        return kept, None
-    call = next(i for i, op in enumerate(kept) if op[0] == "call")
-    before = [op for op in kept[:call] if op[0] != "out"]
-    outs = [op for op in kept[:call] if op[0] == "out"]
-    return before + [kept[call]] + kept[call + 1:] + outs, len(before)
+        return order, None
+    return order, next(i for i, op in enumerate(order) if op[0] == "call")
 
 
-#: Most statements (per lane group) of substeps unrolled in one lane loop. GCC 12 does not
-#: vectorise a lane loop containing a loop, so the substeps are straight-line code: the state
-#: stays in registers, nothing is stored or reloaded between substeps. A step whose substeps
-#: all fit in :data:`UNROLL_LINES` is one lane loop (TRMS, 10 substeps: 2 % faster than blocks
+#: Most statements (per lane group) of substeps unrolled in one block. The substeps are
+#: straight-line code: the state stays in registers, nothing is stored or reloaded between
+#: substeps. A step whose substeps all fit in :data:`UNROLL_LINES` is one block (TRMS, 10 substeps: 2 % faster than blocks
 #: of 5); more substeps run as a C loop over blocks of :data:`BLOCK_LINES`, the state stored
 #: between blocks (compile time stays about a second for any number of substeps).
 UNROLL_LINES = 2400
 BLOCK_LINES = 600
 
 
-def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int,
-               groups: int | None = None) -> tuple[str, int]:
-    """C of ``fl_lanes_step`` and its number of lane groups (default :data:`GROUPS`)."""
-    if groups is None:
-        groups = GROUPS["plain"] if substeps == 1 else GROUPS["substeps"]
-    _segment = functools.partial(_segment_groups, groups=groups)
+def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int, width: int,
+               n_groups: int | None = None) -> tuple[str, int]:
+    """C of ``fl_lanes_step`` and its number of lane groups (default :func:`groups`)."""
+    n_groups = n_groups or groups(width, substeps)
+    _segment = functools.partial(_segment_groups, groups=n_groups)
     ops, call = _in_place(*_program(acc))
-    store = lambda res, nz: f"A[{nz} * FL_W + l]"
+    store_at = lambda res, nz: f"A[{nz} * FL_W + l]"
     if call is None:
-        return "  long l;\n" + _segment(_body(ops, _acc_load, store, str)), groups
+        return _segment(_body(ops, _acc_load, store_at, str)), n_groups
     if rk4 is None:
         raise LanesUnsupported("the step calls a function that is not the RK4 fold")
     (_, args, outs), before, after = ops[call], ops[:call], ops[call + 1:]
@@ -217,39 +286,39 @@ def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int,
         raise LanesUnsupported("the RK4 step calls a function")
     n = len(outs)
     hoisted, body, rk_outs = _substep_parts(rk_ops, n)
-    per_substep = max(1, len(body) * groups)
+    per_substep = max(1, len(body) * n_groups)
     unroll = substeps if substeps * per_substep <= UNROLL_LINES else \
         max(1, min(substeps, BLOCK_LINES // per_substep))
     xs = [f"xs{i}" for i in range(n)]
     if unroll == substeps:  # one lane loop: the step, its substeps and the metrics
-        lines = _body(before, _acc_load, store, str)
-        lines += [f"double {x} = {a};" for x, a in zip(xs, args[:n])]
-        lines += [f"const double us = {args[n]};", *hoisted]
+        lines = _body(before, _acc_load, store_at, str)
+        lines += [f"fl_v {x} = {a};" for x, a in zip(xs, args[:n])]
+        lines += [f"const fl_v us = {args[n]};", *hoisted]
         state, unrolled = _unrolled(body, rk_outs, xs, substeps)
-        lines += unrolled + [f"double c{j} = {state[j]};" for j in range(n)]
-        return "  long l;\n" + _segment(lines + _body(after, _acc_load, store, str)), groups
+        lines += unrolled + [f"fl_v c{j} = {state[j]};" for j in range(n)]
+        return _segment(lines + _body(after, _acc_load, store_at, str)), n_groups
     defined = {name for kind, _, name in before if kind != "out"}
     used_after = sorted({tok for kind, data, name in after for tok in _tokens(data, name)}
                         & defined, key=lambda s: int(s[1:]))
     keep = {name: f"K[{i} * FL_W + l]" for i, name in enumerate(used_after)}
-    seg_a = _body(before, _acc_load, store, str)
-    seg_a += [f"XS[{i} * FL_W + l] = {a};" for i, a in enumerate(args[:n])]
-    seg_a += [f"US[l] = {args[n]};"] + [f"{keep[v]} = {v};" for v in used_after]
+    seg_a = _body(before, _acc_load, store_at, str)
+    seg_a += [store(f"XS[{i} * FL_W + l]", a) for i, a in enumerate(args[:n])]
+    seg_a += [store("US[l]", args[n])] + [store(keep[v], v) for v in used_after]
 
     def block(count: int) -> str:
-        lines = [f"double {x} = XS[{i} * FL_W + l];" for i, x in enumerate(xs)]
-        lines += ["const double us = US[l];", *hoisted]
+        lines = [f"fl_v {x} = {load(f'XS[{i} * FL_W + l]')};" for i, x in enumerate(xs)]
+        lines += [f"const fl_v us = {load('US[l]')};", *hoisted]
         state, unrolled = _unrolled(body, rk_outs, xs, count)
-        return _segment(lines + unrolled + [f"XS[{i} * FL_W + l] = {v};"
+        return _segment(lines + unrolled + [store(f"XS[{i} * FL_W + l]", v)
                                              for i, v in enumerate(state)])
 
-    seg_c = [f"double c{j} = XS[{j} * FL_W + l];" for j in range(n)]
-    seg_c += _body(after, _acc_load, store, functools.partial(_rename, keep))
+    seg_c = [f"fl_v c{j} = {load(f'XS[{j} * FL_W + l]')};" for j in range(n)]
+    seg_c += _body(after, _acc_load, store_at, functools.partial(_rename, keep))
     rest = substeps % unroll
-    return (f"  long l, sub;\n  double XS[{n} * FL_W] FL_ALIGN, US[FL_W] FL_ALIGN, "
+    return (f"  long sub;\n  double XS[{n} * FL_W] FL_ALIGN, US[FL_W] FL_ALIGN, "
             f"K[{max(1, len(used_after))} * FL_W] FL_ALIGN;\n" + _segment(seg_a)
             + f"  for (sub = 0; sub < {substeps // unroll}; ++sub) {{\n" + block(unroll)
-            + "  }\n" + (block(rest) if rest else "") + _segment(seg_c)), groups
+            + "  }\n" + (block(rest) if rest else "") + _segment(seg_c)), n_groups
 
 
 def _substep_parts(rk_ops: list, n: int) -> tuple[list[str], list[tuple[str, str]], list[str]]:
@@ -269,7 +338,7 @@ def _substep_parts(rk_ops: list, n: int) -> tuple[list[str], list[tuple[str, str
         deps = set(re.findall(r"\b(?:s\d+|xs\d+)\b", text))
         if (kind == "in" and data[0] == 1) or (kind == "let" and deps <= invariant):
             invariant.add(ren(name))
-            hoisted.append(f"double {ren(name)} = {text};")
+            hoisted.append(f"fl_v {ren(name)} = {text};")
         else:
             body.append((ren(name), text))
     if sorted(outs) != list(range(n)):
@@ -287,7 +356,7 @@ def _unrolled(body: list, outs: list[str], xs: list[str], count: int):
                **{name: f"{name}_{j}" for name in local}}
         rename = lambda text, sub=sub: re.sub(r"\b(?:s\d+|xs\d+)\b",
                                               lambda m: sub.get(m.group(0), m.group(0)), text)
-        lines += [f"double {name}_{j} = {rename(text)};" for name, text in body]
+        lines += [f"fl_v {name}_{j} = {rename(text)};" for name, text in body]
         state = [rename(o) for o in outs]
     return state, lines
 
@@ -298,7 +367,8 @@ def _tokens(data, name):
 
 
 def _rename(keep: dict, text: str) -> str:
-    return re.sub(r"\bv\d+\b", lambda m: keep.get(m.group(0), m.group(0)), text)
+    return re.sub(r"\bv\d+\b", lambda m: load(keep[m.group(0)]) if m.group(0) in keep
+                  else m.group(0), text)
 
 
 def rk4_fold(accumulate: ca.Function) -> tuple[ca.Function | None, int]:
@@ -363,7 +433,8 @@ def fill_template(text: str, values: dict) -> str:
 
 
 def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
-                 vector_math: tuple[str, ...] = (), groups: int | None = None) -> str:
+                 vector_math: tuple[str, ...] = (), variant: str | None = None,
+                 groups: int | None = None) -> str:
     """C source of the lane step and its driver ``fl_lanes_run`` (see the module docstring).
 
     Parameters
@@ -375,10 +446,12 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     width : int
         Lanes W per vector.
     vector_math : tuple of str, optional
-        Math functions declared ``omp declare simd`` (vector versions in libmvec).
+        Math functions taken from libmvec (their vector versions exist at this level).
+    variant : str, optional
+        libmvec's letter for this level (``d`` for AVX2...; :attr:`fl_design._isa.Isa.mvec`);
+        without it every math function is called lane by lane.
     groups : int, optional
-        Lane groups per loop iteration (default :data:`GROUPS`; 1 when the compiler does not
-        vectorise the grouped loop, see :func:`~fl_design.sim.kernel._lanes.build_lanes`).
+        Lane groups per block (default :func:`groups`).
 
     Returns
     -------
@@ -400,13 +473,14 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     True
     """
     rk4, substeps = rk4_fold(accumulate)
-    decls = "".join(f"#pragma omp declare simd notinbranch\ndouble {name}(double);\n"
-                    for name in vector_math)
-    step, groups = _step_body(accumulate, rk4, substeps, groups)
+    step, n_groups = _step_body(accumulate, rk4, substeps, int(width), groups)
+    known = {*MATH.values(), *BINARY_MATH}
+    used = {name for name in re.findall(r"\bfl_(\w+)\(", step) if name in known}
     return fill_template(_template(), {
-        "W": int(width), "G": groups, "NACC": accumulate.size1_in(0),
+        "W": int(width), "G": n_groups, "NACC": accumulate.size1_in(0),
         "ND": accumulate.size1_in(1), "I_K": indices["k"],
-        "I_DIV": indices["div"], "I_N": indices["N"], "VECTOR_MATH": decls,
+        "I_DIV": indices["div"], "I_N": indices["N"],
+        "VECTOR_MATH": prelude(int(width), tuple(vector_math), variant, used),
         "STEP_BODY": step})
 
 
