@@ -17,7 +17,8 @@ def pytest_report_header(config):
         return [f"fl_design kernel: cannot resolve ({exc})"]
     line = (f"fl_design kernel: {info['cpu']} ({info['machine']}), isa {info['isa']} "
             f"({info['lanes']} lanes, {info['isa_source']}); available: "
-            f"{', '.join(info['available'])}; compiler {info['compiler']}")
+            f"{', '.join(info['available'])}; compiler {info['compiler']} (lanes kernel: "
+            f"{info['lanes_compiler']})")
     return [line]
 
 

@@ -327,7 +327,10 @@ class Kernel:
         Returns
         -------
         dict
-            Strict JSON: ``cpu``, ``machine``, ``compiler``, ``isa`` (the level sweeps use),
+            Strict JSON: ``cpu``, ``machine``, ``compiler``, ``lanes_compiler`` (the one the
+            sweeps' lanes kernel is built with: clang when ``$CC`` is unset and clang is on the
+            ``PATH``, else ``compiler``; a clang that fails falls back to ``compiler``; None
+            without lanes), ``isa`` (the level sweeps use),
             ``lanes`` (grid points per vector; 1 for the scalar kernel, 0 interpreted),
             ``isa_source`` (``fl.Kernel(isa=...)``, ``$FL_DESIGN_ISA`` or widest available),
             ``available`` (levels this machine can run), ``vector_math`` (libmvec functions
@@ -344,7 +347,7 @@ class Kernel:
 
         from .._isa import ISA_ENV, available_isas, cpu_model, resolve_isa
         from .._toolchain import find_compiler
-        from .kernel._lanes import vector_math
+        from .kernel._lanes import preferred_compiler, vector_math
 
         isa = resolve_isa(self.isa if self.lanes else "scalar")
         compiled = bool(self.compiled) and find_compiler() is not None
@@ -358,6 +361,8 @@ class Kernel:
                   else "widest available")
         return {"cpu": cpu_model(), "machine": platform.machine(),
                 "compiler": find_compiler(), "compiled": compiled,
+                "lanes_compiler": (preferred_compiler() or find_compiler())
+                if compiled and self.lanes and isa.lanes else None,
                 "isa": isa.name if compiled else "interpreted",
                 "lanes": isa.width if compiled else 0,
                 "isa_source": source if self.lanes else "fl.Kernel(lanes=False)",

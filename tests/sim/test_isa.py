@@ -4,6 +4,7 @@ the CPU lacks them, part of the kernel's cache key, and reported."""
 from __future__ import annotations
 
 import json
+import shutil
 import os
 import subprocess
 import sys
@@ -77,6 +78,17 @@ def test_describe_is_strict_json_and_names_the_machine():
     assert json.loads(json.dumps(info, allow_nan=False)) == info
     assert info["isa"] in info["available"] and info["cpu"]
     assert info["lanes"] == LEVELS[info["isa"]].width
+    # the lanes kernel's compiler: clang unless $CC names one (then that one for everything)
+    if info["lanes_compiler"] is not None:
+        assert info["lanes_compiler"] in (shutil.which("clang"), info["compiler"])
+
+
+def test_cc_set_means_the_lanes_kernel_uses_it_too(monkeypatch):
+    from fl_design._toolchain import find_compiler
+
+    monkeypatch.setenv("CC", "gcc")
+    info = fl.Kernel().describe()
+    assert info["lanes_compiler"] in (None, find_compiler())
 
 
 @needs_cc
