@@ -131,7 +131,7 @@ def _select(node: dict, a: int, b: int):
     The match is :func:`fl_design.sim.kernel._emit._select`'s (one home for the pattern): its
     select names ``c``, ``x`` and ``y`` in that order.
     """
-    text = _lane_select(_Lanes(node), f"a{a}", f"a{b}")
+    text = _lane_select(_Lanes(node), f"a{a}", f"a{b}", lambda c: c)  # c's name as it is
     if text is None:
         return None
     c, x, y = (int(v) for v in re.findall(r"\ba(\d+)\b", text))
