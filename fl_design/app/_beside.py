@@ -94,6 +94,8 @@ def certify_stage(setup, derivation: dict, quick: bool, progress=None) -> tuple[
 
 def _start_process(env: dict) -> subprocess.Popen:
     """The child: this Python running :func:`child`, its stdin and stdout piped to us."""
+    if not sys.executable:
+        raise OSError("no Python executable to start (sys.executable is empty)")
     return subprocess.Popen(
         [sys.executable, "-c", "from fl_design.app._beside import child; child()"],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
@@ -224,7 +226,14 @@ class Beside:
         ------
         pickle.PicklingError, TypeError, AttributeError
             ``args`` cannot be sent (the child is ended; the caller runs the stage itself).
+        OSError
+            The child has already exited (it could not start: e.g. a frozen application
+            whose executable is not a Python); the caller runs the stage itself.
         """
+        code = self.proc.poll()
+        if code is not None:
+            raise OSError(f"the {self.stage} stage's process exited (status {code}) before "
+                          "its work was sent")
         try:
             payload = dumps((spec, args, os.getpid()))
         except Exception:

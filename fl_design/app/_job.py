@@ -346,7 +346,7 @@ def _start_beside(job: Job, b, stage: str, label: str, quick: bool, progress: bo
         b.label = label
         try:
             b.submit(TARGETS[stage], (job.setup, job.derivation, quick))
-        except (pickle.PicklingError, TypeError, AttributeError) as err:
+        except (pickle.PicklingError, TypeError, AttributeError, OSError) as err:
             note(f"{label} {stage}: runs in turn (no child process: {err})", enabled=progress)
         else:
             note(f"{label} {stage} ... (in a process beside the next stages)", enabled=progress)

@@ -126,6 +126,25 @@ def test_no_child_process_runs_the_stage_in_turn(tmp_path, monkeypatch, capsys):
     assert job.results["certify"]["eps"].covers == "nonlinear"
 
 
+def test_a_child_that_cannot_start_runs_the_stage_in_turn(tmp_path, monkeypatch, capsys):
+    """A child that exits at once (a frozen application's executable is not a Python)."""
+    import subprocess
+    import sys
+
+    monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path))
+
+    def exits(env):
+        return subprocess.Popen([sys.executable, "-c", "import sys; sys.exit(3)"],
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+
+    monkeypatch.setattr(_beside, "_start_process", exits)
+    job = run_job(load_config(None), quick=True, stages=("certify", "sweep", "simulate"))
+    err = capsys.readouterr().err
+    assert "2/4 certify: runs in turn (no child process: the certify stage's process exited " \
+        "(status 3) before its work was sent)" in err
+    assert job.results["certify"]["eps"].covers == "nonlinear"
+
+
 def test_a_job_stopped_early_leaves_no_child(tmp_path, monkeypatch):
     from fl_design.app import _job, _stages
 

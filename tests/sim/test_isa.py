@@ -4,8 +4,8 @@ the CPU lacks them, part of the kernel's cache key, and reported."""
 from __future__ import annotations
 
 import json
-import shutil
 import os
+import shutil
 import subprocess
 import sys
 
