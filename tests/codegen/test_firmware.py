@@ -246,6 +246,29 @@ def test_non_finite_rejection_survives_fast_math(packages, compiler, flag, preci
     np.testing.assert_allclose(u, strict, rtol=1e-5 if precision == "float" else 1e-12)
 
 
+@pytest.mark.parametrize("compiler", COMPILERS)
+@pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
+def test_non_finite_input_is_named_under_fast_math(packages, compiler, flag):
+    """A NaN or infinite y or r is "non-finite input" (1), not a result fault (which restarts
+    the observer), even where the compiler assumes no NaN: on the common path the fault is
+    told by r's bit pattern (y is finite past the range test), on the slow path by the checks."""
+    pkg = packages[("trms", "float")]
+    out = probe(pkg, """  fl_init(&s);
+  fl_start(&s, 0.1f, 0.0f);
+  union { uint32_t bits; float value; } nan = {0x7FC00000u}, inf = {0x7F800000u};
+  float bad[4][2] = {{nan.value, 0.3f}, {inf.value, 0.3f}, {0.1f, nan.value},
+                     {0.1f, -inf.value}};  /* from bit patterns: no constant folded away */
+  for (int k = 0; k < 4; ++k) {
+    (void) fl_step(&s, 0.1f, 0.3f);
+    (void) fl_step(&s, bad[k][0], bad[k][1]);
+    printf("%u ", (unsigned) s.fault);
+  }
+  (void) fl_step(&s, 0.1f, 0.3f);
+  printf("%u %u", (unsigned) s.fault, (unsigned) s.faults);""", extra_flags=(flag, "-w"),
+                compiler=compiler, name=f"fm_fault_{compiler}_{flag}")
+    assert out == ["1", "1", "1", "1", "0", "1"]
+
+
 def test_subnormals_are_flushed_from_the_state(packages):
     pkg = packages[("trms", "double")]
     out = probe(pkg, """  fl_init(&s);
