@@ -162,7 +162,10 @@ def _paths_on_cortex_m4(pkg, ym, r, u0) -> dict:
     alt = ym.copy()
     alt[1::2] = 1e30
     rows = {
-        "common path (range check on)": run_on_model(pkg, ym, r, y0, u0)[1],
+        "common path (range check on; y within the band around y_c)":
+            run_on_model(pkg, ym, r, y0, u0)[1],
+        "common path, y outside the band (the range test; FL_NO_BAND)":
+            run_on_model(pkg, ym, r, y0, u0, cflags=("-DFL_NO_BAND",))[1],
         "checksum + checked path (FL_PARAM_CHECK_PERIOD=1)":
             run_on_model(pkg, ym, r, y0, u0, cflags=("-DFL_PARAM_CHECK_PERIOD=1u",))[1],
         "every sample rejected (range; sensor lost after 10)": run_on_model(pkg, bad, r, y0, u0)[1],

@@ -12,6 +12,7 @@ import pytest
 from fl_design import presets
 from fl_design._toolchain import find_compiler
 from fl_design.codegen import generate_c
+from fl_design.codegen._guard import FAULT
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
 COMPILERS = [c for c in ("gcc", "clang") if shutil.which(c)]
@@ -244,6 +245,59 @@ def test_non_finite_rejection_survives_fast_math(packages, compiler, flag, preci
     assert np.all(np.isfinite(u))
     strict = pkg.run(np.array(y + [0.1]), np.array([0.3] * 7 + [np.nan]))
     np.testing.assert_allclose(u, strict, rtol=1e-5 if precision == "float" else 1e-12)
+
+
+@pytest.mark.parametrize("compiler", COMPILERS)
+@pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
+def test_non_finite_input_is_named_under_fast_math(packages, compiler, flag):
+    """A NaN or infinite y or r is "non-finite input" (1), not a result fault (which restarts
+    the observer), even where the compiler assumes no NaN: on the common path the fault is
+    told by r's bit pattern (y is finite past the range test), on the slow path by the checks."""
+    pkg = packages[("trms", "float")]
+    out = probe(pkg, """  fl_init(&s);
+  fl_start(&s, 0.1f, 0.0f);
+  union { uint32_t bits; float value; } nan = {0x7FC00000u}, inf = {0x7F800000u};
+  float bad[4][2] = {{nan.value, 0.3f}, {inf.value, 0.3f}, {0.1f, nan.value},
+                     {0.1f, -inf.value}};  /* from bit patterns: no constant folded away */
+  for (int k = 0; k < 4; ++k) {
+    (void) fl_step(&s, 0.1f, 0.3f);
+    (void) fl_step(&s, bad[k][0], bad[k][1]);
+    printf("%u ", (unsigned) s.fault);
+  }
+  (void) fl_step(&s, 0.1f, 0.3f);
+  printf("%u %u", (unsigned) s.fault, (unsigned) s.faults);""", extra_flags=(flag, "-w"),
+                compiler=compiler, name=f"fm_fault_{compiler}_{flag}")
+    assert out == ["1", "1", "1", "1", "0", "1"]
+
+
+@pytest.mark.parametrize("y0", [0.2, 0.25, -0.125, 0.0])
+def test_the_common_paths_band_keeps_the_range_checks_verdict(packages, y0):
+    """The common path tests a band around y_c on bit patterns before the range: the verdicts
+    at and just past y_min and y_max (and NaN, infinities) are the range check's, whatever
+    the band (narrow, empty at y0 = y_max, or around 0)."""
+    pkg = packages[("trms", "float")]
+    ys = [0.25, np.nextafter(np.float32(0.25), np.float32(1)), -0.5,
+          np.nextafter(np.float32(-0.5), np.float32(-1)), y0 + 0.049, y0 - 0.049, 0.0,
+          -0.0, 0.2499999, -0.4999999, 1e30, -1e30]
+    vals = ", ".join(f"{float(v)!r}f" for v in ys)
+    out = probe(pkg, f"""  union {{ uint32_t bits; float value; }} nan = {{0x7FC00000u}}, inf = {{0x7F800000u}};
+  float ys[{len(ys) + 3}] = {{{vals}, 0.0f, 0.0f, 0.0f}};
+  ys[{len(ys)}] = nan.value;
+  ys[{len(ys) + 1}] = inf.value;
+  ys[{len(ys) + 2}] = -inf.value;
+  fl_init(&s);
+  fl_default_params(&p);
+  p.y_min = -0.5f;
+  p.y_max = 0.25f;
+  if (fl_set_params(&s, &p) != FL_OK) return 1;
+  if (fl_start(&s, {y0!r}f, 0.0f) != FL_OK) return 1;
+  for (int k = 0; k < {len(ys) + 3}; ++k) {{
+    (void) fl_step(&s, ys[k], 0.1f);
+    printf("%u ", (unsigned) s.fault);
+  }}""", extra_flags=("-w",), name=f"band_{y0}")
+    inside = [1 if -0.5 <= float(np.float32(v)) <= 0.25 else 0 for v in ys]
+    bad = str(FAULT["nonfinite"])
+    assert out == [str(0 if ok else FAULT["range"]) for ok in inside] + [bad, bad, bad]
 
 
 def test_subnormals_are_flushed_from_the_state(packages):
