@@ -203,6 +203,7 @@ class Beside:
                  say=None):
         self.stage, self.label, self.say = stage, label, say
         self.value = self.error = self.thread = None
+        self.answered = False  # the child sent its result or its exception
         self.wall = self.cpu = 0.0
         import fl_design
 
@@ -256,20 +257,21 @@ class Beside:
                     if self.say is not None:
                         self.say(message[1])
                 elif message[0] == "error":
-                    self.error = message[1]
+                    self.error, self.answered = message[1], True
                 else:
                     _, self.value, self.wall, self.cpu = message
+                    self.answered = True
         except (OSError, ValueError, pickle.UnpicklingError, EOFError):
             pass  # the child died mid-frame: its exit status says how (below)
         self.proc.wait()
-        if self.error is None and self.value is None:
+        if not self.answered:
             from ..errors import WorkerLostError
 
             code = self.proc.returncode
             how = f"signal {-code}" if code < 0 else f"exit code {code}"
             self.error = WorkerLostError(
                 f"the {self.stage} stage's process (pid {self.proc.pid}) died ({how}) before "
-                "it answered; run the stage again, or alone (--stages) to see its error")
+                "it answered (what it printed, if anything, is above on stderr); run the job again")
 
     def done(self) -> bool:
         """True once the child has answered (or died); False before :meth:`submit`."""

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from . import _stage_family as family
 from . import _stages
-from ._beside import TARGETS, Beside
+from ._beside import TARGETS, Beside, certify_stage
 from ._brief import lost_line
 from ._build import build_setup
 from ._config import Config
@@ -150,9 +150,11 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
     def derive():
         job.derivation = _cached(job, "derive", False, lambda: _stages.derive(s))
 
-    def certify():
-        job.results["certify"] = _cached(job, "certify", quick, lambda: _stages.certify(
-            s, job.derivation, quick, progress=lambda line: note(line, enabled=progress)))
+    def certify():  # the function the child process runs (certify_stage), run here
+        job.results["certify"], hit = certify_stage(
+            s, job.derivation, quick, progress=lambda line: note(line, enabled=progress))
+        if hit:
+            job.cached.add("certify")
 
     def sweep():
         smap = job.results["sweep"] = _stages.sweep(s, quick, executor, progress)
@@ -308,26 +310,18 @@ def _run_stage(job: Job, stage: str, label: str, step, progress: bool) -> None:
          f"{time.process_time() - cpu:.1f} s{how})", enabled=progress)
 
 
-class _Miss(Exception):
-    """Raised by a cache lookup's compute: the results are not cached."""
-
-
 def _spawn_beside(job: Job, stage: str, quick: bool, progress: bool):
     """A child process for ``stage`` started now (its imports overlap the earlier stages).
 
-    None when the stage's results are cached (they are read when the stage's turn comes, no
-    process for a lookup) or when no process can be started (the stage then runs in turn).
+    None when the stage's results are cached (read here, stored in ``job``: no process for a
+    lookup) or when no process can be started (the stage then runs in turn).
     """
-    from ._stage_cache import cached_stage
+    from ._stage_cache import cached_results
 
-    def miss():
-        raise _Miss
-
-    try:
-        cached_stage(job.setup, stage, quick, miss)
-    except _Miss:
-        pass
-    else:
+    results = cached_results(job.setup, stage, quick)
+    if results is not None:
+        job.results[stage] = results
+        job.cached.add(stage)
         return None
     try:
         return Beside(stage, "", say=(lambda line: note(line)) if progress else None)
@@ -337,7 +331,8 @@ def _spawn_beside(job: Job, stage: str, quick: bool, progress: bool):
 
 
 def _start_beside(job: Job, b, stage: str, label: str, quick: bool, progress: bool, step):
-    """Send ``stage`` to its child process ``b``, or run it now (cached, no child, not sendable).
+    """Send ``stage`` to its child process ``b``, or run it now (no child, not sendable), or
+    only say it is done (its cached results were read by :func:`_spawn_beside`).
 
     Returns the running :class:`~fl_design.app._beside.Beside`, or None when the stage is
     done.
@@ -351,7 +346,7 @@ def _start_beside(job: Job, b, stage: str, label: str, quick: bool, progress: bo
         else:
             note(f"{label} {stage} ... (in a process beside the next stages)", enabled=progress)
             return b
-    _run_stage(job, stage, label, step, progress)
+    _run_stage(job, stage, label, (lambda: None) if stage in job.results else step, progress)
     return None
 
 

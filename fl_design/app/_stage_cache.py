@@ -161,4 +161,39 @@ def cached_stage(setup, stage: str, quick: bool, compute) -> tuple[dict, bool]:
     return store.get("results", fresh, dict), not hit
 
 
-__all__ = ["FORMAT", "PRESENTATION", "TABLES", "cached_stage", "source_version", "stage_key"]
+class _Miss(Exception):
+    """Raised by :func:`cached_results`'s compute: nothing is cached (nothing is stored)."""
+
+
+def cached_results(setup, stage: str, quick: bool) -> dict | None:
+    """A stage's cached results, or None: a lookup that never computes (nor stores).
+
+    Parameters
+    ----------
+    setup : Setup
+    stage : str
+        ``"certify"`` or ``"derive"``.
+    quick : bool
+
+    Returns
+    -------
+    dict or None
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from fl_design.app._stage_cache import cached_results
+    >>> cached_results(SimpleNamespace(plant=None), "certify", True) is None  # no key
+    True
+    """
+    def miss():
+        raise _Miss
+
+    try:
+        return cached_stage(setup, stage, quick, miss)[0]
+    except _Miss:
+        return None
+
+
+__all__ = ["FORMAT", "PRESENTATION", "TABLES", "cached_results", "cached_stage",
+           "source_version", "stage_key"]

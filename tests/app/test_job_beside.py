@@ -58,6 +58,18 @@ def _pid(*args, progress=None):  # runs in the child process
     return os.getpid(), False
 
 
+def _recorded(base=Beside):
+    """A subclass of ``base`` keeping every instance made (to check each child ended)."""
+    made = []
+
+    class Recorded(base):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    return Recorded, made
+
+
 def test_an_error_of_the_certify_process_is_raised_by_the_job(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path))  # nothing cached: the stage runs
     monkeypatch.setitem(_beside.TARGETS, "certify", f"{__name__}:_fails")
@@ -94,13 +106,9 @@ def test_a_setup_that_cannot_be_sent_runs_the_stage_in_turn(tmp_path, monkeypatc
     from fl_design.app import _job
 
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path))
-    made = []
+    Recorded, made = _recorded()
 
-    class NoSend(Beside):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            made.append(self)
-
+    class NoSend(Recorded):
         def submit(self, spec, args):
             self.close()
             raise TypeError("cannot pickle 'generator' object")
@@ -149,12 +157,7 @@ def test_a_job_stopped_early_leaves_no_child(tmp_path, monkeypatch):
     from fl_design.app import _job, _stages
 
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path))
-    made = []
-
-    class Kept(Beside):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            made.append(self)
+    Kept, made = _recorded()
 
     def sweep_fails(*args, **kwargs):
         raise CertificationError("stub: the sweep failed")
