@@ -178,6 +178,8 @@ def cached_results(setup, stage: str, quick: bool) -> dict | None:
     Returns
     -------
     dict or None
+        The results as :func:`cached_stage` stored them; None when they are not cached (or
+        the plant has no derivation key).
 
     Examples
     --------
