@@ -152,7 +152,8 @@ def _switch_test(op: int, args, names: _Namer, consts: dict):
 
 
 def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
-           switches=frozenset(), rare: str = "", check: str = "", required=((), ())) -> str:
+           switches=frozenset(), rare: str = "", check: str = "", required=((), ()),
+           keys=None) -> str:
     """The statements computing ``f``'s outputs from its inputs (see the module docstring).
 
     Parameters
@@ -178,6 +179,14 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
     required : tuple of two collections of int, optional
         The inputs and the outputs (indices) whose every nonzero must be finite when the
         check's sum is.
+    keys : dict, optional
+        An integer test of a saturation's unsaturated branch: ``{"bounds": (lo, hi), "fn":
+        key, "lo1": ..., "span": ...}`` (C texts) for the saturation whose bounds print as
+        ``lo`` and ``hi``: it is taken when ``key(v) - lo1 < span`` (unsigned), which the
+        caller makes equivalent to ``lo < v < hi`` for every finite ``v`` and false for a NaN
+        or an infinite one (the order key of the bit pattern, :file:`step.c.in`). That branch
+        then proves ``v`` finite with no floating-point compare, so ``v`` leaves the check's
+        sum there (the other branches add it). None: the float compares alone.
 
     Returns
     -------
@@ -297,11 +306,22 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         if k in live:
             live.update(args)
     lines = [line for line in lines if line[0] in live]
+    keyed = {k: keys for k, (_, lo, hi) in blocks.items() if keys is not None
+             and (names.as_real(lo), names.as_real(hi)) == tuple(keys["bounds"])}
+    # a keyed saturation's v: proven finite by the key test inside, added to the sum outside
+    summed = [t for t in terms if not any(blocks[k][0] == t for k in keyed)] if check else []
+    bail = (keys or {}).get("bail")
+    if bail:  # the saturated branches are not printed: no addition of theirs to the sum
+        extra = {k: e for k, e in extra.items() if k not in keyed}
+        if not keyed:
+            stores.append(f"{indent}{bail} = false;")
     if check:
-        lines = _with_check(lines, terms, extra, names, real, indent)
+        lines = _with_check(lines, summed, extra, names, real, indent,
+                            {k: names.as_real(blocks[k][0]) for k in keyed})
         stores.append(f"{indent}{check} = a_sum;")
     lines = [(k, args, _saturation_text(k, *(names.as_real(a) for a in args), real, indent,
-                                        bound_tests, rare, _extra_text(k, extra, terms, names)))
+                                        bound_tests, rare, _extra_text(k, extra, summed, names),
+                                        keyed.get(k) and {**keyed[k], "empty": not summed}))
              if text is None else (k, args, text) for k, args, text in lines]
     return "\n".join(_inline_logic(lines, names) + stores)
 
@@ -329,9 +349,11 @@ def _extra_text(k: int, extra: dict, terms, names) -> str:
     return f"a{k}_sat = true;"
 
 
-def _with_check(lines, terms, extra, names, real, indent) -> list:
+def _with_check(lines, terms, extra, names, real, indent, keyed_v=None) -> list:
     """``lines`` with the check's sum ``a_sum`` (after its last term, or last of all when
-    saturations come before it: then their flagged additions of the result)."""
+    saturations come before it: then their flagged additions of the result, and of ``v`` for
+    a keyed saturation, ``keyed_v = {k: v}``)."""
+    keyed_v = keyed_v or {}
     total = " + ".join(names.as_real(t) for t in terms) or literal(0.0, real)
     text = [f"{indent}{real} a_sum = {total};"]
     at = next((i for i, line in enumerate(lines) if line[0] > max(terms, default=-1)),
@@ -339,7 +361,8 @@ def _with_check(lines, terms, extra, names, real, indent) -> list:
     if not _sum_first(extra, terms):
         at = len(lines)
         for k in extra:
-            text += [f"{indent}if (a{k}_sat) {{", f"{indent * 2}a_sum = a_sum + a{k};",
+            v = f"{keyed_v[k]} + " if k in keyed_v else ""
+            text += [f"{indent}if (a{k}_sat) {{", f"{indent * 2}a_sum = a_sum + {v}a{k};",
                      f"{indent}}}"]
     return [*lines[:at], (-1 - at, list(terms), text), *lines[at:]]
 
@@ -397,10 +420,12 @@ def _saturations(f: ca.Function) -> tuple[dict, dict]:
 
 
 def _saturation_text(k: int, v: str, lo: str, hi: str, real: str, indent: str,
-                     tests: dict, rare: str = "", extra: str = "") -> list[str]:
+                     tests: dict, rare: str = "", extra: str = "", keys=None) -> list[str]:
     """The statements of ``a<k> = min(max(v, lo), hi)`` and its tests ``a<k>_hi = (hi <= a<k>)``,
     ``a<k>_lo = (a<k> <= lo)``: one ``if``/``else``, exact for every value (module docstring);
-    ``extra``: a statement of the saturated branches (the finiteness check's, :func:`c_body`)."""
+    ``extra``: a statement of the saturated branches (the finiteness check's, :func:`c_body`);
+    ``keys``: the integer test of the unsaturated branch first (:func:`c_body`), the float
+    compares behind it."""
     flags = sorted({side for (kk, side) in tests.values() if kk == k}, reverse=True)
     test = {"hi": f"({hi} <= a{k})", "lo": f"(a{k} <= {lo})"}
     i2, hint = indent * 2, (lambda c: f"({rare}({c}))" if rare else f"({c})")
@@ -412,7 +437,24 @@ def _saturation_text(k: int, v: str, lo: str, hi: str, real: str, indent: str,
             *sets, f"{indent}}} else if {hint(f'!({v} < {hi})')} {{", f"{i2}a{k} = {hi};", *sets,
             f"{indent}}} else {{", f"{i2}a{k} = {v};  /* lo < v < hi: no test holds */",
             f"{indent}}}"]
-    return out
+    if keys is None:
+        return out
+    test = f"({keys['fn']}({v}) - {keys['lo1']}) >= {keys['span']}"
+    if keys.get("bail"):  # the unsaturated branch only; the caller takes another path else
+        return [f"{indent}const {real} a{k} = {v};  /* lo < v < hi unless {keys['bail']} */",
+                *(f"{indent}const bool a{k}_{side} = false;" for side in flags),
+                f"{indent}{keys['bail']} = {test};"]
+    head, body = out[:out.index(next(t for t in out if t.lstrip().startswith("if ")))], None
+    body = out[len(head):]
+    # the sum (when the check has one) takes v where the key test does not prove it finite
+    # (an empty sum is 0 and is not added to: +0 + v is not v when v is -0 for the compiler)
+    add = ([f"{i2}a_sum = {'' if keys.get('empty') else 'a_sum + '}{v};"]
+           if extra.startswith("a_sum") else
+           [f"{i2}a{k}_sat = true;"] if extra else [])
+    return [*head, f"{indent}if {hint(test)} {{  /* not lo < v < hi, or v not finite */",
+            *add, *(indent + line for line in body),
+            f"{indent}}} else {{", f"{i2}a{k} = {v};  /* lo < v < hi (keys): no test holds */",
+            f"{indent}}}"]
 
 
 def math_calls(f: ca.Function) -> list[str]:

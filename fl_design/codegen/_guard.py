@@ -219,6 +219,7 @@ class FirmwareModel:
         self.m = int(design.estimator.state_size)
         self.x = np.asarray(design.initial_state(), dtype=float)
         self.p_sum = self._sum()
+        self._derive()
         self.countdown, self.bad_block, self.restart_due = self.period, False, False
         self.y_last, self.last_known = 0.0, False
         self.n_consecutive = self.n_same = self.fault = self.faults = 0
@@ -226,6 +227,12 @@ class FirmwareModel:
 
     def _sum(self):
         return hash((tuple(self.p.values()), self.settings))
+
+    def _derive(self) -> None:
+        # the C's derived copy of the input limits (PREFIX_derive: their order keys), set with
+        # the block and refreshed at each good checksum check; the common path tests u before
+        # its limits against it
+        self.u_lim = (self.p.get("u_min", -math.inf), self.p.get("u_max", math.inf))
 
     def corrupt(self, **values) -> None:
         """Change parameters behind the setter (a RAM fault): the checksum is not updated."""
@@ -269,6 +276,8 @@ class FirmwareModel:
         if self.countdown == 0:
             self.countdown = self.period
             self.bad_block |= self._sum() != self.p_sum
+            if not self.bad_block:
+                self._derive()
         self.fault = 0
         if self.bad_block:
             self.fault = FAULT["params"]
@@ -291,11 +300,16 @@ class FirmwareModel:
         if s.dy_max > 0 and self.last_known and abs(y - self.y_last) > lim:
             return self._reject(FAULT["rate"])
         p = [self.p[f] for f in self.fields]
-        x_next, u, _ = (np.asarray(v, dtype=float).ravel() for v in self.core(self.x, y, r, p))
-        # the C's test (._finite): the results, u_(k-1) and the input before its limits
+        # the C's common path: u before its limits strictly within the derived limits is u
+        # (PREFIX_core_fast); else the law with the block's own limits (PREFIX_core)
         v = float(self.unsaturated(self.x, y, r, p))
-        if not (np.all(np.isfinite(x_next)) and math.isfinite(self.x[self.m])
-                and math.isfinite(v)):
+        lo, hi = self.u_lim
+        if lo < v < hi and "u_min" in self.p:
+            p = [lo if f == "u_min" else hi if f == "u_max" else self.p[f] for f in self.fields]
+        x_next, u, _ = (np.asarray(v, dtype=float).ravel() for v in self.core(self.x, y, r, p))
+        # the C's test (._finite): the state (an overflowed result stored by the last sample
+        # among it), y, r and the input before its limits; then u is finite
+        if not (np.all(np.isfinite(self.x)) and math.isfinite(v)):
             self.restart_due = True
             return self._reject(FAULT["result"])
         z_before = self.x[self.m + 1]

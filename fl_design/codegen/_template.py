@@ -163,8 +163,12 @@ def _units(design, plant) -> str:
     return "\n".join(rows)
 
 
-def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
+def core_source(design: Design, precision: str, prefix: str, *,
+                fast: bool = False) -> tuple[str, int]:
     """The body of ``<prefix>_step_core`` and the number of instructions of its graph.
+
+    ``fast``: the body of ``<prefix>_core_fast``, the common path's: ``u`` within its limits
+    told on order keys (``*sat`` = 0), the saturated branches left to ``<prefix>_core``.
 
     Parameters
     ----------
@@ -197,8 +201,11 @@ def core_source(design: Design, precision: str, prefix: str) -> tuple[str, int]:
                   [[f"x_next[{i}]" for i in range(n)], ["*u"],
                    [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
                   switches={"p->antiwindup"},
-                  rare=f"{prefix.upper()}_RARE", check="*chk", required=((0, 1, 2), (0, 1)))
+                  rare=f"{prefix.upper()}_RARE", check="*chk", required=((0, 1, 2), (1,)),
+                  keys={"bounds": ("p->u_min", "p->u_max"), "fn": f"{prefix}_key",
+                        "lo1": "ukey[0]", "span": "ukey[1]", "bail": "*sat"} if fast else None)
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
+    unused += ["ukey"] if fast and "ukey" not in body else []
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
 
@@ -252,9 +259,11 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "INITIAL_STATE": ", ".join(lit(v) for v in design.initial_state()),
         "START0": ", ".join(lit(v) for v in c0), "START1": ", ".join(lit(v) for v in c1),
         "UINT": "uint32_t" if precision == "float" else "uint64_t",
+        "SIGN_SHIFT": "31" if precision == "float" else "63",
         "EXP_MASK": "0x7F800000u" if precision == "float" else "UINT64_C(0x7FF0000000000000)",
         "ARM_FP_BIT": "4" if precision == "float" else "8",  # ACLE __ARM_FP: single, double
-        "BODY": body, "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
+        "BODY": body, "BODY_FAST": core_source(design, precision, prefix, fast=True)[0],
+        "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
         "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
         "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
                              for i in range(design.state_size)]
