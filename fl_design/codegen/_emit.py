@@ -186,7 +186,11 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         caller makes equivalent to ``lo < v < hi`` for every finite ``v`` and false for a NaN
         or an infinite one (the order key of the bit pattern, :file:`step.c.in`). That branch
         then proves ``v`` finite with no floating-point compare, so ``v`` leaves the check's
-        sum there (the other branches add it). None: the float compares alone.
+        sum there (the other branches add it). ``"test"``: another test (a format string of
+        ``v``, true outside), with ``"proves": False`` when it does not prove ``v`` finite
+        (``v`` then stays in the sum). With ``"bail": lvalue`` only the unsaturated branch is
+        printed and ``lvalue`` says whether it was not taken (the caller then computes the
+        step another way). None: the float compares alone.
 
     Returns
     -------
@@ -309,7 +313,8 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
     keyed = {k: keys for k, (_, lo, hi) in blocks.items() if keys is not None
              and (names.as_real(lo), names.as_real(hi)) == tuple(keys["bounds"])}
     # a keyed saturation's v: proven finite by the key test inside, added to the sum outside
-    summed = [t for t in terms if not any(blocks[k][0] == t for k in keyed)] if check else []
+    summed = [t for t in terms if not any(blocks[k][0] == t for k in keyed
+                                          if keys.get("proves", True))] if check else []
     bail = (keys or {}).get("bail")
     if bail:  # the saturated branches are not printed: no addition of theirs to the sum
         extra = {k: e for k, e in extra.items() if k not in keyed}
@@ -439,7 +444,8 @@ def _saturation_text(k: int, v: str, lo: str, hi: str, real: str, indent: str,
             f"{indent}}}"]
     if keys is None:
         return out
-    test = f"({keys['fn']}({v}) - {keys['lo1']}) >= {keys['span']}"
+    test = (keys["test"].format(v=v) if "test" in keys
+            else f"({keys['fn']}({v}) - {keys['lo1']}) >= {keys['span']}")
     if keys.get("bail"):  # the unsaturated branch only; the caller takes another path else
         return [f"{indent}const {real} a{k} = {v};  /* lo < v < hi unless {keys['bail']} */",
                 *(f"{indent}const bool a{k}_{side} = false;" for side in flags),

@@ -229,7 +229,7 @@ class FirmwareModel:
         return hash((tuple(self.p.values()), self.settings))
 
     def _derive(self) -> None:
-        # the C's derived copy of the input limits (PREFIX_derive: their order keys), set with
+        # the C's derived copy of the input limits (PREFIX_derive: their order keys in float), set with
         # the block and refreshed at each good checksum check; the common path tests u before
         # its limits against it
         self.u_lim = (self.p.get("u_min", -math.inf), self.p.get("u_max", math.inf))

@@ -163,14 +163,25 @@ def _units(design, plant) -> str:
     return "\n".join(rows)
 
 
+def _fast_keys(prefix: str, precision: str) -> dict:
+    """The common path's test of u within its limits (:func:`._emit.c_body`'s ``keys``): the
+    order keys in float; in double the float compares with the derived limits (the keys'
+    transfers to integer registers cost 1.6 ns of 9.4 on a 64-bit host), u before its limits
+    then staying in the finiteness sum."""
+    keys = {"bounds": ("p->u_min", "p->u_max"), "fn": f"{prefix}_key", "lo1": "ukey[0]",
+            "span": "ukey[1]", "bail": "*sat"}
+    if precision == "double":
+        keys.update(test="!((ulim[0] < {v}) && ({v} < ulim[1]))", proves=False)
+    return keys
+
+
 def core_source(design: Design, precision: str, prefix: str, *,
                 fast: bool = False) -> tuple[str, int]:
     """The body of ``<prefix>_step_core`` and the number of instructions of its graph.
 
     ``fast``: the body of ``<prefix>_core_fast``, the common path's: in float, ``u`` within
     its limits told on order keys (``*sat`` = 0), the saturated branches left to
-    ``<prefix>_core``; in double, ``<prefix>_core``'s own (``*sat`` = 0: the float compares are
-    faster than the keys' transfers to integer registers on a 64-bit host, 1.6 ns of 9.4).
+    ``<prefix>_core``; in double the same with float compares (:func:`_fast_keys`).
 
     Parameters
     ----------
@@ -204,13 +215,11 @@ def core_source(design: Design, precision: str, prefix: str, *,
                    [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
                   switches={"p->antiwindup"},
                   rare=f"{prefix.upper()}_RARE", check="*chk", required=((0, 1, 2), (1,)),
-                  keys={"bounds": ("p->u_min", "p->u_max"), "fn": f"{prefix}_key",
-                        "lo1": "ukey[0]", "span": "ukey[1]", "bail": "*sat"}
-                  if fast and precision == "float" else None)
+                  keys=_fast_keys(prefix, precision) if fast else None)
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
-    if fast and "*sat" not in body:  # double: the float compares (faster on 64-bit hosts)
+    if fast and "*sat" not in body:  # no input saturation
         body += "\n  *sat = false;"
-    unused += ["ukey"] if fast and "ukey" not in body else []
+    unused += [v for v in ("ukey", "ulim") if fast and v not in body]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
 
