@@ -155,8 +155,9 @@ def _on_cortex_m4(tmp: str, *, timing: bool) -> tuple[dict, list[str]]:
 def _paths_on_cortex_m4(pkg, ym, r, u0) -> dict:
     """Instructions per call of each path of the float step on the Cortex-M4F model (the WCET
     table): the common path, the periodic checksum path (every sample with a period of 1),
-    rejected samples, and rejections alternating with accepted samples (each accepted one then
-    takes the checked path)."""
+    u at a limit (a reference 100 rad away: u pinned from the first samples), rejected
+    samples, and rejections alternating with accepted samples (each accepted one then takes
+    the checked path)."""
     y0 = float(ym[0])
     bad = np.full_like(ym, 1e30)  # outside the default range |y| <= 1e9
     alt = ym.copy()
@@ -168,6 +169,8 @@ def _paths_on_cortex_m4(pkg, ym, r, u0) -> dict:
             run_on_model(pkg, ym, r, y0, u0, cflags=("-DFL_NO_BAND",))[1],
         "checksum + checked path (FL_PARAM_CHECK_PERIOD=1)":
             run_on_model(pkg, ym, r, y0, u0, cflags=("-DFL_PARAM_CHECK_PERIOD=1u",))[1],
+        "u at a limit (every sample; the saturated branches out of line)":
+            run_on_model(pkg, ym, r + 100.0, y0, u0)[1],
         "every sample rejected (range; sensor lost after 10)": run_on_model(pkg, bad, r, y0, u0)[1],
         "rejected / accepted alternating (mean of the two)": run_on_model(pkg, alt, r, y0, u0)[1],
     }
