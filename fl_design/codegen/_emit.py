@@ -233,6 +233,7 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
       *o = a8;
     """
     names, lines, stores, node, live, consts = _Namer(real), [], [], {}, set(), {}
+    sources = []  # (output lvalue, node) of every store
     cur = {}  # work index -> SSA id (int)
     blocks, bound_tests = _saturations(f)
     graph, needed = {}, []  # the finiteness test's view of each node (._finite)
@@ -241,6 +242,7 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
         if op == ca.OP_OUTPUT:
             w = cur[ins[0]]
             stores.append(f"{indent}{outputs[outs[0]][outs[1]]} = {names.as_real(w)};")
+            sources.append((outputs[outs[0]][outs[1]], w))
             live.add(w)
             if outs[0] in required[1]:
                 needed.append(w)
@@ -316,6 +318,9 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
     summed = [t for t in terms if not any(blocks[k][0] == t for k in keyed
                                           if keys.get("proves", True))] if check else []
     bail = (keys or {}).get("bail")
+    if bail and keyed and isinstance(keys.get("tail"), dict):
+        keys["tail"].update(_tail(lines, keyed, blocks, sources, names, graph, real, indent,
+                                  bound_tests, summed))
     if bail:  # the saturated branches are not printed: no addition of theirs to the sum
         extra = {k: e for k, e in extra.items() if k not in keyed}
         if not keyed:
@@ -329,6 +334,53 @@ def c_body(f: ca.Function, inputs, outputs, real: str, *, indent: str = "  ",
                                         keyed.get(k) and {**keyed[k], "empty": not summed}))
              if text is None else (k, args, text) for k, args, text in lines]
     return "\n".join(_inline_logic(lines, names) + stores)
+
+
+def _tail(lines, keyed, blocks, sources, names, graph, real, indent, bound_tests,
+          summed) -> dict:
+    """The saturated samples' continuation of a bail-mode body (:func:`c_body`): what depends
+    on the keyed saturation, from the values the common path computed before it.
+
+    ``{"frontier": [node names the continuation reads], "body": statements (the frontier as
+    ``t<i>`` arguments, the sum started from ``c``, the saturation's if/else with its float
+    compares), "outputs": [lvalues it sets]}``."""
+    (k,) = keyed
+    v = blocks[k][0]
+    kind = {line[0]: names.kind.get(line[0]) for line in lines}
+    down = {k}
+    for j, args, _ in lines:  # in evaluation order: everything computed from the saturation
+        if any(a in down for a in args):
+            down.add(j)
+    # computed on the common path anyway: read there by what does not depend on the
+    # saturation, stored, summed, or tested (v)
+    args_of = {j: args for j, args, _ in lines}
+    common, stack = set(), [v, *summed, *(w for _, w in sources if w not in down)]
+    while stack:  # backward from those: what the common path computes (the rest is dead there)
+        a = stack.pop()
+        if a not in common and a not in down:
+            common.add(a)
+            stack += args_of.get(a, [])
+    need, frontier = set(down), []
+    for j, args, _ in reversed(lines):  # decided at its own line: every reader is decided
+        if j not in need:
+            if not any(j in a and i in need for i, a, _ in lines):
+                continue
+            if j in common and kind.get(j) != "int" and graph.get(j, ("",))[0] != "const":
+                frontier.append(j)  # passed on
+                continue
+            need.add(j)  # computed again in the continuation (read by it only, or cheap)
+    frontier = sorted(set(frontier) | {v})
+    body = [f"{indent}const {real} a{a} = t{i};" for i, a in enumerate(frontier)]
+    body.append(f"{indent}{real} a_sum = c + a{v};  /* u before its limits: not proven here */")
+    tail_lines = [(j, args, text) for j, args, text in lines
+                  if (j in need and j not in frontier)]
+    tail_lines = [(j, args, _saturation_text(j, *(names.as_real(a) for a in args), real, indent,
+                                             bound_tests, "", f"a_sum = a_sum + a{j};"))
+                  if text is None else (j, args, text) for j, args, text in tail_lines]
+    stores = [f"{indent}{lv} = {names.as_real(w)};" for lv, w in sources if w in down]
+    return {"frontier": [f"a{a}" for a in frontier],
+            "body": "\n".join(body + _inline_logic(tail_lines, names) + stores),
+            "outputs": [lv for lv, w in sources if w in down]}
 
 
 #: how the finiteness test sees each operation (._finite.KINDS); comparisons are "int"

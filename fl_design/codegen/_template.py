@@ -163,6 +163,51 @@ def _units(design, plant) -> str:
     return "\n".join(rows)
 
 
+def tail_function(tail: dict, design: Design, precision: str, prefix: str) -> tuple[str, str]:
+    """The saturated samples' continuation and its call from ``<prefix>_run_fast``.
+
+    ``(function, call)``: ``<prefix>_saturated`` takes the common path's results and the
+    values the saturation's branches read (``tail``, from :func:`core_source`) and finishes
+    the step; without a keyed saturation, ``<prefix>_run_saturated`` runs the arithmetic again.
+    """
+    P, real = prefix.upper(), precision
+    if not tail:
+        return (f"/* the step's arithmetic when u reaches a limit (or is not finite): "
+                f"{prefix}_core's saturated\n * branches, out of line */\n"
+                f"{P}_COLD static {real} {prefix}_run_saturated({prefix}_state_t *s, {real} yd, "
+                f"{real} r) {{\n  return {prefix}_run(s, yd, r);\n}}",
+                f"    return {prefix}_run_saturated(s, yd, r);")
+    n, m, nt = design.state_size, design.rho + 1, len(tail["frontier"])
+    params = ([f"{real} n{i}" for i in range(n)] + [f"{real} h{i}" for i in range(m)]
+              + [f"{real} t{i}" for i in range(nt)] + [f"{real} r_abs"])
+    body = "\n".join(line for line in tail["body"].splitlines()
+                     if not line.lstrip().startswith("*u ="))
+    used = {v: re.search(pattern, body) is not None for v, pattern in
+            (("x", r"\bx\["), ("p", r"\bp->"), ("y", r"\by\b"), ("r", r"\br\b"))}
+    # y and r (deviations) passed only when read: each float argument takes a register
+    lead = [f"{real} y"] * used["y"] + [f"{real} r"] * used["r"]
+    lead_args = ["yd"] * used["y"] + ["r - s->y_c"] * used["r"]
+    unused = [v for v in ("x", "p") if not used[v]]
+    text = [f"/* u at a limit (or not finite) on the common path: the saturation's branches "
+            f"and what\n * follows from them (the conditional integration), from the values "
+            f"{prefix}_core_fast computed\n * (its results n, h, the values t its branches read, "
+            f"its sum c), then {prefix}_finish */",
+            f"{P}_COLD static {real} {prefix}_saturated({prefix}_state_t *s, "
+            + "".join(f"{a}, " for a in lead) + f"{real} c,",
+            "    " + ", ".join(params) + ") {",
+            "  const " + real + " *x = s->x;",
+            f"  const {prefix}_params_t *p = &s->p;",
+            f"  {real} x_next[{P}_STATE_SIZE] = {{{', '.join(f'n{i}' for i in range(n))}}};",
+            f"  {real} xhat[{P}_RHO + 1] = {{{', '.join(f'h{i}' for i in range(m))}}};",
+            *(f"  (void) {v};" for v in unused), body,
+            f"  return {prefix}_finish(s, r_abs, x_next, xhat, a_sum);", "}"]
+    args = ([f"x_next[{i}]" for i in range(n)] + [f"xhat[{i}]" for i in range(m)]
+            + [f"tail[{i}]" for i in range(nt)])
+    call = (f"    return {prefix}_saturated(s, " + "".join(f"{a}, " for a in lead_args)
+            + "chk, " + ", ".join(args) + ", r);")
+    return "\n".join(text), call
+
+
 def _fast_keys(prefix: str, precision: str) -> dict:
     """The common path's test of u within its limits (:func:`._emit.c_body`'s ``keys``): the
     order keys in float; in double the float compares with the derived limits (the keys'
@@ -176,10 +221,11 @@ def _fast_keys(prefix: str, precision: str) -> dict:
 
 
 def core_source(design: Design, precision: str, prefix: str, *,
-                fast: bool = False) -> tuple[str, int]:
+                fast: bool = False, tail: dict | None = None) -> tuple[str, int]:
     """The body of ``<prefix>_step_core`` and the number of instructions of its graph.
 
-    ``fast``: the body of ``<prefix>_core_fast``, the common path's: in float, ``u`` within
+    ``tail`` (with ``fast``): filled with the saturated samples' continuation
+    (:func:`tail_function`). ``fast``: the body of ``<prefix>_core_fast``, the common path's: in float, ``u`` within
     its limits told on order keys (``*sat`` = 0), the saturated branches left to
     ``<prefix>_core``; in double the same with float compares (:func:`_fast_keys`).
 
@@ -215,11 +261,13 @@ def core_source(design: Design, precision: str, prefix: str, *,
                    [f"xhat[{i}]" for i in range(design.rho + 1)]], precision,
                   switches={"p->antiwindup"},
                   rare=f"{prefix.upper()}_RARE", check="*chk", required=((0, 1, 2), (1,)),
-                  keys=_fast_keys(prefix, precision) if fast else None)
+                  keys={**_fast_keys(prefix, precision), "tail": tail} if fast else None)
+    if fast and tail:
+        body += "".join(f"\n  tail[{i}] = {a};" for i, a in enumerate(tail["frontier"]))
     unused = [v for v in ("x", "y", "r", "p") if not re.search(rf"\b{v}\b", body)]
     if fast and "*sat" not in body:  # no input saturation
         body += "\n  *sat = false;"
-    unused += [v for v in ("ukey", "ulim") if fast and v not in body]
+    unused += [v for v in ("ukey", "ulim", "tail") if fast and v not in body]
     body = "".join(f"  (void) {v};\n" for v in unused) + body
     return body, int(f.n_instructions())
 
@@ -257,6 +305,9 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
     lit = lambda x: c_literal(x, precision)
     c0, c1 = start_map(design)
     body, n_ins = core_source(design, precision, prefix)
+    tail: dict = {}
+    fast_body = core_source(design, precision, prefix, fast=True, tail=tail)[0]
+    tail_text, tail_call = tail_function(tail, design, precision, prefix)
     from ._graph import parametric_core
     from ._opcount import operation_counts
 
@@ -276,7 +327,8 @@ def substitutions(design: Design, precision: str, prefix: str, guard=None,
         "SIGN_SHIFT": "31" if precision == "float" else "63",
         "EXP_MASK": "0x7F800000u" if precision == "float" else "UINT64_C(0x7FF0000000000000)",
         "ARM_FP_BIT": "4" if precision == "float" else "8",  # ACLE __ARM_FP: single, double
-        "BODY": body, "BODY_FAST": core_source(design, precision, prefix, fast=True)[0],
+        "BODY": body, "BODY_FAST": fast_body, "TAIL_FUNCTION": tail_text, "TAIL_CALL": tail_call,
+        "TAIL_SIZE": str(max(1, len(tail.get("frontier", ())))),
         "N_INSTRUCTIONS": str(n_ins), "FLOPS": str(sum(ops.values())),
         "FLOP_DETAIL": ", ".join(f"{v} {k}" for k, v in ops.items() if v),
         "COMMIT": "\n".join([f"  s->x[{i}] = {prefix}_flush(x_next[{i}]);"
