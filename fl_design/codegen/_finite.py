@@ -2,8 +2,11 @@
 
 The generated step stores its results only when one test on the bit pattern of a sum passes
 (``PREFIX_finite(sum)``): a NaN or an infinity in any term makes the sum NaN or infinite. The
-values that must be finite when the test passes (the *required* ones) are the inputs that carry
-a sample or the state (``x``, ``y``, ``r``) and the results that are stored (``x_next``, ``u``).
+values that must be finite when the test passes (the *required* ones) are, in the generated
+step, the inputs that carry a sample or the state (``x``, ``y``, ``r``) and the input ``u``
+it returns; the next state ``x_next`` is finite unless the arithmetic overflows, and the next
+sample's test, whose required inputs include the state, rejects an overflowed one (the
+caller's choice: :func:`check_terms` proves whatever it is given).
 Not all of them need to be terms: a value is known finite when the test passes if
 
 - it is a term, a constant or a truth value;

@@ -53,3 +53,26 @@ def test_the_predicted_error_is_the_measured_one_at_a_level(tmp_path):
     res = pkg.verify(plant, sc)
     assert res.passed and res.max_rel_error < 1e-4
     assert 0.5 < pkg.predicted_float_error / res.max_rel_error < 2.0
+
+
+@pytest.mark.parametrize("name", ["heater", "chain3", "pendulum"])
+def test_flat_error_and_bit_exact_emulation_on_unseen_designs(name, tmp_path):
+    """The rho = 1 heater (u in [0, 1]), the rho = 3 chain with b < 0 and the pendulum of
+    test_faults_unseen: at levels 0, 50 and -150 the float C's error against Design.step
+    stays within the float bound and flat in the level, and the emulation behind the
+    prediction is the compiled float C bit for bit (u at a limit included)."""
+    from .test_faults_unseen import CASES
+
+    design, _, _, _ = CASES[name]()
+    pkg = generate_c(design, tmp_path, precision="float")
+    used, errs = pkg.step_design, {}
+    for level in (0.0, 50.0, -150.0):
+        y, r = _record(level)
+        u_c = pkg.run(y, r, start=True)
+        y32, r32 = y.astype(np.float32).astype(float), r.astype(np.float32).astype(float)
+        ref = used.run(y32, r32, state0=used.initial_state(y0=y32[0], u0=0.0)).u
+        errs[level] = float(np.max(np.abs(u_c - ref)) / max(np.max(np.abs(ref)), 1e-30))
+        u_e = emulate(used, y, r, used.initial_state(y0=0.0, u0=0.0), y_c=float(y[0]))
+        np.testing.assert_array_equal(u_c, u_e.astype(float))
+    assert max(errs.values()) < 1e-4, errs
+    assert max(errs.values()) <= 4 * errs[0.0] + 1e-7, errs
