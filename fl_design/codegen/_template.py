@@ -172,11 +172,11 @@ def tail_function(tail: dict, design: Design, precision: str, prefix: str) -> tu
     """
     P, real = prefix.upper(), precision
     if not tail:
-        return (f"/* the step's arithmetic when u reaches a limit (or is not finite): "
-                f"{prefix}_core's saturated\n * branches, out of line */\n"
-                f"{P}_COLD static {real} {prefix}_run_saturated({prefix}_state_t *s, {real} yd, "
-                f"{real} r) {{\n  return {prefix}_run(s, yd, r);\n}}",
-                f"    return {prefix}_run_saturated(s, yd, r);")
+        function = (f"/* the step's arithmetic when u reaches a limit (or is not finite): "
+                    f"{prefix}_core's saturated\n * branches, out of line */\n"
+                    f"{P}_COLD static {real} {prefix}_run_saturated({prefix}_state_t *s, "
+                    f"{real} yd, {real} r) {{\n  return {prefix}_run(s, yd, r);\n}}")
+        return function, f"    return {prefix}_run_saturated(s, yd, r);"
     n, m, nt = design.state_size, design.rho + 1, len(tail["frontier"])
     params = ([f"{real} n{i}" for i in range(n)] + [f"{real} h{i}" for i in range(m)]
               + [f"{real} t{i}" for i in range(nt)] + [f"{real} r_abs"])
@@ -188,10 +188,11 @@ def tail_function(tail: dict, design: Design, precision: str, prefix: str) -> tu
     lead = [f"{real} y"] * used["y"] + [f"{real} r"] * used["r"]
     lead_args = ["yd"] * used["y"] + ["r - s->y_c"] * used["r"]
     unused = [v for v in ("x", "p") if not used[v]]
-    text = [f"/* u at a limit (or not finite) on the common path: the saturation's branches "
-            f"and what\n * follows from them (the conditional integration), from the values "
-            f"{prefix}_core_fast computed\n * (its results n, h, the values t its branches read, "
-            f"its sum c), then {prefix}_finish */",
+    comment = (f"/* u at a limit (or not finite) on the common path: the saturation's branches "
+               f"and what\n * follows from them (the conditional integration), from the values "
+               f"{prefix}_core_fast computed\n * (its results n, h, the values t its branches "
+               f"read, its sum c), then {prefix}_finish */")
+    text = [comment,
             f"{P}_COLD static {real} {prefix}_saturated({prefix}_state_t *s, "
             + "".join(f"{a}, " for a in lead) + f"{real} c,",
             "    " + ", ".join(params) + ") {",
