@@ -186,7 +186,10 @@ class FirmwareModel:
     Mirrors ``templates/step.c.in`` (the fault rules of the header's comment): rejection and
     resumption, the widening rate window, the frozen and lost sensor with ``u_safe``, the
     observer's restart after a non-finite result (or a non-finite input before its limits, e.g.
-    a NaN gain), the parameter block's periodic check, manual mode. The arithmetic is the design's parametric step in double.
+    a NaN gain, or a state entry that overflowed at the last sample), the parameter block's
+    periodic check, the input limits the common path tests (the copies made when the block was
+    last validated: a block corrupted since limits u by them until the check), manual mode.
+    The arithmetic is the design's parametric step in double.
 
     Parameters
     ----------
