@@ -2,7 +2,8 @@
 
 A damped pendulum (rho = 2, the library preset with limits), a rho = 1 heater working at 50
 degrees with ``u`` in ``[0, 1]`` (a zero limit: the order keys' signed-zero case), and a rho = 3
-chain with a negative ``b`` (``gamma < 0``) built here with :class:`fl_design.Plant`. For each:
+chain with a negative ``b`` (``gamma < 0``) built here with :class:`fl_design.Plant`, also with a
+huge region (``|y| <= 1e6``). For each:
 one NaN, one 1e30 and one infinite sample, a legitimate jump with ``dy_max`` set, a NaN reaching
 the state, ``gamma`` or ``k[0]`` corrupted to NaN and ``u_min > u_max`` in RAM, a frozen sensor,
 and a 10 s saturation episode in the loop. The C (the package's own build, float) and
@@ -42,12 +43,12 @@ def heater():
     return design, plant, 50.0, 55.0
 
 
-def chain3():
-    """rho = 3 with b = -2: y''' = -y - 2 y' - 1.5 y'' - 2 u, u in [-5, 5]."""
+def chain3(reach: float = 2.0):
+    """rho = 3 with b = -2: y''' = -y - 2 y' - 1.5 y'' - 2 u, u in [-5, 5]; |y| <= reach."""
     x1, x2, x3, u = sp.symbols("x1 x2 x3 u")
     plant = fl.Plant([x1, x2, x3], u, [x2, x3, -x1 - 2 * x2 - 1.5 * x3 - 2 * u], x1,
                      name="chain3", input_range=(-5.0, 5.0),
-                     region={x1: (-2.0, 2.0), x2: (-5.0, 5.0), x3: (-20.0, 20.0)})
+                     region={x1: (-reach, reach), x2: (-5.0, 5.0), x3: (-20.0, 20.0)})
     # eps = 0.05: at 0.02 the float step's error is 3.9e-4 of max |u| (predicted 4.5e-4 by
     # predict_float_error), beyond the float bound 1e-4 that the SIL checks
     design = Design(estimator=EHGO(rho=3, eps=0.05, T=1e-3),
@@ -59,7 +60,12 @@ def pendulum():
     return presets.pendulum_design(u_limits=(-20.0, 20.0)), fl.plants.pendulum(), 0.0, 0.1
 
 
-CASES = {"pendulum": pendulum, "heater": heater, "chain3": chain3}
+def chain3_huge():
+    """The chain with a huge region (|y| <= 1e6: the range check and the band at 2e6)."""
+    return chain3(1e6)
+
+
+CASES = {"pendulum": pendulum, "heater": heater, "chain3": chain3, "chain3_huge": chain3_huge}
 
 
 @pytest.fixture(scope="module", params=list(CASES))
