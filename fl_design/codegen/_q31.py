@@ -263,6 +263,32 @@ def _analyse(f, boxes, y_range):
     return iv, kind
 
 
+def _high_word(a, consts, F, f_max):
+    """A product by a constant ``c`` (not 0, not ``+-2^m``: a shift) as the high word of the
+    32 x 32 -> 64-bit product, ``floor(v c_q / 2^32)``: ``c_q = round(c 2^F_c)`` with ``F_c``
+    chosen so that the result has ``F_v + F_c - 32`` fraction bits, at most ``f_max`` (the
+    interval's) and ``|c_q| < 2^31``; one ``SMULL`` on an ARMv7-M core (no low word, no
+    shift), three 16 x 16 products' worth less work on an ARMv6-M one. The result has at most
+    a few bits fewer than ``f_max`` (never more: no overflow). Returns ``((v,), F_out,
+    ("mulc", c_q, 32))`` or None."""
+    for c, v in ((a[0], a[1]), (a[1], a[0])):
+        if c not in consts or v in consts:
+            continue
+        m = consts[c]
+        if m == 0.0 or math.frexp(abs(m))[0] == 0.5:
+            return None  # zero, or a power of two (a shift)
+        f_c_max = math.floor(math.log2((2.0**31 - 1.0) / abs(m)))
+        while abs(round(m * 2.0**f_c_max)) > 2**31 - 1:
+            f_c_max -= 1
+        f_out = min(f_max, F[v] + f_c_max - 32)
+        f_c = f_out + 32 - F[v]
+        cq = round(m * 2.0**f_c)
+        if cq == 0 or f_out < f_max - 3:
+            return None  # the constant too coarse at this scaling: the long product
+        return (v,), f_out, ("mulc", int(cq), 32)
+    return None
+
+
 def q31_program(design, y_range) -> Q31Program:
     """The step of ``design`` (after :func:`~fl_design.codegen.step_design`) as Q31 code.
 
@@ -304,7 +330,7 @@ def q31_program(design, y_range) -> Q31Program:
     iv, kind = _analyse(f, boxes, (lo, hi))
     f_state = tuple(frac_bits(*b) for b in boxes)
     f_y = frac_bits(lo, hi)
-    ops, F, cur, node = [], {}, {}, {}
+    ops, F, cur, node, consts = [], {}, {}, {}, {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
@@ -333,6 +359,10 @@ def q31_program(design, y_range) -> Q31Program:
         else:
             F[k] = frac_bits(*iv[k])
         data = f.instruction_constant(k) if op == ca.OP_CONST else op
+        if op == ca.OP_CONST:
+            consts[k] = data
+        elif op == ca.OP_MUL and (mc := _high_word(a, consts, F, F[k])) is not None:
+            a, F[k], data = mc
         ops.append(("op", k, a, F[k], data))
         cur[outs[0]] = k
     s0 = tuple(round(v * 2.0 ** f_state[i]) for i, v in enumerate(c0))

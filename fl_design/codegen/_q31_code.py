@@ -93,6 +93,14 @@ def _product(x: str, y: str, s: int) -> str:
     return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
 
 
+def _mul_const(x: str, cq: int, s: int) -> str:
+    """``floor(x c_q / 2^s)``: the template's ``_mulhi`` (the high word) for ``s = 32``."""
+    c = _const(cq, 0)
+    if s == 32:
+        return f"{{PFX}}_mulhi({x}, {c})"
+    return _product(x, c, s)
+
+
 def _narrow(op, a, F, name, fk, const):
     """The ``int32_t`` text of a sum, min/max, product by ``+-2^m``, twice or negation when an
     identity of floors makes it exact (module docstring), else None."""
@@ -216,6 +224,9 @@ def c_body_q31(prog: Q31Program) -> str:
             c, x, y = a
             lines.append(f"  const int32_t q{k} = ({name[c]} ? {_shift32(name[x], F[x] - fk)} : "
                          f"{_shift32(name[y], F[y] - fk)});")
+            continue
+        if isinstance(op, tuple):  # ("mulc", c_q, s): floor(v c_q / 2^s), the high word
+            lines.append(f"  const int32_t q{k} = {_mul_const(name[a[0]], op[1], op[2])};")
             continue
         if not isinstance(op, int) or isinstance(op, bool):  # a constant
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
@@ -360,6 +371,8 @@ def _py_op(prog, w, k, a, fk, op):
     if op == "select":
         c, x, y = a
         return _py_shift(w[x], F[x], fk) if w[c] else _py_shift(w[y], F[y], fk)
+    if isinstance(op, tuple):  # ("mulc", c_q, s)
+        return (w[a[0]] * op[1]) >> op[2]
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
     if op in _SYM:

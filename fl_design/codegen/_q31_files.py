@@ -279,6 +279,15 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
 Q15_SHORTER = 16
 
 
+def _shorter_data(data, d: int):
+    """A product by a constant's ``("mulc", c_q, s)`` with ``c_q`` ``d`` bits shorter (its
+    shift too: the result keeps the fraction bits of the value's, ``d`` fewer); other data as
+    it is."""
+    if isinstance(data, tuple) and data[0] == "mulc":
+        return ("mulc", round(data[1] / 2.0**d), data[2] - d)
+    return data
+
+
 def q15_program(prog):
     """The Q31 program with every value 16 bits shorter: ``int16_t`` words with the same one
     bit of headroom, constants rounded to them, products of two words in 32 bits. The integer
@@ -310,7 +319,8 @@ def q15_program(prog):
     d = Q15_SHORTER
     # truth values (comparisons, logic: F = 0) keep theirs; a constant's data is a float
     ops = tuple(op if (op[0] == "op" and not isinstance(op[4], float) and op[4] in logic)
-                else (op[0], op[1], op[2], op[3] - d, op[4]) for op in prog.ops)
+                else (op[0], op[1], op[2], op[3] - d, _shorter_data(op[4], d))
+                for op in prog.ops)
     shorter = lambda v: round(v / 2.0**d)
     return replace(prog, ops=ops, f_state=tuple(f - d for f in prog.f_state), f_y=prog.f_y - d,
                    start0=tuple(shorter(v) for v in prog.start0),
