@@ -104,6 +104,11 @@ class Q31Program:
         The start's rest state ``(start0 + start1 * y0) >> ...`` in fixed point (see C).
     f_start1 : int
         Fraction bits of ``start1``.
+    realization : str
+        The observer's coordinates: ``"cascade"`` (first-order sections, see
+        :mod:`._q31_realize`) or ``"direct"`` (its own).
+    transform : tuple of tuple of float
+        ``T`` of ``w = T xi``: an estimator state in the program's coordinates.
 
     Examples
     --------
@@ -122,6 +127,35 @@ class Q31Program:
     start0: tuple
     start1: tuple
     f_start1: int
+    realization: str = "direct"
+    transform: tuple = ()
+
+    def state_of(self, state) -> list[float]:
+        """A design state (estimator | u | z) in the program's coordinates (real units).
+
+        Parameters
+        ----------
+        state : array_like
+            ``Design`` state.
+
+        Returns
+        -------
+        list of float
+
+        Examples
+        --------
+        >>> from fl_design import presets
+        >>> from fl_design.codegen._q31 import q31_program
+        >>> prog = q31_program(presets.paper_design(), (-1.0, 1.0))
+        >>> prog.state_of([0.5, 0.0, 0.0, 1.0, 0.0])[-2:]
+        [1.0, 0.0]
+        """
+        x = [float(v) for v in np.asarray(state, dtype=float).ravel()]
+        m = len(self.transform)
+        if m == 0:
+            return x
+        T = np.asarray(self.transform, dtype=float)
+        return [float(v) for v in T @ np.asarray(x[:m])] + x[m:]
 
 
 def _linear_maps(design):
@@ -147,7 +181,7 @@ def _peak_gain(A, B, n_max: int = 2_000_000) -> np.ndarray:
     raise ComputationError("the observer's peak gain did not converge (a pole at 1?)")
 
 
-def state_box(design, y_range):
+def state_box(design, y_range, realization=None):
     """The interval of each state entry (module docstring) and ``(c0, c1)`` of the rest state.
 
     Parameters
@@ -156,6 +190,8 @@ def state_box(design, y_range):
         The generated design (delta realization).
     y_range : (float, float)
         Range of ``y`` and ``r``.
+    realization : Realization, optional
+        The observer's coordinates (:mod:`._q31_realize`; default its own).
 
     Returns
     -------
@@ -175,8 +211,12 @@ def state_box(design, y_range):
 
     lo, hi = y_range
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    A, B = _linear_maps(design)
-    c0, c1 = start_map(design)
+    if realization is None:
+        A, B = _linear_maps(design)
+        c0, c1 = start_map(design)
+    else:
+        A, B = realization.A, realization.B
+        c0, c1 = (realization.T @ c for c in start_map(design))
     gain = _peak_gain(A, B) * half
     rest = c0 + c1 * mid
     boxes = [(float(a - g), float(a + g)) for a, g in zip(rest, gain)]
@@ -202,11 +242,88 @@ def _fixed_core(design):
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 
 
-def _analyse(f, boxes, y_range):
+class _PeakGain:
+    """Bounds of the values affine in the observer's state and ``y`` by their peak gain.
+
+    A value ``c xi + d y + (terms in r, u, z)`` of the step, the observer ``xi' = A xi + B y``
+    driven from rest by any ``y`` within ``mid +- half``, lies within ``c rest(mid) + d mid
+    +- (|d| + sum_j |c A^j B|) half`` (plus the other terms' intervals): the sup over every
+    such record, exact, where interval arithmetic adds the terms' ranges as if they were
+    independent (a sum of large estimates that cancel, as a high-gain observer's are, is
+    bounded by their sum of magnitudes). The two bounds are intersected."""
+
+    def __init__(self, A, B, rest, mid, half):
+        self.rest, self.mid, self.half, self.m = rest, mid, half, len(B)
+        cols, v = [], np.asarray(B, dtype=float)
+        total = 0.0
+        for _ in range(200_000):
+            cols.append(v)
+            total += float(np.max(np.abs(v)))
+            v = A @ v
+            if float(np.max(np.abs(v))) <= 1e-16 * total:
+                break
+        self.H = np.array(cols).T  # (m, N): A^j B
+
+    def bound(self, form):
+        """``(lo, hi)`` of the affine ``form`` (``{input index: coef}``, const) over the
+        observer's part, None when it reads other inputs only (the caller adds them)."""
+        coef, const = form
+        c = np.zeros(self.m)
+        d = 0.0
+        for i, v in coef.items():
+            if i == "y":
+                d = v
+            else:
+                c[i] = v
+        center = const + float(c @ self.rest) + d * self.mid
+        rad = (abs(d) + float(np.sum(np.abs(c @ self.H)))) * self.half
+        return center - rad, center + rad
+
+
+def _affine_step(op, a, forms, const):
+    """The affine form of an instruction from its operands' (None when it is not affine)."""
+    fa = [forms.get(j) for j in a]
+    if any(v is None for v in fa):
+        return None
+
+    def lin(f1, s1, f2, s2):
+        d = {i: s1 * v for i, v in f1[0].items()}
+        for i, v in (f2[0].items() if f2 else ()):
+            d[i] = d.get(i, 0.0) + s2 * v
+        return d, s1 * f1[1] + (s2 * f2[1] if f2 else 0.0)
+
+    if op == ca.OP_ADD:
+        return lin(fa[0], 1.0, fa[1], 1.0)
+    if op == ca.OP_SUB:
+        return lin(fa[0], 1.0, fa[1], -1.0)
+    if op == ca.OP_NEG:
+        return lin(fa[0], -1.0, None, 0.0)
+    if op == ca.OP_TWICE:
+        return lin(fa[0], 2.0, None, 0.0)
+    if op == ca.OP_ASSIGN:
+        return fa[0]
+    if op == ca.OP_MUL:
+        for x, y in ((a[0], a[1]), (a[1], a[0])):
+            if x in const:
+                return lin(forms[y], const[x], None, 0.0)
+    return None
+
+
+def _split(form, m):
+    """The observer's part of an affine form (xi, y, const) and the rest (r, u, z)."""
+    mine = lambda i: i == "y" or (i != "r" and i < m)
+    own = {i: v for i, v in form[0].items() if mine(i)}
+    other = {i: v for i, v in form[0].items() if not mine(i)}
+    return (own, form[1]), other
+
+
+def _analyse(f, boxes, y_range, peak=None):
     """Intervals of every instruction of ``f`` (x, y, r) from the input boxes; a select
-    (:func:`._emit._select`) has the hull of its two values' intervals (it is one of them)."""
+    (:func:`._emit._select`) has the hull of its two values' intervals (it is one of them).
+    With ``peak`` (:class:`_PeakGain`) a value affine in the inputs also has its peak-gain
+    bound, and the tighter of the two holds."""
     iv, kind, node = {}, {}, {}
-    cur = {}
+    cur, forms, const = {}, {}, {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
@@ -214,12 +331,14 @@ def _analyse(f, boxes, y_range):
         if op == ca.OP_INPUT:
             box = boxes[ins[1]] if ins[0] == 0 else y_range
             iv[k], kind[k] = box, "q"
+            forms[k] = ({ins[1] if ins[0] == 0 else ("y" if ins[0] == 1 else "r"): 1.0}, 0.0)
             cur[outs[0]] = k
             continue
         a = [cur[i] for i in ins if i >= 0] if op != ca.OP_CONST else []
         if op == ca.OP_CONST:
             c = f.instruction_constant(k)
             iv[k], kind[k] = (c, c), "q"
+            forms[k], const[k] = ({}, c), c
         elif op == ca.OP_ADD and _select(node, *a):
             _, x, y = _select(node, *a)
             iv[k] = (min(iv[x][0], iv[y][0]), max(iv[x][1], iv[y][1]))
@@ -259,6 +378,15 @@ def _analyse(f, boxes, y_range):
         else:
             raise ComputationError(f"CasADi operation {op} has no Q31 translation (the "
                                    "library's estimators use +, -, *, min, max, compare)")
+        if op != ca.OP_CONST and kind[k] == "q" and (fk := _affine_step(op, a, forms, const)):
+            forms[k] = fk
+            if peak is not None:
+                own, other = _split(fk, peak.m)
+                lo, hi = peak.bound(own)
+                for i, v in other.items():  # r, u, z: their boxes
+                    b = boxes[i] if i != "r" else y_range
+                    lo, hi = lo + min(v * b[0], v * b[1]), hi + max(v * b[0], v * b[1])
+                iv[k] = (max(iv[k][0], lo), min(iv[k][1], hi))
         cur[outs[0]] = k
     return iv, kind
 
@@ -320,14 +448,17 @@ def q31_program(design, y_range) -> Q31Program:
     lo, hi = (float(v) for v in y_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise ParameterError(f"y_range={y_range!r} must be a finite (lo, hi) with lo < hi")
-    f = _fixed_core(design)
-    boxes, c0, c1 = state_box(design, (lo, hi))
-    iv, _ = _analyse(f, boxes, (lo, hi))
+    real = _cheapest(design, (lo, hi))
+    f = real.core
+    boxes, c0, c1 = state_box(design, (lo, hi), real)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    peak = _PeakGain(real.A, real.B, c0 + c1 * mid, mid, half)
+    iv, _ = _analyse(f, boxes, (lo, hi), peak)
     # z's box: k_I |z| at most k_1 (y_max - y_min), the proportional term's full scale
     ctrl = design.controller
     zb = ctrl.gains[0] * (hi - lo) / ctrl.ki if ctrl.ki > 0 else 2.0**20 * design.T
     boxes[-1] = (-zb, zb)
-    iv, kind = _analyse(f, boxes, (lo, hi))
+    iv, kind = _analyse(f, boxes, (lo, hi), peak)
     f_state = tuple(frac_bits(*b) for b in boxes)
     f_y = frac_bits(lo, hi)
     ops, F, cur, node, consts = [], {}, {}, {}, {}
@@ -369,7 +500,35 @@ def q31_program(design, y_range) -> Q31Program:
     f1 = min(frac_bits(*(float(np.min(c1)), float(np.max(c1)))), 30)
     s1 = tuple(round(v * 2.0**f1) for v in c1)
     return Q31Program(tuple(ops), f_state, f_y, tuple(boxes), (lo, hi), design.state_size,
-                      s0, s1, f1)
+                      s0, s1, f1, real.name, tuple(tuple(float(v) for v in row) for row in real.T))
+
+
+def _products(f) -> int:
+    """Products of ``f`` other than by ``0`` or ``+-2^m`` (shifts)."""
+    const, n = {}, 0
+    for k in range(f.n_instructions()):
+        op = f.instruction_id(k)
+        if op == ca.OP_CONST:
+            const[f.instruction_output(k)[0]] = f.instruction_constant(k)
+        elif op in (ca.OP_MUL, ca.OP_SQ):
+            cs = [const.get(i) for i in f.instruction_input(k) if i >= 0]
+            n += not any(c is not None and (c == 0.0 or math.frexp(abs(c))[0] == 0.5)
+                         for c in cs)
+    return n
+
+
+def _cheapest(design, y_range):
+    """The realization of the observer with fewer products: the cascade of first-order
+    sections (:mod:`._q31_realize`) when it applies and saves some, else its own."""
+    from ._q31_realize import Realization, delta_realization
+
+    f0 = _fixed_core(design)
+    real = delta_realization(design, y_range, f0)
+    if real.name != "direct" and _products(real.core) < _products(f0):
+        return real
+    A, B = _linear_maps(design)
+    m = int(design.estimator.state_size)
+    return Realization("direct", f0, A, B, np.eye(m), (), real.why or "no fewer products")
 
 
 __all__ = ["Q31Program", "frac_bits", "q31_program", "state_box"]

@@ -93,6 +93,15 @@ def _product(x: str, y: str, s: int) -> str:
     return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
 
 
+def _wrap_term(v: str, s: int) -> str:
+    """A term of a sum in ``uint32_t`` at the result's fraction bits: ``floor(v / 2^s)`` for
+    ``s >= 0``, ``v 2^-s`` modulo ``2^32`` for ``s < 0`` (the sum, which fits an ``int32_t``
+    by the interval analysis, is then exact: two's complement arithmetic modulo ``2^32``)."""
+    if s >= 0:
+        return f"(uint32_t) {_shift32(v, s)}"
+    return f"((uint32_t) {v} * {1 << -s}u)"
+
+
 def _mul_const(x: str, cq: int, s: int) -> str:
     """``floor(x c_q / 2^s)``: the template's ``_mulhi`` (the high word) for ``s = 32``."""
     c = _const(cq, 0)
@@ -231,6 +240,14 @@ def c_body_q31(prog: Q31Program) -> str:
         if not isinstance(op, int) or isinstance(op, bool):  # a constant
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
             const[k] = round(data * 2.0**fk)
+            continue
+        if op in _SYM and fk <= min(F[a[0]], F[a[1]]):  # each term floored to fk, in 32 bits
+            x0, x1 = _shift32(name[a[0]], F[a[0]] - fk), _shift32(name[a[1]], F[a[1]] - fk)
+            lines.append(f"  const int32_t q{k} = ({x0} {_SYM[op]} {x1});")
+            continue
+        if op in _SYM and fk - min(F[a[0]], F[a[1]]) <= 30:  # modulo 2^32: the result fits
+            x0, x1 = (_wrap_term(name[j], F[j] - fk) for j in a)
+            lines.append(f"  const int32_t q{k} = (int32_t) ({x0} {_SYM[op]} {x1});")
             continue
         narrow = _narrow(op, a, F, name, fk, const)
         if narrow is not None:
@@ -375,6 +392,12 @@ def _py_op(prog, w, k, a, fk, op):
         return (w[a[0]] * op[1]) >> op[2]
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
+    if op in _SYM and fk <= min(F[a[0]], F[a[1]]):  # each term floored to fk (the C's)
+        A, B = w[a[0]] >> (F[a[0]] - fk), w[a[1]] >> (F[a[1]] - fk)
+        return A + B if op == ca.OP_ADD else A - B
+    if op in _SYM and fk - min(F[a[0]], F[a[1]]) <= 30:  # the C's sum modulo 2^32
+        A, B = (_py_shift(w[j], F[j], fk) for j in a)
+        return A + B if op == ca.OP_ADD else A - B
     if op in _SYM:
         fm = _align(F[a[0]], F[a[1]])
         A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)
