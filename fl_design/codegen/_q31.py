@@ -51,6 +51,7 @@ import numpy as np
 from ..errors import ComputationError, ParameterError
 from ._emit import _select
 from ._q31_factor import factor_constants
+from ._q31_peak import PeakGain, affine_step, split_form
 
 _LIMIT = 2.0**30  # one bit of headroom below 2^31
 _F_MAX = 60
@@ -105,10 +106,8 @@ class Q31Program:
     f_start1 : int
         Fraction bits of ``start1``.
     realization : str
-        The observer's coordinates: ``"cascade"`` (first-order sections, see
-        :mod:`._q31_realize`) or ``"direct"`` (its own).
-    transform : tuple of tuple of float
-        ``T`` of ``w = T xi``: an estimator state in the program's coordinates.
+        How the observer's update is computed: ``"recursion"`` (the EHGO's delta update as
+        its recursion, :mod:`._q31_realize`) or ``"direct"`` (its matrix).
 
     Examples
     --------
@@ -128,34 +127,6 @@ class Q31Program:
     start1: tuple
     f_start1: int
     realization: str = "direct"
-    transform: tuple = ()
-
-    def state_of(self, state) -> list[float]:
-        """A design state (estimator | u | z) in the program's coordinates (real units).
-
-        Parameters
-        ----------
-        state : array_like
-            ``Design`` state.
-
-        Returns
-        -------
-        list of float
-
-        Examples
-        --------
-        >>> from fl_design import presets
-        >>> from fl_design.codegen._q31 import q31_program
-        >>> prog = q31_program(presets.paper_design(), (-1.0, 1.0))
-        >>> prog.state_of([0.5, 0.0, 0.0, 1.0, 0.0])[-2:]
-        [1.0, 0.0]
-        """
-        x = [float(v) for v in np.asarray(state, dtype=float).ravel()]
-        m = len(self.transform)
-        if m == 0:
-            return x
-        T = np.asarray(self.transform, dtype=float)
-        return [float(v) for v in T @ np.asarray(x[:m])] + x[m:]
 
 
 def _linear_maps(design):
@@ -191,7 +162,7 @@ def state_box(design, y_range, realization=None):
     y_range : (float, float)
         Range of ``y`` and ``r``.
     realization : Realization, optional
-        The observer's coordinates (:mod:`._q31_realize`; default its own).
+        The observer's update (:mod:`._q31_realize`; default the estimator's).
 
     Returns
     -------
@@ -216,7 +187,7 @@ def state_box(design, y_range, realization=None):
         c0, c1 = start_map(design)
     else:
         A, B = realization.A, realization.B
-        c0, c1 = (realization.T @ c for c in start_map(design))
+        c0, c1 = start_map(design)
     gain = _peak_gain(A, B) * half
     rest = c0 + c1 * mid
     boxes = [(float(a - g), float(a + g)) for a, g in zip(rest, gain)]
@@ -242,85 +213,10 @@ def _fixed_core(design):
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 
 
-class _PeakGain:
-    """Bounds of the values affine in the observer's state and ``y`` by their peak gain.
-
-    A value ``c xi + d y + (terms in r, u, z)`` of the step, the observer ``xi' = A xi + B y``
-    driven from rest by any ``y`` within ``mid +- half``, lies within ``c rest(mid) + d mid
-    +- (|d| + sum_j |c A^j B|) half`` (plus the other terms' intervals): the sup over every
-    such record, exact, where interval arithmetic adds the terms' ranges as if they were
-    independent (a sum of large estimates that cancel, as a high-gain observer's are, is
-    bounded by their sum of magnitudes). The two bounds are intersected."""
-
-    def __init__(self, A, B, rest, mid, half):
-        self.rest, self.mid, self.half, self.m = rest, mid, half, len(B)
-        cols, v = [], np.asarray(B, dtype=float)
-        total = 0.0
-        for _ in range(200_000):
-            cols.append(v)
-            total += float(np.max(np.abs(v)))
-            v = A @ v
-            if float(np.max(np.abs(v))) <= 1e-16 * total:
-                break
-        self.H = np.array(cols).T  # (m, N): A^j B
-
-    def bound(self, form):
-        """``(lo, hi)`` of the affine ``form`` (``{input index: coef}``, const) over the
-        observer's part, None when it reads other inputs only (the caller adds them)."""
-        coef, const = form
-        c = np.zeros(self.m)
-        d = 0.0
-        for i, v in coef.items():
-            if i == "y":
-                d = v
-            else:
-                c[i] = v
-        center = const + float(c @ self.rest) + d * self.mid
-        rad = (abs(d) + float(np.sum(np.abs(c @ self.H)))) * self.half
-        return center - rad, center + rad
-
-
-def _affine_step(op, a, forms, const):
-    """The affine form of an instruction from its operands' (None when it is not affine)."""
-    fa = [forms.get(j) for j in a]
-    if any(v is None for v in fa):
-        return None
-
-    def lin(f1, s1, f2, s2):
-        d = {i: s1 * v for i, v in f1[0].items()}
-        for i, v in (f2[0].items() if f2 else ()):
-            d[i] = d.get(i, 0.0) + s2 * v
-        return d, s1 * f1[1] + (s2 * f2[1] if f2 else 0.0)
-
-    if op == ca.OP_ADD:
-        return lin(fa[0], 1.0, fa[1], 1.0)
-    if op == ca.OP_SUB:
-        return lin(fa[0], 1.0, fa[1], -1.0)
-    if op == ca.OP_NEG:
-        return lin(fa[0], -1.0, None, 0.0)
-    if op == ca.OP_TWICE:
-        return lin(fa[0], 2.0, None, 0.0)
-    if op == ca.OP_ASSIGN:
-        return fa[0]
-    if op == ca.OP_MUL:
-        for x, y in ((a[0], a[1]), (a[1], a[0])):
-            if x in const:
-                return lin(forms[y], const[x], None, 0.0)
-    return None
-
-
-def _split(form, m):
-    """The observer's part of an affine form (xi, y, const) and the rest (r, u, z)."""
-    mine = lambda i: i == "y" or (i != "r" and i < m)
-    own = {i: v for i, v in form[0].items() if mine(i)}
-    other = {i: v for i, v in form[0].items() if not mine(i)}
-    return (own, form[1]), other
-
-
 def _analyse(f, boxes, y_range, peak=None):
     """Intervals of every instruction of ``f`` (x, y, r) from the input boxes; a select
     (:func:`._emit._select`) has the hull of its two values' intervals (it is one of them).
-    With ``peak`` (:class:`_PeakGain`) a value affine in the inputs also has its peak-gain
+    With ``peak`` (:class:`._q31_peak.PeakGain`) a value affine in the inputs also has its peak-gain
     bound, and the tighter of the two holds."""
     iv, kind, node = {}, {}, {}
     cur, forms, const = {}, {}, {}
@@ -378,10 +274,10 @@ def _analyse(f, boxes, y_range, peak=None):
         else:
             raise ComputationError(f"CasADi operation {op} has no Q31 translation (the "
                                    "library's estimators use +, -, *, min, max, compare)")
-        if op != ca.OP_CONST and kind[k] == "q" and (fk := _affine_step(op, a, forms, const)):
+        if op != ca.OP_CONST and kind[k] == "q" and (fk := affine_step(op, a, forms, const)):
             forms[k] = fk
             if peak is not None:
-                own, other = _split(fk, peak.m)
+                own, other = split_form(fk, peak.m)
                 lo, hi = peak.bound(own)
                 for i, v in other.items():  # r, u, z: their boxes
                     b = boxes[i] if i != "r" else y_range
@@ -452,7 +348,7 @@ def q31_program(design, y_range) -> Q31Program:
     f = real.core
     boxes, c0, c1 = state_box(design, (lo, hi), real)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    peak = _PeakGain(real.A, real.B, c0 + c1 * mid, mid, half)
+    peak = PeakGain(real.A, real.B, c0 + c1 * mid, mid, half)
     iv, _ = _analyse(f, boxes, (lo, hi), peak)
     # z's box: k_I |z| at most k_1 (y_max - y_min), the proportional term's full scale
     ctrl = design.controller
@@ -500,7 +396,7 @@ def q31_program(design, y_range) -> Q31Program:
     f1 = min(frac_bits(*(float(np.min(c1)), float(np.max(c1)))), 30)
     s1 = tuple(round(v * 2.0**f1) for v in c1)
     return Q31Program(tuple(ops), f_state, f_y, tuple(boxes), (lo, hi), design.state_size,
-                      s0, s1, f1, real.name, tuple(tuple(float(v) for v in row) for row in real.T))
+                      s0, s1, f1, real.name)
 
 
 def _products(f) -> int:
@@ -518,8 +414,8 @@ def _products(f) -> int:
 
 
 def _cheapest(design, y_range):
-    """The realization of the observer with fewer products: the cascade of first-order
-    sections (:mod:`._q31_realize`) when it applies and saves some, else its own."""
+    """The core with fewer products: the EHGO's delta update as its recursion
+    (:mod:`._q31_realize`) when it applies and saves some, else the matrix form."""
     from ._q31_realize import Realization, delta_realization
 
     f0 = _fixed_core(design)
@@ -527,8 +423,7 @@ def _cheapest(design, y_range):
     if real.name != "direct" and _products(real.core) < _products(f0):
         return real
     A, B = _linear_maps(design)
-    m = int(design.estimator.state_size)
-    return Realization("direct", f0, A, B, np.eye(m), (), real.why or "no fewer products")
+    return Realization("direct", f0, A, B, real.why or "no fewer products")
 
 
 __all__ = ["Q31Program", "frac_bits", "q31_program", "state_box"]

@@ -93,6 +93,15 @@ def _product(x: str, y: str, s: int) -> str:
     return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
 
 
+def _wraps(fa: int, fb: int, fk: int) -> bool:
+    """A sum printed in 32 bits modulo ``2^32``: one term scaled up (by at most ``2^30``),
+    the other scaled down or not (``floor((A 2^p + B) / 2^q) = A 2^(p-q) + floor(B / 2^q)``
+    when ``A 2^(p-q)`` is an integer: exact); both scaled down is not exact (``floor(a) +
+    floor(-a) = -1``: a value at rest would creep) and stays a 64-bit sum."""
+    lo, hi = min(fa, fb), max(fa, fb)
+    return lo < fk <= hi + 30 and fk - lo <= 30
+
+
 def _wrap_term(v: str, s: int) -> str:
     """A term of a sum in ``uint32_t`` at the result's fraction bits: ``floor(v / 2^s)`` for
     ``s >= 0``, ``v 2^-s`` modulo ``2^32`` for ``s < 0`` (the sum, which fits an ``int32_t``
@@ -241,11 +250,7 @@ def c_body_q31(prog: Q31Program) -> str:
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
             const[k] = round(data * 2.0**fk)
             continue
-        if op in _SYM and fk <= min(F[a[0]], F[a[1]]):  # each term floored to fk, in 32 bits
-            x0, x1 = _shift32(name[a[0]], F[a[0]] - fk), _shift32(name[a[1]], F[a[1]] - fk)
-            lines.append(f"  const int32_t q{k} = ({x0} {_SYM[op]} {x1});")
-            continue
-        if op in _SYM and fk - min(F[a[0]], F[a[1]]) <= 30:  # modulo 2^32: the result fits
+        if op in _SYM and _wraps(F[a[0]], F[a[1]], fk):  # modulo 2^32: the result fits
             x0, x1 = (_wrap_term(name[j], F[j] - fk) for j in a)
             lines.append(f"  const int32_t q{k} = (int32_t) ({x0} {_SYM[op]} {x1});")
             continue
@@ -392,10 +397,7 @@ def _py_op(prog, w, k, a, fk, op):
         return (w[a[0]] * op[1]) >> op[2]
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
-    if op in _SYM and fk <= min(F[a[0]], F[a[1]]):  # each term floored to fk (the C's)
-        A, B = w[a[0]] >> (F[a[0]] - fk), w[a[1]] >> (F[a[1]] - fk)
-        return A + B if op == ca.OP_ADD else A - B
-    if op in _SYM and fk - min(F[a[0]], F[a[1]]) <= 30:  # the C's sum modulo 2^32
+    if op in _SYM and _wraps(F[a[0]], F[a[1]], fk):  # the C's sum modulo 2^32 (exact)
         A, B = (_py_shift(w[j], F[j], fk) for j in a)
         return A + B if op == ca.OP_ADD else A - B
     if op in _SYM:

@@ -137,7 +137,7 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
     prog = q31_program(design, (lo, hi))
     f_u = prog.f_state[-2]
     u_lo, u_hi = design.controller.u_range
-    x0 = [_q(v, prog.f_state[i]) for i, v in enumerate(prog.state_of(design.initial_state()))]
+    x0 = [_q(v, prog.f_state[i]) for i, v in enumerate(design.initial_state())]
     subs = dict(base)
     body = c_body_q31(prog).replace("{PFX}", prefix)
     subs.update({
