@@ -252,7 +252,7 @@ def c_body_q31(prog: Q31Program) -> str:
             continue
         if op in _SYM and _wraps(F[a[0]], F[a[1]], fk):  # modulo 2^32: the result fits
             x0, x1 = (_wrap_term(name[j], F[j] - fk) for j in a)
-            lines.append(f"  const int32_t q{k} = (int32_t) ({x0} {_SYM[op]} {x1});")
+            lines.append(f"  const int32_t q{k} = {{PFX}}_s32({x0} {_SYM[op]} {x1});")
             continue
         narrow = _narrow(op, a, F, name, fk, const)
         if narrow is not None:

@@ -264,12 +264,12 @@ def delta_realization(design, y_range, fixed_core=None) -> Realization:
     if rec is None:
         return Realization("direct", f0, A, B, "not an EHGO delta update of the bilinear or "
                            "Euler methods")
-    alpha, beta, kappa, gam, b, dinv = rec
+    alpha, beta, kappa, _, b, dinv = rec
+    c = [float(v) for v in design.estimator.alphas]
 
-    def lin_xhat(s):  # s = [a_1 .. a_(m-1), t_0, y, ...]
+    def lin_xhat(s):  # s = [t_1 .. t_(m-1), t_0, y, ...]
         t0, y = s[m - 1], s[m]
-        return ca.vertcat(dinv[0] * (t0 + y),
-                          *[dinv[i] * (s[i - 1] + b[i] * t0) for i in range(1, m)])
+        return ca.vertcat(dinv[0] * (t0 + y), *[dinv[i] * s[i - 1] for i in range(1, m)])
 
     g = _controller_of(design, lin_xhat, m)
     x, y, r = ca.SX.sym("x", m + 2), ca.SX.sym("y"), ca.SX.sym("r")
@@ -278,12 +278,16 @@ def delta_realization(design, y_range, fixed_core=None) -> Realization:
     a[m - 1] = e[m - 1]
     for i in range(m - 2, -1, -1):
         a[i] = e[i] + ca.SX(beta) * a[i + 1] if beta else e[i]
-    t0 = ca.SX(kappa) * a[0]
-    xi_next = [x[i] + (ca.SX(alpha) * a[i + 1] if i + 1 < m else 0) + ca.SX(gam[i]) * t0
-               for i in range(m)]
-    uz = g(ca.vertcat(*a[1:m], t0, y, r, x[m], x[m + 1]))
-    core = factor_constants(ca.Function("q31_core", [x, y, r],
-                                        [ca.vertcat(*xi_next, uz[0], uz[1]), uz[0]]))
+    t = [ca.SX(kappa) * a[0]]
+    t += [a[i] + ca.SX(b[i]) * t[0] if b[i] else a[i] for i in range(1, m)] + [ca.SX(0)]
+    xi_next = [x[i] + ca.SX(alpha) * t[i + 1] - ca.SX(alpha * c[i]) * t[0] if i + 1 < m
+               else x[i] - ca.SX(alpha * c[i]) * t[0] for i in range(m)]
+    uz = g(ca.vertcat(*t[1:m], t[0], y, r, x[m], x[m + 1]))
+    shared = factor_constants(ca.Function("q31_core", [x, y, r],
+                                          [ca.vertcat(*xi_next, uz[0], uz[1]), uz[0]]))
+    x_next, u = shared(x, y, r)  # one product per constant and operand (the factoring and
+    outs = ca.cse(ca.vertcat(x_next, u))  # the collapse repeat some)
+    core = ca.Function("q31_core", [x, y, r], [outs[:m + 2], outs[m + 2]])
     why = _disagreement(design, f0, core, y_range)
     if why:
         return Realization("direct", f0, A, B, why)
