@@ -6,15 +6,18 @@ D^-1 (xi + theta G e)``). ``G = (I - theta alpha F)^-1 alpha F`` (``F`` the comp
 of the observer's coefficients ``c``, ``alpha = T / eps``, ``theta`` the method's weight) is a
 recursion (:func:`_delta_recursion`): with ``beta = theta alpha``,
 
-    a_(n-1) = e_(n-1),  a_i = e_i + beta a_(i+1),  t_0 = kappa a_0,
-    g_i = alpha a_(i+1) + gamma_i t_0,   xhat_0 = d_0 (t_0 + y),  xhat_i = d_i (a_i + b_i t_0)
+    a_(n-1) = e_(n-1),  a_i = e_i + beta a_(i+1),  t_0 = kappa a_0,  t_i = a_i + b_i t_0,
+    g_i = alpha t_(i+1) - alpha c_i t_0,   xhat_0 = d_0 (t_0 + y),  xhat_i = d_i t_i
 
-(``b_n = 0``, ``b_i = beta b_(i+1) - beta c_i``, ``kappa = 1 / (1 - b_0)``, ``gamma_i = alpha
-(b_(i+1) - c_i)``): ``3 n - 1`` products, fewer where ``alpha`` or ``beta`` is a power of two
-(a shift). The controller reads the estimates only through a few linear functionals (the
-error ``xhat_1 - r``, the law ``sum k_i xhat_i + sigmahat``, a clamped estimate):
-:func:`collapse_affine` prints each once as a sum over ``a, t_0, y, r, u, z``. The observer
-keeps its coordinates: its state, start and boxes are the delta realization's own.
+(``t_n = 0``, ``b_n = 0``, ``b_i = beta b_(i+1) - beta c_i``, ``kappa = 1 / (1 - b_0)``; ``t_i
+= e_i + theta g_i``, so ``xhat = D^-1 (xi + theta g)``): ``4 n - 2`` products, fewer where
+``alpha``, ``beta`` or a coefficient is a power of two (a shift) or two products repeat. The
+estimates are read from ``t_i``, their own (small) values: a sum ``a_i + b_i t_0`` of large
+terms that cancel, read by the controller's large gains, would lose the bits the terms
+carry. The controller reads the estimates only through a few linear functionals (the error
+``xhat_1 - r``, the law ``sum k_i xhat_i + sigmahat``, a clamped estimate):
+:func:`collapse_affine` prints each once as a sum over ``t, y, r, u, z``. The observer keeps
+its coordinates: its state, start and boxes are the delta realization's own.
 
 The rewritten step is used only when it agrees with the observer's own in double precision
 on a random record within the range (``1e-9`` of each state entry's peak) and has fewer
@@ -185,15 +188,12 @@ def _controller_of(design, lin_xhat, leaves_n):
 
 
 def _delta_recursion(design):
-    """The EHGO's delta update ``g = G e`` as its recursion, or None.
+    """The EHGO's delta update ``g = G e`` as its recursion (module docstring), or None.
 
-    ``G = (I - beta F)^-1 alpha F`` (``beta = theta alpha``, ``F`` the companion matrix of the
-    coefficients ``c``) solves as ``a_i = e_i + beta a_(i+1)``, ``t_0 = a_0 / (1 - b_0)``
-    (``b_i = beta b_(i+1) - beta c_i``), ``g_i = alpha a_(i+1) + alpha (b_(i+1) - c_i) t_0``
-    (``a_n = b_n = 0``), and ``xhat = D^-1 (xi + theta g)`` is ``D^-1_0 (t_0 + y)``, ``D^-1_i
-    (a_i + b_i t_0)``: ``3 n - 1`` products instead of ``n^2``, fewer when ``alpha`` or
-    ``beta`` is a power of two. Returns ``(alpha, beta, kappa, gamma, b, d)`` when ``G``
-    (as the estimator computes it) is this within ``1e-12``."""
+    Returns ``(alpha, beta, kappa, gamma, b, d)`` (``gamma_i = alpha (b_(i+1) - c_i)``: ``g_i
+    = alpha a_(i+1) + gamma_i t_0``, how the check below applies it) when ``G`` (as the
+    estimator computes it) is this recursion within ``1e-12`` of its largest entry; None for
+    another estimator, the ZOH method or a mismatch."""
     from ..design import EHGO
     from ..design._ehgo_discretization import _THETA
 
@@ -228,7 +228,7 @@ def _delta_recursion(design):
 def delta_realization(design, y_range, fixed_core=None) -> Realization:
     """The step of ``design`` with its EHGO's delta update as a recursion (same coordinates).
 
-    See :func:`_delta_recursion`; the controller reads the estimates through the sums
+    See the module docstring; the controller reads the estimates through the sums
     :func:`collapse_affine` prints. The observer keeps its coordinates (its state, start and
     boxes are the delta realization's own); only the order of the operations changes.
 
