@@ -3,7 +3,10 @@
 ``generate_c(..., precision="q31")`` prints ``Design.step`` (its numbers fixed: the gains,
 ``gamma`` and the limits are constants of a Q31 build) as integer code: every value is an
 ``int32_t`` holding ``v 2^F`` with its own number of fraction bits ``F``; products are formed in
-``int64_t`` and shifted back; no floating-point operation, type or helper anywhere.
+``int64_t`` and shifted back (a product by a constant is the product's high word, the constant
+scaled for it: :func:`_high_word`); no floating-point operation, type or helper anywhere.
+The graph is the design's step with its EHGO's delta update as a recursion and the
+controller's sums collapsed (:mod:`._q31_realize`) when that has fewer products.
 
 **Scalings.** Each value's ``F`` comes from an interval that contains it on every sample
 (one bit of headroom: ``|v| 2^F <= 2^30``):
@@ -19,11 +22,14 @@
   limit: in 32 bits that range leaves ``z`` a resolution of ``2^-F_z``, so increments
   ``T |y - r|`` below it are lost (a dead band of the integral action near the reference;
   a 64-bit ``z`` is the fix, not done);
-- every intermediate value: interval arithmetic over the graph from these boxes.
+- every intermediate value: interval arithmetic over the graph from these boxes, and for a
+  value affine in the observer's state and ``y`` its peak-gain bound where tighter
+  (:mod:`._q31_peak`: the sums of large estimates that cancel).
 
 **No overflow.** Each ``int32_t`` result lies within its interval, hence within
 ``+-2^30 / 2^F``; the ``int64_t`` intermediates are sums of two values below ``2^62`` and
-products of two ``int32_t``. The state's entries are stored through a saturation that the
+products of two ``int32_t``; a sum computed modulo ``2^32`` has its result within its
+interval (:mod:`._q31_code`). The state's entries are stored through a saturation that the
 bounds above never reach (interval arithmetic of one step is looser than the peak-gain bound).
 
 **Error.** :func:`fl_design.codegen._q31_code.emulate_q31` runs the same integer program in

@@ -14,7 +14,10 @@ overflow. ``floor((w 2^k + x) / 2^k) = w + floor(x / 2^k)``, ``floor((w 2^k - x)
 w + floor(-x / 2^k)``, ``floor((x - w 2^k) / 2^k) = floor(x / 2^k) - w`` (a sum whose operand
 of fewer fraction bits has the result's); ``floor(max(w 2^k, x) / 2^k) = max(w, floor(x /
 2^k))`` (floor is monotone); a product by a constant ``+-2^m`` is a shift; ``2 w`` and ``-w``
-likewise.
+likewise. A sum with a term scaled up is computed modulo ``2^32`` (``uint32_t``): the scaled
+term is exact modulo ``2^32``, the other floored (``floor((A 2^p + B) / 2^q) = A 2^(p-q) +
+floor(B / 2^q)``), and the result, within its interval, fits. A product by a constant
+``("mulc", c_q, 32)`` is ``floor(v c_q / 2^32)``, the high word (:func:`._q31._high_word`).
 
 Examples
 --------

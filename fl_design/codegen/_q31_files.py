@@ -154,6 +154,8 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
         "INITIAL_STATE_Q": ", ".join(_lit(v) for v in x0),
         "T_US": str(max(1, round(design.T * 1e6))),
         "Z_BOX": f"{prog.state_box[-1][1]:.6g}",
+        "Q31_REALIZATION": ("as its recursion (see Cost)" if prog.realization == "recursion"
+                            else "as its matrix"),
     })
     return subs, prog, (lo, hi, why)
 
