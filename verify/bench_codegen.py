@@ -219,8 +219,8 @@ def _q31_on_fpu_less(tmp: str) -> tuple[dict, list[str]]:
         over = [f"{cpu} {row[cpu] - limit:+.0f}" for cpu, limit in MAX_Q31.items()
                 if row[cpu] > limit]
         row["error"] = pkg.predicted_float_error
-        row["update"] = ("recursion" if "as its recursion" in (pkg.out_dir / "README.md").read_text()
-                         else "matrix")
+        readme = (pkg.out_dir / "README.md").read_text()
+        row["update"] = "recursion" if "update as its recursion (see Cost)" in readme else "matrix"
         print(f"  | {name} | {row['cortex-m3']:.0f} | {row['cortex-m0plus']:.0f} | "
               f"{'bit-exact' if same else 'DIFFERS'} | "
               f"{'within' if not over else 'over by ' + ', '.join(over)} | "

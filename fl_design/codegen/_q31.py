@@ -319,7 +319,7 @@ def _high_word(a, consts, F, f_max):
     return None
 
 
-def q31_program(design, y_range) -> Q31Program:
+def q31_program(design, y_range, update: str = "auto") -> Q31Program:
     """The step of ``design`` (after :func:`~fl_design.codegen.step_design`) as Q31 code.
 
     Parameters
@@ -328,6 +328,9 @@ def q31_program(design, y_range) -> Q31Program:
         EHGO or least-squares design with ``u_limits``.
     y_range : (float, float)
         Range of ``y`` and ``r``.
+    update : {"auto", "matrix"}, optional
+        The observer's update: as its recursion when that has fewer products
+        (:mod:`._q31_realize`), or always as its matrix.
 
     Returns
     -------
@@ -350,7 +353,9 @@ def q31_program(design, y_range) -> Q31Program:
     lo, hi = (float(v) for v in y_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise ParameterError(f"y_range={y_range!r} must be a finite (lo, hi) with lo < hi")
-    real = _cheapest(design, (lo, hi))
+    if update not in ("auto", "matrix"):
+        raise ParameterError(f"update={update!r} is not known; valid: 'auto', 'matrix'")
+    real = _cheapest(design, (lo, hi)) if update == "auto" else _matrix(design)
     f = real.core
     boxes, c0, c1 = state_box(design, (lo, hi), real)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -422,14 +427,20 @@ def _products(f) -> int:
 def _cheapest(design, y_range):
     """The core with fewer products: the EHGO's delta update as its recursion
     (:mod:`._q31_realize`) when it applies and saves some, else the matrix form."""
-    from ._q31_realize import Realization, delta_realization
+    from ._q31_realize import delta_realization
 
     f0 = _fixed_core(design)
     real = delta_realization(design, y_range, f0)
     if real.name != "direct" and _products(real.core) < _products(f0):
         return real
+    return _matrix(design, f0, real.why or "no fewer products")
+
+
+def _matrix(design, f0=None, why: str = "asked for"):
+    from ._q31_realize import Realization
+
     A, B = _linear_maps(design)
-    return Realization("direct", f0, A, B, real.why or "no fewer products")
+    return Realization("direct", _fixed_core(design) if f0 is None else f0, A, B, why)
 
 
 __all__ = ["Q31Program", "frac_bits", "q31_program", "state_box"]

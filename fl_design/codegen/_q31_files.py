@@ -20,6 +20,10 @@ from ._q31 import q31_program
 from ._q31_code import SAT_SHL, c_body_q31, emulate_q31, start_c, start_state
 from ._vectors import hold_rejected, vector_file, vector_record
 
+#: the recursion's measured error may exceed the matrix form's by this factor at most (it
+#: has fewer products; past that the package keeps the matrix: precision before cost)
+ERROR_MARGIN = 2.0
+
 #: the range of ``y`` a Q31 build assumes when no plant gives one
 Q31_DEFAULT_RANGE = (-10.0, 10.0)
 
@@ -135,6 +139,10 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
     """
     lo, hi, why = q31_range(guard)
     prog = q31_program(design, (lo, hi))
+    if prog.realization == "recursion":  # fewer products, kept unless it loses precision
+        matrix = q31_program(design, (lo, hi), update="matrix")
+        if q31_error(design, prog, guard) > ERROR_MARGIN * q31_error(design, matrix, guard):
+            prog = matrix
     f_u = prog.f_state[-2]
     u_lo, u_hi = design.controller.u_range
     x0 = [_q(v, prog.f_state[i]) for i, v in enumerate(design.initial_state())]
@@ -329,5 +337,5 @@ def q15_program(prog):
                    start1=tuple(shorter(v) for v in prog.start1), f_start1=prog.f_start1 - d)
 
 
-__all__ = ["Q15_SHORTER", "Q31_DEFAULT_RANGE", "q15_program", "q31_base", "q31_error",
-           "q31_expected", "q31_range", "q31_substitutions", "q31_vector_text"]
+__all__ = ["ERROR_MARGIN", "Q15_SHORTER", "Q31_DEFAULT_RANGE", "q15_program", "q31_base",
+           "q31_error", "q31_expected", "q31_range", "q31_substitutions", "q31_vector_text"]

@@ -22,7 +22,7 @@ from fl_design.codegen._pil import pil_tools
 from fl_design.codegen._pil_q31 import q31_on_model
 from fl_design.codegen._q31 import _fixed_core, _products, q31_program
 from fl_design.codegen._q31_code import _py_op, start_state
-from fl_design.codegen._q31_files import q31_range
+from fl_design.codegen._q31_files import ERROR_MARGIN, q31_error, q31_range
 from fl_design.codegen._q31_peak import PeakGain
 from fl_design.codegen._q31_realize import _delta_recursion, collapse_affine, delta_realization
 
@@ -204,6 +204,15 @@ def test_untuned_designs_build_bit_exact_within_their_stated_error(name, tmp_pat
         shutil.rmtree(pkg.out_dir / "build", ignore_errors=True)
         (pkg.out_dir / "fl_check").unlink(missing_ok=True)
     assert 0 < pkg.predicted_float_error < 1e-2
+    d = step_design(design, "q31")  # the recursion only where it keeps the precision
+    g = guard_settings(d, plant)
+    matrix = q31_error(d, q31_program(d, q31_range(g)[:2], update="matrix"), g)
+    assert pkg.predicted_float_error <= ERROR_MARGIN * matrix
+
+
+def test_an_unknown_update_is_refused():
+    with pytest.raises(fl.errors.ParameterError, match="update='cascade' is not known"):
+        q31_program(step_design(presets.paper_design(), "q31"), (-1.0, 1.0), update="cascade")
 
 
 @pytest.mark.skipif(shutil.which("cppcheck") is None, reason="cppcheck is not installed")
