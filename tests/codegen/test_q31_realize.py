@@ -239,3 +239,30 @@ def test_the_recursion_is_bit_exact_on_the_fpu_less_models(cpu, tmp_path):
     u, n = q31_on_model(pkg, y, r, cpu=cpu)
     np.testing.assert_array_equal(u, pkg.run(y, r, start=True))
     assert 50 < n < 5000
+
+
+@pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
+@pytest.mark.parametrize("halves", [False, True])
+def test_mulhi_is_the_floor_of_the_product_over_2_32(halves, tmp_path):
+    """The template's high word, on the host and with the ARMv6-M halves, against Python's
+    exact ``(a b) >> 32`` on the extremes and random pairs."""
+    pkg = generate_c(presets.maglev_design(), tmp_path / "pkg", precision="q31",
+                     plant=fl.plants.maglev())
+    assert "fl_mulhi(" in pkg.sources[0].read_text()
+    rng = np.random.default_rng(6)
+    edge = [-(2**31), -(2**31) + 1, -(2**16) - 1, -(2**16), -1, 0, 1, 2**15, 2**16, 2**31 - 1]
+    pairs = [(a, b) for a in edge for b in edge]
+    pairs += [tuple(int(v) for v in rng.integers(-(2**31), 2**31, 2)) for _ in range(2000)]
+    (tmp_path / "pairs.txt").write_text("".join(f"{a} {b}\n" for a, b in pairs))
+    main = tmp_path / "mulhi.c"
+    main.write_text('#include <stdio.h>\n#include "fl.c"\nint main(void) {\n  long a, b;\n'
+                    '  while (scanf("%ld %ld", &a, &b) == 2) {\n'
+                    '    printf("%ld\\n", (long) fl_mulhi((int32_t) a, (int32_t) b));\n  }\n'
+                    '  return 0;\n}\n')
+    exe = tmp_path / "mulhi"
+    flags = ["-DFL_MUL_HALVES"] if halves else []
+    subprocess.run([find_compiler(), "-O2", "-std=c99", *flags, f"-I{pkg.out_dir}", str(main),
+                    "-o", str(exe)], check=True, timeout=120, capture_output=True)
+    out = subprocess.run([str(exe)], input=(tmp_path / "pairs.txt").read_text(),
+                         capture_output=True, text=True, timeout=60, check=True).stdout.split()
+    assert [int(v) for v in out] == [(a * b) >> 32 for a, b in pairs]
