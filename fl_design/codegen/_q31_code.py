@@ -24,7 +24,7 @@ Examples
 >>> from fl_design import presets
 >>> from fl_design.codegen._q31 import q31_program
 >>> from fl_design.codegen._q31_code import c_body_q31
->>> "_asr(" in c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
+>>> "_mulhi(" in c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
 True
 """
 
@@ -94,6 +94,41 @@ def _product(x: str, y: str, s: int) -> str:
     if 1 <= s <= 63:
         return f"{{PFX}}_mulsh({x}, {y}, {s}u)"
     return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
+
+
+def _sum32(op, a, F, name, fk):
+    """The ``int32_t`` C of a sum or difference whose 32-bit form is exact (:func:`_nested`,
+    :func:`_wraps`), else None. A difference is the sum with the negated value (``|v| <=
+    2^30``: exact), so that each identity of floors is that of a sum."""
+    terms = (name[a[0]], name[a[1]] if op == ca.OP_ADD else f"(-{name[a[1]]})")
+    fs = (F[a[0]], F[a[1]])
+    if _nested(*fs, fk):  # the finer term floored first
+        lo = min(fs)
+        inner = " + ".join(_shift32(t, f - lo) for t, f in zip(terms, fs))
+        return _shift32(f"({inner})", lo - fk)
+    if _wraps(*fs, fk):  # modulo 2^32: the result fits
+        x0, x1 = (_wrap_term(t, f - fk) for t, f in zip(terms, fs))
+        return f"{{PFX}}_s32({x0} + {x1})"
+    return None
+
+
+def _py_sum32(op, vals, fs, fk):
+    """:func:`_sum32`'s value on Python integers (None where it gives no 32-bit form)."""
+    terms = (vals[0], vals[1] if op == ca.OP_ADD else -vals[1])
+    if _nested(*fs, fk):
+        lo = min(fs)
+        return _py_shift(sum(_py_shift(t, f, lo) for t, f in zip(terms, fs)), lo, fk)
+    if _wraps(*fs, fk):
+        return sum(_py_shift(t, f, fk) for t, f in zip(terms, fs))
+    return None
+
+
+def _nested(fa: int, fb: int, fk: int) -> bool:
+    """A sum of two terms both scaled down, at different fraction bits ``F_lo < F_hi``, in
+    32 bits: ``floor((A 2^p + B) / 2^s) = floor((A + floor(B / 2^p)) / 2^(s - p))`` (floor of
+    a floor; an integer added inside a floor comes out), and ``|A + floor(B / 2^p)| <= 2^30 +
+    2^29`` (each value within ``2^30`` at its own bits): no overflow, exact."""
+    return fk < min(fa, fb) and fa != fb and abs(fa - fb) <= 31
 
 
 def _wraps(fa: int, fb: int, fk: int) -> bool:
@@ -253,9 +288,8 @@ def c_body_q31(prog: Q31Program) -> str:
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
             const[k] = round(data * 2.0**fk)
             continue
-        if op in _SYM and _wraps(F[a[0]], F[a[1]], fk):  # modulo 2^32: the result fits
-            x0, x1 = (_wrap_term(name[j], F[j] - fk) for j in a)
-            lines.append(f"  const int32_t q{k} = {{PFX}}_s32({x0} {_SYM[op]} {x1});")
+        if op in _SYM and (text := _sum32(op, a, F, name, fk)) is not None:
+            lines.append(f"  const int32_t q{k} = {text};")
             continue
         narrow = _narrow(op, a, F, name, fk, const)
         if narrow is not None:
@@ -400,9 +434,8 @@ def _py_op(prog, w, k, a, fk, op):
         return (w[a[0]] * op[1]) >> op[2]
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
-    if op in _SYM and _wraps(F[a[0]], F[a[1]], fk):  # the C's sum modulo 2^32 (exact)
-        A, B = (_py_shift(w[j], F[j], fk) for j in a)
-        return A + B if op == ca.OP_ADD else A - B
+    if op in _SYM and (v := _py_sum32(op, (w[a[0]], w[a[1]]), (F[a[0]], F[a[1]]), fk)) is not None:
+        return v
     if op in _SYM:
         fm = _align(F[a[0]], F[a[1]])
         A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)
