@@ -16,7 +16,9 @@ of fewer fraction bits has the result's); ``floor(max(w 2^k, x) / 2^k) = max(w, 
 2^k))`` (floor is monotone); a product by a constant ``+-2^m`` is a shift; ``2 w`` and ``-w``
 likewise. A sum with a term scaled up is computed modulo ``2^32`` (``uint32_t``): the scaled
 term is exact modulo ``2^32``, the other floored (``floor((A 2^p + B) / 2^q) = A 2^(p-q) +
-floor(B / 2^q)``), and the result, within its interval, fits. A product by a constant
+floor(B / 2^q)``), and the result, within its interval, fits; a sum of two terms both scaled
+down floors the finer first (:func:`_nested`); a difference is the sum with the negated value,
+so each is the exact floor of the aligned sum (:func:`_sum32`). A product by a constant
 ``("mulc", c_q, 32)`` is ``floor(v c_q / 2^32)``, the high word (:func:`._q31._high_word`).
 
 Examples
