@@ -298,9 +298,11 @@ def _high_word(a, consts, F, f_max):
     32 x 32 -> 64-bit product, ``floor(v c_q / 2^32)``: ``c_q = round(c 2^F_c)`` with ``F_c``
     chosen so that the result has ``F_v + F_c - 32`` fraction bits, at most ``f_max`` (the
     interval's) and ``|c_q| < 2^31``; one ``SMULL`` on an ARMv7-M core (no low word, no
-    shift), three 16 x 16 products' worth less work on an ARMv6-M one. The result has at most
-    a few bits fewer than ``f_max`` (never more: no overflow). Returns ``((v,), F_out,
-    ("mulc", c_q, 32))`` or None."""
+    shift); on an ARMv6-M one the four 16 x 16 products' carries into the high word only (no
+    low word, no 64-bit shift). The result has at most three bits fewer than ``f_max`` (never
+    more: no overflow); the rounding is ``floor``, as everywhere, and the integer model
+    (:func:`._q31_code.emulate_q31`) computes the same word. Returns ``((v,), F_out, ("mulc",
+    c_q, 32))`` or None (then the full product)."""
     for c, v in ((a[0], a[1]), (a[1], a[0])):
         if c not in consts or v in consts:
             continue
