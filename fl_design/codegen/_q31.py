@@ -3,7 +3,10 @@
 ``generate_c(..., precision="q31")`` prints ``Design.step`` (its numbers fixed: the gains,
 ``gamma`` and the limits are constants of a Q31 build) as integer code: every value is an
 ``int32_t`` holding ``v 2^F`` with its own number of fraction bits ``F``; products are formed in
-``int64_t`` and shifted back; no floating-point operation, type or helper anywhere.
+``int64_t`` and shifted back (a product by a constant is the product's high word, the constant
+scaled for it: :func:`_high_word`); no floating-point operation, type or helper anywhere.
+The graph is the design's step with its EHGO's delta update as a recursion and the
+controller's sums collapsed (:mod:`._q31_realize`) when that has fewer products.
 
 **Scalings.** Each value's ``F`` comes from an interval that contains it on every sample
 (one bit of headroom: ``|v| 2^F <= 2^30``):
@@ -19,11 +22,14 @@
   limit: in 32 bits that range leaves ``z`` a resolution of ``2^-F_z``, so increments
   ``T |y - r|`` below it are lost (a dead band of the integral action near the reference;
   a 64-bit ``z`` is the fix, not done);
-- every intermediate value: interval arithmetic over the graph from these boxes.
+- every intermediate value: interval arithmetic over the graph from these boxes, and for a
+  value affine in the observer's state and ``y`` its peak-gain bound where tighter
+  (:mod:`._q31_peak`: the sums of large estimates that cancel).
 
 **No overflow.** Each ``int32_t`` result lies within its interval, hence within
 ``+-2^30 / 2^F``; the ``int64_t`` intermediates are sums of two values below ``2^62`` and
-products of two ``int32_t``. The state's entries are stored through a saturation that the
+products of two ``int32_t``; a sum computed modulo ``2^32`` has its result within its
+interval (:mod:`._q31_code`). The state's entries are stored through a saturation that the
 bounds above never reach (interval arithmetic of one step is looser than the peak-gain bound).
 
 **Error.** :func:`fl_design.codegen._q31_code.emulate_q31` runs the same integer program in
@@ -51,6 +57,7 @@ import numpy as np
 from ..errors import ComputationError, ParameterError
 from ._emit import _select
 from ._q31_factor import factor_constants
+from ._q31_peak import PeakGain, affine_step, split_form
 
 _LIMIT = 2.0**30  # one bit of headroom below 2^31
 _F_MAX = 60
@@ -104,6 +111,9 @@ class Q31Program:
         The start's rest state ``(start0 + start1 * y0) >> ...`` in fixed point (see C).
     f_start1 : int
         Fraction bits of ``start1``.
+    realization : str
+        How the observer's update is computed: ``"recursion"`` (the EHGO's delta update as
+        its recursion, :mod:`._q31_realize`) or ``"direct"`` (its matrix).
 
     Examples
     --------
@@ -122,6 +132,7 @@ class Q31Program:
     start0: tuple
     start1: tuple
     f_start1: int
+    realization: str = "direct"
 
 
 def _linear_maps(design):
@@ -147,7 +158,7 @@ def _peak_gain(A, B, n_max: int = 2_000_000) -> np.ndarray:
     raise ComputationError("the observer's peak gain did not converge (a pole at 1?)")
 
 
-def state_box(design, y_range):
+def state_box(design, y_range, realization=None):
     """The interval of each state entry (module docstring) and ``(c0, c1)`` of the rest state.
 
     Parameters
@@ -156,6 +167,8 @@ def state_box(design, y_range):
         The generated design (delta realization).
     y_range : (float, float)
         Range of ``y`` and ``r``.
+    realization : Realization, optional
+        The observer's update (:mod:`._q31_realize`; default the estimator's).
 
     Returns
     -------
@@ -175,8 +188,12 @@ def state_box(design, y_range):
 
     lo, hi = y_range
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    A, B = _linear_maps(design)
-    c0, c1 = start_map(design)
+    if realization is None:
+        A, B = _linear_maps(design)
+        c0, c1 = start_map(design)
+    else:
+        A, B = realization.A, realization.B
+        c0, c1 = start_map(design)
     gain = _peak_gain(A, B) * half
     rest = c0 + c1 * mid
     boxes = [(float(a - g), float(a + g)) for a, g in zip(rest, gain)]
@@ -202,11 +219,13 @@ def _fixed_core(design):
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 
 
-def _analyse(f, boxes, y_range):
+def _analyse(f, boxes, y_range, peak=None):
     """Intervals of every instruction of ``f`` (x, y, r) from the input boxes; a select
-    (:func:`._emit._select`) has the hull of its two values' intervals (it is one of them)."""
+    (:func:`._emit._select`) has the hull of its two values' intervals (it is one of them).
+    With ``peak`` (:class:`._q31_peak.PeakGain`) a value affine in the inputs also has its peak-gain
+    bound, and the tighter of the two holds."""
     iv, kind, node = {}, {}, {}
-    cur = {}
+    cur, forms, const = {}, {}, {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
@@ -214,12 +233,14 @@ def _analyse(f, boxes, y_range):
         if op == ca.OP_INPUT:
             box = boxes[ins[1]] if ins[0] == 0 else y_range
             iv[k], kind[k] = box, "q"
+            forms[k] = ({ins[1] if ins[0] == 0 else ("y" if ins[0] == 1 else "r"): 1.0}, 0.0)
             cur[outs[0]] = k
             continue
         a = [cur[i] for i in ins if i >= 0] if op != ca.OP_CONST else []
         if op == ca.OP_CONST:
             c = f.instruction_constant(k)
             iv[k], kind[k] = (c, c), "q"
+            forms[k], const[k] = ({}, c), c
         elif op == ca.OP_ADD and _select(node, *a):
             _, x, y = _select(node, *a)
             iv[k] = (min(iv[x][0], iv[y][0]), max(iv[x][1], iv[y][1]))
@@ -259,11 +280,48 @@ def _analyse(f, boxes, y_range):
         else:
             raise ComputationError(f"CasADi operation {op} has no Q31 translation (the "
                                    "library's estimators use +, -, *, min, max, compare)")
+        if op != ca.OP_CONST and kind[k] == "q" and (fk := affine_step(op, a, forms, const)):
+            forms[k] = fk
+            if peak is not None:
+                own, other = split_form(fk, peak.m)
+                lo, hi = peak.bound(own)
+                for i, v in other.items():  # r, u, z: their boxes
+                    b = boxes[i] if i != "r" else y_range
+                    lo, hi = lo + min(v * b[0], v * b[1]), hi + max(v * b[0], v * b[1])
+                iv[k] = (max(iv[k][0], lo), min(iv[k][1], hi))
         cur[outs[0]] = k
     return iv, kind
 
 
-def q31_program(design, y_range) -> Q31Program:
+def _high_word(a, consts, F, f_max):
+    """A product by a constant ``c`` (not 0, not ``+-2^m``: a shift) as the high word of the
+    32 x 32 -> 64-bit product, ``floor(v c_q / 2^32)``: ``c_q = round(c 2^F_c)`` with ``F_c``
+    chosen so that the result has ``F_v + F_c - 32`` fraction bits, at most ``f_max`` (the
+    interval's) and ``|c_q| < 2^31``; one ``SMULL`` on an ARMv7-M core (no low word, no
+    shift); on an ARMv6-M one the four 16 x 16 products' carries into the high word only (no
+    low word, no 64-bit shift). The result has at most three bits fewer than ``f_max`` (never
+    more: no overflow); the rounding is ``floor``, as everywhere, and the integer model
+    (:func:`._q31_code.emulate_q31`) computes the same word. Returns ``((v,), F_out, ("mulc",
+    c_q, 32))`` or None (then the full product)."""
+    for c, v in ((a[0], a[1]), (a[1], a[0])):
+        if c not in consts or v in consts:
+            continue
+        m = consts[c]
+        if m == 0.0 or math.frexp(abs(m))[0] == 0.5:
+            return None  # zero, or a power of two (a shift)
+        f_c_max = math.floor(math.log2((2.0**31 - 1.0) / abs(m)))
+        while abs(round(m * 2.0**f_c_max)) > 2**31 - 1:
+            f_c_max -= 1
+        f_out = min(f_max, F[v] + f_c_max - 32)
+        f_c = f_out + 32 - F[v]
+        cq = round(m * 2.0**f_c)
+        if cq == 0 or f_out < f_max - 3:
+            return None  # the constant too coarse at this scaling: the long product
+        return (v,), f_out, ("mulc", int(cq), 32)
+    return None
+
+
+def q31_program(design, y_range, update: str = "auto") -> Q31Program:
     """The step of ``design`` (after :func:`~fl_design.codegen.step_design`) as Q31 code.
 
     Parameters
@@ -272,6 +330,9 @@ def q31_program(design, y_range) -> Q31Program:
         EHGO or least-squares design with ``u_limits``.
     y_range : (float, float)
         Range of ``y`` and ``r``.
+    update : {"auto", "matrix"}, optional
+        The observer's update: as its recursion when that has fewer products
+        (:mod:`._q31_realize`), or always as its matrix.
 
     Returns
     -------
@@ -294,17 +355,22 @@ def q31_program(design, y_range) -> Q31Program:
     lo, hi = (float(v) for v in y_range)
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise ParameterError(f"y_range={y_range!r} must be a finite (lo, hi) with lo < hi")
-    f = _fixed_core(design)
-    boxes, c0, c1 = state_box(design, (lo, hi))
-    iv, _ = _analyse(f, boxes, (lo, hi))
+    if update not in ("auto", "matrix"):
+        raise ParameterError(f"update={update!r} is not known; valid: 'auto', 'matrix'")
+    real = _cheapest(design, (lo, hi)) if update == "auto" else _matrix(design)
+    f = real.core
+    boxes, c0, c1 = state_box(design, (lo, hi), real)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    peak = PeakGain(real.A, real.B, c0 + c1 * mid, mid, half)
+    iv, _ = _analyse(f, boxes, (lo, hi), peak)
     # z's box: k_I |z| at most k_1 (y_max - y_min), the proportional term's full scale
     ctrl = design.controller
     zb = ctrl.gains[0] * (hi - lo) / ctrl.ki if ctrl.ki > 0 else 2.0**20 * design.T
     boxes[-1] = (-zb, zb)
-    iv, kind = _analyse(f, boxes, (lo, hi))
+    iv, kind = _analyse(f, boxes, (lo, hi), peak)
     f_state = tuple(frac_bits(*b) for b in boxes)
     f_y = frac_bits(lo, hi)
-    ops, F, cur, node = [], {}, {}, {}
+    ops, F, cur, node, consts = [], {}, {}, {}, {}
     for k in range(f.n_instructions()):
         op, ins, outs = f.instruction_id(k), f.instruction_input(k), f.instruction_output(k)
         if op == ca.OP_OUTPUT:
@@ -333,13 +399,50 @@ def q31_program(design, y_range) -> Q31Program:
         else:
             F[k] = frac_bits(*iv[k])
         data = f.instruction_constant(k) if op == ca.OP_CONST else op
+        if op == ca.OP_CONST:
+            consts[k] = data
+        elif op == ca.OP_MUL and (mc := _high_word(a, consts, F, F[k])) is not None:
+            a, F[k], data = mc
         ops.append(("op", k, a, F[k], data))
         cur[outs[0]] = k
     s0 = tuple(round(v * 2.0 ** f_state[i]) for i, v in enumerate(c0))
     f1 = min(frac_bits(*(float(np.min(c1)), float(np.max(c1)))), 30)
     s1 = tuple(round(v * 2.0**f1) for v in c1)
     return Q31Program(tuple(ops), f_state, f_y, tuple(boxes), (lo, hi), design.state_size,
-                      s0, s1, f1)
+                      s0, s1, f1, real.name)
+
+
+def _products(f) -> int:
+    """Products of ``f`` other than by ``0`` or ``+-2^m`` (shifts)."""
+    const, n = {}, 0
+    for k in range(f.n_instructions()):
+        op = f.instruction_id(k)
+        if op == ca.OP_CONST:
+            const[f.instruction_output(k)[0]] = f.instruction_constant(k)
+        elif op in (ca.OP_MUL, ca.OP_SQ):
+            cs = [const.get(i) for i in f.instruction_input(k) if i >= 0]
+            n += not any(c is not None and (c == 0.0 or math.frexp(abs(c))[0] == 0.5)
+                         for c in cs)
+    return n
+
+
+def _cheapest(design, y_range):
+    """The core with fewer products: the EHGO's delta update as its recursion
+    (:mod:`._q31_realize`) when it applies and saves some, else the matrix form."""
+    from ._q31_realize import delta_realization
+
+    f0 = _fixed_core(design)
+    real = delta_realization(design, y_range, f0)
+    if real.name != "direct" and _products(real.core) < _products(f0):
+        return real
+    return _matrix(design, f0, real.why or "no fewer products")
+
+
+def _matrix(design, f0=None, why: str = "asked for"):
+    from ._q31_realize import Realization
+
+    A, B = _linear_maps(design)
+    return Realization("direct", _fixed_core(design) if f0 is None else f0, A, B, why)
 
 
 __all__ = ["Q31Program", "frac_bits", "q31_program", "state_box"]

@@ -14,14 +14,19 @@ overflow. ``floor((w 2^k + x) / 2^k) = w + floor(x / 2^k)``, ``floor((w 2^k - x)
 w + floor(-x / 2^k)``, ``floor((x - w 2^k) / 2^k) = floor(x / 2^k) - w`` (a sum whose operand
 of fewer fraction bits has the result's); ``floor(max(w 2^k, x) / 2^k) = max(w, floor(x /
 2^k))`` (floor is monotone); a product by a constant ``+-2^m`` is a shift; ``2 w`` and ``-w``
-likewise.
+likewise. A sum with a term scaled up is computed modulo ``2^32`` (``uint32_t``): the scaled
+term is exact modulo ``2^32``, the other floored (``floor((A 2^p + B) / 2^q) = A 2^(p-q) +
+floor(B / 2^q)``), and the result, within its interval, fits; a sum of two terms both scaled
+down floors the finer first (:func:`_nested`); a difference is the sum with the negated value,
+so each is the exact floor of the aligned sum (:func:`_sum32`). A product by a constant
+``("mulc", c_q, 32)`` is ``floor(v c_q / 2^32)``, the high word (:func:`._q31._high_word`).
 
 Examples
 --------
 >>> from fl_design import presets
 >>> from fl_design.codegen._q31 import q31_program
 >>> from fl_design.codegen._q31_code import c_body_q31
->>> "_asr(" in c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
+>>> "_mulhi(" in c_body_q31(q31_program(presets.paper_design(), (-1.0, 1.0)))
 True
 """
 
@@ -91,6 +96,67 @@ def _product(x: str, y: str, s: int) -> str:
     if 1 <= s <= 63:
         return f"{{PFX}}_mulsh({x}, {y}, {s}u)"
     return f"(int32_t) {_shift(f'{{PFX}}_mul({x}, {y})', s, 0)}"
+
+
+def _sum32(op, a, F, name, fk):
+    """The ``int32_t`` C of a sum or difference whose 32-bit form is exact (:func:`_nested`,
+    :func:`_wraps`), else None. A difference is the sum with the negated value (``|v| <=
+    2^30``: exact), so that each identity of floors is that of a sum."""
+    terms = (name[a[0]], name[a[1]] if op == ca.OP_ADD else f"(-{name[a[1]]})")
+    fs = (F[a[0]], F[a[1]])
+    if _nested(*fs, fk):  # the finer term floored first
+        lo = min(fs)
+        inner = " + ".join(_shift32(t, f - lo) for t, f in zip(terms, fs))
+        return _shift32(f"({inner})", lo - fk)
+    if _wraps(*fs, fk):  # modulo 2^32: the result fits
+        x0, x1 = (_wrap_term(t, f - fk) for t, f in zip(terms, fs))
+        return f"{{PFX}}_s32({x0} + {x1})"
+    return None
+
+
+def _py_sum32(op, vals, fs, fk):
+    """:func:`_sum32`'s value on Python integers (None where it gives no 32-bit form)."""
+    terms = (vals[0], vals[1] if op == ca.OP_ADD else -vals[1])
+    if _nested(*fs, fk):
+        lo = min(fs)
+        return _py_shift(sum(_py_shift(t, f, lo) for t, f in zip(terms, fs)), lo, fk)
+    if _wraps(*fs, fk):
+        return sum(_py_shift(t, f, fk) for t, f in zip(terms, fs))
+    return None
+
+
+def _nested(fa: int, fb: int, fk: int) -> bool:
+    """A sum of two terms both scaled down, at different fraction bits ``F_lo < F_hi``, in
+    32 bits: ``floor((A 2^p + B) / 2^s) = floor((A + floor(B / 2^p)) / 2^(s - p))`` (floor of
+    a floor; an integer added inside a floor comes out), and ``|A + floor(B / 2^p)| <= 2^30 +
+    2^29`` (each value within ``2^30`` at its own bits): no overflow, exact."""
+    return fk < min(fa, fb) and fa != fb and abs(fa - fb) <= 31
+
+
+def _wraps(fa: int, fb: int, fk: int) -> bool:
+    """A sum printed in 32 bits modulo ``2^32``: one term scaled up (by at most ``2^30``),
+    the other scaled down or not (``floor((A 2^p + B) / 2^q) = A 2^(p-q) + floor(B / 2^q)``
+    when ``A 2^(p-q)`` is an integer: exact); both scaled down is not exact (``floor(a) +
+    floor(-a) = -1``: a value at rest would creep) and stays a 64-bit sum."""
+    lo, hi = min(fa, fb), max(fa, fb)
+    return lo < fk <= hi + 30 and fk - lo <= 30
+
+
+def _wrap_term(v: str, s: int) -> str:
+    """A term of a sum in ``uint32_t`` at the result's fraction bits: ``floor(v / 2^s)`` for
+    ``s >= 0``, ``v 2^-s`` modulo ``2^32`` for ``s < 0`` (the sum, which fits an ``int32_t``
+    by the interval analysis, is then exact: two's complement arithmetic modulo ``2^32``)."""
+    if s >= 0:
+        return f"(uint32_t) {_shift32(v, s)}"
+    return f"((uint32_t) {v} * {1 << -s}u)"
+
+
+def _mul_const(x: str, cq: int, s: int) -> str:
+    """``floor(x c_q / 2^s)``: the template's ``_mulhi`` (the high word) for ``s = 32``."""
+    c = _const(cq, 0)
+    if s == 32:
+        return f"{{PFX}}_mulhi({x}, {c})"
+    return _product(x, c, s)
 
 
 def _narrow(op, a, F, name, fk, const):
@@ -217,9 +283,15 @@ def c_body_q31(prog: Q31Program) -> str:
             lines.append(f"  const int32_t q{k} = ({name[c]} ? {_shift32(name[x], F[x] - fk)} : "
                          f"{_shift32(name[y], F[y] - fk)});")
             continue
+        if isinstance(op, tuple):  # ("mulc", c_q, s): floor(v c_q / 2^s), the high word
+            lines.append(f"  const int32_t q{k} = {_mul_const(name[a[0]], op[1], op[2])};")
+            continue
         if not isinstance(op, int) or isinstance(op, bool):  # a constant
             lines.append(f"  const int32_t q{k} = {_const(data, fk)};")
             const[k] = round(data * 2.0**fk)
+            continue
+        if op in _SYM and (text := _sum32(op, a, F, name, fk)) is not None:
+            lines.append(f"  const int32_t q{k} = {text};")
             continue
         narrow = _narrow(op, a, F, name, fk, const)
         if narrow is not None:
@@ -360,8 +432,12 @@ def _py_op(prog, w, k, a, fk, op):
     if op == "select":
         c, x, y = a
         return _py_shift(w[x], F[x], fk) if w[c] else _py_shift(w[y], F[y], fk)
+    if isinstance(op, tuple):  # ("mulc", c_q, s)
+        return (w[a[0]] * op[1]) >> op[2]
     if not isinstance(op, int) or isinstance(op, bool):
         return round(op * 2.0**fk)
+    if op in _SYM and (v := _py_sum32(op, (w[a[0]], w[a[1]]), (F[a[0]], F[a[1]]), fk)) is not None:
+        return v
     if op in _SYM:
         fm = _align(F[a[0]], F[a[1]])
         A, B = _py_shift(w[a[0]], F[a[0]], fm), _py_shift(w[a[1]], F[a[1]], fm)

@@ -20,6 +20,10 @@ from ._q31 import q31_program
 from ._q31_code import SAT_SHL, c_body_q31, emulate_q31, start_c, start_state
 from ._vectors import hold_rejected, vector_file, vector_record
 
+#: the recursion's measured error may exceed the matrix form's by this factor at most (it
+#: has fewer products; past that the package keeps the matrix: precision before cost)
+ERROR_MARGIN = 2.0
+
 #: the range of ``y`` a Q31 build assumes when no plant gives one
 Q31_DEFAULT_RANGE = (-10.0, 10.0)
 
@@ -135,6 +139,10 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
     """
     lo, hi, why = q31_range(guard)
     prog = q31_program(design, (lo, hi))
+    if prog.realization == "recursion":  # fewer products, kept unless it loses precision
+        matrix = q31_program(design, (lo, hi), update="matrix")
+        if q31_error(design, prog, guard) > ERROR_MARGIN * q31_error(design, matrix, guard):
+            prog = matrix
     f_u = prog.f_state[-2]
     u_lo, u_hi = design.controller.u_range
     x0 = [_q(v, prog.f_state[i]) for i, v in enumerate(design.initial_state())]
@@ -154,6 +162,8 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
         "INITIAL_STATE_Q": ", ".join(_lit(v) for v in x0),
         "T_US": str(max(1, round(design.T * 1e6))),
         "Z_BOX": f"{prog.state_box[-1][1]:.6g}",
+        "Q31_REALIZATION": ("as its recursion (see Cost)" if prog.realization == "recursion"
+                            else "as its matrix"),
     })
     return subs, prog, (lo, hi, why)
 
@@ -279,6 +289,15 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
 Q15_SHORTER = 16
 
 
+def _shorter_data(data, d: int):
+    """A product by a constant's ``("mulc", c_q, s)`` with ``c_q`` ``d`` bits shorter (its
+    shift too: the result keeps the fraction bits of the value's, ``d`` fewer); other data as
+    it is."""
+    if isinstance(data, tuple) and data[0] == "mulc":
+        return ("mulc", round(data[1] / 2.0**d), data[2] - d)
+    return data
+
+
 def q15_program(prog):
     """The Q31 program with every value 16 bits shorter: ``int16_t`` words with the same one
     bit of headroom, constants rounded to them, products of two words in 32 bits. The integer
@@ -310,12 +329,13 @@ def q15_program(prog):
     d = Q15_SHORTER
     # truth values (comparisons, logic: F = 0) keep theirs; a constant's data is a float
     ops = tuple(op if (op[0] == "op" and not isinstance(op[4], float) and op[4] in logic)
-                else (op[0], op[1], op[2], op[3] - d, op[4]) for op in prog.ops)
+                else (op[0], op[1], op[2], op[3] - d, _shorter_data(op[4], d))
+                for op in prog.ops)
     shorter = lambda v: round(v / 2.0**d)
     return replace(prog, ops=ops, f_state=tuple(f - d for f in prog.f_state), f_y=prog.f_y - d,
                    start0=tuple(shorter(v) for v in prog.start0),
                    start1=tuple(shorter(v) for v in prog.start1), f_start1=prog.f_start1 - d)
 
 
-__all__ = ["Q15_SHORTER", "Q31_DEFAULT_RANGE", "q15_program", "q31_base", "q31_error",
-           "q31_expected", "q31_range", "q31_substitutions", "q31_vector_text"]
+__all__ = ["ERROR_MARGIN", "Q15_SHORTER", "Q31_DEFAULT_RANGE", "q15_program", "q31_base",
+           "q31_error", "q31_expected", "q31_range", "q31_substitutions", "q31_vector_text"]
