@@ -27,7 +27,8 @@ Examples
 >>> pkg = generate_c(presets.paper_design(), "trms_c")
 >>> sorted(p.name for p in pkg.files)  # doctest: +NORMALIZE_WHITESPACE
 ['CMakeLists.txt', 'MISRA_DEVIATIONS.md', 'Makefile', 'README.md', 'check.c', 'fl.c', 'fl.h',
- 'main.c', 'pil.ld', 'pil_main.c', 'pil_semihost.h', 'pil_startup.c', 'test_vectors.txt']
+ 'main.c', 'model.ld', 'pil.ld', 'pil_main.c', 'pil_semihost.h', 'pil_startup.c', 'startup.c',
+ 'test_vectors.txt']
 """
 
 from __future__ import annotations
@@ -192,6 +193,11 @@ def _q31_checks(design) -> None:
                              "fixed-point range)")
 
 
+#: the files of ``make check-m4 / check-m3 / check-m0plus`` (check.c on a QEMU Cortex-M model),
+#: in every package
+MODEL_FILES = {"model_startup.c.in": "model/startup.c", "model.ld.in": "model/model.ld"}
+
+
 def _q31_files(design, prefix, guard):
     """The Q31 package's writer (a function of the folder) and its measured error."""
     import warnings
@@ -208,10 +214,12 @@ def _q31_files(design, prefix, guard):
     err = q31_error(design, prog, guard)
     names = {"step_q31.h.in": f"{prefix}.h", "step_q31.c.in": f"{prefix}.c",
              "main_q31.c.in": "main.c", "check_q31.c.in": "check.c", "Makefile.in": "Makefile",
-             "CMakeLists.txt.in": "CMakeLists.txt", "README_q31.md.in": "README.md"}
+             "CMakeLists.txt.in": "CMakeLists.txt", "README_q31.md.in": "README.md",
+             **MODEL_FILES}
 
     def write(out: Path) -> list[Path]:
         written = []
+        (out / "model").mkdir(exist_ok=True)
         for template, name in names.items():
             text = resources.files("fl_design.codegen").joinpath("templates", template)
             path = out / name
@@ -258,9 +266,11 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str, gua
              "CMakeLists.txt.in": "CMakeLists.txt", "README.md.in": "README.md",
              "check.c.in": "check.c",
              "pil_main.c.in": "pil/pil_main.c", "pil_startup.c.in": "pil/pil_startup.c",
-             "pil_semihost.h.in": "pil/pil_semihost.h", "pil.ld.in": "pil/pil.ld"}
+             "pil_semihost.h.in": "pil/pil_semihost.h", "pil.ld.in": "pil/pil.ld",
+             **MODEL_FILES}
     written = []
     (out / "pil").mkdir(exist_ok=True)
+    (out / "model").mkdir(exist_ok=True)
     for template, name in names.items():
         text = resources.files("fl_design.codegen").joinpath("templates", template).read_text()
         path = out / name
