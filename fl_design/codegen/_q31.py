@@ -56,8 +56,10 @@ import numpy as np
 
 from ..errors import ComputationError, ParameterError
 from ._emit import _select
-from ._q31_factor import factor_constants
 from ._q31_peak import PeakGain, affine_step, split_form
+from ._q31_realize import Realization, delta_realization
+from ._q31_realize import fixed_core as _fixed_core
+from ._q31_realize import linear_maps as _linear_maps
 
 _LIMIT = 2.0**30  # one bit of headroom below 2^31
 _F_MAX = 60
@@ -135,16 +137,6 @@ class Q31Program:
     realization: str = "direct"
 
 
-def _linear_maps(design):
-    est = design.estimator
-    m = int(est.state_size)
-    xi, y = ca.SX.sym("xi", m), ca.SX.sym("y")
-    _, xi_next, _ = est.symbolic_update(xi, y, ca.DM(est.parameter_vector()))
-    f = ca.Function("lin", [xi, y], [ca.jacobian(xi_next, xi), ca.jacobian(xi_next, y)])
-    A, B = (np.asarray(v, dtype=float) for v in f(np.zeros(m), 0.0))
-    return A, B.ravel()
-
-
 def _peak_gain(A, B, n_max: int = 2_000_000) -> np.ndarray:
     """``sum_j |A^j B|`` per entry (until the terms are below 1e-15 of the sum)."""
     if np.max(np.abs(np.linalg.eigvals(A))) >= 1.0:
@@ -204,16 +196,6 @@ def state_box(design, y_range, realization=None):
     boxes.append(tuple(float(v) for v in ctrl.u_range))
     boxes.append((0.0, 0.0))  # z: set after the first pass (needs v's other terms)
     return boxes, c0, c1
-
-
-def _fixed_core(design):
-    from ._graph import parameter_fields, parametric_core
-
-    f = parametric_core(design)
-    n = design.state_size
-    x, y, r = ca.SX.sym("x", n), ca.SX.sym("y"), ca.SX.sym("r")
-    x_next, u, _ = f(x, y, r, [fl.value for fl in parameter_fields(design)])
-    return factor_constants(ca.Function("q31_core", [x, y, r], [x_next, u]))
 
 
 _CMP = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
@@ -429,7 +411,6 @@ def _products(f) -> int:
 def _cheapest(design, y_range):
     """The core with fewer products: the EHGO's delta update as its recursion
     (:mod:`._q31_realize`) when it applies and saves some, else the matrix form."""
-    from ._q31_realize import delta_realization
 
     f0 = _fixed_core(design)
     real = delta_realization(design, y_range, f0)
@@ -439,8 +420,6 @@ def _cheapest(design, y_range):
 
 
 def _matrix(design, f0=None, why: str = "asked for"):
-    from ._q31_realize import Realization
-
     A, B = _linear_maps(design)
     return Realization("direct", _fixed_core(design) if f0 is None else f0, A, B, why)
 

@@ -41,9 +41,34 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ._q31_factor import factor_constants
+
 #: the realization's step against the observer's own, relative to the values' scale
 _AGREE = 1e-9
 _AFFINE = (ca.OP_ADD, ca.OP_SUB, ca.OP_NEG, ca.OP_TWICE, ca.OP_ASSIGN, ca.OP_MUL)
+
+
+def linear_maps(design):
+    """``(A, B)``: the estimator's update linearized at zero (``xi_next = A xi + B y``)."""
+    est = design.estimator
+    m = int(est.state_size)
+    xi, y = ca.SX.sym("xi", m), ca.SX.sym("y")
+    _, xi_next, _ = est.symbolic_update(xi, y, ca.DM(est.parameter_vector()))
+    f = ca.Function("lin", [xi, y], [ca.jacobian(xi_next, xi), ca.jacobian(xi_next, y)])
+    A, B = (np.asarray(v, dtype=float) for v in f(np.zeros(m), 0.0))
+    return A, B.ravel()
+
+
+def fixed_core(design):
+    """The step's core ``(x, y, r) -> (x_next, u)`` with the design's numbers, products by
+    constants equal up to a power of two shared (:func:`._q31_factor.factor_constants`)."""
+    from ._graph import parameter_fields, parametric_core
+
+    f = parametric_core(design)
+    n = design.state_size
+    x, y, r = ca.SX.sym("x", n), ca.SX.sym("y"), ca.SX.sym("r")
+    x_next, u, _ = f(x, y, r, [fl.value for fl in parameter_fields(design)])
+    return factor_constants(ca.Function("q31_core", [x, y, r], [x_next, u]))
 
 
 @dataclass(frozen=True)
@@ -225,7 +250,7 @@ def _delta_recursion(design):
     return alpha, beta, kappa, gam, b, [float(v) for v in est.unscaling]
 
 
-def delta_realization(design, y_range, fixed_core=None) -> Realization:
+def delta_realization(design, y_range, core=None) -> Realization:
     """The step of ``design`` with its EHGO's delta update as a recursion (same coordinates).
 
     See the module docstring; the controller reads the estimates through the sums
@@ -238,7 +263,7 @@ def delta_realization(design, y_range, fixed_core=None) -> Realization:
         The generated design (after :func:`~fl_design.codegen.step_design`).
     y_range : (float, float)
         The range of ``y`` and ``r`` (the agreement check runs within it).
-    fixed_core : casadi.Function, optional
+    core : casadi.Function, optional
         ``(x, y, r) -> (x_next, u)`` as the estimator computes it (default: built here).
 
     Returns
@@ -254,12 +279,9 @@ def delta_realization(design, y_range, fixed_core=None) -> Realization:
     >>> delta_realization(step_design(presets.maglev_design(), "q31"), (0.0, 0.02)).name
     'recursion'
     """
-    from ._q31 import _fixed_core, _linear_maps
-    from ._q31_factor import factor_constants
-
-    f0 = _fixed_core(design) if fixed_core is None else fixed_core
+    f0 = fixed_core(design) if core is None else core
     m = int(design.estimator.state_size)
-    A, B = _linear_maps(design)
+    A, B = linear_maps(design)
     rec = _delta_recursion(design)
     if rec is None:
         return Realization("direct", f0, A, B, "not an EHGO delta update of the bilinear or "
