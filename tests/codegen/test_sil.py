@@ -324,3 +324,25 @@ def test_the_episode_catches_integrator_windup(tmp_path):
             e.recovery_c == e.recovery_py == math.inf
     assert on.passed and 3.0 < on.recovery_c < 5.0
     assert off.recovery_c > 2 * on.recovery_c and not off.passed
+
+
+@pytest.mark.parametrize("estimate, warned", [(7e-5, True), (4e-5, False)])
+def test_an_estimate_near_the_float_bound_warns(tmp_path, monkeypatch, estimate, warned):
+    """Within PREDICTION_FACTOR (2x) below the bound the SIL may still fail: a warning (under
+    either policy, nothing refused); at half the bound and below, none."""
+    import warnings
+
+    from fl_design.codegen import _generate
+
+    monkeypatch.setattr(_generate, "predict_float_error", lambda *a, **k: estimate)
+    maglev, mdesign, msc, _ = _maglev_case()
+    for policy in ("warn", "refuse"):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            pkg = generate_c(mdesign, tmp_path / policy, precision="float", plant=maglev,
+                             scenario=msc, float_policy=policy)
+        near = [w for w in caught if issubclass(w.category, fl.errors.FloatPrecisionWarning)]
+        assert pkg.predicted_float_error == estimate
+        assert bool(near) is warned
+        if warned:
+            assert "within 2x of the bound" in str(near[0].message)
