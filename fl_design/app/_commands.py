@@ -247,7 +247,7 @@ def cmd_codegen(args) -> int:
     print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) to "
           f"{pkg.out_dir}:")
     for path in pkg.files:
-        print(f"  {path.name}")
+        print(f"  {path.relative_to(pkg.out_dir)}")
     return _pil(pkg, job, cfg) if args.pil else 0
 
 

@@ -47,7 +47,7 @@ from ._misra import deviation_text
 from ._package import CPackage
 from ._step import PRECISIONS, check_precision, check_prefix, core_function, step_design
 from ._template import render, substitutions
-from ._vectors import vector_text
+from ._vectors import vectors_and_deviation
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
     from ..symbolic import Plant
@@ -142,10 +142,19 @@ def generate_c(design: Design, out_dir, *, precision: str = "double", prefix: st
         if precision == "q31":
             files = files_of(out)
         else:
-            files = _write_templates(used, out, precision, prefix, guard, plant)
+            files, deviation = _write_templates(used, out, precision, prefix, guard, plant)
         record_outputs(out, files)
     except OSError as exc:
         raise OutputPathError(f"cannot write the C package into {str(out)!r}: {exc}") from None
+    if precision == "float" and predicted is None and deviation > FLOAT_BOUND:
+        import warnings
+
+        from ..errors import FloatPrecisionWarning
+
+        warnings.warn(f"precision='float': on the package's own test vectors the "
+                      f"single-precision step is {deviation:.3g} of max|u| off Design.step "
+                      f"(bound {FLOAT_BOUND:g}; test_vectors.txt's tolerance follows it); "
+                      f"{fixes(design)}", FloatPrecisionWarning, stacklevel=2)
     return CPackage(out_dir=out, design=design, step_design=used, precision=precision,
                     prefix=prefix, files=tuple(files), predicted_float_error=predicted,
                     guard=guard)
@@ -275,7 +284,8 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
 
 
 def _write_templates(design: Design, out: Path, precision: str, prefix: str, guard,
-                     plant) -> list[Path]:
+                     plant) -> tuple[list[Path], float | None]:
+    """The files written and, in float, the step's deviation on its test vectors."""
     subs = substitutions(design, precision, prefix, guard, plant)
     names = {"step.h.in": f"{prefix}.h", "step.c.in": f"{prefix}.c",
              "main.c.in": "main.c", "Makefile.in": "Makefile",
@@ -296,9 +306,10 @@ def _write_templates(design: Design, out: Path, precision: str, prefix: str, gua
     misra.write_text(deviation_text(prefix, subs["DESIGN_HASH"]))
     written.append(misra)
     vectors = out / "test_vectors.txt"
-    vectors.write_text(vector_text(design, guard, precision, digest=subs["DESIGN_HASH"]))
+    text, deviation = vectors_and_deviation(design, guard, precision, digest=subs["DESIGN_HASH"])
+    vectors.write_text(text)
     written.append(vectors)
-    return written
+    return written, deviation
 
 
 __all__ = ["FLOAT_POLICIES", "PRECISIONS", "check_precision", "check_prefix", "core_function", "generate_c",

@@ -192,12 +192,41 @@ def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: st
     >>> vector_text(d, guard_settings(d), "float", n=20).startswith("# test vectors")
     True
     """
+    return vectors_and_deviation(design, guard, precision, n=n, digest=digest)[0]
+
+
+def vectors_and_deviation(design, guard, precision: str, *, n: int = N_VECTORS,
+                          digest: str = "") -> tuple[str, float | None]:
+    """:func:`vector_text` and, in float, the step's own deviation from ``Design.step`` on
+    these samples as a fraction of ``max |u|`` (``None`` in double).
+
+    In float the tolerance is ``max(4 dev, 1e-5 max|u|)`` (``dev``: the emulated float
+    step's largest deviation), so ``tol / (4 max|u|)`` is the deviation itself whenever it
+    exceeds ``2.5e-6`` (and bounds it otherwise); the file says so in a comment.
+
+    Examples
+    --------
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import step_design
+    >>> from fl_design.codegen._guard import guard_settings
+    >>> from fl_design.codegen._vectors import vectors_and_deviation
+    >>> d = step_design(presets.paper_design(), "float")
+    >>> text, dev = vectors_and_deviation(d, guard_settings(d), "float", n=200)
+    >>> 0.0 < dev < 1e-4 and "of max|u|" in text
+    True
+    """
     y, r, u, tol = expected_inputs(design, guard, precision, n)
     comments = [
         f"test vectors of the generated step ({precision}); design hash {digest}",
         "start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
         "|u - u_expected| <= tol on every line (u_expected: Design.step in double)"]
-    return vector_file(comments, tol, y, r, u)
+    dev = None
+    if precision == "float":
+        dev = float(tol / (4.0 * max(float(np.max(np.abs(u))), np.finfo(float).tiny)))
+        comments.append(f"the float step's own deviation from Design.step here: "
+                        f"{'at most ' if dev <= 2.5e-6 else ''}{dev:.3g} of max|u| "
+                        f"(tol = max(4 x deviation, 1e-5 max|u|))")
+    return vector_file(comments, tol, y, r, u), dev
 
 
 def vector_file(comments, tol, y, r, u) -> str:
@@ -232,5 +261,12 @@ def vector_file(comments, tol, y, r, u) -> str:
     return "\n".join(head + rows) + "\n"
 
 
-__all__ = ["N_VECTORS", "expected_inputs", "hold_rejected", "vector_file", "vector_record",
-           "vector_text"]
+__all__ = [
+    "N_VECTORS",
+    "expected_inputs",
+    "hold_rejected",
+    "vector_file",
+    "vector_record",
+    "vector_text",
+    "vectors_and_deviation",
+]

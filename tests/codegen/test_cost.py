@@ -89,7 +89,9 @@ def test_cli_codegen_writes_the_package(tmp_path, capsys):
     out = tmp_path / "c"
     assert main(["codegen", str(out), "--precision", "float", "--prefix", "trms"]) == 0
     assert "float trms_step(" in (out / "trms.h").read_text()
-    assert "wrote 13 files (float, prefix 'trms')" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "wrote 15 files (float, prefix 'trms')" in printed
+    assert "\n  model/startup.c\n" in printed and "\n  pil/pil.ld\n" in printed
 
 
 @pytest.mark.parametrize("args,needle", [
