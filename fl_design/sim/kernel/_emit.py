@@ -77,6 +77,37 @@ def _select(node: dict, x: str, y: str, mask) -> str | None:
     return None
 
 
+def _select_parts(node: dict, x: str, y: str, mask) -> tuple[str, str, str] | None:
+    """``(mask, a, b)`` of :func:`_select`'s ``(FL_SEL(mask, a, b)+FL_Z)``, or None."""
+    nx, ny = node.get(x), node.get(y)
+    if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
+        return None
+    (_, cx, ax), (_, cy, by) = nx, ny
+    if node.get(cy) == (ca.OP_NOT, cx):
+        return mask(cx), ax, by
+    if node.get(cx) == (ca.OP_NOT, cy):
+        return mask(cy), by, ax
+    return None
+
+
+def _merged(parts: tuple[str, str, str], selects: dict) -> tuple[str, str, str]:
+    """A select whose chosen value is itself a select with the same other value, as one.
+
+    ``sel(m, sel(n, a, b) + 0, b) + 0`` is ``sel(m & n, a, b) + 0`` bit for bit (``m``: the
+    inner sum plus zero again is itself; not ``m``: ``b + 0`` either way), so the inner
+    select is not computed (the step's guard selects every accumulator update, most of which
+    are selects on their own old value: one blend each instead of two).
+    """
+    m, a, b = parts
+    inner = selects.get(a)
+    if inner is not None and inner[2] == b:
+        return f"({m} & {inner[0]})", inner[1], b
+    inner = selects.get(b)
+    if inner is not None and inner[1] == a:  # sel(m, a, sel(n, a, c) + 0) + 0
+        return f"({m} | {inner[0]})", a, inner[2]
+    return parts
+
+
 #: Operations whose value is a truth value (``1.0`` or ``+0.0``), written as a lane mask.
 _MASKS = {ca.OP_LT: "({0}<{1})", ca.OP_LE: "({0}<={1})", ca.OP_EQ: "({0}=={1})",
           ca.OP_NE: "({0}!={1})", ca.OP_AND: "({m0} & {m1})", ca.OP_OR: "({m0} | {m1})",
@@ -91,7 +122,7 @@ def _program(f: ca.Function):
     bits): a condition on it (``if_else``, ``and``...) uses the mask directly instead of
     comparing ``1.0``/``0.0`` with zero again (the same lanes are selected).
     """
-    cur, ops, call, node, masks = {}, [], None, {}, {}
+    cur, ops, call, node, masks, selects = {}, [], None, {}, {}, {}
     n = f.n_instructions()
 
     def mask(x: str) -> str:  # lanes where x != 0 (NaN included)
@@ -128,8 +159,9 @@ def _program(f: ca.Function):
             for j, o in enumerate(outs):
                 cur[o] = f"c{j}"
             continue
-        elif op == ca.OP_ADD and _select(node, *args, mask):
-            ops.append(("let", _select(node, *args, mask), f"v{k}"))
+        elif op == ca.OP_ADD and _select_parts(node, *args, mask):
+            parts = selects[f"v{k}"] = _merged(_select_parts(node, *args, mask), selects)
+            ops.append(("let", "(FL_SEL({}, {}, {})+FL_Z)".format(*parts), f"v{k}"))
         elif op == ca.OP_IF_ELSE_ZERO:
             ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", f"v{k}"))
         elif op in BINARY:
