@@ -93,18 +93,32 @@ def _select_parts(node: dict, x: str, y: str, mask) -> tuple[str, str, str] | No
 def _merged(parts: tuple[str, str, str], selects: dict) -> tuple[str, str, str]:
     """A select whose chosen value is itself a select with the same other value, as one.
 
-    ``sel(m, sel(n, a, b) + 0, b) + 0`` is ``sel(m & n, a, b) + 0`` bit for bit (``m``: the
-    inner sum plus zero again is itself; not ``m``: ``b + 0`` either way), so the inner
-    select is not computed (the step's guard selects every accumulator update, most of which
-    are selects on their own old value: one blend each instead of two).
+    ``sel(m, sel(n, a, b) [+ 0], b) + 0`` is ``sel(m & n, a, b) + 0`` bit for bit (``m``:
+    the inner sum plus zero again is itself; not ``m``: ``b + 0`` either way), and likewise
+    with the inner select in the other branch or choosing the other way (``~n``, ``m | n``).
+    The inner select (also ``fmin``/``fmax``, selects without the ``+ 0``) is then not
+    computed: the step's guard selects every accumulator update, most of which are selects
+    or extrema on their own old value: one blend each instead of two.
+
+    Examples
+    --------
+    >>> from fl_design.sim.kernel._emit import _merged
+    >>> _merged(("g", "v2", "v1"), {"v2": ("n", "v0", "v1")})
+    ('(g & n)', 'v0', 'v1')
+    >>> _merged(("g", "v2", "v1"), {"v2": ("n", "v1", "v0")})
+    ('(g & ~n)', 'v0', 'v1')
     """
     m, a, b = parts
     inner = selects.get(a)
     if inner is not None and inner[2] == b:
         return f"({m} & {inner[0]})", inner[1], b
+    if inner is not None and inner[1] == b:  # sel(m, sel(n, b, c), b) + 0
+        return f"({m} & ~{inner[0]})", inner[2], b
     inner = selects.get(b)
-    if inner is not None and inner[1] == a:  # sel(m, a, sel(n, a, c) + 0) + 0
+    if inner is not None and inner[1] == a:  # sel(m, a, sel(n, a, c)) + 0
         return f"({m} | {inner[0]})", a, inner[2]
+    if inner is not None and inner[2] == a:  # sel(m, a, sel(n, c, a)) + 0
+        return f"({m} | ~{inner[0]})", a, inner[1]
     return parts
 
 
@@ -112,6 +126,11 @@ def _merged(parts: tuple[str, str, str], selects: dict) -> tuple[str, str, str]:
 _MASKS = {ca.OP_LT: "({0}<{1})", ca.OP_LE: "({0}<={1})", ca.OP_EQ: "({0}=={1})",
           ca.OP_NE: "({0}!={1})", ca.OP_AND: "({m0} & {m1})", ca.OP_OR: "({m0} | {m1})",
           ca.OP_NOT: "(~{m0})"}
+
+
+#: ``fmin``/``fmax`` as :data:`BINARY` writes them, ``FL_SEL(mask, {0}, {1})``: the mask.
+_EXTREMA = {ca.OP_FMIN: "(({0}<{1}) | ({1}!={1}))", ca.OP_FMAX: "(({0}>{1}) | ({1}!={1}))"}
+assert all(BINARY[op] == f"FL_SEL({m[1:-1]}, {{0}}, {{1}})" for op, m in _EXTREMA.items())
 
 
 def _program(f: ca.Function):
@@ -165,6 +184,8 @@ def _program(f: ca.Function):
         elif op == ca.OP_IF_ELSE_ZERO:
             ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", f"v{k}"))
         elif op in BINARY:
+            if op in _EXTREMA:  # FL_SEL(mask, a, b) without + 0: a select to merge into
+                selects[f"v{k}"] = (_EXTREMA[op].format(*args), *args)
             ops.append(("let", BINARY[op].format(*args), f"v{k}"))
         elif op in UNARY:
             ops.append(("let", UNARY[op].format(*args), f"v{k}"))
