@@ -15,6 +15,10 @@ unrolled substeps, so the source stops growing with their number. Nothing is wri
 hand: an operation the tables do not know raises :class:`LanesUnsupported` and the caller
 keeps the scalar kernel.
 
+Selects are written with fewer instructions and the same bits
+(:mod:`fl_design.sim.kernel._selects`: a select of a select or extremum sharing a value is
+one select; the ``+ 0.0`` of a select of values that cannot be ``-0.0`` or a signalling NaN
+is dropped, the kernel's ``fl_lanes_check`` vetting the initial values this assumes).
 Operations are printed as CasADi's code generator prints them (``casadi_sq(x) = x*x``,
 ``c ? a : 0`` as a lane mask, ``fmin``/``fmax`` as glibc computes them on x86-64,
 ``casadi_sign``), and the kernel is compiled without floating-point contraction, so a lane
@@ -41,6 +45,8 @@ from importlib import resources
 import casadi as ca
 
 from ..._cmath import ELEMENTARY
+from ._order import in_place as _in_place
+from ._selects import EXTREMA, Zeros, merged, select_parts
 from ._vector import BINARY, BINARY_MATH, UNARY, constant, load, prelude, store
 
 #: C math functions printed by name (CasADi's ``casadi_fabs`` etc. are these in C99).
@@ -66,60 +72,8 @@ def _select(node: dict, x: str, y: str, mask) -> str | None:
     and so is the select plus ``0.0`` (the addition turns ``-0.0`` into ``+0.0`` as the sum
     does, and quiets a NaN as the sum does; one addition instead of one per branch).
     """
-    nx, ny = node.get(x), node.get(y)
-    if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
-        return None
-    (_, cx, ax), (_, cy, by) = nx, ny
-    if node.get(cy) == (ca.OP_NOT, cx):
-        return f"(FL_SEL({mask(cx)}, {ax}, {by})+FL_Z)"
-    if node.get(cx) == (ca.OP_NOT, cy):
-        return f"(FL_SEL({mask(cy)}, {by}, {ax})+FL_Z)"
-    return None
-
-
-def _select_parts(node: dict, x: str, y: str, mask) -> tuple[str, str, str] | None:
-    """``(mask, a, b)`` of :func:`_select`'s ``(FL_SEL(mask, a, b)+FL_Z)``, or None."""
-    nx, ny = node.get(x), node.get(y)
-    if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
-        return None
-    (_, cx, ax), (_, cy, by) = nx, ny
-    if node.get(cy) == (ca.OP_NOT, cx):
-        return mask(cx), ax, by
-    if node.get(cx) == (ca.OP_NOT, cy):
-        return mask(cy), by, ax
-    return None
-
-
-def _merged(parts: tuple[str, str, str], selects: dict) -> tuple[str, str, str]:
-    """A select whose chosen value is itself a select with the same other value, as one.
-
-    ``sel(m, sel(n, a, b) [+ 0], b) + 0`` is ``sel(m & n, a, b) + 0`` bit for bit (``m``:
-    the inner sum plus zero again is itself; not ``m``: ``b + 0`` either way), and likewise
-    with the inner select in the other branch or choosing the other way (``~n``, ``m | n``).
-    The inner select (also ``fmin``/``fmax``, selects without the ``+ 0``) is then not
-    computed: the step's guard selects every accumulator update, most of which are selects
-    or extrema on their own old value: one blend each instead of two.
-
-    Examples
-    --------
-    >>> from fl_design.sim.kernel._emit import _merged
-    >>> _merged(("g", "v2", "v1"), {"v2": ("n", "v0", "v1")})
-    ('(g & n)', 'v0', 'v1')
-    >>> _merged(("g", "v2", "v1"), {"v2": ("n", "v1", "v0")})
-    ('(g & ~n)', 'v0', 'v1')
-    """
-    m, a, b = parts
-    inner = selects.get(a)
-    if inner is not None and inner[2] == b:
-        return f"({m} & {inner[0]})", inner[1], b
-    if inner is not None and inner[1] == b:  # sel(m, sel(n, b, c), b) + 0
-        return f"({m} & ~{inner[0]})", inner[2], b
-    inner = selects.get(b)
-    if inner is not None and inner[1] == a:  # sel(m, a, sel(n, a, c)) + 0
-        return f"({m} | {inner[0]})", a, inner[2]
-    if inner is not None and inner[2] == a:  # sel(m, a, sel(n, c, a)) + 0
-        return f"({m} | ~{inner[0]})", a, inner[1]
-    return parts
+    parts = select_parts(node, x, y, mask)
+    return None if parts is None else "(FL_SEL({}, {}, {})+FL_Z)".format(*parts)
 
 
 #: Operations whose value is a truth value (``1.0`` or ``+0.0``), written as a lane mask.
@@ -128,20 +82,20 @@ _MASKS = {ca.OP_LT: "({0}<{1})", ca.OP_LE: "({0}<={1})", ca.OP_EQ: "({0}=={1})",
           ca.OP_NOT: "(~{m0})"}
 
 
-#: ``fmin``/``fmax`` as :data:`BINARY` writes them, ``FL_SEL(mask, {0}, {1})``: the mask.
-_EXTREMA = {ca.OP_FMIN: "(({0}<{1}) | ({1}!={1}))", ca.OP_FMAX: "(({0}>{1}) | ({1}!={1}))"}
-assert all(BINARY[op] == f"FL_SEL({m[1:-1]}, {{0}}, {{1}})" for op, m in _EXTREMA.items())
-
-
-def _program(f: ca.Function):
+def _program(f: ca.Function, zeros: Zeros | None = None):
     """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index.
 
     A truth value (comparison, and, or, not, the product of two truth values) is also kept
     as a lane mask, named ``v<n + k>`` for instruction ``k`` of ``n`` (stored in a vector's
     bits): a condition on it (``if_else``, ``and``...) uses the mask directly instead of
-    comparing ``1.0``/``0.0`` with zero again (the same lanes are selected).
+    comparing ``1.0``/``0.0`` with zero again (the same lanes are selected). Selects are
+    merged (:func:`fl_design.sim.kernel._selects.merged`); with ``zeros`` (the accumulating
+    step: input 0 is the accumulator), a select of two normal values loses its ``+ 0.0``
+    (:class:`fl_design.sim.kernel._selects.Zeros`; ``zeros`` then holds the entries whose
+    initial values must be normal).
     """
     cur, ops, call, node, masks, selects = {}, [], None, {}, {}, {}
+    reduce, zeros = zeros is not None, zeros if zeros is not None else Zeros()
     n = f.n_instructions()
 
     def mask(x: str) -> str:  # lanes where x != 0 (NaN included)
@@ -159,17 +113,26 @@ def _program(f: ca.Function):
             op_mask = _MASKS[op].format(*args, m0=mask(args[0]), m1=mask(args[-1]))
         else:
             op_mask = None
+        name = f"v{k}"
         if op_mask is not None:
-            masks[f"v{k}"] = f"v{n + k}"
+            masks[name] = f"v{n + k}"
             ops.append(("let", f"((fl_v){op_mask})", f"v{n + k}"))
-            ops.append(("let", f"FL_B(FL_M(v{n + k}))", f"v{k}"))
+            ops.append(("let", f"FL_B(FL_M(v{n + k}))", name))
+            zeros.fact(name, "normal")  # 1.0 or +0.0
         elif op == ca.OP_INPUT:
-            ops.append(("in", (ins[0], ins[1]), f"v{k}"))
+            ops.append(("in", (ins[0], ins[1]), name))
+            if ins[0] == 0:
+                zeros.fact(name, "load", ins[1])
         elif op == ca.OP_OUTPUT:
             ops.append(("out", (outs[0], outs[1]), cur[ins[0]]))
+            if outs[0] == 0:
+                zeros.stores[outs[1]] = cur[ins[0]]
             continue
         elif op == ca.OP_CONST:
-            ops.append(("let", constant(_const(f.instruction_constant(k))), f"v{k}"))
+            value = f.instruction_constant(k)
+            ops.append(("let", constant(_const(value)), name))
+            if not (value == 0 and math.copysign(1, value) < 0):
+                zeros.fact(name, "normal")  # NAN is a quiet NaN
         elif op == ca.OP_CALL:
             if call is not None:
                 raise LanesUnsupported("more than one call in the step")
@@ -178,22 +141,36 @@ def _program(f: ca.Function):
             for j, o in enumerate(outs):
                 cur[o] = f"c{j}"
             continue
-        elif op == ca.OP_ADD and _select_parts(node, *args, mask):
-            parts = selects[f"v{k}"] = _merged(_select_parts(node, *args, mask), selects)
-            ops.append(("let", "(FL_SEL({}, {}, {})+FL_Z)".format(*parts), f"v{k}"))
+        elif op == ca.OP_ADD and select_parts(node, *args, mask):
+            parts = selects[name] = merged(select_parts(node, *args, mask), selects)
+            zeros.selects.append((len(ops), parts))
+            zeros.fact(name, "normal")  # plus 0.0, or (below) two normal values
+            ops.append(("let", "(FL_SEL({}, {}, {})+FL_Z)".format(*parts), name))
         elif op == ca.OP_IF_ELSE_ZERO:
-            ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", f"v{k}"))
+            ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", name))
+            zeros.fact(name, "and", args[1])
         elif op in BINARY:
-            if op in _EXTREMA:  # FL_SEL(mask, a, b) without + 0: a select to merge into
-                selects[f"v{k}"] = (_EXTREMA[op].format(*args), *args)
-            ops.append(("let", BINARY[op].format(*args), f"v{k}"))
+            if op in EXTREMA:  # FL_SEL(mask, a, b) without + 0: a select to merge into
+                selects[name] = (EXTREMA[op].format(*args), *args)
+                zeros.fact(name, "sel", *args)
+            elif op in (ca.OP_ADD, ca.OP_SUB):
+                zeros.fact(name, "add" if op == ca.OP_ADD else "sub", *args)
+            elif op in (ca.OP_MUL, ca.OP_DIV, ca.OP_POW, ca.OP_CONSTPOW):
+                zeros.fact(name, "quiet")
+            ops.append(("let", BINARY[op].format(*args), name))
         elif op in UNARY:
-            ops.append(("let", UNARY[op].format(*args), f"v{k}"))
+            ops.append(("let", UNARY[op].format(*args), name))
+            if op in (ca.OP_SQ, ca.OP_TWICE, ca.OP_INV):
+                zeros.fact(name, "quiet")
         elif op in MATH:
-            ops.append(("let", f"fl_{MATH[op]}({args[0]})", f"v{k}"))
+            ops.append(("let", f"fl_{MATH[op]}({args[0]})", name))
+            zeros.fact(name, "fabs", args[0]) if op == ca.OP_FABS else zeros.fact(name, "quiet")
         else:
             raise LanesUnsupported(f"CasADi operation {op} has no lane translation")
-        cur[outs[0]] = f"v{k}"
+        cur[outs[0]] = name
+    for i in zeros.solve()[1] if reduce else ():
+        kind, text, name = ops[i]
+        ops[i] = (kind, text[1:-len("+FL_Z)")], name)  # "(FL_SEL(...)+FL_Z)" -> "FL_SEL(...)"
     return ops, call
 
 
@@ -258,61 +235,6 @@ def _acc_load(arg: int, nz: int) -> str:
     return f"A[{nz} * FL_W + l]" if arg == 0 else f"Dl[{nz} * FL_W + l]"
 
 
-def _in_place(ops: list, call: int | None) -> tuple[list, int | None]:
-    """The step's operations in the order they are written, and the call's index.
-
-    Outputs that only copy their own input are dropped (the step updates ``A`` in place).
-    The rest is ordered depth first from the roots, the call then each output in turn: an
-    operation comes just before the first one that needs it, an output is stored as soon as
-    its value exists (after the load of the entry it overwrites). Values then live briefly:
-    with 16 vector registers (AVX2) the order decides how much is spilled, and everything
-    alive across a call of vector math is saved and restored around it.
-    """
-    loads = {name: data for kind, data, name in ops if kind == "in"}
-    kept = [op for op in ops if op[0] != "out" or loads.get(op[2]) != (0, op[1][1])]
-    producer, load_of = {}, {}
-    for i, (kind, data, name) in enumerate(kept):
-        if kind == "call":
-            producer.update((n, i) for n in name)
-        elif kind != "out":
-            producer[name] = i
-            if kind == "in" and data[0] == 0:
-                load_of[data[1]] = i
-
-    def needs(i: int) -> list[int]:
-        kind, data, name = kept[i]
-        if kind == "in":
-            return []
-        if kind == "call":
-            names = data
-        elif kind == "out":
-            names = [name]
-            if data[1] in load_of:  # the entry is read before it is overwritten
-                names = [kept[load_of[data[1]]][2], name]
-        else:
-            names = re.findall(r"\b[vc]\d+\b", data)
-        return [producer[n] for n in names if n in producer]
-
-    order, done = [], set()
-    roots = [i for i, op in enumerate(kept) if op[0] == "call"] + \
-        [i for i, op in enumerate(kept) if op[0] == "out"]
-    for root in roots:
-        stack = [(root, iter(needs(root)))]
-        while stack:
-            i, todo = stack[-1]
-            j = next((j for j in todo if j not in done), None)
-            if j is not None:
-                done.add(j)
-                stack.append((j, iter(needs(j))))
-                continue
-            stack.pop()
-            done.add(i)
-            order.append(kept[i])
-    if call is None:
-        return order, None
-    return order, next(i for i, op in enumerate(order) if op[0] == "call")
-
-
 #: Most statements (per lane group) of substeps unrolled in one block. The substeps are
 #: straight-line code: the state stays in registers, nothing is stored or reloaded between
 #: substeps. A step whose substeps all fit in :data:`UNROLL_LINES` is one block (TRMS, 10 substeps: 2 % faster than blocks
@@ -323,11 +245,12 @@ BLOCK_LINES = 600
 
 
 def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int, width: int,
-               n_groups: int | None = None) -> tuple[str, int]:
-    """C of ``fl_lanes_step`` and its number of lane groups (default :func:`groups`)."""
+               n_groups: int | None = None, zeros: Zeros | None = None) -> tuple[str, int]:
+    """C of ``fl_lanes_step`` and its number of lane groups (default :func:`groups`);
+    ``zeros`` (filled) drops the ``+ 0.0`` of selects of normal values."""
     n_groups = n_groups or groups(width, substeps)
     _segment = functools.partial(_segment_groups, groups=n_groups)
-    ops, call = _in_place(*_program(acc))
+    ops, call = _in_place(*_program(acc, zeros))
     store_at = lambda res, nz: f"A[{nz} * FL_W + l]"
     if call is None:
         return _segment(_body(ops, _acc_load, store_at, str)), n_groups
@@ -526,7 +449,9 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     True
     """
     rk4, substeps = rk4_fold(accumulate)
-    step, n_groups = _step_body(accumulate, rk4, substeps, int(width), groups)
+    zeros = Zeros()
+    step, n_groups = _step_body(accumulate, rk4, substeps, int(width), groups, zeros)
+    normal = sorted(zeros.solve()[0])
     known = {*MATH.values(), *BINARY_MATH}
     used = {name for name in re.findall(r"\bfl_(\w+)\(", step) if name in known}
     return fill_template(_template(), {
@@ -534,6 +459,7 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
         "ND": accumulate.size1_in(1), "I_K": indices["k"],
         "I_DIV": indices["div"], "I_N": indices["N"],
         "VECTOR_MATH": prelude(int(width), tuple(vector_math), variant, used),
+        "N_NORMAL": len(normal), "NORMAL": ", ".join(map(str, normal or [0])),
         "STEP_BODY": step})
 
 
