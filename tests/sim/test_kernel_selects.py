@@ -23,7 +23,7 @@ SNAN = np.array([0x7FF0000000000001], dtype=np.int64).view(np.float64)[0]
 
 
 #: Updated entries 3..3 + N_UPDATES - 1, then one read-only entry (each lane's conditions).
-N_UPDATES = 15
+N_UPDATES = 16
 PARAM = 3 + N_UPDATES
 NACC = PARAM + 1
 
@@ -53,6 +53,7 @@ def _step():
         ca.if_else(g, a[15] + xq, a[15]),
         ca.if_else(g, a[16] - ca.fabs(xq), a[16]),
         ca.if_else(g, ca.fabs(x), a[17]),  # a sample: neither quiet nor never -0.0 assumed
+        ca.if_else(g, a[18] + a[PARAM] * a[PARAM], a[18]),  # a[PARAM]^2: once per run
     ]
     assert len(updates) == N_UPDATES
     return ca.Function("fl_acc", [a, d], [ca.vertcat(a[0] + 1, a[1], a[2], *updates,
@@ -61,14 +62,14 @@ def _step():
 
 def test_merged_selects_are_one_blend_each():
     """Each update above is one ``FL_SEL`` in the emitted step (two or three before); those
-    of normal values only have no ``+ 0.0`` (two here: a sum and a difference with the
+    of normal values only have no ``+ 0.0`` (three here: sums and a difference with the
     entry's own normal value)."""
     from fl_design.sim.kernel._emit import lanes_source
 
     src = lanes_source(_step(), {"k": 0, "div": 1, "N": 2}, width=4, groups=1)
     step = src.split("static void fl_lanes_step")[1]
     assert step.count("FL_SEL(") == N_UPDATES
-    assert step.count("+FL_Z)") == N_UPDATES - 2
+    assert step.count("+FL_Z)") == N_UPDATES - 3
 
 
 @pytest.mark.parametrize("isa", ISAS)
@@ -137,3 +138,32 @@ def test_an_initial_negative_zero_or_signalling_nan_goes_to_the_scalar_kernel(tm
         got, number = runner.run(bad, D), ~np.isnan(ref)
         np.testing.assert_array_equal(np.isnan(got), ~number)
         np.testing.assert_array_equal(got[number].view(np.int64), ref[number].view(np.int64))
+
+
+@pytest.mark.parametrize("isa", ISAS)
+def test_values_of_read_only_entries_are_computed_again_for_each_new_run(tmp_path, isa):
+    """``a[PARAM]^2`` is computed once per run (``fl_lanes_init``), not per step: with more
+    runs than lanes, every refilled lane gets its own (bitwise the interpreter's results)."""
+    from fl_design.sim.kernel._emit import lanes_source
+    from fl_design.sim.kernel._lanes import _load, build_lanes
+
+    f, n_cols, n_steps = _step(), 70, 25
+    src = lanes_source(f, {"k": 0, "div": 1, "N": 2}, width=4)
+    assert "#define FL_N_INIT 2 " in src  # a[PARAM]^2 and -a[PARAM]
+    rng = np.random.default_rng(3)
+    acc = np.zeros((NACC, n_cols))
+    acc[2], acc[PARAM] = n_steps + 5, rng.uniform(-1, 1, n_cols)
+    acc[3:PARAM] = rng.choice(SPECIAL[1:], (N_UPDATES, n_cols))
+    D = rng.choice(SPECIAL[1:], (4, n_steps))
+    ref = acc.copy()
+    for k in range(n_steps):
+        ref = np.column_stack([np.asarray(f(ref[:, j], D[:, k])).ravel()
+                               for j in range(n_cols)])
+    lib = _load(str(build_lanes(f, {"k": 0, "div": 1, "N": 2}, isa=LEVELS[isa],
+                                cache_dir=tmp_path, vector_math_ok=False)))
+    assert n_cols > lib.fl_lanes_width() * 4  # refills (4 lane groups at most)
+    cols = np.ascontiguousarray(acc.T)
+    lib.fl_lanes_run(cols, n_cols, np.ascontiguousarray(D.T), n_steps, np.zeros(1, np.int64))
+    got, number = cols.T, ~np.isnan(ref)
+    np.testing.assert_array_equal(np.isnan(got), ~number)
+    np.testing.assert_array_equal(got[number].view(np.int64), ref[number].view(np.int64))

@@ -45,6 +45,7 @@ from importlib import resources
 import casadi as ca
 
 from ..._cmath import ELEMENTARY
+from ._order import hoist
 from ._order import in_place as _in_place
 from ._selects import EXTREMA, Zeros, merged, select_parts
 from ._vector import BINARY, BINARY_MATH, UNARY, constant, load, prelude, store
@@ -245,15 +246,26 @@ BLOCK_LINES = 600
 
 
 def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int, width: int,
-               n_groups: int | None = None, zeros: Zeros | None = None) -> tuple[str, int]:
-    """C of ``fl_lanes_step`` and its number of lane groups (default :func:`groups`);
-    ``zeros`` (filled) drops the ``+ 0.0`` of selects of normal values."""
+               n_groups: int | None = None, zeros: Zeros | None = None
+               ) -> tuple[str, int, str, int]:
+    """C of ``fl_lanes_step``, its number of lane groups (default :func:`groups`), C of
+    ``fl_lanes_init`` and the number of values it computes once per run
+    (:func:`fl_design.sim.kernel._order.hoist`); ``zeros`` (filled) drops the ``+ 0.0`` of
+    selects of normal values."""
     n_groups = n_groups or groups(width, substeps)
     _segment = functools.partial(_segment_groups, groups=n_groups)
     ops, call = _in_place(*_program(acc, zeros))
+    ops, init, n_init = hoist(ops, int(acc.size1_in(0)))
     store_at = lambda res, nz: f"A[{nz} * FL_W + l]"
+    init_c = _segment(_body(init, _acc_load, store_at, str)) if n_init else ""
     if call is None:
-        return _segment(_body(ops, _acc_load, store_at, str)), n_groups
+        return _segment(_body(ops, _acc_load, store_at, str)), n_groups, init_c, n_init
+    step, n_groups = _call_body(ops, call, rk4, substeps, n_groups, _segment, store_at)
+    return step, n_groups, init_c, n_init
+
+
+def _call_body(ops, call, rk4, substeps, n_groups, _segment, store_at) -> tuple[str, int]:
+    """:func:`_step_body` of a step calling the RK4 fold (its substeps unrolled)."""
     if rk4 is None:
         raise LanesUnsupported("the step calls a function that is not the RK4 fold")
     (_, args, outs), before, after = ops[call], ops[:call], ops[call + 1:]
@@ -450,7 +462,8 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     """
     rk4, substeps = rk4_fold(accumulate)
     zeros = Zeros()
-    step, n_groups = _step_body(accumulate, rk4, substeps, int(width), groups, zeros)
+    step, n_groups, init, n_init = _step_body(accumulate, rk4, substeps, int(width), groups,
+                                              zeros)
     normal = sorted(zeros.solve()[0])
     known = {*MATH.values(), *BINARY_MATH}
     used = {name for name in re.findall(r"\bfl_(\w+)\(", step) if name in known}
@@ -460,7 +473,7 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
         "I_DIV": indices["div"], "I_N": indices["N"],
         "VECTOR_MATH": prelude(int(width), tuple(vector_math), variant, used),
         "N_NORMAL": len(normal), "NORMAL": ", ".join(map(str, normal or [0])),
-        "STEP_BODY": step})
+        "STEP_BODY": step, "N_INIT": n_init, "INIT_BODY": init})
 
 
 __all__ = ["LanesUnsupported", "fill_template", "lanes_source", "rk4_fold"]
