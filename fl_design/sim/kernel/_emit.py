@@ -201,7 +201,9 @@ def groups(width: int, substeps: int, *, clang: bool = False) -> int:
     AVX2 2/4/8 groups 246/179/191, AVX-512 137/113/120. The width does not change the choice.
     Clang 14 (``clang=True``) is faster with 4 groups in every case (one substep: AVX2 2/4
     groups 46.5/41.8, AVX-512 24.4/22.6; 10 substeps 242/175 and 134/108) and compiles them
-    in 0.5 s.
+    in 0.5 s. With the select rewrites (:mod:`fl_design.sim.kernel._selects`) and the values
+    computed once per run, still 4 (AVX2, Clang, load 2.5-3.5: 2/3/4/5 groups
+    37.8/33.4/32.7/32.2-33.1).
 
     Examples
     --------
