@@ -15,6 +15,10 @@ unrolled substeps, so the source stops growing with their number. Nothing is wri
 hand: an operation the tables do not know raises :class:`LanesUnsupported` and the caller
 keeps the scalar kernel.
 
+Selects are written with fewer instructions and the same bits
+(:mod:`fl_design.sim.kernel._selects`: a select of a select or extremum sharing a value is
+one select; the ``+ 0.0`` of a select of values that cannot be ``-0.0`` or a signalling NaN
+is dropped, the kernel's ``fl_lanes_check`` vetting the initial values this assumes).
 Operations are printed as CasADi's code generator prints them (``casadi_sq(x) = x*x``,
 ``c ? a : 0`` as a lane mask, ``fmin``/``fmax`` as glibc computes them on x86-64,
 ``casadi_sign``), and the kernel is compiled without floating-point contraction, so a lane
@@ -41,6 +45,9 @@ from importlib import resources
 import casadi as ca
 
 from ..._cmath import ELEMENTARY
+from ._order import hoist
+from ._order import in_place as _in_place
+from ._selects import EXTREMA, Zeros, merged, select_parts
 from ._vector import BINARY, BINARY_MATH, UNARY, constant, load, prelude, store
 
 #: C math functions printed by name (CasADi's ``casadi_fabs`` etc. are these in C99).
@@ -66,15 +73,8 @@ def _select(node: dict, x: str, y: str, mask) -> str | None:
     and so is the select plus ``0.0`` (the addition turns ``-0.0`` into ``+0.0`` as the sum
     does, and quiets a NaN as the sum does; one addition instead of one per branch).
     """
-    nx, ny = node.get(x), node.get(y)
-    if not (nx and ny and nx[0] == ny[0] == ca.OP_IF_ELSE_ZERO):
-        return None
-    (_, cx, ax), (_, cy, by) = nx, ny
-    if node.get(cy) == (ca.OP_NOT, cx):
-        return f"(FL_SEL({mask(cx)}, {ax}, {by})+FL_Z)"
-    if node.get(cx) == (ca.OP_NOT, cy):
-        return f"(FL_SEL({mask(cy)}, {by}, {ax})+FL_Z)"
-    return None
+    parts = select_parts(node, x, y, mask)
+    return None if parts is None else "(FL_SEL({}, {}, {})+FL_Z)".format(*parts)
 
 
 #: Operations whose value is a truth value (``1.0`` or ``+0.0``), written as a lane mask.
@@ -83,15 +83,20 @@ _MASKS = {ca.OP_LT: "({0}<{1})", ca.OP_LE: "({0}<={1})", ca.OP_EQ: "({0}=={1})",
           ca.OP_NOT: "(~{m0})"}
 
 
-def _program(f: ca.Function):
+def _program(f: ca.Function, zeros: Zeros | None = None):
     """``(ops, call)``: per instruction ``(kind, data)`` in SSA form, and the call index.
 
     A truth value (comparison, and, or, not, the product of two truth values) is also kept
     as a lane mask, named ``v<n + k>`` for instruction ``k`` of ``n`` (stored in a vector's
     bits): a condition on it (``if_else``, ``and``...) uses the mask directly instead of
-    comparing ``1.0``/``0.0`` with zero again (the same lanes are selected).
+    comparing ``1.0``/``0.0`` with zero again (the same lanes are selected). Selects are
+    merged (:func:`fl_design.sim.kernel._selects.merged`); with ``zeros`` (the accumulating
+    step: input 0 is the accumulator), a select of two normal values loses its ``+ 0.0``
+    (:class:`fl_design.sim.kernel._selects.Zeros`; ``zeros`` then holds the entries whose
+    initial values must be normal).
     """
-    cur, ops, call, node, masks = {}, [], None, {}, {}
+    cur, ops, call, node, masks, selects = {}, [], None, {}, {}, {}
+    reduce, zeros = zeros is not None, zeros if zeros is not None else Zeros()
     n = f.n_instructions()
 
     def mask(x: str) -> str:  # lanes where x != 0 (NaN included)
@@ -109,17 +114,26 @@ def _program(f: ca.Function):
             op_mask = _MASKS[op].format(*args, m0=mask(args[0]), m1=mask(args[-1]))
         else:
             op_mask = None
+        name = f"v{k}"
         if op_mask is not None:
-            masks[f"v{k}"] = f"v{n + k}"
+            masks[name] = f"v{n + k}"
             ops.append(("let", f"((fl_v){op_mask})", f"v{n + k}"))
-            ops.append(("let", f"FL_B(FL_M(v{n + k}))", f"v{k}"))
+            ops.append(("let", f"FL_B(FL_M(v{n + k}))", name))
+            zeros.fact(name, "normal")  # 1.0 or +0.0
         elif op == ca.OP_INPUT:
-            ops.append(("in", (ins[0], ins[1]), f"v{k}"))
+            ops.append(("in", (ins[0], ins[1]), name))
+            if ins[0] == 0:
+                zeros.fact(name, "load", ins[1])
         elif op == ca.OP_OUTPUT:
             ops.append(("out", (outs[0], outs[1]), cur[ins[0]]))
+            if outs[0] == 0:
+                zeros.stores[outs[1]] = cur[ins[0]]
             continue
         elif op == ca.OP_CONST:
-            ops.append(("let", constant(_const(f.instruction_constant(k))), f"v{k}"))
+            value = f.instruction_constant(k)
+            ops.append(("let", constant(_const(value)), name))
+            if not (value == 0 and math.copysign(1, value) < 0):
+                zeros.fact(name, "normal")  # NAN is a quiet NaN
         elif op == ca.OP_CALL:
             if call is not None:
                 raise LanesUnsupported("more than one call in the step")
@@ -128,19 +142,36 @@ def _program(f: ca.Function):
             for j, o in enumerate(outs):
                 cur[o] = f"c{j}"
             continue
-        elif op == ca.OP_ADD and _select(node, *args, mask):
-            ops.append(("let", _select(node, *args, mask), f"v{k}"))
+        elif op == ca.OP_ADD and select_parts(node, *args, mask):
+            parts = selects[name] = merged(select_parts(node, *args, mask), selects)
+            zeros.selects.append((len(ops), parts))
+            zeros.fact(name, "normal")  # plus 0.0, or (below) two normal values
+            ops.append(("let", "(FL_SEL({}, {}, {})+FL_Z)".format(*parts), name))
         elif op == ca.OP_IF_ELSE_ZERO:
-            ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", f"v{k}"))
+            ops.append(("let", f"FL_AND({mask(args[0])}, {args[1]})", name))
+            zeros.fact(name, "and", args[1])
         elif op in BINARY:
-            ops.append(("let", BINARY[op].format(*args), f"v{k}"))
+            if op in EXTREMA:  # FL_SEL(mask, a, b) without + 0: a select to merge into
+                selects[name] = (EXTREMA[op].format(*args), *args)
+                zeros.fact(name, "sel", *args)
+            elif op in (ca.OP_ADD, ca.OP_SUB):
+                zeros.fact(name, "add" if op == ca.OP_ADD else "sub", *args)
+            elif op in (ca.OP_MUL, ca.OP_DIV, ca.OP_POW, ca.OP_CONSTPOW):
+                zeros.fact(name, "quiet")
+            ops.append(("let", BINARY[op].format(*args), name))
         elif op in UNARY:
-            ops.append(("let", UNARY[op].format(*args), f"v{k}"))
+            ops.append(("let", UNARY[op].format(*args), name))
+            if op in (ca.OP_SQ, ca.OP_TWICE, ca.OP_INV):
+                zeros.fact(name, "quiet")
         elif op in MATH:
-            ops.append(("let", f"fl_{MATH[op]}({args[0]})", f"v{k}"))
+            ops.append(("let", f"fl_{MATH[op]}({args[0]})", name))
+            zeros.fact(name, "fabs", args[0]) if op == ca.OP_FABS else zeros.fact(name, "quiet")
         else:
             raise LanesUnsupported(f"CasADi operation {op} has no lane translation")
-        cur[outs[0]] = f"v{k}"
+        cur[outs[0]] = name
+    for i in zeros.solve()[1] if reduce else ():
+        kind, text, name = ops[i]
+        ops[i] = (kind, text[1:-len("+FL_Z)")], name)  # "(FL_SEL(...)+FL_Z)" -> "FL_SEL(...)"
     return ops, call
 
 
@@ -170,7 +201,9 @@ def groups(width: int, substeps: int, *, clang: bool = False) -> int:
     AVX2 2/4/8 groups 246/179/191, AVX-512 137/113/120. The width does not change the choice.
     Clang 14 (``clang=True``) is faster with 4 groups in every case (one substep: AVX2 2/4
     groups 46.5/41.8, AVX-512 24.4/22.6; 10 substeps 242/175 and 134/108) and compiles them
-    in 0.5 s.
+    in 0.5 s. With the select rewrites (:mod:`fl_design.sim.kernel._selects`) and the values
+    computed once per run, still 4 (AVX2, Clang, load 2.5-3.5: 2/3/4/5 groups
+    37.8/33.4/32.7/32.2-33.1).
 
     Examples
     --------
@@ -205,61 +238,6 @@ def _acc_load(arg: int, nz: int) -> str:
     return f"A[{nz} * FL_W + l]" if arg == 0 else f"Dl[{nz} * FL_W + l]"
 
 
-def _in_place(ops: list, call: int | None) -> tuple[list, int | None]:
-    """The step's operations in the order they are written, and the call's index.
-
-    Outputs that only copy their own input are dropped (the step updates ``A`` in place).
-    The rest is ordered depth first from the roots, the call then each output in turn: an
-    operation comes just before the first one that needs it, an output is stored as soon as
-    its value exists (after the load of the entry it overwrites). Values then live briefly:
-    with 16 vector registers (AVX2) the order decides how much is spilled, and everything
-    alive across a call of vector math is saved and restored around it.
-    """
-    loads = {name: data for kind, data, name in ops if kind == "in"}
-    kept = [op for op in ops if op[0] != "out" or loads.get(op[2]) != (0, op[1][1])]
-    producer, load_of = {}, {}
-    for i, (kind, data, name) in enumerate(kept):
-        if kind == "call":
-            producer.update((n, i) for n in name)
-        elif kind != "out":
-            producer[name] = i
-            if kind == "in" and data[0] == 0:
-                load_of[data[1]] = i
-
-    def needs(i: int) -> list[int]:
-        kind, data, name = kept[i]
-        if kind == "in":
-            return []
-        if kind == "call":
-            names = data
-        elif kind == "out":
-            names = [name]
-            if data[1] in load_of:  # the entry is read before it is overwritten
-                names = [kept[load_of[data[1]]][2], name]
-        else:
-            names = re.findall(r"\b[vc]\d+\b", data)
-        return [producer[n] for n in names if n in producer]
-
-    order, done = [], set()
-    roots = [i for i, op in enumerate(kept) if op[0] == "call"] + \
-        [i for i, op in enumerate(kept) if op[0] == "out"]
-    for root in roots:
-        stack = [(root, iter(needs(root)))]
-        while stack:
-            i, todo = stack[-1]
-            j = next((j for j in todo if j not in done), None)
-            if j is not None:
-                done.add(j)
-                stack.append((j, iter(needs(j))))
-                continue
-            stack.pop()
-            done.add(i)
-            order.append(kept[i])
-    if call is None:
-        return order, None
-    return order, next(i for i, op in enumerate(order) if op[0] == "call")
-
-
 #: Most statements (per lane group) of substeps unrolled in one block. The substeps are
 #: straight-line code: the state stays in registers, nothing is stored or reloaded between
 #: substeps. A step whose substeps all fit in :data:`UNROLL_LINES` is one block (TRMS, 10 substeps: 2 % faster than blocks
@@ -270,14 +248,26 @@ BLOCK_LINES = 600
 
 
 def _step_body(acc: ca.Function, rk4: ca.Function | None, substeps: int, width: int,
-               n_groups: int | None = None) -> tuple[str, int]:
-    """C of ``fl_lanes_step`` and its number of lane groups (default :func:`groups`)."""
+               n_groups: int | None = None, zeros: Zeros | None = None
+               ) -> tuple[str, int, str, int]:
+    """C of ``fl_lanes_step``, its number of lane groups (default :func:`groups`), C of
+    ``fl_lanes_init`` and the number of values it computes once per run
+    (:func:`fl_design.sim.kernel._order.hoist`); ``zeros`` (filled) drops the ``+ 0.0`` of
+    selects of normal values."""
     n_groups = n_groups or groups(width, substeps)
     _segment = functools.partial(_segment_groups, groups=n_groups)
-    ops, call = _in_place(*_program(acc))
+    ops, call = _in_place(*_program(acc, zeros))
+    ops, init, n_init = hoist(ops, int(acc.size1_in(0)))
     store_at = lambda res, nz: f"A[{nz} * FL_W + l]"
+    init_c = _segment(_body(init, _acc_load, store_at, str)) if n_init else ""
     if call is None:
-        return _segment(_body(ops, _acc_load, store_at, str)), n_groups
+        return _segment(_body(ops, _acc_load, store_at, str)), n_groups, init_c, n_init
+    step, n_groups = _call_body(ops, call, rk4, substeps, n_groups, _segment, store_at)
+    return step, n_groups, init_c, n_init
+
+
+def _call_body(ops, call, rk4, substeps, n_groups, _segment, store_at) -> tuple[str, int]:
+    """:func:`_step_body` of a step calling the RK4 fold (its substeps unrolled)."""
     if rk4 is None:
         raise LanesUnsupported("the step calls a function that is not the RK4 fold")
     (_, args, outs), before, after = ops[call], ops[:call], ops[call + 1:]
@@ -473,7 +463,10 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
     True
     """
     rk4, substeps = rk4_fold(accumulate)
-    step, n_groups = _step_body(accumulate, rk4, substeps, int(width), groups)
+    zeros = Zeros()
+    step, n_groups, init, n_init = _step_body(accumulate, rk4, substeps, int(width), groups,
+                                              zeros)
+    normal = sorted(zeros.solve()[0])
     known = {*MATH.values(), *BINARY_MATH}
     used = {name for name in re.findall(r"\bfl_(\w+)\(", step) if name in known}
     return fill_template(_template(), {
@@ -481,7 +474,8 @@ def lanes_source(accumulate: ca.Function, indices: dict, *, width: int,
         "ND": accumulate.size1_in(1), "I_K": indices["k"],
         "I_DIV": indices["div"], "I_N": indices["N"],
         "VECTOR_MATH": prelude(int(width), tuple(vector_math), variant, used),
-        "STEP_BODY": step})
+        "N_NORMAL": len(normal), "NORMAL": ", ".join(map(str, normal or [0])),
+        "STEP_BODY": step, "N_INIT": n_init, "INIT_BODY": init})
 
 
 __all__ = ["LanesUnsupported", "fill_template", "lanes_source", "rk4_fold"]

@@ -9,7 +9,9 @@ has diverged or ended, the columns shared by the threads through one atomic coun
 load balance: diverged runs cost nothing, the order of the grid does not matter). One run with
 its trajectory (:meth:`LanesRunner.record`, used by :func:`fl_design.simulate`) goes to the
 scalar :class:`~fl_design.sim.NativeRunner`, built on first use; so does a whole grid at the
-``scalar`` level. With glibc's scalar math (``vector_math=False``) results equal the scalar
+``scalar`` level, and so does a grid whose initial accumulators hold a ``-0.0`` or a
+signalling NaN where the kernel assumes none (``fl_lanes_check``; the same bits, slower). With
+glibc's scalar math (``vector_math=False``) results equal the scalar
 kernel's and the interpreter's bit for bit at every level; with libmvec's (the default) every
 classification is the same and metrics agree to the last bits of ``tanh``/``sin`` carried
 through the loop (numbers in :class:`fl_design.Kernel`).
@@ -98,6 +100,8 @@ def _load(path: str) -> ctypes.CDLL:
     lng = np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS")
     lib.fl_lanes_run.argtypes = [dbl, ctypes.c_long, dbl, ctypes.c_long, lng]
     lib.fl_lanes_run.restype = ctypes.c_int
+    lib.fl_lanes_check.argtypes = [dbl, ctypes.c_long]
+    lib.fl_lanes_check.restype = ctypes.c_int
     lib.fl_lanes_width.restype = ctypes.c_int
     return lib
 
@@ -330,6 +334,8 @@ class LanesRunner:
         cols = np.ascontiguousarray(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T)
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
         ncols, nsteps = cols.shape[0], d.shape[0]
+        if not lib.fl_lanes_check(cols, ncols):  # an initial -0.0 where the kernel assumes
+            return self.scalar.run(acc, D, threads=threads)  # none: the same bits, slower
         counter = np.zeros(1, dtype=np.int64)
         n_thr = max(1, min(int(threads), -(-ncols // width)))
 
