@@ -149,6 +149,14 @@ def common_p_in_modal_basis(D, T: float, failed):
         f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
 
 
+def _cholesky_or_none(P):
+    """The Cholesky factor of ``P``, or None where NumPy finds ``P`` not positive definite."""
+    try:
+        return np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        return None
+
+
 def _whitened(P, ends, T: float, margin):
     """Margins of the pieces that failed, re-checked in ``P``'s own coordinates.
 
@@ -169,7 +177,14 @@ def _whitened(P, ends, T: float, margin):
     idx, Pi = idx[ok], Pi[ok]
     if not idx.size:
         return out
-    L = np.linalg.cholesky(Pi)
+    try:
+        L = np.linalg.cholesky(Pi)
+    except np.linalg.LinAlgError:  # eigvalsh > 0 yet a pivot <= 0 (cond(P) ~ 1/u): one at a
+        chol = [_cholesky_or_none(x) for x in Pi]  # time; those without a factor keep
+        keep = np.array([c is not None for c in chol])  # their plain margin (no whitening)
+        if not keep.any():
+            return out
+        idx, L = idx[keep], np.stack([c for c in chol if c is not None])
     Lt = np.swapaxes(L, -1, -2)
     Lti = np.linalg.inv(Lt)
     cond = np.linalg.cond(L)
@@ -216,8 +231,12 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
         P = modal_lyapunov_stack(Dm, T)
         ends = np.stack([delta_at(v) for v in np.concatenate([a, b])])
         k = len(level)
-        margin = np.where(np.isnan(P[:, 0, 0]), -np.inf, np.minimum(
-            *np.split(recheck_stack(np.concatenate([P, P]), np.concatenate([P, P]), ends, T), 2)))
+        margin = np.full(k, -np.inf)  # no modal P (NaN): failed, and never rechecked
+        g = np.flatnonzero(~np.isnan(P[:, 0, 0]))  # (LAPACK may raise on a NaN matrix)
+        if g.size:
+            Pg = np.concatenate([P[g], P[g]])
+            margin[g] = np.minimum(*np.split(recheck_stack(
+                Pg, Pg, np.concatenate([ends[g], ends[k + g]]), T), 2))
         margin = _whitened(P, ends, T, margin)
         nxt = []
         for i in range(k):
