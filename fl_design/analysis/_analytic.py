@@ -195,6 +195,10 @@ def _whitened(P, ends, T: float, margin):
     return out
 
 
+#: Pieces evaluated per stacked call of :func:`piecewise_modal`.
+MODAL_BATCH = 32
+
+
 def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     """Cover ``[lo, hi]`` by pieces each certified by one modal ``P`` (adaptive halving).
 
@@ -223,8 +227,13 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     >>> len(pieces), bad
     (1, None)
     """
-    level, done = [(lo, hi)], []
-    while level:  # one halving level at a time, its pieces stacked
+    pending, done = [(lo, hi)], []
+    while pending:  # the narrowest pieces first, stacked in batches: a range that fails
+        # somewhere reaches a failing piece of min_width after ~log2(width) batches, not
+        # after every piece of every level (the same pieces are certified either way: each
+        # piece's verdict and split depend on that piece alone)
+        pending.sort(key=lambda p: (p[1] - p[0]) / max(abs(p[0]), abs(p[1])))
+        level, pending = pending[:MODAL_BATCH], pending[MODAL_BATCH:]
         a = np.array([p[0] for p in level])
         b = np.array([p[1] for p in level])
         Dm = np.stack([delta_at(v) for v in 0.5 * (a + b)])
@@ -238,16 +247,14 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
             margin[g] = np.minimum(*np.split(recheck_stack(
                 Pg, Pg, np.concatenate([ends[g], ends[k + g]]), T), 2))
         margin = _whitened(P, ends, T, margin)
-        nxt = []
         for i in range(k):
             if margin[i] > RECHECK_TOL:
                 done.append((a[i], b[i], P[i], float(margin[i])))
             elif b[i] - a[i] > min_width * (1.0 + 1e-9):
                 mid = 0.5 * (a[i] + b[i])
-                nxt += [(a[i], mid), (mid, b[i])]
+                pending += [(a[i], mid), (mid, b[i])]
             else:
                 return sorted(done, key=lambda p: p[0]), None, (float(a[i]), float(b[i]))
-        level = nxt
     done.sort(key=lambda p: p[0])
     return [(float(a), float(b), P, m) for a, b, P, m in done], min(p[3] for p in done), None
 

@@ -112,7 +112,8 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
             # coarser bisection (5 %) and larger steps down
             box = L.box is not None
             c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f,
-                                   max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95)
+                                   max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95,
+                                   accelerate=True)
             if c is not None:
                 cert[i], hint = c, c / f
     fields = class_fields(r.cls)

@@ -15,7 +15,8 @@ def test_piecewise_modal_range_crossing_instability_names_the_failing_piece():
         return np.array([[-1.0, 0.0, 0.0], [0.0, b, 1.0], [0.0, 0.0, -2.0]])
 
     done, _margin, bad = piecewise_modal(delta_at, -1.0, 1.0, 1e-3, 0.1)
-    assert bad is not None and bad[0] <= 0.0 <= bad[1] + 1e-12
+    # the piece named is one of min width that reaches the unstable b >= 0
+    assert bad is not None and bad[1] >= 0.0 and bad[1] - bad[0] <= 0.1 * (1 + 1e-9)
     for lo, hi, P, _ in done:  # what was certified holds, re-checked independently
         assert hi <= 0.0
         for b in (lo, hi):
