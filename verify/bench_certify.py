@@ -105,7 +105,7 @@ def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
             + f"r = {code}; print(time.perf_counter() - t0, time.process_time() - c0); "
             "print((f'certified at {int(np.isfinite(r.eps_star_certified).sum())}/{r.gamma.size} "
             "gains, frozen eps* at {int(np.isfinite(r.eps_star_frozen).sum())}; ' "
-            "if hasattr(r, 'eps_star_certified') else '') + "
+            "if isinstance(getattr(r, 'eps_star_certified', None), np.ndarray) else '') + "
             "next((x.strip() for x in repr(r).splitlines() if 'eps* certified' in x "
             "or 'median' in x or 'no certified' in x), '')[:160])")
     try:
