@@ -17,7 +17,11 @@ rounds, each run in a fresh process so "cold" includes the imports and model bui
 CPU named: the class certificate of the paper's TRMS design (``certify_eps(design,
 trms_yaw())``, <= 3 s cold), every library plant's (<= 30 s cold), a 12-gain
 ``eps_star_curve`` for the class ``rho = 2, T = 1 ms, b in [1, 50]`` (<= 5 s, timed after a
-one-gain warm-up in its process, as the 50-point curve). A miss exits 1.
+one-gain warm-up in its process, as the 50-point curve), and the same 12-gain curve for a
+spread of classes (issue 33, "for any class": :data:`CURVE_CLASSES`, rho 1 to 4, narrow,
+wide and negative b, a rate bound on b, a slope box for a, T = 1 ms and 0.1 ms; each <= 5 s).
+Each line gives the wall time, the CPU time of the timed call (under load the better measure
+of single-threaded work) and how many gains were certified. A miss exits 1.
 
     python verify/bench_certify.py [--quick]
 """
