@@ -199,7 +199,8 @@ def _whitened(P, ends, T: float, margin):
 MODAL_BATCH = 32
 
 
-def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
+def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float,
+                    delta_many=None):
     """Cover ``[lo, hi]`` by pieces each certified by one modal ``P`` (adaptive halving).
 
     Parameters
@@ -212,6 +213,9 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
         Sampling time.
     min_width : float
         Pieces are not halved below this width.
+    delta_many : callable, optional
+        ``bs -> stack of Delta(b)`` for an array of ``b`` (the same values as ``delta_at``,
+        one call per batch instead of one per ``b``).
 
     Returns
     -------
@@ -236,9 +240,9 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
         level, pending = pending[:MODAL_BATCH], pending[MODAL_BATCH:]
         a = np.array([p[0] for p in level])
         b = np.array([p[1] for p in level])
-        Dm = np.stack([delta_at(v) for v in 0.5 * (a + b)])
-        P = modal_lyapunov_stack(Dm, T)
-        ends = np.stack([delta_at(v) for v in np.concatenate([a, b])])
+        many = delta_many or (lambda bs: np.stack([delta_at(v) for v in bs]))
+        P = modal_lyapunov_stack(many(0.5 * (a + b)), T)
+        ends = many(np.concatenate([a, b]))
         k = len(level)
         margin = np.full(k, -np.inf)  # no modal P (NaN): failed, and never rechecked
         g = np.flatnonzero(~np.isnan(P[:, 0, 0]))  # (LAPACK may raise on a NaN matrix)

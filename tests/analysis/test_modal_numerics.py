@@ -3,6 +3,7 @@ and a P whose Cholesky factor does not exist in floating point (issue 33: both r
 LinAlgError from a 12-gain curve of a rho = 2 and a rho = 4 class)."""
 
 import numpy as np
+import pytest
 
 from fl_design.analysis._analytic import _whitened, piecewise_modal
 from fl_design.analysis._lmi import RECHECK_TOL, recheck_stack
@@ -55,3 +56,17 @@ def test_whitened_skips_a_p_without_cholesky_factor_and_whitens_the_others(seed=
     assert out[1] == plain[1]  # no factor: the plain margin, never a raised LinAlgError
     alone = _whitened(P[:1], ends[[0, 2]], T, plain[:1])
     assert out[0] == alone[0] and out[0] > RECHECK_TOL  # the other one still whitened
+
+
+@pytest.mark.parametrize("seed", [1, 2])  # 1: covered by 2 pieces; 2: fails near b = 50
+def test_piecewise_modal_batched_deltas_give_the_same_pieces(seed):
+    # Delta(b) affine in b with eigenvalues moving a lot over [1, 50]: several pieces
+    rng = np.random.default_rng(seed)
+    A0 = rng.standard_normal((4, 4)) - 2.0 * np.eye(4)
+    A1 = rng.standard_normal((4, 4)) - 1.0 * np.eye(4)
+    one = piecewise_modal(lambda b: A0 + b * A1 / 49.0, 1.0, 50.0, 1e-3, 0.05)
+    many = piecewise_modal(lambda b: A0 + b * A1 / 49.0, 1.0, 50.0, 1e-3, 0.05,
+                           lambda bs: A0 + bs[:, None, None] * A1 / 49.0)
+    assert len(one[0]) > 1 and one[2] == many[2] and one[1] == many[1]
+    assert [(a, b) for a, b, _, _ in one[0]] == [(a, b) for a, b, _, _ in many[0]]
+    assert all(np.array_equal(p[2], q[2]) for p, q in zip(one[0], many[0]))
