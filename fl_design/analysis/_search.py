@@ -130,7 +130,8 @@ def frozen_eps_star(margin, lo: float, hi: float, n_scan: int, rtol: float) -> f
 
 
 def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0.9,
-                       step: float = 0.5, accelerate: bool = False):
+                       step: float = 0.5, accelerate: bool = False,
+                       retry: float | None = None):
     """Largest certified eps in ``[lo, top]``: try ``hint * top``, step down by ``step``, bisect.
 
     Parameters
@@ -150,6 +151,11 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
         certified far below its hint, or nowhere, costs ``O(log log(top / lo))`` failed
         steps instead of ``O(log(top / lo))``; the bisection that follows is as fine as
         ``rtol`` (the returned eps is one where ``pred`` held, as without it).
+    retry : float, optional
+        When the hint fails and ``retry * top`` lies above it, the steps down start from
+        ``retry * top`` instead: the certificates are not monotone in eps (a smaller eps, a
+        faster observer, can fail where a larger one holds), so a continuation's low hint
+        must not hide the eps above it.
 
     Returns
     -------
@@ -162,10 +168,16 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     0.5
     >>> round(certified_eps_star(lambda e: e <= 0.01, 1e-3, 1.0, 1e-2, 0.9, 0.95, True), 4)
     0.01
+    >>> round(certified_eps_star(lambda e: 0.8 <= e <= 0.9, 1e-3, 1.0, 1e-3, 0.5, retry=0.85), 3)
+    0.9
     """
     x = max(lo, min(hint, 1.0 - rtol) * top)
     if pred(x):
         return float(_bracket(pred, x, top, rtol)[0])
+    if retry is not None and min(retry, 1.0 - rtol) * top > x * (1.0 + rtol):
+        x = min(retry, 1.0 - rtol) * top  # the descent starts from there instead
+        if pred(x):
+            return float(_bracket(pred, x, top, rtol)[0])
     while x > lo:
         below = max(lo, step * x)
         if pred(below):
