@@ -17,7 +17,11 @@ rounds, each run in a fresh process so "cold" includes the imports and model bui
 CPU named: the class certificate of the paper's TRMS design (``certify_eps(design,
 trms_yaw())``, <= 3 s cold), every library plant's (<= 30 s cold), a 12-gain
 ``eps_star_curve`` for the class ``rho = 2, T = 1 ms, b in [1, 50]`` (<= 5 s, timed after a
-one-gain warm-up in its process, as the 50-point curve). A miss exits 1.
+one-gain warm-up in its process, as the 50-point curve), and the same 12-gain curve for a
+spread of classes (issue 33, "for any class": :data:`CURVE_CLASSES`, rho 1 to 4, narrow,
+wide and negative b, a rate bound on b, a slope box for a, T = 1 ms and 0.1 ms; each <= 5 s).
+Each line gives the wall time, the CPU time of the timed call (under load the better measure
+of single-threaded work) and how many gains were certified. A miss exits 1.
 
     python verify/bench_certify.py [--quick]
 """
@@ -62,6 +66,36 @@ WARM_UP = {"b in [1, 50] curve (12 gains, warm)": (
     "fl.eps_star_curve(fl.presets.pendulum_design(eps=0.01, gamma=0.01), "
     "fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0)), [1e-2])")}
 
+#: "A curve of 12 gains <= 5 s for any class" (issue 33): a spread of classes, ``name ->
+#: (rho, T, loop decay (rad/s), PlantClass keywords)``. Each design: gains of
+#: :func:`fl_design.synthesize_gains` at the decay, EHGO at ``eps = 10 T``; 12 log-spaced gains
+#: in ``[0.02, 1] / |b|_max`` (the paper's bound ``gamma < 1/|b|_max`` at the top) with the sign
+#: of b; ``eps_range`` ``[1e-3, 1]`` at T = 1 ms, ``[1e-4, 0.1]`` at T = 0.1 ms.
+CURVE_CLASSES = {
+    "rho 1, T 1 ms, b in [1, 50]": (1, 1e-3, 1.0, "b=(1.0, 50.0)"),
+    "rho 2, T 1 ms, b in [1, 50]": (2, 1e-3, 1.0, "b=(1.0, 50.0)"),
+    "rho 2, T 1 ms, b in [4, 6] (narrow)": (2, 1e-3, 1.0, "b=(4.0, 6.0)"),
+    "rho 2, T 1 ms, b in [-50, -1]": (2, 1e-3, 1.0, "b=(-50.0, -1.0)"),
+    "rho 2, T 1 ms, b in [1, 50], |db| <= 0.01": (2, 1e-3, 1.0, "b=(1.0, 50.0), b_rate=0.01"),
+    "rho 2, T 1 ms, b in [1, 5], a-slope box": (
+        2, 1e-3, 1.0, "b=(1.0, 5.0), a_slopes=[(-0.2, 0.2), (-0.1, 0.1)]"),
+    "rho 2, T 0.1 ms, b in [1, 50]": (2, 1e-4, 10.0, "b=(1.0, 50.0)"),
+    "rho 3, T 1 ms, b in [1, 5]": (3, 1e-3, 1.0, "b=(1.0, 5.0)"),
+    "rho 3, T 0.1 ms, b in [1e3, 1e4]": (3, 1e-4, 10.0, "b=(1e3, 1e4)"),
+    "rho 4, T 1 ms, b in [1, 2]": (4, 1e-3, 1.0, "b=(1.0, 2.0)"),
+}
+for _name, (_rho, _T, _decay, _kw) in CURVE_CLASSES.items():
+    _setup = (f"_c = fl.PlantClass(rho={_rho}, T={_T!r}, {_kw}); "
+              f"_s = 1.0 if _c.b[0] > 0 else -1.0; _bm = max(abs(x) for x in _c.b); "
+              f"_d = fl.Design(estimator=fl.EHGO({_rho}, {10 * _T!r}, {_T!r}), "
+              f"controller=fl.DynamicController(fl.synthesize_gains({_rho}, "
+              f"decay={_decay!r}).gains, _s * 0.5 / _bm)); "
+              f"_g = np.geomspace(0.02 / _bm, 1.0 / _bm, 12); "
+              f"_er = {(1e-3, 1.0) if _T >= 1e-3 else (1e-4, 0.1)!r}")
+    _key = f"curve: {_name}"
+    CLASS_CASES[_key] = ("fl.eps_star_curve(_d, _c, _g, eps_range=_er)", TARGET_S)
+    WARM_UP[_key] = _setup + "; fl.eps_star_curve(_d, _c, _g[:1], eps_range=_er)"
+
 
 def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
     """Wall seconds of ``code`` in a fresh interpreter (imports included unless a ``warm``
@@ -71,8 +105,12 @@ def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
     pre = "import numpy as np; import fl_design as fl; " + (f"{warm}; " if warm else "")
     prog = (("" if warm else "import time; t0 = time.perf_counter(); ") + pre
             + ("import time; t0 = time.perf_counter(); " if warm else "")
-            + f"r = {code}; print(time.perf_counter() - t0); "
-            "print(next((x.strip() for x in repr(r).splitlines() if 'eps* certified' in x "
+            + "c0 = time.process_time(); "
+            + f"r = {code}; print(time.perf_counter() - t0, time.process_time() - c0); "
+            "print((f'certified at {int(np.isfinite(r.eps_star_certified).sum())}/{r.gamma.size} "
+            "gains, frozen eps* at {int(np.isfinite(r.eps_star_frozen).sum())}; ' "
+            "if isinstance(getattr(r, 'eps_star_certified', None), np.ndarray) else '') + "
+            "next((x.strip() for x in repr(r).splitlines() if 'eps* certified' in x "
             "or 'median' in x or 'no certified' in x), '')[:160])")
     try:
         out = subprocess.run([sys.executable, "-c", prog], capture_output=True, text=True,
@@ -82,7 +120,8 @@ def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
     lines = out.stdout.strip().splitlines()
     if out.returncode != 0 or not lines:
         return float("inf"), (out.stderr.strip().splitlines() or ["failed"])[-1]
-    return float(lines[0]), (lines[1] if len(lines) > 1 else "")
+    wall, cpu = (float(x) for x in lines[0].split())
+    return wall, f"(CPU {cpu:.2f} s) " + (lines[1] if len(lines) > 1 else "")
 
 
 def bench_classes(names, repeat: int) -> bool:

@@ -149,6 +149,14 @@ def common_p_in_modal_basis(D, T: float, failed):
         f"{sol.note} in the real modal basis of the middle b (condition {cond:.3g})"))
 
 
+def _cholesky_or_none(P):
+    """The Cholesky factor of ``P``, or None where NumPy finds ``P`` not positive definite."""
+    try:
+        return np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        return None
+
+
 def _whitened(P, ends, T: float, margin):
     """Margins of the pieces that failed, re-checked in ``P``'s own coordinates.
 
@@ -169,7 +177,14 @@ def _whitened(P, ends, T: float, margin):
     idx, Pi = idx[ok], Pi[ok]
     if not idx.size:
         return out
-    L = np.linalg.cholesky(Pi)
+    try:
+        L = np.linalg.cholesky(Pi)
+    except np.linalg.LinAlgError:  # eigvalsh > 0 yet a pivot <= 0 (cond(P) ~ 1/u): one at a
+        chol = [_cholesky_or_none(x) for x in Pi]  # time; those without a factor keep
+        keep = np.array([c is not None for c in chol])  # their plain margin (no whitening)
+        if not keep.any():
+            return out
+        idx, L = idx[keep], np.stack([c for c in chol if c is not None])
     Lt = np.swapaxes(L, -1, -2)
     Lti = np.linalg.inv(Lt)
     cond = np.linalg.cond(L)
@@ -180,7 +195,12 @@ def _whitened(P, ends, T: float, margin):
     return out
 
 
-def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
+#: Pieces evaluated per stacked call of :func:`piecewise_modal`.
+MODAL_BATCH = 32
+
+
+def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float,
+                    delta_many=None):
     """Cover ``[lo, hi]`` by pieces each certified by one modal ``P`` (adaptive halving).
 
     Parameters
@@ -193,6 +213,9 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
         Sampling time.
     min_width : float
         Pieces are not halved below this width.
+    delta_many : callable, optional
+        ``bs -> stack of Delta(b)`` for an array of ``b`` (the same values as ``delta_at``,
+        one call per batch instead of one per ``b``).
 
     Returns
     -------
@@ -208,27 +231,34 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float):
     >>> len(pieces), bad
     (1, None)
     """
-    level, done = [(lo, hi)], []
-    while level:  # one halving level at a time, its pieces stacked
+    pending, done = [(lo, hi)], []
+    while pending:  # the narrowest pieces first, stacked in batches: a range that fails
+        # somewhere reaches a failing piece of min_width after ~log2(width) batches, not
+        # after every piece of every level (the same pieces are certified either way: each
+        # piece's verdict and split depend on that piece alone)
+        pending.sort(key=lambda p: (p[1] - p[0]) / max(abs(p[0]), abs(p[1])))
+        level, pending = pending[:MODAL_BATCH], pending[MODAL_BATCH:]
         a = np.array([p[0] for p in level])
         b = np.array([p[1] for p in level])
-        Dm = np.stack([delta_at(v) for v in 0.5 * (a + b)])
-        P = modal_lyapunov_stack(Dm, T)
-        ends = np.stack([delta_at(v) for v in np.concatenate([a, b])])
+        many = delta_many or (lambda bs: np.stack([delta_at(v) for v in bs]))
+        P = modal_lyapunov_stack(many(0.5 * (a + b)), T)
+        ends = many(np.concatenate([a, b]))
         k = len(level)
-        margin = np.where(np.isnan(P[:, 0, 0]), -np.inf, np.minimum(
-            *np.split(recheck_stack(np.concatenate([P, P]), np.concatenate([P, P]), ends, T), 2)))
+        margin = np.full(k, -np.inf)  # no modal P (NaN): failed, and never rechecked
+        g = np.flatnonzero(~np.isnan(P[:, 0, 0]))  # (LAPACK may raise on a NaN matrix)
+        if g.size:
+            Pg = np.concatenate([P[g], P[g]])
+            margin[g] = np.minimum(*np.split(recheck_stack(
+                Pg, Pg, np.concatenate([ends[g], ends[k + g]]), T), 2))
         margin = _whitened(P, ends, T, margin)
-        nxt = []
         for i in range(k):
             if margin[i] > RECHECK_TOL:
                 done.append((a[i], b[i], P[i], float(margin[i])))
             elif b[i] - a[i] > min_width * (1.0 + 1e-9):
                 mid = 0.5 * (a[i] + b[i])
-                nxt += [(a[i], mid), (mid, b[i])]
+                pending += [(a[i], mid), (mid, b[i])]
             else:
                 return sorted(done, key=lambda p: p[0]), None, (float(a[i]), float(b[i]))
-        level = nxt
     done.sort(key=lambda p: p[0])
     return [(float(a), float(b), P, m) for a, b, P, m in done], min(p[3] for p in done), None
 

@@ -276,9 +276,10 @@ class _Loop:
         if not whole:  # wide ranges: pieces down to a fixed *relative* width near b_min
             width = min(width, MODAL_REL_WIDTH * self.b_lo)
         span = self.b_hi - self.b_lo or 1.0
+        dD = Dhi - Dlo
         done, margin, bad = piecewise_modal(
-            lambda b: Dlo + (b - self.b_lo) / span * (Dhi - Dlo), self.b_lo, self.b_hi,
-            self.T, width)
+            lambda b: Dlo + (b - self.b_lo) / span * dD, self.b_lo, self.b_hi, self.T, width,
+            lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD)
         if bad is not None:
             return PointCertificate(
                 float(eps), False, None, 0, False, MODAL, "closed form", None,

@@ -107,12 +107,13 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         if certified and L.box is not None and not L.search_ok(max(lo, 0.5 * f), gamma):
             continue  # a class with a slope box not certified at half its frozen eps*: skipped
         if certified:
-            L.modal_hit = False
+            L.modal_hit, L.pieces_hint = False, 1
             # a slope box's LDI is one SDP per eps (the chain's modal pieces are NumPy): a
             # coarser bisection (5 %) and larger steps down
             box = L.box is not None
             c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f,
-                                   max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95)
+                                   max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95,
+                                   accelerate=True, retry=0.9)
             if c is not None:
                 cert[i], hint = c, c / f
     fields = class_fields(r.cls)

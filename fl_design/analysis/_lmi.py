@@ -37,9 +37,11 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import threading
+import time
 import warnings
 from dataclasses import dataclass
 
@@ -189,8 +191,43 @@ def solve_count() -> int:
     return getattr(_SOLVES, "n", 0)
 
 
+@contextlib.contextmanager
+def solve_progress(callback, every: float = 2.0):
+    """Call ``callback()`` after a conic program is solved in this thread, at most once per
+    ``every`` seconds, inside the ``with`` block: a caller's progress line during a long
+    certificate (read with :func:`solve_count`). Nothing it does decides anything.
+
+    Examples
+    --------
+    >>> import cvxpy as cp
+    >>> from fl_design.analysis._lmi import solve_progress, solve_quietly
+    >>> x, seen = cp.Variable(), []
+    >>> with solve_progress(lambda: seen.append(1), every=0.0):
+    ...     _ = solve_quietly(cp.Problem(cp.Minimize(x), [x >= 1]))
+    >>> seen
+    [1]
+    """
+    every = float(every)
+    previous = getattr(_SOLVES, "listener", None)
+    _SOLVES.listener = [callback, every, time.perf_counter()]
+    try:
+        yield
+    finally:
+        _SOLVES.listener = previous
+
+
 def _solve(problem, solver: str) -> str:
     """Solve ``problem`` with ``solver``, its warnings silenced; the CVXPY status."""
+    try:
+        return _solve_once(problem, solver)
+    finally:
+        listener = getattr(_SOLVES, "listener", None)
+        if listener is not None and time.perf_counter() - listener[2] >= listener[1]:
+            listener[2] = time.perf_counter()
+            listener[0]()
+
+
+def _solve_once(problem, solver: str) -> str:
     import cvxpy as cp
 
     _SOLVES.n = solve_count() + 1

@@ -127,7 +127,7 @@ def certify(setup: Setup, derivation: dict, quick: bool, progress=None) -> dict:
         linearized_eps_star,
         loop_margins,
     )
-    from ..analysis._lmi import solve_count
+    from ..analysis._lmi import solve_count, solve_progress
 
     cfg, design, plant = setup.config.certify, setup.design, setup.plant
     start, solves = time.perf_counter(), solve_count()
@@ -160,9 +160,11 @@ def certify(setup: Setup, derivation: dict, quick: bool, progress=None) -> dict:
         # PlantBounds), never the a = 0 chain of its b range
         bb = b if "box" in out else setup.plant
         say("the gamma interval")
-        out["gamma"] = certify_gamma(design, bb)
+        with solve_progress(lambda: say("the gamma interval, still solving")):
+            out["gamma"] = certify_gamma(design, bb)
         say("the eps* brackets")
-        out["eps"] = certify_eps(design, bb, eps_range=eps_range)
+        with solve_progress(lambda: say("the eps* brackets, still solving")):
+            out["eps"] = certify_eps(design, bb, eps_range=eps_range)
         say(f"the eps*(gamma) curve, {gammas.size} gains")
         curve_start = time.perf_counter()
 
