@@ -249,7 +249,7 @@ def map_brief(smap, gamma: float) -> Brief:
     >>> m = fl.StabilityMap(np.array([0.1, 0.2]), np.array([1.0]), np.array([[2], [-1]]), {},
     ...                     1e-3, 1.0, 0.1)
     >>> str(map_brief(m, 1.0))
-    'eps* 0.1 s — at gamma 1, 2 x 1 noise-free runs of 1 s'
+    'eps* 0.1 s — at gamma 1, fails at 0.2 s, 2 x 1 noise-free runs of 1 s'
     """
     if smap is None:
         return Brief("not run", "info")
@@ -262,8 +262,13 @@ def map_brief(smap, gamma: float) -> Brief:
         return Brief(f"eps* {short} s (PARTIAL map)", "bad",
                      f"at gamma {g:.3g}, {lost} of {np.size(smap.status)} runs lost",
                      f"{star}; {lost_line(smap)}")
+    bracket = smap.eps_star(g)
+    # the grid's last converging eps is a lower bound: say where the first failure is, so that a
+    # certified eps* above it (between the two grid points) does not read as a contradiction
+    fails = (f"fails at {bracket.upper:.3g} s, " if bracket.upper is not None
+             and np.isfinite(bracket.upper) and "undecided" not in star else "")
     return Brief(f"eps* {short} s", level,
-                 f"at gamma {g:.3g}, {smap.eps.size} x {smap.gamma.size} noise-free runs of "
+                 f"at gamma {g:.3g}, {fails}{smap.eps.size} x {smap.gamma.size} noise-free runs of "
                  f"{smap.duration:g} s", star)
 
 
