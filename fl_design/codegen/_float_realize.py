@@ -188,8 +188,44 @@ def _recursion_terms(e, alpha, beta, kappa, b, ac):
     t = [casadi.SX(kappa) * a[0]]
     t += [a[i] + casadi.SX(b[i]) * t[0] if b[i] else a[i] for i in range(1, n)]
     g = [casadi.SX(alpha) * t[i + 1] - casadi.SX(ac[i]) * t[0] for i in range(n - 1)]
-    g.append(-(casadi.SX(ac[n - 1]) * t[0]))
+    g.append(casadi.SX(-ac[n - 1]) * t[0])
     return t, g
+
+
+def design_states(design: Design, states) -> np.ndarray:
+    """Design states of ``design``'s step in the coordinates of the EHGO it computes.
+
+    A :class:`LevelFreeEHGO`'s ``[s, xi_1 .. xi_rho, y_last, u, z]`` become ``[s + y_last,
+    xi_1 .. xi_rho, u, z]`` (the user's design's state: the delta and direct realizations
+    share it); any other design's states are returned as they are.
+
+    Parameters
+    ----------
+    design : Design
+        The generated design (:func:`~fl_design.codegen.step_design`).
+    states : array_like
+        ``(N, design.state_size)`` states.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._float_realize import design_states, level_free
+    >>> d = level_free(presets.paper_design())
+    >>> design_states(d, d.initial_state(y0=0.3, u0=1.0)[None, :]).tolist()
+    [[0.3, 0.0, 0.0, 1.0, 0.0]]
+    """
+    states = np.asarray(states, dtype=float)
+    if not isinstance(design.estimator, LevelFreeEHGO):
+        return states
+    n = design.rho + 1
+    out = np.delete(states, n, axis=1)
+    out[:, 0] = states[:, 0] + states[:, n]
+    return out
 
 
 def level_free(design: Design) -> Design:
@@ -219,4 +255,4 @@ def level_free(design: Design) -> Design:
     return Design(estimator=obs, controller=design.controller)
 
 
-__all__ = ["LevelFreeEHGO", "level_free"]
+__all__ = ["LevelFreeEHGO", "design_states", "level_free"]
