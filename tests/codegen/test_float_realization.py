@@ -155,3 +155,24 @@ def test_compiled_flexible_joint_is_the_emulation_bit_for_bit(tmp_path):
     used = pkg.step_design
     u_e = emulate(used, y, r, used.initial_state(y0=0.0, u0=pkg.guard.u_op), y_c=float(y[0]))
     np.testing.assert_array_equal(u_c, u_e.astype(float))
+
+
+def test_the_error_budget_of_the_flexible_joints_closed_loop():
+    """On a closed-loop record of the flexible joint the float step's own arithmetic is within
+    the bound; what is left of the predicted error is the measurement's rounding to float
+    (Design.step fed float y against fed double y), which no realization of the step changes."""
+    from fl_design.codegen._compare import FLOAT_BOUND, recorded_run, reference_inputs
+    from fl_design.codegen._float_check import float_error_budget, predict_float_error
+
+    user, plant, sc = presets.flexible_joint_design(), fl.plants.flexible_joint(), \
+        fl.Scenario(0.05, 1.5)
+    b = float_error_budget(user, plant, sc)
+    assert b["total"] == predict_float_error(user, plant, sc)
+    assert b["total"] <= b["arithmetic"] + b["measurement"] * (1 + 1e-9)
+    assert b["arithmetic"] < FLOAT_BOUND
+    # the measurement's part, computed independently with the user's own design (direct)
+    ym, r, u0 = recorded_run(plant, user, sc)
+    ref = reference_inputs(user, ym, r, u0)
+    ref32 = reference_inputs(user, ym.astype(F).astype(float), r.astype(F).astype(float), u0)
+    meas = float(np.max(np.abs(ref32 - ref)) / np.max(np.abs(ref)))
+    assert b["measurement"] == pytest.approx(meas, rel=1e-3)
