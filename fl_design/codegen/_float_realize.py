@@ -177,18 +177,16 @@ class LevelFreeEHGO(EHGO):
 
 def _recursion_terms(e, alpha, beta, kappa, b, ac):
     """``(t, g)``: ``t = e + theta g`` and ``g = G e`` by the recursion (``t_0`` the
-    innovation's, ``t_i`` read as the estimates)."""
-    import casadi
-
+    innovation's, ``t_i`` read as the estimates); ``e`` CasADi scalars (SX or DM)."""
     n = len(e)
     a = [None] * n
     a[n - 1] = e[n - 1]
     for i in range(n - 2, -1, -1):
-        a[i] = e[i] + casadi.SX(beta) * a[i + 1] if beta else e[i]
-    t = [casadi.SX(kappa) * a[0]]
-    t += [a[i] + casadi.SX(b[i]) * t[0] if b[i] else a[i] for i in range(1, n)]
-    g = [casadi.SX(alpha) * t[i + 1] - casadi.SX(ac[i]) * t[0] for i in range(n - 1)]
-    g.append(casadi.SX(-ac[n - 1]) * t[0])
+        a[i] = e[i] + beta * a[i + 1] if beta else e[i]
+    t = [kappa * a[0]]
+    t += [a[i] + b[i] * t[0] if b[i] else a[i] for i in range(1, n)]
+    g = [alpha * t[i + 1] - ac[i] * t[0] for i in range(n - 1)]
+    g.append(-ac[n - 1] * t[0])
     return t, g
 
 
