@@ -160,6 +160,53 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
 
 
+def float_error_budget(design, plant, scenario, *, max_samples: int = 10_000) -> dict:
+    """:func:`predict_float_error` split: the step's own arithmetic and the measurement's rounding.
+
+    The float C receives ``y`` and ``r`` as floats: rounded to 24 bits before the step
+    runs, a noise of ``|y| 2^-25`` that the observer amplifies (``~1 / eps^rho``) as it
+    amplifies any measurement noise. ``"arithmetic"`` compares the emulated float step with
+    ``Design.step`` fed the same float measurements; ``"measurement"`` compares
+    ``Design.step`` fed the float measurements with ``Design.step`` fed the recorded ones;
+    ``"total"`` is :func:`predict_float_error` (at most their sum). Each is a fraction of
+    ``max |u|`` of ``Design.step`` on the recorded measurements.
+
+    Parameters
+    ----------
+    design, plant, scenario, max_samples
+        As in :func:`predict_float_error`.
+
+    Returns
+    -------
+    dict
+        ``{"total": float, "arithmetic": float, "measurement": float}``.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design import presets
+    >>> from fl_design.codegen._float_check import float_error_budget
+    >>> b = float_error_budget(presets.paper_design(), fl.plants.trms_yaw(),
+    ...                        fl.Scenario(0.3, 0.2))
+    >>> b["total"] <= b["arithmetic"] + b["measurement"] + 1e-12
+    True
+    """
+    from ._compare import recorded_run, reference_inputs
+    from ._step import step_design
+
+    used = step_design(design, "float")
+    ym, r, u0 = recorded_run(plant, design, scenario, max_samples=max_samples)
+    u64 = reference_inputs(used, ym, r, u0)
+    y32, r32 = (np.asarray(v, dtype=_F).astype(float) for v in (ym, r))
+    u64f = reference_inputs(used, y32, r32, u0)
+    start = used.initial_state(y0=0.0, u0=u0)
+    u32 = emulate(used, ym, r, np.asarray(start, dtype=_F), y_c=float(ym[0])).astype(float)
+    scale = max(float(np.max(np.abs(u64))), np.finfo(float).tiny)
+    err = lambda a, b: float(np.max(np.abs(a - b)) / scale)
+    return {"total": err(u32, u64), "arithmetic": err(u32, u64f),
+            "measurement": err(u64f, u64)}
+
+
 def fixes(design) -> str:
     """What to do when the float build misses its bound (for the messages).
 
@@ -187,4 +234,4 @@ def fixes(design) -> str:
     return text + ", or a smaller gamma (u accumulates gamma (v - sigmahat) each sample)"
 
 
-__all__ = ["emulate", "fixes", "predict_float_error"]
+__all__ = ["emulate", "fixes", "float_error_budget", "predict_float_error"]

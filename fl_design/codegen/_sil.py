@@ -44,6 +44,7 @@ from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
 from ._build import compiler_or_raise, run_command
 from ._compare import DOUBLE_BOUND, FLOAT_BOUND, InputComparison, bound_for, reference_run
+from ._float_realize import design_states
 from ._template import render
 from ._verdict import c_loop_response
 
@@ -330,6 +331,7 @@ def software_in_the_loop(pkg, plant, scenario, *, integrator=None, compiler=None
     used = pkg.step_design
     state0 = used.initial_state(y0=float(ym[0]), u0=run.u0)
     u_ref, xhat, states = reference_run(used, ym, run.r, state0=state0)
+    states = design_states(used, states)  # the user's design's coordinates (its loop's bounds)
     c_resp = c_loop_response(run, y, ym, u_c, X, X_next, xhat, states)
     sim_resp = simulate(plant, design, run.scenario, integrator=RK4(substeps=steps))
     failed = loop_failed(c_resp.status, run.r[run.k_tail:])

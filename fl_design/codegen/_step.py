@@ -85,14 +85,18 @@ def check_precision(precision) -> str:
 
 
 def step_design(design: Design, precision: str) -> Design:
-    """The design whose ``step`` is generated: for ``"float"`` an EHGO goes to its delta form.
+    """The design whose ``step`` is generated: an EHGO goes to its delta form.
+
+    In ``"float"`` the delta form is computed about the last sample, as a recursion
+    (:class:`fl_design.codegen._float_realize.LevelFreeEHGO`): no stored value carries the
+    output's level, whose rounding the observer would amplify by ``~1 / eps^rho``.
 
     Parameters
     ----------
     design : Design
         The user's design.
     precision : str
-        ``"double"`` (the design as it is) or ``"float"``.
+        ``"double"``, ``"float"`` or ``"q31"``.
 
     Returns
     -------
@@ -107,7 +111,11 @@ def step_design(design: Design, precision: str) -> Design:
     """
     est = design.estimator
     if isinstance(est, EHGO) and est.realization != "delta":
-        return Design(estimator=est.replace(realization="delta"), controller=design.controller)
+        design = Design(estimator=est.replace(realization="delta"), controller=design.controller)
+    if precision == "float":
+        from ._float_realize import level_free
+
+        return level_free(design)
     return design
 
 

@@ -172,9 +172,10 @@ def test_plausibility_rate_sensor_lost_and_saturating_counters(packages):
     assert out[8:10] == ["0", "3"]
     used = pkg.step_design  # restarted at rest at 0.4 with u_safe (held while lost), one step
     u_safe = pkg.guard.u_safe
-    x_next, _ = used.step(used.initial_state(y0=0.4, u0=u_safe), 0.4, 0.1)
-    # s.x[0] is relative to y_c = 0.4 (deviation coordinates)
-    assert float(out[10]) == pytest.approx(float(x_next[0]) - 0.4, abs=1e-6)
+    # the C state is relative to y_c = 0.4 (deviation coordinates): the step from rest at 0
+    # fed y - y_c = 0 and r - y_c = -0.3
+    x_next, _ = used.step(used.initial_state(y0=0.0, u0=u_safe), 0.0, 0.1 - 0.4)
+    assert float(out[10]) == pytest.approx(float(x_next[0]), abs=1e-6)
     assert float(out[11]) == pytest.approx(0.4)
     assert out[13:] == ["4294967295", "4294967295"]  # saturated, not wrapped
 
