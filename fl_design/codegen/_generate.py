@@ -17,7 +17,8 @@ An EHGO is generated in its ``"delta"`` realization in every precision
 design's observer to round-off, with ``A_d - I`` stored with its full relative precision and a
 DC gain from ``y`` to the derivative estimates that is zero by construction (the direct form's
 drifts at high ``rho`` and small ``eps``; in float its ``A_d`` keeps about two digits of
-``A_d - I``). ``precision="float"`` is true single precision: ``f``-suffixed literals, no
+``A_d - I``); in float, about the last sample (:mod:`fl_design.codegen._float_realize`: no
+stored value carries the output's level). ``precision="float"`` is true single precision: ``f``-suffixed literals, no
 double anywhere (``-Wdouble-promotion -Wfloat-conversion`` clean).
 
 Examples
@@ -266,9 +267,14 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
         return None
     err = predict_float_error(design, plant, scenario)
     if err > FLOAT_BOUND:
+        from ._float_check import float_error_budget
+
+        part = float_error_budget(design, plant, scenario)
         text = (f"precision='float': the single-precision step is predicted to be "
-                f"{err:.3g} of max|u| off Design.step on this run (bound {FLOAT_BOUND:g}); "
-                f"{fixes(design)}")
+                f"{err:.3g} of max|u| off Design.step on this run (bound {FLOAT_BOUND:g}): "
+                f"{part['arithmetic']:.3g} from the step's arithmetic, "
+                f"{part['measurement']:.3g} from rounding y and r to float before the step "
+                f"(the observer amplifies it as any measurement noise); {fixes(design)}")
         if policy == "refuse":
             raise PrecisionError(text)
         warnings.warn(text, FloatPrecisionWarning, stacklevel=3)
