@@ -22,6 +22,8 @@ from fl_design.codegen._q31 import q31_program, state_box
 from fl_design.codegen._q31_code import emulate_q31, start_state
 from fl_design.errors import FloatPrecisionWarning, ParameterError
 
+from ._int32_cases import run_int32_cases, template_helpers
+
 CASES = {"trms": (presets.paper_design, fl.plants.trms_yaw),
          "maglev": (presets.maglev_design, fl.plants.maglev),
          "flexible_joint": (presets.flexible_joint_design, fl.plants.flexible_joint)}
@@ -192,21 +194,6 @@ def test_the_int32_min_max_and_comparisons_equal_the_aligned_int64_ones(tmp_path
             funcs.append(f"static int32_t f{len(cases)}(int32_t a, int32_t b) {{\n"
                          f"  return (int32_t) {text.replace('{PFX}', 'fl')};\n}}")
             cases.append((op, fa, fb, fk))
-    asr = re.search(r"static int32_t @PREFIX@_asr32.*?\n}\n", (
-        __import__("importlib").resources.files("fl_design.codegen") / "templates" /
-        "step_q31.c.in").read_text(), re.DOTALL).group(0).replace("@PREFIX@", "fl")
-    calls = "\n".join(f"    case {i}: out = f{i}(a, b); break;" for i in range(len(cases)))
-    src = tmp_path / "narrow.c"
-    src.write_text("#include <stdint.h>\n#include <stdio.h>\n#include <stdbool.h>\n" + asr
-                   + "\n".join(funcs) + "\nint main(void) {\n  int i; long a_, b_;\n"
-                   "  while (scanf(\"%d %ld %ld\", &i, &a_, &b_) == 3) {\n"
-                   "    const int32_t a = (int32_t) a_, b = (int32_t) b_; int32_t out = 0;\n"
-                   f"    switch (i) {{\n{calls}\n    default: break;\n    }}\n"
-                   "    printf(\"%ld\\n\", (long) out);\n  }\n  return 0;\n}\n")
-    exe = tmp_path / "narrow"
-    subprocess.run([find_compiler(), "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror",
-                    "-fsanitize=undefined", "-fno-sanitize-recover=all", str(src), "-o",
-                    str(exe)], check=True, timeout=120)
     lines, expected = [], []
     lim = 2**30
     for i, (op, fa, fb, fk) in enumerate(cases):
@@ -230,9 +217,8 @@ def test_the_int32_min_max_and_comparisons_equal_the_aligned_int64_ones(tmp_path
             expected.append(ref)
             n += 1
         assert n == 60, (op, fa, fb, fk)
-    out = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True,
-                         text=True, check=True, timeout=60).stdout.split()
-    assert [int(v) for v in out] == expected
+    assert run_int32_cases(tmp_path, "narrow", template_helpers("asr32"), funcs,
+                           lines) == expected
 
 
 @pytest.mark.parametrize("name", list(CASES))

@@ -26,6 +26,8 @@ from fl_design.codegen._q31_files import ERROR_MARGIN, q31_error, q31_range
 from fl_design.codegen._q31_peak import PeakGain
 from fl_design.codegen._q31_realize import _delta_recursion, collapse_affine, delta_realization
 
+from ._int32_cases import run_int32_cases, template_helpers
+
 TUNED = {"maglev": (presets.maglev_design, fl.plants.maglev),
          "flexible_joint": (presets.flexible_joint_design, fl.plants.flexible_joint)}
 
@@ -274,8 +276,6 @@ def test_the_32_bit_sums_are_the_exact_floor_of_the_aligned_sum(tmp_path):
     compiled with the template's helpers under UBSan, and its Python twin, against
     ``floor((A 2^(m - F_A) +- B 2^(m - F_B)) / 2^(m - F_k))`` in exact integers, on random
     operands within ``2^30`` whose result fits (the interval analysis' guarantee)."""
-    from importlib import resources
-
     from fl_design.codegen._q31_code import _py_sum32, _sum32
 
     rng = np.random.default_rng(12)
@@ -290,22 +290,6 @@ def test_the_32_bit_sums_are_the_exact_floor_of_the_aligned_sum(tmp_path):
         funcs.append(f"static int32_t f{len(cases)}(int32_t a, int32_t b) {{\n"
                      f"  return {text.replace('{PFX}', 'fl')};\n}}")
         cases.append((op, fa, fb, fk))
-    template = (resources.files("fl_design.codegen") / "templates" / "step_q31.c.in").read_text()
-    helpers = "".join(re.search(rf"static [^\n]*@PREFIX@_{f}\(.*?\n}}\n", template,
-                                re.DOTALL).group(0) for f in ("asr32", "s32"))
-    helpers = helpers.replace("@PREFIX@", "fl").replace("@P@_INLINE", "inline")
-    calls = "\n".join(f"    case {i}: out = f{i}(a, b); break;" for i in range(len(cases)))
-    src = tmp_path / "sums.c"
-    src.write_text("#include <stdint.h>\n#include <stdio.h>\n" + helpers + "\n".join(funcs)
-                   + "\nint main(void) {\n  int i; long a_, b_;\n"
-                   "  while (scanf(\"%d %ld %ld\", &i, &a_, &b_) == 3) {\n"
-                   "    const int32_t a = (int32_t) a_, b = (int32_t) b_; int32_t out = 0;\n"
-                   f"    switch (i) {{\n{calls}\n    default: break;\n    }}\n"
-                   "    printf(\"%ld\\n\", (long) out);\n  }\n  return 0;\n}\n")
-    exe = tmp_path / "sums"
-    subprocess.run([find_compiler(), "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror",
-                    "-fsanitize=undefined", "-fno-sanitize-recover=all", str(src), "-o",
-                    str(exe)], check=True, timeout=120)
     lim, lines, expected = 2**30, [], []
     for i, (op, fa, fb, fk) in enumerate(cases):
         m, n = max(fa, fb, fk), 0
@@ -328,6 +312,5 @@ def test_the_32_bit_sums_are_the_exact_floor_of_the_aligned_sum(tmp_path):
             expected.append(ref)
             n += 1
         assert n == 50, (op, fa, fb, fk)
-    out = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True,
-                         text=True, check=True, timeout=60).stdout.split()
-    assert [int(v) for v in out] == expected
+    assert run_int32_cases(tmp_path, "sums", template_helpers("asr32", "s32"), funcs,
+                           lines) == expected
