@@ -72,13 +72,18 @@ int main(void) {
 def pkg(tmp_path_factory):
     root = tmp_path_factory.mktemp("faults")
     p = generate_c(presets.paper_design(), root / "trms", plant=fl.plants.trms_yaw())
+    return p, build_driver(p)
+
+
+def build_driver(p):
+    """The fault driver (:data:`DRIVER`) compiled with package ``p``'s sources."""
     (p.out_dir / "build").mkdir(exist_ok=True)
     src = p.out_dir / "build" / "driver.c"
     src.write_text(DRIVER)
     exe = p.out_dir / "build" / "driver"
     subprocess.run([find_compiler(), "-O2", "-std=c99", f"-I{p.out_dir}", "-o", str(exe),
                     str(src), *map(str, p.sources)], check=True, timeout=120)
-    return p, exe
+    return exe
 
 
 def run_c(exe, commands):

@@ -15,7 +15,6 @@ sample and ``u`` within the float bound; the stated behaviour (rejected and resu
 from __future__ import annotations
 
 import math
-import subprocess
 
 import numpy as np
 import pytest
@@ -27,7 +26,7 @@ from fl_design._toolchain import find_compiler
 from fl_design.codegen import generate_c
 from fl_design.codegen._guard import FAULT, PARAM_CHECK_PERIOD
 
-from .test_faults import DRIVER, parse, run_c, run_model
+from .test_faults import build_driver, parse, run_c, run_model
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
 
@@ -73,13 +72,7 @@ def case(request, tmp_path_factory):
     design, plant, level, ref = CASES[request.param]()
     root = tmp_path_factory.mktemp(f"unseen_{request.param}")
     pkg = generate_c(design, root / "pkg", precision="float", plant=plant)
-    (pkg.out_dir / "build").mkdir(exist_ok=True)
-    src = pkg.out_dir / "build" / "driver.c"
-    src.write_text(DRIVER)
-    exe = pkg.out_dir / "build" / "driver"
-    subprocess.run([find_compiler(), "-O2", "-std=c99", f"-I{pkg.out_dir}", "-o", str(exe),
-                    str(src), *map(str, pkg.sources)], check=True, timeout=120)
-    return pkg, exe, plant, level, ref
+    return pkg, build_driver(pkg), plant, level, ref
 
 
 def samples(ys, r):
