@@ -139,13 +139,20 @@ def samples(ys, r=0.3):
     return [f"s {float(y)!r} {float(r)!r}" for y in ys]
 
 
-def check_alike(pkg, exe, commands):
+def same_faults(pkg, exe, commands):
+    """The C driver and :class:`FirmwareModel` on ``commands``: the same start and parameter
+    answers and the same fault bits on every sample; ``(u_c, f_c, u_model)``."""
     c, py = run_c(exe, commands), run_model(pkg, commands)
     assert [ln for ln in c if ln.startswith(("start", "params"))] == \
         [ln for ln in py if ln.startswith(("start", "params"))]
     u_c, f_c = parse(c)
     u_p, f_p = parse(py)
     np.testing.assert_array_equal(f_c, f_p)
+    return u_c, f_c, u_p
+
+
+def check_alike(pkg, exe, commands):
+    u_c, f_c, u_p = same_faults(pkg, exe, commands)
     np.testing.assert_allclose(u_c, u_p, rtol=0, atol=1e-12 * max(1.0, np.abs(u_p).max()))
     return u_c, f_c
 

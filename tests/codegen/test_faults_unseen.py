@@ -26,7 +26,7 @@ from fl_design._toolchain import find_compiler
 from fl_design.codegen import generate_c
 from fl_design.codegen._guard import FAULT, PARAM_CHECK_PERIOD
 
-from .test_faults import build_driver, parse, run_c, run_model
+from .test_faults import build_driver, same_faults
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler installed")
 
@@ -82,12 +82,7 @@ def samples(ys, r):
 def alike(pkg, exe, commands):
     """C (float) and FirmwareModel (double): the same fault bits, u within the float bound
     (1e-4 of the input's scale) on every sample."""
-    c, py = run_c(exe, commands), run_model(pkg, commands)
-    assert [ln for ln in c if ln.startswith(("start", "params"))] == \
-        [ln for ln in py if ln.startswith(("start", "params"))]
-    u_c, f_c = parse(c)
-    u_p, f_p = parse(py)
-    np.testing.assert_array_equal(f_c, f_p)
+    u_c, f_c, u_p = same_faults(pkg, exe, commands)
     lo, hi = pkg.design.controller.u_range
     scale = max(1.0, abs(lo), abs(hi))
     np.testing.assert_allclose(u_c, u_p, rtol=0, atol=1e-4 * scale)
