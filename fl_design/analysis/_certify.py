@@ -182,11 +182,20 @@ class _Loop:
         return np.stack([g.ravel() for g in grids], axis=1)
 
     def _deltas(self, eps, gamma, b_pair):
-        """Balanced vertex deltas of ``b_pair`` and the scaling ``s``."""
+        """Balanced vertex deltas of ``b_pair`` and the map ``K`` back to the loop's
+        coordinates (a certificate ``P_b`` of the balanced deltas is ``K^T P_b K`` there).
+
+        For ``rho >= 3`` the observer states are first replaced by their errors against the
+        slow mode (:func:`observer_error_basis`), then balanced (powers of 2, exact).
+        """
         M0, M1 = self.loop.parts(eps, gamma)
         D = [delta(M0 + b * M1, self.T) for b in b_pair]
+        W = observer_error_basis(D, self.design.rho) if self.design.rho >= 3 else None
+        if W is not None:
+            D = [np.linalg.solve(W, x @ W) for x in D]
         s = balance_scaling(D)
-        return [x * s[None, :] / s[:, None] for x in D], s
+        K = np.diag(1.0 / s) if W is None else np.linalg.inv(W) / s[:, None]
+        return [x * s[None, :] / s[:, None] for x in D], K
 
     def point(self, eps: float, gamma: float, *, common_only: bool = False,
               lmi: bool = True) -> PointCertificate:
@@ -286,14 +295,13 @@ class _Loop:
                 f"modal P: no certificate for b in [{bad[0]:.6g}, {bad[1]:.6g}] (pieces of "
                 f"width >= {width:.3g})")
         done.sort(key=lambda p: p[0])
-        S = 1.0 / np.outer(s, s)
         one = len(done) == 1
         return PointCertificate(
             float(eps), True, "common" if one else "parameter-dependent", len(done), one,
             MODAL, "closed form", margin,
             f"modal Lyapunov P on {len(done)} sub-interval(s) of b, each re-checked in NumPy",
             tuple((a, b) for a, b, _, _ in done),
-            tuple((P * S, P * S) for _, _, P, _ in done))
+            tuple((s.T @ P @ s, s.T @ P @ s) for _, _, P, _ in done))
 
     def _pieces(self, eps, gamma, last, start: int = 1) -> PointCertificate:
         width = (self.b_hi - self.b_lo) / self.max_pieces
@@ -325,6 +333,39 @@ class _Loop:
         return pc.certified
 
 
+#: Largest condition number of the observer-error basis (:func:`observer_error_basis`): its
+#: similarity, computed in floating point, then adds at most ``~ n cond u`` relative to the
+#: re-checked matrices (``< 1e-12``, below :data:`._lmi.RECHECK_TOL`).
+ERROR_BASIS_MAX_COND = 1e2
+
+
+def observer_error_basis(D, rho: int):
+    """Basis ``W`` (loop state ``X = W Y``) whose observer coordinates are errors.
+
+    The EHGO's states ``xi_j`` (j = 0..rho) follow ``h_j x_(j+1)`` (``sigma ~ u`` for
+    ``j = rho``) on the slow modes, ``h_j ~ eps^j``; in the loop's coordinates the slow and
+    fast eigenvectors are nearly parallel (condition ~1e9 at rho = 3 and 4) and neither the
+    modal P nor the interior-point LMI is numerically reliable. ``Y`` replaces ``xi_j`` by
+    ``xi_j - h_j x_(j+1)`` with ``h`` read off the slowest eigenvector of the middle delta
+    (a unit-triangular similarity; any ``h`` gives a valid basis, this one decouples). None
+    when that fails or ``cond(W) > ERROR_BASIS_MAX_COND`` (then the plain coordinates).
+    """
+    Dm = 0.5 * (D[0] + D[-1])
+    n = Dm.shape[0]
+    if n < 2 * rho + 2:
+        return None
+    mu, V = np.linalg.eig(Dm)
+    v = V[:, int(np.argmin(np.abs(mu)))]
+    W = np.eye(n)
+    for j in range(rho + 1):
+        src = j if j < rho else 2 * rho + 1  # x_(j+1), or u for the sigma estimate
+        if abs(v[src]) > 1e-3 * np.max(np.abs(v)):
+            W[rho + j, src] = (v[rho + j] / v[src]).real
+    if not (np.all(np.isfinite(W)) and np.linalg.cond(W) <= ERROR_BASIS_MAX_COND):
+        return None
+    return W
+
+
 def _point(eps, sol, kind, parts, tv) -> PointCertificate:
     """A PointCertificate from one solution ``sol`` (or None: all ``parts`` certified)."""
     if sol is not None and not sol.certified:
@@ -333,9 +374,8 @@ def _point(eps, sol, kind, parts, tv) -> PointCertificate:
     parts = sorted(parts, key=lambda p: p[0][0])
     sols = [p[1] for p in parts]
     lyap = []
-    for _, sl, s in parts:
-        S = 1.0 / np.outer(s, s)
-        Ps = [P * S for P in sl.P]
+    for _, sl, K in parts:
+        Ps = [K.T @ P @ K for P in sl.P]
         lyap.append((Ps[0], Ps[-1]))
     note = (sol.note if sol is not None else
             f"parameter-dependent P on {len(parts)} sub-intervals of b, each re-checked in NumPy")
