@@ -71,6 +71,7 @@ from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
 from ._search import frozen_bracket, stable_intervals
+from ._slow_fast import slow_fast_coordinates
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -123,6 +124,7 @@ class _Loop:
         self._worst = 0  # the b index that failed last (screened_margin)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
+        self.delta_error = 0.0  # the rounding bound of the last _deltas' similarity
         self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
         self.b_rate = None  # the class's bound on b's change per sample (None: arbitrary)
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
@@ -181,21 +183,25 @@ class _Loop:
         grids = np.meshgrid(*self.box, indexing="ij")
         return np.stack([g.ravel() for g in grids], axis=1)
 
-    def _deltas(self, eps, gamma, b_pair):
+    def _deltas(self, eps, gamma, b_pair, structured: bool = True):
         """Balanced vertex deltas of ``b_pair`` and the map ``K`` back to the loop's
-        coordinates (a certificate ``P_b`` of the balanced deltas is ``K^T P_b K`` there).
+        coordinates (a certificate ``P_b`` of the returned deltas is ``K^T P_b K`` there).
 
-        For ``rho >= 3`` the observer states are first replaced by their errors against the
-        slow mode (:func:`observer_error_basis`), then balanced (powers of 2, exact).
+        For ``rho >= 3`` (``structured``) the slow-fast coordinates of :mod:`._slow_fast`
+        when the loop has two time scales; ``self.delta_error`` is then the bound on the
+        similarity's rounding that every re-check of these deltas subtracts (else 0: the
+        power-of-2 balancing is exact).
         """
         M0, M1 = self.loop.parts(eps, gamma)
         D = [delta(M0 + b * M1, self.T) for b in b_pair]
-        W = observer_error_basis(D, self.design.rho) if self.design.rho >= 3 else None
-        if W is not None:
-            D = [np.linalg.solve(W, x @ W) for x in D]
+        self.delta_error = 0.0
+        if structured and self.design.rho >= 3:
+            sf = slow_fast_coordinates(D, self.design.rho)
+            if sf is not None:
+                self.delta_error = sf[2]
+                return sf[0], sf[1]
         s = balance_scaling(D)
-        K = np.diag(1.0 / s) if W is None else np.linalg.inv(W) / s[:, None]
-        return [x * s[None, :] / s[:, None] for x in D], K
+        return [x * s[None, :] / s[:, None] for x in D], np.diag(1.0 / s)
 
     def point(self, eps: float, gamma: float, *, common_only: bool = False,
               lmi: bool = True) -> PointCertificate:
@@ -270,12 +276,13 @@ class _Loop:
         """:func:`._analytic.common_p_in_modal_basis` of the ends' deltas, else ``failed``."""
         from ._analytic import common_p_in_modal_basis
 
-        return common_p_in_modal_basis(self._deltas(eps, gamma, (self.b_lo, self.b_hi))[0],
-                                       self.T, failed)
+        D = self._deltas(eps, gamma, (self.b_lo, self.b_hi))[0]
+        return common_p_in_modal_basis(D, self.T, failed, self.delta_error)
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
-        return vertex_lmi(D, self.T, common=common, fallback=self.scs), s
+        return vertex_lmi(D, self.T, common=common, fallback=self.scs,
+                          delta_error=self.delta_error), s
 
     def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
         """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
@@ -288,7 +295,7 @@ class _Loop:
         dD = Dhi - Dlo
         done, margin, bad = piecewise_modal(
             lambda b: Dlo + (b - self.b_lo) / span * dD, self.b_lo, self.b_hi, self.T, width,
-            lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD)
+            lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD, self.delta_error)
         if bad is not None:
             return PointCertificate(
                 float(eps), False, None, 0, False, MODAL, "closed form", None,
@@ -331,39 +338,6 @@ class _Loop:
         elif pc.certified:
             self.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
         return pc.certified
-
-
-#: Largest condition number of the observer-error basis (:func:`observer_error_basis`): its
-#: similarity, computed in floating point, then adds at most ``~ n cond u`` relative to the
-#: re-checked matrices (``< 1e-12``, below :data:`._lmi.RECHECK_TOL`).
-ERROR_BASIS_MAX_COND = 1e2
-
-
-def observer_error_basis(D, rho: int):
-    """Basis ``W`` (loop state ``X = W Y``) whose observer coordinates are errors.
-
-    The EHGO's states ``xi_j`` (j = 0..rho) follow ``h_j x_(j+1)`` (``sigma ~ u`` for
-    ``j = rho``) on the slow modes, ``h_j ~ eps^j``; in the loop's coordinates the slow and
-    fast eigenvectors are nearly parallel (condition ~1e9 at rho = 3 and 4) and neither the
-    modal P nor the interior-point LMI is numerically reliable. ``Y`` replaces ``xi_j`` by
-    ``xi_j - h_j x_(j+1)`` with ``h`` read off the slowest eigenvector of the middle delta
-    (a unit-triangular similarity; any ``h`` gives a valid basis, this one decouples). None
-    when that fails or ``cond(W) > ERROR_BASIS_MAX_COND`` (then the plain coordinates).
-    """
-    Dm = 0.5 * (D[0] + D[-1])
-    n = Dm.shape[0]
-    if n < 2 * rho + 2:
-        return None
-    mu, V = np.linalg.eig(Dm)
-    v = V[:, int(np.argmin(np.abs(mu)))]
-    W = np.eye(n)
-    for j in range(rho + 1):
-        src = j if j < rho else 2 * rho + 1  # x_(j+1), or u for the sigma estimate
-        if abs(v[src]) > 1e-3 * np.max(np.abs(v)):
-            W[rho + j, src] = (v[rho + j] / v[src]).real
-    if not (np.all(np.isfinite(W)) and np.linalg.cond(W) <= ERROR_BASIS_MAX_COND):
-        return None
-    return W
 
 
 def _point(eps, sol, kind, parts, tv) -> PointCertificate:
