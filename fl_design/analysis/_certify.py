@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 from typing import TYPE_CHECKING
 
@@ -125,6 +126,12 @@ class _Loop:
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
         self.delta_error = 0.0  # the rounding bound of the last _deltas' similarity
+        # two time scales (rho >= 3, slow-fast coordinates): the modal P is skipped once an LMI
+        # certified where it failed (its slow cluster is near-defective), and a search starts
+        # from the pieces of b that worked last (search_ok)
+        self.two_scale = design.rho >= 3
+        self.lmi_hit = False
+        self.pieces_edges = []  # the pieces of the last certificate of _pieces (two time scales)
         self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
         self.b_rate = None  # the class's bound on b's change per sample (None: arbitrary)
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
@@ -250,17 +257,21 @@ class _Loop:
                 float(eps), False, None, 0, False, None, "not solved", None,
                 f"a frozen loop of the {self.n_b}-point b grid is not Schur (margin "
                 f"{margin:.3g} >= 0): no Lyapunov function exists, no LMI solved")
-        if not common_only:
+        if not common_only and not (self.two_scale and self.lmi_hit and lmi):
             pc = self._modal(eps, gamma)
             if pc.certified or not lmi:
                 return pc
         whole = (self.b_lo, self.b_hi)
+        if not common_only and self.two_scale and self.pieces_edges:
+            return self._pieces(eps, gamma, None, edges=self.pieces_edges)
         if not common_only and self.pieces_hint > 1:
             return self._pieces(eps, gamma, None, self.pieces_hint)
         if not common_only:
             sol, s = self._vertex(eps, gamma, whole, common=False)
             if sol.certified:
                 return _point(eps, sol, "parameter-dependent", [(whole, sol, s)], False)
+            if self.two_scale:  # a common P is a parameter-dependent one: not tried again
+                return self._pieces(eps, gamma, sol)
         if common_only:
             pc = self._modal(eps, gamma, whole=True)
             if pc.certified:
@@ -310,24 +321,37 @@ class _Loop:
             tuple((a, b) for a, b, _, _ in done),
             tuple((s.T @ P @ s, s.T @ P @ s) for _, _, P, _ in done))
 
-    def _pieces(self, eps, gamma, last, start: int = 1) -> PointCertificate:
+    def _pieces(self, eps, gamma, last, start: int = 1, edges=None) -> PointCertificate:
+        """Parameter-dependent LMIs on pieces of b, halved where they fail: ``start`` equal
+        pieces, or the pieces ``edges`` (``(lo, hi, common P first)`` covering the interval)."""
         width = (self.b_hi - self.b_lo) / self.max_pieces
-        edges = np.linspace(self.b_lo, self.b_hi, start + 1)
-        stack, done = list(zip(edges[-2::-1], edges[:0:-1])), []
+        if edges is None:
+            e = np.linspace(self.b_lo, self.b_hi, start + 1)
+            edges = [(a, b, self.two_scale) for a, b in itertools.pairwise(e)]
+        stack, done, forms = list(reversed(edges)), [], []
         while stack:
-            lo, hi = stack.pop()
-            sol, s = self._vertex(eps, gamma, (lo, hi), common=False)
+            lo, hi, common = stack.pop()
+            # two time scales: a common P on the piece first (half the SDP's size and time),
+            # unless that piece needed P(b) last time
+            sol = self._vertex(eps, gamma, (lo, hi), common=True) if common else None
+            if sol is None or not sol[0].certified:
+                sol = self._vertex(eps, gamma, (lo, hi), common=False)
+                common = False
+            sol, s = sol
             if sol.certified:
                 done.append(((lo, hi), sol, s))
+                forms.append((lo, hi, common))
             elif hi - lo > width * (1 + 1e-9) and len(done) + len(stack) < 4 * self.max_pieces:
                 mid = 0.5 * (lo + hi)
-                stack += [(mid, hi), (lo, mid)]
+                stack += [(mid, hi, self.two_scale), (lo, mid, self.two_scale)]
             else:
                 return PointCertificate(
                     float(eps), False, None, len(done), False, sol.solver, sol.solver_status,
                     sol.margin, f"no certificate for b in [{lo:.6g}, {hi:.6g}] (pieces of "
                     f"width >= {width:.3g}): {sol.note}"
                     + ("" if last is None else f"; common P: {last.note}"))
+        if self.two_scale:
+            self.pieces_edges = forms  # a search's next eps starts from these pieces
         return _point(eps, None, "parameter-dependent", done, False)
 
     def search_ok(self, eps: float, gamma: float) -> bool:
@@ -337,6 +361,7 @@ class _Loop:
             self.modal_hit = True
         elif pc.certified:
             self.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
+            self.lmi_hit = True
         return pc.certified
 
 
