@@ -263,7 +263,12 @@ class _Loop:
                 return pc
         whole = (self.b_lo, self.b_hi)
         if not common_only and self.two_scale and self.pieces_edges:
-            return self._pieces(eps, gamma, None, edges=self.pieces_edges)
+            edges, self.pieces_edges = self.pieces_edges, []
+            pc = self._pieces(eps, gamma, None, edges=edges)
+            narrow = min(hi - lo for lo, hi, _ in edges) * self.max_pieces < (
+                self.b_hi - self.b_lo) * (1 + 1e-9)
+            if pc.certified or not narrow:
+                return pc  # (a failure on pieces too narrow to halve: from scratch below)
         if not common_only and self.pieces_hint > 1:
             return self._pieces(eps, gamma, None, self.pieces_hint)
         if not common_only:
