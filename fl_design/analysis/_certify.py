@@ -83,6 +83,8 @@ DEFAULT_EPS_RANGE = (1e-3, 1.0)
 MODAL_SPLIT = 8
 #: Finest modal piece relative to ``b_min`` (b_max/b_min up to 100: narrow pieces near b_min).
 MODAL_REL_WIDTH = 0.003
+#: Smallest relative degree certified in slow-fast coordinates (:mod:`._slow_fast`).
+TWO_SCALE_MIN_RHO = 2
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
 #: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).
@@ -129,7 +131,7 @@ class _Loop:
         # two time scales (rho >= 3, slow-fast coordinates): the modal P is skipped once an LMI
         # certified where it failed (its slow cluster is near-defective), and a search starts
         # from the pieces of b that worked last (search_ok)
-        self.two_scale = design.rho >= 3
+        self.two_scale = design.rho >= TWO_SCALE_MIN_RHO
         self.lmi_hit = False
         self.pieces_edges = []  # the pieces of the last certificate of _pieces (two time scales)
         self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
@@ -202,7 +204,7 @@ class _Loop:
         M0, M1 = self.loop.parts(eps, gamma)
         D = [delta(M0 + b * M1, self.T) for b in b_pair]
         self.delta_error = 0.0
-        if structured and self.design.rho >= 3:
+        if structured and self.two_scale:
             sf = slow_fast_coordinates(D, self.design.rho)
             if sf is not None:
                 self.delta_error = sf[2]
