@@ -72,7 +72,7 @@ from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
 from ._search import frozen_bracket, stable_intervals
-from ._slow_fast import slow_fast_coordinates
+from ._slow_fast import piecewise_slow_fast, slow_fast_coordinates
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -305,15 +305,25 @@ class _Loop:
     def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
         """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
         one P for the whole interval (a common P, no halving)."""
-        (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
         width = (self.b_hi - self.b_lo) / (1 if whole else MODAL_SPLIT * self.max_pieces)
         if not whole:  # wide ranges: pieces down to a fixed *relative* width near b_min
             width = min(width, MODAL_REL_WIDTH * self.b_lo)
-        span = self.b_hi - self.b_lo or 1.0
-        dD = Dhi - Dlo
-        done, margin, bad = piecewise_modal(
-            lambda b: Dlo + (b - self.b_lo) / span * dD, self.b_lo, self.b_hi, self.T, width,
-            lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD, self.delta_error)
+        if self.two_scale and self.design.rho >= 3:
+            # near-repeated slow poles: a Lyapunov P per piece in the piece's own slow-fast
+            # coordinates (returned in the loop's: K = identity below)
+            M0, M1 = self.loop.parts(eps, gamma)
+            done, margin, bad = piecewise_slow_fast(
+                lambda a, b: [delta(M0 + a * M1, self.T), delta(M0 + b * M1, self.T)],
+                self.b_lo, self.b_hi, self.T, self.design.rho, width)
+            s = np.eye(self.loop.size)
+        else:
+            (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
+            span = self.b_hi - self.b_lo or 1.0
+            dD = Dhi - Dlo
+            done, margin, bad = piecewise_modal(
+                lambda b: Dlo + (b - self.b_lo) / span * dD, self.b_lo, self.b_hi, self.T,
+                width, lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD,
+                self.delta_error)
         if bad is not None:
             return PointCertificate(
                 float(eps), False, None, 0, False, MODAL, "closed form", None,

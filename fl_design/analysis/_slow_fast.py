@@ -32,7 +32,7 @@ Examples
 ...               controller=fl.DynamicController(fl.synthesize_gains(3, decay=1.0).gains, 0.1))
 >>> M0, M1 = SurrogateLoop(d).parts(0.005, 0.02)
 >>> from fl_design.analysis._slow_fast import slow_fast_coordinates
->>> E, K, err = slow_fast_coordinates([delta(M0 + b * M1, 1e-3) for b in (1.0, 5.0)], 3)
+>>> E, K, err, S = slow_fast_coordinates([delta(M0 + b * M1, 1e-3) for b in (1.0, 5.0)], 3)
 >>> bool(err < 1e-9 * np.linalg.norm(E[0], 2)), bool(np.allclose(np.linalg.eigvals(E[0]).real.min(),
 ...     np.linalg.eigvals(delta(M0 + M1, 1e-3)).real.min()))
 (True, True)
@@ -62,25 +62,28 @@ def slow_fast_coordinates(D, rho: int):
 
     Returns
     -------
-    (list of numpy.ndarray, numpy.ndarray, float) or None
+    (list of numpy.ndarray, numpy.ndarray, float, list of int) or None
         ``E_v``, ``K`` (a certificate ``P_E`` of the ``E_v`` is ``K^T P_E K`` in the loop's
-        coordinates) and ``err``, a bound on ``||E_v - exact||_2``; None when the middle
-        delta has no slow-fast separation (:data:`MIN_SEPARATION`) or the slow subspace is
-        no graph over ``x``.
+        coordinates), ``err``, a bound on ``||E_v - exact||_2``, and the slow states ``S``
+        (``x``, ``z`` when kept, ``u`` when its mode is slow too); None when the middle delta
+        has no slow-fast separation (:data:`MIN_SEPARATION`) or the slow subspace is no graph
+        over ``S``.
     """
     D = [np.asarray(x, dtype=float) for x in D]
     n = D[0].shape[0]
-    S = list(range(rho)) + ([n - 1] if n == 2 * rho + 3 else [])
-    F = [i for i in range(n) if i not in S]
-    k = len(S)
     s0 = balance_scaling(D)
     B = [x * s0[None, :] / s0[:, None] for x in D]
     Bm = 0.5 * (B[0] + B[-1])
     if not np.all(np.isfinite(Bm)):
         return None
     a = np.sort(np.abs(np.linalg.eigvals(Bm)))
-    if not a[k] > MIN_SEPARATION * a[k - 1]:
-        return None
+    S = list(range(rho)) + ([n - 1] if n == 2 * rho + 3 else [])
+    if not a[len(S)] > MIN_SEPARATION * a[len(S) - 1]:
+        S = sorted(S + [2 * rho + 1])  # the controller's u slow too (a large gamma b)
+        if not a[len(S)] > MIN_SEPARATION * a[len(S) - 1]:
+            return None
+    F = [i for i in range(n) if i not in S]
+    k = len(S)
     thr2 = a[k - 1] * a[k]
     _, U, sdim = scipy.linalg.schur(Bm, output="real", sort=lambda x, y: x * x + y * y <= thr2)
     if sdim != k:
@@ -113,7 +116,95 @@ def slow_fast_coordinates(D, rho: int):
     err = max(float(np.linalg.norm(np.abs(Gi) @ np.abs(x) @ np.abs(G))) for x in B) * 4 * n * u
     if not (np.isfinite(err) and all(np.all(np.isfinite(x)) for x in E)):
         return None
-    return E, Gi / s0[None, :], err
+    return E, Gi / s0[None, :], err, S
 
 
-__all__ = ["MIN_SEPARATION", "slow_fast_coordinates"]
+
+
+
+def _lyapunov_candidate(E, S, F, T: float) -> np.ndarray:
+    """The delta-form Lyapunov solution of the middle of ``E`` (unit norm), weights
+    ``sqrt(d)`` per time scale (as the modal ``P``'s): a guess, re-checked by the caller."""
+    Em = 0.5 * (E[0] + E[-1])
+    n = Em.shape[0]
+    q = np.ones(n)
+    for idx in (S, F):
+        mu = np.linalg.eigvals(Em[np.ix_(idx, idx)])
+        d = np.abs(2.0 * mu.real + T * np.abs(mu) ** 2)
+        q[idx] = np.sqrt(np.exp(np.mean(np.log(np.maximum(d, 1e-300)))))
+    M = np.eye(n) + T * Em
+    P = scipy.linalg.solve_discrete_lyapunov(M.T, T * np.diag(q))
+    P = 0.5 * (P + P.T)
+    return P / np.linalg.norm(P, 2)
+
+
+def piecewise_slow_fast(delta_pair, lo: float, hi: float, T: float, rho: int,
+                        min_width: float):
+    """Cover ``[lo, hi]`` by pieces, each certified by a closed-form ``P`` in its own
+    slow-fast coordinates (adaptive halving): the modal step of two-time-scale loops.
+
+    Each piece's deltas at its ends go through :func:`slow_fast_coordinates`, the candidate
+    is the delta-form Lyapunov solution of their middle (one weight per time scale: the modal
+    ``P`` fails on the near-repeated slow poles of :func:`fl_design.synthesize_gains`), and it
+    counts only when :func:`fl_design.analysis._lmi.recheck_stack` passes at both ends with
+    the similarity's rounding bound subtracted (affine in ``b``: the ends cover the piece).
+
+    Parameters
+    ----------
+    delta_pair : callable
+        ``(b_lo, b_hi) -> [Delta(b_lo), Delta(b_hi)]`` in the loop's coordinates.
+    lo, hi : float
+        The interval of ``b``.
+    T : float
+        Sampling time.
+    rho : int
+        Relative degree.
+    min_width : float
+        Pieces are not halved below this width.
+
+    Returns
+    -------
+    (list, float or None, tuple or None)
+        Certified pieces ``(b_lo, b_hi, P, margin)`` with ``P`` in the loop's coordinates,
+        the smallest margin, and the failing interval (None when all is covered).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.analysis._surrogate import SurrogateLoop, delta
+    >>> d = fl.Design(estimator=fl.EHGO(4, 0.01, 1e-3), controller=fl.DynamicController(
+    ...     fl.synthesize_gains(4, decay=1.0).gains, 0.25))
+    >>> M0, M1 = SurrogateLoop(d).parts(0.004, 0.02)
+    >>> done, margin, bad = piecewise_slow_fast(
+    ...     lambda a, b: [delta(M0 + a * M1, 1e-3), delta(M0 + b * M1, 1e-3)],
+    ...     1.0, 2.0, 1e-3, 4, 1.0 / 64)
+    >>> bad is None, done[0][0], done[-1][1]
+    (True, 1.0, 2.0)
+    """
+    from ._lmi import RECHECK_TOL, recheck_stack
+
+    pending, done = [(lo, hi)], []
+    while pending:
+        a, b = pending.pop()
+        margin = -np.inf
+        sf = slow_fast_coordinates(delta_pair(a, b), rho)
+        if sf is not None:
+            E, K, err, S = sf
+            F = [i for i in range(E[0].shape[0]) if i not in S]
+            try:
+                P = _lyapunov_candidate(E, S, F, T)
+            except (np.linalg.LinAlgError, ValueError):
+                P = None
+            if P is not None and np.all(np.isfinite(P)):
+                margin = float(np.min(recheck_stack(P[None], P[None], np.stack(E), T, 0.0,
+                                                    err)))
+        if margin > RECHECK_TOL:
+            done.append((float(a), float(b), K.T @ P @ K, margin))
+        elif b - a > min_width * (1.0 + 1e-9):
+            mid = 0.5 * (a + b)
+            pending += [(mid, b), (a, mid)]
+        else:
+            return sorted(done, key=lambda p: p[0]), None, (float(a), float(b))
+    done.sort(key=lambda p: p[0])
+    return done, min(p[3] for p in done), None
+__all__ = ["MIN_SEPARATION", "piecewise_slow_fast", "slow_fast_coordinates"]

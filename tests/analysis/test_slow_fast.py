@@ -48,7 +48,8 @@ def test_slow_fast_coordinates_are_a_similarity_that_decouples(rho, b_max):
     L = _Loop(_design(rho, 0.5 / b_max), (1.0, b_max), None, 41, 8)
     M0, M1 = L.loop.parts(0.005, 0.02)
     D = [delta(M0 + b * M1, T) for b in (1.0, b_max)]
-    E, K, err = slow_fast_coordinates(D, rho)
+    E, K, err, S = slow_fast_coordinates(D, rho)
+    assert S == list(range(rho))  # x slow; u and the observer fast at this gain
     for Dv, Ev in zip(D, E):  # the same spectrum as the loop's own delta: its eigenvalues
         # in 40 digits (in float64 the near-repeated slow cluster is off by ~1e-5)
         with mpmath.workdps(40):
