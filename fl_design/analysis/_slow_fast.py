@@ -68,6 +68,12 @@ def slow_fast_coordinates(D, rho: int):
         (``x``, ``z`` when kept, ``u`` when its mode is slow too); None when the middle delta
         has no slow-fast separation (:data:`MIN_SEPARATION`) or the slow subspace is no graph
         over ``S``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> slow_fast_coordinates([-np.eye(8)] * 2, 3) is None  # one time scale only
+    True
     """
     D = [np.asarray(x, dtype=float) for x in D]
     n = D[0].shape[0]
