@@ -125,7 +125,7 @@ def real_modal_basis(D: np.ndarray) -> np.ndarray:
     return X / np.linalg.norm(X, axis=0)
 
 
-def common_p_in_modal_basis(D, T: float, failed):
+def common_p_in_modal_basis(D, T: float, failed, delta_error: float = 0.0):
     """Common-P LMI in the real modal basis ``X`` of the middle b (well conditioned when
     the balanced coordinates are not, e.g. rho = 4): ``Delta_v -> X^-1 Delta_v X``.
 
@@ -140,7 +140,8 @@ def common_p_in_modal_basis(D, T: float, failed):
     cond = float(np.linalg.cond(X))
     if not cond < 1e10:
         return failed
-    sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], T, common=True)
+    sol = vertex_lmi([np.linalg.solve(X, x @ X) for x in D], T, common=True,
+                     delta_error=delta_error * cond)
     if not sol.certified:
         return failed
     Xi = np.linalg.inv(X)
@@ -157,7 +158,7 @@ def _cholesky_or_none(P):
         return None
 
 
-def _whitened(P, ends, T: float, margin):
+def _whitened(P, ends, T: float, margin, delta_error: float = 0.0):
     """Margins of the pieces that failed, re-checked in ``P``'s own coordinates.
 
     With ``P = L L^T`` the same certificate reads ``P' = I``, ``Delta' = L^T Delta L^-T`` (a
@@ -190,7 +191,8 @@ def _whitened(P, ends, T: float, margin):
     cond = np.linalg.cond(L)
     Dw = np.concatenate([Lt @ ends[idx] @ Lti, Lt @ ends[k + idx] @ Lti])
     eye = np.broadcast_to(np.eye(n), Dw.shape)
-    m = np.minimum(*np.split(recheck_stack(eye, eye, Dw, T), 2)) - 64.0 * n * cond * 2.0 ** -52
+    m = (np.minimum(*np.split(recheck_stack(eye, eye, Dw, T, 0.0, delta_error * np.max(cond)),
+                              2)) - 64.0 * n * cond * 2.0 ** -52)
     out[idx] = np.maximum(out[idx], m)
     return out
 
@@ -200,7 +202,7 @@ MODAL_BATCH = 32
 
 
 def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float,
-                    delta_many=None):
+                    delta_many=None, delta_error: float = 0.0):
     """Cover ``[lo, hi]`` by pieces each certified by one modal ``P`` (adaptive halving).
 
     Parameters
@@ -216,6 +218,8 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float,
     delta_many : callable, optional
         ``bs -> stack of Delta(b)`` for an array of ``b`` (the same values as ``delta_at``,
         one call per batch instead of one per ``b``).
+    delta_error : float, optional
+        A bound on the 2-norm error of the deltas (:func:`._lmi.recheck_stack`).
 
     Returns
     -------
@@ -249,8 +253,8 @@ def piecewise_modal(delta_at, lo: float, hi: float, T: float, min_width: float,
         if g.size:
             Pg = np.concatenate([P[g], P[g]])
             margin[g] = np.minimum(*np.split(recheck_stack(
-                Pg, Pg, np.concatenate([ends[g], ends[k + g]]), T), 2))
-        margin = _whitened(P, ends, T, margin)
+                Pg, Pg, np.concatenate([ends[g], ends[k + g]]), T, 0.0, delta_error), 2))
+        margin = _whitened(P, ends, T, margin, delta_error)
         for i in range(k):
             if margin[i] > RECHECK_TOL:
                 done.append((a[i], b[i], P[i], float(margin[i])))

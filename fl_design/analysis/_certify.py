@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
 from typing import TYPE_CHECKING
 
@@ -71,6 +72,7 @@ from ._ldi import loop_covered_set
 from ._lmi import balance_scaling, vertex_lmi
 from ._rate import rate_lmi
 from ._search import frozen_bracket, stable_intervals
+from ._slow_fast import piecewise_slow_fast, slow_fast_coordinates
 from ._surrogate import SurrogateLoop, b_interval, delta, jacobian_box, schur_margins
 
 if TYPE_CHECKING:  # annotations only (no import at run time)
@@ -81,6 +83,8 @@ DEFAULT_EPS_RANGE = (1e-3, 1.0)
 MODAL_SPLIT = 8
 #: Finest modal piece relative to ``b_min`` (b_max/b_min up to 100: narrow pieces near b_min).
 MODAL_REL_WIDTH = 0.003
+#: Smallest relative degree certified in slow-fast coordinates (:mod:`._slow_fast`).
+TWO_SCALE_MIN_RHO = 2
 #: ``solver`` of a closed-form (modal Lyapunov) certificate.
 MODAL = "modal (NumPy)"
 #: Pieces of the rate-bounded ``P(b)`` (:mod:`._rate`).
@@ -123,6 +127,13 @@ class _Loop:
         self._worst = 0  # the b index that failed last (screened_margin)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
+        self.delta_error = 0.0  # the rounding bound of the last _deltas' similarity
+        # two time scales (rho >= 3, slow-fast coordinates): the modal P is skipped once an LMI
+        # certified where it failed (its slow cluster is near-defective), and a search starts
+        # from the pieces of b that worked last (search_ok)
+        self.two_scale = design.rho >= TWO_SCALE_MIN_RHO
+        self.lmi_hit = False
+        self.pieces_edges = []  # the pieces of the last certificate of _pieces (two time scales)
         self.scs = True  # SCS after a Clarabel failure (the fast curve turns it off)
         self.b_rate = None  # the class's bound on b's change per sample (None: arbitrary)
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
@@ -181,12 +192,25 @@ class _Loop:
         grids = np.meshgrid(*self.box, indexing="ij")
         return np.stack([g.ravel() for g in grids], axis=1)
 
-    def _deltas(self, eps, gamma, b_pair):
-        """Balanced vertex deltas of ``b_pair`` and the scaling ``s``."""
+    def _deltas(self, eps, gamma, b_pair, structured: bool = True):
+        """Balanced vertex deltas of ``b_pair`` and the map ``K`` back to the loop's
+        coordinates (a certificate ``P_b`` of the returned deltas is ``K^T P_b K`` there).
+
+        For ``rho >= 3`` (``structured``) the slow-fast coordinates of :mod:`._slow_fast`
+        when the loop has two time scales; ``self.delta_error`` is then the bound on the
+        similarity's rounding that every re-check of these deltas subtracts (else 0: the
+        power-of-2 balancing is exact).
+        """
         M0, M1 = self.loop.parts(eps, gamma)
         D = [delta(M0 + b * M1, self.T) for b in b_pair]
+        self.delta_error = 0.0
+        if structured and self.two_scale:
+            sf = slow_fast_coordinates(D, self.design.rho)
+            if sf is not None:
+                self.delta_error = sf[2]
+                return sf[0], sf[1]
         s = balance_scaling(D)
-        return [x * s[None, :] / s[:, None] for x in D], s
+        return [x * s[None, :] / s[:, None] for x in D], np.diag(1.0 / s)
 
     def point(self, eps: float, gamma: float, *, common_only: bool = False,
               lmi: bool = True) -> PointCertificate:
@@ -235,17 +259,26 @@ class _Loop:
                 float(eps), False, None, 0, False, None, "not solved", None,
                 f"a frozen loop of the {self.n_b}-point b grid is not Schur (margin "
                 f"{margin:.3g} >= 0): no Lyapunov function exists, no LMI solved")
-        if not common_only:
+        if not common_only and not (self.two_scale and self.lmi_hit and lmi):
             pc = self._modal(eps, gamma)
             if pc.certified or not lmi:
                 return pc
         whole = (self.b_lo, self.b_hi)
+        if not common_only and self.two_scale and self.pieces_edges:
+            edges, self.pieces_edges = self.pieces_edges, []
+            pc = self._pieces(eps, gamma, None, edges=edges)
+            narrow = min(hi - lo for lo, hi, _ in edges) * self.max_pieces < (
+                self.b_hi - self.b_lo) * (1 + 1e-9)
+            if pc.certified or not narrow:
+                return pc  # (a failure on pieces too narrow to halve: from scratch below)
         if not common_only and self.pieces_hint > 1:
             return self._pieces(eps, gamma, None, self.pieces_hint)
         if not common_only:
             sol, s = self._vertex(eps, gamma, whole, common=False)
             if sol.certified:
                 return _point(eps, sol, "parameter-dependent", [(whole, sol, s)], False)
+            if self.two_scale:  # a common P is a parameter-dependent one: not tried again
+                return self._pieces(eps, gamma, sol)
         if common_only:
             pc = self._modal(eps, gamma, whole=True)
             if pc.certified:
@@ -261,58 +294,81 @@ class _Loop:
         """:func:`._analytic.common_p_in_modal_basis` of the ends' deltas, else ``failed``."""
         from ._analytic import common_p_in_modal_basis
 
-        return common_p_in_modal_basis(self._deltas(eps, gamma, (self.b_lo, self.b_hi))[0],
-                                       self.T, failed)
+        D = self._deltas(eps, gamma, (self.b_lo, self.b_hi))[0]
+        return common_p_in_modal_basis(D, self.T, failed, self.delta_error)
 
     def _vertex(self, eps, gamma, b_pair, common):
         D, s = self._deltas(eps, gamma, b_pair)
-        return vertex_lmi(D, self.T, common=common, fallback=self.scs), s
+        return vertex_lmi(D, self.T, common=common, fallback=self.scs,
+                          delta_error=self.delta_error), s
 
     def _modal(self, eps, gamma, whole: bool = False) -> PointCertificate:
         """Closed-form modal P on adaptively halved pieces (:mod:`._analytic`); ``whole``:
         one P for the whole interval (a common P, no halving)."""
-        (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
         width = (self.b_hi - self.b_lo) / (1 if whole else MODAL_SPLIT * self.max_pieces)
         if not whole:  # wide ranges: pieces down to a fixed *relative* width near b_min
             width = min(width, MODAL_REL_WIDTH * self.b_lo)
-        span = self.b_hi - self.b_lo or 1.0
-        dD = Dhi - Dlo
-        done, margin, bad = piecewise_modal(
-            lambda b: Dlo + (b - self.b_lo) / span * dD, self.b_lo, self.b_hi, self.T, width,
-            lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD)
+        if self.two_scale and self.design.rho >= 3:
+            # near-repeated slow poles: a Lyapunov P per piece in the piece's own slow-fast
+            # coordinates (returned in the loop's: K = identity below)
+            M0, M1 = self.loop.parts(eps, gamma)
+            done, margin, bad = piecewise_slow_fast(
+                lambda a, b: [delta(M0 + a * M1, self.T), delta(M0 + b * M1, self.T)],
+                self.b_lo, self.b_hi, self.T, self.design.rho, width)
+            s = np.eye(self.loop.size)
+        else:
+            (Dlo, Dhi), s = self._deltas(eps, gamma, (self.b_lo, self.b_hi))
+            span = self.b_hi - self.b_lo or 1.0
+            dD = Dhi - Dlo
+            done, margin, bad = piecewise_modal(
+                lambda b: Dlo + (b - self.b_lo) / span * dD, self.b_lo, self.b_hi, self.T,
+                width, lambda bs: Dlo + ((bs - self.b_lo) / span)[:, None, None] * dD,
+                self.delta_error)
         if bad is not None:
             return PointCertificate(
                 float(eps), False, None, 0, False, MODAL, "closed form", None,
                 f"modal P: no certificate for b in [{bad[0]:.6g}, {bad[1]:.6g}] (pieces of "
                 f"width >= {width:.3g})")
         done.sort(key=lambda p: p[0])
-        S = 1.0 / np.outer(s, s)
         one = len(done) == 1
         return PointCertificate(
             float(eps), True, "common" if one else "parameter-dependent", len(done), one,
             MODAL, "closed form", margin,
             f"modal Lyapunov P on {len(done)} sub-interval(s) of b, each re-checked in NumPy",
             tuple((a, b) for a, b, _, _ in done),
-            tuple((P * S, P * S) for _, _, P, _ in done))
+            tuple((s.T @ P @ s, s.T @ P @ s) for _, _, P, _ in done))
 
-    def _pieces(self, eps, gamma, last, start: int = 1) -> PointCertificate:
+    def _pieces(self, eps, gamma, last, start: int = 1, edges=None) -> PointCertificate:
+        """Parameter-dependent LMIs on pieces of b, halved where they fail: ``start`` equal
+        pieces, or the pieces ``edges`` (``(lo, hi, common P first)`` covering the interval)."""
         width = (self.b_hi - self.b_lo) / self.max_pieces
-        edges = np.linspace(self.b_lo, self.b_hi, start + 1)
-        stack, done = list(zip(edges[-2::-1], edges[:0:-1])), []
+        if edges is None:
+            e = np.linspace(self.b_lo, self.b_hi, start + 1)
+            edges = [(a, b, self.two_scale) for a, b in itertools.pairwise(e)]
+        stack, done, forms = list(reversed(edges)), [], []
         while stack:
-            lo, hi = stack.pop()
-            sol, s = self._vertex(eps, gamma, (lo, hi), common=False)
+            lo, hi, common = stack.pop()
+            # two time scales: a common P on the piece first (half the SDP's size and time),
+            # unless that piece needed P(b) last time
+            sol = self._vertex(eps, gamma, (lo, hi), common=True) if common else None
+            if sol is None or not sol[0].certified:
+                sol = self._vertex(eps, gamma, (lo, hi), common=False)
+                common = False
+            sol, s = sol
             if sol.certified:
                 done.append(((lo, hi), sol, s))
+                forms.append((lo, hi, common))
             elif hi - lo > width * (1 + 1e-9) and len(done) + len(stack) < 4 * self.max_pieces:
                 mid = 0.5 * (lo + hi)
-                stack += [(mid, hi), (lo, mid)]
+                stack += [(mid, hi, self.two_scale), (lo, mid, self.two_scale)]
             else:
                 return PointCertificate(
                     float(eps), False, None, len(done), False, sol.solver, sol.solver_status,
                     sol.margin, f"no certificate for b in [{lo:.6g}, {hi:.6g}] (pieces of "
                     f"width >= {width:.3g}): {sol.note}"
                     + ("" if last is None else f"; common P: {last.note}"))
+        if self.two_scale:
+            self.pieces_edges = forms  # a search's next eps starts from these pieces
         return _point(eps, None, "parameter-dependent", done, False)
 
     def search_ok(self, eps: float, gamma: float) -> bool:
@@ -322,6 +378,7 @@ class _Loop:
             self.modal_hit = True
         elif pc.certified:
             self.pieces_hint = 1 if pc.kind == "common" else max(1, 2 ** int(np.log2(pc.pieces)))
+            self.lmi_hit = True
         return pc.certified
 
 
@@ -333,9 +390,8 @@ def _point(eps, sol, kind, parts, tv) -> PointCertificate:
     parts = sorted(parts, key=lambda p: p[0][0])
     sols = [p[1] for p in parts]
     lyap = []
-    for _, sl, s in parts:
-        S = 1.0 / np.outer(s, s)
-        Ps = [P * S for P in sl.P]
+    for _, sl, K in parts:
+        Ps = [K.T @ P @ K for P in sl.P]
         lyap.append((Ps[0], Ps[-1]))
     note = (sol.note if sol is not None else
             f"parameter-dependent P on {len(parts)} sub-intervals of b, each re-checked in NumPy")

@@ -80,7 +80,7 @@ def sos_point(L, eps: float, gamma: float) -> SOSSolution:
     """
     if not L.frozen_ok(eps, gamma):
         return SOSSolution(False, "not solved", None, (), None, "a frozen loop is not Schur")
-    D, _ = L._deltas(eps, gamma, (L.b_lo, L.b_hi))
+    D, _ = L._deltas(eps, gamma, (L.b_lo, L.b_hi), structured=False)  # exact balancing
     return sos_certificate(D, L.T)
 
 

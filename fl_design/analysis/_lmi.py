@@ -125,11 +125,12 @@ def _problem(n: int, nv: int, T: float, common: bool):
     return cp.Problem(cp.Maximize(eta), cons), D, kappa, Ps, G, eta
 
 
-def recheck(P, G, deltas, T: float, kappa: float = 0.0) -> float:
+def recheck(P, G, deltas, T: float, kappa: float = 0.0, delta_error: float = 0.0) -> float:
     """Smallest ``lambda_min / ||.||_2`` of the ``P_v`` and the assembled vertex matrices.
 
     Plain NumPy (``eigvalsh`` of the symmetric part); the certificate holds when the value
-    exceeds :data:`RECHECK_TOL`.
+    exceeds :data:`RECHECK_TOL`. ``delta_error``: a bound on ``||Delta_v - exact||_2`` of
+    deltas computed by a similarity (:func:`recheck_stack`).
 
     Examples
     --------
@@ -140,14 +141,19 @@ def recheck(P, G, deltas, T: float, kappa: float = 0.0) -> float:
     Ps = list(P) if len(P) == len(deltas) else [P[0]] * len(deltas)
     k = len(deltas)
     return float(np.min(recheck_stack(np.stack(Ps), np.broadcast_to(G, (k,) + np.shape(G)),
-                                      np.stack(deltas), T, kappa)))
+                                      np.stack(deltas), T, kappa, delta_error)))
 
 
-def recheck_stack(P, G, D, T: float, kappa: float = 0.0) -> np.ndarray:
+def recheck_stack(P, G, D, T: float, kappa: float = 0.0,
+                  delta_error: float = 0.0) -> np.ndarray:
     """:func:`recheck` of many triples ``(P_i, G_i, Delta_i)`` at once (stacked ``eigvalsh``).
 
     Returns the margin of each triple: the smaller ``lambda_min / ||.||_2`` of ``P_i`` and of
-    its assembled vertex matrix.
+    its assembled vertex matrix. With ``delta_error`` (a bound on the 2-norm of the error of
+    each ``Delta_i``, e.g. of a similarity computed in floating point) the vertex matrix's
+    ``lambda_min`` is first lowered by the most that error can move it,
+    ``||G_i||_2 (2 + sqrt(T)) delta_error`` (the matrix is affine in ``Delta`` with
+    coefficient blocks ``G`` and ``sqrt(T) G``): the margin then holds for the exact deltas.
 
     Examples
     --------
@@ -166,9 +172,13 @@ def recheck_stack(P, G, D, T: float, kappa: float = 0.0) -> np.ndarray:
     S[..., n:, :n], S[..., :n, n:] = A21, np.swapaxes(A21, -1, -2)
     S[..., n:, n:] = G + np.swapaxes(G, -1, -2) - P
     out = np.full(D.shape[:-2], np.inf)
-    for M in ((P + np.swapaxes(P, -1, -2)) / 2, (S + np.swapaxes(S, -1, -2)) / 2):
+    shift = 0.0
+    if delta_error:
+        shift = np.linalg.norm(G, 2, axis=(-2, -1)) * (2.0 + sT) * float(delta_error)
+    for M, dl in (((P + np.swapaxes(P, -1, -2)) / 2, 0.0), ((S + np.swapaxes(S, -1, -2)) / 2,
+                                                            shift)):
         lam = np.linalg.eigvalsh(M)
-        rel = lam[..., 0] / np.maximum(np.abs(lam[..., 0]), np.abs(lam[..., -1]))
+        rel = (lam[..., 0] - dl) / np.maximum(np.abs(lam[..., 0]), np.abs(lam[..., -1]))
         out = np.minimum(out, rel)
     return out
 
@@ -262,7 +272,7 @@ def solve_quietly(problem, solver: str = "CLARABEL") -> Exception | None:
 
 
 def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0,
-               fallback: bool = True) -> LMISolution:
+               fallback: bool = True, delta_error: float = 0.0) -> LMISolution:
     """Solve the delta-form vertex LMI for the matrices ``Delta_v``; never raises on failure.
 
     Parameters
@@ -278,6 +288,9 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0,
     fallback : bool, optional
         Try SCS when Clarabel fails (default True; about 1 s per solve, rarely certifies what
         Clarabel could not: the fast curve turns it off).
+    delta_error : float, optional
+        A bound on ``||Delta_v - exact||_2`` when the deltas come from a similarity computed
+        in floating point (:mod:`._slow_fast`): the re-check holds for the exact ones.
 
     Returns
     -------
@@ -313,7 +326,7 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0,
             continue
         P = tuple(np.array(Pv.value) for Pv in (Ps[:1] if common else Ps))
         Gv = P[0] if common else np.array(G.value)
-        margin = recheck(P, Gv, deltas, T, kap.value)
+        margin = recheck(P, Gv, deltas, T, kap.value, delta_error)
         if margin > RECHECK_TOL:
             note = "; ".join(notes + [f"{solver}: {last}, re-checked in NumPy"])
             return LMISolution(True, solver, last, P, Gv, margin, note)

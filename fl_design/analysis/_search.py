@@ -174,7 +174,9 @@ def certified_eps_star(pred, lo: float, top: float, rtol: float, hint: float = 0
     0.9
     """
     close = _probe_up if accelerate else _bracket
-    x = max(lo, min(hint, 1.0 - rtol) * top)
+    # the highest first try: one whose bracket [x, top] is already within rtol (a hint at the
+    # cap ends the search in one evaluation, never a second one at ~top)
+    x = max(lo, min(hint, 1.0 / (1.0 + 0.999 * rtol)) * top)
     if pred(x):
         return float(close(pred, x, top, rtol)[0])
     if retry is not None and min(retry, 1.0 - rtol) * top > x * (1.0 + rtol):

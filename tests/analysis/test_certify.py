@@ -376,7 +376,9 @@ def test_lmi_certificates_store_a_lyapunov_function_that_rechecks():
     common = L.point(0.05, 1e-3, common_only=True)
     assert common.kind == "common" and common.covers_time_varying_b
     _stored_certificate_holds(common, 1e-3, 0.05)
-    pd = L._pieces(0.08, 1e-3, None, 2)
+    lo, hi = B_TRMS  # two pieces, the vertex P_v form asked directly (not a common P first)
+    mid = 0.5 * (lo + hi)
+    pd = L._pieces(0.08, 1e-3, None, edges=[(lo, mid, False), (mid, hi, False)])
     assert pd.kind == "parameter-dependent" and pd.solver == "CLARABEL"
     assert any(np.abs(a - b).max() > 0 for a, b in pd.lyapunov)  # P varies with b
     _stored_certificate_holds(pd, 1e-3, 0.08)
