@@ -181,7 +181,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="write into the folder even if it holds other files (may replace them)")
     code.add_argument("--config", dest="config_alias", default=None,
                       help="deprecated: give the config as the positional argument")
-    code.add_argument("--precision", default=None, help="double or float ([codegen] precision)")
+    code.add_argument("--precision", default=None,
+                      help="double, float ([codegen] precision) or q31 (FPU-less chips)")
     code.add_argument("--prefix", default=None, help="prefix of the C names ([codegen] prefix)")
     code.add_argument("--design", choices=("config", "ls9", "ls26"), default="config",
                       help="the configured design (default) or a least-squares baseline")

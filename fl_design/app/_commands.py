@@ -224,8 +224,17 @@ def cmd_codegen(args) -> int:
 
     _codegen_paths(args)
     cfg, job = prepare_config(config_of(args))
-    cg = replace(cfg.codegen, precision=args.precision or cfg.codegen.precision,
-                 prefix=args.prefix or cfg.codegen.prefix)
+    precision = args.precision or cfg.codegen.precision
+    if precision not in ("double", "float", "q31"):
+        raise ParameterError(f"precision must be one of 'double', 'float', 'q31' (q31: "
+                             f"fl-design codegen only), got {precision!r}")
+    if precision == "q31" and args.verify:
+        raise ParameterError("--verify: a precision='q31' package has no closed-loop SIL (its "
+                             "make check replays vectors bit-exact with the integer model); "
+                             "use --pil (the Cortex-M3 and M0+ models) or the package's make "
+                             "check-m3 / check-m0plus")
+    cg = replace(cfg.codegen, prefix=args.prefix or cfg.codegen.prefix,
+                 **({} if precision == "q31" else {"precision": precision}))
     cfg = replace(cfg, codegen=cg)
     out = check_out_dir(args.out, force=args.force)
     if args.verify:
@@ -242,7 +251,8 @@ def cmd_codegen(args) -> int:
         return 0
     design = job.design if args.design == "config" else build_design(
         cfg, window=int(args.design[2:]), rho=job.plant.relative_degree())
-    pkg = generate_c(design, out, precision=cg.precision, prefix=cg.prefix,
+    # the plant: the range check's limits from its region (and the Q31 word lengths)
+    pkg = generate_c(design, out, precision=precision, prefix=cg.prefix, plant=job.plant,
                      force=args.force)
     print(f"wrote {len(pkg.files)} files ({pkg.precision}, prefix {pkg.prefix!r}) to "
           f"{pkg.out_dir}:")
@@ -301,11 +311,37 @@ def _pil(pkg, job, cfg) -> int:
     if reason:
         print(f"error: --pil: {reason}", file=sys.stderr)
         return 2
+    if pkg.precision == "q31":
+        return _pil_q31(pkg, job, cfg)
     res = pkg.pil(job.plant, Scenario(cfg.scenario.reference, 2000 * pkg.design.T))
     print(f"PIL on a Cortex-M4F (QEMU mps2-an386): {res.instructions:.0f} instructions per step; "
           f"u within {res.max_rel_error:.3g} of max|u| of Design.step over {res.u_c.size} "
           f"samples (bound {res.bound:g}): {'passed' if res.passed else 'FAILED'}")
     return 0 if res.passed else 1
+
+
+def _pil_q31(pkg, job, cfg) -> int:
+    """``--pil`` of a Q31 package: its step on the Cortex-M3 and ARMv6-M models, bit-exact with
+    the host build on a recorded closed-loop run."""
+    import numpy as np
+
+    from ..codegen._compare import recorded_run
+    from ..codegen._pil_q31 import q31_on_model
+    from ..sim import Scenario
+
+    ym, r, _ = recorded_run(job.plant, pkg.design,
+                            Scenario(cfg.scenario.reference, 1000 * pkg.design.T),
+                            max_samples=1000)
+    host, ok = pkg.run(ym, r, start=True), True
+    for cpu in ("cortex-m3", "cortex-m0plus"):
+        u, n = q31_on_model(pkg, ym, r, cpu=cpu)
+        same = bool(np.array_equal(u, host))
+        ok &= same
+        print(f"PIL on a {cpu} model (QEMU): {n:.0f} instructions per step; u "
+              f"{'bit-exact with' if same else 'DIFFERS from'} the host build over {u.size} "
+              f"samples")
+    print(f"Q31 error against Design.step (predicted): {pkg.predicted_float_error:.3g} of max|u|")
+    return 0 if ok else 1
 
 
 __all__ = ["EXIT_PARTIAL", "cmd_certify", "cmd_codegen", "cmd_derive", "cmd_init", "cmd_run",

@@ -264,6 +264,11 @@ def processor_in_the_loop(pkg, plant, scenario, *, max_samples: int = 2000,
 
     if not isinstance(max_samples, int) or max_samples < 1:
         raise ParameterError(f"max_samples={max_samples!r} must be an integer >= 1")
+    if pkg.precision == "q31":
+        raise ParameterError("processor_in_the_loop runs a double or float package on the "
+                             "Cortex-M4F; a precision='q31' package runs on the Cortex-M3 and "
+                             "M0+ models with fl_design.codegen._pil_q31.q31_on_model (or the "
+                             "package's make check-m3 / check-m0plus)")
     _, _, reason = pil_tools()
     if reason:
         raise CompilerNotFoundError(f"processor-in-the-loop: {reason}")

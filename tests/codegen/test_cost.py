@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+import fl_design as fl
 from fl_design import presets
 from fl_design._toolchain import find_compiler
 from fl_design.app import main
@@ -94,8 +96,29 @@ def test_cli_codegen_writes_the_package(tmp_path, capsys):
     assert "\n  model/startup.c\n" in printed and "\n  pil/pil.ld\n" in printed
 
 
+def test_cli_codegen_q31_package_and_its_range_from_the_plant(tmp_path, capsys):
+    """``--precision q31`` writes the Q31 package with the plant's region as its range (no
+    "assumed" range warning), and a float package's range check takes the region too."""
+    import warnings
+
+    from fl_design.codegen._guard import guard_settings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fl.errors.FloatPrecisionWarning)
+        assert main(["codegen", "--out", str(tmp_path / "q"), "--precision", "q31"]) == 0
+    assert "wrote 11 files (q31, prefix 'fl')" in capsys.readouterr().out
+    assert "int32_t fl_step(" in (tmp_path / "q" / "fl.h").read_text()
+    assert main(["codegen", "--out", str(tmp_path / "f"), "--precision", "float"]) == 0
+    source = (tmp_path / "f" / "fl.c").read_text()
+    written = float(re.search(r"p->y_max = ([-+0-9.eE]+)f;", source).group(1))
+    g = guard_settings(presets.paper_design(), fl.plants.trms_yaw())
+    assert g.y_max < 1e9  # the region's bound, not the default |y| <= 1e9
+    assert written == pytest.approx(g.y_max, rel=1e-6)
+
+
 @pytest.mark.parametrize("args,needle", [
-    (["--precision", "half"], "precision must be one of 'double', 'float', got 'half'"),
+    (["--precision", "half"], "precision must be one of 'double', 'float', 'q31'"),
+    (["--precision", "q31", "--verify"], "--verify: a precision='q31' package has no"),
     (["--prefix", "9x"], "prefix='9x' is not a usable C identifier"),
 ])
 def test_cli_codegen_bad_input_one_line_exit_2(tmp_path, capsys, args, needle):

@@ -98,3 +98,12 @@ def test_cli_codegen_pil(tmp_path, capsys):
     assert main(["codegen", str(tmp_path / "c"), "--precision", "float", "--pil"]) == 0
     out = capsys.readouterr().out
     assert "PIL on a Cortex-M4F (QEMU mps2-an386)" in out and "passed" in out
+
+
+def test_a_q31_package_is_sent_to_its_own_models(tmp_path):
+    """The Cortex-M4F PIL runs double and float packages; a Q31 one gets a clear error naming
+    where it runs (before any tool is looked for)."""
+    pkg = generate_c(presets.paper_design(), tmp_path / "q", precision="q31",
+                     plant=fl.plants.trms_yaw())
+    with pytest.raises(ParameterError, match="q31_on_model"):
+        pkg.pil(fl.plants.trms_yaw(), fl.Scenario(0.3, 0.1))
