@@ -145,6 +145,12 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
     >>> bool(u[20] == u[19]), tol < 1e-9
     (True, True)
     """
+    return _expected(design, guard, precision, n)[:4]
+
+
+def _expected(design, guard, precision: str, n: int):
+    """:func:`expected_inputs` and, in float, the emulated step's deviation from
+    ``Design.step`` as a fraction of ``max |u|`` (``None`` in double)."""
     from ._compare import reference_run
 
     y, r, bad = _record(guard, n)
@@ -162,10 +168,8 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
         start = np.asarray(design.initial_state(y0=0.0, u0=guard.u_op), dtype=np.float32)
         u32 = emulate(design, y[keep], r[keep], start, y_c=float(y[0]))
         dev = float(np.max(np.abs(u32.astype(float) - u_kept)))
-        tol = max(4.0 * dev, 1e-5 * scale)
-    else:
-        tol = 1e-9 * scale
-    return y, r, u, tol
+        return y, r, u, max(4.0 * dev, 1e-5 * scale), dev / scale
+    return y, r, u, 1e-9 * scale, None
 
 
 def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: str = "") -> str:
@@ -201,8 +205,7 @@ def vectors_and_deviation(design, guard, precision: str, *, n: int = N_VECTORS,
     these samples as a fraction of ``max |u|`` (``None`` in double).
 
     In float the tolerance is ``max(4 dev, 1e-5 max|u|)`` (``dev``: the emulated float
-    step's largest deviation), so ``tol / (4 max|u|)`` is the deviation itself whenever it
-    exceeds ``2.5e-6`` (and bounds it otherwise); the file says so in a comment.
+    step's largest deviation); the file states ``dev / max|u|`` in a comment.
 
     Examples
     --------
@@ -215,17 +218,14 @@ def vectors_and_deviation(design, guard, precision: str, *, n: int = N_VECTORS,
     >>> 0.0 < dev < 1e-4 and "of max|u|" in text
     True
     """
-    y, r, u, tol = expected_inputs(design, guard, precision, n)
+    y, r, u, tol, dev = _expected(design, guard, precision, n)
     comments = [
         f"test vectors of the generated step ({precision}); design hash {digest}",
         "start: PREFIX_start(first y, PREFIX_U_OP); then one PREFIX_step(y, r) per line;",
         "|u - u_expected| <= tol on every line (u_expected: Design.step in double)"]
-    dev = None
-    if precision == "float":
-        dev = float(tol / (4.0 * max(float(np.max(np.abs(u))), np.finfo(float).tiny)))
-        comments.append(f"the float step's own deviation from Design.step here: "
-                        f"{'at most ' if dev <= 2.5e-6 else ''}{dev:.3g} of max|u| "
-                        f"(tol = max(4 x deviation, 1e-5 max|u|))")
+    if dev is not None:
+        comments.append(f"the float step's own deviation from Design.step here: {dev:.3g} of "
+                        f"max|u| (tol = max(4 x deviation, 1e-5 max|u|))")
     return vector_file(comments, tol, y, r, u), dev
 
 
