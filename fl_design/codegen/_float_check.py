@@ -149,6 +149,13 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     ...                     fl.Scenario(0.3, 0.2)) < 1e-4
     True
     """
+    _, _, _, _, u64, u32 = _float_run(design, plant, scenario, max_samples)
+    return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
+
+
+def _float_run(design, plant, scenario, max_samples: int):
+    """``(used, ym, r, u0, u64, u32)``: the recorded run's measurements, ``Design.step`` on
+    them in double and the emulated float step, started as the C starts."""
     from ._compare import recorded_run, reference_inputs
     from ._step import step_design
 
@@ -157,7 +164,7 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     u64 = reference_inputs(used, ym, r, u0)
     start = used.initial_state(y0=0.0, u0=u0)  # the C start: deviations from y_c = ym[0]
     u32 = emulate(used, ym, r, np.asarray(start, dtype=_F), y_c=float(ym[0])).astype(float)
-    return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
+    return used, ym, r, u0, u64, u32
 
 
 def float_error_budget(design, plant, scenario, *, max_samples: int = 10_000) -> dict:
@@ -191,16 +198,11 @@ def float_error_budget(design, plant, scenario, *, max_samples: int = 10_000) ->
     >>> b["total"] <= b["arithmetic"] + b["measurement"] + 1e-12
     True
     """
-    from ._compare import recorded_run, reference_inputs
-    from ._step import step_design
+    from ._compare import reference_inputs
 
-    used = step_design(design, "float")
-    ym, r, u0 = recorded_run(plant, design, scenario, max_samples=max_samples)
-    u64 = reference_inputs(used, ym, r, u0)
+    used, ym, r, u0, u64, u32 = _float_run(design, plant, scenario, max_samples)
     y32, r32 = (np.asarray(v, dtype=_F).astype(float) for v in (ym, r))
     u64f = reference_inputs(used, y32, r32, u0)
-    start = used.initial_state(y0=0.0, u0=u0)
-    u32 = emulate(used, ym, r, np.asarray(start, dtype=_F), y_c=float(ym[0])).astype(float)
     scale = max(float(np.max(np.abs(u64))), np.finfo(float).tiny)
     err = lambda a, b: float(np.max(np.abs(a - b)) / scale)
     return {"total": err(u32, u64), "arithmetic": err(u32, u64f),
