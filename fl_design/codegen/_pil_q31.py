@@ -132,10 +132,53 @@ def q31_on_model(pkg, y, r, *, cpu: str, timeout: float = 300) -> tuple[np.ndarr
     return np.ldexp(u.astype(float), -f_u), (step_ticks - empty_ticks) / max(count, 1) * per_tick
 
 
+def q31_pil(pkg, plant, scenario, *, max_samples: int = 1000) -> dict:
+    """The Q31 step on every model of :data:`Q31_TARGETS`, fed the recorded run of
+    :func:`fl_design.simulate` on ``plant`` and ``scenario``, against the host build.
+
+    Parameters
+    ----------
+    pkg : CPackage
+        A ``precision="q31"`` package.
+    plant, scenario
+        The run whose measurements are fed (as :meth:`CPackage.pil`).
+    max_samples : int, optional
+        Samples fed (default 1000).
+
+    Returns
+    -------
+    dict
+        ``cpu -> (instructions per call, max |u_model - u_host|)`` (0 when bit-exact).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design import presets
+    >>> from fl_design.codegen import generate_c
+    >>> from fl_design.codegen._pil import pil_tools
+    >>> from fl_design.codegen._pil_q31 import q31_pil
+    >>> pkg = generate_c(presets.paper_design(), "q31_pil_doc", precision="q31",
+    ...                  plant=fl.plants.trms_yaw())
+    >>> res = None if pil_tools()[2] else q31_pil(pkg, fl.plants.trms_yaw(),
+    ...                                           fl.Scenario(0.3, 0.05), max_samples=50)
+    >>> res is None or all(diff == 0.0 for _, diff in res.values())
+    True
+    """
+    from ._compare import recorded_run
+
+    ym, r, _ = recorded_run(plant, pkg.design, scenario, max_samples=max_samples)
+    host = pkg.run(ym, r, start=True)
+    out = {}
+    for cpu in Q31_TARGETS:
+        u, n = q31_on_model(pkg, ym, r, cpu=cpu)
+        out[cpu] = (n, float(np.max(np.abs(u - host))))
+    return out
+
+
 def _version() -> str:
     import fl_design
 
     return fl_design.__version__
 
 
-__all__ = ["Q31_TARGETS", "q31_on_model"]
+__all__ = ["Q31_TARGETS", "q31_on_model", "q31_pil"]
