@@ -254,7 +254,8 @@ def map_brief(smap, gamma: float) -> Brief:
     if smap is None:
         return Brief("not run", "info")
     g = float(smap.gamma[np.argmin(np.abs(np.log(smap.gamma / gamma)))])
-    star = str(smap.eps_star(g))
+    bracket = smap.eps_star(g)
+    star = str(bracket)
     short = re.split(r" \(", star)[0]
     level = "warn" if "undecided" in star or short.startswith("<") else "good"
     lost = getattr(smap, "n_lost", 0)
@@ -262,7 +263,6 @@ def map_brief(smap, gamma: float) -> Brief:
         return Brief(f"eps* {short} s (PARTIAL map)", "bad",
                      f"at gamma {g:.3g}, {lost} of {np.size(smap.status)} runs lost",
                      f"{star}; {lost_line(smap)}")
-    bracket = smap.eps_star(g)
     # the grid's last converging eps is a lower bound: say where the first failure is, so that a
     # certified eps* above it (between the two grid points) does not read as a contradiction
     fails = (f"fails at {bracket.upper:.3g} s, " if bracket.upper is not None
