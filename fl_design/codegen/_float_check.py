@@ -149,7 +149,12 @@ def predict_float_error(design, plant, scenario, *, max_samples: int = 10_000) -
     ...                     fl.Scenario(0.3, 0.2)) < 1e-4
     True
     """
-    _, _, _, _, u64, u32 = _float_run(design, plant, scenario, max_samples)
+    return _total(_float_run(design, plant, scenario, max_samples))
+
+
+def _total(run) -> float:
+    """:func:`predict_float_error` of a :func:`_float_run`."""
+    u64, u32 = run[4], run[5]
     return float(np.max(np.abs(u32 - u64)) / max(np.max(np.abs(u64)), np.finfo(float).tiny))
 
 
@@ -198,9 +203,15 @@ def float_error_budget(design, plant, scenario, *, max_samples: int = 10_000) ->
     >>> b["total"] <= b["arithmetic"] + b["measurement"] + 1e-12
     True
     """
+    return _budget(_float_run(design, plant, scenario, max_samples))
+
+
+def _budget(run) -> dict:
+    """:func:`float_error_budget` of a :func:`_float_run` (one run serves the total and
+    its split)."""
     from ._compare import reference_inputs
 
-    used, ym, r, u0, u64, u32 = _float_run(design, plant, scenario, max_samples)
+    used, ym, r, u0, u64, u32 = run
     y32, r32 = (np.asarray(v, dtype=_F).astype(float) for v in (ym, r))
     u64f = reference_inputs(used, y32, r32, u0)
     scale = max(float(np.max(np.abs(u64))), np.finfo(float).tiny)

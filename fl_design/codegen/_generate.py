@@ -42,7 +42,7 @@ from .._output import claim_output_folder, record_outputs
 from ..design import Design
 from ..errors import OutputPathError, ParameterError
 from ._compare import FLOAT_BOUND
-from ._float_check import fixes, predict_float_error
+from ._float_check import _budget, _float_run, _total, fixes
 from ._guard import guard_settings
 from ._misra import deviation_text
 from ._package import CPackage
@@ -265,11 +265,10 @@ def _float_prediction(design, precision, plant, scenario, policy) -> float | Non
                              "error is predicted)")
     if precision != "float" or scenario is None:
         return None
-    err = predict_float_error(design, plant, scenario)
+    run = _float_run(design, plant, scenario, 10_000)
+    err = _total(run)
     if err > FLOAT_BOUND:
-        from ._float_check import float_error_budget
-
-        part = float_error_budget(design, plant, scenario)
+        part = _budget(run)  # the same run split: its arithmetic and y's rounding
         text = (f"precision='float': the single-precision step is predicted to be "
                 f"{err:.3g} of max|u| off Design.step on this run (bound {FLOAT_BOUND:g}): "
                 f"{part['arithmetic']:.3g} from the step's arithmetic, "

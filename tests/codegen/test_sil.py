@@ -334,7 +334,7 @@ def test_an_estimate_near_the_float_bound_warns(tmp_path, monkeypatch, estimate,
 
     from fl_design.codegen import _generate
 
-    monkeypatch.setattr(_generate, "predict_float_error", lambda *a, **k: estimate)
+    monkeypatch.setattr(_generate, "_total", lambda run: estimate)
     maglev, mdesign, msc, _ = _maglev_case()
     for policy in ("warn", "refuse"):
         with warnings.catch_warnings(record=True) as caught:
