@@ -30,7 +30,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "_generated"
 #: Benchmarks whose output the performance page shows.
-BENCHES = ("bench_sweep", "bench_certify", "bench_codegen", "bench_tune", "bench_identify")
+BENCHES = ("bench_sweep", "bench_certify", "bench_codegen", "bench_tune", "bench_job",
+           "bench_unseen", "bench_identify")
+#: Where each benchmark's target records go (``verify/_shared.py`` ``target``), one file per
+#: script, replaced when the script runs again.
+TARGETS = OUT / "targets"
+#: The README's performance table lies between these two lines (written by :func:`readme_table`).
+README_BEGIN = "<!-- performance table: written by `python docs/generate.py`, do not edit -->"
+README_END = "<!-- end of the performance table -->"
 
 
 def machine() -> str:
@@ -46,6 +53,11 @@ def run(kind: str, script: Path, args: list[str], timeout: float) -> Path:
     cmd = [sys.executable, str(script.relative_to(ROOT)), *args]
     shown = " ".join(["python", *cmd[1:]])
     env = dict(os.environ, MPLBACKEND="Agg")
+    if kind == "bench":
+        TARGETS.mkdir(parents=True, exist_ok=True)
+        records = TARGETS / f"{script.stem}.jsonl"
+        records.unlink(missing_ok=True)  # this script's records from its previous run
+        env["FL_DESIGN_TARGETS"] = str(records)
     try:
         p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
                            timeout=timeout, check=False)
@@ -139,7 +151,63 @@ def main(argv=None) -> int:
         path = run(kind, script, args, a.timeout)
         print(f"wrote {path.relative_to(ROOT)}", flush=True)
     write_indexes()
+    table = targets_table()
+    (OUT / "targets.md").write_text(table)
+    if not a.quick:  # quick runs judge no target: the README keeps the full runs' numbers
+        print(readme_table(table))
     return 0
+
+
+def _records() -> list[dict]:
+    """Every target record under :data:`TARGETS` (JSON lines; a line that does not parse or
+    lacks a field is skipped with a message, never evaluated)."""
+    import json
+
+    keys = {"script", "name", "value", "limit", "unit", "relation", "met", "checked", "cpu",
+            "isa", "cores", "load", "utc"}
+    out = []
+    for path in sorted(TARGETS.glob("*.jsonl")) if TARGETS.is_dir() else []:
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            try:
+                rec = json.loads(line)
+            except ValueError:
+                rec = None
+            if not isinstance(rec, dict) or not keys <= rec.keys():
+                print(f"{path.name}:{n}: not a target record, skipped", file=sys.stderr)
+                continue
+            out.append(rec)
+    return out
+
+
+def _num(value: float, unit: str) -> str:
+    return f"{value:.3g}x" if unit == "x" else f"{value:.3g} {unit}"
+
+
+def targets_table() -> str:
+    """The performance targets as a Markdown table: what, measured, target, verdict, where."""
+    rows = ["| target | measured | limit | verdict | script, machine, load, date (UTC) |",
+            "| --- | --- | --- | --- | --- |"]
+    for r in _records():
+        verdict = ("met" if r["met"] else "**missed**") if r["checked"] else "not checked"
+        what = r["name"] + (f" ({r['detail']})" if r.get("detail") else "")
+        rows.append(f"| {what} | {_num(r['value'], r['unit'])} | {r['relation']} "
+                    f"{_num(r['limit'], r['unit'])} | {verdict} | `{r['script']}`, {r['cpu']}, "
+                    f"{r['cores']} cores, {r['isa']}, load {r['load']:.1f}, {r['utc']} |")
+    if len(rows) == 2:
+        return "No benchmark has recorded a target yet: run `make docs-data`.\n"
+    return "\n".join(rows) + "\n"
+
+
+def readme_table(table: str) -> str:
+    """Put ``table`` between the README's two marker lines; what it did, as a sentence."""
+    readme = ROOT / "README.md"
+    text = readme.read_text(encoding="utf-8")
+    if text.count(README_BEGIN) != 1 or text.count(README_END) != 1:
+        return "README.md: no single pair of performance-table markers, left as it was"
+    head, rest = text.split(README_BEGIN)
+    _, tail = rest.split(README_END)
+    readme.write_text(f"{head}{README_BEGIN}\n{table}{README_END}{tail}", encoding="utf-8")
+    return "wrote the performance table in README.md"
 
 
 def write_indexes() -> None:

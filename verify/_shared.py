@@ -54,3 +54,40 @@ def claim_verdict(number: int, statement: str, ok: bool, meaning: str | None = N
         print(f"What it means: {meaning}")
     print(f"\nclaim {number} ({statement}): {'holds' if ok else 'FAILS'}")
     return 0 if ok else 1
+
+
+#: Environment variable naming the file where :func:`target` appends its records (set by
+#: ``docs/generate.py`` for the README's performance table; unset, nothing is written).
+TARGETS_ENV = "FL_DESIGN_TARGETS"
+
+
+def target(name: str, value: float, limit: float, *, unit: str = "s", at_least: bool = False,
+           checked: bool = True, detail: str = "") -> bool:
+    """Whether a measured ``value`` meets its ``limit`` (``<=``, or ``>=`` with ``at_least``);
+    also appends one JSON line to the file named by ``$FL_DESIGN_TARGETS`` when it is set.
+
+    ``checked=False`` records a number measured where the target is not judged (``--quick``,
+    or a load that makes the timing meaningless): the table shows it as "not checked". The
+    record names the script, the machine (CPU, kernel ISA), the load and the UTC time, so the
+    README's table (``docs/generate.py``) says where each number comes from.
+    """
+    import datetime
+    import json
+    import sys
+    from pathlib import Path
+
+    met = bool(value >= limit if at_least else value <= limit)
+    out = os.environ.get(TARGETS_ENV)
+    if out:
+        import fl_design as fl
+
+        d = fl.Kernel().describe()
+        rec = {"script": Path(sys.argv[0]).stem, "name": name, "value": float(value),
+               "limit": float(limit), "unit": unit, "relation": ">=" if at_least else "<=",
+               "met": met, "checked": bool(checked), "detail": detail,
+               "cpu": d["cpu"], "isa": d["isa"], "cores": os.cpu_count(),
+               "load": round(os.getloadavg()[0], 2),
+               "utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M")}
+        with open(out, "a", encoding="utf-8") as f:
+            f.write(json.dumps(rec) + "\n")
+    return met

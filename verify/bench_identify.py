@@ -26,7 +26,7 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-from _shared import load_line, quick_args
+from _shared import load_line, quick_args, target
 
 import fl_design as fl
 from fl_design.sim._rig import Rig
@@ -91,6 +91,10 @@ def main(argv=None) -> int:
           f"{TARGET_TUNE_S:g} s); {tuned.status}")
     ok &= tuned.certified
     print(load_line())
+    target(f"fl.identify on a {duration:g} s log at 1 kHz (CSV)", t_id, TARGET_IDENTIFY_S,
+           checked=not args.quick)
+    target(f"fl.tune of a stated class, b in [{wide[0]:g}, {wide[1]:g}]", t_tune, TARGET_TUNE_S,
+           checked=not args.quick)
     if not args.quick:
         if t_id > TARGET_IDENTIFY_S:
             print(f"MISS: identify {t_id:.2f} s > {TARGET_IDENTIFY_S:g} s")
