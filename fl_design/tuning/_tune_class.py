@@ -7,7 +7,8 @@ limits (:class:`fl_design.PlantClass`), not a model. Each number comes from thos
    needs at the rate ``1 - |gamma b|`` per sample; the paper asks ``|gamma| < 1/|b|_max``. The
    candidates put ``c = |gamma| |b|_max`` at 0.5, 0.25 and 0.1 (sign of ``b``): the larger,
    the faster ``u`` catches up at the small end of ``b`` (rate ``c |b|_min / (|b|_max T)``),
-   the faster the observer must be at the large end;
+   the faster the observer must be at the large end; when none of them is certified with its
+   member runs converging, slower ones at 0.03 and 0.01 (a larger eps*, less noise in ``u``);
 2. **loop decay** ``d``: a fifth of that slowest inner rate (the loop must be slower than the
    input catching up, the certified lower bound of :func:`fl_design.certify_gamma`), at most
    ``0.05 / T``; **gains** :func:`fl_design.synthesize_gains` at ``d`` (decay certified);
@@ -48,6 +49,12 @@ from ._class_tuning import ClassTuning
 
 #: |gamma| |b|_max of the candidates (the paper's bound is 1).
 GAMMA_FRACTIONS = (0.5, 0.25, 0.1)
+#: Slower candidates, tried only when none of :data:`GAMMA_FRACTIONS` is certified with every
+#: member run converging: a smaller gamma lets the loop be slower and the observer's eps* larger,
+#: so the sensor noise reaching u falls (~ 1/eps^rho) - the way out when the noise saturates u
+#: (e.g. rho = 3, b in [20, 200], T = 0.5 ms, noise 1e-4: noise gain 9.4e4 at c = 0.1, 29 at
+#: c = 0.01).
+SLOW_FRACTIONS = (0.03, 0.01)
 #: The loop decay is the slowest inner rate divided by this.
 INNER_OVER_LOOP = 5.0
 #: eps is first tried at this fraction of the class's frozen eps*, then at the bolder one.
@@ -178,35 +185,40 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
     u_lim = cls.u_limits if u_limits is None else V.interval("u_limits", u_limits)
     start = time.perf_counter()
     cands, tried = [], []
-    for c in GAMMA_FRACTIONS:
-        cand = _candidate(cls, c, u_lim)
-        if cand["design"] is None:
-            tried.append(f"|gamma| |b|_max = {c:g}: no stable eps for the class (frozen-b eps* "
-                         f"scan empty)")
-            continue
-        cands.append(cand)
-    if not cands:
-        raise NoDesignError(f"no design for the class ({cls.describe()}): " + "; ".join(tried))
-    key = (lambda x: x["noise"]) if kind == "least-noise" else (lambda x: -x["decay"])
-    cands.sort(key=key)
     chosen = cert = None
     eps_why, runs, first = "", (), None
-    for cand in cands:  # in the objective's order; the first certified whose members converge
-        got = _certified(cand, cls, tried)
-        if got is None:
-            continue
-        cand_c, cert_c, why_c = got
-        runs_c = (member_runs(cand_c["design"], cls, r, 12.0 / cand_c["decay"], seed=seed)
-                  if members else ())
-        if first is None:
-            first = (cand_c, cert_c, why_c, runs_c)
-        if all(m.converged for m in runs_c):
-            chosen, cert, eps_why, runs = cand_c, cert_c, why_c, runs_c
+    key = (lambda x: x["noise"]) if kind == "least-noise" else (lambda x: -x["decay"])
+    for tier in (GAMMA_FRACTIONS, SLOW_FRACTIONS):
+        tier_cands = []
+        for c in tier:
+            cand = _candidate(cls, c, u_lim)
+            if cand["design"] is None:
+                tried.append(f"|gamma| |b|_max = {c:g}: no stable eps for the class (frozen-b "
+                             "eps* scan empty)")
+                continue
+            tier_cands.append(cand)
+        cands += tier_cands
+        for cand in sorted(tier_cands, key=key):  # the first certified whose members converge
+            got = _certified(cand, cls, tried)
+            if got is None:
+                continue
+            cand_c, cert_c, why_c = got
+            runs_c = (member_runs(cand_c["design"], cls, r, 12.0 / cand_c["decay"], seed=seed)
+                      if members else ())
+            if first is None:
+                first = (cand_c, cert_c, why_c, runs_c)
+            if all(m.converged for m in runs_c):
+                chosen, cert, eps_why, runs = cand_c, cert_c, why_c, runs_c
+                break
+            tried.append(f"|gamma| |b|_max = {cand_c['c']:g}, eps = "
+                         f"{cand_c['design'].estimator.eps:.4g} s: certified, but "
+                         f"{sum(not m.converged for m in runs_c)}/{len(runs_c)} member runs do "
+                         "not converge (noise and input limits are outside the certificate)")
+        if chosen is not None:
             break
-        tried.append(f"|gamma| |b|_max = {cand_c['c']:g}, eps = "
-                     f"{cand_c['design'].estimator.eps:.4g} s: certified, but "
-                     f"{sum(not m.converged for m in runs_c)}/{len(runs_c)} member runs do not "
-                     "converge (noise and input limits are outside the certificate)")
+    if not cands:
+        raise NoDesignError(f"no design for the class ({cls.describe()}): " + "; ".join(tried))
+    cands.sort(key=key)
     if chosen is None and first is not None:  # none whose members converge: the first, said
         chosen, cert, eps_why, runs = first
     if chosen is None:

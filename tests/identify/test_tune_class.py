@@ -114,3 +114,24 @@ def test_the_class_default_is_least_noise_and_fastest_keeps_converging_members()
     fast = fl.tune(cls, objective="fastest")
     assert fast.certified and all(m.converged for m in fast.members)
     assert fast.time_scale >= default.time_scale  # fastest is no slower than least-noise
+
+
+def test_when_noise_saturates_every_usual_candidate_a_slower_one_is_certified_and_converges():
+    """rho = 3, b in [20, 200], T = 0.5 ms, noise std 1e-4, u in [-12, 12]: at
+    |gamma| |b|_max = 0.1-0.5 the certified eps is ~1 ms or less and the sensor noise reaches u
+    ~1e5-fold (u saturates, no member converges); the slower candidates (0.03, 0.01) give a
+    larger eps* and a design certified for the class whose members converge. Its frozen loops
+    over b are checked Schur with the module's independent construction."""
+    from fl_design.tuning._tune_class import GAMMA_FRACTIONS, SLOW_FRACTIONS
+
+    cls = fl.PlantClass(rho=3, T=5e-4, b=(20.0, 200.0), noise_std=1e-4, u_limits=(-12.0, 12.0))
+    tuned = fl.tune(cls)
+    c = abs(tuned.design.controller.gamma) * 200.0
+    assert c == pytest.approx(min(SLOW_FRACTIONS)) and c < min(GAMMA_FRACTIONS)
+    assert tuned.certified, tuned.eps_certificate.reason
+    assert tuned.members and all(m.converged for m in tuned.members)
+    assert sum("member runs do not converge" in t for t in tuned.tried) == len(GAMMA_FRACTIONS)
+    worst = max(independent_radius(tuned.design, b) for b in np.geomspace(20, 200, 12))
+    assert worst < 1.0
+    # 3 sigma of the noise in u stays well inside the input range (it did not at c = 0.1)
+    assert 3 * 1e-4 * max(g["u"] for g in tuned.noise_gain.values()) < 0.1 * 12.0
