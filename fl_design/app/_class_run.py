@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -182,20 +181,31 @@ def run_class(args, config_path) -> int:
     from ..codegen import generate_c
     from ..tuning._tune_class import tune_class
     from ._class_table import load_class_config
+    from ._job import note
     from ._outdir import check_out_dir
     from ._report_render import md, render_html, render_markdown
 
     cfg = load_class_config(config_path)
     out = check_out_dir(args.out, force=args.force)
     start = time.perf_counter()
-    if not args.no_progress:
-        print(f"fl-design: tuning for {cfg.plant_class.describe()} ...", file=sys.stderr)
+    show = not args.no_progress
+
+    def stage(k: int, text: str) -> None:
+        note(f"{k}/4 {text} ({time.perf_counter() - start:.1f} s)", enabled=show)
+
+    stage(1, f"tune for the {cfg.plant_class.describe()} ...")
     tuned = tune_class(cfg.plant_class, objective=cfg.tune.objective,
-                       reference=cfg.tune.reference)
+                       reference=cfg.tune.reference,
+                       progress=(lambda line: note(f"tune: {line}")) if show else None)
+    stage(2, "the ADRC baseline on the class's members ...")
     adrc = _adrc_runs(tuned, args.quick)
+    stage(3, "the class's (eps, gamma) map ...")
     cmap = _map(tuned)
+    stage(4, f"the C package ({cfg.codegen.precision}) ...")
     pkg = generate_c(tuned.design, out / "c", precision=cfg.codegen.precision,
                      prefix=cfg.codegen.prefix, force=args.force)
+    note(f"report (figure, HTML, Markdown, JSON) ({time.perf_counter() - start:.1f} s)",
+         enabled=show)
     fig = _figure(tuned, out)
     secs = class_sections(tuned, adrc, cmap, pkg.out_dir, fig.name)
     title = f"fl_design report: {cls_name(cfg.plant_class)}"

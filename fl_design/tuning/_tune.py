@@ -84,6 +84,13 @@ DEFAULT_OBJECTIVE = "fastest"
 SETTLE_MULTIPLE = 50.0
 
 
+def _class_line(line: str) -> None:
+    """``fl.tune(plant_class, progress=True)``: one line on stderr per step."""
+    import sys
+
+    print(f"[fl.tune] {line}", file=sys.stderr, flush=True)
+
+
 def nice_time(x: float) -> float:
     """``x`` rounded down to 1, 2 or 5 times a power of ten.
 
@@ -166,7 +173,8 @@ def tune(plant: Plant, *, T: float | None = None, objective=None,
         for the library TRMS (:func:`fl_design.presets.paper_design`), else none.
     progress : bool, optional
         One line per step on stderr (the loop tried, each eps certificate, the final
-        certificates) with the seconds so far (default False; ``fl-design run`` turns it on).
+        certificates; for a class each candidate's scan, certificate and member runs) with
+        the seconds so far (default False; ``fl-design run`` turns it on).
 
     Returns
     -------
@@ -193,7 +201,8 @@ def tune(plant: Plant, *, T: float | None = None, objective=None,
     """
     if isinstance(plant, PlantClass):  # what a rig owner knows: designed for every member
         return tune_class(plant, T=T, objective="least-noise" if objective is None else objective,
-                          reference=reference, u_limits=u_limits)
+                          reference=reference, u_limits=u_limits,
+                          progress=_class_line if progress else None)
     if objective is None:
         objective = DEFAULT_OBJECTIVE
     V.instance("plant", plant, Plant, "an fl.Plant (fl.Plant.from_ode or fl.plants.*)")

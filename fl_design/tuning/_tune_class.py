@@ -138,7 +138,7 @@ def _certified(cand, cls, tried):
 
 def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-noise",
                reference=None, u_limits=None, members: bool = True,
-               seed: int = 0) -> ClassTuning:
+               seed: int = 0, progress=None) -> ClassTuning:
     """A design certified for every plant of ``cls`` (the module says how).
 
     Parameters
@@ -158,6 +158,10 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
         Run the class members (default True).
     seed : int, optional
         Noise and switching seed of the member runs.
+    progress : callable, optional
+        ``progress(line)`` before each step (a candidate's eps* scan, a certificate, the
+        member runs), the line saying which and the seconds so far; ``fl.tune(cls,
+        progress=True)`` prints them on stderr, ``fl-design run`` with its stage lines.
 
     Returns
     -------
@@ -184,13 +188,22 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
     r = _reference(cls, reference)
     u_lim = cls.u_limits if u_limits is None else V.interval("u_limits", u_limits)
     start = time.perf_counter()
+
+    def say(text: str) -> None:
+        if progress is not None:
+            progress(f"{text} ({time.perf_counter() - start:.1f} s)")
+
     cands, tried = [], []
     chosen = cert = None
     eps_why, runs, first = "", (), None
     key = (lambda x: x["noise"]) if kind == "least-noise" else (lambda x: -x["decay"])
     for tier in (GAMMA_FRACTIONS, SLOW_FRACTIONS):
+        if tier is SLOW_FRACTIONS:
+            say(f"no candidate certified with its members converging: slower ones, "
+                f"|gamma| |b|_max = {', '.join(f'{c:g}' for c in tier)}")
         tier_cands = []
-        for c in tier:
+        for i, c in enumerate(tier):
+            say(f"candidate {i + 1}/{len(tier)}, |gamma| |b|_max = {c:g}: frozen-b eps* scan")
             cand = _candidate(cls, c, u_lim)
             if cand["design"] is None:
                 tried.append(f"|gamma| |b|_max = {c:g}: no stable eps for the class (frozen-b "
@@ -199,10 +212,15 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
             tier_cands.append(cand)
         cands += tier_cands
         for cand in sorted(tier_cands, key=key):  # the first certified whose members converge
+            say(f"|gamma| |b|_max = {cand['c']:g}: the class certificate at "
+                f"{SAFE_FRACTION:g}-{BOLD_FRACTION:g} x eps* {cand['frozen']:.4g} s")
             got = _certified(cand, cls, tried)
             if got is None:
                 continue
             cand_c, cert_c, why_c = got
+            if members:
+                say(f"|gamma| |b|_max = {cand['c']:g}: member runs "
+                    f"({12.0 / cand_c['decay']:.3g} s each)")
             runs_c = (member_runs(cand_c["design"], cls, r, 12.0 / cand_c["decay"], seed=seed)
                       if members else ())
             if first is None:

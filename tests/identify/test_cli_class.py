@@ -51,6 +51,24 @@ def test_run_class_gives_report_certified_and_c_package(tmp_path, capsys):
     s = json.loads((out / "summary.json").read_text())
     assert s["tuning"]["certified"] and s["tuning"]["plant_class"]["b"] == [2, 10]
     assert "linear ADRC" in md
+    assert capsys.readouterr().err == ""  # --no-progress: nothing on stderr
+
+
+def test_run_class_says_each_step_on_stderr(tmp_path, capsys):
+    """Without --no-progress every stage and each tuning step is a line, with the seconds so
+    far, the candidates in the order they were tried."""
+    p = tmp_path / "class.toml"
+    p.write_text("[class]\nrho = 2\nT = 1e-3\nb = [2.0, 10.0]\nnoise_std = 1e-3\n"
+                 "u_limits = [-20.0, 20.0]\n[tune]\nreference = 1.0\n")
+    assert main(["run", str(p), "--quick", "--out", str(tmp_path / "out")]) == 0
+    err = [x for x in capsys.readouterr().err.splitlines() if x.startswith("[fl-design]")]
+    stages = [x.split()[1] for x in err if x.split()[1][:2] in ("1/", "2/", "3/", "4/")]
+    assert stages == ["1/4", "2/4", "3/4", "4/4"]
+    tune = [x for x in err if x.startswith("[fl-design] tune: ")]
+    assert tune[0].startswith("[fl-design] tune: candidate 1/3, |gamma| |b|_max = 0.5: ")
+    assert any("the class certificate" in x for x in tune)
+    assert any("member runs" in x for x in tune)
+    assert all(x.endswith(" s)") for x in err)
 
 
 def test_identify_cli_writes_page_and_class_and_prints_the_command(tmp_path, capsys,

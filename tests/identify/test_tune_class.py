@@ -135,3 +135,13 @@ def test_when_noise_saturates_every_usual_candidate_a_slower_one_is_certified_an
     assert worst < 1.0
     # 3 sigma of the noise in u stays well inside the input range (it did not at c = 0.1)
     assert 3 * 1e-4 * max(g["u"] for g in tuned.noise_gain.values()) < 0.1 * 12.0
+
+
+def test_tune_of_a_class_with_progress_says_each_step_on_stderr(capsys):
+    cls = fl.PlantClass(rho=2, T=1e-3, b=(2.0, 8.0), noise_std=1e-3, u_limits=(-10, 10))
+    fl.tune(cls, reference=1.0, progress=True)
+    err = capsys.readouterr().err.splitlines()
+    assert err and all(x.startswith("[fl.tune] ") and x.endswith(" s)") for x in err)
+    assert "candidate 1/3, |gamma| |b|_max = 0.5: frozen-b eps* scan" in err[0]
+    fl.tune(cls, reference=1.0)
+    assert capsys.readouterr().err == ""  # default: quiet
