@@ -196,7 +196,9 @@ def run_class(args, config_path) -> int:
     stage(1, f"tune for the {cfg.plant_class.describe()} ...")
     tuned = tune_class(cfg.plant_class, objective=cfg.tune.objective,
                        reference=cfg.tune.reference,
-                       progress=(lambda line: note(f"tune: {line}")) if show else None)
+                       progress=((lambda line: note(f"tune: {line} "
+                                                    f"({time.perf_counter() - start:.1f} s)"))
+                                 if show else None))
     stage(2, "the ADRC baseline on the class's members ...")
     adrc = _adrc_runs(tuned, args.quick)
     stage(3, "the class's (eps, gamma) map ...")

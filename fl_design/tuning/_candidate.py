@@ -29,12 +29,11 @@ Examples
 from __future__ import annotations
 
 import math
-import sys
-import time
 from typing import NamedTuple
 
 import numpy as np
 
+from .._progress import Lines
 from ..analysis import (
     certify_eps,
     certify_gamma,
@@ -62,18 +61,12 @@ class Setup:
     def __init__(self, plant, rho, T, b_bounds, u_lim, r, accept=None, progress=False):
         self.plant, self.rho, self.T, self.b_bounds, self.u_lim, self.r = (
             plant, rho, T, b_bounds, u_lim, r)
-        self.progress, self.t0 = bool(progress), time.perf_counter()
+        self.say = Lines("fl.tune", progress)  # one line per step on stderr, as progress says
         self.sign = math.copysign(1.0, b_bounds[0])
         self.bmax = max(abs(b) for b in b_bounds)
         self.bmin = min(abs(b) for b in b_bounds)
         #: ``accept(check) -> str | None``: why a check misses the objective (None: meets it)
         self.accept = accept or (lambda check: None)
-
-    def say(self, message: str) -> None:
-        """One progress line on stderr (with ``progress=True``): the step and the time so far."""
-        if self.progress:
-            print(f"[fl.tune {time.perf_counter() - self.t0:5.1f} s] {message}", file=sys.stderr,
-                  flush=True)
 
 
 def g_text(x) -> str:

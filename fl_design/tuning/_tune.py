@@ -59,6 +59,7 @@ import math
 import numpy as np
 
 from .. import _validate as V
+from .._progress import Lines
 from ..analysis import certify_gamma
 from ..design import Design
 from ..errors import FlDesignError, NoDesignError, ParameterError, RelativeDegreeError
@@ -82,13 +83,6 @@ T_MIN = 1e-4
 DEFAULT_OBJECTIVE = "fastest"
 #: The default design reaches the 2 % band within this many plant time constants ``1/d``.
 SETTLE_MULTIPLE = 50.0
-
-
-def _class_line(line: str) -> None:
-    """``fl.tune(plant_class, progress=True)``: one line on stderr per step."""
-    import sys
-
-    print(f"[fl.tune] {line}", file=sys.stderr, flush=True)
 
 
 def nice_time(x: float) -> float:
@@ -143,7 +137,7 @@ def _b_range(plant) -> tuple[float, float]:
 
 def tune(plant: Plant, *, T: float | None = None, objective=None,
          reference: float | None = None, u_limits=None, decays=None,
-         baseline="auto", progress: bool = False) -> Tuning:
+         baseline="auto", progress="auto") -> Tuning:
     """Propose a certified, checked design for ``plant`` (the module says how and why).
 
     Parameters
@@ -171,10 +165,11 @@ def tune(plant: Plant, *, T: float | None = None, objective=None,
     baseline : Design, None or "auto", optional
         A design to compare noise and overshoot with; ``"auto"`` (default): the paper's design
         for the library TRMS (:func:`fl_design.presets.paper_design`), else none.
-    progress : bool, optional
+    progress : bool or "auto", optional
         One line per step on stderr (the loop tried, each eps certificate, the final
         certificates; for a class each candidate's scan, certificate and member runs) with
-        the seconds so far (default False; ``fl-design run`` turns it on).
+        the seconds so far: ``True`` from the start, ``False`` never, ``"auto"`` (default)
+        once the call has run 2 s (:mod:`fl_design._progress`).
 
     Returns
     -------
@@ -202,7 +197,7 @@ def tune(plant: Plant, *, T: float | None = None, objective=None,
     if isinstance(plant, PlantClass):  # what a rig owner knows: designed for every member
         return tune_class(plant, T=T, objective="least-noise" if objective is None else objective,
                           reference=reference, u_limits=u_limits,
-                          progress=_class_line if progress else None)
+                          progress=Lines("fl.tune", progress))
     if objective is None:
         objective = DEFAULT_OBJECTIVE
     V.instance("plant", plant, Plant, "an fl.Plant (fl.Plant.from_ode or fl.plants.*)")

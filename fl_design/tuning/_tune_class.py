@@ -160,8 +160,9 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
         Noise and switching seed of the member runs.
     progress : callable, optional
         ``progress(line)`` before each step (a candidate's eps* scan, a certificate, the
-        member runs), the line saying which and the seconds so far; ``fl.tune(cls,
-        progress=True)`` prints them on stderr, ``fl-design run`` with its stage lines.
+        member runs), the line saying which; ``fl.tune(cls)`` prints them on stderr with the
+        seconds so far (:class:`fl_design._progress.Lines`), ``fl-design run`` with its stage
+        lines.
 
     Returns
     -------
@@ -191,7 +192,7 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
 
     def say(text: str) -> None:
         if progress is not None:
-            progress(f"{text} ({time.perf_counter() - start:.1f} s)")
+            progress(text)
 
     cands, tried = [], []
     chosen = cert = None

@@ -143,5 +143,7 @@ def test_tune_of_a_class_with_progress_says_each_step_on_stderr(capsys):
     err = capsys.readouterr().err.splitlines()
     assert err and all(x.startswith("[fl.tune] ") and x.endswith(" s)") for x in err)
     assert "candidate 1/3, |gamma| |b|_max = 0.5: frozen-b eps* scan" in err[0]
-    fl.tune(cls, reference=1.0)
-    assert capsys.readouterr().err == ""  # default: quiet
+    fl.tune(cls, reference=1.0, progress=False)
+    assert capsys.readouterr().err == ""
+    with pytest.raises(ParameterError, match="progress='yes' is not valid: True"):
+        fl.tune(cls, progress="yes")
