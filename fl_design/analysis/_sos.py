@@ -289,7 +289,13 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
     if P is None:
         return SOSSolution(False, "not solved", None, (), None,
                            "the middle vertex is not Schur (or its modes are ill-conditioned)")
-    R = np.linalg.cholesky((P + P.T) / 2).T
+    try:
+        R = np.linalg.cholesky((P + P.T) / 2).T
+    except np.linalg.LinAlgError:  # positive definite in exact arithmetic, not in rounding
+        return SOSSolution(False, "not solved", None, (), None,
+                           "the middle vertex's modal Lyapunov matrix is not positive definite "
+                           "in floating point (its modes are ill-conditioned): no coordinates "
+                           "for the quartic certificate")
     return sos_lyapunov([np.linalg.solve(R.T, (R @ x).T).T for x in D], T)
 
 
