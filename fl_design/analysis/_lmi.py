@@ -24,11 +24,11 @@ the vertex, also covers ``theta`` varying arbitrarily from sample to sample.
 
 Every solution is re-checked in NumPy: the assembled vertex matrices and the ``P_v`` must have
 eigenvalues (``eigvalsh``) above ``RECHECK_TOL`` times their norm. A solver status "optimal" is
-not a certificate. Clarabel is called directly (:mod:`._sdp`, one thread, no CVXPY): the
-common form as its ``n x n`` Schur complement ``-(Delta^T P + P Delta + T Delta^T P Delta) >=
-eta I`` (with ``P >= eta I``; the cone a quarter of the ``2n`` one's, the solve ~5x faster),
-the parameter-dependent form as above; the SCS fallback goes through CVXPY programs compiled
-once per shape (parameters, DPP) and cached. The re-check is the ``2n`` form in both cases.
+not a certificate. Clarabel is called directly (:mod:`._sdp`, one thread, no CVXPY: the
+program of :func:`_problem`), on request (``reduced``) the common form as its ``n x n`` Schur
+complement ``-(Delta^T P + P Delta + T Delta^T P Delta) >= eta I`` with ``P >= eta I`` (the
+cone a quarter of the ``2n`` one's, the solve ~5x faster); the SCS fallback goes through CVXPY
+programs compiled once per shape (parameters, DPP) and cached. The re-check is the ``2n`` form.
 
 Examples
 --------
@@ -140,7 +140,7 @@ def _sym_basis(n: int) -> np.ndarray:
     return B
 
 
-def _direct_blocks(deltas, T: float, common: bool, kappa: float):
+def _direct_blocks(deltas, T: float, common: bool, kappa: float, reduced: bool = False):
     """The blocks of :func:`._sdp.max_margin` for :func:`_problem`'s LMI, and the map from
     its variables to ``(P_v..., G)``.
 
@@ -153,7 +153,7 @@ def _direct_blocks(deltas, T: float, common: bool, kappa: float):
     Bs = _sym_basis(n)
     m = Bs.shape[0]
     eye = np.eye(n)
-    if common:
+    if common and reduced:
         blocks = []
         for D in deltas:
             BD = Bs @ D
@@ -166,42 +166,47 @@ def _direct_blocks(deltas, T: float, common: bool, kappa: float):
             return (P,), P
         return blocks, m, unpack
     sT = math.sqrt(T)
-    Eg = np.zeros((n * n, n, n))
-    Eg[np.arange(n * n), np.arange(n * n) // n, np.arange(n * n) % n] = 1.0
-    nvar = nv * m + n * n
+    if common:  # the 2n form with G = P: P's basis enters every block
+        nP, Eg, nvar = 1, Bs, m
+    else:
+        Eg = np.zeros((n * n, n, n))
+        Eg[np.arange(n * n), np.arange(n * n) // n, np.arange(n * n) % n] = 1.0
+        nP, nvar = nv, nv * m + n * n
+    g0 = 0 if common else nv * m  # where G's coefficients start
     blocks = []
     for v, D in enumerate(deltas):
         F = np.zeros((nvar, 2 * n, 2 * n))
-        sl = slice(v * m, (v + 1) * m)
-        F[sl, n:, :n] = Bs / sT
-        F[sl, :n, n:] = Bs / sT
-        F[sl, n:, n:] = -Bs
+        if not common:
+            sl = slice(v * m, (v + 1) * m)
+            F[sl, n:, :n] = Bs / sT
+            F[sl, :n, n:] = Bs / sT
+            F[sl, n:, n:] = -Bs
         ED = Eg @ D
         EDt = np.swapaxes(ED, -1, -2)
         Et = np.swapaxes(Eg, -1, -2)
         A21 = -Et / sT + sT * ED
-        F[nv * m:, :n, :n] = -(ED + EDt)
-        F[nv * m:, n:, :n] = A21
-        F[nv * m:, :n, n:] = np.swapaxes(A21, -1, -2)
-        F[nv * m:, n:, n:] = Eg + Et
+        F[g0:, :n, :n] += -(ED + EDt) - (2.0 * kappa * Eg if common else 0.0)
+        F[g0:, n:, :n] += A21 + (Eg / sT if common else 0.0)
+        F[g0:, :n, n:] += np.swapaxes(A21, -1, -2) + (Eg / sT if common else 0.0)
+        F[g0:, n:, n:] += Eg + Et - (Eg if common else 0.0)
         blocks.append((np.zeros((2 * n, 2 * n)), F, True))
-    for v in range(nv):
+    for v in range(nP):
         Fp = np.zeros((nvar, n, n))
         Fp[v * m:(v + 1) * m] = Bs
         blocks += [(np.zeros((n, n)), Fp, True), (eye, -Fp, False)]
 
     def unpack(x):
-        Ps = tuple(np.tensordot(x[v * m:(v + 1) * m], Bs, axes=1) for v in range(nv))
-        return Ps, x[nv * m:].reshape(n, n)
+        Ps = tuple(np.tensordot(x[v * m:(v + 1) * m], Bs, axes=1) for v in range(nP))
+        return Ps, (Ps[0] if common else x[nv * m:].reshape(n, n))
     return blocks, nvar, unpack
 
 
-def _solve_direct(deltas, T: float, common: bool, kappa: float):
+def _solve_direct(deltas, T: float, common: bool, kappa: float, reduced: bool = False):
     """:func:`_problem`'s LMI through :func:`._sdp.max_margin`: ``(status, P tuple, G, eta)``
     (None where Clarabel gave no solution); counted by :func:`solve_count`."""
     from ._sdp import max_margin
 
-    blocks, nvar, unpack = _direct_blocks(deltas, T, common, kappa)
+    blocks, nvar, unpack = _direct_blocks(deltas, T, common, kappa, reduced)
     _SOLVES.n = solve_count() + 1
     try:
         r = max_margin(blocks, nvar)
@@ -363,7 +368,8 @@ def solve_quietly(problem, solver: str = "CLARABEL") -> Exception | None:
 
 
 def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0,
-               fallback: bool = True, delta_error: float = 0.0) -> LMISolution:
+               fallback: bool = True, delta_error: float = 0.0,
+               reduced: bool = False) -> LMISolution:
     """Solve the delta-form vertex LMI for the matrices ``Delta_v``; never raises on failure.
 
     Parameters
@@ -382,6 +388,10 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0,
     delta_error : float, optional
         A bound on ``||Delta_v - exact||_2`` when the deltas come from a similarity computed
         in floating point (:mod:`._slow_fast`): the re-check holds for the exact ones.
+    reduced : bool, optional
+        Common form only: solve the ``n x n`` Schur complement (about 5x faster; the same
+        feasible set, another optimal ``P``: the curve uses it, the certificates whose ``P``
+        is used further, e.g. for a contraction or an invariant set, keep the ``2n`` form).
 
     Returns
     -------
@@ -399,7 +409,8 @@ def vertex_lmi(deltas, T: float, *, common: bool = False, kappa: float = 0.0,
     notes, last = [], "not solved"
     for solver in ("CLARABEL", "SCS") if fallback else ("CLARABEL",):
         if solver == "CLARABEL":  # directly (:mod:`._sdp`): no CVXPY on this path
-            last, P, Gv, eta_value = _solve_direct(deltas, float(T), bool(common), kap)
+            last, P, Gv, eta_value = _solve_direct(deltas, float(T), bool(common), kap,
+                                                   bool(reduced))
             if last.startswith("solver_error"):
                 notes.append(f"{solver} failed ({last})")
                 continue

@@ -46,25 +46,27 @@ def test_max_margin_matches_cvxpy_on_random_lmis(seed):
     assert np.linalg.eigvalsh(Gx)[0] >= -1e-7
 
 
-@pytest.mark.parametrize("common", [True, False])
-def test_vertex_lmi_direct_matches_the_cvxpy_program(common):
-    """The vertex LMI solved directly (n x n common form, 2n slack form) reaches the margin
-    of :func:`_lmi._problem`, the CVXPY program it replaces, and its answer is re-checked."""
+@pytest.mark.parametrize(("common", "reduced"), [(True, False), (True, True), (False, False)])
+def test_vertex_lmi_direct_matches_the_cvxpy_program(common, reduced):
+    """The vertex LMI solved directly (2n forms; the n x n common form on request) reaches the
+    margin of :func:`_lmi._problem`, the CVXPY program it replaces, and is re-checked."""
     T = 1e-3
     A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-6.0, -11.0, -6.0]])
     B = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [-1.0, -0.5, 0.0]])
     deltas = [(np.linalg.matrix_power(np.eye(3) + T * (A + b * B) / 10, 10) - np.eye(3)) / T
               for b in (0.0, 2.0)]
-    sol = _lmi.vertex_lmi(deltas, T, common=common, fallback=False)
+    kappa = 0.1 if common else 0.0
+    sol = _lmi.vertex_lmi(deltas, T, common=common, fallback=False, reduced=reduced,
+                          kappa=kappa)
     assert sol.certified and sol.solver == "CLARABEL"
-    assert _lmi.recheck(sol.P, sol.G, deltas, T) == pytest.approx(sol.margin)
+    assert _lmi.recheck(sol.P, sol.G, deltas, T, kappa) == pytest.approx(sol.margin)
     problem, D, kap, _, _, eta = _lmi._problem(3, 2, T, common)
     for par, Dv in zip(D, deltas):
         par.value = Dv
-    kap.value = 0.0
+    kap.value = kappa
     problem.solve(solver=cp.CLARABEL)
-    eta_direct = _lmi._solve_direct(deltas, T, common, 0.0)[3]
-    if common:  # the n x n form's margin is the Schur complement's: at least the 2n one's
+    eta_direct = _lmi._solve_direct(deltas, T, common, kappa, reduced)[3]
+    if reduced:  # the n x n form's margin is the Schur complement's: at least the 2n one's
         assert eta_direct >= eta.value - 1e-6
     else:
         assert eta_direct == pytest.approx(eta.value, rel=1e-5, abs=1e-8)
