@@ -239,7 +239,7 @@ class _Loop:
             if sol.certified:
                 return _point(eps, sol, "parameter-dependent", [(whole, sol, s)], False)
             if self.two_scale:  # a common P is a parameter-dependent one: not tried again
-                return self._pieces(eps, gamma, sol)
+                return self._pieces(eps, gamma, sol, failed=whole)
         if common_only:
             pc = self._modal(eps, gamma, whole=True)
             if pc.certified:
@@ -249,7 +249,7 @@ class _Loop:
             sol = self._common_modal_basis(eps, gamma, sol)
         if sol.certified or common_only:
             return _point(eps, sol, "common", [(whole, sol, s)], True)
-        return self._pieces(eps, gamma, sol)
+        return self._pieces(eps, gamma, sol, failed=whole)
 
     def _common_modal_basis(self, eps, gamma, failed):
         """:func:`._analytic.common_p_in_modal_basis` of the ends' deltas, else ``failed``."""
@@ -299,9 +299,12 @@ class _Loop:
             tuple((a, b) for a, b, _, _ in done),
             tuple((s.T @ P @ s, s.T @ P @ s) for _, _, P, _ in done))
 
-    def _pieces(self, eps, gamma, last, start: int = 1, edges=None) -> PointCertificate:
+    def _pieces(self, eps, gamma, last, start: int = 1, edges=None,
+                failed=None) -> PointCertificate:
         """Parameter-dependent LMIs on pieces of b, halved where they fail: ``start`` equal
-        pieces, or the pieces ``edges`` (``(lo, hi, common P first)`` covering the interval)."""
+        pieces, or the pieces ``edges`` (``(lo, hi, common P first)`` covering the interval);
+        the piece ``failed`` (both forms already failed there, ``last`` the answer) is halved
+        without solving again."""
         width = (self.b_hi - self.b_lo) / self.max_pieces
         if edges is None:
             e = np.linspace(self.b_lo, self.b_hi, start + 1)
@@ -309,13 +312,16 @@ class _Loop:
         stack, done, forms = list(reversed(edges)), [], []
         while stack:
             lo, hi, common = stack.pop()
-            # two time scales: a common P on the piece first (half the SDP's size and time),
-            # unless that piece needed P(b) last time
-            sol = self._vertex(eps, gamma, (lo, hi), common=True) if common else None
-            if sol is None or not sol[0].certified:
-                sol = self._vertex(eps, gamma, (lo, hi), common=False)
-                common = False
-            sol, s = sol
+            if failed is not None and (lo, hi) == tuple(failed):
+                sol, s = last, None
+            else:
+                # two time scales: a common P on the piece first (a smaller, faster SDP),
+                # unless that piece needed P(b) last time
+                sol = self._vertex(eps, gamma, (lo, hi), common=True) if common else None
+                if sol is None or not sol[0].certified:
+                    sol = self._vertex(eps, gamma, (lo, hi), common=False)
+                    common = False
+                sol, s = sol
             if sol.certified:
                 done.append(((lo, hi), sol, s))
                 forms.append((lo, hi, common))
@@ -327,7 +333,7 @@ class _Loop:
                     float(eps), False, None, len(done), False, sol.solver, sol.solver_status,
                     sol.margin, f"no certificate for b in [{lo:.6g}, {hi:.6g}] (pieces of "
                     f"width >= {width:.3g}): {sol.note}"
-                    + ("" if last is None else f"; common P: {last.note}"))
+                    + ("" if last is None or last is sol else f"; common P: {last.note}"))
         if self.two_scale:
             self.pieces_edges = forms  # a search's next eps starts from these pieces
         return _point(eps, None, "parameter-dependent", done, False)
