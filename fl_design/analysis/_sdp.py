@@ -35,13 +35,17 @@ import numpy as np
 #: Clarabel's status -> the CVXPY status word :mod:`._lmi` reports.
 STATUS = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate",
           "PrimalInfeasible": "infeasible", "AlmostPrimalInfeasible": "infeasible_inaccurate",
-          "DualInfeasible": "unbounded", "AlmostDualInfeasible": "unbounded_inaccurate"}
+          "DualInfeasible": "unbounded", "AlmostDualInfeasible": "unbounded_inaccurate",
+          "MaxIterations": "user_limit", "MaxTime": "user_limit"}
+#: Statuses whose iterate is returned (as CVXPY does): the caller's re-check judges it.
+WITH_SOLUTION = ("optimal", "optimal_inaccurate", "user_limit")
 
 
 @dataclass(frozen=True)
 class MarginSolution:
-    """Clarabel's answer: ``x`` and ``eta`` (None when it gave none), the status word
-    (:data:`STATUS`, else Clarabel's own in lower case) and its iteration count.
+    """Clarabel's answer: ``x`` and ``eta`` (None unless the status is one of
+    :data:`WITH_SOLUTION`), the status word (:data:`STATUS`, else Clarabel's own in lower
+    case) and its iteration count.
 
     Examples
     --------
@@ -131,10 +135,10 @@ def max_margin(blocks, nvar: int) -> MarginSolution:
         return MarginSolution(None, None, f"solver_error: {type(err).__name__}: {err}"[:120], 0)
     status = STATUS.get(str(sol.status), str(sol.status).lower())
     z = np.asarray(sol.x, dtype=float)
-    if status not in ("optimal", "optimal_inaccurate") or z.shape != (nvar + 1,) or not np.all(
+    if status not in WITH_SOLUTION or z.shape != (nvar + 1,) or not np.all(
             np.isfinite(z)):
         return MarginSolution(None, None, status, int(sol.iterations))
     return MarginSolution(z[:nvar], float(z[-1]), status, int(sol.iterations))
 
 
-__all__ = ["STATUS", "MarginSolution", "max_margin", "svec"]
+__all__ = ["STATUS", "WITH_SOLUTION", "MarginSolution", "max_margin", "svec"]

@@ -76,3 +76,22 @@ def test_max_margin_reports_a_failure_as_a_status():
     F0 = np.full((2, 2), np.nan)
     r = max_margin([(F0, np.zeros((1, 2, 2)), True)], 1)
     assert r.x is None and r.eta is None and r.status != "optimal"
+
+
+def test_an_iteration_limit_returns_the_iterate_for_the_recheck(monkeypatch):
+    """As through CVXPY: Clarabel stopped by its iteration limit gives its iterate
+    (``user_limit``), which only the caller's NumPy re-check can accept."""
+    import clarabel
+
+    base = clarabel.DefaultSettings
+
+    def one_iteration():
+        s = base()
+        s.max_iter = 1
+        return s
+
+    monkeypatch.setattr(clarabel, "DefaultSettings", one_iteration)
+    F0 = np.array([[1.0, 0.5], [0.5, 1.0]])
+    r = max_margin([(F0, np.array([[[1.0, 0.0], [0.0, -1.0]]]), True)], 1)
+    assert r.status == "user_limit" and r.iterations == 1
+    assert r.x is not None and np.isfinite(r.eta)
