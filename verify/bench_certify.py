@@ -21,7 +21,8 @@ one-gain warm-up in its process, as the 50-point curve), and the same 12-gain cu
 spread of classes (issue 33, "for any class": :data:`CURVE_CLASSES`, rho 1 to 4, narrow,
 wide and negative b, a rate bound on b, a slope box for a, T = 1 ms and 0.1 ms; each <= 5 s).
 Each line gives the wall time, the CPU time of the timed call (under load the better measure
-of single-threaded work) and how many gains were certified. A miss exits 1.
+of single-threaded work), the conic programs (LMIs, SOS) it solved and how many gains were
+certified. A miss exits 1.
 
     python verify/bench_certify.py [--quick]
 """
@@ -106,7 +107,9 @@ def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
     prog = (("" if warm else "import time; t0 = time.perf_counter(); ") + pre
             + ("import time; t0 = time.perf_counter(); " if warm else "")
             + "c0 = time.process_time(); "
-            + f"r = {code}; print(time.perf_counter() - t0, time.process_time() - c0); "
+            + "from fl_design.analysis._lmi import solve_count; n0 = solve_count(); "
+            + f"r = {code}; print(time.perf_counter() - t0, time.process_time() - c0, "
+            "solve_count() - n0); "
             "print((f'certified at {int(np.isfinite(r.eps_star_certified).sum())}/{r.gamma.size} "
             "gains, frozen eps* at {int(np.isfinite(r.eps_star_frozen).sum())}; ' "
             "if isinstance(getattr(r, 'eps_star_certified', None), np.ndarray) else '') + "
@@ -120,8 +123,9 @@ def _cold(code: str, timeout: float, warm: str = "") -> tuple[float, str]:
     lines = out.stdout.strip().splitlines()
     if out.returncode != 0 or not lines:
         return float("inf"), (out.stderr.strip().splitlines() or ["failed"])[-1]
-    wall, cpu = (float(x) for x in lines[0].split())
-    return wall, f"(CPU {cpu:.2f} s) " + (lines[1] if len(lines) > 1 else "")
+    wall, cpu, solves = lines[0].split()
+    return float(wall), (f"(CPU {float(cpu):.2f} s, {solves} conic programs) "
+                         + (lines[1] if len(lines) > 1 else ""))
 
 
 def bench_classes(names, repeat: int) -> bool:

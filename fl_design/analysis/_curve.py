@@ -17,8 +17,9 @@ import numpy as np
 
 from .. import _validate as V
 from ..errors import ParameterError
+from ._cert_loop import _Loop, _serial
 from ._cert_results import class_fields
-from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
+from ._certify import DEFAULT_EPS_RANGE, _eps_range
 from ._class_resolve import resolve_class
 from ._curve_result import EpsStarCurve
 from ._search import certified_eps_star, frozen_bracket
@@ -90,6 +91,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         time_budget = V.nonnegative("time_budget", time_budget)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     L.scs = False  # the fast curve: Clarabel only (SCS took ~1 s per failed LMI)
+    L.reduced = L.box is None  # and the n x n common LMI (its P serves nothing else)
     # two time scales (rho >= 3, slow-fast coordinates): the certificates reach the frozen
     # boundary (ratios 0.96-0.99 measured), the first search starts there
     frozen, cert = np.full(g.size, np.nan), np.full(g.size, np.nan)

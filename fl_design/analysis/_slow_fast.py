@@ -13,15 +13,19 @@ subspace as a graph over ``x`` (an ordered real Schur form), ``H`` solves a Sylv
 Each block is then balanced on its own (powers of 2). At the interval's ends the deltas keep an
 ``O(width)`` coupling, which the certificates cover as usual (affine in ``b``).
 
-**Soundness.** Computed in floating point, ``E = G^-1 B G`` (``G = W diag(s)``, ``B`` the
-power-of-2 balanced delta, itself exact) is off by ``Delta`` with, componentwise,
-``|Delta| <= 4 n u |G^-1| |B| |G|`` (products and a backward-stable solve; ``u`` the unit
-roundoff); its 2-norm is bounded by the Frobenius norm of that matrix, returned as ``err``.
+**Soundness.** ``W`` is the product ``(I + L_b)(I + H_b)`` of two unit triangular matrices
+whose inverses are exact (``(I - H_b)(I - L_b)``: ``L_b`` and ``H_b`` hold ``L`` and ``H`` off
+the diagonal blocks, so ``L_b^2 = H_b^2 = 0``), and the balancing scalings are powers of 2:
+``E_v = K_i D_v K_i^-1`` is formed in integer arithmetic on the doubles' exact dyadic values
+and rounded once, each entry to its nearest double (off by at most ``u |E_v|``, ``u`` the unit
+roundoff, a subnormal by ``2^-1075``). The Frobenius norm of that bound is ``err``, about
+``2 u ||E_v||`` (it was ``4 n u || |G^-1| |B| |G| ||``, ~1e5 times larger at rho = 4: the
+similarity's condition number, ~1e9, rejected valid certificates near the frozen boundary).
 The re-checks (:func:`fl_design.analysis._lmi.recheck_stack`, ``delta_error``) subtract that
 perturbation's effect on every vertex matrix, ``||G_slack|| (2 + sqrt(T)) err``, from its
-smallest eigenvalue: a certificate of ``E`` is then one of the exact ``G^-1 B G``, a
+smallest eigenvalue: a certificate of ``E_v`` is then one of the exact ``K_i D_v K_i^-1``, a
 congruence of the loop's own delta. The certificate is returned in the loop's coordinates
-(``K^T P K``, ``K = G^-1 diag(1/s0)``).
+(``K^T P K``, ``K`` the double nearest ``K_i``).
 
 Examples
 --------
@@ -105,24 +109,101 @@ def slow_fast_coordinates(D, rho: int):
         return None
     W2 = np.eye(n)
     W2[np.ix_(S, F)] = H
-    W = W @ W2
-    Bd = np.linalg.solve(W, Bm @ W)
+    Bd = np.linalg.solve(W2, B1 @ W2)
     s1 = np.ones(n)
     for idx in (S, F):
         _, (sb, _) = scipy.linalg.matrix_balance(Bd[np.ix_(idx, idx)], permute=False,
                                                  separate=True)
         s1[idx] = sb
-    G = W * s1[None, :]
-    try:
-        Gi = np.linalg.inv(G)
-    except np.linalg.LinAlgError:
+    Lb, Hb = np.zeros((n, n)), np.zeros((n, n))
+    Lb[np.ix_(F, S)], Hb[np.ix_(S, F)] = Lg, H
+    return _exact_similarity(D, Lb, Hb, s0, s1, S)
+
+
+def _exact_similarity(D, Lb, Hb, s0, s1, S):
+    """``E_v = Ki D_v Ki^-1`` computed exactly (integers), rounded once; ``K`` and the bound.
+
+    ``Ki = diag(1/s1) (I - Hb)(I - Lb) diag(1/s0)`` has the exact inverse
+    ``diag(s0) (I + Lb)(I + Hb) diag(s1)`` (``Lb Lb = Hb Hb = 0``: the blocks are off the
+    diagonal, ``s0`` and ``s1`` powers of 2): the product is formed in integer arithmetic on
+    the doubles' exact dyadic values, and each entry of ``E_v`` is its correctly rounded
+    double, off by at most ``u |E_v|`` (``u`` the unit roundoff), plus ``2^-1075`` where it is
+    subnormal. The 2-norm of that error matrix is bounded by its Frobenius norm, computed with
+    a factor 2 for its own rounding: the returned ``err``. ``K`` (the map to these
+    coordinates, for the certificate's ``P`` in the loop's coordinates) is the rounded ``Ki``.
+    None when a value is not finite or does not fit a double.
+    """
+    n = Lb.shape[0]
+    k0, k1 = _log2(s0), _log2(s1)
+    if k0 is None or k1 is None:
         return None
-    E = [np.linalg.solve(G, x @ G) for x in B]
+    Li, Hi = _dyadic(Lb), _dyadic(Hb)
+    if Li is None or Hi is None:
+        return None
+    ident = np.eye(n, dtype=int).astype(object)
+    one_l, one_h = ident * (1 << -Li[1]), ident * (1 << -Hi[1])
+    A1 = ((one_h - Hi[0]).dot(one_l - Li[0]), Hi[1] + Li[1])  # (I - Hb)(I - Lb)
+    A2 = ((one_l + Li[0]).dot(one_h + Hi[0]), Li[1] + Hi[1])  # (I + Lb)(I + Hb)
+    E = []
     u = np.finfo(float).eps / 2
-    err = max(float(np.linalg.norm(np.abs(Gi) @ np.abs(x) @ np.abs(G))) for x in B) * 4 * n * u
-    if not (np.isfinite(err) and all(np.all(np.isfinite(x)) for x in E)):
+    err = 0.0
+    for Dv in D:
+        Bv = _dyadic(Dv, k0)  # diag(1/s0) D_v diag(s0), exactly
+        if Bv is None:
+            return None
+        C = A1[0].dot(Bv[0]).dot(A2[0])
+        Ev = _to_float(C, A1[1] + Bv[1] + A2[1], k1)  # diag(1/s1) C diag(s1), rounded once
+        if Ev is None:
+            return None
+        E.append(Ev)
+        err = max(err, 2.0 * u * float(np.linalg.norm(Ev)) + n * 2.0 ** -1074)
+    K = _to_float(A1[0], A1[1], k1, k0)
+    if K is None or not np.isfinite(err):
         return None
-    return E, Gi / s0[None, :], err, S
+    return E, K, err, S
+
+
+def _log2(s):
+    """Exponents of a vector of powers of 2 (None when one is not)."""
+    m, e = np.frexp(np.asarray(s, dtype=float))
+    if not np.all(m == 0.5):
+        return None
+    return (e - 1).astype(int)
+
+
+def _dyadic(M, k=None):
+    """``(Mi, e)``: ``M = Mi 2^e`` exactly, ``Mi`` Python integers (object array), ``e <= 0``;
+    with ``k`` (integer exponents) of ``diag(2^-k) M diag(2^k)``. None when not finite."""
+    M = np.asarray(M, dtype=float)
+    if not np.all(np.isfinite(M)):
+        return None
+    m, e = np.frexp(M)
+    mi = (m * 2.0 ** 53).astype(np.int64)  # exact: |m| < 1
+    e = e.astype(np.int64) - 53
+    if k is not None:
+        e = e + k[None, :] - k[:, None]
+    base = min(int(e[mi != 0].min()) if np.any(mi != 0) else 0, 0)
+    out = np.empty(M.shape, dtype=object)
+    out.ravel()[:] = [v << x if v else 0 for v, x in zip(mi.ravel().tolist(), (e - base).ravel().tolist())]
+    return out, base
+
+
+def _to_float(C, e, k_row, k_col=None):
+    """Correctly rounded doubles of ``C[i, j] 2^(e - k_row[i] + k_col[j])`` (``k_col``
+    default ``k_row``: a similarity by ``diag(2^k_row)``; else ``diag(2^-k_row) C
+    diag(2^-k_col)`` when given, see the caller). None on overflow."""
+    rows, cols = C.shape
+    if k_col is None:
+        ex = e - k_row[:, None] + k_row[None, :]
+    else:
+        ex = e - k_row[:, None] - k_col[None, :]
+    try:
+        # Python's int true division and int -> float conversion are correctly rounded
+        out = [float(c << x) if x >= 0 else c / (1 << -x)
+               for c, x in zip(C.ravel().tolist(), ex.ravel().tolist())]
+    except OverflowError:
+        return None
+    return np.array(out, dtype=float).reshape(rows, cols)
 
 
 

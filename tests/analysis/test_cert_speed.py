@@ -111,3 +111,34 @@ def test_curve_budget_keeps_the_frozen_curve_and_names_the_gains_left():
     assert done == [1, 2]
     with pytest.raises(fl.errors.ParameterError, match="time_budget"):
         fl.eps_star_curve(design, (3.6, 6.8), gammas, time_budget=-1.0)
+
+
+def test_a_failing_point_solves_each_lmi_once_and_its_verdict_is_the_eigenvalues():
+    """Above the frozen boundary of a rho = 3 loop nothing is certified, and no LMI (piece,
+    form) is solved twice on the way (the whole interval's P(b) was solved twice); below it
+    the same loop is certified."""
+    T, rho = 1e-3, 3
+    design = fl.Design(estimator=fl.EHGO(rho, 10 * T, T), controller=fl.DynamicController(
+        fl.synthesize_gains(rho, decay=1.0).gains, 0.1))
+    L = _Loop(design, (1.0, 5.0), None, 41, 8)
+    L.lmi_hit = True  # straight to the LMIs (the closed form is tried first otherwise)
+    gamma = 0.02
+    seen = []
+    vertex = L._vertex
+
+    def spy(eps, g, pair, common):
+        seen.append((float(pair[0]), float(pair[1]), bool(common)))
+        return vertex(eps, g, pair, common)
+
+    L._vertex = spy
+    eps_frozen = fl.eps_star_curve(design, fl.PlantClass(rho=rho, T=T, b=(1.0, 5.0)), [gamma],
+                                   certified=False).eps_star_frozen[0]
+    bad, good = 1.05 * eps_frozen, 0.9 * eps_frozen
+    # the eigenvalue refutation: a frozen loop of the b grid is not Schur at 1.05 eps*
+    assert L.frozen_margin(bad, gamma) >= 0.0 and L.frozen_margin(good, gamma) < 0.0
+    assert not L.point(bad, gamma).certified and not seen  # refuted: no LMI at all
+    L.frozen_margin = lambda eps, g: -1.0  # past the screen: the LMIs alone must fail
+    assert not L.point(bad, gamma).certified
+    assert seen and len(seen) == len(set(seen))
+    del L.frozen_margin
+    assert L.point(good, gamma).certified

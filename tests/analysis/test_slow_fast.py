@@ -100,3 +100,51 @@ def test_rho3_rho4_curve_certifies_close_to_the_frozen_boundary(rho, b_max):
     # sound (never above the eigenvalue refutation) and not a numerical 0
     assert np.all(c.eps_star_certified <= c.eps_star_frozen)
     assert np.all(c.eps_star_certified >= 0.9 * c.eps_star_frozen)
+
+
+def test_exact_similarity_is_the_correctly_rounded_product():
+    """``E_v`` against the same similarity in exact rational arithmetic (fractions): each
+    entry the double nearest the exact value, and ``err`` bounds the 2-norm of the error."""
+    from fractions import Fraction
+
+    from fl_design.analysis._slow_fast import _exact_similarity
+
+    rng = np.random.default_rng(3)
+    n, S = 6, [0, 1]
+    F = [i for i in range(n) if i not in S]
+    Lb, Hb = np.zeros((n, n)), np.zeros((n, n))
+    Lb[np.ix_(F, S)] = rng.normal(size=(len(F), len(S))) * 10.0 ** rng.integers(-3, 4, (4, 2))
+    Hb[np.ix_(S, F)] = rng.normal(size=(len(S), len(F))) * 1e-3
+    s0, s1 = 2.0 ** rng.integers(-8, 8, n), 2.0 ** rng.integers(-8, 8, n)
+    D = [rng.normal(size=(n, n)) * 10.0 ** rng.integers(-4, 4, (n, n)) for _ in range(2)]
+    E, K, err, S_out = _exact_similarity(D, Lb, Hb, s0, s1, S)
+    assert S_out == S
+
+    def q(M):
+        return [[Fraction(float(x)) for x in row] for row in np.asarray(M)]
+
+    def mul(A, B):
+        return [[sum(A[i][k] * B[k][j] for k in range(len(B))) for j in range(len(B[0]))]
+                for i in range(len(A))]
+
+    eye = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]
+    Lq, Hq = q(Lb), q(Hb)
+    Ki = mul(mul([[Fraction(int(i == j)) / Fraction(s1[i]) for j in range(n)] for i in range(n)],
+                 [[eye[i][j] - Hq[i][j] for j in range(n)] for i in range(n)]),
+             mul([[eye[i][j] - Lq[i][j] for j in range(n)] for i in range(n)],
+                 [[Fraction(int(i == j)) / Fraction(s0[i]) for j in range(n)] for i in range(n)]))
+    Kinv = mul(mul([[Fraction(int(i == j)) * Fraction(s0[i]) for j in range(n)] for i in range(n)],
+                   [[eye[i][j] + Lq[i][j] for j in range(n)] for i in range(n)]),
+               mul([[eye[i][j] + Hq[i][j] for j in range(n)] for i in range(n)],
+                   [[Fraction(int(i == j)) * Fraction(s1[i]) for j in range(n)] for i in range(n)]))
+    assert mul(Ki, Kinv) == eye  # an exact inverse pair
+    assert np.array_equal(K, np.array([[float(x) for x in row] for row in Ki]))
+    u = np.finfo(float).eps / 2
+    for Dv, Ev in zip(D, E):
+        exact = mul(mul(Ki, q(Dv)), Kinv)
+        nearest = np.array([[float(x) for x in row] for row in exact])  # correctly rounded
+        assert np.array_equal(Ev, nearest)
+        diff = np.array([[float(Fraction(float(Ev[i, j])) - exact[i][j]) for j in range(n)]
+                         for i in range(n)])
+        assert np.all(np.abs(diff) <= u * np.abs(Ev) * (1 + 4 * u))
+        assert np.linalg.norm(diff, 2) <= err
