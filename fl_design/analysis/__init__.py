@@ -1,8 +1,10 @@
 """Analysis layer: the sampled loop linearized, eps* from eigenvalues, and certificates.
 
 Modules: ``_linearization`` (:func:`sampled_linearization`, :func:`linearized_eps_star`),
-``_surrogate`` (the linear surrogate loop, affine in ``b``), ``_lmi`` (delta-form vertex LMIs,
-CVXPY + Clarabel, SCS fallback, NumPy re-check), ``_certify`` (:func:`certify_eps`), ``_curve`` (:func:`eps_star_curve`), ``_gamma`` (:func:`certify_gamma`), ``_coverage`` (eps* brackets
+``_surrogate`` (the linear surrogate loop, affine in ``b``), ``_lmi`` (delta-form vertex LMIs:
+Clarabel on the LMI's coefficients through ``_sdp``, CVXPY + SCS fallback, NumPy re-check),
+``_cert_loop`` (the surrogate loop over a ``b`` interval: frozen checks, point certificates),
+``_certify`` (:func:`certify_eps`), ``_curve`` (:func:`eps_star_curve`), ``_gamma`` (:func:`certify_gamma`), ``_coverage`` (eps* brackets
 ``[certified, refuted]`` per coverage: frozen, varying, rate-bounded, nonlinear), ``_refute``
 (switching counterexamples), ``_ldi`` (the linear differential inclusion
 with Jacobian bounds), ``_lyapunov`` (:func:`certify_lyapunov`, :func:`synthesize_gains`),
