@@ -139,7 +139,10 @@ def class_brackets(L, gamma: float, lo: float, fb, rtol: float) -> dict:
 def member_refutation_point(L, eps: float, gamma: float):
     """A not-certified :class:`PointCertificate` when a member of the class is found unstable at
     ``eps`` (a frozen corner, or a switching between two corners), else None (then the LDI is
-    worth solving)."""
+    worth solving).
+
+    ``L.refute_points = False`` (the fast curve's searches, where a switching search cost as
+    much as the LDI's SDP at each eps and rarely refuted): the frozen corners only."""
     from ._cert_results import PointCertificate
 
     m = frozen_corner_margin(L, eps, gamma)
@@ -147,8 +150,8 @@ def member_refutation_point(L, eps: float, gamma: float):
         return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
                                 f"a frozen corner plant of the class is not Schur (margin "
                                 f"{m:.3g} >= 0): no certificate exists, no LMI solved")
-    if not admissible_pairs(L):
-        return None
+    if not getattr(L, "refute_points", True) or not admissible_pairs(L):
+        return None  # (a search that wants certificates only: the LDI answers)
     r = switching_refute(L, eps, gamma)
     if not r.refuted:
         return None

@@ -90,6 +90,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         time_budget = V.nonnegative("time_budget", time_budget)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     L.scs = False  # the fast curve: Clarabel only (SCS took ~1 s per failed LMI)
+    L.refute_points = False  # a slope box: no switching search at each eps (certificates only)
     # two time scales (rho >= 3, slow-fast coordinates): the certificates reach the frozen
     # boundary (ratios 0.96-0.99 measured), the first search starts there
     frozen, cert = np.full(g.size, np.nan), np.full(g.size, np.nan)

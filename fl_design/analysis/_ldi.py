@@ -71,13 +71,16 @@ import numpy as np
 import scipy.linalg
 
 from ._cert_results import PointCertificate, _Result
-from ._lmi import RECHECK_TOL, vertex_lmi
+from ._lmi import RECHECK_TOL, LMISolution, vertex_lmi
+from ._sample_model import second_order_maps
 from ._surrogate import chain_matrices, delta, schur_margins
 
 #: Fraction of the slowest vertex decay rate asked of the common ``P``.
 DECAY_FRACTION = 0.8
 #: Most corners of the interval ZOH model (else the first-order model is used).
 MAX_BOX_CORNERS = 256
+#: Corner pairs of the second-order model added to the LMI when its first P fails them.
+PAIRS_ADDED = 8
 
 
 def _vertices(L):
@@ -89,7 +92,7 @@ def _vertex_words(a_row, b) -> str:
     return f"d sigma/d xi = ({', '.join(f'{v:.6g}' for v in a_row)}), b = {b:.6g}"
 
 
-def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma) -> str:
+def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma, model) -> str:
     """Which vertex of the first-order model fails, by how much, and its exact ZOH."""
     v = int(np.argmax(margins))
     rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
@@ -100,12 +103,12 @@ def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma) -> str:
     half = 0.5 * (np.max(Xs, axis=0) - np.min(Xs, axis=0))
     stiff = L.T * float(np.max(half[rho - 1, :rho]))
     tail = (f"its exact ZOH is Schur (spectral radius {zoh:.9f}): what fails is the model "
-            f"expm(T X_c) + T (X - X_c) around the box centre X_c, whose first-order term is too "
-            f"large (T x the half-width of the d sigma/d xi box = {stiff:.3g}); a ZOH vertex "
-            "model with a bounded remainder would be needed" if zoh < 1.0 else
+            f"around the box centre X_c ({model}), whose terms in the deviation from X_c are "
+            f"too large (T x the half-width of the d sigma/d xi box = {stiff:.3g}); a ZOH "
+            "vertex model with a bounded remainder would be needed" if zoh < 1.0 else
             f"its exact ZOH is not Schur either (spectral radius {zoh:.9f}): with this design the "
             "plant frozen at that vertex is unstable")
-    return (f"LDI: the first-order vertex model is not Schur at vertex {v + 1} of {len(verts)} "
+    return (f"LDI: the vertex model is not Schur at vertex {v + 1} of {len(verts)} "
             f"({_vertex_words(*verts[v])}): spectral radius {rad:.9f}, Schur margin "
             f"{float(margins[v]):.3g} >= 0; {tail}")
 
@@ -157,10 +160,13 @@ def _box_corners(lo, hi):
 
 
 def _sample_maps(L, Xs):
-    """``(maps, Rbar, model words)``: the matrices whose loops must contract, and the remainder.
+    """``(maps, Rbar, model words, check)``: the matrices the LMI is posed on, the remainder,
+    and the maps whose loops the NumPy re-check must contract (``check``; None: ``maps``).
 
     The interval ZOH model (exact enclosure, no remainder) when the vertex matrices are Metzler
-    and the box has at most :data:`MAX_BOX_CORNERS` corners; else the first-order model.
+    and the box has at most :data:`MAX_BOX_CORNERS` corners; else the second-order model of
+    :mod:`._sample_model` (the LMI on the corners' maps, the re-check on every pair of
+    corners); else (too many pairs) the first-order model.
     """
     T = L.T
     box = _metzler_box(Xs, T)
@@ -168,14 +174,19 @@ def _sample_maps(L, Xs):
         maps, k = _box_corners(*box)
         if len(maps) <= MAX_BOX_CORNERS:
             return maps, None, (f"interval ZOH model (Metzler comparison, {k} varying entries of "
-                                f"the sample map, {len(maps)} corners, no remainder)")
-    Xc, Rbar = _remainder_bound(Xs, T)
-    Ec = scipy.linalg.expm(T * Xc)
+                                f"the sample map, {len(maps)} corners, no remainder)"), None
     why = ("the vertex matrices are not Metzler (an off-diagonal d sigma/d xi_i can be "
            "negative)" if box is None else f"the Metzler box has more than {MAX_BOX_CORNERS} "
            "corners")
+    so = second_order_maps(Xs, T, L.loop.rho)
+    if so is not None:
+        return so.lmi, so.Rbar, (f"second-order model expm(T X_c) + T D(avg_1) + T^2/2 X_c "
+                                 f"D(avg_2) + remainder, {len(so.pairs)} corner pairs: "
+                                 f"{why}"), so.pairs
+    Xc, Rbar = _remainder_bound(Xs, T)
+    Ec = scipy.linalg.expm(T * Xc)
     return ([Ec + T * (X - Xc) for X in Xs], Rbar,
-            f"first-order model expm(T X_c) + T (X - X_c) + remainder: {why}")
+            f"first-order model expm(T X_c) + T (X - X_c) + remainder: {why}", None)
 
 
 def _coordinates(D):
@@ -191,7 +202,8 @@ def _coordinates(D):
 
 
 def _vertex_loops(L, eps: float, gamma: float):
-    """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row)`` of the LDI at one eps."""
+    """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk)`` of the LDI at one eps
+    (``Dchk``: the delta matrices the re-check covers, ``D`` itself or more)."""
     T, rho, loop = L.T, L.loop.rho, L.loop
     u_row = loop.input_row(eps, gamma)
     verts = _vertices(L)
@@ -200,13 +212,18 @@ def _vertex_loops(L, eps: float, gamma: float):
         X = chain_matrices(rho, a_row)
         X[:, rho] *= b
         Xs.append(X)
-    maps, Rbar, model = _sample_maps(L, np.stack(Xs))
-    Ms = []
-    for Psi in maps:
-        M0, M1 = loop.assemble(Psi[:rho, :rho], Psi[:rho, rho], u_row, eps, gamma)
-        Ms.append(M0 + M1)
-    D = [delta(M, T) for M in Ms]
-    return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row
+    maps, Rbar, model, check = _sample_maps(L, np.stack(Xs))
+
+    def deltas(ps):
+        out = []
+        for Psi in ps:
+            M0, M1 = loop.assemble(Psi[:rho, :rho], Psi[:rho, rho], u_row, eps, gamma)
+            out.append(M0 + M1)
+        return out, [delta(M, T) for M in out]
+
+    Ms, D = deltas(maps)
+    Dchk = D if check is None else deltas(check)[1]
+    return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row, Dchk
 
 
 def vertex_switching(Ms, pairs: int):
@@ -236,12 +253,12 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
     vertex loops are tried (:func:`vertex_switching`, tens of milliseconds); one that grows
     answers "no common P" without an LMI (the answer the LMIs would give, and why).
     """
-    T, loop = L.T, L.loop
-    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row = _vertex_loops(L, eps, gamma)
+    T = L.T
+    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
         if Rbar is not None:
             return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
-                                    _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma))
+                                    _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma, model))
         v = int(np.argmax(margins))
         rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
         return PointCertificate(
@@ -258,32 +275,32 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
             f"{r.period}-sample period): no common quadratic P exists, no LMI solved; a "
             "smaller region narrows the Jacobian box")
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
-    notes = []
-    for W in _coordinates(D):
-        Wi = np.linalg.inv(W)
-        Db = [Wi @ x @ W for x in D]
-        for k in (kappa, 0.0):
-            sol = vertex_lmi(Db, T, common=True, kappa=k)
-            if sol.certified:
-                break
-        if sol.certified:
-            break
-        notes.append(sol.note)
-    if not sol.certified:
-        v = int(np.argmax(margins))
-        return PointCertificate(
-            float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
-            f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
-            f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them all "
-            f"varying in time ({'; '.join(notes)}); a smaller region narrows the Jacobian box")
-    q, nu, dP = _contraction(sol.P[0], Db, W, Rbar, u_row, loop, T)
+    got = _reuse(L, D, Dchk, Rbar, u_row, T)
+    if got is None:
+        got = _solve(L, D, Dchk, Rbar, u_row, T, kappa)
+        if not got[0].certified:
+            sol, v = got[0], int(np.argmax(margins))
+            return PointCertificate(
+                float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
+                f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
+                f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them "
+                f"all varying in time ({got[1]}); a smaller region narrows the Jacobian box")
+    sol, _, Wi, q, nu, dP = got
     ok = q < 1.0 - RECHECK_TOL
     P = Wi.T @ sol.P[0] @ Wi  # the loop's own coordinates (X = W X_b)
     rem = "" if Rbar is None else f" + remainder {dP:.3g}"
-    reason = (f"LDI ({model}), common P over {len(maps)} sample maps: ||M||_P <= {nu:.12f}"
-              f"{rem} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)"
-              + ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
-                 f"{1.0 - nu:.3g} by {q - 1.0:.3g}"))
+    over = f"{len(Dchk)} sample maps" + ("" if len(Dchk) == len(D) else
+                                         f" (the LMI posed on {len(D)})")
+    why = ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
+           f"{1.0 - nu:.3g} by {q - 1.0:.3g}" if nu < 1.0 else
+           ": P does not contract every sample map (no common quadratic P found for them all)")
+    reason = (f"LDI ({model}), common P over {over}: ||M||_P <= {nu:.12f}"
+              f"{rem} = {q:.12f} {'<' if ok else '>='} 1 (NumPy){why}")
+    if ok:
+        try:
+            L.ldi_last_p = P  # the next eps of a search re-checks it first (_reuse)
+        except AttributeError:  # pragma: no cover - a loop object without attributes
+            pass
     return PointCertificate(float(eps), ok, "ldi" if ok else None, 1 if ok else 0, ok,
                             sol.solver, sol.solver_status, sol.margin, reason,
                             ((L.b_lo, L.b_hi),) if ok else (), ((P, P),) if ok else ())
@@ -389,6 +406,75 @@ def covered_set(P, names, x_eq, room: dict) -> CoveredSet:
                       tuple(float(v) for v in x_eq), str(names[i]))
 
 
+def _reuse(L, D, Dchk, Rbar, u_row, T):
+    """``(sol, W, W^-1, q, nu, dP)`` when the ``P`` certified last on ``L`` (a nearby eps of
+    a search, :func:`ldi_point`) re-checks here too, else None: no SDP solved."""
+    P = getattr(L, "ldi_last_p", None)
+    if P is None or P.shape != D[0].shape:
+        return None
+    W = next(_coordinates(D))
+    Wi = np.linalg.inv(W)
+    Pb = W.T @ P @ W
+    try:
+        q, nu, dP = _contraction(Pb, [Wi @ x @ W for x in Dchk], W, Rbar, u_row, L.loop, T)
+    except np.linalg.LinAlgError:
+        return None
+    if not q < 1.0 - RECHECK_TOL:
+        return None
+    sol = LMISolution(True, "reused", "the P of a nearby eps, re-checked", (Pb,), Pb,
+                      float(1.0 - q), "reused")
+    return sol, W, Wi, q, nu, dP
+
+
+def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
+    """``(sol, W, W^-1, q, nu, dP)`` of the common-P LMI (``sol`` not certified: ``(sol,
+    notes)``): balanced coordinates with the decay rate ``kappa`` and without (the order that
+    worked last on ``L`` first), then a real modal basis without; the re-check covers ``Dchk``
+    (the second-order model's corner pairs: when they fail, the LMI again with the worst
+    :data:`PAIRS_ADDED` of them)."""
+    loop, notes = L.loop, []
+    kappas = (0.0, kappa) if getattr(L, "ldi_no_decay", False) else (kappa, 0.0)
+    for n_w, W in enumerate(_coordinates(D)):
+        Wi = np.linalg.inv(W)
+        Db = [Wi @ x @ W for x in D]
+        for k in kappas if n_w == 0 else (0.0,):
+            sol = vertex_lmi(Db, T, common=True, kappa=k)
+            if sol.certified:
+                break
+        if sol.certified:
+            break
+        notes.append(sol.note)
+    if not sol.certified:
+        return sol, "; ".join(notes)
+    try:
+        L.ldi_no_decay = k == 0.0
+    except AttributeError:  # pragma: no cover - a loop object without attributes
+        pass
+    Dc = [Wi @ x @ W for x in Dchk]
+    q, nu, dP = _contraction(sol.P[0], Dc, W, Rbar, u_row, loop, T)
+    if not q < 1.0 - RECHECK_TOL and len(Dchk) > len(D):
+        # the corner pairs of the second-order model: the LMI again with the pairs that P
+        # does not contract added (the worst PAIRS_ADDED; all 4^k took seconds per solve)
+        worst = np.argsort(_norms(sol.P[0], Dc, T))[::-1][:PAIRS_ADDED]
+        again = vertex_lmi(Db + [Dc[i] for i in worst], T, common=True, kappa=k)
+        if again.certified:
+            q2, nu2, dP2 = _contraction(again.P[0], Dc, W, Rbar, u_row, loop, T)
+            if q2 < q:
+                sol, q, nu, dP = again, q2, nu2, dP2
+    return sol, W, Wi, q, nu, dP
+
+
+def _norms(P, Db, T) -> np.ndarray:
+    """``||I + T D||_P^2`` of each delta matrix ``D`` of ``Db`` (NumPy)."""
+    Lc = np.linalg.cholesky((P + P.T) / 2)
+    Linv = np.linalg.inv(Lc)
+    out = []
+    for Dv in Db:
+        Q = Dv.T @ P + P @ Dv + T * Dv.T @ P @ Dv
+        out.append(1.0 + T * float(np.linalg.eigvalsh(Linv @ ((Q + Q.T) / 2) @ Linv.T)[-1]))
+    return np.array(out)
+
+
 def _contraction(P, Db, W, Rbar, u_row, loop, T):
     """``(nu + delta_P, nu, delta_P)``: P-norm bound of every LDI sample map (NumPy).
 
@@ -398,11 +484,7 @@ def _contraction(P, Db, W, Rbar, u_row, loop, T):
     n, rho = P.shape[0], loop.rho
     Lc = np.linalg.cholesky((P + P.T) / 2)
     Linv = np.linalg.inv(Lc)
-    nu2 = 0.0
-    for Dv in Db:
-        Q = Dv.T @ P + P @ Dv + T * Dv.T @ P @ Dv
-        nu2 = max(nu2, 1.0 + T * float(np.linalg.eigvalsh(Linv @ ((Q + Q.T) / 2) @ Linv.T)[-1]))
-    nu = math.sqrt(max(nu2, 0.0))
+    nu = math.sqrt(max(float(np.max(_norms(P, Db, T))), 0.0))
     if Rbar is None:
         return nu, nu, 0.0
     keep = loop.keep
@@ -454,7 +536,7 @@ def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
     if pb is None or pb.xi_region is None:
         return None
     T, loop = L.T, L.loop
-    _, _, _, Rbar, _, _, D, margins, u_row = _vertex_loops(L, eps, gamma)
+    _, _, _, Rbar, _, _, D, margins, u_row, Dchk = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
         return None
     room = _room(L, pb)
@@ -463,12 +545,13 @@ def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
     for W in _coordinates(D):
         Wi = np.linalg.inv(W)
         Db = [Wi @ x @ W for x in D]
+        Dc = [Wi @ x @ W for x in Dchk]
         for k in (kappa, 0.25 * kappa, 0.02 * kappa):
             P = widest_covered_p(Db, W, T, k, room, G, w)
             if P is None:
                 continue
             try:
-                q = _contraction(W.T @ P @ W, Db, W, Rbar, u_row, loop, T)[0]
+                q = _contraction(W.T @ P @ W, Dc, W, Rbar, u_row, loop, T)[0]
             except np.linalg.LinAlgError:
                 continue
             if q < 1.0 - RECHECK_TOL:
