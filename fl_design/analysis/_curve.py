@@ -19,6 +19,7 @@ from .. import _validate as V
 from ..errors import ParameterError
 from ._cert_results import class_fields
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
+from ._class_bracket import frozen_nan_reason
 from ._class_resolve import resolve_class
 from ._curve_result import EpsStarCurve
 from ._search import certified_eps_star, frozen_bracket
@@ -95,13 +96,14 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     # boundary (ratios 0.96-0.99 measured), the first search starts there
     frozen, cert = np.full(g.size, np.nan), np.full(g.size, np.nan)
     hint = 1.0 if L.two_scale else 0.9
-    start, late = time.perf_counter(), []
+    start, late, never = time.perf_counter(), [], []
     for i, gamma in enumerate(g):
         if progress is not None and i:
             progress(i, g.size)
         fb = frozen_bracket(lambda e, g_=gamma: L.screened_margin(e, g_), lo, hi, n_scan,
                             rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
-        if fb is None:
+        if fb is None:  # unstable at the range's lower end: why (no eps at all, or a band)
+            never.append(frozen_nan_reason(L, gamma, lo, hi))
             continue
         frozen[i] = f = fb[0]
         if (certified and time_budget is not None
@@ -126,6 +128,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                  f"searched, the time budget of {time_budget:g} s was spent (NaN there means "
                  "not searched, not refuted)")
         fields["uncovered"] += (words,)
+    fields["uncovered"] += tuple(never)
     if progress is not None:
         progress(g.size, g.size)
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,

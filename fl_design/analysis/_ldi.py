@@ -71,7 +71,7 @@ import numpy as np
 import scipy.linalg
 
 from ._cert_results import PointCertificate, _Result
-from ._lmi import RECHECK_TOL, LMISolution, vertex_lmi
+from ._lmi import RECHECK_TOL, vertex_lmi
 from ._sample_model import second_order_maps
 from ._surrogate import chain_matrices, delta, schur_margins
 
@@ -275,16 +275,14 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
             f"{r.period}-sample period): no common quadratic P exists, no LMI solved; a "
             "smaller region narrows the Jacobian box")
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
-    got = _reuse(L, D, Dchk, Rbar, u_row, T)
-    if got is None:
-        got = _solve(L, D, Dchk, Rbar, u_row, T, kappa)
-        if not got[0].certified:
-            sol, v = got[0], int(np.argmax(margins))
-            return PointCertificate(
-                float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
-                f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
-                f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them "
-                f"all varying in time ({got[1]}); a smaller region narrows the Jacobian box")
+    got = _solve(L, D, Dchk, Rbar, u_row, T, kappa)
+    if not got[0].certified:
+        sol, v = got[0], int(np.argmax(margins))
+        return PointCertificate(
+            float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
+            f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
+            f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them "
+            f"all varying in time ({got[1]}); a smaller region narrows the Jacobian box")
     sol, _, Wi, q, nu, dP = got
     ok = q < 1.0 - RECHECK_TOL
     P = Wi.T @ sol.P[0] @ Wi  # the loop's own coordinates (X = W X_b)
@@ -296,11 +294,6 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
            ": P does not contract every sample map (no common quadratic P found for them all)")
     reason = (f"LDI ({model}), common P over {over}: ||M||_P <= {nu:.12f}"
               f"{rem} = {q:.12f} {'<' if ok else '>='} 1 (NumPy){why}")
-    if ok:
-        try:
-            L.ldi_last_p = P  # the next eps of a search re-checks it first (_reuse)
-        except AttributeError:  # pragma: no cover - a loop object without attributes
-            pass
     return PointCertificate(float(eps), ok, "ldi" if ok else None, 1 if ok else 0, ok,
                             sol.solver, sol.solver_status, sol.margin, reason,
                             ((L.b_lo, L.b_hi),) if ok else (), ((P, P),) if ok else ())
@@ -406,30 +399,10 @@ def covered_set(P, names, x_eq, room: dict) -> CoveredSet:
                       tuple(float(v) for v in x_eq), str(names[i]))
 
 
-def _reuse(L, D, Dchk, Rbar, u_row, T):
-    """``(sol, W, W^-1, q, nu, dP)`` when the ``P`` certified last on ``L`` (a nearby eps of
-    a search, :func:`ldi_point`) re-checks here too, else None: no SDP solved."""
-    P = getattr(L, "ldi_last_p", None)
-    if P is None or P.shape != D[0].shape:
-        return None
-    W = next(_coordinates(D))
-    Wi = np.linalg.inv(W)
-    Pb = W.T @ P @ W
-    try:
-        q, nu, dP = _contraction(Pb, [Wi @ x @ W for x in Dchk], W, Rbar, u_row, L.loop, T)
-    except np.linalg.LinAlgError:
-        return None
-    if not q < 1.0 - RECHECK_TOL:
-        return None
-    sol = LMISolution(True, "reused", "the P of a nearby eps, re-checked", (Pb,), Pb,
-                      float(1.0 - q), "reused")
-    return sol, W, Wi, q, nu, dP
-
-
 def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
     """``(sol, W, W^-1, q, nu, dP)`` of the common-P LMI (``sol`` not certified: ``(sol,
-    notes)``): balanced coordinates with the decay rate ``kappa`` and without (the order that
-    worked last on ``L`` first), then a real modal basis without; the re-check covers ``Dchk``
+    notes)``): balanced coordinates with the decay rate ``kappa``, then without (only without
+    once that worked last on ``L``), then a real modal basis without; the re-check covers ``Dchk``
     (the second-order model's corner pairs: when they fail, the LMI again with the worst
     :data:`PAIRS_ADDED` of them)."""
     loop, notes = L.loop, []
@@ -439,8 +412,8 @@ def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
         Db = [Wi @ x @ W for x in D]
         for k in kappas if n_w == 0 else (0.0,):
             sol = vertex_lmi(Db, T, common=True, kappa=k)
-            if sol.certified:
-                break
+            if sol.certified or k == 0.0:
+                break  # (no decay infeasible: a decay rate is too)
         if sol.certified:
             break
         notes.append(sol.note)

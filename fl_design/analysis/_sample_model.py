@@ -15,10 +15,12 @@ and, expanding ``E(T - s) e_r = e_r + (T - s) X_c e_r + G(T - s)``, ``E(s) = I +
     Psi = E(T) + T e_r dbar_1^T + (T^2 / 2) X_c e_r dbar_2^T + R
 
 with ``dbar_1 = (1/T) int d``, ``dbar_2 = (2/T^2) int (T - s) d(s) ds``: two weighted time
-averages of ``d``, each inside ``B`` (a convex set). The model is affine in
-``(dbar_1, dbar_2)``, so the sample maps whose loops must contract are its values at the
-**pairs** of corners of ``B`` (``4^k`` maps, ``k`` the varying entries; the pairs with
-``dbar_1 = dbar_2`` are the corners' own maps, exact ZOH up to ``O(T^3)``). The first-order
+averages of ``d``. ``dbar_1`` is inside ``B`` (a convex set) and the two differ by
+``dbar_2 - dbar_1 = int w(s) d(s) ds`` with ``w = (T - 2 s)/T^2``, ``int |w| = 1/2``: inside
+``B / 2``. The model is affine in ``(dbar_1, dbar_2 - dbar_1)`` over ``B x B/2``, so the
+sample maps whose loops must contract are its values at the **pairs** (a corner of ``B``, a
+corner of ``B/2``) (``4^k`` maps, ``k`` the varying entries; with ``dbar_2 = dbar_1`` the
+corners' own maps, exact ZOH up to ``O(T^3)``, on which the LMI is posed). The first-order
 model of :mod:`._ldi` (``E(T) + T D(dbar_1)``) puts the ``T^2 / 2`` term (``b``'s effect on
 the position within a sample, and the slopes') into its remainder with absolute values, which
 the observer's high gains amplify (at ``eps = 2 T`` it exceeded the contraction tenfold);
@@ -80,7 +82,8 @@ class SecondOrderMaps:
     lmi : list of numpy.ndarray
         One map per corner (``dbar_1 = dbar_2`` = the corner): what the LMI is posed on.
     pairs : list of numpy.ndarray
-        Every pair of corners ``(dbar_1, dbar_2)``: what the NumPy re-check covers.
+        Every pair (corner of ``B`` for ``dbar_1``, corner of ``B/2`` for
+        ``dbar_2 - dbar_1``): what the NumPy re-check covers.
     Rbar : numpy.ndarray
         Entrywise bound of the remainder.
     """
@@ -124,9 +127,9 @@ def second_order_maps(Xs, T: float, rho: int) -> SecondOrderMaps | None:
     e_r[r] = 1.0
     c2 = Xc @ e_r
     first = [E + T * np.outer(e_r, d) for d in ds]
-    second = [0.5 * T * T * np.outer(c2, d) for d in ds]
-    lmi = [f + s for f, s in zip(first, second)]
-    pairs = [first[i] + second[j] for i, j in itertools.product(range(len(ds)), repeat=2)]
+    lmi = [f + 0.5 * T * T * np.outer(c2, d) for f, d in zip(first, ds)]
+    pairs = [lmi[i] + 0.25 * T * T * np.outer(c2, ds[j])
+             for i, j in itertools.product(range(len(ds)), repeat=2)]
     A, Dbar, eye, zero = np.abs(Xc), np.outer(e_r, dbar), np.eye(n), np.zeros((n, n))
     big = scipy.linalg.expm(T * (A + Dbar))
     Ehat = scipy.linalg.expm(T * A)
