@@ -222,8 +222,10 @@ def no_stable_eps(L, gamma: float, lo: float, hi: float, n: int = 48) -> str | N
     >>> from fl_design.analysis._certify import _Loop
     >>> d = fl.Design(estimator=fl.EHGO(2, 1e-2, 1e-3), controller=fl.DynamicController((1, 2), 0.1))
     >>> L = _Loop(d, (1.0, 5.0), [(-0.2, 0.2), (-0.1, 0.1)], 41, 8)
-    >>> no_stable_eps(L, 0.2, 1e-3, 1.0)[:60]
-    'no eps of [0.001, 1] stabilizes the member d sigma/d xi = (-'
+    >>> no_stable_eps(L, 0.2, 1e-3, 1.0)[:43]
+    'no eps of [0.001, 1] stabilizes the member '
+    >>> no_stable_eps(L, 0.004, 1e-3, 1.0) is None
+    True
     """
     eps = np.geomspace(lo, hi, int(n))
     members, rad = member_radii(L, eps, gamma)

@@ -402,7 +402,8 @@ def covered_set(P, names, x_eq, room: dict) -> CoveredSet:
 def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
     """``(sol, W, W^-1, q, nu, dP)`` of the common-P LMI (``sol`` not certified: ``(sol,
     notes)``): balanced coordinates with the decay rate ``kappa``, then without (only without
-    once that worked last on ``L``), then a real modal basis without; the re-check covers ``Dchk``
+    once that worked last on ``L``), then (unless the solver found it cleanly infeasible, which
+    no similarity changes) a real modal basis without; the re-check covers ``Dchk``
     (the second-order model's corner pairs: when they fail, the LMI again with the worst
     :data:`PAIRS_ADDED` of them)."""
     loop, notes = L.loop, []
@@ -417,6 +418,8 @@ def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
         if sol.certified:
             break
         notes.append(sol.note)
+        if sol.margin is None and sol.solver_status in ("infeasible", "optimal"):
+            break  # cleanly infeasible: a similarity (the modal basis) cannot change that
     if not sol.certified:
         return sol, "; ".join(notes)
     try:

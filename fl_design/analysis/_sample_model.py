@@ -20,7 +20,7 @@ averages of ``d``. ``dbar_1`` is inside ``B`` (a convex set) and the two differ 
 ``B / 2``. The model is affine in ``(dbar_1, dbar_2 - dbar_1)`` over ``B x B/2``, so the
 sample maps whose loops must contract are its values at the **pairs** (a corner of ``B``, a
 corner of ``B/2``) (``4^k`` maps, ``k`` the varying entries; with ``dbar_2 = dbar_1`` the
-corners' own maps, exact ZOH up to ``O(T^3)``, on which the LMI is posed). The first-order
+corners' own maps, their exact ZOH up to the remainder, on which the LMI is posed). The first-order
 model of :mod:`._ldi` (``E(T) + T D(dbar_1)``) puts the ``T^2 / 2`` term (``b``'s effect on
 the position within a sample, and the slopes') into its remainder with absolute values, which
 the observer's high gains amplify (at ``eps = 2 T`` it exceeded the contraction tenfold);
@@ -80,7 +80,8 @@ class SecondOrderMaps:
     Parameters
     ----------
     lmi : list of numpy.ndarray
-        One map per corner (``dbar_1 = dbar_2`` = the corner): what the LMI is posed on.
+        One map per corner (``dbar_1 = dbar_2`` = the corner; its exact ZOH up to ``Rbar``):
+        what the LMI is posed on.
     pairs : list of numpy.ndarray
         Every pair (corner of ``B`` for ``dbar_1``, corner of ``B/2`` for
         ``dbar_2 - dbar_1``): what the NumPy re-check covers.
