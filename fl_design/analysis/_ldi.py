@@ -159,14 +159,14 @@ def _box_corners(lo, hi):
     return out, len(var)
 
 
-def _sample_maps(L, Xs):
+def _sample_maps(L, Xs, second_order: bool = True):
     """``(maps, Rbar, model words, check)``: the matrices the LMI is posed on, the remainder,
     and the maps whose loops the NumPy re-check must contract (``check``; None: ``maps``).
 
     The interval ZOH model (exact enclosure, no remainder) when the vertex matrices are Metzler
-    and the box has at most :data:`MAX_BOX_CORNERS` corners; else the second-order model of
-    :mod:`._sample_model` (the LMI on the corners' maps, the re-check on every pair of
-    corners); else (too many pairs) the first-order model.
+    and the box has at most :data:`MAX_BOX_CORNERS` corners; else (``second_order``) the
+    second-order model of :mod:`._sample_model` (the LMI on the corners' maps, the re-check on
+    every pair of corners); else (or too many pairs) the first-order model.
     """
     T = L.T
     box = _metzler_box(Xs, T)
@@ -178,7 +178,7 @@ def _sample_maps(L, Xs):
     why = ("the vertex matrices are not Metzler (an off-diagonal d sigma/d xi_i can be "
            "negative)" if box is None else f"the Metzler box has more than {MAX_BOX_CORNERS} "
            "corners")
-    so = second_order_maps(Xs, T, L.loop.rho)
+    so = second_order_maps(Xs, T, L.loop.rho) if second_order else None
     if so is not None:
         return so.lmi, so.Rbar, (f"second-order model expm(T X_c) + T D(avg_1) + T^2/2 X_c "
                                  f"D(avg_2) + remainder, {len(so.pairs)} corner pairs: "
@@ -201,9 +201,16 @@ def _coordinates(D):
         yield W
 
 
-def _vertex_loops(L, eps: float, gamma: float):
+def _vertex_loops(L, eps: float, gamma: float, second_order: bool = False):
     """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk)`` of the LDI at one eps
-    (``Dchk``: the delta matrices the re-check covers, ``D`` itself or more)."""
+    (``Dchk``: the delta matrices the re-check covers, ``D`` itself or more).
+
+    ``second_order`` False (default): the first-order model where the box is not Metzler, the
+    model the step certificate's sample-map box (:func:`._sector._psi_box`) re-checks with, so
+    its candidates (:mod:`._start_lmi`) are posed on the same maps; :func:`ldi_point` asks for
+    the second-order model of :mod:`._sample_model` (its remainder in the P-norm: 4x smaller
+    on the pendulum, 300-3000x on the benchmark slope box at eps = 1-4 ms).
+    """
     T, rho, loop = L.T, L.loop.rho, L.loop
     u_row = loop.input_row(eps, gamma)
     verts = _vertices(L)
@@ -212,7 +219,7 @@ def _vertex_loops(L, eps: float, gamma: float):
         X = chain_matrices(rho, a_row)
         X[:, rho] *= b
         Xs.append(X)
-    maps, Rbar, model, check = _sample_maps(L, np.stack(Xs))
+    maps, Rbar, model, check = _sample_maps(L, np.stack(Xs), second_order)
 
     def deltas(ps):
         out = []
@@ -254,7 +261,8 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
     answers "no common P" without an LMI (the answer the LMIs would give, and why).
     """
     T = L.T
-    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk = _vertex_loops(L, eps, gamma)
+    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk = _vertex_loops(
+        L, eps, gamma, second_order=True)
     if np.max(margins) >= 0.0:
         if Rbar is not None:
             return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
