@@ -261,6 +261,21 @@ def frozen_nan_reason(L, gamma: float, lo: float, hi: float) -> str:
             "starts at the range's lower end and reports NaN there (certify_eps lists the band)")
 
 
+def uncertified_words(gamma: float, tried: float, frozen: float, lo: float) -> str:
+    """Why a curve's certified eps* is NaN at ``gamma`` though its frozen eps* is not.
+
+    Examples
+    --------
+    >>> uncertified_words(0.1, 1e-3, 0.0017, 1e-3)[:46]
+    'gamma = 0.1: no certificate found at eps = 0.0'
+    """
+    where = f"eps = {tried:.6g} " + ("(the range's lower end)" if tried <= lo else
+                                      "(half the frozen eps*; not searched below it)")
+    return (f"gamma = {gamma:.6g}: no certificate found at {where}; the eps up to the frozen "
+            f"eps* {frozen:.6g} (above it a frozen member is unstable) are undecided, not "
+            "refuted (NaN: not certified)")
+
+
 def frozen_corner_margin(L, eps: float, gamma: float) -> float:
     """Largest Schur margin over the corner plants (``< 0``: every corner is Schur)."""
     D = [delta(_corner_matrix(L, eps, gamma, a, b), L.T) for a, b in corner_plants(L)]
@@ -269,4 +284,5 @@ def frozen_corner_margin(L, eps: float, gamma: float) -> float:
 
 __all__ = ["LDI_HOW", "admissible_pairs", "b_may_jump", "box_frozen_margins", "class_brackets",
            "corner_plants", "frozen_corner_margin", "frozen_nan_reason", "member_radii",
-           "member_refutation_point", "no_stable_eps", "refuted_by_switching", "switching_refute"]
+           "member_refutation_point", "no_stable_eps", "refuted_by_switching", "switching_refute",
+           "uncertified_words"]

@@ -19,7 +19,7 @@ from .. import _validate as V
 from ..errors import ParameterError
 from ._cert_results import class_fields
 from ._certify import DEFAULT_EPS_RANGE, _eps_range, _Loop, _serial
-from ._class_bracket import frozen_nan_reason
+from ._class_bracket import frozen_nan_reason, uncertified_words
 from ._class_resolve import resolve_class
 from ._curve_result import EpsStarCurve
 from ._search import certified_eps_star, frozen_bracket
@@ -111,7 +111,9 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
             late.append(float(gamma))
             continue
         if certified and L.box is not None and not L.search_ok(max(lo, 0.5 * f), gamma):
-            continue  # a class with a slope box not certified at half its frozen eps*: skipped
+            # a class with a slope box not certified at half its frozen eps*: skipped
+            never.append(uncertified_words(gamma, max(lo, 0.5 * f), f, lo))
+            continue
         if certified:
             L.modal_hit, L.pieces_hint = False, 1
             # a slope box's LDI is one SDP per eps (the chain's modal pieces are NumPy): a
@@ -122,6 +124,8 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                                    accelerate=True, retry=0.9)
             if c is not None:
                 cert[i], hint = c, c / f
+            else:
+                never.append(uncertified_words(gamma, lo, f, lo))
     fields = class_fields(r.cls)
     if late:
         words = (f"the certified eps* at gamma = {', '.join(f'{x:.3g}' for x in late)}: not "

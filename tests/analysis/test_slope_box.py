@@ -129,12 +129,21 @@ def test_no_eps_stabilizes_a_member_and_eigenvalues_agree():
 
 def test_curve_of_the_slope_box_class_says_why_a_gain_has_no_eps():
     cls = fl.PlantClass(rho=2, T=T, b=B_RNG, a_slopes=A_BOX)
-    c = fl.eps_star_curve(_design(0.1, 1e-2), cls, [0.0165908, 0.2], eps_range=(1e-3, 1.0))
+    c = fl.eps_star_curve(_design(0.1, 1e-2), cls, [0.0165908, 0.14, 0.2],
+                          eps_range=(1e-3, 1.0))
     assert np.isfinite(c.eps_star_certified[0])
     assert c.eps_star_certified[0] <= c.eps_star_frozen[0]
-    assert np.isnan(c.eps_star_frozen[1]) and np.isnan(c.eps_star_certified[1])
+    assert np.isnan(c.eps_star_frozen[2]) and np.isnan(c.eps_star_certified[2])
     assert any("no eps of [0.001, 1] stabilizes the member" in u and "gamma = 0.2" in u
                for u in c.uncovered)
+    # a gain whose frozen eps* exists but no certificate was found: said, not refuted
+    # (or, certified, below its frozen eps*)
+    assert np.isfinite(c.eps_star_frozen[1])
+    if np.isnan(c.eps_star_certified[1]):
+        assert any(u.startswith("gamma = 0.14: no certificate found") and "undecided" in u
+                   for u in c.uncovered)
+    else:
+        assert c.eps_star_certified[1] <= c.eps_star_frozen[1]
     assert "gamma = 0.2" in repr(c)
     # the certified eps is certified by certify_eps at that gain too (same class)
     pc = fl.certify_eps(_design(0.0165908, float(c.eps_star_certified[0])), cls, search=False)
