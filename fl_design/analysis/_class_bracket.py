@@ -19,7 +19,11 @@ The **frozen members** bracket (every member with constant ``a`` and ``b``: each
 linearization of the plant in its region) is refuted by the frozen corners; its certified end
 is the LDI's (a parameter-dependent ``P`` over the enclosure's corners took 1-2 s per eps on
 the TRMS and rarely certified more: not searched). It is reported beside the headline, never
-as it: the plant's slopes follow its state in time.
+as it: the plant's slopes follow its state in time. The frozen scan covers the box's corners
+(and the ``b`` grid), not its interior: a member inside the box less stable than every corner
+would put the true frozen boundary below the reported one (not searched; on the benchmark's
+class the corners are the worst members, ``tests/analysis/test_slope_box.py``). The refuted end
+is a real member either way.
 
 Examples
 --------

@@ -148,3 +148,23 @@ def test_curve_of_the_slope_box_class_says_why_a_gain_has_no_eps():
     # the certified eps is certified by certify_eps at that gain too (same class)
     pc = fl.certify_eps(_design(0.0165908, float(c.eps_star_certified[0])), cls, search=False)
     assert pc.certified
+
+
+def test_frozen_scan_of_corners_finds_the_worst_member_of_the_benchmark_class():
+    # every frozen member (slopes on a 5 x 5 grid of the box, b on 9 points) against the
+    # corners, by eigenvalues of the oracle loop: the corners are the worst, so the curve's
+    # frozen eps* (a corner scan) is the frozen boundary of the whole class here
+    gamma = 0.0165908
+    bs = np.linspace(*B_RNG, 9)
+    for eps in (0.005, 0.0096, 0.02):
+        design = _design(gamma, eps)
+        corner, inner = 0.0, 0.0
+        for a1 in np.linspace(*A_BOX[0], 5):
+            for a2 in np.linspace(*A_BOX[1], 5):
+                for b in bs:
+                    M = _slope_loop(design, scipy.linalg.expm(T * _X(a1, a2, b)), gamma)
+                    r = float(np.max(np.abs(np.linalg.eigvals(M))))
+                    inner = max(inner, r)
+                    if abs(a1) == A_BOX[0][1] and abs(a2) == A_BOX[1][1]:
+                        corner = max(corner, r)
+        assert inner <= corner + 1e-12
