@@ -1,4 +1,8 @@
-"""Second-order model of the LDI's sample maps: two time averages of the slopes, a small remainder.
+"""Sample-map models of the LDI (:mod:`._ldi`): interval ZOH box, first- and second-order.
+
+The interval ZOH model (Metzler comparison) and the first-order model with its remainder are
+argued in :mod:`._ldi`'s docstring; this module adds the second-order model below and holds all
+three (:func:`_sample_maps` picks one).
 
 **Setting** (as :mod:`._ldi`). Over one sample, with ``u`` held, the augmented state
 ``z = (xi, u)`` obeys ``z' = (X_c + D(t)) z``: ``X_c`` the centre of the vertex matrices and
@@ -56,6 +60,8 @@ import scipy.linalg
 
 #: Most corner pairs checked (``4^k``); above it :mod:`._ldi` keeps the first-order model.
 MAX_PAIRS = 4096
+#: Most corners of the interval ZOH model (else the first-order model is used).
+MAX_BOX_CORNERS = 256
 
 
 def van_loan(A, B, C, T: float) -> np.ndarray:
@@ -146,4 +152,80 @@ def second_order_maps(Xs, T: float, rho: int) -> SecondOrderMaps | None:
     return SecondOrderMaps(lmi, pairs, Rbar)
 
 
-__all__ = ["MAX_PAIRS", "SecondOrderMaps", "second_order_maps", "van_loan"]
+def _remainder_bound(Xs, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """Center ``X_c`` and an entrywise bound of ``Psi - expm(T X_c) - T (X(thetabar) - X_c)``.
+
+    With ``X(t) = X_c + D(t)``, ``|D(t)| <= Dbar`` entrywise, the Peano-Baker terms of order
+    ``k >= 2`` differ from those of ``expm(T X_c)`` by at most
+    ``T^k ((|X_c| + Dbar)^k - |X_c|^k) / k!`` entrywise; the first-order term is exact.
+    """
+    Xc = 0.5 * (np.max(Xs, axis=0) + np.min(Xs, axis=0))
+    Dbar = np.max([np.abs(X - Xc) for X in Xs], axis=0)
+    Ac = np.abs(Xc)
+    R = scipy.linalg.expm(T * (Ac + Dbar)) - scipy.linalg.expm(T * Ac) - T * Dbar
+    return Xc, np.maximum(R, 0.0)
+
+
+def _metzler_box(Xs, T: float):
+    """Entrywise enclosure ``(lo, hi)`` of every LDI sample map, or None when not Metzler.
+
+    ``lo = expm(T X_lo)``, ``hi = expm(T X_hi)`` (``X_lo``, ``X_hi`` the entrywise ends of the
+    vertex matrices), each end moved outward by ``8 ulp |value| + 1e-300`` for the rounding of
+    ``expm`` (see the module docstring for the comparison argument).
+    """
+    Xlo, Xhi = np.min(Xs, axis=0), np.max(Xs, axis=0)
+    off = ~np.eye(Xlo.shape[0], dtype=bool)
+    if np.any(Xlo[off] < 0.0):
+        return None
+    lo, hi = scipy.linalg.expm(T * Xlo), scipy.linalg.expm(T * Xhi)
+    pad = 8.0 * np.finfo(float).eps * np.maximum(np.abs(lo), np.abs(hi)) + 1e-300
+    lo, hi = np.where(lo == hi, lo, lo - pad), np.where(lo == hi, hi, hi + pad)
+    if np.any(lo > hi):
+        raise AssertionError("the Metzler comparison gave lo > hi")  # pragma: no cover
+    return lo, hi
+
+
+def _box_corners(lo, hi):
+    """Every corner of the matrix box ``[lo, hi]`` (entries with ``lo < hi`` take either end)."""
+    var = np.argwhere(hi > lo)
+    out = []
+    for bits in itertools.product((0, 1), repeat=len(var)):
+        Psi = lo.copy()
+        for (i, j), bit in zip(var, bits):
+            if bit:
+                Psi[i, j] = hi[i, j]
+        out.append(Psi)
+    return out, len(var)
+
+
+def _sample_maps(L, Xs, second_order: bool = True):
+    """``(maps, Rbar, model words, check)``: the matrices the LMI is posed on, the remainder,
+    and the maps whose loops the NumPy re-check must contract (``check``; None: ``maps``).
+
+    The interval ZOH model (exact enclosure, no remainder) when the vertex matrices are Metzler
+    and the box has at most :data:`MAX_BOX_CORNERS` corners; else (``second_order``) the
+    second-order model of :mod:`._sample_model` (the LMI on the corners' maps, the re-check on
+    every pair of corners); else (or too many pairs) the first-order model.
+    """
+    T = L.T
+    box = _metzler_box(Xs, T)
+    if box is not None:
+        maps, k = _box_corners(*box)
+        if len(maps) <= MAX_BOX_CORNERS:
+            return maps, None, (f"interval ZOH model (Metzler comparison, {k} varying entries of "
+                                f"the sample map, {len(maps)} corners, no remainder)"), None
+    why = ("the vertex matrices are not Metzler (an off-diagonal d sigma/d xi_i can be "
+           "negative)" if box is None else f"the Metzler box has more than {MAX_BOX_CORNERS} "
+           "corners")
+    so = second_order_maps(Xs, T, L.loop.rho) if second_order else None
+    if so is not None:
+        return so.lmi, so.Rbar, (f"second-order model expm(T X_c) + T D(avg_1) + T^2/2 X_c "
+                                 f"D(avg_2) + remainder, {len(so.pairs)} corner pairs: "
+                                 f"{why}"), so.pairs
+    Xc, Rbar = _remainder_bound(Xs, T)
+    Ec = scipy.linalg.expm(T * Xc)
+    return ([Ec + T * (X - Xc) for X in Xs], Rbar,
+            f"first-order model expm(T X_c) + T (X - X_c) + remainder: {why}", None)
+
+
+__all__ = ["MAX_BOX_CORNERS", "MAX_PAIRS", "SecondOrderMaps", "second_order_maps", "van_loan"]
