@@ -20,6 +20,7 @@ from ..errors import ParameterError
 from ._cert_loop import _Loop, _serial
 from ._cert_results import class_fields
 from ._certify import DEFAULT_EPS_RANGE, _eps_range
+from ._class_bracket import frozen_nan_reason, uncertified_words
 from ._class_resolve import resolve_class
 from ._curve_result import EpsStarCurve
 from ._search import certified_eps_star, frozen_bracket
@@ -92,17 +93,19 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     L.scs = False  # the fast curve: Clarabel only (SCS took ~1 s per failed LMI)
     L.reduced = L.box is None  # and the n x n common LMI (its P serves nothing else)
+    L.refute_points = False  # a slope box: no switching search at each eps (certificates only)
     # two time scales (rho >= 3, slow-fast coordinates): the certificates reach the frozen
     # boundary (ratios 0.96-0.99 measured), the first search starts there
     frozen, cert = np.full(g.size, np.nan), np.full(g.size, np.nan)
     hint = 1.0 if L.two_scale else 0.9
-    start, late = time.perf_counter(), []
+    start, late, never = time.perf_counter(), [], []
     for i, gamma in enumerate(g):
         if progress is not None and i:
             progress(i, g.size)
         fb = frozen_bracket(lambda e, g_=gamma: L.screened_margin(e, g_), lo, hi, n_scan,
                             rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
-        if fb is None:
+        if fb is None:  # unstable at the range's lower end: why (no eps at all, or a band)
+            never.append(frozen_nan_reason(L, gamma, lo, hi))
             continue
         frozen[i] = f = fb[0]
         if (certified and time_budget is not None
@@ -110,7 +113,9 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
             late.append(float(gamma))
             continue
         if certified and L.box is not None and not L.search_ok(max(lo, 0.5 * f), gamma):
-            continue  # a class with a slope box not certified at half its frozen eps*: skipped
+            # a class with a slope box not certified at half its frozen eps*: skipped
+            never.append(uncertified_words(gamma, max(lo, 0.5 * f), f, lo))
+            continue
         if certified:
             L.modal_hit, L.pieces_hint = False, 1
             # a slope box's LDI is one SDP per eps (the chain's modal pieces are NumPy): a
@@ -121,12 +126,15 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                                    accelerate=True, retry=0.9)
             if c is not None:
                 cert[i], hint = c, c / f
+            else:
+                never.append(uncertified_words(gamma, lo, f, lo))
     fields = class_fields(r.cls)
     if late:
         words = (f"the certified eps* at gamma = {', '.join(f'{x:.3g}' for x in late)}: not "
                  f"searched, the time budget of {time_budget:g} s was spent (NaN there means "
                  "not searched, not refuted)")
         fields["uncovered"] += (words,)
+    fields["uncovered"] += tuple(never)
     if progress is not None:
         progress(g.size, g.size)
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,

@@ -31,7 +31,7 @@ transition ``Psi`` is enclosed in one of two ways:
 * **First-order model** otherwise (e.g. the pendulum's ``-g cos theta < 0``): the Peano-Baker
   series ``Psi = expm(T X_c) + T (X(thetabar) - X_c) + R`` (``X_c`` the box's center,
   ``thetabar`` the time average of ``theta(t)``, inside the box; ``|R| <= Rbar`` entrywise,
-  :func:`_remainder_bound`): the vertices are the affine model's, plus the remainder.
+  :func:`._sample_model._remainder_bound`): the vertices are the affine model's, plus the remainder.
 
 **Certificate.** One common ``P`` satisfies the delta-form vertex LMI for the loops ``M_v`` of
 the vertices with a decay rate (coordinates: balanced, else a real modal basis), and NumPy
@@ -72,12 +72,19 @@ import scipy.linalg
 
 from ._cert_results import PointCertificate, _Result
 from ._lmi import RECHECK_TOL, vertex_lmi
+from ._sample_model import (  # noqa: F401 - _box_corners, _metzler_box, _remainder_bound: API of
+    MAX_BOX_CORNERS,  # this module before they moved (._sector, the tests)
+    _box_corners,
+    _metzler_box,
+    _remainder_bound,
+    _sample_maps,
+)
 from ._surrogate import chain_matrices, delta, schur_margins
 
 #: Fraction of the slowest vertex decay rate asked of the common ``P``.
 DECAY_FRACTION = 0.8
-#: Most corners of the interval ZOH model (else the first-order model is used).
-MAX_BOX_CORNERS = 256
+#: Corner pairs of the second-order model added to the LMI when its first P fails them.
+PAIRS_ADDED = 2
 
 
 def _vertices(L):
@@ -89,7 +96,7 @@ def _vertex_words(a_row, b) -> str:
     return f"d sigma/d xi = ({', '.join(f'{v:.6g}' for v in a_row)}), b = {b:.6g}"
 
 
-def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma) -> str:
+def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma, model) -> str:
     """Which vertex of the first-order model fails, by how much, and its exact ZOH."""
     v = int(np.argmax(margins))
     rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
@@ -100,82 +107,14 @@ def _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma) -> str:
     half = 0.5 * (np.max(Xs, axis=0) - np.min(Xs, axis=0))
     stiff = L.T * float(np.max(half[rho - 1, :rho]))
     tail = (f"its exact ZOH is Schur (spectral radius {zoh:.9f}): what fails is the model "
-            f"expm(T X_c) + T (X - X_c) around the box centre X_c, whose first-order term is too "
-            f"large (T x the half-width of the d sigma/d xi box = {stiff:.3g}); a ZOH vertex "
-            "model with a bounded remainder would be needed" if zoh < 1.0 else
+            f"around the box centre X_c ({model}), whose terms in the deviation from X_c are "
+            f"too large (T x the half-width of the d sigma/d xi box = {stiff:.3g}); a ZOH "
+            "vertex model with a bounded remainder would be needed" if zoh < 1.0 else
             f"its exact ZOH is not Schur either (spectral radius {zoh:.9f}): with this design the "
             "plant frozen at that vertex is unstable")
-    return (f"LDI: the first-order vertex model is not Schur at vertex {v + 1} of {len(verts)} "
+    return (f"LDI: the vertex model is not Schur at vertex {v + 1} of {len(verts)} "
             f"({_vertex_words(*verts[v])}): spectral radius {rad:.9f}, Schur margin "
             f"{float(margins[v]):.3g} >= 0; {tail}")
-
-
-def _remainder_bound(Xs, T: float) -> tuple[np.ndarray, np.ndarray]:
-    """Center ``X_c`` and an entrywise bound of ``Psi - expm(T X_c) - T (X(thetabar) - X_c)``.
-
-    With ``X(t) = X_c + D(t)``, ``|D(t)| <= Dbar`` entrywise, the Peano-Baker terms of order
-    ``k >= 2`` differ from those of ``expm(T X_c)`` by at most
-    ``T^k ((|X_c| + Dbar)^k - |X_c|^k) / k!`` entrywise; the first-order term is exact.
-    """
-    Xc = 0.5 * (np.max(Xs, axis=0) + np.min(Xs, axis=0))
-    Dbar = np.max([np.abs(X - Xc) for X in Xs], axis=0)
-    Ac = np.abs(Xc)
-    R = scipy.linalg.expm(T * (Ac + Dbar)) - scipy.linalg.expm(T * Ac) - T * Dbar
-    return Xc, np.maximum(R, 0.0)
-
-
-def _metzler_box(Xs, T: float):
-    """Entrywise enclosure ``(lo, hi)`` of every LDI sample map, or None when not Metzler.
-
-    ``lo = expm(T X_lo)``, ``hi = expm(T X_hi)`` (``X_lo``, ``X_hi`` the entrywise ends of the
-    vertex matrices), each end moved outward by ``8 ulp |value| + 1e-300`` for the rounding of
-    ``expm`` (see the module docstring for the comparison argument).
-    """
-    Xlo, Xhi = np.min(Xs, axis=0), np.max(Xs, axis=0)
-    off = ~np.eye(Xlo.shape[0], dtype=bool)
-    if np.any(Xlo[off] < 0.0):
-        return None
-    lo, hi = scipy.linalg.expm(T * Xlo), scipy.linalg.expm(T * Xhi)
-    pad = 8.0 * np.finfo(float).eps * np.maximum(np.abs(lo), np.abs(hi)) + 1e-300
-    lo, hi = np.where(lo == hi, lo, lo - pad), np.where(lo == hi, hi, hi + pad)
-    if np.any(lo > hi):
-        raise AssertionError("the Metzler comparison gave lo > hi")  # pragma: no cover
-    return lo, hi
-
-
-def _box_corners(lo, hi):
-    """Every corner of the matrix box ``[lo, hi]`` (entries with ``lo < hi`` take either end)."""
-    var = np.argwhere(hi > lo)
-    out = []
-    for bits in itertools.product((0, 1), repeat=len(var)):
-        Psi = lo.copy()
-        for (i, j), bit in zip(var, bits):
-            if bit:
-                Psi[i, j] = hi[i, j]
-        out.append(Psi)
-    return out, len(var)
-
-
-def _sample_maps(L, Xs):
-    """``(maps, Rbar, model words)``: the matrices whose loops must contract, and the remainder.
-
-    The interval ZOH model (exact enclosure, no remainder) when the vertex matrices are Metzler
-    and the box has at most :data:`MAX_BOX_CORNERS` corners; else the first-order model.
-    """
-    T = L.T
-    box = _metzler_box(Xs, T)
-    if box is not None:
-        maps, k = _box_corners(*box)
-        if len(maps) <= MAX_BOX_CORNERS:
-            return maps, None, (f"interval ZOH model (Metzler comparison, {k} varying entries of "
-                                f"the sample map, {len(maps)} corners, no remainder)")
-    Xc, Rbar = _remainder_bound(Xs, T)
-    Ec = scipy.linalg.expm(T * Xc)
-    why = ("the vertex matrices are not Metzler (an off-diagonal d sigma/d xi_i can be "
-           "negative)" if box is None else f"the Metzler box has more than {MAX_BOX_CORNERS} "
-           "corners")
-    return ([Ec + T * (X - Xc) for X in Xs], Rbar,
-            f"first-order model expm(T X_c) + T (X - X_c) + remainder: {why}")
 
 
 def _coordinates(D):
@@ -190,8 +129,16 @@ def _coordinates(D):
         yield W
 
 
-def _vertex_loops(L, eps: float, gamma: float):
-    """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row)`` of the LDI at one eps."""
+def _vertex_loops(L, eps: float, gamma: float, second_order: bool = False):
+    """``(verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk)`` of the LDI at one eps
+    (``Dchk``: the delta matrices the re-check covers, ``D`` itself or more).
+
+    ``second_order`` False (default): the first-order model where the box is not Metzler, the
+    model the step certificate's sample-map box (:func:`._sector._psi_box`) re-checks with, so
+    its candidates (:mod:`._start_lmi`) are posed on the same maps; :func:`ldi_point` asks for
+    the second-order model of :mod:`._sample_model` (its remainder in the P-norm: 4x smaller
+    on the pendulum, 300-3000x on the benchmark slope box at eps = 1-4 ms).
+    """
     T, rho, loop = L.T, L.loop.rho, L.loop
     u_row = loop.input_row(eps, gamma)
     verts = _vertices(L)
@@ -200,13 +147,18 @@ def _vertex_loops(L, eps: float, gamma: float):
         X = chain_matrices(rho, a_row)
         X[:, rho] *= b
         Xs.append(X)
-    maps, Rbar, model = _sample_maps(L, np.stack(Xs))
-    Ms = []
-    for Psi in maps:
-        M0, M1 = loop.assemble(Psi[:rho, :rho], Psi[:rho, rho], u_row, eps, gamma)
-        Ms.append(M0 + M1)
-    D = [delta(M, T) for M in Ms]
-    return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row
+    maps, Rbar, model, check = _sample_maps(L, np.stack(Xs), second_order)
+
+    def deltas(ps):
+        out = []
+        for Psi in ps:
+            M0, M1 = loop.assemble(Psi[:rho, :rho], Psi[:rho, rho], u_row, eps, gamma)
+            out.append(M0 + M1)
+        return out, [delta(M, T) for M in out]
+
+    Ms, D = deltas(maps)
+    Dchk = D if check is None else deltas(check)[1]
+    return verts, Xs, maps, Rbar, model, Ms, D, schur_margins(np.stack(D), T), u_row, Dchk
 
 
 def vertex_switching(Ms, pairs: int):
@@ -236,12 +188,13 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
     vertex loops are tried (:func:`vertex_switching`, tens of milliseconds); one that grows
     answers "no common P" without an LMI (the answer the LMIs would give, and why).
     """
-    T, loop = L.T, L.loop
-    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row = _vertex_loops(L, eps, gamma)
+    T = L.T
+    verts, Xs, maps, Rbar, model, Ms, D, margins, u_row, Dchk = _vertex_loops(
+        L, eps, gamma, second_order=True)
     if np.max(margins) >= 0.0:
         if Rbar is not None:
             return PointCertificate(float(eps), False, None, 0, False, None, "not solved", None,
-                                    _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma))
+                                    _why_not_schur(L, verts, Xs, Ms, margins, u_row, eps, gamma, model))
         v = int(np.argmax(margins))
         rad = float(np.max(np.abs(np.linalg.eigvals(Ms[v]))))
         return PointCertificate(
@@ -258,32 +211,25 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
             f"{r.period}-sample period): no common quadratic P exists, no LMI solved; a "
             "smaller region narrows the Jacobian box")
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
-    notes = []
-    for W in _coordinates(D):
-        Wi = np.linalg.inv(W)
-        Db = [Wi @ x @ W for x in D]
-        for k in (kappa, 0.0):
-            sol = vertex_lmi(Db, T, common=True, kappa=k)
-            if sol.certified:
-                break
-        if sol.certified:
-            break
-        notes.append(sol.note)
-    if not sol.certified:
-        v = int(np.argmax(margins))
+    got = _solve(L, D, Dchk, Rbar, u_row, T, kappa)
+    if not got[0].certified:
+        sol, v = got[0], int(np.argmax(margins))
         return PointCertificate(
             float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
             f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
-            f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them all "
-            f"varying in time ({'; '.join(notes)}); a smaller region narrows the Jacobian box")
-    q, nu, dP = _contraction(sol.P[0], Db, W, Rbar, u_row, loop, T)
+            f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them "
+            f"all varying in time ({got[1]}); a smaller region narrows the Jacobian box")
+    sol, _, Wi, q, nu, dP = got
     ok = q < 1.0 - RECHECK_TOL
     P = Wi.T @ sol.P[0] @ Wi  # the loop's own coordinates (X = W X_b)
     rem = "" if Rbar is None else f" + remainder {dP:.3g}"
-    reason = (f"LDI ({model}), common P over {len(maps)} sample maps: ||M||_P <= {nu:.12f}"
-              f"{rem} = {q:.12f} {'<' if ok else '>='} 1 (NumPy)"
-              + ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
-                 f"{1.0 - nu:.3g} by {q - 1.0:.3g}"))
+    over = f"{len(Dchk)} sample maps" + ("" if len(Dchk) == len(D) else
+                                         f" (the LMI posed on {len(D)})")
+    why = ("" if ok else f": the remainder bound exceeds the contraction 1 - ||M||_P = "
+           f"{1.0 - nu:.3g} by {q - 1.0:.3g}" if nu < 1.0 else
+           ": P does not contract every sample map (no common quadratic P found for them all)")
+    reason = (f"LDI ({model}), common P over {over}: ||M||_P <= {nu:.12f}"
+              f"{rem} = {q:.12f} {'<' if ok else '>='} 1 (NumPy){why}")
     return PointCertificate(float(eps), ok, "ldi" if ok else None, 1 if ok else 0, ok,
                             sol.solver, sol.solver_status, sol.margin, reason,
                             ((L.b_lo, L.b_hi),) if ok else (), ((P, P),) if ok else ())
@@ -389,6 +335,59 @@ def covered_set(P, names, x_eq, room: dict) -> CoveredSet:
                       tuple(float(v) for v in x_eq), str(names[i]))
 
 
+def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
+    """``(sol, W, W^-1, q, nu, dP)`` of the common-P LMI (``sol`` not certified: ``(sol,
+    notes)``): balanced coordinates with the decay rate ``kappa``, then without (only without
+    once that worked last on ``L``), then (unless the solver found it cleanly infeasible, which
+    no similarity changes) a real modal basis without; the re-check covers ``Dchk``
+    (the second-order model's corner pairs: when they fail, the LMI again with the worst
+    :data:`PAIRS_ADDED` of them)."""
+    loop, notes = L.loop, []
+    kappas = (0.0, kappa) if getattr(L, "ldi_no_decay", False) else (kappa, 0.0)
+    for n_w, W in enumerate(_coordinates(D)):
+        Wi = np.linalg.inv(W)
+        Db = [Wi @ x @ W for x in D]
+        for k in kappas if n_w == 0 else (0.0,):
+            sol = vertex_lmi(Db, T, common=True, kappa=k)
+            if sol.certified or k == 0.0:
+                break  # (no decay infeasible: a decay rate is too)
+        if sol.certified:
+            break
+        notes.append(sol.note)
+        if sol.margin is None and sol.solver_status in ("infeasible", "optimal"):
+            break  # cleanly infeasible: a similarity (the modal basis) cannot change that
+    if not sol.certified:
+        return sol, "; ".join(notes)
+    try:
+        L.ldi_no_decay = k == 0.0
+    except AttributeError:  # pragma: no cover - a loop object without attributes
+        pass
+    Dc = [Wi @ x @ W for x in Dchk]
+    q, nu, dP = _contraction(sol.P[0], Dc, W, Rbar, u_row, loop, T)
+    if not q < 1.0 - RECHECK_TOL and len(Dchk) > len(D):
+        # the corner pairs of the second-order model: the LMI again with the pairs that P
+        # does not contract added (the worst PAIRS_ADDED: 2 certified as much as 8 on the
+        # benchmark slope box at 40 % of the cost; all 4^k took seconds per solve)
+        worst = np.argsort(_norms(sol.P[0], Dc, T))[::-1][:PAIRS_ADDED]
+        again = vertex_lmi(Db + [Dc[i] for i in worst], T, common=True, kappa=k)
+        if again.certified:
+            q2, nu2, dP2 = _contraction(again.P[0], Dc, W, Rbar, u_row, loop, T)
+            if q2 < q:
+                sol, q, nu, dP = again, q2, nu2, dP2
+    return sol, W, Wi, q, nu, dP
+
+
+def _norms(P, Db, T) -> np.ndarray:
+    """``||I + T D||_P^2`` of each delta matrix ``D`` of ``Db`` (NumPy)."""
+    Lc = np.linalg.cholesky((P + P.T) / 2)
+    Linv = np.linalg.inv(Lc)
+    out = []
+    for Dv in Db:
+        Q = Dv.T @ P + P @ Dv + T * Dv.T @ P @ Dv
+        out.append(1.0 + T * float(np.linalg.eigvalsh(Linv @ ((Q + Q.T) / 2) @ Linv.T)[-1]))
+    return np.array(out)
+
+
 def _contraction(P, Db, W, Rbar, u_row, loop, T):
     """``(nu + delta_P, nu, delta_P)``: P-norm bound of every LDI sample map (NumPy).
 
@@ -398,11 +397,7 @@ def _contraction(P, Db, W, Rbar, u_row, loop, T):
     n, rho = P.shape[0], loop.rho
     Lc = np.linalg.cholesky((P + P.T) / 2)
     Linv = np.linalg.inv(Lc)
-    nu2 = 0.0
-    for Dv in Db:
-        Q = Dv.T @ P + P @ Dv + T * Dv.T @ P @ Dv
-        nu2 = max(nu2, 1.0 + T * float(np.linalg.eigvalsh(Linv @ ((Q + Q.T) / 2) @ Linv.T)[-1]))
-    nu = math.sqrt(max(nu2, 0.0))
+    nu = math.sqrt(max(float(np.max(_norms(P, Db, T))), 0.0))
     if Rbar is None:
         return nu, nu, 0.0
     keep = loop.keep
@@ -454,7 +449,7 @@ def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
     if pb is None or pb.xi_region is None:
         return None
     T, loop = L.T, L.loop
-    _, _, _, Rbar, _, _, D, margins, u_row = _vertex_loops(L, eps, gamma)
+    _, _, _, Rbar, _, _, D, margins, u_row, Dchk = _vertex_loops(L, eps, gamma)
     if np.max(margins) >= 0.0:
         return None
     room = _room(L, pb)
@@ -463,12 +458,13 @@ def widest_covered_set(L, eps: float, gamma: float, pb, G, w):
     for W in _coordinates(D):
         Wi = np.linalg.inv(W)
         Db = [Wi @ x @ W for x in D]
+        Dc = [Wi @ x @ W for x in Dchk]
         for k in (kappa, 0.25 * kappa, 0.02 * kappa):
             P = widest_covered_p(Db, W, T, k, room, G, w)
             if P is None:
                 continue
             try:
-                q = _contraction(W.T @ P @ W, Db, W, Rbar, u_row, loop, T)[0]
+                q = _contraction(W.T @ P @ W, Dc, W, Rbar, u_row, loop, T)[0]
             except np.linalg.LinAlgError:
                 continue
             if q < 1.0 - RECHECK_TOL:
