@@ -10,12 +10,14 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import _validate as V
+from .._progress import Lines
 from ..errors import ParameterError
 from ._cert_loop import _Loop, _serial
 from ._cert_results import class_fields
@@ -34,7 +36,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                    eps_range=DEFAULT_EPS_RANGE, n_b: int = 41, n_scan: int = 32,
                    rtol: float = 1e-2, max_pieces: int = 8,
                    certified: bool = True, time_budget: float | None = None,
-                   progress=None) -> EpsStarCurve:
+                   progress="auto") -> EpsStarCurve:
     """Frozen and certified ``eps*`` against ``gamma`` (see :func:`certify_eps`).
 
     Continuation along the curve: the certified search at each gamma starts from the ratio
@@ -66,8 +68,10 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         Seconds after which no more certified searches start: the later gains keep their
         frozen eps* (eigenvalues, fast) and a NaN certified entry, and ``uncovered`` names
         them (never a hang on a plant whose LMIs are slow). Default: no budget.
-    progress : callable, optional
-        ``progress(done, total)`` after each gain (a caller's progress line).
+    progress : bool, "auto" or callable, optional
+        ``progress(done, total)`` after each gain (a caller's progress line); ``True`` a line
+        per gain on stderr, ``False`` none, ``"auto"`` (default) lines once the call has run
+        2 s (:mod:`fl_design._progress`).
 
     Returns
     -------
@@ -90,6 +94,7 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
         raise ParameterError(f"gammas must be a non-empty sequence of numbers > 0, got {g.tolist()}")
     if time_budget is not None:
         time_budget = V.nonnegative("time_budget", time_budget)
+    tell = _teller(progress)
     L = _Loop(design, b_bounds, a_jacobian_bounds, n_b, max_pieces)
     L.scs = False  # the fast curve: Clarabel only (SCS took ~1 s per failed LMI)
     L.reduced = L.box is None  # and the n x n common LMI (its P serves nothing else)
@@ -100,8 +105,8 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     hint = 1.0 if L.two_scale else 0.9
     start, late, never = time.perf_counter(), [], []
     for i, gamma in enumerate(g):
-        if progress is not None and i:
-            progress(i, g.size)
+        if i:
+            tell(i, g.size)
         fb = frozen_bracket(lambda e, g_=gamma: L.screened_margin(e, g_), lo, hi, n_scan,
                             rtol / 10, lambda es, g_=gamma: L.frozen_margins(es, g_))
         if fb is None:  # unstable at the range's lower end: why (no eps at all, or a band)
@@ -128,18 +133,40 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                 cert[i], hint = c, c / f
             else:
                 never.append(uncertified_words(gamma, lo, f, lo))
-    fields = class_fields(r.cls)
+    covers = "frozen" if L.box is None else "nonlinear"
+    if covers == "frozen" and r.cls.b_rate != 0.0:
+        # each constant b only: the class named is the one whose members hold b constant
+        fields = class_fields(dataclasses.replace(r.cls, b_rate=0.0))
+        varying = ("b varying in time, as the class allows: this curve certifies each constant "
+                   "b; fl.certify_eps certifies b varying")
+        fields["uncovered"] += (varying,)
+    else:
+        fields = class_fields(r.cls)
     if late:
         words = (f"the certified eps* at gamma = {', '.join(f'{x:.3g}' for x in late)}: not "
                  f"searched, the time budget of {time_budget:g} s was spent (NaN there means "
                  "not searched, not refuted)")
         fields["uncovered"] += (words,)
     fields["uncovered"] += tuple(never)
-    if progress is not None:
-        progress(g.size, g.size)
+    tell(g.size, g.size)
     return EpsStarCurve(gamma=g, eps_star_frozen=frozen, eps_star_certified=cert,
                         b_bounds=L.signed_bounds, T=design.T, eps_range=(lo, hi),
-                        covers="frozen" if L.box is None else "nonlinear", **fields)
+                        covers=covers, **fields)
+
+
+def _teller(progress):
+    """``tell(done, total)`` of ``progress``: the caller's callable, or a line on stderr
+    (:class:`fl_design._progress.Lines`) with the time to go."""
+    if callable(progress):
+        return progress
+    say, t0 = Lines("fl.eps_star_curve", progress), time.perf_counter()
+
+    def tell(done: int, total: int) -> None:
+        if done < total:
+            left = (time.perf_counter() - t0) * (total - done) / max(done, 1)
+            say(f"{done}/{total} gains, about {left:.0f} s to go")
+
+    return tell
 
 
 __all__ = ["eps_star_curve"]
