@@ -216,8 +216,9 @@ def ldi_point(L, eps: float, gamma: float, *, refute_pairs: int = 0) -> PointCer
         sol, v = got[0], int(np.argmax(margins))
         return PointCertificate(
             float(eps), False, None, 0, False, sol.solver, sol.solver_status, sol.margin,
-            f"LDI ({model}): every vertex loop is Schur (the worst, {v + 1} of {len(maps)}, "
-            f"Schur margin {float(margins[v]):.3g}), but no common quadratic P covers them "
+            f"LDI ({model}): every vertex loop is Schur (the least stable, {v + 1} of "
+            f"{len(maps)}, has spectral radius {np.sqrt(1.0 + T * float(margins[v])):.9f}), but "
+            "no common quadratic P covers them "
             f"all varying in time ({got[1]}); a smaller region narrows the Jacobian box")
     sol, _, Wi, q, nu, dP = got
     ok = q < 1.0 - RECHECK_TOL
