@@ -132,30 +132,4 @@ def loop_matrix(*, rho, T, eps, alphas, gains, gamma, b, ki=0.0, a_row=None, dps
     return np.array(M.tolist(), dtype=float)
 
 
-def exact_product_radius(mats, seq, reps: int = 1, dps: int = 40) -> float:
-    """Spectral radius of ``prod(mats[seq])`` (``seq[0]`` applied first), ``reps`` times, in
-    mpmath at ``dps`` digits, returned as ``rho^(1 / (len(seq) reps))``.
-
-    Examples
-    --------
-    >>> A = mpmath.matrix([[0.5, 0], [0, 2.0]])
-    >>> round(exact_product_radius([A], [0, 0]), 12)
-    2.0
-    """
-    mp = mpmath.mp
-    old = mp.dps
-    mp.dps = dps
-    try:
-        P = mpmath.eye(mats[0].rows)
-        for i in seq:
-            P = mats[i] * P
-        if reps > 1:
-            P = P ** int(reps)
-        ev = mpmath.eig(P, left=False, right=False)
-        r = max(abs(e) for e in ev)
-        return float(r ** (mpmath.mpf(1) / (len(seq) * reps)))
-    finally:
-        mp.dps = old
-
-
-__all__ = ["exact_product_radius", "loop_matrix"]
+__all__ = ["loop_matrix"]

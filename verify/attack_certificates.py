@@ -23,9 +23,12 @@ agreement with the library's linearization ``SurrogateLoop`` is checked first, a
 Members are counted twice: within the coverage the result states (``covers``: ``frozen`` =
 constant ``b`` only) and within the class its one-line description names (e.g. "b in [1, 50]
 varying arbitrarily"). An attack **beats** a certificate when it shows growth: a product
-radius > 1 + 1e-9 confirmed in mpmath at 40 digits (the double-precision eigenvalues of these
-near-unit-circle, ill-conditioned loops are off by up to ~1e-9), or a trajectory growing by
-more than 10x (``||X_N|| / max_(k <= N/2) ||X_k||``). Prints per class the gains attacked, the
+of members whose radius, per sample, exceeds 1 + 1e-9, confirmed in mpmath at 40 digits (the
+double-precision eigenvalues of these near-unit-circle, ill-conditioned loops are off by up to
+~1e-9). Trajectories growing more than 10x (``||X_N|| / max_(k <= N/2) ||X_k||``) are
+reported too, but count only through the products of their own member sequences (windows of
+the greedy sequence): at rho >= 3 a stable switched loop amplifies a state thousands of times
+for a while (Lyapunov matrices of condition ~1e9), so a trajectory alone proves nothing. Prints per class the gains attacked, the
 best growth and the margin ``1 - growth``; exits 1 when any attack beats a certificate (the
 named class or the stated coverage).
 
@@ -42,7 +45,7 @@ import time
 
 import numpy as np
 from _attack_loop import loop_matrix
-from _attack_runs import CONFIRM, attack_target, exact_growth
+from _attack_runs import CONFIRM, attack_target
 from bench_certify import CURVE_CLASSES
 
 import fl_design as fl
@@ -110,6 +113,24 @@ def targets(d, cls, gamma, er, full: bool):
     return out
 
 
+def _gain_targets(d, cls, gains, er, full):
+    """``[(gamma, targets)]`` of the gains attacked: full mode :data:`GAIN_INDEX` ``full``
+    (all three), quick mode the first of ``quick`` with a certified eps*; either way, when
+    none of those is certified, the first certified gain of the 12."""
+    order = GAIN_INDEX["full" if full else "quick"]
+    out = []
+    for i in list(order) + [k for k in range(len(gains)) if k not in order]:
+        if i not in order and out:
+            break
+        g = float(gains[i])
+        tg = targets(d, cls, g, er, full)
+        if tg:
+            out.append((g, tg))
+            if not full:
+                break
+    return out
+
+
 def run(names, full: bool, seed: int) -> bool:
     """Attack each class; print a table; True when no attack beats a certificate."""
     rng = np.random.default_rng(seed)
@@ -117,45 +138,47 @@ def run(names, full: bool, seed: int) -> bool:
     for name in names:
         rho, T, decay, kw = CURVE_CLASSES[name]
         cls, d, gains, er = class_and_design(rho, T, decay, kw)
-        idx = GAIN_INDEX["full" if full else "quick"]
         t0 = time.process_time()
         print(f"class {name!r} ({cls.describe()})", flush=True)
-        best, attacked = (-np.inf, ""), []
-        for i in idx:
-            g = float(gains[i])
-            for src, covers, e_star, described in targets(d, cls, g, er, full):
+        best, attacked = {}, []
+        for g, tg in _gain_targets(d, cls, gains, er, full):
+            attacked.append(f"{g:.4g}")
+            for src, covers, e_star, described in tg:
                 diff = agreement(d, cls, e_star, g)
                 if not diff < 1e-9:
                     print(f"  FAIL: this loop and the library's disagree at gamma = {g:.4g}, "
                           f"eps = {e_star:.4g}: trace(M^j) differ by {diff:.2e} (relative)")
                     ok = False
-                attacked.append(f"{g:.4g}")
                 for frac in FRACTIONS:
-                    eps = frac * e_star
-                    res = attack_target(d, cls, eps, g, covers, rng, full)
+                    res = attack_target(d, cls, frac * e_star, g, covers, rng, full)
                     for group in ("stated coverage", "named class"):
                         r = res[group]
-                        grow = r["growth"]
-                        beat = r["beat"]
-                        if grow > best[0]:
-                            best = (grow, f"{r['attack']} at gamma {g:.4g}, {frac:g} x {src} "
-                                    f"eps* {e_star:.5g}")
+                        key = (src, covers, group)
+                        if r["growth"] > best.get(key, (-np.inf,))[0]:
+                            where = f"{r['attack']} at gamma {g:.4g}, {frac:g} eps*"
+                            best[key] = (r["growth"], where, r["beat"])
+                        elif r["beat"]:
+                            best[key] = best[key][:2] + (True,)
                         print(f"  gamma {g:.4g}, {src} eps* = {e_star:.5g} (covers {covers}), "
                               f"attacked at {frac:g} eps*: {group}: best growth "
-                              f"{grow:.12f} ({r['attack']}; traj. x{r['traj']:.3g}), "
-                              f"margin {1 - grow:.3g}" + (" -> BEATS" if beat else ""),
-                              flush=True)
-                        if beat:
+                              f"{r['growth']:.12f} ({r['attack']}; traj. x{r['traj']:.3g}), "
+                              f"margin {1 - r['growth']:.3g}"
+                              + (" -> BEATS" if r["beat"] else "")
+                              + (" (trajectory > 10x without a growing product: a non-normal "
+                                 "transient)" if r["transient"] else ""), flush=True)
+                        if r["beat"]:
                             ok = False
                             print(f"    BEATEN: {src} certifies eps* = {e_star:.6g} for "
                                   f"'{described}' (covers {covers}); member sequence "
                                   f"{r['witness']}")
-        if best[0] == -np.inf:
-            print("  no certified gain to attack")
-        else:
-            print(f"  => {name}: gains attacked {sorted(set(attacked))}; best attack growth "
-                  f"{best[0]:.12f} ({best[1]}); margin {1 - best[0]:.3g}; CPU "
-                  f"{time.process_time() - t0:.1f} s", flush=True)
+        if not attacked:
+            print(f"  => {name}: no certified gain to attack")
+            continue
+        parts = [f"{src} (covers {cov}) vs {grp}: growth {v[0]:.12f} ({v[1]}), margin "
+                 f"{1 - v[0]:.3g}{' BEATEN' if v[2] else ''}"
+                 for (src, cov, grp), v in best.items()]
+        print(f"  => {name}: gains attacked {attacked}; " + "; ".join(parts)
+              + f"; CPU {time.process_time() - t0:.1f} s", flush=True)
     return ok
 
 
@@ -181,6 +204,3 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-
-
-__all__ = ["exact_growth", "main"]
