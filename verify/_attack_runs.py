@@ -24,7 +24,16 @@ import itertools
 import mpmath
 import numpy as np
 from _attack_loop import loop_matrix
-from _attack_search import balanced, dwell_periodic, greedy, product_growth, products, random_dwell
+from _attack_search import (
+    balanced,
+    dwell_periodic,
+    greedy,
+    hill_climb,
+    product_growth,
+    products,
+    random_dwell,
+    run_patterns,
+)
 
 #: A product radius counts as growth above ``1 + CONFIRM`` (confirmed in mpmath).
 CONFIRM = 1e-9
@@ -86,7 +95,7 @@ def _record(found, name, growth, seq, keys, members, traj=0.0):
     if seq and growth > 1.0 + CONFIRM:
         growth = exact_growth(members, keys, list(seq))
     found.append({"attack": name, "growth": float(growth), "traj": float(traj),
-                  "witness": _describe(seq, keys, members)})
+                  "witness": _describe(seq, keys, members), "seq": list(seq)})
 
 
 def _describe(seq, keys, members):
@@ -123,9 +132,20 @@ def switching(members, T, rng, full):
     found = []
     g, seq = products(mats, 8 if full else 6)
     _record(found, f"products of length <= {8 if full else 6}", g, seq, keys, members)
-    g, (i, p, j, q) = dwell_periodic(mats) if full else dwell_periodic(
-        mats, (1, 4, 16, 256, 1024))
+    g, (i, p, j, q) = dwell_periodic(mats, 128 if full and len(mats) <= 2 else 32) if full \
+        else dwell_periodic(mats, 32, (256, 1024))
     _record(found, f"dwell switching {p}:{q}", g, [i] * p + [j] * q, keys, members)
+    best = (-np.inf, ())
+    for c in range(len(members.corners)):  # mixed dwells of the b ends, each corner
+        g, sq = run_patterns(mats[2 * c], mats[2 * c + 1], 3, 7 if full else 5)
+        if g > best[0]:
+            best = (g, [2 * c + k for k in sq])
+    _record(found, f"run patterns (3 pairs of runs <= {7 if full else 5})", best[0], best[1],
+            keys, members)
+    start = max(found, key=lambda f: f["growth"])["seq"]
+    if 0 < len(start) <= 128:
+        g, sq = hill_climb(mats, start, 8 if full else 2)
+        _record(found, "hill climb from the best period so far", g, sq, keys, members)
     x0s = _starts(mats, rng)
     steps = 12000 if full else 2000
     tg, r, seq = greedy(mats, T, steps, x0s)

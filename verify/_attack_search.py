@@ -60,16 +60,34 @@ def products(mats, max_len: int, budget: int = 40000):
     return best, seq
 
 
-def dwell_periodic(mats, dwells=(1, 2, 4, 8, 16, 64, 256, 1024, 4096)):
-    """``rho(M_j^q M_i^p)^(1/(p+q))`` over vertex pairs and dwell times: slow switching."""
-    pw = {(i, p): np.linalg.matrix_power(M, p) for i, M in enumerate(mats) for p in dwells}
+def dwell_periodic(mats, every: int = 64, dwells=(128, 256, 512, 1024, 2048, 4096)):
+    """``rho(M_j^q M_i^p)^(1/(p+q))`` over vertex pairs: every ``p, q <= every`` (resonant
+    short dwells, e.g. 9:19 samples) and the long ``dwells`` (slow switching) with any
+    ``p, q`` of ``1, 2, 4, ..`` or ``dwells``. Returns (growth, (i, p, j, q))."""
+    n = mats[0].shape[0]
+    short = np.arange(1, every + 1)
+    longs = sorted(set([2 ** k for k in range(7)] + list(dwells)))
+    pw = []
+    for M in mats:  # M^1..M^every, then the long powers
+        P = np.empty((every, n, n))
+        P[0] = M
+        for k in range(1, every):
+            P[k] = M @ P[k - 1]
+        pw.append((P, {p: np.linalg.matrix_power(M, p) for p in longs}))
     best, arg = -np.inf, None
     for i, j in itertools.permutations(range(len(mats)), 2):
-        for p in dwells:
-            for q in dwells:
-                r = float(_radius(pw[(j, q)] @ pw[(i, p)])) ** (1.0 / (p + q))
-                if r > best:
-                    best, arg = r, (i, p, j, q)
+        prod = np.einsum("qab,pbc->qpac", pw[j][0], pw[i][0])  # [q-1, p-1] = M_j^q M_i^p
+        r = _radius(prod) ** (1.0 / (short[:, None] + short[None, :]))
+        q, p = np.unravel_index(int(np.argmax(r)), r.shape)
+        if r[q, p] > best:
+            best, arg = float(r[q, p]), (i, int(p + 1), j, int(q + 1))
+        for p in longs:
+            for q in longs:
+                if p <= every and q <= every:
+                    continue
+                g = float(_radius(pw[j][1][q] @ pw[i][1][p])) ** (1.0 / (p + q))
+                if g > best:
+                    best, arg = g, (i, p, j, q)
     return best, arg
 
 
@@ -188,4 +206,48 @@ def random_dwell(mats, steps: int, rng, means=(1, 8, 64, 512), runs: int = 2, mo
     return best_t, best_r, best_seq
 
 
-__all__ = ["balanced", "dwell_periodic", "greedy", "product_growth", "products", "random_dwell"]
+def run_patterns(A, B, pairs: int = 3, longest: int = 7):
+    """``rho(B^(q_m) A^(p_m) ... B^(q_1) A^(p_1))^(1/sum)`` over every pattern of ``pairs``
+    runs of each member, each run 1..``longest`` samples (batched): mixed dwells such as
+    5:2, 5:2, 4:2 whose period no product of length 8 and no single dwell pair reaches.
+    Returns (growth, sequence of 0 = A, 1 = B)."""
+    n = A.shape[0]
+    pw = [np.stack([np.linalg.matrix_power(M, k) for k in range(1, longest + 1)])
+          for M in (A, B)]
+    P, lens = np.eye(n)[None], np.zeros(1, dtype=int)
+    runs = np.zeros((1, 0), dtype=int)
+    for r in range(2 * pairs):
+        Q = pw[r % 2]  # (longest, n, n)
+        P = np.einsum("kab,mbc->mkac", Q, P).reshape(-1, n, n)
+        lens = (lens[:, None] + np.arange(1, longest + 1)[None, :]).ravel()
+        runs = np.concatenate([np.repeat(runs, longest, axis=0),
+                               np.tile(np.arange(1, longest + 1), len(runs))[:, None]], axis=1)
+    r = _radius(P) ** (1.0 / lens)
+    i = int(np.argmax(r))
+    seq = [k % 2 for k, c in enumerate(runs[i]) for _ in range(int(c))]
+    return float(r[i]), seq
+
+
+def hill_climb(mats, seq, sweeps: int = 8):
+    """Improve a periodic member sequence by single-sample changes (each position to every
+    other member, kept when ``rho(period)^(1/len)`` grows): a local maximum-principle search
+    from the best sequences of the other attacks. Returns (growth, sequence)."""
+    seq = list(seq)
+    best = product_growth(mats, seq)
+    for _ in range(sweeps):
+        improved = False
+        for k in range(len(seq)):
+            for v in range(len(mats)):
+                if v == seq[k]:
+                    continue
+                trial = seq[:k] + [v] + seq[k + 1:]
+                g = product_growth(mats, trial)
+                if g > best:
+                    best, seq, improved = g, trial, True
+        if not improved:
+            break
+    return best, seq
+
+
+__all__ = ["balanced", "dwell_periodic", "greedy", "hill_climb", "product_growth", "products",
+           "random_dwell", "run_patterns"]

@@ -12,13 +12,21 @@ agreement with the library's linearization ``SurrogateLoop`` is checked first, a
 * frozen members: ``b`` on a dense grid (and every slope-box corner);
 * the joint spectral radius lower bound ``max rho(product)^(1/k)`` over all products of the
   vertices (``b`` ends x slope corners) of length ``k <= 8`` (fewer when there are many
-  vertices), and dwell-time periodic switching ``M_j^q M_i^p`` (``p, q`` up to 4096 samples);
+  vertices), and dwell-time periodic switching ``M_j^q M_i^p``: every ``p, q <= 128`` (32 with
+  a slope box or in quick mode: resonant dwells such as 9:19 samples, which products of
+  length 8 miss) and long dwells up to 4096 samples; every pattern of three pairs of runs
+  (each run 1..7 samples, 1..5 in quick mode: mixed dwells such as 5:2, 5:2, 4:2 samples,
+  the library's own refutation at one control point); a hill climb (single-sample changes)
+  from the best period found;
 * greedy worst-case switching (at each step the member maximizing the next state's norm,
   Euclidean and the middle loop's Lyapunov norm), its trajectory growth and the radius of the
   products over its last 8..512 steps; random dwell sequences;
 * with a rate bound (``|b_(k+1) - b_k| <= b_rate`` per sample, :class:`fl_design.PlantClass`):
   only such sequences: ``b`` on a grid of step ``b_rate``, greedy and random walks of one step,
   triangle waves at the full rate over sub-ranges.
+
+A control in full mode: the same attacks at the refuted end of certify_eps's bracket (where
+the library found a counterexample) should find growth: it shows the attacks have teeth.
 
 Members are counted twice: within the coverage the result states (``covers``: ``frozen`` =
 constant ``b`` only) and within the class its one-line description names (e.g. "b in [1, 50]
@@ -99,13 +107,14 @@ def agreement(d, cls, eps, gamma) -> float:
 
 
 def targets(d, cls, gamma, er, full: bool):
-    """``[(source, covers, eps*)]``: the curve's certified eps* and, in full mode, the
-    headline of certify_eps, at ``gamma``."""
+    """``[(source, covers, eps*, class description, refuted eps or None)]``: the curve's
+    certified eps* and, in full mode, the headline of certify_eps (with the refuted end of its
+    bracket: the control), at ``gamma``."""
     out = []
     curve = fl.eps_star_curve(d, cls, [gamma], eps_range=er)
     if np.isfinite(curve.eps_star_certified[0]):
         out.append(("eps_star_curve", curve.covers, float(curve.eps_star_certified[0]),
-                    curve.class_description))
+                    curve.class_description, None))
     if full:
         dg = d.replace(gamma=float(np.sign(cls.b[0])) * gamma)
         try:
@@ -116,8 +125,10 @@ def targets(d, cls, gamma, er, full: bool):
             CRASHES.append(f"certify_eps at gamma {gamma!r}: {type(exc).__name__}")
             return out
         if c.eps_star_certified is not None and np.isfinite(c.eps_star_certified):
+            br = c.bracket(c.covers)
+            ref = None if br is None or br.refuted is None else float(br.refuted)
             out.append(("certify_eps", c.covers, float(c.eps_star_certified),
-                        c.class_description))
+                        c.class_description, ref))
     return out
 
 
@@ -151,7 +162,7 @@ def run(names, full: bool, seed: int) -> bool:
         best, attacked = {}, []
         for g, tg in _gain_targets(d, cls, gains, er, full):
             attacked.append(f"{g:.4g}")
-            for src, covers, e_star, described in tg:
+            for src, covers, e_star, described, refuted in tg:
                 diff = agreement(d, cls, e_star, g)
                 if not diff < 1e-9:
                     print(f"  FAIL: this loop and the library's disagree at gamma = {g:.4g}, "
@@ -179,6 +190,12 @@ def run(names, full: bool, seed: int) -> bool:
                             print(f"    BEATEN: {src} certifies eps* = {e_star:.6g} for "
                                   f"'{described}' (covers {covers}); member sequence "
                                   f"{r['witness']}")
+                if refuted is not None:  # control: the attacks find the library's own refutation
+                    r = attack_target(d, cls, refuted, g, covers, rng, full)["stated coverage"]
+                    print(f"  control: at the refuted end of certify_eps's bracket, eps = "
+                          f"{refuted:.5g} ({refuted / e_star:.3g} eps*): best growth "
+                          f"{r['growth']:.12f} ({r['attack']}): the attacks "
+                          + ("find it" if r["beat"] else "do NOT find it"), flush=True)
         if not attacked:
             print(f"  => {name}: no certified gain to attack")
             continue
