@@ -60,10 +60,13 @@ def products(mats, max_len: int, budget: int = 40000):
     return best, seq
 
 
-def dwell_periodic(mats, every: int = 64, dwells=(128, 256, 512, 1024, 2048, 4096)):
+def dwell_periodic(mats, every: int = 64, dwells=(128, 256, 512, 1024, 2048, 4096, 8192),
+                   refine: int = 3):
     """``rho(M_j^q M_i^p)^(1/(p+q))`` over vertex pairs: every ``p, q <= every`` (resonant
     short dwells, e.g. 9:19 samples) and the long ``dwells`` (slow switching) with any
-    ``p, q`` of ``1, 2, 4, ..`` or ``dwells``. Returns (growth, (i, p, j, q))."""
+    ``p, q`` of ``1, 2, 4, ..`` or ``dwells``; the ``refine`` best pairs are then polished by
+    coordinate steps on ``p`` and ``q`` (halving from the largest power of 2 below them: a
+    790:67 period lies between grid points). Returns (growth, (i, p, j, q))."""
     n = mats[0].shape[0]
     short = np.arange(1, every + 1)
     longs = sorted(set([2 ** k for k in range(7)] + list(dwells)))
@@ -74,21 +77,45 @@ def dwell_periodic(mats, every: int = 64, dwells=(128, 256, 512, 1024, 2048, 409
         for k in range(1, every):
             P[k] = M @ P[k - 1]
         pw.append((P, {p: np.linalg.matrix_power(M, p) for p in longs}))
-    best, arg = -np.inf, None
+    cands = []
     for i, j in itertools.permutations(range(len(mats)), 2):
         prod = np.einsum("qab,pbc->qpac", pw[j][0], pw[i][0])  # [q-1, p-1] = M_j^q M_i^p
         r = _radius(prod) ** (1.0 / (short[:, None] + short[None, :]))
         q, p = np.unravel_index(int(np.argmax(r)), r.shape)
-        if r[q, p] > best:
-            best, arg = float(r[q, p]), (i, int(p + 1), j, int(q + 1))
+        cands.append((float(r[q, p]), (i, int(p + 1), j, int(q + 1))))
         for p in longs:
             for q in longs:
                 if p <= every and q <= every:
                     continue
                 g = float(_radius(pw[j][1][q] @ pw[i][1][p])) ** (1.0 / (p + q))
-                if g > best:
-                    best, arg = g, (i, p, j, q)
-    return best, arg
+                cands.append((g, (i, p, j, q)))
+    cands.sort(key=lambda c: -c[0])
+    best = cands[0]
+    for g, (i, p, j, q) in cands[:refine]:
+        g, p, q = _refine_pair(mats[i], mats[j], p, q, g)
+        if g > best[0]:
+            best = (g, (i, p, j, q))
+    return best
+
+
+def _refine_pair(A, B, p, q, g):
+    """Coordinate ascent of ``rho(B^q A^p)^(1/(p+q))`` over integer ``p, q >= 1``."""
+    def growth(p, q):
+        P = np.linalg.matrix_power(B, q) @ np.linalg.matrix_power(A, p)
+        return float(_radius(P)) ** (1.0 / (p + q))
+
+    step = 2 ** int(np.log2(max(p, q, 1)))
+    while step >= 1:
+        moved = False
+        for dp, dq in ((step, 0), (-step, 0), (0, step), (0, -step)):
+            if p + dp >= 1 and q + dq >= 1:
+                t = growth(p + dp, q + dq)
+                if t > g:
+                    g, p, q, moved = t, p + dp, q + dq, True
+                    break
+        if not moved:
+            step //= 2
+    return g, p, q
 
 
 def _norm_weight(mats, T):
