@@ -100,9 +100,13 @@ def dwell_periodic(mats, every: int = 64, dwells=(128, 256, 512, 1024, 2048, 409
 
 def _refine_pair(A, B, p, q, g):
     """Coordinate ascent of ``rho(B^q A^p)^(1/(p+q))`` over integer ``p, q >= 1``."""
+    seen = {}
+
     def growth(p, q):
-        P = np.linalg.matrix_power(B, q) @ np.linalg.matrix_power(A, p)
-        return float(_radius(P)) ** (1.0 / (p + q))
+        if (p, q) not in seen:
+            P = np.linalg.matrix_power(B, q) @ np.linalg.matrix_power(A, p)
+            seen[(p, q)] = float(_radius(P)) ** (1.0 / (p + q))
+        return seen[(p, q)]
 
     step = 2 ** int(np.log2(max(p, q, 1)))
     while step >= 1:
