@@ -60,6 +60,10 @@ def products(mats, max_len: int, budget: int = 40000):
     return best, seq
 
 
+#: Longest dwell the refinement tries (samples): beyond, a dwell pair is a frozen loop.
+MAX_DWELL = 8192
+
+
 def dwell_periodic(mats, every: int = 64, dwells=(128, 256, 512, 1024, 2048, 4096, 8192),
                    refine: int = 3):
     """``rho(M_j^q M_i^p)^(1/(p+q))`` over vertex pairs: every ``p, q <= every`` (resonant
@@ -112,7 +116,7 @@ def _refine_pair(A, B, p, q, g):
     while step >= 1:
         moved = False
         for dp, dq in ((step, 0), (-step, 0), (0, step), (0, -step)):
-            if p + dp >= 1 and q + dq >= 1:
+            if 1 <= p + dp <= MAX_DWELL and 1 <= q + dq <= MAX_DWELL:
                 t = growth(p + dp, q + dq)
                 if t > g:
                     g, p, q, moved = t, p + dp, q + dq, True
