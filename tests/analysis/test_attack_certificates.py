@@ -56,6 +56,15 @@ def test_attack_quick_runs_and_no_attack_beats_a_stated_coverage():
     assert (proc.returncode == 1) == ("-> BEATS" in out), out
 
 
+def test_attack_unknown_class_is_refused_with_the_valid_names():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, str(VERIFY / "attack_certificates.py"), "--only",
+                           "rho 9"], capture_output=True, text=True, env=env, timeout=120,
+                          check=False)
+    assert proc.returncode == 2
+    assert "unknown class(es) ['rho 9']" in proc.stdout and "rho 2, T 1 ms" in proc.stdout
+
+
 def test_products_reach_the_closed_form_joint_spectral_radius(verify_modules):
     _, search = verify_modules
     A = np.array([[1.0, 1.0], [0.0, 1.0]])
