@@ -217,9 +217,10 @@ def _best(found):
     return top
 
 
-def attack_target(d, cls, eps, gamma, covers, rng, full):
+def attack_target(d, cls, eps, gamma, covers, rng, full, named_class=None):
     """Every attack at one ``(eps, gamma)``: the best per group ``"stated coverage"`` (the
-    members the result's ``covers`` names) and ``"named class"`` (the class's members)."""
+    members the result's ``covers`` names) and ``"named class"`` (the members of the class the
+    result names, ``named_class``; default ``cls``)."""
     m = Members(d, cls, eps, gamma)
     F = frozen(m, full)
     S = switching(m, d.T, rng, full) if cls.b_rate is None or covers in (
@@ -228,7 +229,12 @@ def attack_target(d, cls, eps, gamma, covers, rng, full):
          if cls.b_rate and cls.a_slopes is None else [])
     stated = F + (S if covers in ("varying", "nonlinear") else []) + (
         R if covers == "rate-bounded" else [])
-    named = F + (S if cls.b_rate is None else []) + (R if cls.b_rate else [])
+    nc = cls if named_class is None else named_class
+    if nc.b_rate is None and not S:
+        S = switching(m, d.T, rng, full)
+    if nc.b_rate and not R and nc.a_slopes is None:
+        R = rate_bounded(m, d.T, nc.b_rate, rng, full)
+    named = F + (S if nc.b_rate is None else []) + (R if nc.b_rate else [])
     return {"stated coverage": _best(stated), "named class": _best(named)}
 
 

@@ -110,14 +110,14 @@ def agreement(d, cls, eps, gamma) -> float:
 
 
 def targets(d, cls, gamma, er, full: bool):
-    """``[(source, covers, eps*, class description, refuted eps or None)]``: the curve's
-    certified eps* and, in full mode, the headline of certify_eps (with the refuted end of its
-    bracket: the control), at ``gamma``."""
+    """``[(source, covers, eps*, class description, refuted eps or None, class named)]``: the
+    curve's certified eps* and, in full mode, the headline of certify_eps (with the refuted end
+    of its bracket: the control), at ``gamma``."""
     out = []
     curve = fl.eps_star_curve(d, cls, [gamma], eps_range=er)
     if np.isfinite(curve.eps_star_certified[0]):
         out.append(("eps_star_curve", curve.covers, float(curve.eps_star_certified[0]),
-                    curve.class_description, None))
+                    curve.class_description, None, curve.plant_class))
     if full:
         dg = d.replace(gamma=float(np.sign(cls.b[0])) * gamma)
         try:
@@ -131,7 +131,7 @@ def targets(d, cls, gamma, er, full: bool):
             br = c.bracket(c.covers)
             ref = None if br is None or br.refuted is None else float(br.refuted)
             out.append(("certify_eps", c.covers, float(c.eps_star_certified),
-                        c.class_description, ref))
+                        c.class_description, ref, c.plant_class))
     return out
 
 
@@ -165,14 +165,14 @@ def run(names, full: bool, seed: int) -> bool:
         best, attacked = {}, []
         for g, tg in _gain_targets(d, cls, gains, er, full, name):
             attacked.append(f"{g:.4g}")
-            for src, covers, e_star, described, refuted in tg:
+            for src, covers, e_star, described, refuted, named in tg:
                 diff = agreement(d, cls, e_star, g)
                 if not diff < 1e-9:
                     print(f"  FAIL: this loop and the library's disagree at gamma = {g:.4g}, "
                           f"eps = {e_star:.4g}: trace(M^j) differ by {diff:.2e} (relative)")
                     ok = False
                 for frac in FRACTIONS:
-                    res = attack_target(d, cls, frac * e_star, g, covers, rng, full)
+                    res = attack_target(d, cls, frac * e_star, g, covers, rng, full, named)
                     for group in ("stated coverage", "named class"):
                         r = res[group]
                         key = (src, covers, group)

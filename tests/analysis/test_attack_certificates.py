@@ -4,7 +4,8 @@ The script's quick mode runs (every class of the bench's spread attacked, the in
 agreeing with the library's linearization, no attack beating what a certificate says it
 covers); its search tools against closed forms; and the one attack that beats a claim,
 minimized: ``eps_star_curve``'s certified eps* is a frozen-``b`` certificate whose result
-names a class with ``b`` varying arbitrarily (xfail, strict: a real bug, owned by analysis).
+named a class with ``b`` varying arbitrarily (it now names the class of constant ``b``), and a
+raw numpy error from ``certify_eps`` on a rho 3 class (now a result).
 """
 
 import os
@@ -104,14 +105,12 @@ def test_independent_loop_is_the_library_linearization(verify_modules, rho, ki, 
             np.trace(np.linalg.matrix_power(lib, j)), rel=1e-10, abs=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "eps_star_curve certifies frozen b only (covers='frozen': a Lyapunov P(b) per piece of b) "
-    "but its result names the class 'b in [1, 50] varying arbitrarily'; at its certified "
-    "eps* (0.00117 at gamma 0.0140, rho 2, T 1 ms) the periodic switching b = 50 for 5 "
-    "samples, b = 1 for 2, a member of that class, grows by 1.0167 per sample "
-    "(verify/attack_certificates.py; certify_eps at that gain certifies no varying-b eps and "
-    "refutes varying b from eps = 0.00101, below the curve's certified eps*)"))
 def test_curve_certified_eps_holds_for_every_member_of_the_class_it_names(verify_modules):
+    """eps_star_curve certifies frozen b (a Lyapunov P(b) per piece of b); at its certified
+    eps* (0.00117 at gamma 0.0140, rho 2, T 1 ms) the periodic switching b = 50 for 5 samples,
+    b = 1 for 2 grows by 1.0167 per sample (found by verify/attack_certificates.py; it beat the
+    curve's old label 'b varying arbitrarily' on 8 of 10 classes): the curve names the class
+    of constant b it certifies and lists b varying in time as not covered."""
     loop, _ = verify_modules
     cls = fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0))  # bench_certify.CURVE_CLASSES' 2nd
     gains = fl.synthesize_gains(2, decay=1.0).gains
@@ -128,18 +127,18 @@ def test_curve_certified_eps_holds_for_every_member_of_the_class_it_names(verify
 
     P = np.linalg.matrix_power(member(1.0), 2) @ np.linalg.matrix_power(member(50.0), 5)
     growth = float(np.max(np.abs(np.linalg.eigvals(P)))) ** (1 / 7)
+    assert growth > 1.0  # the attack is real: the curve's eps* is no varying-b certificate
+    assert any(u.startswith("b varying in time") for u in curve.uncovered)
     names_varying = "varying arbitrarily" in curve.class_description
     assert not (names_varying and growth > 1.0), (
         f"{curve.class_description!r} certified at eps = {eps:.6g} (covers {curve.covers}), "
         f"yet switching b = 50 (5 samples), b = 1 (2 samples) grows by {growth:.6f} per sample")
 
 
-@pytest.mark.xfail(strict=True, raises=np.linalg.LinAlgError, reason=(
-    "certify_eps on the class rho 3, T 1 ms, b in [1, 5] at gamma = 0.0338 raises numpy's "
-    "LinAlgError 'Matrix is not positive definite' from analysis/_sos.py sos_certificate "
-    "(np.linalg.cholesky of the middle vertex's modal P, not positive definite in floating "
-    "point at rho 3) instead of returning a result (found by verify/attack_certificates.py)"))
 def test_certify_eps_rho3_class_returns_a_result_instead_of_a_numpy_error():
+    """certify_eps on rho 3, b in [1, 5] at gamma = 0.0338 raised numpy's LinAlgError from
+    sos_certificate's Cholesky of a modal P not positive definite in rounding (found by
+    verify/attack_certificates.py); now a result."""
     cls = fl.PlantClass(rho=3, T=1e-3, b=(1.0, 5.0))  # bench_certify.CURVE_CLASSES' 8th
     gamma = float(np.geomspace(0.02 / 5, 1.0 / 5, 12)[6])
     d = fl.Design(estimator=fl.EHGO(3, 1e-2, 1e-3), controller=fl.DynamicController(
