@@ -41,3 +41,15 @@ def test_slow_members_of_a_class_with_u_eq_converge_and_are_not_cut_at_60_s():
     assert all(m.converged for m in runs), [m.line() for m in runs]
     assert all(m.settling_time > MAX_RUN for m in runs)  # needs the run past 60 s
     assert all(m.u_peak < 50.0 for m in runs)  # u stays near u_eq = 40: no drift to undo
+
+
+def test_tune_of_a_plant_names_the_class_its_certificate_covers():
+    """fl.tune(plant) certifies the chain with the plant's b-range and a = 0; the reason says so
+    (the ball and beam's run printed 'certified: eps True' above a report 'NOT certified')."""
+    plant = fl.plants.pendulum()
+    tuned = fl.tune(plant, reference=0.1)
+    line = next(r for r in tuned.reasons if r.startswith("certified:"))
+    lo, hi = sorted(tuned.eps_certificate.b_bounds)
+    assert f"b in [{lo:.6g}, {hi:.6g}], a = 0" in line
+    assert "not this plant's class" in line
+    assert tuned.eps_certificate.a_jacobian_bounds is None  # indeed no slopes of a in it
