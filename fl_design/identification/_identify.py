@@ -62,6 +62,8 @@ MIN_INFORMATIVE = 4
 #: motor's back-EMF, -63 /s under a PI loop: without them b came out -87 .. -624 for a true
 #: +1250, and the delay 20 samples for 0); chance alone cuts it by about ``rho / window``.
 SLOPE_GAIN = 1.05
+#: Steady windows of the log needed to estimate ``u_eq``.
+MIN_STEADY = 3
 #: A fraction of samples at one value of u above this is "saturated throughout".
 SATURATED = 0.95
 
@@ -206,6 +208,40 @@ def _experiment(noise: float, T: float, n_win: int, rho: int, b_guess: float | N
             f"s, i.e. 4 switches per {n_win * T:.3g} s window) around the operating input, for "
             f"at least {MIN_INFORMATIVE * n_win * T:.3g} s, within the input limits (or "
             f"reference steps of that effect)")
+
+
+def _u_eq(L, op: float, sigma: float, n_win: int, u_lim) -> tuple[float | None, str]:
+    """The input holding ``y`` at ``op``, from the log's steady windows (``y`` drifting less than
+    three noise standard deviations over the window): the mean ``u`` against the mean ``y`` of
+    those windows, a line through them read at ``op`` (their median when they sit at one ``y``);
+    None when fewer than :data:`MIN_STEADY` windows are steady or ``op`` lies outside them."""
+    ys, us = [], []
+    for a, b in L.segments:
+        for k in range(a, b - n_win + 1, max(1, n_win // 2)):
+            y, u = L.y[k:k + n_win], L.u[k:k + n_win]
+            tau = np.arange(n_win) - (n_win - 1) / 2.0
+            drift = abs(float(tau @ (y - y.mean())) / float(tau @ tau)) * n_win
+            if drift <= 3.0 * sigma:
+                ys.append(float(y.mean()))
+                us.append(float(u.mean()))
+    ys, us = np.asarray(ys), np.asarray(us)
+    if ys.size < MIN_STEADY:
+        return None, (f"u_eq not estimated: {ys.size} steady window(s) of y (at least "
+                      f"{MIN_STEADY} needed): give u_eq, the input holding y at {op:.4g}")
+    lo, hi = float(ys.min()), float(ys.max())
+    if not lo - 3.0 * sigma <= op <= hi + 3.0 * sigma:
+        return None, (f"u_eq not estimated: y rested in [{lo:.4g}, {hi:.4g}] only, not at the "
+                      f"operating point {op:.4g}: give u_eq")
+    if hi - lo <= 6.0 * sigma:
+        val = float(np.median(us))
+    else:
+        slope, icpt = np.polyfit(ys, us, 1)
+        val = float(slope * op + icpt)
+    if u_lim is not None and not u_lim[0] <= val <= u_lim[1]:
+        return None, (f"u_eq not estimated: the steady windows give {val:.4g}, outside u_limits "
+                      f"[{u_lim[0]:.4g}, {u_lim[1]:.4g}]")
+    return val, (f"u_eq = {val:.4g}: the input holding y at {op:.4g}, from {ys.size} steady "
+                 f"windows (y in [{lo:.4g}, {hi:.4g}], drifting < 3 noise std)")
 
 
 def _delay_and_a_model(L, n_win: int, rho: int, max_delay: int):
@@ -366,15 +402,16 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
                   u_range=(float(L.u.min()), float(L.u.max())), y_range=y_range,
                   command=cmd, warnings=tuple(warns), a_model=a_model, log=L)
     op = float(np.median(L.r)) if L.r is not None else float(np.median(L.y))
+    u_eq, u_eq_text = _u_eq(L, op, sigma, n_win, u_lim)
     notes = ((f"b over the visited states y in [{y_range[0]:.4g}, {y_range[1]:.4g}] by local-ls "
              f"and ehgo-sigmahat (union, +-{CONFIDENCE:g} se, x{MARGIN:g} margin)"),
              text, exc,
              ("a (the drift of y^(rho)) is not bounded from the log: the class is the chain's "
              "(a = 0, no slope box); a certificate of it does not cover the plant's a(x), the "
-             "member runs and the rig check it empirically"))
+             "member runs and the rig check it empirically"), u_eq_text)
     return IdentifiedClass(rho=rho, T=L.T, b=b_cls, delay=int(delay), noise_std=sigma,
                            u_limits=u_lim, y_range=y_range, source="log", name=stem,
-                           notes=notes, operating_point=op, evidence=ev)
+                           notes=notes, operating_point=op, u_eq=u_eq, evidence=ev)
 
 
 __all__ = ["Evidence", "IdentifiedClass", "identify"]

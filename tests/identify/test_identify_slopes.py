@@ -47,3 +47,22 @@ def test_a_chain_log_keeps_a_as_a_polynomial_in_time(chain_log):
     ev = fl.identify(chain_log.columns(), rho=2).evidence
     assert ev.a_model.startswith("a as a polynomial in time")
     assert ev.to_dict()["a_model"] == ev.a_model
+
+
+def test_u_eq_is_read_from_the_steady_windows_and_the_members_hold_there():
+    """The motor rests at 50 and 150 rad/s; the input holding it at the operating point 100 is,
+    in closed form, u_eq = ALPHA / B_TRUE * 100 + U_C = 5.08 (the line through the two rests)."""
+    cls = fl.identify(motor_log(seed=3), rho=1, u_limits=(0.0, 24.0))
+    assert cls.operating_point == 100.0
+    want = ALPHA / B_TRUE * 100.0 + 0.04
+    assert abs(cls.u_eq - want) < 0.01 * want, cls.u_eq
+    assert any(n.startswith("u_eq = ") for n in cls.notes)
+
+
+def test_u_eq_is_not_guessed_from_a_log_that_never_rests():
+    log = motor_log(seed=3)
+    t = log["t"]
+    moving = {**log, "y": log["y"] + 400.0 * t}  # a ramp of 400 rad/s per s: never steady
+    cls = fl.identify(moving, rho=1)
+    assert cls.u_eq is None
+    assert any(n.startswith("u_eq not estimated") for n in cls.notes)
