@@ -240,8 +240,10 @@ def cmd_codegen(args) -> int:
     if args.verify:
         from ._console import print_codegen
 
+        # the package in --out itself, as without --verify (make -C OUT check); the cost
+        # table's packages beside it in OUT/c_cost
         job = run_job(cfg, quick=args.quick, stages=("codegen",), out_dir=out,
-                      progress=not args.no_progress, force=args.force)
+                      progress=not args.no_progress, force=args.force, package_dir=out)
         print_codegen(job)
         cg = job.results["codegen"]
         if "sil" in cg and not cg["sil"].passed:  # a failed SIL is a failed command
