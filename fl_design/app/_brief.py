@@ -323,9 +323,17 @@ def code_brief(cg: dict | None) -> Brief:
         return Brief("skipped", "info", cg["skipped"])
     sil, cost = cg["sil"], cg["costs"].rows[0]
     ns = f", {cost.ns_per_step:.3g} ns/step" if math.isfinite(cost.ns_per_step) else ""
+    tail = (f"{cost.flops} operations{ns}, {cost.stack_bytes} B stack; error "
+            f"{sil.max_rel_error:.2g} (bound {sil.bound:g})")
+    if sil.c_failed and sil.verdicts_agree:  # the design fails the scenario, not the C
+        std = cg.get("sil_noise_std")
+        under = f" under noise std {std:g}" if std else ""
+        return Brief("SIL FAILED", "bad",
+                     f"the loop is {sil.c_status}{under} in C as in Python: the design fails "
+                     "this scenario (the C's fault handling then departs from Design.step); "
+                     + tail)
     return Brief("SIL PASSED" if sil.passed else "SIL FAILED", "good" if sil.passed else "bad",
-                 f"{cost.flops} operations{ns}, {cost.stack_bytes} B stack; error "
-                 f"{sil.max_rel_error:.2g} (bound {sil.bound:g})")
+                 tail)
 
 
 def design_brief(design) -> str:

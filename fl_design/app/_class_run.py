@@ -31,8 +31,7 @@ from .._json import jsonable
 def _adrc_runs(tuned, quick: bool) -> list:
     """The baseline on the same members: linear ADRC, b0 the geometric mean of the range."""
     from ..design._adrc import LinearADRC
-    from ..sim._rig import chain_rig
-    from ..tuning._class_checks import _metrics
+    from ..tuning._class_checks import MAX_RUN, MAX_SAMPLES, _metrics, member_rig
 
     cls, design = tuned.plant_class, tuned.design
     lo, hi = cls.b
@@ -41,12 +40,14 @@ def _adrc_runs(tuned, quick: bool) -> list:
     adrc = LinearADRC(rho=cls.rho, T=design.T, b0=b0, wc=wc, wo=10.0 * wc,
                       u_limits=cls.u_limits)
     y0 = 0.0 if cls.operating_point is None else cls.operating_point
-    dur = min(60.0, max(12.0 / wc, 2000 * design.T)) / (2.0 if quick else 1.0)
+    u_eq = 0.0 if cls.u_eq is None else float(cls.u_eq)
+    dur = min(max(MAX_RUN, MAX_SAMPLES * design.T), max(12.0 / wc, 2000 * design.T)) / (
+        2.0 if quick else 1.0)
     out = []
     for b in (lo, b0, hi):
-        rig = chain_rig(cls.rho, b=b, T=design.T, noise_std=cls.noise_std, delay=cls.delay,
-                        x0=(y0,) + (0.0,) * (cls.rho - 1))
-        m = _metrics(rig.run(adrc, tuned.reference, dur, seed=0), tuned.reference, y0,
+        rig = member_rig(cls.rho, b=b, T=design.T, noise_std=cls.noise_std, delay=cls.delay,
+                         y0=y0, u_eq=u_eq)  # held at the operating point by u_eq, as the class says
+        m = _metrics(rig.run(adrc, tuned.reference, dur, seed=0, u0=u_eq), tuned.reference, y0,
                      cls.noise_std, f"ADRC on the chain at b = {b:.4g}", b, b)
         out.append(m)
     return [adrc.describe()] + out

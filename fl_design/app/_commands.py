@@ -240,13 +240,15 @@ def cmd_codegen(args) -> int:
     if args.verify:
         from ._console import print_codegen
 
+        # the package in --out itself, as without --verify (make -C OUT check); the cost
+        # table's packages beside it in OUT/c_cost
         job = run_job(cfg, quick=args.quick, stages=("codegen",), out_dir=out,
-                      progress=not args.no_progress, force=args.force)
+                      progress=not args.no_progress, force=args.force, package_dir=out)
         print_codegen(job)
         cg = job.results["codegen"]
         if "sil" in cg and not cg["sil"].passed:  # a failed SIL is a failed command
             print(f"fl-design: the software-in-the-loop check failed: "
-                  f"{_sil_reason(cg['sil'])}", file=sys.stderr)
+                  f"{_sil_reason(cg['sil'], cg.get('sil_noise_std'))}", file=sys.stderr)
             return 1
         return 0
     design = job.design if args.design == "config" else build_design(
@@ -261,8 +263,23 @@ def cmd_codegen(args) -> int:
     return _pil(pkg, job, cfg) if args.pil else 0
 
 
-def _sil_reason(sil) -> str:
-    """One line: why a SIL result did not pass."""
+def _sil_reason(sil, noise_std=None) -> str:
+    """One line: why a SIL result did not pass.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.codegen import SilResult
+    >>> r = SilResult("double", np.zeros(2), np.array([1.0, 1.0]), np.array([1.0, 3.0]), 1e-12,
+    ...               "diverged", "diverged", False, True)
+    >>> _sil_reason(r, 1e-3)[:74]
+    "the loop is 'diverged' under noise std 0.001 in C as in Python: the design"
+    """
+    if sil.c_failed and sil.verdicts_agree:  # the design fails the scenario, not the C
+        under = f" under noise std {noise_std:g}" if noise_std else ""
+        return (f"the loop is {sil.c_status!r}{under} in C as in Python: the design fails "
+                f"the SIL scenario, not the C (C vs Design.step {sil.max_rel_error:.3g}: the "
+                "C's fault handling departs from Design.step once the loop has failed)")
     why = []
     if not sil.matches:
         why.append(f"C vs Design.step {sil.max_rel_error:.3g} > bound {sil.bound:g}")

@@ -127,7 +127,9 @@ def print_codegen(job) -> None:
     pkg, sil = cg["package"], cg["sil"]
     print(f"C package ({pkg.precision}) in {pkg.out_dir}: {len(pkg.files)} files")
     print(f"SIL {cg['sil_duration']:g} s: max relative error {sil.max_rel_error:.3g} "
-          f"(bound {sil.bound:g}): {'passed' if sil.passed else 'FAILED'}")
+          f"(bound {sil.bound:g}): {'passed' if sil.passed else 'FAILED'}" +
+          (f" (the loop is {sil.c_status} in C as in Python: the design fails the scenario)"
+           if sil.c_failed and sil.verdicts_agree else ""))
     print(cg["costs"].to_markdown())
 
 

@@ -143,7 +143,8 @@ def _cached(job: Job, name: str, quick: bool, compute):
     return results
 
 
-def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force: bool):
+def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force: bool,
+           package_dir=None):
     """Stage name -> a callable storing that stage's results in ``job``."""
     s = job.setup
 
@@ -179,7 +180,8 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
         job.results.update(out)
 
     def codegen():
-        job.results["codegen"] = _stages.codegen(s, quick, out_dir, force)
+        job.results["codegen"] = _stages.codegen(s, quick, out_dir, force,
+                                                   package_dir=package_dir)
 
     return {"derive": derive, "certify": certify, "sweep": sweep, "simulate": simulate,
             "robustness": robustness, "codegen": codegen}
@@ -187,7 +189,7 @@ def _steps(job: Job, quick: bool, out_dir: Path, executor, progress: bool, force
 
 def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
             stages=STAGES, executor=None, progress: bool = True, force: bool = False,
-            after=None) -> Job:
+            after=None, package_dir=None) -> Job:
     """Run the main job's stages (derive, certify, sweep, simulate, robustness, codegen).
 
     ``robustness`` (:func:`fl_design.monte_carlo` over the ``[uncertainty]`` family) runs only
@@ -215,6 +217,9 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     after : callable, optional
         Called as ``after(stage, job)`` when each stage is done (``fl-design run`` starts
         writing the runs' CSV files after ``simulate``, while the C compilers run).
+    package_dir : str or pathlib.Path, optional
+        Where the C package goes instead of ``out_dir/c`` (``fl-design codegen --verify``: the
+        folder given by ``--out``, as without ``--verify``).
 
     Returns
     -------
@@ -229,7 +234,7 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     """
     job = prepare(config)
     job.quick = quick
-    steps = _steps(job, quick, Path(out_dir), executor, progress, force)
+    steps = _steps(job, quick, Path(out_dir), executor, progress, force, package_dir)
     todo = [s for s in STAGES if s in stages or (s == "derive" and "certify" in stages)]
     if not config.uncertainty.params:  # robustness only with [uncertainty] params
         todo = [s for s in todo if s != "robustness"]

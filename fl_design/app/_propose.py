@@ -113,11 +113,45 @@ def _derived(cfg: Config, tuned, compare) -> tuple:
         compare = replace(compare, noise_std=stds)
         notes.append(f"[compare] noise_std = {list(stds)} (not given: 1/300 and 0.105 of the "
                      f"step {step:.4g}, the paper's noise relative to its step)")
+    notes += noise_room_notes(tuned, [scenario.noise_std, *compare.noise_std])
     return scenario, compare, notes
+
+
+def noise_room_notes(tuned, stds) -> list:
+    """A warning per sensor noise level whose rms in ``u`` (the tuning's noise gain times the
+    level) exceeds a third of the input's room from its start to the nearer limit: ``u`` then
+    saturates often and the noisy runs may diverge (``fl.tune`` for a plant does not see noise;
+    ball and beam, rho = 4: noise gain 7.8e4, a noise of 1.67e-4 gives rms u 13 against a room
+    of 20, and its compared runs diverged).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> t = NS(noise_gain=7.793e4, response=NS(u=[0.0]),
+    ...        design=NS(controller=NS(u_range=(-20.0, 20.0))))
+    >>> noise_room_notes(t, [0.0, 1.67e-4])[0][:54]
+    'sensor noise 0.000167 gives rms u 13 (noise gain 7.79e'
+    >>> noise_room_notes(t, [1e-6])
+    []
+    """
+    gain = float(getattr(tuned, "noise_gain", float("nan")))
+    lo, hi = (float(v) for v in tuned.design.controller.u_range)
+    u0 = float(tuned.response.u[0]) if len(tuned.response.u) else 0.5 * (lo + hi)
+    room = min(hi - u0, u0 - lo)
+    out = []
+    for std in stds:
+        rms = gain * float(std or 0.0)
+        if std and room > 0 and rms > room / 3.0:
+            out.append(f"sensor noise {std:.3g} gives rms u {rms:.3g} (noise gain "
+                       f"{gain:.3g}), more than a third of the input's room {room:.3g} from "
+                       f"u = {u0:.4g}: u saturates often and runs with this noise may diverge "
+                       "(fl.tune does not see sensor noise): give [design] a larger eps (noise "
+                       "~ 1/eps^rho) or a smaller gamma, or expect the noisy runs to fail")
+    return out
 
 
 def _g(x) -> str:
     return "-" if x is None else f"{abs(x):.4g}"
 
 
-__all__ = ["propose_design"]
+__all__ = ["noise_room_notes", "propose_design"]

@@ -421,7 +421,7 @@ def simulate(setup: Setup, quick: bool) -> dict:
             "designs": list(setup.compared), "tradeoff": tradeoff}
 
 
-def codegen(setup: Setup, quick: bool, out_dir, force: bool = False) -> dict:
+def codegen(setup: Setup, quick: bool, out_dir, force: bool = False, package_dir=None) -> dict:
     """The C package of this design, its software-in-the-loop test and the cost table.
 
     Returns
@@ -446,7 +446,8 @@ def codegen(setup: Setup, quick: bool, out_dir, force: bool = False) -> dict:
     out_dir = Path(out_dir)
     # the plant gives the package its plausibility range of y and the operating-point input
     # (the safe u, main.c's start)
-    pkg = generate_c(setup.design, out_dir / "c", precision=cfg.precision, prefix=cfg.prefix,
+    pkg_dir = out_dir / "c" if package_dir is None else Path(package_dir)
+    pkg = generate_c(setup.design, pkg_dir, precision=cfg.precision, prefix=cfg.prefix,
                      force=force, plant=setup.plant)
     sil_t = QUICK["sil_duration"] if quick else cfg.sil_duration
     std = float(setup.config.compare.noise_std[0]) if setup.config.compare.noise_std else 0.0

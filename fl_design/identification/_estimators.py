@@ -5,7 +5,10 @@ varying along the visited states, ``u`` held over each sample (ZOH) and reaching
 ``delay`` samples late. ``U`` is the exact ZOH response of a chain of ``rho`` integrators to the
 delayed input (:func:`chain_response`): over a short window, ``y = poly_(rho+1)(t) + b U`` (the
 polynomial carries the initial conditions and ``a`` with its drift), so ``b`` is a regression
-coefficient and no derivative of the noisy output is ever taken for it.
+coefficient and no derivative of the noisy output is ever taken for it. When ``a`` moves within
+a window (a motor's back-EMF under a fast loop), its slopes in ``y, y', ...`` are regressors too:
+the chain responses of those signals, integrals of ``y`` (:func:`slope_regressors`; the
+identification fits them when they cut the residual, ``_identify.SLOPE_GAIN``).
 
 * **local least squares** (``"local-ls"``): per window, ``y`` regressed on a polynomial of
   degree ``rho + 1`` in time and ``U`` (the polynomial projected out once: the windows share
@@ -73,15 +76,24 @@ def _poly_basis(n: int, degree: int) -> np.ndarray:
     return Q
 
 
-def _regress(Y: np.ndarray, U: np.ndarray, Q: np.ndarray):
-    """Per row: ``Y = Q c + b U``; returns b, its standard error, residual rms, ``|U_perp|``."""
+def _regress(Y: np.ndarray, U: np.ndarray, Q: np.ndarray, Z: np.ndarray | None = None):
+    """Per row: ``Y = Q c + Z_row s + b U``; returns b, its standard error, residual rms,
+    ``|U_perp|`` (``Z``: ``(rows, n, m)`` nuisance regressors per row, the slopes of ``a``)."""
     Yp = Y - (Y @ Q) @ Q.T
     Up = U - (U @ Q) @ Q.T
+    m = 0
+    if Z is not None and Z.shape[-1]:
+        m = Z.shape[-1]
+        Zp = Z - np.einsum("nk,rkm->rnm", Q @ Q.T, Z)
+        for i in range(Y.shape[0]):  # project the slopes' regressors out, window by window
+            Qz, _ = np.linalg.qr(Zp[i])
+            Yp[i] -= Qz @ (Qz.T @ Yp[i])
+            Up[i] -= Qz @ (Qz.T @ Up[i])
     uu = np.einsum("ij,ij->i", Up, Up)
     with np.errstate(divide="ignore", invalid="ignore"):
         b = np.einsum("ij,ij->i", Up, Yp) / uu
         res = Yp - b[:, None] * Up
-        dof = max(Y.shape[1] - Q.shape[1] - 1, 1)
+        dof = max(Y.shape[1] - Q.shape[1] - m - 1, 1)
         s = np.sqrt(np.einsum("ij,ij->i", res, res) / dof)
         se = s / np.sqrt(uu)
     return b, se, s, np.sqrt(uu)
@@ -129,14 +141,36 @@ def _stack(x: np.ndarray, starts: np.ndarray, n: int) -> np.ndarray:
     return view[starts]
 
 
-def local_ls(y, U, segments, n_win: int, rho: int) -> WindowEstimates:
-    """Estimator ``"local-ls"`` (module)."""
+def _stack_rows(Z: np.ndarray, starts: np.ndarray, n: int) -> np.ndarray:
+    """``(windows, n, m)`` slices of the ``(N, m)`` regressors."""
+    return np.stack([Z[a:a + n] for a in starts])
+
+
+def slope_regressors(y, T: float, rho: int) -> np.ndarray:
+    """``(N, rho)``: the chain responses of ``y, y', ..., y^(rho-1)`` (``rho - i`` integrals of
+    ``y`` for ``y^(i)``, the rest is a polynomial the window's fit carries): with them ``a``'s
+    slopes in the output and its derivatives are fitted per window, derivative-free.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> slope_regressors(np.ones(3), 1.0, 2).round(3)
+    array([[0. , 0. ],
+           [0.5, 1. ],
+           [2. , 2. ]])
+    """
+    return np.column_stack([chain_response(y, T, rho - i, 0) for i in range(rho)])
+
+
+def local_ls(y, U, segments, n_win: int, rho: int, Z=None) -> WindowEstimates:
+    """Estimator ``"local-ls"`` (module); ``Z``: :func:`slope_regressors` (None: ``a`` a
+    polynomial in time over each window)."""
     starts = _windows(segments, n_win)
     if not starts.size:
         return WindowEstimates("local-ls", starts, *(np.zeros(0),) * 5, n_win)
     Q = _poly_basis(n_win, rho + 1)
     Y, UU = _stack(y, starts, n_win), _stack(U, starts, n_win)
-    b, se, s, ex = _regress(Y, UU, Q)
+    b, se, s, ex = _regress(Y, UU, Q, None if Z is None else _stack_rows(Z, starts, n_win))
     return WindowEstimates("local-ls", starts, b, se, s, ex, Y.mean(axis=1), n_win)
 
 
@@ -156,8 +190,10 @@ def ehgo_filter(x: np.ndarray, rho: int, T: float, eps: float, segments) -> np.n
     return out
 
 
-def ehgo_sigmahat(y, U, segments, n_win: int, rho: int, T: float, eps: float) -> WindowEstimates:
-    """Estimator ``"ehgo-sigmahat"`` (module)."""
+def ehgo_sigmahat(y, U, segments, n_win: int, rho: int, T: float, eps: float,
+                  Z=None) -> WindowEstimates:
+    """Estimator ``"ehgo-sigmahat"`` (module); ``Z``: :func:`slope_regressors`, filtered
+    alike."""
     skip = math.ceil(15.0 * eps / T)
     starts = _windows(segments, n_win, skip=skip)
     if not starts.size:
@@ -166,18 +202,20 @@ def ehgo_sigmahat(y, U, segments, n_win: int, rho: int, T: float, eps: float) ->
     su = ehgo_filter(U, rho, T, eps, segments)
     Q = _poly_basis(n_win, 1)
     Y, UU = _stack(sy, starts, n_win), _stack(su, starts, n_win)
-    b, se, s, ex = _regress(Y, UU, Q)
+    Zf = None if Z is None else np.column_stack(
+        [ehgo_filter(Z[:, j], rho, T, eps, segments) for j in range(Z.shape[1])])
+    b, se, s, ex = _regress(Y, UU, Q, None if Zf is None else _stack_rows(Zf, starts, n_win))
     se = se * math.sqrt(max(eps / T, 1.0))
     return WindowEstimates("ehgo-sigmahat", starts, b, se, s, ex,
                            _stack(y, starts, n_win).mean(axis=1), n_win)
 
 
-def find_delay(y, u, segments, n_win: int, rho: int, T: float, max_delay: int):
-    """The input delay (samples) and its confidence (module)."""
+def find_delay(y, u, segments, n_win: int, rho: int, T: float, max_delay: int, Z=None):
+    """The input delay (samples) and its confidence (module); ``Z`` as in :func:`local_ls`."""
     costs = []
     for d in range(int(max_delay) + 1):
         U = chain_response(u, T, rho, d)
-        est = local_ls(y, U, segments, n_win, rho)
+        est = local_ls(y, U, segments, n_win, rho, Z)
         ok = np.isfinite(est.residual)
         costs.append(float(np.sum(est.residual[ok] ** 2)) if ok.any() else math.inf)
     costs = np.asarray(costs)
@@ -190,4 +228,4 @@ def find_delay(y, u, segments, n_win: int, rho: int, T: float, max_delay: int):
 
 
 __all__ = ["NAMES", "WindowEstimates", "chain_response", "ehgo_filter", "ehgo_sigmahat",
-           "find_delay", "local_ls"]
+           "find_delay", "local_ls", "slope_regressors"]

@@ -42,7 +42,7 @@ from .. import _validate as V
 from .._json import jsonable
 from ..analysis._plant_class import PlantClass
 from ..errors import ExcitationError, LogError
-from ._estimators import chain_response, ehgo_sigmahat, find_delay, local_ls
+from ._estimators import chain_response, ehgo_sigmahat, find_delay, local_ls, slope_regressors
 from ._log import read_log
 from ._noise import noise_spectrum, noise_std
 
@@ -57,6 +57,13 @@ MARGIN = 1.25
 WINDOW = 0.25
 #: Fewest informative windows.
 MIN_INFORMATIVE = 4
+#: The slopes of ``a`` in ``y, y', ...`` are fitted per window (:func:`._estimators.slope_regressors`)
+#: when they cut the windows' residual by this factor: ``a`` then varies within a window (a DC
+#: motor's back-EMF, -63 /s under a PI loop: without them b came out -87 .. -624 for a true
+#: +1250, and the delay 20 samples for 0); chance alone cuts it by about ``rho / window``.
+SLOPE_GAIN = 1.05
+#: Steady windows of the log needed to estimate ``u_eq``.
+MIN_STEADY = 3
 #: A fraction of samples at one value of u above this is "saturated throughout".
 SATURATED = 0.95
 
@@ -91,6 +98,7 @@ class Evidence:
     y_range: tuple
     command: str
     warnings: tuple = ()
+    a_model: str = ""
     log: Any = field(default=None, compare=False)
 
     def lines(self) -> list[str]:
@@ -108,6 +116,8 @@ class Evidence:
                    " (1 = white)")
         out.append(f"input delay {self.delay} sample(s) (least-squares cross-correlation; the "
                    f"nearest other lag fits {self.delay_confidence:.4g}x worse)")
+        if self.a_model:
+            out.append(self.a_model)
         for name, e in self.estimators.items():
             if e["n_informative"]:
                 out.append(f"b by {name}: [{e['b_lo']:.4g}, {e['b_hi']:.4g}] (median "
@@ -200,6 +210,66 @@ def _experiment(noise: float, T: float, n_win: int, rho: int, b_guess: float | N
             f"reference steps of that effect)")
 
 
+def _u_eq(L, op: float, sigma: float, n_win: int, u_lim) -> tuple[float | None, str]:
+    """The input holding ``y`` at ``op``, from the log's steady windows (``y`` drifting less than
+    three noise standard deviations over the window): the mean ``u`` against the mean ``y`` of
+    those windows, a line through them read at ``op`` (their median when they sit at one ``y``);
+    None when fewer than :data:`MIN_STEADY` windows are steady or ``op`` lies outside them."""
+    ys, us = [], []
+    for a, b in L.segments:
+        for k in range(a, b - n_win + 1, max(1, n_win // 2)):
+            y, u = L.y[k:k + n_win], L.u[k:k + n_win]
+            tau = np.arange(n_win) - (n_win - 1) / 2.0
+            drift = abs(float(tau @ (y - y.mean())) / float(tau @ tau)) * n_win
+            if drift <= 3.0 * sigma:
+                ys.append(float(y.mean()))
+                us.append(float(u.mean()))
+    ys, us = np.asarray(ys), np.asarray(us)
+    if ys.size < MIN_STEADY:
+        return None, (f"u_eq not estimated: {ys.size} steady window(s) of y (at least "
+                      f"{MIN_STEADY} needed): give u_eq, the input holding y at {op:.4g}")
+    lo, hi = float(ys.min()), float(ys.max())
+    if not lo - 3.0 * sigma <= op <= hi + 3.0 * sigma:
+        return None, (f"u_eq not estimated: y rested in [{lo:.4g}, {hi:.4g}] only, not at the "
+                      f"operating point {op:.4g}: give u_eq")
+    if hi - lo <= 6.0 * sigma:
+        val = float(np.median(us))
+    else:
+        slope, icpt = np.polyfit(ys, us, 1)
+        val = float(slope * op + icpt)
+    if u_lim is not None and not u_lim[0] <= val <= u_lim[1]:
+        return None, (f"u_eq not estimated: the steady windows give {val:.4g}, outside u_limits "
+                      f"[{u_lim[0]:.4g}, {u_lim[1]:.4g}]")
+    return val, (f"u_eq = {val:.4g}: the input holding y at {op:.4g}, from {ys.size} steady "
+                 f"windows (y in [{lo:.4g}, {hi:.4g}], drifting < 3 noise std)")
+
+
+def _delay_and_a_model(L, n_win: int, rho: int, max_delay: int):
+    """``(delay, confidence, Z, text)``: the delay of the better local model, ``a`` a polynomial
+    in time over a window or with its slopes in ``y, y', ...`` too (``Z``; :data:`SLOPE_GAIN`)."""
+    Z = slope_regressors(L.y, L.T, rho)
+    found = {}
+    for key, z in (("plain", None), ("slopes", Z)):
+        if max_delay > 0:
+            d, conf, costs = find_delay(L.y, L.u, L.segments, n_win, rho, L.T, max_delay, z)
+            cost = float(np.min(costs))
+        else:
+            d, conf = 0, math.inf
+            U = chain_response(L.u, L.T, rho, 0)
+            r = local_ls(L.y, U, L.segments, n_win, rho, z).residual
+            cost = float(np.sum(r[np.isfinite(r)] ** 2))
+        found[key] = (d, conf, cost)
+    (d0, c0, e0), (d1, c1, e1) = found["plain"], found["slopes"]
+    gain = e0 / e1 if e1 > 0 else (1.0 if e0 == 0 else math.inf)
+    if gain > SLOPE_GAIN:
+        names = ", ".join("y" + "'" * i for i in range(rho))
+        return d1, c1, Z, (f"a varies within a window: its slopes in {names} fitted per "
+                           f"window (they cut the residual "
+                           f"{gain:.3g}x; without them the delay would be {d0})")
+    return d0, c0, None, (f"a as a polynomial in time over each window (fitting its slopes "
+                          f"in y too cuts the residual only {gain:.4g}x)")
+
+
 def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
              b_sign: int | None = None, window: float | None = None, max_delay: int = 20,
              u_limits=None, name: str | None = None) -> IdentifiedClass:
@@ -265,11 +335,10 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
     sigma = noise_std(L.y, rho, L.segments)
     spectrum = noise_spectrum(L.y, rho, L.T, L.segments)
     q = _quantization(L.y)
-    delay, d_conf, _ = (find_delay(L.y, L.u, L.segments, n_win, rho, L.T, max_delay)
-                        if max_delay > 0 else (0, math.inf, None))
+    delay, d_conf, Z, a_model = _delay_and_a_model(L, n_win, rho, max_delay)
     U = chain_response(L.u, L.T, rho, delay)
-    est = {"local-ls": local_ls(L.y, U, L.segments, n_win, rho),
-           "ehgo-sigmahat": ehgo_sigmahat(L.y, U, L.segments, n_win, rho, L.T, 20.0 * L.T)}
+    est = {"local-ls": local_ls(L.y, U, L.segments, n_win, rho, Z),
+           "ehgo-sigmahat": ehgo_sigmahat(L.y, U, L.segments, n_win, rho, L.T, 20.0 * L.T, Z)}
     summ = {k: _summary(e, REL_SE) for k, e in est.items()}
     main = summ["local-ls"]
     need = max(MIN_INFORMATIVE, 1)
@@ -331,17 +400,18 @@ def identify(log, rho: int, *, T: float | None = None, bad_rows: str = "error",
                   window=n_win, estimators=summ, windows=est, agreement=agree,
                   agreement_text=text, excitation_text=exc,
                   u_range=(float(L.u.min()), float(L.u.max())), y_range=y_range,
-                  command=cmd, warnings=tuple(warns), log=L)
+                  command=cmd, warnings=tuple(warns), a_model=a_model, log=L)
     op = float(np.median(L.r)) if L.r is not None else float(np.median(L.y))
+    u_eq, u_eq_text = _u_eq(L, op, sigma, n_win, u_lim)
     notes = ((f"b over the visited states y in [{y_range[0]:.4g}, {y_range[1]:.4g}] by local-ls "
              f"and ehgo-sigmahat (union, +-{CONFIDENCE:g} se, x{MARGIN:g} margin)"),
              text, exc,
              ("a (the drift of y^(rho)) is not bounded from the log: the class is the chain's "
              "(a = 0, no slope box); a certificate of it does not cover the plant's a(x), the "
-             "member runs and the rig check it empirically"))
+             "member runs and the rig check it empirically"), u_eq_text)
     return IdentifiedClass(rho=rho, T=L.T, b=b_cls, delay=int(delay), noise_std=sigma,
                            u_limits=u_lim, y_range=y_range, source="log", name=stem,
-                           notes=notes, operating_point=op, evidence=ev)
+                           notes=notes, operating_point=op, u_eq=u_eq, evidence=ev)
 
 
 __all__ = ["Evidence", "IdentifiedClass", "identify"]

@@ -11,8 +11,12 @@ on class members (:func:`fl_design.tune` with a :class:`fl_design.PlantClass`).
   (:mod:`fl_design.sim._rig`: the design's one step function, the class's noise and input
   delay): chains at ``b_min``, ``b_max`` and their geometric mean, ``b`` switching between its
   extremes at random dwell times and at every sample, and, when the class has a slope box for
-  ``a``, the box's corners at both ends of ``b``. Each run is a step from the operating point
-  to the reference; it converges when, over the last fifth of the run, the mean error is within
+  ``a``, the box's corners at both ends of ``b``. Every member is held at the class's operating
+  point by its ``u_eq``: ``y^(rho) = a_row . (xi - xi_op) + b (u - u_eq)`` (:func:`member_rig`;
+  a member with ``a = 0`` and ``u = u_eq != 0`` would drift from the start, a plant outside the
+  class). Each run is a step from the operating point to the reference, as long as the loop asks
+  (``12 / decay``; at most :data:`MAX_RUN` s or :data:`MAX_SAMPLES` samples, the longer); it
+  converges when, over the last fifth of the run, the mean error is within
   2 % of the step plus three noise standard deviations and the largest error within 10 % of the
   step plus six.
 
@@ -37,10 +41,43 @@ import scipy.linalg
 
 from ..analysis import loop_margins
 from ..analysis._surrogate import SurrogateLoop
-from ..sim._rig import chain_rig
+from ..sim._rig import Rig
 
-#: Largest run length of a member run [s].
+#: Largest run length of a member run [s] (unless :data:`MAX_SAMPLES` samples last longer).
 MAX_RUN = 60.0
+#: Samples a member run may always take (60 s at T = 0.5 ms): a slow loop at a long T
+#: (T = 20 ms, decay 0.025 rad/s: 480 s) is not cut at :data:`MAX_RUN` and judged unconverged.
+MAX_SAMPLES = 120_000
+
+
+def member_rig(rho: int, *, b, T: float, y0: float = 0.0, u_eq: float = 0.0, a_row=None,
+               **kw) -> Rig:
+    """A member of a class: ``y^(rho) = a_row . (y - y0, y', ...) + b (u - u_eq)``, at rest at
+    ``y0`` under ``u_eq``; ``b`` a constant, or None for ``b = p`` (switching ``b``).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> rig = member_rig(1, b=0.5, T=0.01, y0=50.0, u_eq=40.0)
+    >>> d = fl.Design(estimator=fl.EHGO(rho=1, eps=0.05, T=0.01),
+    ...               controller=fl.DynamicController((1.0,), 0.5))
+    >>> log = rig.run(d, 50.0, 1.0, u0=40.0)
+    >>> float(abs(log.y_true - 50.0).max()) < 1e-9
+    True
+    """
+    a = np.zeros(rho) if a_row is None else np.asarray(a_row, dtype=float)
+    y0, u_eq = float(y0), float(u_eq)
+
+    def bb(x, p):
+        return p if b is None else float(b)
+
+    def ode(x, u, p):
+        dev = [x[0] - y0] + [x[i] for i in range(1, rho)]
+        return [x[i + 1] for i in range(rho - 1)] + [
+            sum(float(a[i]) * dev[i] for i in range(rho)) + bb(x, p) * (u - u_eq)]
+    what = "b=p" if b is None else f"b={float(b):g}"
+    return Rig(ode=ode, x0=(y0,) + (0.0,) * (rho - 1), T=T, b=bb,
+               name=kw.pop("name", f"member rho={rho}, {what}"), **kw)
 
 
 def surrogate_noise_gain(design, b: float, a_row=None) -> dict:
@@ -119,10 +156,10 @@ def member_runs(design, cls, r: float, duration: float, *, seed: int = 0) -> tup
     rho, T = cls.rho, float(design.T)
     lo, hi = cls.b
     y0 = 0.0 if cls.operating_point is None else float(cls.operating_point)
-    duration = min(MAX_RUN, max(duration, 2000 * T))
+    duration = min(max(MAX_RUN, MAX_SAMPLES * T), max(duration, 2000 * T))
     N = round(duration / T)
-    kw = {"T": T, "noise_std": cls.noise_std, "delay": cls.delay, "x0": (y0,) + (0.0,) * (rho - 1)}
     u0 = 0.0 if cls.u_eq is None else float(cls.u_eq)
+    kw = {"T": T, "noise_std": cls.noise_std, "delay": cls.delay, "y0": y0, "u_eq": u0}
     runs = []
 
     def run(name, rig, p=None, b_lo=None, b_hi=None):
@@ -130,14 +167,14 @@ def member_runs(design, cls, r: float, duration: float, *, seed: int = 0) -> tup
         runs.append(_metrics(log, r, y0, cls.noise_std, name, b_lo, b_hi))
 
     for b in sorted({lo, hi, math.copysign(math.sqrt(lo * hi), lo)}):
-        run(f"chain at b = {b:.4g}", chain_rig(rho, b=b, **kw), b_lo=b, b_hi=b)
+        run(f"chain at b = {b:.4g}", member_rig(rho, b=b, **kw), b_lo=b, b_hi=b)
     rng = np.random.default_rng(seed)
     sched, k = np.empty(N), 0
     while k < N:
         n = int(rng.integers(1, 300))
         sched[k:k + n] = lo if rng.random() < 0.5 else hi
         k += n
-    switch = chain_rig(rho, b=None, **kw)
+    switch = member_rig(rho, b=None, **kw)
     run("b switching between its ends at random dwell times (1-300 samples)", switch, sched,
         lo, hi)
     run("b switching between its ends at every sample", switch,
@@ -147,7 +184,7 @@ def member_runs(design, cls, r: float, duration: float, *, seed: int = 0) -> tup
             for b in (lo, hi):
                 if any(corner):
                     run(f"a's slopes at the corner {tuple(round(c, 4) for c in corner)}, "
-                        f"b = {b:.4g}", chain_rig(rho, b=b, a_row=corner, **kw), b_lo=b, b_hi=b)
+                        f"b = {b:.4g}", member_rig(rho, b=b, a_row=corner, **kw), b_lo=b, b_hi=b)
     return tuple(runs)
 
 
@@ -156,4 +193,5 @@ def class_margins(design, cls) -> tuple:
     return tuple(loop_margins(design, b) for b in sorted(set(cls.b)))
 
 
-__all__ = ["MemberRun", "class_margins", "member_runs", "surrogate_noise_gain"]
+__all__ = ["MAX_RUN", "MAX_SAMPLES", "MemberRun", "class_margins", "member_rig", "member_runs",
+           "surrogate_noise_gain"]

@@ -368,7 +368,10 @@ def _result(s: Setup, final: tuple, label: str, head: list, tried: tuple, baseli
         f"noise gain {check['noise_gain']:.4g} (rms u per rms sensor noise)" +
         (f"; {check['noise_note']}" if check.get("noise_note") else ""),
         f"phase margin {pm:.3g} deg at the plant input (worst of b_min, b_max)",
-        f"certified: eps {ec.certified} ({ec.covers} b), gamma {gc.certified} ({gc.reason})"]
+        (f"certified: eps {ec.certified} ({ec.covers} b), gamma {gc.certified} ({gc.reason}); "
+         f"for the surrogate class b in [{s.b_bounds[0]:.6g}, {s.b_bounds[1]:.6g}], a = 0 "
+         "(the chain), not this plant's class (the slopes of its a(x)): "
+         "fl.certify_eps(design, fl.PlantClass.from_plant(plant)) answers for that")]
     extra = [] if base is None else [
         (f"vs {base['name']}: noise gain {base['noise_gain']:.3g}, "
          f"{base['noise_saved']:.3g}x ours; its overshoot {base['overshoot']:.3g} % "
