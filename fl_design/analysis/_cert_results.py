@@ -9,6 +9,7 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field, fields
 
@@ -133,8 +134,13 @@ def _with_class_fields(doc: str) -> str:
 
 
 def class_fields(cls) -> dict:
-    """The keyword fields of :class:`_OfClass` for a :class:`fl_design.PlantClass`."""
-    return {"plant_class": cls, "class_description": cls.describe(),
+    """The keyword fields of :class:`_OfClass` for a :class:`fl_design.PlantClass`.
+
+    The certificates' loop has no input delay: a class with one is certified without it (the
+    class named is the same class with ``delay = 0``) and its delay is listed as not covered.
+    """
+    covered = dataclasses.replace(cls, delay=0) if getattr(cls, "delay", 0) else cls
+    return {"plant_class": covered, "class_description": covered.describe(),
             "uncovered": tuple(cls.uncovered())}
 
 

@@ -97,9 +97,12 @@ def class_sections(tuned, adrc, cmap, pkg_dir, fig_name: str | None = None) -> l
     n_ok = sum(m.converged for m in tuned.members)
     a_ok = sum(m.converged for m in adrc[1:])
     star = cert.eps_star_certified
-    cert_brief = (Brief("certified", "good", f"eps = {est.eps:.4g} s for every plant of the "
-                        f"class; certified eps* {star:.4g} s" if star else
-                        f"eps = {est.eps:.4g} s for every plant of the class", cert.reason)
+    which = ("every plant of the class" if not cls.delay else
+             f"every plant of the class without its {cls.delay}-sample input delay (not covered: "
+             "the member runs include it)")
+    cert_brief = (Brief("certified", "good", f"eps = {est.eps:.4g} s for {which}; certified "
+                        f"eps* {star:.4g} s" if star else
+                        f"eps = {est.eps:.4g} s for {which}", cert.reason)
                   if tuned.certified else
                   Brief("NOT certified", "bad", f"eps = {est.eps:.4g} s: no certificate "
                         "for the class", cert.reason))

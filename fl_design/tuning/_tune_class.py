@@ -102,6 +102,20 @@ def _candidate(cls: PlantClass, c: float, u_lim) -> dict:
     return out
 
 
+def _delay_words(cls: PlantClass, margins) -> tuple[str, ...]:
+    """The class's input delay against the loop's delay margins (the certificate does not
+    cover a delay; the margins and the member runs, which include it, are the evidence)."""
+    if not cls.delay:
+        return ()
+    delay, worst = cls.delay * float(cls.T), min(margins, key=lambda m: m.delay_margin)
+    verdict = ("within" if delay < worst.delay_margin else
+               "BEYOND (the frozen loop with this delay may be unstable)")
+    words = (f"input delay {cls.delay} samples = {delay:.4g} s, {verdict} the smallest delay "
+             f"margin {worst.delay_margin:.3g} s (b = {worst.b:.4g}); not covered by the "
+             "certificate")
+    return (words,)
+
+
 def _certified(cand, cls, tried):
     """``(candidate with its eps, certificate, why)`` at the largest certified fraction of the
     class's frozen eps* tried (a quarter first, then up to :data:`BOLD_FRACTION` within
@@ -265,6 +279,7 @@ def tune_class(cls: PlantClass, *, T: float | None = None, objective="least-nois
          f"end of b; rms y {max(g['y'] for g in ng.values()):.3g} per rms noise)"),
         *(f"margins at b = {m.b:.4g}: gain ({m.gain_margins[0]:.3g}, {m.gain_margins[1]:.3g}), "
           f"phase {m.phase_margin:.3g} deg, delay {m.delay_margin:.3g} s" for m in margins),
+        *_delay_words(cls, margins),
         (f"members: {sum(m.converged for m in runs)}/{len(runs)} runs converge"
          if runs else "members: not run"),
         (f"chosen: {kind}: {len(cands)} candidate loop(s) ranked by "

@@ -147,3 +147,26 @@ def test_tune_of_a_class_with_progress_says_each_step_on_stderr(capsys):
     assert capsys.readouterr().err == ""
     with pytest.raises(ParameterError, match="progress='yes' is not valid: True"):
         fl.tune(cls, progress="yes")
+
+
+def test_a_class_with_a_delay_is_certified_without_it_and_says_so():
+    """The certificates' loop has no input delay: the certificate names the class with
+    delay 0 and lists the delay as not covered; the reasons weigh it against the delay
+    margins (the member runs include it)."""
+    from types import SimpleNamespace
+
+    from fl_design.tuning._tune_class import _delay_words
+
+    cls = fl.PlantClass(rho=1, T=0.02, b=(0.05, 0.2), noise_std=0.05, u_limits=(0.0, 100.0),
+                        delay=10, operating_point=50.0, u_eq=40.0)
+    tuned = fl.tune(cls, reference=55.0, progress=False)
+    cert = tuned.eps_certificate
+    assert cert.plant_class.delay == 0 and "no input delay" in cert.class_description
+    assert "the 10-sample input delay" in cert.uncovered
+    words = [r for r in tuned.reasons if r.startswith("input delay 10 samples = 0.2 s")]
+    assert len(words) == 1 and "not covered by the certificate" in words[0]
+    m = lambda b, dm: SimpleNamespace(b=b, delay_margin=dm)  # noqa: E731
+    assert "within the smallest delay margin 0.5 s (b = 2)" in _delay_words(
+        cls, [m(1.0, 0.9), m(2.0, 0.5)])[0]
+    assert "BEYOND" in _delay_words(cls, [m(1.0, 0.9), m(2.0, 0.1)])[0]
+    assert _delay_words(fl.PlantClass(rho=1, T=0.02, b=(0.05, 0.2)), [m(1.0, 0.1)]) == ()
