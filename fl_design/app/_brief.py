@@ -177,11 +177,30 @@ def cert_brief(cert: dict | None) -> Brief:
     else:
         detail = (f"eps* {fmt(e.eps_star_certified)} s for its class ({e.covers} b), this eps "
                   f"{'inside' if e.certified else 'outside'}")
-    detail += f"; gamma in ({fmt(g.gamma_min, 'none', 3)}, {fmt(g.gamma_max, 'none', 3)})"
+    detail += "; " + gamma_words(g)
     if cert.get("box"):
         detail += "; over the [uncertainty] box"
     return Brief("certified" if e.certified else "NOT certified",
                  "good" if e.certified else "bad", detail, cert_long(cert, b))
+
+
+def gamma_words(g) -> str:
+    """The admissible gamma interval and where the design's gamma lies in it (magnitudes for
+    ``b < 0``, said so).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as S
+    >>> from fl_design.app._brief import gamma_words
+    >>> gamma_words(S(gamma=-0.00813, gamma_min=0.00818, gamma_max=0.0292, b_bounds=(-2, -1)))
+    '|gamma| in (0.00818, 0.0292), this 0.00813 outside'
+    """
+    neg = min(g.b_bounds) < 0
+    mag, lo, hi = abs(g.gamma), g.gamma_min, g.gamma_max
+    where = ("" if lo is None or hi is None else
+             f", this {fmt(mag, 'none', 3)} {'inside' if lo < mag < hi else 'outside'}")
+    return (f"{'|gamma|' if neg else 'gamma'} in ({fmt(lo, 'none', 3)}, {fmt(hi, 'none', 3)})"
+            + where)
 
 
 def cert_long(cert: dict, b_bounds=None) -> str:
