@@ -29,7 +29,7 @@ import pickle
 import sys
 import threading
 from collections import OrderedDict
-from concurrent.futures import Executor
+from concurrent.futures import Executor, ThreadPoolExecutor
 
 import numpy as np
 
@@ -135,8 +135,13 @@ def _run_chunk(run: RunSetup, P: np.ndarray, kernel: Kernel, threads: int):
     The samples are run in blocks (:func:`block_length`): a kernel call returns within about
     :data:`BLOCK_SECONDS`, so an interrupt is handled between blocks.
     """
+    return _advance(run, run.initial_accumulator(P), kernel, threads)
+
+
+def _advance(run: RunSetup, acc: np.ndarray, kernel: Kernel, threads: int) -> np.ndarray:
+    """The initial accumulators ``acc`` run over every sample, in blocks (as :func:`_run_chunk`)."""
     runner = _runner(run, kernel)
-    acc, D = run.initial_accumulator(P), run.D
+    D = run.D
     block = block_length(acc.shape[1], threads, kernel.compiled)
     for a in range(0, D.shape[1], block):
         acc = runner.run(acc, D[:, a:a + block], threads=threads)
@@ -251,7 +256,7 @@ def _cores() -> int:
 
 def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
              executor: Executor | None = None, progress: bool = True,
-             desc: str = "sweep") -> np.ndarray:
+             desc: str = "sweep", finish=None) -> np.ndarray:
     """Final accumulators of the runs with parameter columns ``P``, chunked.
 
     Parameters
@@ -270,6 +275,12 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
         Progress bar (tqdm if installed, else a counter on stderr).
     desc : str, optional
         Label of the progress bar.
+    finish : callable, optional
+        ``finish(a, b, acc)`` is called once for each finished range of runs ``a:b``, in
+        order, with their final accumulators ``acc`` (``(nacc, b - a)``, a view of the
+        result: read it, do not keep it): e.g. their classification, done while the kernel
+        runs the next chunk when it has several threads. The ranges cover the grid and are
+        at most :data:`CHUNK_IN_PROCESS` runs long unless ``kernel.chunk_size`` says more.
 
     Returns
     -------
@@ -305,17 +316,57 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
                 runner = _runner(run, kernel)
                 getattr(runner, "library", None)  # the lanes kernel is built on first use
                 bar.note("")
-            chunk = kernel.chunk_size or CHUNK_IN_PROCESS
             n_thr = threads if threads is not None else _cores()
-            for a in range(0, n_runs, chunk):
-                b = min(a + chunk, n_runs)
-                out[:, a:b] = _run_chunk(run, columns(a, b), kernel, n_thr)
-                bar.update(b - a)
+            _run_here(run, columns, n_runs, kernel, n_thr, out, bar, finish)
         else:
             _run_on(executor, run, P, columns, n_runs, kernel, threads or 1, out, bar)
+            if finish is not None:
+                for a in range(0, n_runs, CHUNK_IN_PROCESS):
+                    finish(a, min(a + CHUNK_IN_PROCESS, n_runs),
+                           out[:, a:a + CHUNK_IN_PROCESS])
     finally:
         bar.close()
     return out
+
+
+def _initial(run: RunSetup, columns, a: int, b: int) -> np.ndarray:
+    return run.initial_accumulator(columns(a, b))
+
+
+def _run_here(run, columns, n_runs, kernel, threads, out, bar, finish) -> None:
+    """The grid's chunks in this process, ``threads`` threads in the kernel.
+
+    With several threads, the serial work of a chunk is done by one more thread while the
+    kernel runs the previous chunk (a pipeline): the parameter columns and initial
+    accumulators of the next chunk, ``finish`` of the finished one. Python work is then
+    never alone on the machine with the kernel's threads waiting; results are the same (the
+    same calls on the same chunks, in the same order).
+    """
+    chunk = kernel.chunk_size or CHUNK_IN_PROCESS
+    bounds = [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
+    if threads <= 1 or len(bounds) == 1:
+        for a, b in bounds:
+            out[:, a:b] = _advance(run, _initial(run, columns, a, b), kernel, threads)
+            if finish is not None:
+                finish(a, b, out[:, a:b])
+            bar.update(b - a)
+        return
+    side = ThreadPoolExecutor(1, thread_name_prefix="fl_grid_side")
+    try:
+        finished = []
+        ready = side.submit(_initial, run, columns, *bounds[0])
+        for i, (a, b) in enumerate(bounds):
+            acc = ready.result()
+            if i + 1 < len(bounds):
+                ready = side.submit(_initial, run, columns, *bounds[i + 1])
+            out[:, a:b] = _advance(run, acc, kernel, threads)
+            if finish is not None:  # after the next chunk's columns (the kernel waits for them)
+                finished.append(side.submit(finish, a, b, out[:, a:b]))
+            bar.update(b - a)
+        for task in finished:
+            task.result()
+    finally:  # an interrupt or an error: queued side work is dropped, running work is short
+        side.shutdown(wait=True, cancel_futures=True)
 
 
 def _run_on(executor, run, P, columns, n_runs, kernel, threads, out, bar) -> None:

@@ -1,0 +1,84 @@
+"""Threads and chunks of a sweep change nothing: results bit for bit, whatever the split.
+
+With several threads the grid runs as a pipeline (:func:`fl_design.sim._grid._run_here`):
+the next chunk's columns and the finished chunk's classification on one more thread while
+the kernel runs; the kernel shares columns between its threads (:mod:`fl_design.sim.kernel._lanes`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import fl_design as fl
+from fl_design.sim._adaptive import Assembly, assemble
+from fl_design.sim._grid import parameter_columns, run_grid
+from fl_design.sim._run import prepare_run
+
+#: A TRMS grid where runs converge, oscillate and diverge within the run (bench_sweep's).
+EPS, GAMMA = np.geomspace(1e-3, 3.0, 9), np.geomspace(1e-5, 1.0, 7)
+CLASSIFIER = fl.Classifier(tolerance=0.2, divergence_bound=(1.0, 60.0))
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("kernels_threads")
+
+
+def _sweep(cache, **kernel):
+    return fl.sweep(fl.plants.trms_yaw(), fl.presets.paper_design(), fl.Scenario(0.3, 1.5),
+                    eps=EPS, gamma=GAMMA, classifier=CLASSIFIER, progress=False,
+                    kernel=fl.Kernel(cache_dir=cache, **kernel))
+
+
+def _assert_same(a, b) -> None:
+    np.testing.assert_array_equal(a.status, b.status)
+    assert a.metrics.keys() == b.metrics.keys()
+    for name in a.metrics:
+        np.testing.assert_array_equal(a.metrics[name], b.metrics[name], err_msg=name)
+
+
+def test_two_threads_and_any_chunks_give_one_threads_bits(cache):
+    one = _sweep(cache, threads=1)
+    labels = set(one.labels.ravel().tolist())
+    assert "diverged" in labels and len(labels) >= 3  # the grid mixes verdicts
+    for threads, chunk in ((2, None), (2, 7), (2, 16), (3, 5), (1, 11)):
+        _assert_same(one, _sweep(cache, threads=threads, chunk_size=chunk))
+
+
+def test_classification_by_chunk_equals_assemble(cache):
+    """``run_grid(finish=Assembly)``, ranges of any length, gives :func:`assemble`'s bits."""
+    design = fl.presets.paper_design()
+    run = prepare_run(fl.plants.trms_yaw(), design, fl.Scenario(0.3, 1.5),
+                      classifier=CLASSIFIER)
+    P = parameter_columns(design, EPS, GAMMA)
+    calls = []
+    parts = Assembly(run, P.shape[1])
+
+    def finish(a, b, acc):
+        calls.append((a, b))
+        parts(a, b, acc)
+
+    acc = run_grid(run, P, kernel=fl.Kernel(cache_dir=cache, threads=2, chunk_size=10),
+                   progress=False, finish=finish)
+    bounds = [(a, min(a + 10, P.shape[1])) for a in range(0, P.shape[1], 10)]
+    assert calls == bounds  # every range once, in order
+    status, metrics = assemble(run, acc, (EPS.size, GAMMA.size))
+    got_status, got = parts.result((EPS.size, GAMMA.size))
+    np.testing.assert_array_equal(got_status, status)
+    assert got.keys() == metrics.keys()
+    for name in metrics:
+        np.testing.assert_array_equal(got[name], metrics[name], err_msg=name)
+
+
+def test_an_error_in_finish_is_raised_not_lost(cache):
+    design = fl.presets.paper_design()
+    run = prepare_run(fl.plants.trms_yaw(), design, fl.Scenario(0.3, 0.2),
+                      classifier=CLASSIFIER)
+
+    def finish(a, b, acc):
+        raise ZeroDivisionError(f"finish of {a}:{b}")
+
+    with pytest.raises(ZeroDivisionError, match="finish of 0:10"):
+        run_grid(run, parameter_columns(design, EPS, GAMMA), progress=False, finish=finish,
+                 kernel=fl.Kernel(cache_dir=cache, threads=2, chunk_size=10))
