@@ -138,14 +138,38 @@ def _run_chunk(run: RunSetup, P: np.ndarray, kernel: Kernel, threads: int):
     return _advance(run, run.initial_accumulator(P), kernel, threads)
 
 
-def _advance(run: RunSetup, acc: np.ndarray, kernel: Kernel, threads: int) -> np.ndarray:
-    """The initial accumulators ``acc`` run over every sample, in blocks (as :func:`_run_chunk`)."""
-    runner = _runner(run, kernel)
+def _advance(run: RunSetup, acc: np.ndarray, kernel: Kernel, threads: int,
+             runner=None) -> np.ndarray:
+    """The initial accumulators ``acc`` (``(nacc, n)``) run over every sample, in blocks.
+
+    A runner with ``advance_rows`` keeps the accumulators one run per row from block to block
+    (the kernels' layout: no transposed copies between blocks).
+    """
+    runner = runner if runner is not None else _runner(run, kernel)
+    rows = _rows_of(runner)
+    if rows is not None:
+        return _advance_rows(rows, np.array(np.asarray(acc, dtype=float).T, order="C"),
+                             run, kernel, threads).T
     D = run.D
     block = block_length(acc.shape[1], threads, kernel.compiled)
     for a in range(0, D.shape[1], block):
         acc = runner.run(acc, D[:, a:a + block], threads=threads)
     return acc
+
+
+def _rows_of(runner):
+    """The runner's in-place method on one-run-per-row accumulators, if it has one."""
+    return getattr(runner, "advance_rows", None)
+
+
+def _advance_rows(rows, cols: np.ndarray, run: RunSetup, kernel: Kernel,
+                  threads: int) -> np.ndarray:
+    """``cols`` (``(n, nacc)``, C-contiguous) run over every sample in place, in blocks."""
+    D = run.D
+    block = block_length(cols.shape[0], threads, kernel.compiled)
+    for a in range(0, D.shape[1], block):
+        rows(cols, D[:, a:a + block], threads=threads)
+    return cols
 
 
 class _Columns:
@@ -329,8 +353,53 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
     return out
 
 
-def _initial(run: RunSetup, columns, a: int, b: int) -> np.ndarray:
-    return run.initial_accumulator(columns(a, b))
+def chunk_bounds(n_runs: int, chunk_size: int | None, threads: int) -> list[tuple[int, int]]:
+    """Ranges of runs run in this process one after the other: ``chunk_size`` long (default
+    :data:`CHUNK_IN_PROCESS`); with several threads and the default, the first and last
+    quarter-length (their columns and classification are not overlapped with the kernel).
+
+    Parameters
+    ----------
+    n_runs : int
+        Runs of the grid.
+    chunk_size : int or None
+        ``fl.Kernel(chunk_size=...)``: exactly this length (the last range shorter).
+    threads : int
+        Threads of the kernel.
+
+    Returns
+    -------
+    list of (int, int)
+        Consecutive ``(a, b)`` covering ``0:n_runs``.
+
+    Examples
+    --------
+    >>> from fl_design.sim._grid import chunk_bounds
+    >>> chunk_bounds(1024, None, 2)[:2], chunk_bounds(1024, None, 2)[-2:]
+    ([(0, 64), (64, 320)], [(832, 960), (960, 1024)])
+    >>> chunk_bounds(600, 256, 2)
+    [(0, 256), (256, 512), (512, 600)]
+    """
+    chunk = chunk_size or CHUNK_IN_PROCESS
+    if chunk_size is not None or threads <= 1 or n_runs <= 2 * chunk:
+        return [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
+    edge = chunk // 4
+    inner = range(edge, n_runs - edge, chunk)
+    return [(0, edge), *((a, min(a + chunk, n_runs - edge)) for a in inner),
+            (n_runs - edge, n_runs)]
+
+
+def _initial(run: RunSetup, columns, a: int, b: int, rows: bool) -> np.ndarray:
+    """Initial accumulators of runs ``a:b``: ``(nacc, b - a)``, or one run per row."""
+    acc = run.initial_accumulator(columns(a, b))
+    return np.array(acc.T, order="C") if rows else acc
+
+
+def _store(out: np.ndarray, a: int, b: int, done: np.ndarray, rows: bool, finish) -> None:
+    """Final accumulators of runs ``a:b`` into ``out`` (and ``finish`` of them)."""
+    out[:, a:b] = done.T if rows else done
+    if finish is not None:
+        finish(a, b, out[:, a:b])
 
 
 def _run_here(run, columns, n_runs, kernel, threads, out, bar, finish) -> None:
@@ -338,32 +407,38 @@ def _run_here(run, columns, n_runs, kernel, threads, out, bar, finish) -> None:
 
     With several threads, the serial work of a chunk is done by one more thread while the
     kernel runs the previous chunk (a pipeline): the parameter columns and initial
-    accumulators of the next chunk, ``finish`` of the finished one. Python work is then
-    never alone on the machine with the kernel's threads waiting; results are the same (the
-    same calls on the same chunks, in the same order).
+    accumulators of the next chunk, storing and ``finish`` of the finished one. Python work
+    is then never alone on the machine with the kernel's threads waiting; results are the
+    same (the same calls on the same chunks, in the same order).
     """
-    chunk = kernel.chunk_size or CHUNK_IN_PROCESS
-    bounds = [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
+    bounds = chunk_bounds(n_runs, kernel.chunk_size, threads)
+    runner = _runner(run, kernel)
+    rows = _rows_of(runner)
+
+    def advance(x):
+        if rows is not None:
+            return _advance_rows(rows, x, run, kernel, threads)
+        return _advance(run, x, kernel, threads, runner)
+
     if threads <= 1 or len(bounds) == 1:
         for a, b in bounds:
-            out[:, a:b] = _advance(run, _initial(run, columns, a, b), kernel, threads)
-            if finish is not None:
-                finish(a, b, out[:, a:b])
+            _store(out, a, b, advance(_initial(run, columns, a, b, rows is not None)),
+                   rows is not None, finish)
             bar.update(b - a)
         return
     side = ThreadPoolExecutor(1, thread_name_prefix="fl_grid_side")
     try:
-        finished = []
-        ready = side.submit(_initial, run, columns, *bounds[0])
+        stored = []
+        ready = side.submit(_initial, run, columns, *bounds[0], rows is not None)
         for i, (a, b) in enumerate(bounds):
-            acc = ready.result()
+            x = ready.result()
             if i + 1 < len(bounds):
-                ready = side.submit(_initial, run, columns, *bounds[i + 1])
-            out[:, a:b] = _advance(run, acc, kernel, threads)
-            if finish is not None:  # after the next chunk's columns (the kernel waits for them)
-                finished.append(side.submit(finish, a, b, out[:, a:b]))
+                ready = side.submit(_initial, run, columns, *bounds[i + 1], rows is not None)
+            done = advance(x)
+            # queued after the next chunk's columns: the kernel waits for those first
+            stored.append(side.submit(_store, out, a, b, done, rows is not None, finish))
             bar.update(b - a)
-        for task in finished:
+        for task in stored:
             task.result()
     finally:  # an interrupt or an error: queued side work is dropped, running work is short
         side.shutdown(wait=True, cancel_futures=True)

@@ -54,7 +54,7 @@ from ..._toolchain import (
     find_compiler,
     open_verified,
 )
-from ...errors import CompilationWarning, ComputationError
+from ...errors import CompilationWarning, ComputationError, DimensionError
 from ._emit import MATH, LanesUnsupported, groups, lanes_source
 
 
@@ -327,15 +327,44 @@ class LanesRunner:
         >>> callable(LanesRunner.run)
         True
         """
+        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
+        self.advance_rows(cols, D, threads=threads)  # a copy: the caller's acc is kept
+        return cols.T.copy()
+
+    def advance_rows(self, cols: np.ndarray, D: np.ndarray, *, threads: int = 1) -> None:
+        """:meth:`run` in place on accumulators stored one run per row (no transposed copies).
+
+        A grid run in blocks of samples keeps its accumulators in this layout from block to
+        block (:func:`fl_design.sim._grid.run_grid`).
+
+        Parameters
+        ----------
+        cols : numpy.ndarray
+            ``(ncols, nacc)`` C-contiguous float64 accumulators, advanced in place.
+        D : numpy.ndarray
+            ``(2, nsteps)`` samples ``(r_k, w_k)``.
+        threads : int, optional
+            Threads sharing the columns (default 1).
+
+        Examples
+        --------
+        >>> from fl_design.sim.kernel._lanes import LanesRunner
+        >>> callable(LanesRunner.advance_rows)
+        True
+        """
+        if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
+                cols.shape[1] != self.nacc:
+            raise DimensionError(f"advance_rows needs C-contiguous float64 (ncols, {self.nacc}) "
+                             f"accumulators, got {cols.dtype} {cols.shape}")
         lib = self.library
-        if lib is None:
-            return self.scalar.run(acc, D, threads=threads)
+        ncols = cols.shape[0]
+        if lib is None or not lib.fl_lanes_check(cols, ncols):  # no lanes kernel, or an
+            # initial -0.0 where the kernel assumes none: the scalar kernel (the same bits)
+            cols[...] = self.scalar.run(cols.T, D, threads=threads).T
+            return
         width = int(lib.fl_lanes_width())
-        cols = np.ascontiguousarray(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T)
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
-        ncols, nsteps = cols.shape[0], d.shape[0]
-        if not lib.fl_lanes_check(cols, ncols):  # an initial -0.0 where the kernel assumes
-            return self.scalar.run(acc, D, threads=threads)  # none: the same bits, slower
+        nsteps = d.shape[0]
         counter = np.zeros(1, dtype=np.int64)
         n_thr = max(1, min(int(threads), -(-ncols // width)))
 
@@ -343,11 +372,14 @@ class LanesRunner:
             if lib.fl_lanes_run(cols, ncols, d, nsteps, counter):
                 raise ComputationError("the compiled lanes kernel reported an error")
 
-        if n_thr > 1:
-            list(self._pool(n_thr).map(work, range(n_thr)))
-        else:
+        # the calling thread takes a share too (no hand-over to a waiting pool thread)
+        pool = self._pool(n_thr - 1) if n_thr > 1 else None
+        others = [pool.submit(work, i) for i in range(1, n_thr)]
+        try:
             work(0)
-        return cols.T.copy()
+        finally:  # the other shares end with the samples given (an interrupt waits for them)
+            for task in others:
+                task.result()
 
     def record(self, acc: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One column with its trajectory, by the scalar compiled kernel (built on first use).

@@ -54,7 +54,7 @@ from ..._toolchain import (
     generate_source,
     open_verified,
 )
-from ...errors import CompilationWarning, ComputationError
+from ...errors import CompilationWarning, ComputationError, DimensionError
 from ._emit import fill_template
 
 
@@ -109,16 +109,31 @@ class NativeRunner:
         >>> callable(NativeRunner.run)
         True
         """
-        cols = np.ascontiguousarray(np.asarray(acc, dtype=float).T)
+        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
+        self.advance_rows(cols, D, threads=threads)
+        return cols.T.copy()
+
+    def advance_rows(self, cols: np.ndarray, D: np.ndarray, *, threads: int = 1) -> None:
+        """:meth:`run` in place on accumulators stored one run per row (``(ncols, nacc)``,
+        C-contiguous float64): no transposed copies from block to block.
+
+        Examples
+        --------
+        >>> from fl_design.sim.kernel._runners import NativeRunner
+        >>> callable(NativeRunner.advance_rows)
+        True
+        """
+        if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
+                cols.shape[1] != self.nacc:
+            raise DimensionError(f"advance_rows needs C-contiguous float64 (ncols, "
+                                 f"{self.nacc}) accumulators, got {cols.dtype} {cols.shape}")
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
         nsteps = d.shape[0]
 
         def part(bounds):
-            a, b = bounds
-            chunk = np.ascontiguousarray(cols[a:b])
-            if self._lib.fl_run(chunk, b - a, d, nsteps):
+            a, b = bounds  # a row range of a C-contiguous array: contiguous, run in place
+            if self._lib.fl_run(cols[a:b], b - a, d, nsteps):
                 raise ComputationError("the compiled closed-loop kernel reported an error")
-            cols[a:b] = chunk
 
         pieces = _split(cols.shape[0], threads)
         if len(pieces) > 1:
@@ -127,7 +142,6 @@ class NativeRunner:
         else:
             for piece in pieces:
                 part(piece)
-        return cols.T.copy()
 
     def record(self, acc: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One column over the samples ``D``: final ``acc`` and ``out`` (``(nout, nsteps)``).
