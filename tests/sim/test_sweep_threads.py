@@ -82,3 +82,20 @@ def test_an_error_in_finish_is_raised_not_lost(cache):
     with pytest.raises(ZeroDivisionError, match="finish of 0:10"):
         run_grid(run, parameter_columns(design, EPS, GAMMA), progress=False, finish=finish,
                  kernel=fl.Kernel(cache_dir=cache, threads=2, chunk_size=10))
+
+
+def test_each_runs_verdict_and_metrics_do_not_depend_on_its_batch(cache):
+    """The classification of a run alone equals its classification among the grid's runs, bit
+    for bit (what finishing a grid by chunks relies on; the envelope fits group runs by width)."""
+    design = fl.presets.paper_design()
+    run = prepare_run(fl.plants.trms_yaw(), design, fl.Scenario(0.3, 1.5),
+                      classifier=CLASSIFIER)
+    acc = run_grid(run, parameter_columns(design, EPS, GAMMA), progress=False,
+                   kernel=fl.Kernel(cache_dir=cache))
+    status, metrics = assemble(run, acc, (acc.shape[1],))
+    assert len(np.unique(status)) >= 3
+    for j in range(acc.shape[1]):
+        s, m = assemble(run, acc[:, j:j + 1], (1,))
+        assert s[0] == status[j]
+        for name in metrics:
+            np.testing.assert_array_equal(m[name][0], metrics[name][j], err_msg=f"{name}, {j}")
