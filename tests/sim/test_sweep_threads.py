@@ -38,12 +38,13 @@ def _assert_same(a, b) -> None:
         np.testing.assert_array_equal(a.metrics[name], b.metrics[name], err_msg=name)
 
 
-def test_two_threads_and_any_chunks_give_one_threads_bits(cache):
-    one = _sweep(cache, threads=1)
+@pytest.mark.parametrize("isa", [None, "scalar"])  # the lanes kernel, the scalar one
+def test_two_threads_and_any_chunks_give_one_threads_bits(cache, isa):
+    one = _sweep(cache, threads=1, isa=isa)
     labels = set(one.labels.ravel().tolist())
     assert "diverged" in labels and len(labels) >= 3  # the grid mixes verdicts
     for threads, chunk in ((2, None), (2, 7), (2, 16), (3, 5), (1, 11)):
-        _assert_same(one, _sweep(cache, threads=threads, chunk_size=chunk))
+        _assert_same(one, _sweep(cache, threads=threads, chunk_size=chunk, isa=isa))
 
 
 def test_classification_by_chunk_equals_assemble(cache):
