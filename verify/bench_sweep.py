@@ -339,6 +339,7 @@ def serial_share(w: Workload, n_rounds: int) -> str:
         fn()
         return time.process_time() - t0
 
+    w.kernel()  # its runner built and loaded
     pairs = [(cpu(w.sweep), cpu(w.kernel)) for _ in range(n_rounds)]  # interleaved
     whole, kernel = _med([a for a, _ in pairs]), _med([b for _, b in pairs])
     return (f"one thread, CPU time: whole call {whole * 1e3:.1f} ms, the kernel alone "
