@@ -100,3 +100,23 @@ def test_each_runs_verdict_and_metrics_do_not_depend_on_its_batch(cache):
         assert s[0] == status[j]
         for name in metrics:
             np.testing.assert_array_equal(m[name][0], metrics[name][j], err_msg=f"{name}, {j}")
+
+
+@pytest.mark.parametrize("isa", [None, "scalar"])
+def test_accumulators_in_another_layout_are_refused(cache, isa):
+    """advance_rows runs in place: a transposed, non-contiguous or integer array is refused
+    with the layout it needs (never run on a hidden copy whose results would be lost)."""
+    from fl_design.errors import DimensionError
+
+    design = fl.presets.paper_design()
+    run = prepare_run(fl.plants.trms_yaw(), design, fl.Scenario(0.3, 0.05),
+                      classifier=CLASSIFIER)
+    runner = run.loop.runner(kernel=fl.Kernel(cache_dir=cache, isa=isa))
+    rows = runner if isa is None else runner.scalar
+    acc = run.initial_accumulator(parameter_columns(design, EPS[:2], GAMMA[:3]))
+    good = np.array(acc.T, order="C")
+    for bad in (acc, good[:, :-1], np.asfortranarray(good), good.astype(np.float32)):
+        with pytest.raises(DimensionError, match="one run per row"):
+            rows.advance_rows(bad, run.D, threads=2)
+    rows.advance_rows(good, run.D, threads=2)
+    np.testing.assert_array_equal(good.T, runner.run(acc, run.D, threads=1))

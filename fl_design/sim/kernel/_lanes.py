@@ -51,9 +51,9 @@ from ..._toolchain import (
     find_compiler,
     open_verified,
 )
-from ...errors import CompilationWarning, ComputationError, DimensionError
+from ...errors import CompilationWarning, ComputationError
 from ._emit import MATH, LanesUnsupported, groups, lanes_source
-from ._runners import ThreadsOwner
+from ._runners import ThreadsOwner, check_rows
 
 
 def lane_width(isa: str | None = None) -> int:
@@ -311,10 +311,7 @@ class LanesRunner(ThreadsOwner):
         >>> callable(LanesRunner.advance_rows)
         True
         """
-        if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
-                cols.shape[1] != self.nacc:
-            raise DimensionError(f"advance_rows needs C-contiguous float64 (ncols, {self.nacc}) "
-                             f"accumulators, got {cols.dtype} {cols.shape}")
+        check_rows(cols, self.nacc)
         lib = self.library
         ncols = cols.shape[0]
         if lib is None or not lib.fl_lanes_check(cols, ncols):  # no lanes kernel, or an

@@ -88,6 +88,21 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
+def check_rows(cols: np.ndarray, nacc: int) -> None:
+    """Raise unless ``cols`` holds accumulators one run per row, as the kernels store them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim.kernel._runners import check_rows
+    >>> check_rows(np.zeros((3, 5)), 5)
+    """
+    if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
+            cols.shape[1] != nacc:
+        raise DimensionError(f"the kernel needs C-contiguous float64 (ncols, {nacc}) "
+                             f"accumulators, one run per row; got {cols.dtype} {cols.shape}")
+
+
 class ThreadsOwner:
     """Kernel threads kept for a runner's life, fork-safe (base of the compiled runners).
 
@@ -196,10 +211,7 @@ class NativeRunner(ThreadsOwner):
         >>> callable(NativeRunner.advance_rows)
         True
         """
-        if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
-                cols.shape[1] != self.nacc:
-            raise DimensionError(f"advance_rows needs C-contiguous float64 (ncols, "
-                                 f"{self.nacc}) accumulators, got {cols.dtype} {cols.shape}")
+        check_rows(cols, self.nacc)
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
         nsteps = d.shape[0]
 
