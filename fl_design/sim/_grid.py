@@ -37,6 +37,7 @@ import sys
 import threading
 from collections import OrderedDict
 from concurrent.futures import Executor, ThreadPoolExecutor
+from itertools import pairwise
 
 import numpy as np
 
@@ -362,16 +363,20 @@ def run_grid(run: RunSetup, P, *, kernel: Kernel | None = None,
 
 
 def chunk_bounds(n_runs: int, chunk_size: int | None, threads: int) -> list[tuple[int, int]]:
-    """Ranges of runs run in this process one after the other: ``chunk_size`` long (default
-    :data:`CHUNK_IN_PROCESS`); with several threads and the default, the first and last
-    quarter-length (their columns and classification are not overlapped with the kernel).
+    """Ranges of runs run in this process one after the other.
+
+    ``chunk_size`` runs each (the last range shorter); by default at most
+    :data:`CHUNK_IN_PROCESS` per thread (each thread meets as many runs per chunk as one
+    thread alone), and with several threads the first and last range a quarter of
+    :data:`CHUNK_IN_PROCESS`: their columns and classification are the part of a pipelined
+    grid not overlapped with the kernel (:func:`run_grid`); the rest in equal parts.
 
     Parameters
     ----------
     n_runs : int
         Runs of the grid.
     chunk_size : int or None
-        ``fl.Kernel(chunk_size=...)``: exactly this length (the last range shorter).
+        ``fl.Kernel(chunk_size=...)``.
     threads : int
         Threads of the kernel.
 
@@ -383,18 +388,20 @@ def chunk_bounds(n_runs: int, chunk_size: int | None, threads: int) -> list[tupl
     Examples
     --------
     >>> from fl_design.sim._grid import chunk_bounds
-    >>> chunk_bounds(1024, None, 2)[:2], chunk_bounds(1024, None, 2)[-2:]
-    ([(0, 64), (64, 320)], [(832, 960), (960, 1024)])
-    >>> chunk_bounds(600, 256, 2)
-    [(0, 256), (256, 512), (512, 600)]
+    >>> chunk_bounds(1024, None, 2)
+    [(0, 64), (64, 512), (512, 960), (960, 1024)]
+    >>> chunk_bounds(600, 256, 2), chunk_bounds(600, None, 1)
+    ([(0, 256), (256, 512), (512, 600)], [(0, 256), (256, 512), (512, 600)])
     """
-    chunk = chunk_size or CHUNK_IN_PROCESS
-    if chunk_size is not None or threads <= 1 or n_runs <= 2 * chunk:
+    threads = max(1, int(threads))
+    chunk = chunk_size or CHUNK_IN_PROCESS * threads
+    edge = CHUNK_IN_PROCESS // 4
+    if chunk_size is not None or threads == 1 or n_runs <= 4 * edge:
         return [(a, min(a + chunk, n_runs)) for a in range(0, n_runs, chunk)]
-    edge = chunk // 4
-    inner = range(edge, n_runs - edge, chunk)
-    return [(0, edge), *((a, min(a + chunk, n_runs - edge)) for a in inner),
-            (n_runs - edge, n_runs)]
+    inner = n_runs - 2 * edge
+    parts = -(-inner // chunk)  # the inner runs in equal parts of at most chunk
+    cuts = [edge + round(i * inner / parts) for i in range(parts + 1)]
+    return [(0, edge), *pairwise(cuts), (n_runs - edge, n_runs)]
 
 
 def _initial(run: RunSetup, columns, a: int, b: int, rows: bool) -> np.ndarray:
