@@ -24,7 +24,8 @@ classified with a 20 % settling band and a divergence bound of 1 rad (yaw) and 6
    parameter columns and discretizations, kernel lookup and load, the runs, the
    classification; medians of the same rounds);
 3. with 10 RK4 substeps (16 x 16 x 5 s): whole sweeps against numba and the plain C loop;
-4. two threads against one (32 x 32 x 5 s, interleaved rounds; checked on an idle machine);
+4. two threads against one (32 x 32 x 5 s, interleaved rounds; checked on an idle machine;
+   with the one-thread call's CPU share outside the kernel; alone: ``--only threads``);
 5. a 64 x 64 map of 20 s runs (eps in [1e-3, 1], gamma in [1e-5, 1e-1], default classifier)
    as a fresh process (``python -c``, wall time from the launch: imports, plant build and
    compilation included) on all cores, from an empty kernel cache and from a warm one;
