@@ -24,7 +24,8 @@ classified with a 20 % settling band and a divergence bound of 1 rad (yaw) and 6
    parameter columns and discretizations, kernel lookup and load, the runs, the
    classification; medians of the same rounds);
 3. with 10 RK4 substeps (16 x 16 x 5 s): whole sweeps against numba and the plain C loop;
-4. two threads against one (32 x 32 x 5 s, interleaved rounds; checked on an idle machine);
+4. two threads against one (32 x 32 x 5 s, interleaved rounds; checked on an idle machine;
+   with the one-thread call's CPU share outside the kernel; alone: ``--only threads``);
 5. a 64 x 64 map of 20 s runs (eps in [1e-3, 1], gamma in [1e-5, 1e-1], default classifier)
    as a fresh process (``python -c``, wall time from the launch: imports, plant build and
    compilation included) on all cores, from an empty kernel cache and from a warm one;
@@ -40,7 +41,7 @@ the machine was at least 90 % idle over the second before that step, ``/proc/sta
 machine it is printed as not checked); 64 x 64 map <= 4 s cold, <= 2.5 s warm; 10,000 substeps compile in <= 10 s;
 >= 200x faster than ``solve_ivp``.
 
-    python verify/bench_sweep.py [--quick] [--rounds R]
+    python verify/bench_sweep.py [--quick] [--rounds R] [--only threads]
 """
 
 from __future__ import annotations
@@ -330,7 +331,24 @@ def idle_fraction(seconds: float = 1.0) -> float:
         return max(0.0, 1.0 - os.getloadavg()[0] / (os.cpu_count() or 1))
 
 
+def serial_share(w: Workload, n_rounds: int) -> str:
+    """CPU time of the one-thread call and of its kernel alone (valid on a busy machine too):
+    what is left is serial on one thread; with two threads most of it overlaps the kernel
+    (:func:`fl_design.sim._grid.run_grid`'s pipeline)."""
+    def cpu(fn):
+        t0 = time.process_time()
+        fn()
+        return time.process_time() - t0
+
+    w.kernel()  # its runner built and loaded
+    pairs = [(cpu(w.sweep), cpu(w.kernel)) for _ in range(n_rounds)]  # interleaved
+    whole, kernel = _med([a for a, _ in pairs]), _med([b for _, b in pairs])
+    return (f"one thread, CPU time: whole call {whole * 1e3:.1f} ms, the kernel alone "
+            f"{kernel * 1e3:.1f} ms: {1 - kernel / whole:.1%} outside the kernel")
+
+
 def threads_scaling(w: Workload, n_rounds: int, quick: bool) -> bool:
+    print(f"  {serial_share(w, n_rounds)}")
     idle = idle_fraction()
     w.sweep(threads=2)
     t1, times, ratios = rounds(lambda: w.sweep(threads=2), {"1": w.sweep}, n_rounds)
@@ -482,11 +500,20 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="reduced run, targets not checked")
     parser.add_argument("--rounds", type=int, default=None, help="interleaved A/B rounds")
+    parser.add_argument("--only", choices=["threads"], default=None,
+                        help="only step 4 (two threads against one; its target checked on an "
+                             "idle machine), with --rounds rounds (default 9)")
     args = parser.parse_args(argv)
     quick = args.quick
     n_rounds = args.rounds or (2 if quick else 7)
     print(f"fl_design sweep benchmark{' (--quick)' if quick else ''}: TRMS yaw, T = 1 ms")
     print(machine())
+    if args.only == "threads":
+        with tempfile.TemporaryDirectory() as cache:
+            big = Workload(*((6, 0.5) if quick else (32, 5.0)), 1, cache)
+            big.sweep()  # compiled and loaded
+            ok = threads_scaling(big, args.rounds or (2 if quick else 9), quick)
+        return 0 if ok or quick else 1
     mods = _peers_module()
     ok = True
     with tempfile.TemporaryDirectory() as cache:

@@ -96,17 +96,60 @@ def assemble(run: RunSetup, acc: np.ndarray, shape: tuple) -> tuple[np.ndarray, 
     ([[1], [-1]], (2, 1, 3))
     """
     acc = np.asarray(acc, dtype=float).reshape(run.loop.layout.size, -1)
-    m = {}
-    for a in range(0, max(1, acc.shape[1]), ASSEMBLE_CHUNK):  # filled in place: no copies
-        part = _finalize(run, acc[:, a:a + ASSEMBLE_CHUNK])
-        for k, v in part.items():
-            if k not in m:
-                m[k] = np.empty((acc.shape[1], *v.shape[1:]), dtype=v.dtype)
-            m[k][a:a + v.shape[0]] = v
-    status = m.pop("status").reshape(shape)
-    metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
-               for k, v in m.items()}
-    return status, metrics
+    parts = Assembly(run, acc.shape[1])
+    parts(0, acc.shape[1], acc)
+    return parts.result(shape)
+
+
+class Assembly:
+    """:func:`assemble` range by range: ``finish`` of :func:`~fl_design.sim._grid.run_grid`.
+
+    Each call finalizes the runs ``a:b`` (in blocks of :data:`ASSEMBLE_CHUNK`, filled in
+    place); :meth:`result` shapes them once every run is in. The same blocks give the same
+    bits whichever ranges the grid is cut into (every run's metrics are computed from its
+    own accumulators, elementwise or along its own axis).
+
+    Parameters
+    ----------
+    run : RunSetup
+        The runs' samples and constants.
+    n : int
+        Number of runs.
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._adaptive import Assembly, assemble
+    >>> from fl_design.sim._grid import parameter_columns, run_grid
+    >>> from fl_design.sim._run import prepare_run
+    >>> d = fl.presets.pendulum_design()
+    >>> run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 6.0))
+    >>> parts = Assembly(run, 2)
+    >>> acc = run_grid(run, parameter_columns(d, [0.02, 0.2], [1e-2]), finish=parts,
+    ...                kernel=fl.Kernel(compiled=False), progress=False)
+    >>> parts.result((2, 1))[0].tolist(), assemble(run, acc, (2, 1))[0].tolist()
+    ([[1], [-1]], [[1], [-1]])
+    """
+
+    def __init__(self, run: RunSetup, n: int):
+        self.run, self.n, self.values = run, int(n), {}
+
+    def __call__(self, a: int, b: int, acc: np.ndarray) -> None:
+        """Finalize runs ``a:b`` from their final accumulators ``acc`` (``(nacc, b - a)``)."""
+        for c in range(a, max(b, a + 1), ASSEMBLE_CHUNK):
+            part = _finalize(self.run, acc[:, c - a:c - a + ASSEMBLE_CHUNK])
+            for k, v in part.items():
+                if k not in self.values:
+                    self.values[k] = np.empty((self.n, *v.shape[1:]), dtype=v.dtype)
+                self.values[k][c:c + v.shape[0]] = v
+
+    def result(self, shape: tuple) -> tuple[np.ndarray, dict]:
+        """Status codes and metrics shaped ``shape``, as :func:`assemble` returns them."""
+        m = dict(self.values)
+        status = m.pop("status").reshape(shape)
+        metrics = {k: (v.reshape(*shape, -1) if k == "estimation_rms" else v.reshape(shape))
+                   for k, v in m.items()}
+        return status, metrics
 
 
 #: Default factor of the re-runs of an adaptive map's undecided points (a doubling).
@@ -400,5 +443,5 @@ def run_points(run, columns, idx, *, kernel, executor, progress, desc):
     return assemble(run, acc, (idx.size,))
 
 
-__all__ = ["EXTEND", "MAX_EXTENSION", "assemble", "continue_runs", "extension_options", "longest_rerun", "rerun_undecided",
+__all__ = ["EXTEND", "MAX_EXTENSION", "Assembly", "assemble", "continue_runs", "extension_options", "longest_rerun", "rerun_undecided",
            "run_points"]

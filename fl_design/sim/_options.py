@@ -255,9 +255,11 @@ class Kernel:
         executor).
     chunk_size : int, optional
         Grid points per chunk/task of a sweep. In this process (default
-        :data:`fl_design.sim.CHUNK_IN_PROCESS` = 256) a chunk only sets how often the progress
-        bar moves; each chunk costs a few milliseconds of Python and a thread rendezvous, so
-        chunks of 256 made a 64 x 64 TRMS map 0.3 s faster than chunks of 64. With an
+        :data:`fl_design.sim.CHUNK_IN_PROCESS` = 256; with several threads the first and the
+        last chunk a quarter of that, their Python work being the part not overlapped with
+        the kernel) a chunk only sets how often the progress bar moves; each chunk costs a
+        few milliseconds of Python and a thread rendezvous, so chunks of 256 made a 64 x 64
+        TRMS map 0.3 s faster than chunks of 64. With an
         executor the default deals the grid out strided to 4 tasks per worker (at least 16
         runs each; :mod:`fl_design.sim._executor`), so every worker gets a fair mix of cheap
         diverging and full-length runs and one payload covers many runs.

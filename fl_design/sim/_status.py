@@ -261,16 +261,19 @@ def _evidence(summary: dict) -> dict:
     slope = np.full(shape, np.nan)
     se, level, npts, heading = slope.copy(), slope.copy(), np.zeros(shape), slope.copy()
     curved = slope.copy()
+    lengths = np.broadcast_to(length, shape)
     for w in range(1, NBLOCKS - 1):
         pick = width == w
         if not np.any(pick):
             continue
+        # the fits of the runs of this width only (each run's own row: the same bits)
         m = NBLOCKS - w + 1
-        env = np.stack([np.max(block[..., i:i + w], axis=-1) for i in range(m)], -1)
-        centres = (np.arange(m) + w / 2) * np.broadcast_to(length, shape)[..., None]
+        blk = block[pick]
+        env = np.stack([np.max(blk[..., i:i + w], axis=-1) for i in range(m)], -1)
+        centres = (np.arange(m) + w / 2) * lengths[pick][..., None]
         fit = (*fit_line(env, centres), asymptote(env), curvature_t(env, centres))
         for out, value in zip((slope, se, level, npts, heading, curved), fit):
-            out[pick] = np.broadcast_to(value, shape)[pick]
+            out[pick] = value
     span = np.broadcast_to(length, shape) * (NBLOCKS - width)
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         change = np.expm1(slope * span)

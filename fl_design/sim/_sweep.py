@@ -31,7 +31,14 @@ import numpy as np
 from .. import _validate as V
 from .._numerics import bisect_log
 from ..errors import ParameterError, WorkerLostError
-from ._adaptive import assemble, extension_options, longest_rerun, rerun_undecided, run_points
+from ._adaptive import (
+    Assembly,
+    assemble,
+    extension_options,
+    longest_rerun,
+    rerun_undecided,
+    run_points,
+)
 from ._grid import _Columns, run_grid
 from ._metrics import Status
 from ._options import RK4, Classifier, Kernel, Scenario, option
@@ -204,13 +211,15 @@ def sweep(plant: Plant, design: Design, scenario: Scenario, *, eps, gamma,
                    durations=durations,
                    max_duration=cap if np.any(durations > run.duration) else math.nan, **extra)
 
+    parts = Assembly(run, columns.n)  # each chunk classified while the next one runs
     try:
-        acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress)
+        acc = run_grid(run, columns, kernel=kernel, executor=executor, progress=progress,
+                       finish=parts)
     except WorkerLostError as err:  # the finished chunks, as a map (fl_design.sim._partial)
         status, values, lost = grid_lost(err, run, shape)
         raise err.with_partial(result(status, values, np.full(shape, run.duration), lost,
                                       reason_of(err)), np.flatnonzero(lost)) from None
-    status, values = assemble(run, acc, shape)
+    status, values = parts.result(shape)
     durations = np.full(status.shape, run.duration)
     if extend > 1.0:
         cap = longest_rerun(run, extend, max_duration)

@@ -20,8 +20,8 @@ Fork safety (the rule): a runner's threads are created lazily, kept for its life
 the process that created them. A process forked from this one (``ProcessPoolExecutor`` with the
 ``fork`` start method, ``multiprocessing``, a notebook's ``os.fork``) inherits the pool object
 but not its threads: the runner notices (``os.register_at_fork`` hook, and the owner's pid as a
-second check) and starts fresh threads in the child instead of waiting forever on the
-parent's. The same holds for its lock and the per-process memo of runners in
+second check: :class:`~fl_design.sim.kernel._runners.ThreadsOwner`) and starts fresh threads in
+the child instead of waiting forever on the parent's. The same holds for its lock and the per-process memo of runners in
 :mod:`fl_design.sim._grid`.
 
 Examples
@@ -37,10 +37,7 @@ import ctypes
 import functools
 import os
 import shutil
-import threading
 import warnings
-import weakref
-from concurrent.futures import ThreadPoolExecutor
 
 import casadi as ca
 import numpy as np
@@ -56,6 +53,7 @@ from ..._toolchain import (
 )
 from ...errors import CompilationWarning, ComputationError
 from ._emit import MATH, LanesUnsupported, groups, lanes_source
+from ._runners import ThreadsOwner, check_rows
 
 
 def lane_width(isa: str | None = None) -> int:
@@ -179,19 +177,7 @@ def preferred_compiler() -> str | None:
     return shutil.which("clang")
 
 
-_LIVE: weakref.WeakSet = weakref.WeakSet()  # runners of this process (reset in a forked child)
-
-
-def _after_fork_in_child() -> None:
-    for runner in list(_LIVE):
-        runner._forget_threads()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_after_fork_in_child)
-
-
-class LanesRunner:
+class LanesRunner(ThreadsOwner):
     """Compiled runner on W grid points per vector, with the interface of ``NativeRunner``.
 
     Parameters
@@ -228,34 +214,7 @@ class LanesRunner:
         self.vector_math = bool(vector_math)
         self.isa = isa or resolve_isa()
         self._scalar_factory, self._scalar, self._lanes = scalar, None, None
-        self._forget_threads()
-        _LIVE.add(self)
-
-    def _forget_threads(self) -> None:
-        """A fresh lock and no pool (at creation, and in a child forked from this process:
-        the inherited pool's threads do not exist there, waiting on them would hang)."""
-        self._lock = threading.Lock()
-        self._pools: list[tuple[int, ThreadPoolExecutor]] = []
-        self._owner = os.getpid()
-
-    def _pool(self, n: int) -> ThreadPoolExecutor:
-        """Threads kept for the runner's life (a sweep calls :meth:`run` once per chunk).
-
-        A larger request adds a larger pool; pools are only shut down with the runner, so a
-        concurrent :meth:`run` never meets a closed one. Pools belong to the process that made
-        them (see the module docstring).
-        """
-        if self._owner != os.getpid():  # forked without the at-fork hook (e.g. no os support)
-            self._forget_threads()
-        with self._lock:
-            if not self._pools or self._pools[-1][0] < n:
-                self._pools.append((n, ThreadPoolExecutor(n, thread_name_prefix="fl_lanes")))
-            return self._pools[-1][1]
-
-    def __del__(self, _getpid=os.getpid):  # bound now: module globals may be gone at exit
-        if getattr(self, "_owner", None) == _getpid():
-            for _, pool in getattr(self, "_pools", ()):
-                pool.shutdown(wait=False)
+        ThreadsOwner.__init__(self)
 
     @property
     def scalar(self):
@@ -327,15 +286,45 @@ class LanesRunner:
         >>> callable(LanesRunner.run)
         True
         """
+        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
+        self.advance_rows(cols, D, threads=threads)  # a copy: the caller's acc is kept
+        return cols.T.copy()
+
+    def advance_rows(self, cols: np.ndarray, D: np.ndarray, *, threads: int = 1) -> None:
+        """:meth:`run` in place on accumulators stored one run per row (no transposed copies).
+
+        A grid run in blocks of samples keeps its accumulators in this layout from block to
+        block (:func:`fl_design.sim._grid.run_grid`).
+
+        Parameters
+        ----------
+        cols : numpy.ndarray
+            ``(ncols, nacc)`` C-contiguous float64 accumulators, advanced in place.
+        D : numpy.ndarray
+            ``(2, nsteps)`` samples ``(r_k, w_k)``.
+        threads : int, optional
+            Threads sharing the columns (default 1).
+
+        Examples
+        --------
+        >>> from fl_design.sim.kernel._lanes import LanesRunner
+        >>> callable(LanesRunner.advance_rows)
+        True
+        """
+        check_rows(cols, self.nacc)
         lib = self.library
-        if lib is None:
-            return self.scalar.run(acc, D, threads=threads)
+        ncols = cols.shape[0]
+        if lib is None or not lib.fl_lanes_check(cols, ncols):  # no lanes kernel, or an
+            # initial -0.0 where the kernel assumes none: the scalar kernel (the same bits)
+            scalar = self.scalar
+            if hasattr(scalar, "advance_rows"):
+                scalar.advance_rows(cols, D, threads=threads)
+            else:  # the interpreter (no compiler)
+                cols[...] = scalar.run(cols.T, D, threads=threads).T
+            return
         width = int(lib.fl_lanes_width())
-        cols = np.ascontiguousarray(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T)
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
-        ncols, nsteps = cols.shape[0], d.shape[0]
-        if not lib.fl_lanes_check(cols, ncols):  # an initial -0.0 where the kernel assumes
-            return self.scalar.run(acc, D, threads=threads)  # none: the same bits, slower
+        nsteps = d.shape[0]
         counter = np.zeros(1, dtype=np.int64)
         n_thr = max(1, min(int(threads), -(-ncols // width)))
 
@@ -343,11 +332,7 @@ class LanesRunner:
             if lib.fl_lanes_run(cols, ncols, d, nsteps, counter):
                 raise ComputationError("the compiled lanes kernel reported an error")
 
-        if n_thr > 1:
-            list(self._pool(n_thr).map(work, range(n_thr)))
-        else:
-            work(0)
-        return cols.T.copy()
+        self._share(work, n_thr)
 
     def record(self, acc: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One column with its trajectory, by the scalar compiled kernel (built on first use).

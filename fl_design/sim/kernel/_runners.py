@@ -12,7 +12,8 @@ the same interface and the same results:
   (double-buffered accumulators, no copies) and stops a column as soon as it has diverged
   (the remaining samples of a frozen run only advance its counter ``k``, which the driver adds
   at once). The source is compiled and cached by :func:`fl_design._toolchain.build` and called
-  through ``ctypes``, which releases the GIL: columns are split over threads.
+  through ``ctypes``, which releases the GIL: small pieces of the columns are taken in turn
+  by the threads (kept for the runner's life, :class:`ThreadsOwner`).
 * :class:`InterpretedRunner`: the same steps folded with CasADi (``fold``/``mapaccum`` over
   blocks of samples, padded samples are no-ops) in CasADi's virtual machine. Used, with a
   :class:`~fl_design.errors.CompilationWarning` (never silently), when no C compiler works, or
@@ -37,8 +38,12 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import itertools
 import math
+import os
+import threading
 import warnings
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 
@@ -54,8 +59,11 @@ from ..._toolchain import (
     generate_source,
     open_verified,
 )
-from ...errors import CompilationWarning, ComputationError
+from ...errors import CompilationWarning, ComputationError, DimensionError
 from ._emit import fill_template
+
+#: Pieces per thread of a grid run by the scalar compiled kernel (taken in turn).
+_PIECES = 8
 
 
 @functools.lru_cache(maxsize=32)
@@ -68,13 +76,92 @@ def _load(path: str) -> ctypes.CDLL:
     lib.fl_record.restype = ctypes.c_int
     return lib
 
-
-def _split(ncols: int, parts: int) -> list[tuple[int, int]]:
-    step = math.ceil(ncols / max(1, parts))
-    return [(a, min(a + step, ncols)) for a in range(0, ncols, step)]
+_LIVE: weakref.WeakSet = weakref.WeakSet()  # runners of this process (reset in a forked child)
 
 
-class NativeRunner:
+def _after_fork_in_child() -> None:
+    for runner in list(_LIVE):
+        runner._forget_threads()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def check_rows(cols: np.ndarray, nacc: int) -> None:
+    """Raise unless ``cols`` holds accumulators one run per row, as the kernels store them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fl_design.sim.kernel._runners import check_rows
+    >>> check_rows(np.zeros((3, 5)), 5)
+    """
+    if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
+            cols.shape[1] != nacc:
+        raise DimensionError(f"the kernel needs C-contiguous float64 (ncols, {nacc}) "
+                             f"accumulators, one run per row; got {cols.dtype} {cols.shape}")
+
+
+class ThreadsOwner:
+    """Kernel threads kept for a runner's life, fork-safe (base of the compiled runners).
+
+    A sweep calls the kernel once per chunk and block of samples: its threads are created
+    once, on first use. A process forked from this one inherits the pool objects but not
+    their threads: the at-fork hook (and the owner's pid, a second check) gives the child
+    fresh ones instead of a wait that would never end (see
+    :mod:`fl_design.sim.kernel._lanes`).
+
+    Examples
+    --------
+    >>> from fl_design.sim.kernel._runners import ThreadsOwner
+    >>> owner = ThreadsOwner()
+    >>> owner._pool(1) is owner._pool(1)
+    True
+    """
+
+    def __init__(self):
+        self._forget_threads()
+        _LIVE.add(self)
+
+    def _forget_threads(self) -> None:
+        """A fresh lock and no pool (at creation, and in a child forked from this process:
+        the inherited pool's threads do not exist there, waiting on them would hang)."""
+        self._lock = threading.Lock()
+        self._pools: list[tuple[int, ThreadPoolExecutor]] = []
+        self._owner = os.getpid()
+
+    def _pool(self, n: int) -> ThreadPoolExecutor:
+        """``n`` threads or more, kept for the runner's life.
+
+        A larger request adds a larger pool; pools are only shut down with the runner, so a
+        concurrent call never meets a closed one. Pools belong to the process that made them.
+        """
+        if self._owner != os.getpid():  # forked without the at-fork hook (e.g. no os support)
+            self._forget_threads()
+        with self._lock:
+            if not self._pools or self._pools[-1][0] < n:
+                self._pools.append((n, ThreadPoolExecutor(n, thread_name_prefix="fl_kernel")))
+            return self._pools[-1][1]
+
+    def _share(self, work, threads: int) -> None:
+        """``work(i)`` for ``i < threads``: the calling thread runs share 0, the pool the rest
+        (no hand-over to a waiting pool thread); returns when every share has."""
+        pool = self._pool(threads - 1) if threads > 1 else None
+        others = [pool.submit(work, i) for i in range(1, threads)]
+        try:
+            work(0)
+        finally:  # the other shares end with the samples given (an interrupt waits for them)
+            for task in others:
+                task.result()
+
+    def __del__(self, _getpid=os.getpid):  # bound now: module globals may be gone at exit
+        if getattr(self, "_owner", None) == _getpid():
+            for _, pool in getattr(self, "_pools", ()):
+                pool.shutdown(wait=False)
+
+
+class NativeRunner(ThreadsOwner):
     """Compiled runner: :meth:`run` folds ``fl_acc`` over samples for many columns.
 
     Parameters
@@ -99,6 +186,7 @@ class NativeRunner:
         self.nacc = int(accumulate.size1_in(0))
         self.nout = int(record.size1_out(1))
         self._lib = _load(str(library))
+        ThreadsOwner.__init__(self)
 
     def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
         """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (n_d, nsteps).
@@ -109,25 +197,37 @@ class NativeRunner:
         >>> callable(NativeRunner.run)
         True
         """
-        cols = np.ascontiguousarray(np.asarray(acc, dtype=float).T)
+        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
+        self.advance_rows(cols, D, threads=threads)
+        return cols.T.copy()
+
+    def advance_rows(self, cols: np.ndarray, D: np.ndarray, *, threads: int = 1) -> None:
+        """:meth:`run` in place on accumulators stored one run per row (``(ncols, nacc)``,
+        C-contiguous float64): no transposed copies from block to block.
+
+        Examples
+        --------
+        >>> from fl_design.sim.kernel._runners import NativeRunner
+        >>> callable(NativeRunner.advance_rows)
+        True
+        """
+        check_rows(cols, self.nacc)
         d = np.ascontiguousarray(np.asarray(D, dtype=float).T)
         nsteps = d.shape[0]
 
-        def part(bounds):
-            a, b = bounds
-            chunk = np.ascontiguousarray(cols[a:b])
-            if self._lib.fl_run(chunk, b - a, d, nsteps):
-                raise ComputationError("the compiled closed-loop kernel reported an error")
-            cols[a:b] = chunk
+        ncols = cols.shape[0]
+        # small pieces taken in turn by the threads (diverged runs stop early: an equal split
+        # by count would leave one thread idle); each column is run alone: the same bits
+        piece = max(1, math.ceil(ncols / (max(1, threads) * _PIECES)))
+        taken = itertools.count()  # next() of a count is atomic under the GIL
 
-        pieces = _split(cols.shape[0], threads)
-        if len(pieces) > 1:
-            with ThreadPoolExecutor(len(pieces)) as pool:
-                list(pool.map(part, pieces))
-        else:
-            for piece in pieces:
-                part(piece)
-        return cols.T.copy()
+        def work(_):
+            while (a := next(taken) * piece) < ncols:
+                b = min(a + piece, ncols)  # a row range of a C-contiguous array: run in place
+                if self._lib.fl_run(cols[a:b], b - a, d, nsteps):
+                    raise ComputationError("the compiled closed-loop kernel reported an error")
+
+        self._share(work, max(1, min(int(threads), ncols)))
 
     def record(self, acc: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One column over the samples ``D``: final ``acc`` and ``out`` (``(nout, nsteps)``).
@@ -330,4 +430,4 @@ def make_runner(accumulate: ca.Function, record: ca.Function, indices: dict, *,
 
 
 
-__all__ = ["InterpretedRunner", "NativeRunner", "make_runner", "runner_source"]
+__all__ = ["InterpretedRunner", "NativeRunner", "ThreadsOwner", "make_runner", "runner_source"]
