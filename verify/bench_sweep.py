@@ -58,6 +58,7 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from _shared import target as record
 
 import fl_design as fl
 from fl_design._toolchain import build
@@ -266,11 +267,12 @@ def rounds(first, others: dict, n_rounds: int) -> tuple[list, dict, dict]:
     return t_first, times, ratios
 
 
-def report(peers, times, ratios, targets: dict) -> bool:
+def report(peers, times, ratios, targets: dict, label: str = "", checked: bool = True) -> bool:
     ok = True
     for name in peers:
         ratio, target = _med(ratios[name]), targets.get(name)
-        good = target is None or ratio >= target
+        good = target is None or record(f"whole fl.sweep against {name}, {label}", ratio,
+                                        target, unit="x", at_least=True, checked=checked)
         ok &= good
         note = f"(target >= {target:g}x)  {'PASS' if good else 'FAIL'}" if target else \
             "(reference)"
@@ -298,7 +300,10 @@ def whole_sweeps(w: Workload, peers: dict, n_rounds: int, targets: dict,
           f"interleaved rounds:")
     print(f"  fl.sweep {t:7.3f} s  {t / steps * 1e9:6.1f} ns per step per grid point per core "
           f"(the whole call)")
-    ok &= report({n: peers[n] for n in peers}, times, ratios, targets)
+    label = (f"{w.P.shape[1]} runs x {w.scenario.duration:g} s, {w.integrator.substeps} "
+             f"substep(s), one thread")
+    ok &= report({n: peers[n] for n in peers}, times, ratios, targets, label,
+                 checked=w.P.shape[1] >= 64)
     t_s = times.pop("status only")
     print(f"  fl.sweep(metrics=[]) (the status alone, same classes: "
           f"{'yes' if np.array_equal(status_only.status, smap.status) else 'NO'}) "
@@ -354,6 +359,9 @@ def threads_scaling(w: Workload, n_rounds: int, quick: bool) -> bool:
     t1, times, ratios = rounds(lambda: w.sweep(threads=2), {"1": w.sweep}, n_rounds)
     ratio = _med(ratios["1"])
     checked = idle >= 0.9
+    record(f"two threads against one, {w.P.shape[1]} runs x {w.scenario.duration:g} s", ratio,
+           1.7, unit="x", at_least=True, checked=checked and not quick,
+           detail=f"machine {idle:.0%} idle before")
     verdict = ("PASS" if ratio >= 1.7 else "FAIL") if checked else \
         f"NOT CHECKED (the machine was {idle:.0%} idle before the step: not an idle machine)"
     print(f"two threads against one, {w.P.shape[1]} runs x {w.scenario.duration:g} s: "
@@ -392,7 +400,10 @@ def map_walls(quick: bool) -> bool:
     with tempfile.TemporaryDirectory() as cache:
         cold, counts = fresh_map(n, duration, cache)
         warm = min(fresh_map(n, duration, cache)[0] for _ in range(1 if quick else 3))
-    ok = cold <= 4.0 and warm <= 2.5
+    what = f"{n} x {n} TRMS map of {duration:g} s runs, fresh process"
+    ok = record(f"{what}, cold (empty cache)", cold, 4.0, checked=not quick)
+    ok &= record(f"{what}, warm", warm, 2.5, checked=not quick,
+                 detail=f"best of {1 if quick else 3}")
     steps = n * n * round(duration * 1e3)
     print(f"{n} x {n} TRMS map of {duration:g} s runs ({steps:,} steps; {counts}) as a fresh "
           f"process, {os.cpu_count()} cores: {cold:.2f} s wall from an empty cache (target "
@@ -408,7 +419,8 @@ def many_substeps_compile() -> bool:
         lib = w.runner.library
         out = w.summary(w.kernel())
         wall = time.perf_counter() - t0
-    good = lib is not None and wall <= 10.0 and np.all(np.isfinite(out[:, 4:]))
+    good = lib is not None and np.all(np.isfinite(out[:, 4:])) and record(
+        "TRMS with 10,000 RK4 substeps per sample: built, compiled and run", wall, 10.0)
     print(f"TRMS with 10,000 RK4 substeps per sample: loop built, lanes kernel generated, "
           f"compiled and run in {wall:.2f} s (target <= 10 s)  {'PASS' if good else 'FAIL'}")
     return good
@@ -456,7 +468,8 @@ def reference_and_memory(quick: bool, cache: str) -> bool:
     out = w.summary(w.kernel())
     ns = (time.perf_counter() - t0) / w.steps(out) * 1e9
     ivp = solve_ivp_ns(200 if quick else 1000)
-    good = ivp / ns >= 200
+    good = record("kernel against a per-sample solve_ivp loop", ivp / ns, 200.0, unit="x",
+                  at_least=True, checked=not quick)
     print(f"reference: per-sample solve_ivp loop {ivp / 1e3:.1f} us per step, "
           f"{ivp / ns:.0f}x the kernel (target >= 200x)  {'PASS' if good else 'FAIL'}")
     memory_per_point(cache, quick)
@@ -478,6 +491,9 @@ def memory_per_point(cache: str, quick: bool = False) -> float:
     slope = lambda a, b: (mem[b] - mem[a]) / (b * b - a * a) * 1e6
     text = ", ".join(f"{mem[g]:.2f} MB ({g} x {g})" for g in sorted(set(grids)))
     pairs = [(8, 32)] + ([] if quick else [(32, 64)])
+    record(f"peak memory per extra grid point ({pairs[-1][0]}x{pairs[-1][0]} -> "
+           f"{pairs[-1][1]}x{pairs[-1][1]}, 2 s runs)", slope(*pairs[-1]), 2048.0, unit="B",
+           checked=not quick, detail="flat: about 1 KB per point")
     print(f"peak traced memory of sweeps of 2 s runs: {text}; bytes per extra run "
           + ", ".join(f"{slope(a, b):.0f} ({a}->{b})" for a, b in pairs)
           + " (running metrics only)")

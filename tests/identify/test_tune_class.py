@@ -165,7 +165,7 @@ def test_a_class_with_a_delay_is_certified_without_it_and_says_so():
     assert "the 10-sample input delay" in cert.uncovered
     words = [r for r in tuned.reasons if r.startswith("input delay 10 samples = 0.2 s")]
     assert len(words) == 1 and "not covered by the certificate" in words[0]
-    m = lambda b, dm: SimpleNamespace(b=b, delay_margin=dm)  # noqa: E731
+    m = lambda b, dm: SimpleNamespace(b=b, delay_margin=dm)
     assert "within the smallest delay margin 0.5 s (b = 2)" in _delay_words(
         cls, [m(1.0, 0.9), m(2.0, 0.5)])[0]
     assert "BEYOND" in _delay_words(cls, [m(1.0, 0.9), m(2.0, 0.1)])[0]
