@@ -53,7 +53,7 @@ from ..._toolchain import (
 )
 from ...errors import CompilationWarning, ComputationError
 from ._emit import MATH, LanesUnsupported, groups, lanes_source
-from ._runners import ThreadsOwner, check_rows
+from ._threads import ThreadsOwner, check_rows
 
 
 def lane_width(isa: str | None = None) -> int:

@@ -40,11 +40,7 @@ import ctypes
 import functools
 import itertools
 import math
-import os
-import threading
 import warnings
-import weakref
-from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 
 import casadi as ca
@@ -59,8 +55,9 @@ from ..._toolchain import (
     generate_source,
     open_verified,
 )
-from ...errors import CompilationWarning, ComputationError, DimensionError
+from ...errors import CompilationWarning, ComputationError
 from ._emit import fill_template
+from ._threads import ThreadsOwner, check_rows
 
 #: Pieces per thread of a grid run by the scalar compiled kernel (taken in turn).
 _PIECES = 8
@@ -75,91 +72,6 @@ def _load(path: str) -> ctypes.CDLL:
     lib.fl_record.argtypes = [dbl, dbl, ctypes.c_long, dbl]
     lib.fl_record.restype = ctypes.c_int
     return lib
-
-_LIVE: weakref.WeakSet = weakref.WeakSet()  # runners of this process (reset in a forked child)
-
-
-def _after_fork_in_child() -> None:
-    for runner in list(_LIVE):
-        runner._forget_threads()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_after_fork_in_child)
-
-
-def check_rows(cols: np.ndarray, nacc: int) -> None:
-    """Raise unless ``cols`` holds accumulators one run per row, as the kernels store them.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fl_design.sim.kernel._runners import check_rows
-    >>> check_rows(np.zeros((3, 5)), 5)
-    """
-    if cols.dtype != np.float64 or not cols.flags.c_contiguous or cols.ndim != 2 or \
-            cols.shape[1] != nacc:
-        raise DimensionError(f"the kernel needs C-contiguous float64 (ncols, {nacc}) "
-                             f"accumulators, one run per row; got {cols.dtype} {cols.shape}")
-
-
-class ThreadsOwner:
-    """Kernel threads kept for a runner's life, fork-safe (base of the compiled runners).
-
-    A sweep calls the kernel once per chunk and block of samples: its threads are created
-    once, on first use. A process forked from this one inherits the pool objects but not
-    their threads: the at-fork hook (and the owner's pid, a second check) gives the child
-    fresh ones instead of a wait that would never end (see
-    :mod:`fl_design.sim.kernel._lanes`).
-
-    Examples
-    --------
-    >>> from fl_design.sim.kernel._runners import ThreadsOwner
-    >>> owner = ThreadsOwner()
-    >>> owner._pool(1) is owner._pool(1)
-    True
-    """
-
-    def __init__(self):
-        self._forget_threads()
-        _LIVE.add(self)
-
-    def _forget_threads(self) -> None:
-        """A fresh lock and no pool (at creation, and in a child forked from this process:
-        the inherited pool's threads do not exist there, waiting on them would hang)."""
-        self._lock = threading.Lock()
-        self._pools: list[tuple[int, ThreadPoolExecutor]] = []
-        self._owner = os.getpid()
-
-    def _pool(self, n: int) -> ThreadPoolExecutor:
-        """``n`` threads or more, kept for the runner's life.
-
-        A larger request adds a larger pool; pools are only shut down with the runner, so a
-        concurrent call never meets a closed one. Pools belong to the process that made them.
-        """
-        if self._owner != os.getpid():  # forked without the at-fork hook (e.g. no os support)
-            self._forget_threads()
-        with self._lock:
-            if not self._pools or self._pools[-1][0] < n:
-                self._pools.append((n, ThreadPoolExecutor(n, thread_name_prefix="fl_kernel")))
-            return self._pools[-1][1]
-
-    def _share(self, work, threads: int) -> None:
-        """``work(i)`` for ``i < threads``: the calling thread runs share 0, the pool the rest
-        (no hand-over to a waiting pool thread); returns when every share has."""
-        pool = self._pool(threads - 1) if threads > 1 else None
-        others = [pool.submit(work, i) for i in range(1, threads)]
-        try:
-            work(0)
-        finally:  # the other shares end with the samples given (an interrupt waits for them)
-            for task in others:
-                task.result()
-
-    def __del__(self, _getpid=os.getpid):  # bound now: module globals may be gone at exit
-        if getattr(self, "_owner", None) == _getpid():
-            for _, pool in getattr(self, "_pools", ()):
-                pool.shutdown(wait=False)
-
 
 class NativeRunner(ThreadsOwner):
     """Compiled runner: :meth:`run` folds ``fl_acc`` over samples for many columns.
