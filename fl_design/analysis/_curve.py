@@ -117,22 +117,20 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
                 and time.perf_counter() - start > time_budget):
             late.append(float(gamma))
             continue
-        if certified and L.box is not None and not L.search_ok(max(lo, 0.5 * f), gamma):
-            # a class with a slope box not certified at half its frozen eps*: skipped
-            never.append(uncertified_words(gamma, max(lo, 0.5 * f), f, lo))
-            continue
         if certified:
             L.modal_hit, L.pieces_hint = False, 1
             # a slope box's LDI is one SDP per eps (the chain's modal pieces are NumPy): a
-            # coarser bisection (5 %) and larger steps down
+            # coarser bisection (5 %), larger steps down, and no search below half its frozen
+            # eps* (the descent ends there: not certified at half, the gain is skipped)
             box = L.box is not None
-            c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), lo, f,
+            floor = max(lo, 0.5 * f) if box else lo
+            c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), floor, f,
                                    max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95,
                                    accelerate=True, retry=0.9)
             if c is not None:
                 cert[i], hint = c, c / f
             else:
-                never.append(uncertified_words(gamma, lo, f, lo))
+                never.append(uncertified_words(gamma, floor, f, lo))
     covers = "frozen" if L.box is None else "nonlinear"
     if covers == "frozen" and r.cls.b_rate != 0.0:
         # each constant b only: the class named is the one whose members hold b constant
