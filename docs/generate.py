@@ -132,7 +132,15 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="claims and benchmarks in quick mode")
     ap.add_argument("--only", nargs="*", default=None, help="script stems to run")
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per command")
+    ap.add_argument("--table", action="store_true",
+                    help="only rewrite the performance table (targets.md, README) from the "
+                         "benchmarks' last records; run nothing")
     a = ap.parse_args(argv)
+    if a.table:
+        table = targets_table()
+        (OUT / "targets.md").write_text(table)
+        print(readme_table(table))
+        return 0
     OUT.mkdir(parents=True, exist_ok=True)
     quick = ["--quick"] if a.quick else []
     jobs = [("snippet", p, []) for p in sorted((ROOT / "docs" / "snippets").glob("*.py"))]
@@ -182,22 +190,38 @@ def _records() -> list[dict]:
 
 
 def _num(value: float, unit: str) -> str:
-    return f"{value:.3g}x" if unit == "x" else f"{value:.3g} {unit}"
+    text = f"{value:,.0f}" if abs(value) >= 1000 else f"{value:.3g}"
+    return f"{text}x" if unit == "x" else f"{text} {unit}"
+
+
+def _cell(text: str) -> str:
+    """Text for a Markdown table cell (a ``|`` in it would end the cell)."""
+    return str(text).replace("|", "\\|")
 
 
 def targets_table() -> str:
-    """The performance targets as a Markdown table: what, measured, target, verdict, where."""
-    rows = ["| target | measured | limit | verdict | script, machine, load, date (UTC) |",
-            "| --- | --- | --- | --- | --- |"]
-    for r in _records():
+    """The performance targets as a Markdown table: what, measured, target, verdict, where
+    (the machine once above the table when every row shares it)."""
+    recs = _records()
+    if not recs:
+        return "No benchmark has recorded a target yet: run `make docs-data`.\n"
+    machines = {(r["cpu"], r["cores"], r["isa"]) for r in recs}
+    shared = len(machines) == 1
+    head = []
+    if shared:
+        cpu, cores, isa = machines.pop()
+        head = [f"Measured on {_cell(cpu)}, {cores} cores, kernel ISA {isa}.", ""]
+    title = ("| target | measured | limit | verdict | script, "
+             f"{'' if shared else 'machine, '}load, date (UTC) |")
+    rows = [title, "| --- | --- | --- | --- | --- |"]
+    for r in recs:
         verdict = ("met" if r["met"] else "**missed**") if r["checked"] else "not checked"
         what = r["name"] + (f" ({r['detail']})" if r.get("detail") else "")
-        rows.append(f"| {what} | {_num(r['value'], r['unit'])} | {r['relation']} "
-                    f"{_num(r['limit'], r['unit'])} | {verdict} | `{r['script']}`, {r['cpu']}, "
-                    f"{r['cores']} cores, {r['isa']}, load {r['load']:.1f}, {r['utc']} |")
-    if len(rows) == 2:
-        return "No benchmark has recorded a target yet: run `make docs-data`.\n"
-    return "\n".join(rows) + "\n"
+        where = "" if shared else f"{r['cpu']}, {r['cores']} cores, {r['isa']}, "
+        rows.append(f"| {_cell(what)} | {_num(r['value'], r['unit'])} | {r['relation']} "
+                    f"{_num(r['limit'], r['unit'])} | {verdict} | `{r['script']}`, "
+                    f"{_cell(where)}load {r['load']:.1f}, {r['utc']} |")
+    return "\n".join(head + rows) + "\n"
 
 
 def readme_table(table: str) -> str:

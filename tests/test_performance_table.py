@@ -62,12 +62,16 @@ def test_the_table_says_met_missed_and_not_checked_and_skips_bad_lines(shared, g
     shared.target("ratio", 2.9, 2.5, unit="x", at_least=True, checked=False)
     with out.open("a") as f:
         f.write('__import__("os").system("false")\n{"name": "no other field"}\n')
+    shared.target("a | b", 1234.5, 5000.0, unit="B")  # a pipe in a name, a large number
     table = generate.targets_table()
     lines = table.splitlines()
-    assert len(lines) == 2 + 3
-    assert "| fast | 1 s | <= 5 s | met |" in lines[2]
-    assert "| slow | 9 s | <= 5 s | **missed** |" in lines[3]
-    assert "| ratio | 2.9x | >= 2.5x | not checked |" in lines[4]
+    assert lines[0].startswith("Measured on ") and "cores, kernel ISA" in lines[0]
+    rows = lines[lines.index("| --- | --- | --- | --- | --- |") + 1:]
+    assert len(rows) == 4 and all(r.count(" | ") == 4 for r in rows)
+    assert rows[0].startswith("| fast | 1 s | <= 5 s | met | `bench_x`, load ")
+    assert "| slow | 9 s | <= 5 s | **missed** |" in rows[1]
+    assert "| ratio | 2.9x | >= 2.5x | not checked |" in rows[2]
+    assert rows[3].startswith("| a \\| b | 1,234 B | <= 5,000 B | met |")
     assert capsys.readouterr().err.count("not a target record, skipped") == 2
 
 
