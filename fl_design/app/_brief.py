@@ -227,8 +227,7 @@ def cert_long(cert: dict, b_bounds=None) -> str:
          else "")
     cls = getattr(e, "class_description", "") or f"chain of integrators, sigma = b u{b}"
     unc = "; ".join(getattr(e, "uncovered", ()) or ())
-    return (f"eps* = {fmt(e.eps_star_certified, 'none in range')} s, gamma in "
-            f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')}); this eps "
+    return (f"eps* = {fmt(e.eps_star_certified, 'none in range')} s, {gamma_words(g)}; this eps "
             f"{'certified' if e.certified else 'NOT certified'}: {e.reason}. Covers every "
             f"plant of the {cls}{family}" + (f"; not covered: {unc}" if unc else "")
             + ". This step on the nonlinear plant: "

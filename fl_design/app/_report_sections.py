@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _report_summary as S
-from ._brief import window_brief
+from ._brief import gamma_words, window_brief
 from ._report_family import report_blocks
 from ._report_map import map_counts
 from ._text import (
@@ -63,8 +63,7 @@ def _certificates(job) -> list:
     if "gamma" in cert:
         g, e = cert["gamma"], cert["eps"]
         blocks.append(("table", ["quantity", "value"], [
-            ["admissible gamma interval (frozen b grid, at this eps)",
-             f"({fmt(g.gamma_min, 'none')}, {fmt(g.gamma_max, 'none')})"],
+            ["admissible gamma interval (frozen b grid, at this eps)", gamma_words(g)],
             ["gamma below which no eps works", fmt(g.gamma_lower_bound, "none found")],
             ["paper's bound 1/b_max", fmt(g.paper_bound)],
             ["gamma certified (LMI at this eps)", str(g.certified)],
