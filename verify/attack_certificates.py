@@ -47,13 +47,13 @@ from __future__ import annotations
 
 import argparse
 import ast
-import os
 import sys
 import time
 
 import numpy as np
 from _attack_loop import loop_matrix
 from _attack_runs import CONFIRM, attack_target
+from _shared import load_line
 from bench_certify import CURVE_CLASSES
 
 import fl_design as fl
@@ -224,7 +224,7 @@ def main(argv=None) -> int:
         print(f"unknown class(es) {bad}; valid: {list(CURVE_CLASSES)}")
         return 2
     print(f"seed {args.seed}; growth confirmed in mpmath above 1 + {CONFIRM:g}; "
-          f"load average {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+          f"{load_line()}")
     ok = run(names, not args.quick, args.seed)
     if CRASHES:
         print(f"FAIL: {len(CRASHES)} certificate call(s) raised: {'; '.join(CRASHES)}")
