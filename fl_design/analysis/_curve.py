@@ -124,6 +124,11 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
             # eps* (the descent ends there: not certified at half, the gain is skipped)
             box = L.box is not None
             floor = max(lo, 0.5 * f) if box else lo
+            if box and not np.isfinite(cert[:i]).any() and not L.search_ok(floor, gamma):
+                # no gain certified yet (the first, or a class failing throughout): one check
+                # at the floor settles a failing gain in one SDP instead of a descent to it
+                never.append(uncertified_words(gamma, floor, f, lo))
+                continue
             c = certified_eps_star(lambda e, g_=gamma: L.search_ok(e, g_), floor, f,
                                    max(rtol, 0.05) if box else rtol, hint, 0.7 if box else 0.95,
                                    accelerate=True, retry=0.9)
