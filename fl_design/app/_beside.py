@@ -47,7 +47,7 @@ HARD_LIMIT_S = 900.0
 #: The stages of the main job run this way, and the function each child calls.
 TARGETS = {"certify": "fl_design.app._beside:certify_stage"}
 #: Modules the child imports before it receives its work (it is started at the job's start,
-#: its work is sent once the sweep is done: the imports overlap the earlier stages).
+#: its work is sent once derive is done: the imports overlap the derive stage).
 WARM = ("fl_design.app._stages", "fl_design.analysis", "cvxpy")
 _HEADER = struct.Struct(">Q")
 

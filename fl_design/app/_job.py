@@ -271,11 +271,13 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
 
 
 #: Stages run in a child process beside the later ones, and the stage after which each starts:
-#: the certificates (NumPy, CVXPY/Clarabel: one core) start once the sweep (whose kernel keeps
-#: both cores busy) is done, beside simulate and codegen, which leave a core to the C
-#: compilers' single-threaded runs (every stage's results are unchanged). A process, not a
-#: thread: CasADi is not thread safe (:mod:`fl_design.app._beside`).
-BESIDE = {"certify": "sweep"}
+#: the certificates (NumPy, CVXPY/Clarabel: one core) start once derive is done (they need its
+#: b-range), beside the sweep, simulate and codegen. On 2 cores the certify stage's CPU is the
+#: job's critical path: started after the sweep (as until session 33) it ended ~2 s after the
+#: other stages on the TRMS; beside the sweep it costs the sweep's two threads a share of a core
+#: for about a second and ends with the others (every stage's results are unchanged). A
+#: process, not a thread: CasADi is not thread safe (:mod:`fl_design.app._beside`).
+BESIDE = {"certify": "derive"}
 
 
 def _beside_starts(todo) -> dict:
@@ -289,9 +291,9 @@ def _beside_starts(todo) -> dict:
     --------
     >>> from fl_design.app._job import _beside_starts
     >>> _beside_starts(["derive", "certify", "sweep", "simulate", "codegen"])
-    {3: 'certify'}
+    {2: 'certify'}
     >>> _beside_starts(["derive", "certify", "sweep"]), _beside_starts(["derive", "certify"])
-    ({}, {})
+    ({2: 'certify'}, {})
     """
     out = {}
     for k, stage in enumerate(todo):
