@@ -53,7 +53,8 @@ def run_once(cache: Path, out: Path, *, quick: bool, config: str | None, serial:
              timeout: float = 900.0) -> dict:
     """One ``fl-design run``: wall and CPU seconds, load, stage times (or the failure)."""
     cmd = [sys.executable, "-c", ENTRY.format(serial=bool(serial)), "run"]
-    cmd += ([config] if config else []) + ["--out", str(out), "--no-progress"]
+    # with its progress lines (piped, as the acceptance check and a user's terminal get them)
+    cmd += ([config] if config else []) + ["--out", str(out)]
     cmd += ["--quick"] if quick else []
     env = dict(os.environ, FL_DESIGN_CACHE=str(cache), MPLBACKEND="Agg")
     cpu0, t0 = _children_cpu(), time.perf_counter()
