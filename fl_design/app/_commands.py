@@ -89,6 +89,7 @@ def cmd_run(args) -> int:
     from ._console import print_job
     from ._job import note, run_job
     from ._report_csv import BackgroundCsv
+    from ._report_figures import FiguresAhead
     from ._report_write import write_report
 
     if is_class_config(args.config):  # a [class] config: the model-free route (_class_run)
@@ -97,9 +98,15 @@ def cmd_run(args) -> int:
     out = check_out_dir(args.out, force=args.force)
     executor = _executor(args.scheduler)
     csv = BackgroundCsv(out, main=args.main_csv, full=args.full_csv)
+    ahead = FiguresAhead(out)  # while the certify stage still runs: the simulate figures
+
+    def after(stage, job):
+        csv.after(stage, job)
+        ahead.after(stage, job)
+
     try:
         job = run_job(cfg, quick=args.quick, out_dir=out, executor=executor,
-                      progress=not args.no_progress, force=args.force, after=csv.after)
+                      progress=not args.no_progress, force=args.force, after=after)
     except Exception:
         csv.wait()  # a later stage failed: no half-written CSV file left behind
         raise
@@ -109,12 +116,13 @@ def cmd_run(args) -> int:
     start = time.perf_counter()
     paths = write_report(job, out, force=args.force, main_csv=args.main_csv,
                          csv_written=written, full_csv=args.full_csv,
-                         interactive=not args.static_report)
+                         interactive=not args.static_report, figures_ahead=ahead)
     during = (f" (CPU {csv.cpu:.1f} s, also counted in the stages running beside it; from the "
               f"end of simulate, {waited:.1f} s of it after the C stage)"
               if written is not None else "")
     note(f"report (figures, HTML, Markdown, JSON) written in "
-         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s); "
+         f"{time.perf_counter() - start:.1f} s (figures {job.timings['report_figures']:.1f} s"
+         + (f", {ahead.seconds:.1f} s of it while certify ran" if ahead.drawn else "") + "); "
          f"{len(paths['csv'])} runs as CSV in {job.timings.get('report_csv', 0.0):.1f} s{during}",
          enabled=not args.no_progress)
     try:  # the report is written: a terminal that fails now loses only the console copy

@@ -15,6 +15,7 @@ Examples
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 from ._brief import run_brief, window_brief
@@ -173,7 +174,7 @@ def _has(job, need: str) -> bool:
     return need in job.results
 
 
-def write_figures(job, folder) -> tuple[list, dict]:
+def write_figures(job, folder, *, names=None, drawn=None) -> tuple[list, dict]:
     """Draw every figure the job's results allow into ``folder`` (PNG).
 
     Parameters
@@ -182,6 +183,11 @@ def write_figures(job, folder) -> tuple[list, dict]:
         A finished job.
     folder : str or pathlib.Path
         The report's folder.
+    names : iterable of str, optional
+        Only these figures of :data:`FIGURES` (default all).
+    drawn : (list, dict), optional
+        Figures already written (or failed) into ``folder`` by :class:`FiguresAhead`: kept,
+        not drawn again, and part of the result.
 
     Returns
     -------
@@ -199,8 +205,10 @@ def write_figures(job, folder) -> tuple[list, dict]:
     """
     from ..plotting import close_figure, save_figure
 
-    written, failed = [], {}
-    todo = [(name, draw) for name, (draw, need) in FIGURES.items() if _has(job, need)]
+    written, failed = (list(drawn[0]), dict(drawn[1])) if drawn else ([], {})
+    wanted = set(FIGURES if names is None else names) - set(written) - set(failed)
+    todo = [(name, draw) for name, (draw, need) in FIGURES.items()
+            if name in wanted and _has(job, need)]
     if not todo:
         return written, failed
     ctx = figure_context(job)
@@ -219,5 +227,44 @@ def write_figures(job, folder) -> tuple[list, dict]:
     return written, failed
 
 
-__all__ = ["FIGURES", "figure_context", "map_curves", "response_title", "step_labels",
+#: The figures drawn from stages of this process alone (the certify stage's results, which the
+#: stability map's curves and the eps* figure show, may still be on their way).
+AHEAD = ("response.png", "steps.png", "noise_tradeoff.png", "robust_map.png")
+
+
+class FiguresAhead:
+    """Draw the figures of :data:`AHEAD` while the certify stage still runs beside the job.
+
+    ``fl-design run`` passes :meth:`after` to :func:`~fl_design.app.run_job`: when the last
+    stage of this process (``codegen``) is done and the certify stage (in its child process)
+    is not, this process would only wait; it draws those figures meanwhile, in this thread
+    (matplotlib is not thread safe), and :func:`~fl_design.app.write_report` draws the rest.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        The report's folder (already claimed: :func:`fl_design._output.claim_output_folder`).
+
+    Examples
+    --------
+    >>> from fl_design.app._report_figures import FiguresAhead
+    >>> ahead = FiguresAhead(".")
+    >>> ahead.after("sweep", None); ahead.drawn, ahead.seconds
+    (None, 0.0)
+    """
+
+    def __init__(self, folder):
+        self.folder, self.drawn, self.seconds = folder, None, 0.0
+
+    def after(self, stage: str, job) -> None:
+        """Draw the figures of :data:`AHEAD` when ``stage`` is ``codegen`` and the certify
+        stage's results are not in ``job`` yet (a :func:`run_job` ``after`` hook)."""
+        if stage != "codegen" or "certify" in job.results:
+            return
+        start = time.perf_counter()
+        self.drawn = write_figures(job, self.folder, names=AHEAD)
+        self.seconds = time.perf_counter() - start
+
+
+__all__ = ["AHEAD", "FIGURES", "FiguresAhead", "figure_context", "map_curves", "response_title", "step_labels",
            "write_figures"]

@@ -103,7 +103,7 @@ def _run_row(resp) -> dict:
 
 def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
                  csv_written: list | None = None, full_csv: bool = False,
-                 interactive: bool = True) -> dict:
+                 interactive: bool = True, figures_ahead=None) -> dict:
     """Write ``report.html``, ``report.md``, the PNG figures, ``summary.json`` and the compared
     runs as CSV (:func:`write_runs_csv`).
 
@@ -133,6 +133,10 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
         hover values; :mod:`fl_design.app._report_interactive`), the PNG kept for print
         (default); False: PNG only and no script (``fl-design run --static-report``).
         ``report.md`` links the PNG files either way.
+    figures_ahead : FiguresAhead, optional
+        Figures the caller drew into this folder while the certify stage ran
+        (:class:`~fl_design.app._report_figures.FiguresAhead`): kept, not drawn again; their
+        seconds are counted in ``report_figures``.
 
     Returns
     -------
@@ -150,8 +154,10 @@ def write_report(job, out_dir, *, force: bool = False, main_csv: bool = False,
     """
     folder = claim_output_folder(out_dir, force=force, what="report folder")
     start = time.perf_counter()
-    figures, failed = write_figures(job, folder)
-    job.timings["report_figures"] = time.perf_counter() - start
+    ahead = figures_ahead.drawn if figures_ahead is not None else None
+    figures, failed = write_figures(job, folder, drawn=ahead)
+    job.timings["report_figures"] = time.perf_counter() - start + (
+        figures_ahead.seconds if ahead else 0.0)
     if csv_written is None:
         start = time.perf_counter()
         csv = write_runs_csv(job, folder, main=main_csv, full=full_csv)
