@@ -23,7 +23,6 @@ Examples
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,17 +122,14 @@ def closed_chain(gains) -> np.ndarray:
 def _lmi_P(Ac, Q):
     import cvxpy as cp
 
+    from ._lmi import solve_quietly  # (counted: the job's progress lines say it)
+
     P = cp.Variable(Q.shape, symmetric=True)
     prob = cp.Problem(cp.Minimize(cp.trace(P)), [Ac.T @ P + P @ Ac + Q << 0])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except Exception:  # noqa: BLE001 - a solver failure is a value
-            try:
-                prob.solve(solver=cp.SCS, eps=1e-9)
-            except Exception as err:  # noqa: BLE001
-                return None, f"{type(err).__name__}"
+    if solve_quietly(prob) is not None:  # a solver failure is a value
+        err = solve_quietly(prob, "SCS")
+        if err is not None:
+            return None, f"{type(err).__name__}"
     return (None if P.value is None else np.array(P.value)), str(prob.status)
 
 
