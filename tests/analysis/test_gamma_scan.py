@@ -170,3 +170,21 @@ def test_lyapunov_lmi_is_counted():
     n0 = solve_count()
     c = fl.certify_lyapunov((2, 4), T=1e-3)
     assert c.lmi_status == "optimal" and solve_count() == n0 + 1
+
+
+def test_bench_certify_stage_quick_runs(capsys):
+    """``verify/bench_certify.py --stage --quick``'s measurement, in process."""
+    import sys
+    from pathlib import Path
+
+    verify = Path(__file__).resolve().parents[2] / "verify"
+    sys.path.insert(0, str(verify))
+    try:
+        from bench_certify import stage_parts
+    finally:
+        sys.path.remove(str(verify))
+    assert stage_parts(True)
+    out = capsys.readouterr().out
+    for part in ("the gamma interval: CPU", "the eps* brackets: CPU", "8 gains: CPU",
+                 "together: CPU", "load average"):
+        assert part in out, out
