@@ -24,7 +24,15 @@ Each line gives the wall time, the CPU time of the timed call (under load the be
 of single-threaded work), the conic programs (LMIs, SOS) it solved and how many gains were
 certified. A miss exits 1.
 
-    python verify/bench_certify.py [--quick]
+``--stage`` times the main job's certify stage parts on the default config (TRMS, its class
+with the friction slope box), in this process after a warm-up, as ``fl_design.app._stages.certify``
+calls them: ``certify_gamma``, ``certify_eps`` (the eps* brackets) and the 8-gain
+``eps_star_curve``: the CPU time of each (the stage runs beside the sweep on 2 cores: its CPU is
+the critical path), the conic programs solved and the answers (gamma interval, lower bound,
+brackets, certified gains). Target: the three together <= :data:`STAGE_TARGET_S` s of CPU
+(issue 33; 5 s before session 33). With ``--quick`` the target is not judged (the tests run it).
+
+    python verify/bench_certify.py [--quick] [--stage]
 """
 
 from __future__ import annotations
@@ -41,6 +49,8 @@ import fl_design as fl
 from fl_design._isa import cpu_model
 
 TARGET_S = 5.0
+#: CPU seconds of the job's certify stage parts (gamma, brackets, curve) on the TRMS.
+STAGE_TARGET_S = 2.0
 ISSUE_GAMMAS = (3e-4, 1e-3, 3e-3)
 
 
@@ -158,7 +168,11 @@ def main(argv=None) -> int:
     parser.add_argument("--only", nargs="*", default=None,
                         help="with --classes: these cases only (names of CLASS_CASES)")
     parser.add_argument("--repeat", type=int, default=2, help="rounds of --classes")
+    parser.add_argument("--stage", action="store_true",
+                        help="the main job's certify stage parts on the TRMS (CPU time)")
     args = parser.parse_args(argv)
+    if args.stage:
+        return 0 if stage_parts(args.quick) else 1
     if args.classes:
         names = args.only or list(CLASS_CASES)
         bad = [n for n in names if n not in CLASS_CASES]
@@ -171,6 +185,50 @@ def main(argv=None) -> int:
         print()
         return 0 if curve_50(args.quick) == 0 and ok else 1
     return curve_50(args.quick)
+
+
+def stage_parts(quick: bool) -> bool:
+    """The job's certify stage parts on the default config: CPU, conic programs, answers."""
+    from fl_design.analysis import certify_eps, certify_gamma, eps_star_curve, plant_bounds
+    from fl_design.analysis._lmi import solve_count
+    from fl_design.app import load_config
+    from fl_design.app._build import build_setup
+    from fl_design.app._stages import derive
+
+    setup = build_setup(load_config(None))
+    derive(setup)
+    cfg, design = setup.config.certify, setup.design
+    box = setup.config.uncertainty.box()
+    bb = plant_bounds(setup.plant, params=box["ranges"]) if box["ranges"] else setup.plant
+    gammas = np.abs(np.geomspace(*cfg.gamma, cfg.points))
+    eps_range = tuple(cfg.eps_range or setup.config.sweep.eps)
+    certify_gamma(fl.presets.paper_design(), (3.6, 6.8))  # warm-up: CasADi compiles
+    parts = {"the gamma interval": lambda: certify_gamma(design, bb),
+             "the eps* brackets": lambda: certify_eps(design, bb, eps_range=eps_range),
+             f"the eps*(gamma) curve, {gammas.size} gains": lambda: eps_star_curve(
+                 design, bb, gammas, eps_range=eps_range, progress=False)}
+    print(f"the main job's certify stage parts (TRMS default config), in process, CPU: "
+          f"{cpu_model()}")
+    total, solves, out = 0.0, 0, {}
+    for name, call in parts.items():
+        n0, c0, t0 = solve_count(), time.process_time(), time.perf_counter()
+        out[name] = call()
+        cpu, wall, n = time.process_time() - c0, time.perf_counter() - t0, solve_count() - n0
+        total, solves = total + cpu, solves + n
+        print(f"  {name}: CPU {cpu:.2f} s (wall {wall:.2f} s), {n} conic programs")
+    g, e, curve = (out[k] for k in parts)
+    print(f"  gamma interval ({g.gamma_min:.6g}, {g.gamma_max:.6g}), lower bound "
+          f"{g.gamma_lower_bound:.6g}, certified {g.certified}; headline bracket: "
+          f"{e.bracket(e.covers)}; curve: certified at "
+          f"{int(np.isfinite(curve.eps_star_certified).sum())}/{gammas.size} gains")
+    print(f"together: CPU {total:.2f} s, {solves} conic programs (target <= "
+          f"{STAGE_TARGET_S:g} s CPU)")
+    print(load_line())
+    met = target("certify stage parts (gamma, brackets, curve), TRMS job, CPU", total,
+                 STAGE_TARGET_S, checked=not quick, detail=f"{solves} conic programs, in process")
+    if not quick and not met:
+        print(f"MISS: {total:.2f} s >= {STAGE_TARGET_S:g} s")
+    return met or quick
 
 
 def curve_50(quick: bool) -> int:

@@ -84,6 +84,7 @@ class _Loop:
         self.T, self.design = design.T, design
         self.b_grid = np.linspace(self.b_lo, self.b_hi, self.n_b)
         self._worst = 0  # the b index that failed last (screened_margin)
+        self._worst_ok = 0  # the same for frozen_ok (its own: screened_margin's values stay)
         self.pieces_hint = 1  # eps_star_curve starts from the split that worked last
         self.modal_hit = False  # a search skips the LMIs once a modal certificate was found
         self.delta_error = 0.0  # the rounding bound of the last _deltas' similarity
@@ -97,18 +98,26 @@ class _Loop:
         # the n x n common LMI (faster, another P: the fast curve, whose P serves nothing else)
         self.reduced = False
         self.b_rate = None  # the class's bound on b's change per sample (None: arbitrary)
+        # pairs of LDI vertex loops switched before its SDP (ldi_point's refute_pairs: a growing
+        # switching answers "no common P" as the SDP would); a search sets it, and it is
+        # turned off once the SDP is solved anyway (the switching did not refute)
+        self.ldi_refute_pairs = 0
         self.signed_bounds = ((self.b_lo, self.b_hi) if self.sign > 0
                               else (-self.b_hi, -self.b_lo))
 
     def frozen_margin(self, eps: float, gamma: float) -> float:
         """Largest :func:`schur_margins` over the b grid (and the a-corners): < 0 iff Schur."""
-        worst = -math.inf
+        m = schur_margins(self._frozen_deltas(eps, gamma), self.T)
+        return float(np.max(m)) if np.all(np.isfinite(m)) else math.inf
+
+    def _frozen_deltas(self, eps: float, gamma: float) -> np.ndarray:
+        """Delta matrices of the frozen loops, ``(corners, n_b, n, n)`` (one stack: one
+        eigenvalue call for every corner and ``b``)."""
+        D = []
         for a_row in self._corners():
             M0, M1 = self.loop.parts(eps, gamma, a_row)
-            D = delta(M0[None] + self.b_grid[:, None, None] * M1[None], self.T)
-            m = float(np.max(schur_margins(D, self.T)))
-            worst = max(worst, m if math.isfinite(m) else math.inf)
-        return worst
+            D.append(M0[None] + self.b_grid[:, None, None] * M1[None])
+        return delta(np.stack(D), self.T)
 
     def screened_margin(self, eps: float, gamma: float) -> float:
         """:meth:`frozen_margin`, screened first on a few ``b`` (the ends and the last worst).
@@ -144,14 +153,30 @@ class _Loop:
         return np.where(np.isfinite(m), m, np.inf)
 
     def frozen_ok(self, eps: float, gamma: float) -> bool:
-        """Every frozen loop on the b grid (and the a-corners) is Schur."""
-        return self.frozen_margin(eps, gamma) < 0.0
+        """Every frozen loop on the b grid (and the a-corners) is Schur.
+
+        Exactly ``frozen_margin(eps, gamma) < 0``, screened first on the ends of ``b`` and the
+        ``b`` that failed last (every corner): a failing screen answers without the rest of the
+        grid (half the points of a bisection fail).
+        """
+        D = self._frozen_deltas(eps, gamma)
+        idx = sorted({0, self.n_b - 1, self._worst_ok})
+        m = schur_margins(D[:, idx], self.T)
+        if not np.all(m < 0.0):
+            return False
+        m = schur_margins(D, self.T)
+        self._worst_ok = int(np.argmax(np.max(m, axis=0)))
+        return bool(np.all(m < 0.0))
 
     def _corners(self):
+        """The distinct corners of the slope box (rows ``a``, first occurrences in order), or
+        ``[None]`` without a box (a degenerate range, e.g. ``(0, 0)``, gives one value)."""
         if self.box is None:
             return [None]
         grids = np.meshgrid(*self.box, indexing="ij")
-        return np.stack([g.ravel() for g in grids], axis=1)
+        rows = np.stack([g.ravel() for g in grids], axis=1)
+        first = np.unique(rows, axis=0, return_index=True)[1]
+        return rows[np.sort(first)]
 
     def _deltas(self, eps, gamma, b_pair, structured: bool = True):
         """Balanced vertex deltas of ``b_pair`` and the map ``K`` back to the loop's
@@ -213,7 +238,13 @@ class _Loop:
             from ._class_bracket import member_refutation_point
             from ._ldi import ldi_point
 
-            return member_refutation_point(self, eps, gamma) or ldi_point(self, eps, gamma)
+            pc = member_refutation_point(self, eps, gamma)
+            if pc is not None:
+                return pc
+            pc = ldi_point(self, eps, gamma, refute_pairs=self.ldi_refute_pairs)
+            if pc.solver_status != "not solved":  # the switching did not refute: an SDP ran
+                self.ldi_refute_pairs = 0
+            return pc
         margin = self.frozen_margin(eps, gamma)
         if not margin < 0.0:
             return PointCertificate(

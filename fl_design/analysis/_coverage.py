@@ -183,10 +183,11 @@ def bracket(covers: str, certified, refuted, how_certified: str,
                       () if refutation is None else refutation.runs)
 
 
-def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24) -> float:
+def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24, *, where: bool = False):
     """Smallest frozen margin over eps in ``[lo, hi]``: a log scan, then a bounded 1-D search.
 
-    Negative: some eps gives a Schur loop for every b of the grid at this gamma.
+    Negative: some eps gives a Schur loop for every b of the grid at this gamma. ``where``:
+    ``(margin, eps)``, the eps where it was found.
     """
     from scipy.optimize import minimize_scalar
 
@@ -194,11 +195,13 @@ def best_margin(L, gamma: float, lo: float, hi: float, n: int = 24) -> float:
     m = np.asarray(L.frozen_margins(grid, gamma), dtype=float)  # stacked eigenvalue problems
     i = int(np.argmin(m))
     if m[i] < 0.0:
-        return float(m[i])
+        return (float(m[i]), float(grid[i])) if where else float(m[i])
     a, b = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, n - 1)])
     res = minimize_scalar(lambda x: L.frozen_margin(float(np.exp(x)), gamma), bounds=(a, b),
                           method="bounded", options={"xatol": 1e-6})
-    return float(min(m[i], res.fun))
+    out = (float(m[i]), float(grid[i])) if m[i] <= res.fun else (float(res.fun),
+                                                                 float(np.exp(res.x)))
+    return out if where else out[0]
 
 
 def gamma_fix(L, gamma: float, lo: float, hi: float, n: int = 40) -> str:

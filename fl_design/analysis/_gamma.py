@@ -102,8 +102,9 @@ def certify_gamma(design: Design, b_bounds, *, a_jacobian_bounds=None, b_rate=No
 
     g_min, g_max = gamma_interval(lambda g: L.frozen_ok(eps, g), gamma, g_lo, g_hi, n_scan,
                                   rtol, scan(eps))
-    mins = [gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan,
-                           rtol, scan(e))[0] for e in grid_eps]
+    mins = [g_min if e == eps else  # (the design's eps: its scan above)
+            gamma_interval(lambda g, e=e: L.frozen_ok(e, g), gamma, g_lo, g_hi, n_scan, rtol,
+                           scan(e), lower_only=True)[0] for e in grid_eps]
     mins = [m for m in mins if m is not None]
     lower = min(mins) if mins else None
     if lower is not None:
@@ -130,19 +131,32 @@ def refine_lower_bound(L, good: float, g_floor: float, lo: float, hi: float) -> 
     """The gamma below which no eps in ``[lo, hi]`` works, bracketed to :data:`LOWER_RTOL`.
 
     ``good`` is a gamma at which some eps works; the bracket's lower (failing) end is found by
-    halving, then log-bisection. Returns the good end (some eps works there, none at
-    ``good / (1 + LOWER_RTOL)`` as far as :func:`best_margin` finds).
+    steps down by squared factors (``1 + 4 LOWER_RTOL``, its square, ...: the scans' ends
+    already lie within their ``rtol`` of the answer), then log-bisection. Returns the good end
+    (some eps works there, none at ``good / (1 + LOWER_RTOL)`` as far as :func:`best_margin`
+    finds). The eps that worked last is tried first at the next gamma: a witness (some eps
+    works) without the search.
     """
+    witness = [None]
+
     def works(g):
-        return best_margin(L, g, lo, hi) < 0.0
+        e = witness[0]
+        if e is not None and L.frozen_margin(e, g) < 0.0:
+            return True
+        m, e = best_margin(L, g, lo, hi, where=True)
+        if m < 0.0:
+            witness[0] = e
+        return m < 0.0
 
     if not works(good):
         return good
-    bad = good / 2.0
+    factor = 1.0 + 4.0 * LOWER_RTOL
+    bad = good / factor
     while works(bad):
         if bad <= g_floor:
             return bad
-        good, bad = bad, bad / 2.0
+        factor *= factor
+        good, bad = bad, bad / factor
     out = bisect_log(lambda x: works(1.0 / x), 1.0 / good, 1.0 / bad, rtol=LOWER_RTOL)
     return float(1.0 / out.lo)
 

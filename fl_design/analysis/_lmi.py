@@ -207,14 +207,7 @@ def _solve_direct(deltas, T: float, common: bool, kappa: float, reduced: bool = 
     from ._sdp import max_margin
 
     blocks, nvar, unpack = _direct_blocks(deltas, T, common, kappa, reduced)
-    _SOLVES.n = solve_count() + 1
-    try:
-        r = max_margin(blocks, nvar)
-    finally:
-        listener = getattr(_SOLVES, "listener", None)
-        if listener is not None and time.perf_counter() - listener[2] >= listener[1]:
-            listener[2] = time.perf_counter()
-            listener[0]()
+    r = counted(max_margin, blocks, nvar)
     if r.x is None:
         return r.status, None, None, r.eta
     P, G = unpack(r.x)
@@ -322,10 +315,12 @@ def solve_progress(callback, every: float = 2.0):
         _SOLVES.listener = previous
 
 
-def _solve(problem, solver: str) -> str:
-    """Solve ``problem`` with ``solver``, its warnings silenced; the CVXPY status."""
+def counted(solve, *args):
+    """``solve(*args)``, counted as one conic program by :func:`solve_count` (its listener
+    told): for a program handed to a solver directly (:mod:`._sdp`)."""
+    _SOLVES.n = solve_count() + 1
     try:
-        return _solve_once(problem, solver)
+        return solve(*args)
     finally:
         listener = getattr(_SOLVES, "listener", None)
         if listener is not None and time.perf_counter() - listener[2] >= listener[1]:
@@ -333,10 +328,14 @@ def _solve(problem, solver: str) -> str:
             listener[0]()
 
 
+def _solve(problem, solver: str) -> str:
+    """Solve ``problem`` with ``solver``, its warnings silenced; the CVXPY status."""
+    return counted(_solve_once, problem, solver)
+
+
 def _solve_once(problem, solver: str) -> str:
     import cvxpy as cp
 
-    _SOLVES.n = solve_count() + 1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if solver == "SCS":

@@ -23,7 +23,6 @@ Examples
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,9 +48,10 @@ class LyapunovCertificate(_Result):
     P_x : numpy.ndarray
         Solution of the continuous Lyapunov equation (SciPy).
     P_lmi : numpy.ndarray or None
-        Smallest-trace ``P`` of the LMI ``A_c^T P + P A_c + Q <= 0`` (CVXPY), None on failure.
+        Smallest-trace ``P`` of the LMI ``A_c^T P + P A_c + Q <= 0`` (Clarabel), None on
+        failure.
     lmi_status : str
-        CVXPY status of the LMI.
+        Status of the LMI (CVXPY's words: ``"optimal"``, ``"infeasible"``, ...).
     lambda_x : float
         ``lambda_min(Q) / 2``.
     T : float or None
@@ -121,20 +121,16 @@ def closed_chain(gains) -> np.ndarray:
 
 
 def _lmi_P(Ac, Q):
-    import cvxpy as cp
+    """Smallest-trace ``P`` with ``A_c^T P + P A_c + Q <= 0``: Clarabel directly
+    (:func:`._sdp.min_linear`, no CVXPY import), counted by :func:`._lmi.solve_count`."""
+    from ._lmi import _sym_basis, counted
+    from ._sdp import min_linear
 
-    P = cp.Variable(Q.shape, symmetric=True)
-    prob = cp.Problem(cp.Minimize(cp.trace(P)), [Ac.T @ P + P @ Ac + Q << 0])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except Exception:  # noqa: BLE001 - a solver failure is a value
-            try:
-                prob.solve(solver=cp.SCS, eps=1e-9)
-            except Exception as err:  # noqa: BLE001
-                return None, f"{type(err).__name__}"
-    return (None if P.value is None else np.array(P.value)), str(prob.status)
+    B = _sym_basis(Q.shape[0])  # P = sum_i x_i B_i
+    BA = B @ Ac
+    F = -(np.swapaxes(BA, -1, -2) + BA)  # -(A_c^T P + P A_c) - Q >= 0
+    r = counted(min_linear, np.trace(B, axis1=1, axis2=2), [(-Q, F)], B.shape[0])
+    return (None if r.x is None else np.tensordot(r.x, B, axes=1)), r.status
 
 
 def certify_lyapunov(gains, Q=None, *, T: float | None = None,

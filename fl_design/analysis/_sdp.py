@@ -107,7 +107,6 @@ def max_margin(blocks, nvar: int) -> MarginSolution:
     ('optimal', 1.0)
     """
     import clarabel
-    import scipy.sparse as sp
 
     rows_b, rows_a, cones = [np.ones(1)], [np.eye(1, nvar + 1, nvar)], [
         clarabel.NonnegativeConeT(1)]
@@ -119,26 +118,70 @@ def max_margin(blocks, nvar: int) -> MarginSolution:
         rows_a.append(-np.hstack([cols, eta_col]))
         rows_b.append(svec(np.asarray(F0, dtype=float)))
         cones.append(clarabel.PSDTriangleConeT(d))
-    A = sp.csc_matrix(np.vstack(rows_a))
-    b = np.concatenate(rows_b)
     q = np.zeros(nvar + 1)
     q[-1] = -1.0
+    status, z, iters = _clarabel(q, np.vstack(rows_a), np.concatenate(rows_b), cones)
+    if z is None:
+        return MarginSolution(None, None, status, iters)
+    return MarginSolution(z[:nvar], float(z[-1]), status, iters)
+
+
+def min_linear(cost, blocks, nvar: int) -> MarginSolution:
+    """Minimize ``cost @ x`` subject to ``F_k(x) = F_k0 + sum_i x_i F_ki >= 0`` (PSD).
+
+    Parameters
+    ----------
+    cost : array_like
+        ``(nvar,)``.
+    blocks : sequence of (numpy.ndarray, numpy.ndarray)
+        ``(F_k0, F_ki)``: the constant ``(d, d)`` and the coefficients ``(nvar, d, d)``.
+    nvar : int
+        Number of variables ``x``.
+
+    Returns
+    -------
+    MarginSolution
+        ``x`` (``eta`` None) and the status; never raises on a solver failure.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> r = min_linear([1.0], [(np.array([[-2.0]]), np.ones((1, 1, 1)))], 1)  # x >= 2
+    >>> r.status, round(float(r.x[0]), 6)
+    ('optimal', 2.0)
+    """
+    import clarabel
+
+    A = [-svec(np.asarray(Fi, dtype=float)).T for _, Fi in blocks]
+    b = [svec(np.asarray(F0, dtype=float)) for F0, _ in blocks]
+    cones = [clarabel.PSDTriangleConeT(F0.shape[0]) for F0, _ in blocks]
+    status, z, iters = _clarabel(np.asarray(cost, dtype=float).reshape(nvar), np.vstack(A),
+                                 np.concatenate(b), cones)
+    return MarginSolution(z, None, status, iters)
+
+
+def _clarabel(q, A, b, cones):
+    """``(status word, z or None, iterations)`` of Clarabel's ``min q z, A z + s = b, s in
+    cones`` (one thread; a solution only with a status of :data:`WITH_SOLUTION`)."""
+    import clarabel
+    import scipy.sparse as sp
+
     settings = clarabel.DefaultSettings()
     settings.verbose = False
     if hasattr(settings, "max_threads"):  # clarabel >= 0.10: one thread (tiny problems)
         settings.max_threads = 1
+    n = q.size
     try:
-        solver = clarabel.DefaultSolver(sp.csc_matrix((nvar + 1, nvar + 1)), q, A, b, cones,
+        solver = clarabel.DefaultSolver(sp.csc_matrix((n, n)), q, sp.csc_matrix(A), b, cones,
                                         settings)
         sol = solver.solve()
     except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
-        return MarginSolution(None, None, f"solver_error: {type(err).__name__}: {err}"[:120], 0)
+        return f"solver_error: {type(err).__name__}: {err}"[:120], None, 0
     status = STATUS.get(str(sol.status), str(sol.status).lower())
     z = np.asarray(sol.x, dtype=float)
-    if status not in WITH_SOLUTION or z.shape != (nvar + 1,) or not np.all(
-            np.isfinite(z)):
-        return MarginSolution(None, None, status, int(sol.iterations))
-    return MarginSolution(z[:nvar], float(z[-1]), status, int(sol.iterations))
+    if status not in WITH_SOLUTION or z.shape != (n,) or not np.all(np.isfinite(z)):
+        return status, None, int(sol.iterations)
+    return status, z, int(sol.iterations)
 
 
-__all__ = ["STATUS", "WITH_SOLUTION", "MarginSolution", "max_margin", "svec"]
+__all__ = ["STATUS", "WITH_SOLUTION", "MarginSolution", "max_margin", "min_linear", "svec"]

@@ -288,13 +288,63 @@ def stable_intervals(pred, lo: float, hi: float, n_scan: int, rtol: float,
     return tuple(out)
 
 
-def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol, preds=None):
+class _LazyOk:
+    """``ok[i]`` of a scan grid, evaluated on demand: ``preds`` on up to :data:`SCAN_CHUNK`
+    unevaluated points at once in the direction of travel (a walk from the design's gain
+    reads only the points up to its run's ends), else ``pred`` one point at a time."""
+
+    def __init__(self, grid, pred, preds):
+        self.grid, self.pred, self.preds = grid, pred, preds
+        self.ok: dict[int, bool] = {}
+
+    def at(self, i: int, step: int = 1) -> bool:
+        if i not in self.ok:
+            if self.preds is None:
+                self.ok[i] = bool(self.pred(self.grid[i]))
+            else:
+                idx = [i]
+                while (len(idx) < SCAN_CHUNK and 0 <= idx[-1] + step < self.grid.size
+                       and idx[-1] + step not in self.ok):
+                    idx.append(idx[-1] + step)
+                idx.sort()
+                for k, v in zip(idx, self.preds(self.grid[idx])):
+                    self.ok[k] = bool(v)
+        return self.ok[i]
+
+
+def _run_ends(ok: _LazyOk, n: int, design_gamma: float, lower_only: bool):
+    """``(i, j)`` of the stable run containing ``design_gamma``, else of the lowest run (``j``
+    None with ``lower_only``), else None; reads only the points it needs."""
+    grid = ok.grid
+    k = int(np.searchsorted(grid, design_gamma, side="right")) - 1
+    inside = 0 <= k and design_gamma <= grid[-1]
+    if inside and ok.at(k, -1) and (grid[k] == design_gamma or ok.at(k + 1, 1)):
+        i, j = k, k if grid[k] == design_gamma else k + 1
+    else:
+        i = next((m for m in range(n) if ok.at(m, 1)), None)
+        if i is None:
+            return None
+        j = i
+    while i > 0 and ok.at(i - 1, -1):
+        i -= 1
+    if lower_only:
+        return i, None
+    while j + 1 < n and ok.at(j + 1, 1):
+        j += 1
+    return i, j
+
+
+def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol, preds=None, *,
+                   lower_only: bool = False):
     """Stable run of a log gamma scan containing ``design_gamma`` (else the lowest run).
 
     Returns ``(gamma_min, gamma_max)`` refined by bisection to ``rtol`` (an end of the scan
     when the run reaches it), or ``(None, None)`` when no scan point is stable. ``preds``
-    (optional) evaluates the whole scan at once (``array -> bools``, stacked eigenvalue
-    problems); the refinement uses ``pred``.
+    (optional) evaluates many scan points at once (``array -> bools``, stacked eigenvalue
+    problems); the refinement uses ``pred``. The scan is read from the design's gain outward
+    (the lowest run from the bottom up) and stops at the run's ends: the points beyond them
+    are never evaluated (the answer is the full scan's). ``lower_only``: ``gamma_max`` is not
+    searched (None).
 
     Examples
     --------
@@ -303,23 +353,14 @@ def gamma_interval(pred, design_gamma, lo, hi, n_scan, rtol, preds=None):
     (0.1, 0.5)
     """
     grid = np.geomspace(lo, hi, n_scan)
-    ok = [bool(v) for v in preds(grid)] if preds is not None else [pred(g) for g in grid]
-    runs, i = [], 0
-    while i < n_scan:
-        if ok[i]:
-            j = i
-            while j + 1 < n_scan and ok[j + 1]:
-                j += 1
-            runs.append((i, j))
-            i = j + 1
-        else:
-            i += 1
-    if not runs:
+    run = _run_ends(_LazyOk(grid, pred, preds), n_scan, design_gamma, lower_only)
+    if run is None:
         return None, None
-    run = next((r for r in runs if grid[r[0]] <= design_gamma <= grid[r[1]]), runs[0])
     i, j = run
     g_min = grid[0] if i == 0 else 1.0 / _bracket(lambda x: pred(1.0 / x), 1.0 / grid[i],
                                                     1.0 / grid[i - 1], rtol)[0]
+    if j is None:
+        return float(g_min), None
     g_max = grid[-1] if j == n_scan - 1 else _bracket(pred, grid[j], grid[j + 1], rtol)[0]
     return float(g_min), float(g_max)
 

@@ -31,6 +31,7 @@ import math
 import numpy as np
 import scipy.linalg
 
+from .._blas import serial_blas
 from ..errors import DesignMismatchError, ParameterError
 
 
@@ -110,7 +111,11 @@ def chain_zoh(rho: int, T: float, a_row=None) -> tuple[np.ndarray, np.ndarray]:
 
 @functools.lru_cache(maxsize=256)
 def _expm_chain(rho: int, T: float, a_row) -> np.ndarray:
-    return scipy.linalg.expm(T * chain_matrices(rho, a_row))
+    # one BLAS thread: a 3 x 3 expm took 5-10 ms with the default threads on a loaded 2-core
+    # machine (each pool wake-up waits for a time slice), 40 us with one (certify_lyapunov
+    # asks for 200 of them)
+    with serial_blas():
+        return scipy.linalg.expm(T * chain_matrices(rho, a_row))
 
 
 class SurrogateLoop:

@@ -95,3 +95,38 @@ def test_an_iteration_limit_returns_the_iterate_for_the_recheck(monkeypatch):
     r = max_margin([(F0, np.array([[[1.0, 0.0], [0.0, -1.0]]]), True)], 1)
     assert r.status == "user_limit" and r.iterations == 1
     assert r.x is not None and np.isfinite(r.eta)
+
+
+@pytest.mark.parametrize("seed", [4, 5])
+def test_min_linear_gives_the_lyapunov_solution_and_cvxpys_optimum(seed):
+    """min trace(P) s.t. A^T P + P A + Q <= 0 (A Hurwitz) is the Lyapunov equation's solution
+    (SciPy); the same program in CVXPY reaches the same trace."""
+    import scipy.linalg
+
+    from fl_design.analysis._sdp import min_linear
+
+    rng = np.random.default_rng(seed)
+    n = 4
+    A = rng.normal(size=(n, n))
+    A -= (np.max(np.linalg.eigvals(A).real) + 0.5) * np.eye(n)  # Hurwitz
+    Q = np.diag(rng.uniform(0.5, 2.0, n))
+    B = _lmi._sym_basis(n)
+    BA = B @ A
+    r = min_linear(np.trace(B, axis1=1, axis2=2), [(-Q, -(BA + np.swapaxes(BA, 1, 2)))],
+                   B.shape[0])
+    P = np.tensordot(r.x, B, axes=1)
+    want = scipy.linalg.solve_continuous_lyapunov(A.T, -Q)
+    assert r.status == "optimal" and r.eta is None
+    assert np.allclose(P, want, rtol=1e-5, atol=1e-6 * np.abs(want).max())
+    X = cp.Variable((n, n), symmetric=True)
+    cp.Problem(cp.Minimize(cp.trace(X)), [A.T @ X + X @ A + Q << 0]).solve(solver=cp.CLARABEL)
+    assert np.trace(P) == pytest.approx(np.trace(X.value), rel=1e-6)
+
+
+def test_min_linear_reports_an_infeasible_program():
+    from fl_design.analysis._sdp import min_linear
+
+    # x <= -1 and x >= 1: infeasible, a status (no exception, no x)
+    r = min_linear([1.0], [(np.array([[-1.0]]), -np.ones((1, 1, 1))),
+                           (np.array([[-1.0]]), np.ones((1, 1, 1)))], 1)
+    assert r.x is None and r.status.startswith("infeasible")
