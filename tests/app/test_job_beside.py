@@ -30,8 +30,9 @@ def test_certify_beside_the_sweep_gives_the_certificates_of_certify_alone(tmp_pa
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path / "a"))
     beside = run_job(load_config(None), quick=True, stages=("certify", "sweep", "simulate"))
     err = capsys.readouterr().err
-    # it starts once the sweep is done, beside simulate
-    assert err.index("3/4 sweep done") < err.index("2/4 certify ... (in a process beside the")
+    # it starts once derive is done, beside the sweep and simulate
+    assert (err.index("1/4 derive done") < err.index("2/4 certify ... (in a process beside the")
+            < err.index("3/4 sweep ..."))
     assert "certify: the eps* brackets" in err and "2/4 certify done in" in err
     assert beside.timings["certify"] > 0 and "certify" not in beside.cached
     monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path / "b"))  # computed again, alone
