@@ -108,3 +108,21 @@ def test_the_sil_driver_is_compiled_once_and_is_a_fresh_compile(tmp_path, monkey
     res = pkg.verify(plant, fl.Scenario(0.3, 0.5))
     # the check itself compiles no driver either (only simulate's kernel, for its verdict)
     assert res.passed and sum("fl_sil_main.c" in cmd for cmd in compiles) == 1
+
+
+def test_bench_compile_quick(tmp_path):
+    """The benchmark's quick mode runs: the one-step kernel records the two-step kernel's bits
+    and a warm SIL driver runs no compiler (timings are the benchmark's, not checked here)."""
+    import os
+    import re
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": str(root), "FL_DESIGN_CACHE": str(tmp_path)}
+    proc = subprocess.run([sys.executable, str(root / "verify" / "bench_compile.py"), "--quick"],
+                          capture_output=True, text=True, timeout=600, check=False, env=env)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "same bits: True" in proc.stdout
+    assert re.search(r"compiler CPU median [0-9.]+ s, the old way [0-9.]+ s", proc.stdout)
+    assert float(re.search(r"SIL driver warm ([0-9.]+) s", proc.stdout).group(1)) < 0.02
