@@ -1,7 +1,8 @@
 """C compiler discovery, flag sets and the self-verifying content-hash cache of compiled code.
 
 Every compiled artefact of fl_design (the closed-loop sweep kernel of :mod:`fl_design.sim`, the
-exported step of :func:`fl_design.generate_c`) goes through :func:`build`: the source is
+exported step of :func:`fl_design.generate_c`) goes through :func:`build` (a program of several
+files, the software-in-the-loop driver, through :func:`build_program`): the source is
 compiled once with the system C compiler and cached under a name made from the SHA-256 hash
 of the source, the compiler command, its flags and the CasADi version, so an unchanged kernel
 is never compiled twice (across processes and sessions).
@@ -408,7 +409,7 @@ def build_program(files: Mapping[str, str], name: str, *, flags: Sequence[str],
         The compiler failed (its messages), or neither the cache nor a temporary directory
         can be written (both reasons).
     ParameterError
-        A file name with a folder, or no ``.c`` file.
+        A file name with a folder or starting with ``.`` or ``-``, or no ``.c`` file.
 
     Examples
     --------
@@ -421,10 +422,10 @@ def build_program(files: Mapping[str, str], name: str, *, flags: Sequence[str],
     from .errors import CompilationError, CompilerNotFoundError, ParameterError
 
     files = dict(files)
-    bad = [f for f in files if not f or Path(f).name != f or f.startswith(".")]
+    bad = [f for f in files if not f or Path(f).name != f or f[0] in ".-"]
     if bad or not any(f.endswith(".c") for f in files):
-        raise ParameterError(f"files must be plain file names with at least one .c file, got "
-                             f"{sorted(files)!r}")
+        raise ParameterError(f"files must be plain file names (no folder, not starting with "
+                             f"'.' or '-') with at least one .c file, got {sorted(files)!r}")
     if compiler is None:
         cmd, why = _compiler()
         if cmd is None:
