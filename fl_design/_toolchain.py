@@ -367,6 +367,11 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
     return None
 
 
+class UnusableCache(ComputationError):
+    """Neither the compiled-kernel cache nor a temporary directory can be written
+    (:func:`build_program`; the caller may compile where it writes its own files)."""
+
+
 def build_program(files: Mapping[str, str], name: str, *, flags: Sequence[str],
                   compiler: str | Sequence[str] | None = None, cache_dir=None,
                   libs: Sequence[str] = ()) -> bytes:
@@ -406,8 +411,10 @@ def build_program(files: Mapping[str, str], name: str, *, flags: Sequence[str],
     CompilerNotFoundError
         No compiler.
     CompilationError
-        The compiler failed (its messages), or neither the cache nor a temporary directory
-        can be written (both reasons).
+        The compiler failed (its messages).
+    UnusableCache
+        Neither the cache nor a temporary directory can be written (both reasons; a
+        :class:`~fl_design.errors.ComputationError`).
     ParameterError
         A file name with a folder or starting with ``.`` or ``-``, or no ``.c`` file.
 
@@ -459,9 +466,9 @@ def build_program(files: Mapping[str, str], name: str, *, flags: Sequence[str],
                           "exit); set $FL_DESIGN_CACHE to a writable directory to keep it",
                           CompilationWarning, stacklevel=2)
         return data
-    raise CompilationError(f"{name} cannot be built: neither the compiled-kernel cache "
-                           f"({problems[0]}) nor a temporary directory ({problems[-1]}) can be "
-                           "written; set $FL_DESIGN_CACHE to a writable directory")
+    raise UnusableCache(f"{name} cannot be built: neither the compiled-kernel cache "
+                        f"({problems[0]}) nor a temporary directory ({problems[-1]}) can be "
+                        "written; set $FL_DESIGN_CACHE to a writable directory")
 
 
 __all__ = [
@@ -469,6 +476,7 @@ __all__ = [
     "LANES_CFLAGS",
     "SIDECAR_SUFFIX",
     "STRICT_CFLAGS",
+    "UnusableCache",
     "build",
     "build_program",
     "cache_directory",

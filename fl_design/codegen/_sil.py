@@ -43,7 +43,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .._toolchain import build_program
+from .._toolchain import UnusableCache, build_program
 from ..errors import ComputationError, ParameterError
 from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
@@ -224,9 +224,15 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
              **{src.name: src.read_text() for src in pkg.sources}}
     headers = {h.name: h.read_text() for h in (*sorted(pkg.out_dir.glob("*.h")),
                                                plant_c.with_suffix(".h"))}
-    data = build_program({**units, **headers}, f"{pkg.prefix}_sil",
-                         flags=["-O2", "-std=c99", "-I."], compiler=cc)
     exe = build / f"{pkg.prefix}_sil"
+    try:
+        data = build_program({**units, **headers}, f"{pkg.prefix}_sil",
+                             flags=["-O2", "-std=c99", "-I."], compiler=cc)
+    except UnusableCache:  # no cache and no temporary folder: compile here, uncached
+        run_command([cc, "-O2", "-std=c99", f"-I{pkg.out_dir}", f"-I{build}", "-o", str(exe),
+                     str(driver), str(plant_c), *map(str, pkg.sources), "-lm"],
+                    what="compiling the software-in-the-loop driver")
+        return exe
     fd, tmp = tempfile.mkstemp(prefix=f".{exe.name}.", dir=build)
     try:
         with os.fdopen(fd, "wb") as fh:

@@ -84,6 +84,21 @@ def test_compiler_errors_and_bad_names_are_reported(tmp_path):
             build_program(files, "bad", flags=[], cache_dir=tmp_path)
 
 
+def test_without_any_writable_cache_the_sil_driver_is_compiled_in_place(tmp_path, monkeypatch):
+    """Neither the cache nor a temporary folder writable: build_program says so
+    (UnusableCache, both reasons) and the SIL compiles its driver in the package's folder."""
+    def unwritable():
+        raise OSError(13, "Permission denied", "nowhere")
+
+    monkeypatch.setattr(_toolchain, "cache_directory", lambda *a: unwritable())
+    monkeypatch.setattr(_toolchain, "_fallback_directory", unwritable)
+    with pytest.raises(_toolchain.UnusableCache, match="neither the compiled-kernel cache"):
+        build_program(PROGRAM, "prog", flags=["-I."])
+    pkg = fl.generate_c(fl.presets.paper_design(), tmp_path / "pkg")
+    exe = build_driver(pkg, fl.plants.trms_yaw(), 1)
+    assert exe == pkg.out_dir / "build" / "fl_sil" and exe.stat().st_size > 0
+
+
 def test_the_sil_driver_is_compiled_once_and_is_a_fresh_compile(tmp_path, monkeypatch, compiles):
     """A second driver of the same package and plant runs no compiler; its executable is,
     byte for byte, the same units compiled by hand with the flags the SIL always used."""
