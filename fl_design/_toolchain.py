@@ -1,7 +1,8 @@
 """C compiler discovery, flag sets and the self-verifying content-hash cache of compiled code.
 
 Every compiled artefact of fl_design (the closed-loop sweep kernel of :mod:`fl_design.sim`, the
-exported step of :func:`fl_design.generate_c`) goes through :func:`build`: the source is
+exported step of :func:`fl_design.generate_c`) goes through :func:`build` (a program of several
+files, the software-in-the-loop driver, through :func:`build_program`): the source is
 compiled once with the system C compiler and cached under a name made from the SHA-256 hash
 of the source, the compiler command, its flags and the CasADi version, so an unchanged kernel
 is never compiled twice (across processes and sessions).
@@ -51,12 +52,19 @@ import shutil
 import subprocess
 import tempfile
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import casadi as ca
 
-from ._cache import SIDECAR_SUFFIX, cache_directory, replace_text, signed_record, verified
+from ._cache import (
+    SIDECAR_SUFFIX,
+    cache_directory,
+    read_verified,
+    replace_text,
+    signed_record,
+    verified,
+)
 from ._cache import digest as _digest
 from .errors import CompilationWarning, ComputationError
 
@@ -207,18 +215,21 @@ def _native_macros(cc: str) -> frozenset:
                      if line.startswith("#define ") and len(line.split()) > 1)
 
 
-def _compile_into(directory: Path, out_name: str, source: str, name: str, cmd: list[str],
+def _compile_into(directory: Path, out_name: str, files: dict, cmd: list[str],
                   libs: tuple = ()) -> Path:
-    """Compile into ``directory / out_name`` (atomically) and record the sidecar."""
+    """Compile the ``.c`` files of ``files`` (name -> text, headers beside them) into
+    ``directory / out_name`` (atomically) and record the sidecar."""
     out = directory / out_name
     if verified(out):
         return out
     with tempfile.TemporaryDirectory(dir=directory) as tmp:
-        (Path(tmp) / f"{name}.c").write_text(source)
+        for file, text in files.items():
+            (Path(tmp) / file).write_text(text)
+        units = [file for file in files if file.endswith(".c")]
         try:  # relative names in a fixed folder: the same source gives the same bytes
-            proc = subprocess.run([*cmd, f"{name}.c", "-o", out_name, *libs, "-lm"], cwd=tmp,
+            proc = subprocess.run([*cmd, *units, "-o", out_name, *libs, "-lm"], cwd=tmp,
                                   capture_output=True, text=True, timeout=900, check=False)
-            error = None if proc.returncode == 0 else (proc.stderr.strip()[-400:] or "failed")
+            error = None if proc.returncode == 0 else (proc.stderr.strip() or "failed")
         except subprocess.TimeoutExpired as exc:
             error = str(exc)
         except OSError as exc:
@@ -332,10 +343,12 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
     problems = []
     for where in (lambda: cache_directory(cache_dir), _fallback_directory):
         try:
-            out = _compile_into(where(), out_name, source, name, [*cmd, *flags], tuple(libs))
+            out = _compile_into(where(), out_name, {f"{name}.c": source}, [*cmd, *flags],
+                                tuple(libs))
         except _CompileFailed as exc:
-            warnings.warn(f"compiling {name} with {shlex.join(cmd)} failed ({exc}); it runs in "
-                          "CasADi's interpreter, with the same results but slower",
+            warnings.warn(f"compiling {name} with {shlex.join(cmd)} failed "
+                          f"({str(exc)[-400:]}); it runs in CasADi's interpreter, with the same "
+                          "results but slower",
                           CompilationWarning, stacklevel=3)
             return None
         except (OSError, ComputationError) as exc:
@@ -354,12 +367,118 @@ def build(source: str, name: str, *, shared: bool = True, cache_dir=None,
     return None
 
 
+class UnusableCache(ComputationError):
+    """Neither the compiled-kernel cache nor a temporary directory can be written
+    (:func:`build_program`; the caller may compile where it writes its own files)."""
+
+
+def build_program(files: Mapping[str, str], name: str, *, flags: Sequence[str],
+                  compiler: str | Sequence[str] | None = None, cache_dir=None,
+                  libs: Sequence[str] = ()) -> bytes:
+    """Compile a program of several files once (cached by their content); its verified bytes.
+
+    Every ``.c`` file of ``files`` is compiled, in the given order, with ``flags`` in a folder
+    holding all of them (headers included: give the headers the sources include, with
+    ``-I.`` in ``flags``); the executable is cached under the SHA-256 of every file's name
+    and text, the compiler command, the flags, the libraries, CasADi's version and the
+    architecture, in the self-verifying cache of :func:`build` (or, when that cannot be written,
+    the private temporary directory, with one :class:`~fl_design.errors.CompilationWarning`).
+    What is returned is the cached file's content after it matched its signed sidecar.
+
+    Parameters
+    ----------
+    files : mapping of str to str
+        File name (no folder) -> text; ``.c`` files are compiled, others are there to be
+        included.
+    name : str
+        Prefix of the cached file's name.
+    flags : sequence of str
+        The compiler flags (optimization level included).
+    compiler : str or sequence of str, optional
+        Compiler executable, or command with flags; default :func:`compiler_command`.
+    cache_dir : path-like, optional
+        See :func:`cache_directory`.
+    libs : sequence of str, optional
+        Libraries after the sources (``-lm`` is always last).
+
+    Returns
+    -------
+    bytes
+        The executable's bytes (write them where they are to run).
+
+    Raises
+    ------
+    CompilerNotFoundError
+        No compiler.
+    CompilationError
+        The compiler failed (its messages).
+    UnusableCache
+        Neither the cache nor a temporary directory can be written (both reasons; a
+        :class:`~fl_design.errors.ComputationError`).
+    ParameterError
+        A file name with a folder or starting with ``.`` or ``-``, or no ``.c`` file.
+
+    Examples
+    --------
+    >>> from fl_design._toolchain import build_program
+    >>> exe = build_program({"one.c": "int main(void) { return 0; }"}, "one", flags=["-O1"],
+    ...                     cache_dir=".")
+    >>> len(exe) > 0
+    True
+    """
+    from .errors import CompilationError, CompilerNotFoundError, ParameterError
+
+    files = dict(files)
+    bad = [f for f in files if not f or Path(f).name != f or f[0] in ".-"]
+    if bad or not any(f.endswith(".c") for f in files):
+        raise ParameterError(f"files must be plain file names (no folder, not starting with "
+                             f"'.' or '-') with at least one .c file, got {sorted(files)!r}")
+    if compiler is None:
+        cmd, why = _compiler()
+        if cmd is None:
+            raise CompilerNotFoundError(why)
+    else:
+        cmd = [compiler] if isinstance(compiler, str) else list(compiler)
+    h = hashlib.sha256()
+    for part in (*[x for f in files.items() for x in f], *cmd, "|", *flags, "|", *libs,
+                 ca.__version__, platform.machine()):
+        data = part.encode()
+        h.update(len(data).to_bytes(8, "little") + data)
+    out_name = f"{name}_{h.hexdigest()[:24]}.bin"
+    problems = []
+    for where in (lambda: cache_directory(cache_dir), _fallback_directory):
+        try:
+            out = _compile_into(where(), out_name, files, [*cmd, *flags], tuple(libs))
+        except _CompileFailed as exc:
+            raise CompilationError(f"compiling {name} failed: {shlex.join([*cmd, *flags])} "
+                                   f"{' '.join(files)}\n{str(exc)[-2000:]}") from None
+        except (OSError, ComputationError) as exc:
+            problems.append(str(exc.__cause__ or exc))
+            continue
+        data = read_verified(out)
+        if data is None:  # changed since it was built: build it again, once, elsewhere
+            discard(out)
+            problems.append(f"{out} does not match its recorded size and SHA-256")
+            continue
+        if problems:
+            warnings.warn(f"the compiled-kernel cache is unusable ({problems[0]}): {name} is "
+                          f"built in the private temporary directory {out.parent} (removed at "
+                          "exit); set $FL_DESIGN_CACHE to a writable directory to keep it",
+                          CompilationWarning, stacklevel=2)
+        return data
+    raise UnusableCache(f"{name} cannot be built: neither the compiled-kernel cache "
+                        f"({problems[0]}) nor a temporary directory ({problems[-1]}) can be "
+                        "written; set $FL_DESIGN_CACHE to a writable directory")
+
+
 __all__ = [
     "CFLAGS",
     "LANES_CFLAGS",
     "SIDECAR_SUFFIX",
     "STRICT_CFLAGS",
+    "UnusableCache",
     "build",
+    "build_program",
     "cache_directory",
     "compiler_command",
     "discard",

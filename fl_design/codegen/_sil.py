@@ -4,7 +4,8 @@ The compiled ``<prefix>_step`` drives the simulated plant in closed loop, starte
 starts it: ``<prefix>_init``, then ``<prefix>_start(s, ym_0, u0)`` with the first measurement
 and the input ``fl.simulate`` starts from (``u_eq``, or the controller's ``u0``). A C driver
 (``templates/sil.c.in``) links the package with CasADi's code of the plant's RK4 step
-(:attr:`fl_design.sim.ClosedLoop.plant_step`, in double) and runs the scenario's samples
+(:attr:`fl_design.sim.ClosedLoop.plant_step`, in double; compiled once per content,
+:func:`fl_design._toolchain.build_program`) and runs the scenario's samples
 (reference, noise, quantization, the scenario's disturbances). The check passes only when both
 hold:
 
@@ -33,12 +34,16 @@ Examples
 
 from __future__ import annotations
 
+import os
+import tempfile
 from dataclasses import dataclass
 from importlib import resources
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
+from .._toolchain import UnusableCache, build_program
 from ..errors import ComputationError, ParameterError
 from ..sim import ClosedLoop, simulate
 from ..sim._run import prepare_run
@@ -213,10 +218,30 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
     driver = build / "sil.c"
     driver.write_text(render(text, {"PREFIX": pkg.prefix, "REAL": pkg.precision,
                                     "N_PLANT": str(loop.n), **work_sizes}))
+    # the same units, in the same order, at -O2 as the package's own build; compiled once per
+    # content (a warm job's SIL reuses it: 0.33 s of compiler CPU, 15 % of the quick warm job)
+    units = {f"{pkg.prefix}_sil_main.c": driver.read_text(), plant_c.name: plant_c.read_text(),
+             **{src.name: src.read_text() for src in pkg.sources}}
+    headers = {h.name: h.read_text() for h in (*sorted(pkg.out_dir.glob("*.h")),
+                                               plant_c.with_suffix(".h"))}
     exe = build / f"{pkg.prefix}_sil"
-    run_command([cc, "-O2", "-std=c99", f"-I{pkg.out_dir}", f"-I{build}", "-o", str(exe),
-                 str(driver), str(plant_c), *map(str, pkg.sources), "-lm"],
-                what="compiling the software-in-the-loop driver")
+    try:
+        data = build_program({**units, **headers}, f"{pkg.prefix}_sil",
+                             flags=["-O2", "-std=c99", "-I."], compiler=cc)
+    except UnusableCache:  # no cache and no temporary folder: compile here, uncached
+        run_command([cc, "-O2", "-std=c99", f"-I{pkg.out_dir}", f"-I{build}", "-o", str(exe),
+                     str(driver), str(plant_c), *map(str, pkg.sources), "-lm"],
+                    what="compiling the software-in-the-loop driver")
+        return exe
+    fd, tmp = tempfile.mkstemp(prefix=f".{exe.name}.", dir=build)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.chmod(tmp, 0o755)
+        os.replace(tmp, exe)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
     return exe
 
 

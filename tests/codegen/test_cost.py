@@ -66,6 +66,25 @@ def test_table_measures_and_serializes(table):
     assert len(md) == 5 and md[2].startswith("| EHGO | double | 58 |")
 
 
+@pytest.mark.parametrize("precision", ["double", "float"])
+def test_the_timed_harness_is_the_measured_object_and_the_package_build(tmp_path, precision):
+    """step_cost compiles the package once: its timing harness is main.c linked with the very
+    object whose size and stack it measured, byte for byte the executable of CPackage.build
+    (which compiles the package again), and -fstack-usage leaves the object's bytes alone."""
+    from fl_design.codegen._build import compiler_or_raise
+    from fl_design.codegen._cost import _objects, bench_executable
+
+    cc = compiler_or_raise()
+    pkg = generate_c(presets.paper_design(), tmp_path / "p", precision=precision)
+    objs, frames = _objects(pkg, cc, pkg.flags(), tmp_path / "host")
+    assert frames["stack"] > 0
+    linked = bench_executable(pkg, objs, compiler=cc).read_bytes()
+    plain = tmp_path / "plain.o"
+    subprocess.run([cc, *pkg.flags(), "-c", str(pkg.sources[0]), "-o", str(plain)], check=True)
+    assert plain.read_bytes() == objs[0].read_bytes()
+    assert pkg.build(compiler=cc).read_bytes() == linked
+
+
 @pytest.mark.skipif(shutil.which("arm-none-eabi-gcc") is None,
                     reason="arm-none-eabi-gcc is not installed (make arm-toolchain)")
 def test_cortex_m4f_float_build_calls_no_double_helper(tmp_path):
