@@ -75,12 +75,11 @@ def solve_conic(c, blocks) -> MarginSolution:
     Examples
     --------
     >>> import numpy as np
-    >>> # minimize x + y subject to x >= 1, ||(y - 1)|| <= x - 0.5 (an SOC): x = 1, y = 0.5
-    >>> soc = ("soc", np.array([-0.5, -1.0]), np.array([[1.0, 0.0], [0.0, 1.0]]))
-    >>> r = solve_conic(np.array([1.0, 1.0]), [("nonneg", np.array([-1.0]),
-    ...                                          np.array([[1.0], [0.0]])), soc])
-    >>> r.status, np.round(r.x, 5).tolist()
-    ('optimal', [1.0, 0.5])
+    >>> # minimize x subject to x >= 1 and ||(1, 1)|| <= x (an SOC): x = sqrt(2)
+    >>> soc = ("soc", np.array([0.0, 1.0, 1.0]), np.array([[1.0, 0.0, 0.0]]))
+    >>> r = solve_conic(np.array([1.0]), [("nonneg", np.array([-1.0]), np.ones((1, 1))), soc])
+    >>> r.status, round(float(r.x[0]), 6)
+    ('optimal', 1.414214)
     """
     import clarabel
     import scipy.sparse as sp

@@ -337,6 +337,39 @@ def recheck(ch, E: Ellipsoid, S, Z, rooms, X0) -> tuple[float, float]:
     return worst + RECHECK_MARGIN, float(X0 @ P @ X0) / c
 
 
+def _level_bounds(ch, P, nbar, rooms):
+    """``(Lc, Li, Kt, room, lin)``: ``P = Lc Lc^T``, ``Li = Lc^-1``, the rows ``K`` in the
+    ``P = I`` coordinates, the largest level inside the rooms and the largest one inside the
+    limits' linear regions (inf when none)."""
+    n = P.shape[0]
+    Lc = np.linalg.cholesky(P)
+    Li = scipy.linalg.solve_triangular(Lc, np.eye(n), lower=True)
+    Pi = Li.T @ Li
+    Kt = ch.K @ Li.T
+    room = min([(r / math.sqrt(Pi[i, i])) ** 2 for i, r in rooms.items()] or [math.inf])
+    lin = min([(ch.room[j] - abs(ch.kn[j]) * nbar) ** 2 / float(Kt[j] @ Kt[j])
+               for j in range(ch.K.shape[0])] or [math.inf])  # the limits inactive
+    return Lc, Li, Kt, room, lin
+
+
+def level_cap(ch, P, *, nbar: float = 0.0, rooms=None) -> float:
+    """The largest level :func:`solve_ellipsoid` tries for ``P`` (inf when nothing bounds it):
+    ``V(X0) / level_cap`` is a lower bound of the ratio it can return (NumPy, no SDP).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fl_design as fl
+    >>> ch = loop_channels(fl.presets.paper_design(), (3.6, 6.8), None)
+    >>> n = ch.Ms.shape[1]
+    >>> bool(np.isclose(level_cap(ch, np.eye(n)), 1e6 * min(ch.room ** 2 / (ch.K ** 2).sum(axis=1))))
+    True
+    """
+    P = (np.asarray(P, float) + np.asarray(P, float).T) / 2
+    _, _, _, room, lin = _level_bounds(ch, P, float(nbar), dict(rooms or {}))
+    return min(room, 1e6 * lin)
+
+
 def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
                     steps: int = 8):
     """The largest re-checked level of ``V = X^T P X`` (``P`` fixed) with multipliers.
@@ -374,17 +407,10 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
     P = (np.asarray(P, float) + np.asarray(P, float).T) / 2
     rooms = dict(rooms or {})
     n, T = P.shape[0], ch.T
-    Lc = np.linalg.cholesky(P)
-    Li = scipy.linalg.solve_triangular(Lc, np.eye(n), lower=True)
-    Pi = Li.T @ Li
+    Lc, Li, Kt, room, lin = _level_bounds(ch, P, nbar, rooms)
     # coordinates Xt = Lc^T X: V = |Xt|^2
     Pt = {"n": n, "D": [Lc.T @ ((M - np.eye(n)) / T) @ Li.T for M in ch.Ms],
           "B": [Lc.T @ B / T for B in ch.Bs], "E": [Lc.T @ E[:, None] / T for E in ch.Es]}
-    Kt = ch.K @ Li.T
-    rooms_t = {i: r / math.sqrt(Pi[i, i]) for i, r in rooms.items()}
-    room = min([r ** 2 for r in rooms_t.values()] or [math.inf])
-    lin = min([(ch.room[j] - abs(ch.kn[j]) * nbar) ** 2 / float(Kt[j] @ Kt[j])
-               for j in range(ch.K.shape[0])] or [math.inf])  # the limits inactive
     if not math.isfinite(min(room, lin)):
         return None, math.inf, "nothing bounds the ellipsoid (no room, no limits): give a region"
     if any(ch.room[j] - abs(ch.kn[j]) * nbar <= 0 for j in range(ch.K.shape[0])):
@@ -441,4 +467,5 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
     return Ellipsoid(P, level, float(kappa), mu, float(nbar), worst), ratio, note
 
 
-__all__ = ["Ellipsoid", "LoopChannels", "loop_channels", "recheck", "solve_ellipsoid"]
+__all__ = ["Ellipsoid", "LoopChannels", "level_cap", "loop_channels", "recheck",
+           "solve_ellipsoid"]

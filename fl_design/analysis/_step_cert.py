@@ -393,7 +393,7 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     """One region: LDI ``P``, then the sector ellipsoid; a tuple or the reason (str)."""
     from ._certify import _Loop
     from ._ldi import ldi_point
-    from ._sector import loop_channels, solve_ellipsoid
+    from ._sector import level_cap, loop_channels, solve_ellipsoid
     from ._start_lmi import widest_start_p
 
     if any(r <= 0 for r in rooms.values()):
@@ -406,12 +406,16 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     ch = loop_channels(design, b, box, u_eq=u_eq)
     keep = L.loop.keep
     Xk = X0[keep]
-    cands = [("the LDI certificate's", np.asarray(pc.lyapunov[0][0], float))]
+    # the candidate chosen for this start first: the LDI certificate's P (kept on a tie, as
+    # when it came first) is passed over when no level it could reach (level_cap, NumPy)
+    # gives a smaller V(start)/level than the other's (its ellipsoid SDPs could not win)
+    cands = []
     wide = widest_start_p(L, ch, eps, gamma, rooms, Xk)
     if wide is not None:
-        cands.append(("chosen for this start (LMI)", wide))
+        cands.append(("chosen for this start (LMI)", wide, 1))
+    cands.append(("the LDI certificate's", np.asarray(pc.lyapunov[0][0], float), 0))
     best, notes = None, []
-    for src, P in cands:
+    for src, P, rank in cands:
         q = _contraction(ch, P)
         if not q < 1.0:
             notes.append(f"P {src}: ||M||_P = {q:.12f} >= 1 on the corners")
@@ -424,13 +428,19 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
                     (f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
                     f"global on {words}"), "every start, every plant of the class, no noise",
                     0.0)
+        if best is not None and float(Xk @ P @ Xk) / level_cap(ch, P, nbar=nbar,
+                                                               rooms=rooms) > best[1]:
+            notes.append(f"P {src}: not solved (V(start)/level above the other P's at any "
+                         "level it could reach)")
+            continue
         E, ratio, note = solve_ellipsoid(ch, P, Xk, kappa=kappa, nbar=nbar, rooms=rooms)
         notes.append(f"P {src}: {note}")
-        if E is not None and (best is None or ratio < best[1]):
-            best = (E, ratio, note, q, src)
+        if E is not None and (best is None or ratio < best[1]
+                              or (ratio == best[1] and rank < best[5])):
+            best = (E, ratio, note, q, src, rank)
     if best is None:
         return f"at scales {scale}: " + "; ".join(notes)
-    E, ratio, note, q, src = best
+    E, ratio, note, q, src, _ = best
     kappa = E.kappa
     # the largest step: same target, start y0 = r - s (the start's other parts fixed)
     d = np.zeros_like(Xk)
