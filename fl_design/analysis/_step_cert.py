@@ -250,6 +250,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
                          "hold along every trajectory)")
     elif isinstance(plant_or_class, Plant):
         plant = plant_or_class
+        from ._region import _check_chain
+
+        _check_chain(plant)  # a refused plant says why before any equilibrium is solved
         eq = plant.equilibrium(y=r)
         x_eq, u_eq = np.asarray(eq.x, float), float(eq.u)
         x0 = (np.asarray(plant.x_op, float) if scenario.x0 is None
