@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from .. import _validate as V
+from .._blas import serial_blas
 from ..design import Design
 from ..errors import ComputationError, ParameterError
 from ..sim import RK4, EpsStar
@@ -192,6 +193,12 @@ def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
     steps = _substeps(plant, design, integrator)
     lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     r = _reference(plant, r)
+    with serial_blas():  # many 7 x 7 eigenvalue problems: one OpenBLAS thread
+        return _scan(lin, r, design, lo, hi, n_scan, rtol)
+
+
+def _scan(lin, r, design, lo, hi, n_scan, rtol) -> EpsStar:
+    """:func:`linearized_eps_star`'s scan and bisection (its docstring)."""
 
     def stable(eps: float) -> bool:
         return lin(r, _parameters(design, eps)).spectral_radius < 1.0
