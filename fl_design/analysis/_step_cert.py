@@ -27,15 +27,27 @@ depends on the states only through ``x_rho`` (checked symbolically: a scalar aut
 over the sample, so ``x_rho(t)`` is monotone between two samples, both in the ellipsoid), else
 ``T sup|sigma - sigma_eq|`` (mean-value bound). A class's slopes hold by assumption everywhere.
 
-**Measured** (``verify/claim_12_step_certified.py``, 2 shared cores at load ~10):
-the pendulum's 0.1 rad step is certified (largest certified step 0.28 rad, ~5 s; the plant's
-region |theta - r| <= 3.04, the slopes by interval arithmetic); the paper's design on the class
-``y'' = b u``, ``b in [3.6, 6.8]``, ``|u| <= 2.5``, ``|xhat_2| <= 0.05`` is NOT certified for
-0.3 rad (``V(start)/level = 27``; largest certified step 0.058 rad, which converges in
-``fl.simulate`` for b = 3.6 and 6.8; 0.3 rad diverges on ``y'' = 5 u``); the TRMS's 0.3 rad
-step is NOT certified: the largest certified step is 4.4e-5 rad (region ``|phi'| <= 3e-4``,
-``|u| <= 2.5e-3``, slopes [-505, -462.6], 13 s), every larger region tried has no common
-quadratic (at ``|phi'| <= 6e-4``, slopes [-505, -350], already none).
+**Measured** (``verify/claim_12_step_certified.py``; times from ``verify/bench_step_cert.py``,
+CPU in one process, 2 shared cores at load ~2.6):
+the pendulum's 0.1 rad step is certified (largest certified step 0.28 rad, 0.2 s, 4 conic
+programs; the plant's region |theta - r| <= 3.04, the slopes by interval arithmetic); the
+paper's design on the class ``y'' = b u``, ``b in [3.6, 6.8]``, ``|u| <= 2.5``,
+``|xhat_2| <= 0.05`` is NOT certified for 0.3 rad (``V(start)/level = 27``; largest certified
+step 0.058 rad, which converges in ``fl.simulate`` for b = 3.6 and 6.8; 0.3 rad diverges on
+``y'' = 5 u``); the TRMS's 0.3 rad step is NOT certified: the largest certified step is
+4.3e-5 rad (region ``|phi'| <= 3e-4``, ``|u| <= 2.5e-3``, slopes [-505, -462.6]; 1.2 s, 8
+conic programs), every larger region tried has no common quadratic (at ``|phi'| <= 6e-4``,
+slopes [-505, -350], already none). The largest certified step depends on the start-covering
+``P`` (:mod:`._start_lmi`), whose LMI has no unique minimizer: equivalent programs (CVXPY's
+canonical form, the direct one) stop at different minimizers, and the TRMS's step moved
+4.4e-5 -> 4.3e-5 when the program went to Clarabel directly (the pendulum's 0.2823 ->
+0.2817, the chain class's 0.05775 -> 0.05781); verdicts and regions did not move.
+
+**Cost.** The work is conic programs (an LDI LMI, the start-covering LMI and one or two
+levels of the sector ellipsoid per certified region, Clarabel called directly, one thread)
+and thousands of tiny dense problems (run with one OpenBLAS thread: the pool's wake-ups
+doubled the CPU time). The LDI certificate's ``P`` is passed over when no level it could
+reach (:func:`._sector.level_cap`) beats the start-covering ``P``'s ``V(start)/level``.
 
 Examples
 --------
