@@ -354,7 +354,8 @@ def _level_bounds(ch, P, nbar, rooms):
 
 def level_cap(ch, P, *, nbar: float = 0.0, rooms=None) -> float:
     """The largest level :func:`solve_ellipsoid` tries for ``P`` (inf when nothing bounds it):
-    ``V(X0) / level_cap`` is a lower bound of the ratio it can return (NumPy, no SDP).
+    ``V(X0) / level_cap`` is a lower bound of the ratio it can return, to the rounding of
+    ``exp(log(level))`` (a few ulps; NumPy, no SDP).
 
     Examples
     --------
