@@ -37,10 +37,16 @@ KINDS = ("zero", "nonneg", "soc", "psd")
 
 
 def _count() -> None:
-    """One conic program more for :func:`._lmi.solve_count` (and its progress listener)."""
+    """One conic program more for :func:`._lmi.solve_count`."""
     from ._lmi import _SOLVES, solve_count
 
     _SOLVES.n = solve_count() + 1
+
+
+def _solved() -> None:
+    """After a solve: the progress listener of :func:`._lmi.solve_progress`, if it is due."""
+    from ._lmi import _SOLVES
+
     listener = getattr(_SOLVES, "listener", None)
     if listener is not None and time.perf_counter() - listener[2] >= listener[1]:
         listener[2] = time.perf_counter()
@@ -115,6 +121,8 @@ def solve_conic(c, blocks) -> MarginSolution:
         sol = solver.solve()
     except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
         return MarginSolution(None, None, f"solver_error: {type(err).__name__}: {err}"[:120], 0)
+    finally:
+        _solved()
     status = STATUS.get(str(sol.status), str(sol.status).lower())
     z = np.asarray(sol.x, dtype=float)
     if status not in WITH_SOLUTION or z.shape != (nvar,) or not np.all(np.isfinite(z)):

@@ -180,3 +180,13 @@ def test_passing_over_the_ldi_p_gives_the_slow_paths_certificate(monkeypatch):
     assert (fast.certified, fast.region_scale) == (slow.certified, slow.region_scale)
     assert fast.largest_step == slow.largest_step and fast.level == slow.level
     np.testing.assert_array_equal(fast.P, slow.P)
+
+
+def test_direct_solves_are_counted_and_reported_after_the_solve():
+    from fl_design.analysis._lmi import solve_count, solve_progress
+
+    seen, n0 = [], solve_count()
+    with solve_progress(lambda: seen.append(solve_count()), every=0.0):
+        r = solve_conic(np.array([1.0]), [("nonneg", np.array([-2.0]), np.ones((1, 1)))])
+    assert r.status == "optimal" and math.isclose(float(r.x[0]), 2.0, rel_tol=1e-7)
+    assert solve_count() - n0 == 1 and seen == [n0 + 1]
