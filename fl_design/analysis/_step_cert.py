@@ -452,8 +452,9 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
                     (f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
                     f"global on {words}"), "every start, every plant of the class, no noise",
                     0.0)
-        cap = level_cap(ch, P, nbar=nbar, rooms=rooms)  # the level reached is <= cap (1 + ulps)
-        if best is not None and float(Xk @ P @ Xk) / cap > best[1] * (1.0 + 1e-9):
+        cap = math.inf if best is None else level_cap(ch, P, nbar=nbar, rooms=rooms)
+        if best is not None and (not cap > 0 or float(Xk @ P @ Xk) / cap
+                                 > best[1] * (1.0 + 1e-9)):  # the level reached is <= cap
             notes.append(f"P {src}: not solved (V(start)/level above the other P's at any "
                          "level it could reach)")
             continue
