@@ -24,15 +24,17 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from .. import _validate as V
+from .._blas import serial_blas
 from ..design import Design
 from ..errors import ComputationError, ParameterError
 from ..sim import RK4, EpsStar
-from ..sim._loop_jacobian import LoopLinearizer, SampledLinearization
+from ..sim._loop_jacobian import LoopLinearizer, SampledLinearization, fixed_point_tolerance
 from ..sim._options import option
 from ..sim._run import check_gamma_sign, signed_gammas
 from ..sim.kernel._loop import ClosedLoop, resolve_substeps
@@ -191,14 +193,25 @@ def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
     steps = _substeps(plant, design, integrator)
     lin = LoopLinearizer(ClosedLoop(plant, design, substeps=steps))
     r = _reference(plant, r)
+    with serial_blas():  # many 7 x 7 eigenvalue problems: one OpenBLAS thread
+        return _scan(lin, r, design, lo, hi, n_scan, rtol)
+
+
+def _scan(lin, r, design, lo, hi, n_scan, rtol) -> EpsStar:
+    """:func:`linearized_eps_star`'s scan and bisection (its docstring)."""
 
     def stable(eps: float) -> bool:
-        return lin(r, design.replace(eps=eps).parameter_vector()).spectral_radius < 1.0
+        return lin(r, _parameters(design, eps)).spectral_radius < 1.0
 
     grid = np.geomspace(lo, hi, n_scan)
-    if not stable(grid[0]):
+    fast = _rest_radii(lin, r, np.stack([_parameters(design, e) for e in grid], axis=1))
+
+    def scan_stable(i: int) -> bool:  # the batched radius where it applies, else lin itself
+        return fast[i] < 1.0 if np.isfinite(fast[i]) else stable(grid[i])
+
+    if not scan_stable(0):
         return EpsStar(math.nan, float(lo))
-    bad = next((i for i, e in enumerate(grid[1:], 1) if not stable(e)), None)
+    bad = next((i for i in range(1, n_scan) if not scan_stable(i)), None)
     if bad is None:
         return EpsStar(float(hi), math.inf)
     a, b = float(grid[bad - 1]), float(grid[bad])
@@ -209,6 +222,48 @@ def linearized_eps_star(plant: Plant, design: Design, *, eps_range=(1e-3, 1.0),
         a, b = (mid, b) if stable(mid) else (a, mid)
     raise ComputationError(f"linearized_eps_star: no {rtol:g}-narrow bracket after "
                            f"{MAX_BISECTIONS} bisections (last [{a!r}, {b!r}])")
+
+
+@functools.lru_cache(maxsize=512)
+def _estimator_vector(estimator, eps: float) -> np.ndarray:
+    v = np.asarray(estimator.replace(eps=eps).parameter_vector(), dtype=float).ravel()
+    v.setflags(write=False)
+    return v
+
+
+def _parameters(design: Design, eps: float) -> np.ndarray:
+    """``design.replace(eps=eps).parameter_vector()``, the estimator's part computed once per
+    ``(estimator, eps)`` (the scan grid is the same for every gamma of a curve)."""
+    return np.concatenate([_estimator_vector(design.estimator, float(eps)),
+                           [design.controller.gamma]])
+
+
+def _rest_radii(lin: LoopLinearizer, r: float, ps: np.ndarray) -> np.ndarray:
+    """Spectral radius of the linearized loop for each column of ``ps`` where the loop at rest
+    at the operating point (:meth:`LoopLinearizer.start`) is already the equilibrium holding
+    ``r``, NaN elsewhere.
+
+    There Newton's method of :class:`LoopLinearizer` stops at its first test and
+    ``lin(r, p)`` linearizes at that state: here the same CasADi function is evaluated for
+    every column in one mapped call (bitwise the same numbers), the same test applied, and
+    the radius taken as ``lin`` takes it (decoupled unit columns left out).
+    """
+    X = lin.start()
+    n, N = X.size, ps.shape[1]
+    out = np.full(N, np.nan)
+    if not lin._holds(X, r):
+        return out
+    F, J = (np.asarray(v, dtype=float) for v in lin.F.map(N)(
+        np.tile(X[:, None], (1, N)), np.full((1, N), float(r)), ps))
+    eye = np.eye(n)
+    for k in range(N):
+        M, G = J[:, k * n:(k + 1) * n], F[:, k] - X
+        if not (np.all(np.isfinite(G)) and np.all(np.abs(G) <= fixed_point_tolerance(X, M))):
+            continue
+        keep = [j for j in range(n) if np.max(np.abs(M[:, j] - eye[:, j])) != 0.0]
+        eig = np.linalg.eigvals(M[np.ix_(keep, keep)]) if keep else np.zeros(0)
+        out[k] = float(np.max(np.abs(eig))) if eig.size else 0.0
+    return out
 
 
 __all__ = ["SampledLinearization", "linearized_eps_star", "sampled_linearization"]

@@ -35,8 +35,9 @@ inside ``E``: the certified set reaches beyond the saturation-free one of
 **Solution.** ``P`` is fixed (the LDI certificate's, or one chosen to cover the start: the
 joint problem in ``(P, S, G)`` is bilinear); in the coordinates where ``P = I`` the corner
 conditions are LMIs in ``(S, Z = S G, mu)`` and the validity region is a second-order cone in
-``(s_j, Z_j)`` for a given level: :func:`solve_ellipsoid` compiles that SDP once and searches the
-level (``beta = c^-1/2`` a parameter).
+``(s_j, Z_j)`` for a given level: :func:`solve_ellipsoid` builds that SDP once per ``P``
+(:func:`._sdp_sector.ellipsoid_program`, Clarabel called directly) and searches the level
+(``beta = c^-1/2`` enters only the cones' rows), each level solved at most once.
 
 **Re-check.** :func:`recheck` rebuilds every matrix in NumPy from ``P, c, S, G, mu`` and asks
 ``lambda_max < -tol ||.||_F`` of each corner's form (the SDP was solved with slack: ``2 kappa``
@@ -336,58 +337,38 @@ def recheck(ch, E: Ellipsoid, S, Z, rooms, X0) -> tuple[float, float]:
     return worst + RECHECK_MARGIN, float(X0 @ P @ X0) / c
 
 
-def _program(ch, Pt, Kt, kappa, nbar, cp):
-    """The multipliers' SDP in the ``P = I`` coordinates, ``beta = level^-1/2`` a parameter.
+def _level_bounds(ch, P, nbar, rooms):
+    """``(Lc, Li, Kt, room, lin)``: ``P = Lc Lc^T``, ``Li = Lc^-1``, the rows ``K`` in the
+    ``P = I`` coordinates, the largest level inside the rooms and the largest one inside the
+    limits' linear regions (inf when none)."""
+    n = P.shape[0]
+    Lc = np.linalg.cholesky(P)
+    Li = scipy.linalg.solve_triangular(Lc, np.eye(n), lower=True)
+    Pi = Li.T @ Li
+    Kt = ch.K @ Li.T
+    room = min([(r / math.sqrt(Pi[i, i])) ** 2 for i, r in rooms.items()] or [math.inf])
+    lin = min([(ch.room[j] - abs(ch.kn[j]) * nbar) ** 2 / float(Kt[j] @ Kt[j])
+               for j in range(ch.K.shape[0])] or [math.inf])  # the limits inactive
+    return Lc, Li, Kt, room, lin
 
-    Built once per ``P`` (CVXPY compiles it once; each level re-solves it); returns
-    ``feasible(beta) -> (s, Z, mu) or None``.
+
+def level_cap(ch, P, *, nbar: float = 0.0, rooms=None) -> float:
+    """The largest level :func:`solve_ellipsoid` tries for ``P`` (inf when nothing bounds it):
+    ``V(X0) / level_cap`` is a lower bound of the ratio it can return, to the rounding of
+    ``exp(log(level))`` (a few ulps; NumPy, no SDP).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fl_design as fl
+    >>> ch = loop_channels(fl.presets.paper_design(), (3.6, 6.8), None)
+    >>> n = ch.Ms.shape[1]
+    >>> bool(np.isclose(level_cap(ch, np.eye(n)), 1e6 * min(ch.room ** 2 / (ch.K ** 2).sum(axis=1))))
+    True
     """
-    from ._lmi import solve_quietly
-
-    T, n, m = ch.T, Pt["n"], ch.K.shape[0]
-    beta = cp.Parameter(nonneg=True)
-    beta2 = cp.Parameter(nonneg=True)
-    s = cp.Variable(m) if m else None
-    Z = cp.Variable((m, n)) if m else None
-    mu = cp.Variable(nonneg=True)
-    cons = [s >= 1e-6] if m else []
-    for v in range(ch.Ms.shape[0]):
-        D, B, E = Pt["D"][v], Pt["B"][v], Pt["E"][v]
-        Sm = cp.diag(s) if m else None
-        R = [D] + ([B] if m else []) + ([E] if nbar > 0 else [])
-        Rn = np.hstack(R)
-        fixed = T * (Rn.T @ Rn)
-        k = Rn.shape[1]
-        blocks = [[D + D.T + 2 * kappa * np.eye(n)]]
-        if m:
-            blocks[0].append(B + Z.T)
-            blocks.append([B.T + Z, Sm @ ch.H + ch.H.T @ Sm - 1.9 * Sm])
-        if nbar > 0:
-            blocks[0].append(E)
-            if m:
-                blocks[1].append(np.zeros((m, 1)))
-            blocks.append([E.T] + ([np.zeros((1, m))] if m else [])
-                          + [-cp.reshape(mu, (1, 1), order="C") / 1.1])
-        A = cp.bmat(blocks) + fixed
-        cons.append((A + A.T) / 2 << -1e-7 * np.eye(k))
-    for j in range(m):
-        lim = ch.room[j] - abs(ch.kn[j]) * nbar
-        cons.append(cp.norm(s[j] * Kt[j] - Z[j]) <= lim * (1 - 1e-6) * (beta * s[j]))
-    if nbar > 0:
-        cons.append(mu * nbar ** 2 * beta2 <= kappa * (1 - 1e-6))
-    else:
-        cons.append(mu == 0)
-    prob = cp.Problem(cp.Minimize(0), cons)
-
-    def feasible(b: float):
-        beta.value, beta2.value = float(b), float(b) ** 2
-        err = solve_quietly(prob)
-        if err is not None or prob.status != "optimal":
-            return None
-        return (np.asarray(s.value) if m else np.zeros(0),
-                np.asarray(Z.value) if m else np.zeros((0, n)), float(mu.value or 0.0))
-
-    return feasible
+    P = (np.asarray(P, float) + np.asarray(P, float).T) / 2
+    _, _, _, room, lin = _level_bounds(ch, P, float(nbar), dict(rooms or {}))
+    return min(room, 1e6 * lin)
 
 
 def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
@@ -421,31 +402,28 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
     (Ellipsoid or None, float, str)
         The ellipsoid, ``V(X0) / level`` (inf when none) and a note.
     """
-    import cvxpy as cp
+    from ._sdp_sector import ellipsoid_program
 
     X0 = np.asarray(X0, float)
     P = (np.asarray(P, float) + np.asarray(P, float).T) / 2
     rooms = dict(rooms or {})
     n, T = P.shape[0], ch.T
-    Lc = np.linalg.cholesky(P)
-    Li = scipy.linalg.solve_triangular(Lc, np.eye(n), lower=True)
-    Pi = Li.T @ Li
+    Lc, Li, Kt, room, lin = _level_bounds(ch, P, nbar, rooms)
     # coordinates Xt = Lc^T X: V = |Xt|^2
     Pt = {"n": n, "D": [Lc.T @ ((M - np.eye(n)) / T) @ Li.T for M in ch.Ms],
           "B": [Lc.T @ B / T for B in ch.Bs], "E": [Lc.T @ E[:, None] / T for E in ch.Es]}
-    Kt = ch.K @ Li.T
-    rooms_t = {i: r / math.sqrt(Pi[i, i]) for i, r in rooms.items()}
-    room = min([r ** 2 for r in rooms_t.values()] or [math.inf])
-    lin = min([(ch.room[j] - abs(ch.kn[j]) * nbar) ** 2 / float(Kt[j] @ Kt[j])
-               for j in range(ch.K.shape[0])] or [math.inf])  # the limits inactive
     if not math.isfinite(min(room, lin)):
         return None, math.inf, "nothing bounds the ellipsoid (no room, no limits): give a region"
     if any(ch.room[j] - abs(ch.kn[j]) * nbar <= 0 for j in range(ch.K.shape[0])):
         return None, math.inf, f"the noise bound {nbar:g} leaves a limit no room"
-    prog = _program(ch, Pt, Kt, kappa, nbar, cp)
+    prog, seen = ellipsoid_program(ch, Pt, Kt, kappa, nbar), {}
 
-    def feas(log_level):  # multipliers for V <= exp(log_level), or None
-        return None if log_level > math.log(room) + 1e-12 else prog(math.exp(-log_level / 2))
+    def feas(log_level):  # multipliers for V <= exp(log_level), or None (each level once)
+        if log_level > math.log(room) + 1e-12:
+            return None
+        if log_level not in seen:
+            seen[log_level] = prog(math.exp(-log_level / 2))
+        return seen[log_level]
 
     hi = math.log(min(room, 1e6 * lin))
     bottom = math.log(min(room, lin)) - math.log(1e4)
@@ -472,8 +450,9 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
                 hi = mid
     note = ""
     for back in range(8):  # a solver's "optimal" is not a certificate: step down until it holds
-        level = math.exp(lo - back * math.log(2.0))
-        sol = feas(math.log(level))
+        log_level = lo - back * math.log(2.0)
+        level = math.exp(log_level)
+        sol = feas(log_level)
         if sol is None:
             continue
         s, Zt, mu = sol
@@ -489,4 +468,5 @@ def solve_ellipsoid(ch, P, X0, *, kappa: float, nbar: float = 0.0, rooms=None,
     return Ellipsoid(P, level, float(kappa), mu, float(nbar), worst), ratio, note
 
 
-__all__ = ["Ellipsoid", "LoopChannels", "loop_channels", "recheck", "solve_ellipsoid"]
+__all__ = ["Ellipsoid", "LoopChannels", "level_cap", "loop_channels", "recheck",
+           "solve_ellipsoid"]

@@ -1,5 +1,6 @@
 """The step certificate's start-covering LMI: a Lyapunov matrix whose unit set holds a given
-plant start inside the rooms and the input limits' linear regions (one LMI, CVXPY).
+plant start inside the rooms and the input limits' linear regions (one LMI, Clarabel
+called directly: :func:`._sdp_sector.start_program`).
 
 :func:`widest_start_p` serves :mod:`._step_cert` as :func:`._covered_lmi.widest_covered_p`
 serves the region certificate of :mod:`._ldi`; like it, its answer is a candidate that the
@@ -10,12 +11,10 @@ It lives apart from :mod:`._covered_lmi` because it reads the LDI's vertex loops
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ._ldi import DECAY_FRACTION, _coordinates, _vertex_loops
-from ._lmi import solve_quietly
+from ._sdp_sector import start_program
 
 
 def widest_start_p(L, ch, eps, gamma, rooms, Xk):
@@ -23,8 +22,6 @@ def widest_start_p(L, ch, eps, gamma, rooms, Xk):
     linear regions (one LMI, as :func:`widest_covered_p` with general rows): a candidate that
     :func:`._sector.solve_ellipsoid` re-checks (the step certificate, :mod:`._step_cert`), or
     None."""
-    import cvxpy as cp
-
     out = _vertex_loops(L, eps, gamma)
     D, margins = out[6], out[7]
     if np.max(margins) >= 0.0 or not np.any(Xk):
@@ -35,29 +32,13 @@ def widest_start_p(L, ch, eps, gamma, rooms, Xk):
     if not rows:
         return None
     kappa = DECAY_FRACTION * float(-np.max(margins)) / 2.0
-    sT = math.sqrt(L.T)
     for W in _coordinates(D):
         Wi = np.linalg.inv(W)
         Db = [Wi @ x @ W for x in D]
         x0 = Wi @ Xk
         for k in (0.25 * kappa, 0.02 * kappa):
-            P = cp.Variable((n, n), symmetric=True)
-            t = cp.Variable()
-            cons = []
-            for Dv in Db:
-                S = cp.bmat([[-(P @ Dv + Dv.T @ P) - 2.0 * k * P, sT * Dv.T @ P],
-                             [sT * P @ Dv, P]])
-                cons.append((S + S.T) / 2 >> 0)
-            for c, r in rows:
-                cw = (c @ W).reshape(n, 1)
-                B = cp.bmat([[P, cw], [cw.T, np.array([[r * r]])]])
-                cons.append((B + B.T) / 2 >> 0)
-            cons.append(cp.quad_form(x0, P) <= t)
-            prob = cp.Problem(cp.Minimize(t), cons)
-            if solve_quietly(prob) is not None or P.value is None:
-                continue
-            Pb = (P.value + P.value.T) / 2
-            if np.linalg.eigvalsh(Pb)[0] > 0.0:
+            Pb = start_program(Db, L.T, k, [(c @ W, r) for c, r in rows], x0)
+            if Pb is not None and np.linalg.eigvalsh(Pb)[0] > 0.0:
                 return Wi.T @ Pb @ Wi
     return None
 

@@ -27,15 +27,27 @@ depends on the states only through ``x_rho`` (checked symbolically: a scalar aut
 over the sample, so ``x_rho(t)`` is monotone between two samples, both in the ellipsoid), else
 ``T sup|sigma - sigma_eq|`` (mean-value bound). A class's slopes hold by assumption everywhere.
 
-**Measured** (``verify/claim_12_step_certified.py``, 2 shared cores at load ~10):
-the pendulum's 0.1 rad step is certified (largest certified step 0.28 rad, ~5 s; the plant's
-region |theta - r| <= 3.04, the slopes by interval arithmetic); the paper's design on the class
-``y'' = b u``, ``b in [3.6, 6.8]``, ``|u| <= 2.5``, ``|xhat_2| <= 0.05`` is NOT certified for
-0.3 rad (``V(start)/level = 27``; largest certified step 0.058 rad, which converges in
-``fl.simulate`` for b = 3.6 and 6.8; 0.3 rad diverges on ``y'' = 5 u``); the TRMS's 0.3 rad
-step is NOT certified: the largest certified step is 4.4e-5 rad (region ``|phi'| <= 3e-4``,
-``|u| <= 2.5e-3``, slopes [-505, -462.6], 13 s), every larger region tried has no common
-quadratic (at ``|phi'| <= 6e-4``, slopes [-505, -350], already none).
+**Measured** (``verify/claim_12_step_certified.py``; times from ``verify/bench_step_cert.py``,
+CPU in one process, 2 shared cores at load ~2.6):
+the pendulum's 0.1 rad step is certified (largest certified step 0.28 rad, 0.2 s, 4 conic
+programs; the plant's region |theta - r| <= 3.04, the slopes by interval arithmetic); the
+paper's design on the class ``y'' = b u``, ``b in [3.6, 6.8]``, ``|u| <= 2.5``,
+``|xhat_2| <= 0.05`` is NOT certified for 0.3 rad (``V(start)/level = 27``; largest certified
+step 0.058 rad, which converges in ``fl.simulate`` for b = 3.6 and 6.8; 0.3 rad diverges on
+``y'' = 5 u``); the TRMS's 0.3 rad step is NOT certified: the largest certified step is
+4.3e-5 rad (region ``|phi'| <= 3e-4``, ``|u| <= 2.5e-3``, slopes [-505, -462.6]; 1.2 s, 8
+conic programs), every larger region tried has no common quadratic (at ``|phi'| <= 6e-4``,
+slopes [-505, -350], already none). The largest certified step depends on the start-covering
+``P`` (:mod:`._start_lmi`), whose LMI has no unique minimizer: equivalent programs (CVXPY's
+canonical form, the direct one) stop at different minimizers, and the TRMS's step moved
+4.4e-5 -> 4.3e-5 when the program went to Clarabel directly (the pendulum's 0.2823 ->
+0.2817, the chain class's 0.05775 -> 0.05781); verdicts and regions did not move.
+
+**Cost.** The work is conic programs (an LDI LMI, the start-covering LMI and one or two
+levels of the sector ellipsoid per certified region, Clarabel called directly, one thread)
+and thousands of tiny dense problems (run with one OpenBLAS thread: the pool's wake-ups
+doubled the CPU time). The LDI certificate's ``P`` is passed over when no level it could
+reach (:func:`._sector.level_cap`) beats the start-covering ``P``'s ``V(start)/level``.
 
 Examples
 --------
@@ -194,6 +206,15 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
     >>> c.certified
     True
     """
+    from .._blas import serial_blas
+
+    with serial_blas():  # thousands of tiny dense problems: one OpenBLAS thread (2x less CPU)
+        return _certify_step(plant_or_class, design, scenario, noise_bound, region_scales,
+                             friction, time_budget, progress)
+
+
+def _certify_step(plant_or_class, design, scenario, noise_bound, region_scales, friction,
+                  time_budget, progress):
     from ..symbolic import Plant
     from ._plant_class import PlantClass
 
@@ -250,6 +271,9 @@ def certify_step(plant_or_class, design, scenario, *, noise_bound: float | None 
                          "hold along every trajectory)")
     elif isinstance(plant_or_class, Plant):
         plant = plant_or_class
+        from ._region import _check_chain
+
+        _check_chain(plant)  # a refused plant says why before any equilibrium is solved
         eq = plant.equilibrium(y=r)
         x_eq, u_eq = np.asarray(eq.x, float), float(eq.u)
         x0 = (np.asarray(plant.x_op, float) if scenario.x0 is None
@@ -393,7 +417,7 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     """One region: LDI ``P``, then the sector ellipsoid; a tuple or the reason (str)."""
     from ._certify import _Loop
     from ._ldi import ldi_point
-    from ._sector import loop_channels, solve_ellipsoid
+    from ._sector import level_cap, loop_channels, solve_ellipsoid
     from ._start_lmi import widest_start_p
 
     if any(r <= 0 for r in rooms.values()):
@@ -406,12 +430,16 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
     ch = loop_channels(design, b, box, u_eq=u_eq)
     keep = L.loop.keep
     Xk = X0[keep]
-    cands = [("the LDI certificate's", np.asarray(pc.lyapunov[0][0], float))]
+    # the candidate chosen for this start first: the LDI certificate's P (kept on a tie, as
+    # when it came first) is passed over when no level it could reach (level_cap, NumPy)
+    # gives a smaller V(start)/level than the other's (its ellipsoid SDPs could not win)
+    cands = []
     wide = widest_start_p(L, ch, eps, gamma, rooms, Xk)
     if wide is not None:
-        cands.append(("chosen for this start (LMI)", wide))
+        cands.append(("chosen for this start (LMI)", wide, 1))
+    cands.append(("the LDI certificate's", np.asarray(pc.lyapunov[0][0], float), 0))
     best, notes = None, []
-    for src, P in cands:
+    for src, P, rank in cands:
         q = _contraction(ch, P)
         if not q < 1.0:
             notes.append(f"P {src}: ||M||_P = {q:.12f} >= 1 on the corners")
@@ -424,13 +452,20 @@ def _one(design, b, box, u_eq, rooms, X0, nbar, words, scale):
                     (f"the LDI certificate alone (||M||_P <= {q:.12f}, no limits, no region): "
                     f"global on {words}"), "every start, every plant of the class, no noise",
                     0.0)
+        cap = math.inf if best is None else level_cap(ch, P, nbar=nbar, rooms=rooms)
+        if best is not None and (not cap > 0 or float(Xk @ P @ Xk) / cap
+                                 > best[1] * (1.0 + 1e-9)):  # the level reached is <= cap
+            notes.append(f"P {src}: not solved (V(start)/level above the other P's at any "
+                         "level it could reach)")
+            continue
         E, ratio, note = solve_ellipsoid(ch, P, Xk, kappa=kappa, nbar=nbar, rooms=rooms)
         notes.append(f"P {src}: {note}")
-        if E is not None and (best is None or ratio < best[1]):
-            best = (E, ratio, note, q, src)
+        if E is not None and (best is None or ratio < best[1]
+                              or (ratio == best[1] and rank < best[5])):
+            best = (E, ratio, note, q, src, rank)
     if best is None:
         return f"at scales {scale}: " + "; ".join(notes)
-    E, ratio, note, q, src = best
+    E, ratio, note, q, src, _ = best
     kappa = E.kappa
     # the largest step: same target, start y0 = r - s (the start's other parts fixed)
     d = np.zeros_like(Xk)

@@ -207,3 +207,36 @@ def test_integrator_sets_the_substeps_of_the_linearized_loop(oscillator):
         fl.sampled_linearization(oscillator, design, integrator=fl.Cvodes())
     with pytest.raises(TypeError, match="substeps"):
         fl.linearized_eps_star(oscillator, design, substeps=4)  # the old keyword is gone
+
+
+def test_rest_radii_are_the_linearizers_own(pendulum_design, pendulum):
+    """The scan's batched radii (one mapped CasADi call) equal ``lin(r, p)``'s, bitwise, at
+    the operating point; away from it (the loop at rest is not the equilibrium) none."""
+    from fl_design.analysis._linearization import _parameters, _rest_radii
+    from fl_design.sim._loop_jacobian import LoopLinearizer
+    from fl_design.sim.kernel._loop import ClosedLoop
+
+    design = pendulum_design()
+    lin = LoopLinearizer(ClosedLoop(pendulum, design, substeps=4))
+    grid = np.geomspace(0.005, 0.5, 7)
+    ps = np.stack([_parameters(design, e) for e in grid], axis=1)
+    np.testing.assert_array_equal(ps[:, 3], design.replace(
+        eps=grid[3]).parameter_vector())
+    r0 = float(pendulum.casadi().h(pendulum.x_op))
+    fast = _rest_radii(lin, r0, ps)
+    assert fast.tolist() == [lin(r0, p).spectral_radius for p in ps.T]
+    assert np.all(np.isnan(_rest_radii(lin, r0 + 0.3, ps)))
+
+
+@pytest.mark.parametrize("gamma", [None, 1e-3, 0.1])
+def test_linearized_eps_star_without_the_batched_scan_is_the_same(monkeypatch, pendulum_design,
+                                                                  pendulum, gamma):
+    from fl_design.analysis import _linearization
+
+    design = pendulum_design()
+    fast = fl.linearized_eps_star(pendulum, design, gamma=gamma, eps_range=(0.01, 2.0))
+    monkeypatch.setattr(_linearization, "_rest_radii",
+                        lambda lin, r, ps: np.full(ps.shape[1], np.nan))
+    slow = fl.linearized_eps_star(pendulum, design, gamma=gamma, eps_range=(0.01, 2.0))
+    assert (fast.lower, fast.upper) == (slow.lower, slow.upper) or (
+        math.isnan(fast.lower) and math.isnan(slow.lower) and fast.upper == slow.upper)

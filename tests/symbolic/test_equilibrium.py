@@ -71,3 +71,23 @@ def test_operating_point_outside_the_region_is_refused():
                        match=r"the operating point x1=1.5 lies outside the region \[-1, 1\] of x1"):
         fl.Plant.from_ode(states, u, rhs, y, operating_point={"x1": 1.5},
                           region={"x1": (-1, 1)})
+
+
+@pytest.mark.parametrize("name,dy", [("trms_yaw", 0.3), ("pendulum", 0.2), ("maglev", 0.001),
+                                     ("flexible_joint", 0.3)])
+def test_newton_first_gives_the_least_squares_equilibrium(monkeypatch, name, dy):
+    """Newton's method from each start (issue 33: the TRMS's 17 bounded least squares took
+    0.26 s) finds the equilibrium the least-squares path finds, to round-off."""
+    from fl_design.symbolic import _equilibrium
+
+    plant = getattr(fl.plants, name)()
+    y = float(plant.casadi().h(plant.x_op)) + dy
+    fast = plant.equilibrium(y=y)
+    monkeypatch.setattr(_equilibrium, "NEWTON_STEPS", 0)  # straight to least squares
+    slow = plant.equilibrium(y=y)
+    np.testing.assert_allclose(fast.x, slow.x, rtol=1e-12, atol=1e-14)
+    assert fast.u == pytest.approx(slow.u, rel=1e-12, abs=1e-14)
+    # and it is an equilibrium: f(x, u) = 0, h(x) = y
+    f = plant.casadi()
+    assert np.max(np.abs(np.asarray(f.f(fast.x, fast.u), float))) < 1e-9
+    assert float(f.h(fast.x)) == pytest.approx(y, abs=1e-12)
