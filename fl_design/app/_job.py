@@ -241,7 +241,7 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
     label = {stage: f"{i}/{len(todo)}" for i, stage in enumerate(todo, 1)}
     starts = _beside_starts(todo)
     early = {name: _spawn_beside(job, name, quick, progress) for name in starts.values()}
-    running = []
+    running, joined = [], []
     try:
         for k, stage in enumerate(todo):
             if k in starts:  # a stage of BESIDE starts in its process before this one
@@ -257,6 +257,12 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
             _run_stage(job, stage, label[stage], steps[stage], progress)
             for b in running:
                 b.raise_error()  # it failed: stop here, as it would have run alone
+            for b in [b for b in running if b.done()]:  # it answered: its results in now
+                running.remove(b)
+                joined.append(b)
+                _join_beside(job, b, progress)
+                if after is not None:
+                    after(b.stage, job)
             if after is not None:
                 after(stage, job)
         for b in running:
@@ -264,7 +270,7 @@ def run_job(config: Config, *, quick: bool = False, out_dir: str | Path = "out",
             if after is not None:
                 after(b.stage, job)
     finally:
-        for b in [*running, *early.values()]:
+        for b in [*running, *joined, *early.values()]:
             if b is not None:
                 b.close()  # an error or Ctrl-C in the main stages: no orphan child left
     return job

@@ -184,3 +184,29 @@ def test_a_cached_certify_is_read_without_a_process(tmp_path, monkeypatch, capsy
     assert started == [] and "certify" in again.cached
     assert "2/4 certify done in" in capsys.readouterr().err
     assert _certificates(again) == _certificates(first)
+
+
+def test_a_child_that_answered_is_joined_after_the_stage_it_ran_beside(tmp_path, monkeypatch):
+    """Its results are in the job (and its ``after`` hook called) as soon as the stage that
+    finds it done ends, not only at the end: the report's figures ahead see them."""
+    from fl_design.app import _job, _stages
+
+    monkeypatch.setenv("FL_DESIGN_CACHE", str(tmp_path))
+    monkeypatch.setitem(_beside.TARGETS, "certify", f"{__name__}:_pid")
+    Recorded, made = _recorded()
+    monkeypatch.setattr(_job, "Beside", Recorded)
+    real = _stages.simulate
+
+    def simulate(setup, quick):  # the last stage ends only once the child has answered
+        deadline = time.perf_counter() + 120.0
+        while not made[0].done() and time.perf_counter() < deadline:
+            time.sleep(0.05)
+        return real(setup, quick)
+
+    monkeypatch.setattr(_stages, "simulate", simulate)
+    ran = []
+    job = run_job(load_config(None), quick=True, stages=("certify", "sweep", "simulate"),
+                  progress=False, after=lambda stage, j: ran.append((stage, "certify" in
+                                                                      j.results)))
+    assert ran == [("derive", False), ("sweep", False), ("certify", True), ("simulate", True)]
+    assert job.results["certify"] == made[0].proc.pid and made[0].proc.poll() is not None
