@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "_generated"
 #: Benchmarks whose output the performance page shows.
 BENCHES = ("bench_sweep", "bench_certify", "bench_codegen", "bench_tune", "bench_job",
-           "bench_unseen", "bench_identify")
+           "bench_unseen", "bench_identify", "bench_step_cert", "bench_compile")
 #: Extra arguments of a benchmark's run here (its full set of targets).
 BENCH_ARGS = {"bench_certify": ["--classes"]}
 #: Where each benchmark's target records go (``verify/_shared.py`` ``target``), one file per

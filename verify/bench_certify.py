@@ -183,7 +183,9 @@ def main(argv=None) -> int:
         if args.only:  # the named cases only
             return 0 if ok else 1
         print()
-        return 0 if curve_50(args.quick) == 0 and ok else 1
+        staged = stage_parts(args.quick)  # the full set: the job's stage parts too
+        print()
+        return 0 if curve_50(args.quick) == 0 and ok and staged else 1
     return curve_50(args.quick)
 
 
