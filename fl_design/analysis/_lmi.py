@@ -129,17 +129,6 @@ def _problem(n: int, nv: int, T: float, common: bool):
     return cp.Problem(cp.Maximize(eta), cons), D, kappa, Ps, G, eta
 
 
-@functools.lru_cache(maxsize=16)
-def _sym_basis(n: int) -> np.ndarray:
-    """``(n(n+1)/2, n, n)``: the symmetric unit matrices (``E_ii``, ``E_ij + E_ji``)."""
-    rows, cols = np.triu_indices(n)
-    B = np.zeros((rows.size, n, n))
-    k = np.arange(rows.size)
-    B[k, rows, cols] = 1.0
-    B[k, cols, rows] = 1.0
-    return B
-
-
 def _direct_blocks(deltas, T: float, common: bool, kappa: float, reduced: bool = False):
     """The blocks of :func:`._sdp.max_margin` for :func:`_problem`'s LMI, and the map from
     its variables to ``(P_v..., G)``.
@@ -149,8 +138,10 @@ def _direct_blocks(deltas, T: float, common: bool, kappa: float, reduced: bool =
     of the ``2n`` one for ``P > 0``: a quarter of the cone, a sixty-fourth of its KKT block);
     parameter-dependent: the ``2n`` slack form of the module docstring.
     """
+    from ._sdp import sym_basis
+
     n, nv = deltas[0].shape[0], len(deltas)
-    Bs = _sym_basis(n)
+    Bs = sym_basis(n)
     m = Bs.shape[0]
     eye = np.eye(n)
     if common and reduced:

@@ -123,10 +123,10 @@ def closed_chain(gains) -> np.ndarray:
 def _lmi_P(Ac, Q):
     """Smallest-trace ``P`` with ``A_c^T P + P A_c + Q <= 0``: Clarabel directly
     (:func:`._sdp.min_linear`, no CVXPY import), counted by :func:`._lmi.solve_count`."""
-    from ._lmi import _sym_basis, counted
-    from ._sdp import min_linear
+    from ._lmi import counted
+    from ._sdp import min_linear, sym_basis
 
-    B = _sym_basis(Q.shape[0])  # P = sum_i x_i B_i
+    B = sym_basis(Q.shape[0])  # P = sum_i x_i B_i
     BA = B @ Ac
     F = -(np.swapaxes(BA, -1, -2) + BA)  # -(A_c^T P + P A_c) - Q >= 0
     r = counted(min_linear, np.trace(B, axis1=1, axis2=2), [(-Q, F)], B.shape[0])

@@ -68,6 +68,26 @@ def _svec_index(d: int):
     return rows, cols, scale
 
 
+@functools.lru_cache(maxsize=16)
+def sym_basis(n: int) -> np.ndarray:
+    """``(n(n+1)/2, n, n)``: the symmetric unit matrices ``E_ii``, ``E_ij + E_ji`` (``i < j``)
+    (cached: do not modify the array).
+
+    Examples
+    --------
+    >>> from fl_design.analysis._sdp import sym_basis
+    >>> sym_basis(2).tolist()
+    [[[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]]]
+    """
+    rows, cols = np.triu_indices(n)
+    B = np.zeros((rows.size, n, n))
+    k = np.arange(rows.size)
+    B[k, rows, cols] = 1.0
+    B[k, cols, rows] = 1.0
+    B.flags.writeable = False
+    return B
+
+
 def svec(M: np.ndarray) -> np.ndarray:
     """Clarabel's vector of symmetric ``M`` (``(..., d, d)``): the upper triangle by columns,
     off-diagonal entries times ``sqrt(2)`` (``||svec(M)|| = ||M||_F``).
@@ -184,4 +204,4 @@ def _clarabel(q, A, b, cones):
     return status, z, int(sol.iterations)
 
 
-__all__ = ["STATUS", "WITH_SOLUTION", "MarginSolution", "max_margin", "min_linear", "svec"]
+__all__ = ["STATUS", "WITH_SOLUTION", "MarginSolution", "max_margin", "min_linear", "svec", "sym_basis"]

@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from ._sdp import STATUS, WITH_SOLUTION, MarginSolution, svec
+from ._sdp import STATUS, WITH_SOLUTION, MarginSolution, svec, sym_basis
 
 #: Cone kinds of :func:`solve_conic`.
 KINDS = ("zero", "nonneg", "soc", "psd")
@@ -128,22 +128,6 @@ def solve_conic(c, blocks) -> MarginSolution:
     if status not in WITH_SOLUTION or z.shape != (nvar,) or not np.all(np.isfinite(z)):
         return MarginSolution(None, None, status, int(sol.iterations))
     return MarginSolution(z, float(c @ z), status, int(sol.iterations))
-
-
-def sym_basis(n: int) -> np.ndarray:
-    """``(n(n+1)/2, n, n)``: the symmetric unit matrices ``E_ii``, ``E_ij + E_ji`` (``i < j``).
-
-    Examples
-    --------
-    >>> sym_basis(2).tolist()
-    [[[1.0, 0.0], [0.0, 0.0]], [[0.0, 1.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 1.0]]]
-    """
-    rows, cols = np.triu_indices(n)
-    B = np.zeros((rows.size, n, n))
-    k = np.arange(rows.size)
-    B[k, rows, cols] = 1.0
-    B[k, cols, rows] = 1.0
-    return B
 
 
 def ellipsoid_program(ch, Pt, Kt, kappa: float, nbar: float):
@@ -275,4 +259,4 @@ def start_program(Db, T: float, k: float, rows, x0):
     return np.tensordot(r.x[:nb], Bs, axes=1)
 
 
-__all__ = ["KINDS", "ellipsoid_program", "solve_conic", "start_program", "sym_basis"]
+__all__ = ["KINDS", "ellipsoid_program", "solve_conic", "start_program"]

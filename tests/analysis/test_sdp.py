@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fl_design.analysis import _lmi
-from fl_design.analysis._sdp import max_margin, svec
+from fl_design.analysis._sdp import max_margin, svec, sym_basis
 
 
 def test_svec_is_an_isometry_in_clarabels_order():
@@ -110,7 +110,7 @@ def test_min_linear_gives_the_lyapunov_solution_and_cvxpys_optimum(seed):
     A = rng.normal(size=(n, n))
     A -= (np.max(np.linalg.eigvals(A).real) + 0.5) * np.eye(n)  # Hurwitz
     Q = np.diag(rng.uniform(0.5, 2.0, n))
-    B = _lmi._sym_basis(n)
+    B = sym_basis(n)
     BA = B @ A
     r = min_linear(np.trace(B, axis1=1, axis2=2), [(-Q, -(BA + np.swapaxes(BA, 1, 2)))],
                    B.shape[0])
