@@ -2,10 +2,9 @@
 
 Examples
 --------
->>> from fl_design import presets
 >>> from fl_design.codegen._guard import guard_settings
 >>> from fl_design.codegen._q31_files import q31_range
->>> q31_range(guard_settings(presets.paper_design()))[:2]
+>>> q31_range(guard_settings(fl.presets.paper_design()))[:2]
 (-10.0, 10.0)
 """
 
@@ -43,10 +42,9 @@ def q31_range(guard) -> tuple[float, float, str]:
     Examples
     --------
     >>> import fl_design as fl
-    >>> from fl_design import presets
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._q31_files import q31_range
-    >>> lo, hi, _ = q31_range(guard_settings(presets.maglev_design(), fl.plants.maglev()))
+    >>> lo, hi, _ = q31_range(guard_settings(fl.presets.maglev_design(), fl.plants.maglev()))
     >>> lo < 0.004 < 0.008 < hi
     True
     """
@@ -84,10 +82,9 @@ def q31_base(design, prefix: str, guard) -> dict:
 
     Examples
     --------
-    >>> from fl_design import presets
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._q31_files import q31_base
-    >>> d = presets.paper_design()
+    >>> d = fl.presets.paper_design()
     >>> q31_base(d, "fl", guard_settings(d))["PRECISION"]
     'q31'
     """
@@ -128,11 +125,9 @@ def q31_substitutions(design, prefix: str, guard, base: dict):
 
     Examples
     --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import step_design
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._q31_files import q31_substitutions
-    >>> d = step_design(presets.paper_design(), "q31")
+    >>> d = fl.codegen.step_design(fl.presets.paper_design(), "q31")
     >>> subs, prog, rng = q31_substitutions(d, "fl", guard_settings(d), {})
     >>> subs["F_Y"], rng[:2]
     ('26', (-10.0, 10.0))
@@ -188,12 +183,10 @@ def q31_expected(design, prog, guard, n: int):
 
     Examples
     --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import step_design
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._q31 import q31_program
     >>> from fl_design.codegen._q31_files import q31_expected
-    >>> d = step_design(presets.paper_design(), "q31")
+    >>> d = fl.codegen.step_design(fl.presets.paper_design(), "q31")
     >>> y, r, u = q31_expected(d, q31_program(d, (-10.0, 10.0)), guard_settings(d), 50)
     >>> int(u[20]) == int(u[19])  # the out-of-range sample 10 is held... and 20 too
     True
@@ -229,12 +222,10 @@ def q31_vector_text(design, prog, guard, digest: str, n: int = 1500) -> str:
 
     Examples
     --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import step_design
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._q31 import q31_program
     >>> from fl_design.codegen._q31_files import q31_vector_text
-    >>> d = step_design(presets.paper_design(), "q31")
+    >>> d = fl.codegen.step_design(fl.presets.paper_design(), "q31")
     >>> q31_vector_text(d, q31_program(d, (-1.0, 1.0)), guard_settings(d), "x", 10).split(
     ...     "\\n")[3]
     'tol 0'
@@ -263,12 +254,10 @@ def q31_error(design, prog, guard, n: int = 3000) -> float:
 
     Examples
     --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import step_design
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._q31 import q31_program
     >>> from fl_design.codegen._q31_files import q31_error
-    >>> d = step_design(presets.paper_design(), "q31")
+    >>> d = fl.codegen.step_design(fl.presets.paper_design(), "q31")
     >>> q31_error(d, q31_program(d, (-10.0, 10.0)), guard_settings(d), 500) < 1e-2
     True
     """
@@ -314,10 +303,9 @@ def q15_program(prog):
 
     Examples
     --------
-    >>> from fl_design import presets
     >>> from fl_design.codegen._q31 import q31_program
     >>> from fl_design.codegen._q31_files import q15_program
-    >>> p = q31_program(presets.paper_design(), (-1.0, 1.0))
+    >>> p = q31_program(fl.presets.paper_design(), (-1.0, 1.0))
     >>> q15_program(p).f_y == p.f_y - 16
     True
     """

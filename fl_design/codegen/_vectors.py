@@ -14,10 +14,9 @@ samples, held over the rejected ones. The tolerance, written in the file, is abs
 
 Examples
 --------
->>> from fl_design import presets
 >>> from fl_design.codegen._guard import guard_settings
 >>> from fl_design.codegen._vectors import vector_text
->>> d = presets.paper_design()
+>>> d = fl.presets.paper_design()
 >>> text = vector_text(d, guard_settings(d), "double", n=50)
 >>> text.splitlines()[3].split()[0], len(text.splitlines())
 ('tol', 54)
@@ -137,10 +136,9 @@ def expected_inputs(design, guard, precision: str, n: int = N_VECTORS):
 
     Examples
     --------
-    >>> from fl_design import presets
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._vectors import expected_inputs
-    >>> d = presets.paper_design()
+    >>> d = fl.presets.paper_design()
     >>> y, r, u, tol = expected_inputs(d, guard_settings(d), "double", n=100)
     >>> bool(u[20] == u[19]), tol < 1e-9
     (True, True)
@@ -189,10 +187,9 @@ def vector_text(design, guard, precision: str, *, n: int = N_VECTORS, digest: st
 
     Examples
     --------
-    >>> from fl_design import presets
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._vectors import vector_text
-    >>> d = presets.paper_design()
+    >>> d = fl.presets.paper_design()
     >>> vector_text(d, guard_settings(d), "float", n=20).startswith("# test vectors")
     True
     """
@@ -209,11 +206,9 @@ def vectors_and_deviation(design, guard, precision: str, *, n: int = N_VECTORS,
 
     Examples
     --------
-    >>> from fl_design import presets
-    >>> from fl_design.codegen import step_design
     >>> from fl_design.codegen._guard import guard_settings
     >>> from fl_design.codegen._vectors import vectors_and_deviation
-    >>> d = step_design(presets.paper_design(), "float")
+    >>> d = fl.codegen.step_design(fl.presets.paper_design(), "float")
     >>> text, dev = vectors_and_deviation(d, guard_settings(d), "float", n=200)
     >>> 0.0 < dev < 1e-4 and "of max|u|" in text
     True
