@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._text import REACHES, fmt, step_reach
+from ._text import REACHES, fmt, overshoot_text, step_reach
 
 #: Most words of a short form (the summary's cells).
 MAX_WORDS = 25
@@ -386,6 +386,8 @@ def compare_brief(sim: dict | None) -> Brief:
         r = sim["runs"][(name, std)]
         if r.status == "diverged":
             parts.append(f"{name} diverges")
+        elif overshoot_text(r).startswith("none: no step"):
+            parts.append(f"{name}: no step")
         elif step_reach(r) < REACHES:
             parts.append(f"{name} never reaches r")
         else:

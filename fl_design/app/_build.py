@@ -182,7 +182,8 @@ def check_fit(cfg: Config, plant) -> tuple:
 
     Refuses (:class:`ConfigError`, one message with the numbers) a missing ``[design]`` for a
     plant from expressions (naming its relative degree, b-range and input range, what to add)
-    and a reference outside the plant's region; warns when the operating point was not given.
+    and a reference outside the plant's region; warns when the operating point was not given
+    and when the reference is the output at the operating point (no step to run).
 
     Parameters
     ----------
@@ -234,6 +235,12 @@ def check_fit(cfg: Config, plant) -> tuple:
                           f"{plant.output} is {_y_op(plant):g} at the operating point)")
     _check_reference(cfg, plant)
     _check_gamma_sign(cfg, plant)
+    r, y_op = cfg.scenario.reference, _y_op(plant)
+    if isinstance(r, (int, float)) and abs(r - y_op) <= 1e-9 * max(1.0, abs(y_op)):
+        notes.append(f"[scenario] reference = {r:g} is the output's value at the operating "
+                     f"point: every run starts at its target and shows no step (no "
+                     f"overshoot; the map's verdicts are about staying there); give a "
+                     f"reference away from {y_op:g}")
     if cfg.plant.expression and cfg.plant.operating_point is None:
         notes.append(f"[plant] operating_point not given: the origin, with u_eq = "
                      f"{plant.u_eq:g} (give e.g. operating_point = {{ "

@@ -185,7 +185,8 @@ def overshoot_text(resp) -> str:
     -------
     str
         A number (``"12.3"``, no ``%``), ``"n/a (diverged)"``, or a phrase starting
-        ``"none: "``.
+        ``"none: "`` (the output never reaches the reference, or there is no step: the
+        reference is where the output starts).
 
     Examples
     --------
@@ -196,6 +197,8 @@ def overshoot_text(resp) -> str:
     """
     if resp.status == "diverged":
         return "n/a (diverged)"
+    if not abs(resp.step) > 1e-12 * max(1.0, abs(resp.y0)):
+        return "none: no step (the reference is the output's start)"
     reach = step_reach(resp)
     if reach < REACHES:
         return f"none: never reaches the reference (peak {100 * reach:.0f} % of the step)"
