@@ -22,7 +22,7 @@ import numpy as np
 
 from ..sim import Response
 from ..sim._metrics import ACCUMULATORS, metric_layout
-from ..sim._simulate import metric_step
+from ..sim._simulate import metric_step, run_constants
 
 
 def _first_out_of_bounds(run, X_next, S_next, u) -> int | None:
@@ -100,7 +100,7 @@ def c_loop_response(run, y, ym, u, X, X_next, xhat, S_next) -> Response:
                    else float(np.ravel(v)[0])) for k, v in acc.items() if k in keep}
     summary.update(diverged=float(k_div is not None),
                    k_div=float(k_div + 1) if k_div is not None else -1.0, solver_failed=0.0)
-    summary.update(run.constants())
+    summary.update(run_constants(run))  # as fl.simulate's summary: the same classification
     rows = {"y": y, "ym": ym, "u": u, "sigmahat": xhat[:, rho], "sigma": sigma}
     rows = {k: v.astype(float).copy() for k, v in rows.items()}
     arrays = {"xhat": xhat[:, :rho].copy(), "coords": coords, "x": X.copy()}

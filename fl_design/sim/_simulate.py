@@ -127,9 +127,28 @@ def _summary_fields(run: RunSetup, summary: dict) -> dict:
     keep = {a.name for a in ACCUMULATORS} | {"diverged", "k_div", "solver_failed"}
     out = {k: (np.asarray(v, dtype=float).ravel() if k == "est2_sum" else float(np.ravel(v)[0]))
            for k, v in summary.items() if k in keep}
-    out.update(run.constants())
-    # a run whose analysed half is shorter than the designed loop's time constant cannot show
-    # a stall (:func:`fl_design.sim._status.classify`: undecided)
+    out.update(run_constants(run))
+    return out
+
+
+def run_constants(run: RunSetup) -> dict:
+    """The constants a run's summary holds beside its accumulators: ``run.constants()`` and
+    ``loop_tau_samples`` (a run whose analysed half is shorter than the designed loop's time
+    constant cannot show a stall: :func:`fl_design.sim._status.classify` says undecided).
+
+    Every classification of a run's accumulators uses them: :func:`fl_design.simulate`'s and
+    the SIL's verdict on the C loop (:func:`fl_design.codegen._verdict.c_loop_response`).
+
+    Examples
+    --------
+    >>> import fl_design as fl
+    >>> from fl_design.sim._run import prepare_run
+    >>> from fl_design.sim._simulate import run_constants
+    >>> run = prepare_run(fl.plants.pendulum(), fl.presets.pendulum_design(), fl.Scenario(0.1, 1.0))
+    >>> sorted(run_constants(run))[:3]
+    ['N', 'k_dist', 'k_mid']
+    """
+    out = dict(run.constants())
     out["loop_tau_samples"] = run.loop.design.controller.time_constant / run.T
     return out
 
@@ -272,4 +291,4 @@ def _escaped(loop, opts: Cvodes, xk: np.ndarray, uk, run: RunSetup) -> bool:
     return float(np.max(np.abs(x - x_op))) > ESCAPE_GROWTH * (start + 1.0)
 
 
-__all__ = ["metric_step", "simulate"]
+__all__ = ["metric_step", "run_constants", "simulate"]
