@@ -194,9 +194,14 @@ def gamma_words(g) -> str:
     >>> from fl_design.app._brief import gamma_words
     >>> gamma_words(S(gamma=-0.00813, gamma_min=0.00818, gamma_max=0.0292, b_bounds=(-2, -1)))
     '|gamma| in (0.00818, 0.0292), this 0.00813 outside'
+    >>> gamma_words(S(gamma=96.8, gamma_min=None, gamma_max=None, b_bounds=(1e-4, 3e-4)))
+    'no gamma of the scan gives a stable loop at this eps'
     """
     neg = min(g.b_bounds) < 0
     mag, lo, hi = abs(g.gamma), g.gamma_min, g.gamma_max
+    if lo is None or hi is None:  # the scan found no stable gamma at the design's eps
+        return (f"no {'|gamma|' if neg else 'gamma'} of the scan gives a stable loop at this "
+                "eps")
     where = ("" if lo is None or hi is None else
              f", this {fmt(mag, 'none', 3)} {'inside' if lo < mag < hi else 'outside'}")
     return (f"{'|gamma|' if neg else 'gamma'} in ({fmt(lo, 'none', 3)}, {fmt(hi, 'none', 3)})"
