@@ -153,6 +153,10 @@ class SOSSolution:
         Re-check margin (smallest ``lambda_min / ||.||``).
     note : str
         How, or why not.
+    eta : float or None, optional
+        The program's optimal margin (largest ``lambda_min`` of ``Q`` and the ``R_v`` with
+        ``trace Q = m``; positive: strictly feasible), None when no program gave one: what
+        :mod:`._sos_search` steers by (never what certifies).
 
     Examples
     --------
@@ -166,6 +170,7 @@ class SOSSolution:
     N: tuple
     margin: float | None
     note: str
+    eta: float | None = None
 
 
 def _rel_min(S: np.ndarray) -> float:
@@ -212,7 +217,7 @@ def _problem(n: int, nv: int, T: float):
     return cp.Problem(cp.Maximize(eta), cons), E, Q, ys, eta
 
 
-def sos_lyapunov(deltas, T: float) -> SOSSolution:
+def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel") -> SOSSolution:
     """Search a quartic SOS Lyapunov function common to the vertices ``I + T Delta_v``.
 
     Parameters
@@ -222,11 +227,20 @@ def sos_lyapunov(deltas, T: float) -> SOSSolution:
         caller balances them).
     T : float
         Sampling time.
+    backend : {"clarabel", "cvxpy"}, optional
+        ``"clarabel"`` (default): the program assembled in NumPy and handed to Clarabel
+        directly (:mod:`._sdp_sos`); ``"cvxpy"``: the same program through CVXPY (slower,
+        kept as an independent cross-check). Either answer is re-checked in NumPy.
 
     Returns
     -------
     SOSSolution
         Never raises on a solver failure (it is a value: not certified, with the reason).
+
+    Raises
+    ------
+    ValueError
+        An unknown ``backend`` (:class:`~fl_design.errors.ParameterError`).
 
     Examples
     --------
@@ -236,30 +250,50 @@ def sos_lyapunov(deltas, T: float) -> SOSSolution:
     """
     deltas = [np.asarray(D, dtype=float) for D in deltas]
     n = deltas[0].shape[0]
-    prob, E, Q, ys, eta = _problem(n, len(deltas), float(T))
     Es = [lift_delta(D, T) for D in deltas]
-    for par, Ev in zip(E, Es):
-        par.value = Ev
-    err = solve_quietly(prob)
-    if err is not None:
-        return SOSSolution(False, f"{type(err).__name__}", None, (), None,
-                           f"CLARABEL failed ({type(err).__name__})")
-    status = str(prob.status)
-    if eta.value is None or Q.value is None or eta.value <= 0.0:
+    if backend == "clarabel":
+        from ._sdp_sos import solve_sos
+
+        r = solve_sos(Es, float(T), gram_slack_basis(n))
+        if r.status.startswith("solver_error"):
+            return SOSSolution(False, r.status, None, (), None, f"CLARABEL failed ({r.status})")
+        status, eta, Qv, ys = r.status, r.eta, r.Q, r.y
+    elif backend == "cvxpy":
+        status, eta, Qv, ys = _solve_cvxpy(Es, float(T), n)
+        if Qv is None and status.startswith("CVXPY failed"):
+            return SOSSolution(False, status, None, (), None, status)
+    else:
+        from ..errors import ParameterError
+
+        raise ParameterError(f"backend must be 'clarabel' or 'cvxpy', got {backend!r}")
+    if eta is None or Qv is None or eta <= 0.0:
         return SOSSolution(False, status, None, (), None,
-                           f"no strictly feasible quartic SOS V (status {status})")
+                           f"no strictly feasible quartic SOS V (status {status})", eta)
     basis = gram_slack_basis(n)
-    Qv = np.array(Q.value)
     Qv = (Qv + Qv.T) / 2
-    N = tuple(np.tensordot(np.array(y.value), basis, axes=1) for y in ys)
+    N = tuple(np.tensordot(np.asarray(y), basis, axes=1) for y in ys)
     margin = recheck_sos(Qv, N, deltas, T)
     if margin > RECHECK_TOL:
         return SOSSolution(True, status, Qv, N, margin,
                            f"quartic SOS V: CLARABEL {status}, re-checked in NumPy "
-                           f"(margin {margin:.3g})")
+                           f"(margin {margin:.3g})", eta)
     return SOSSolution(False, status, None, (), margin,
                        f"the quartic SOS solution failed the NumPy re-check (margin {margin:.3g}"
-                       f" <= {RECHECK_TOL:g})")
+                       f" <= {RECHECK_TOL:g})", eta)
+
+
+def _solve_cvxpy(Es, T: float, n: int):
+    """``(status, eta, Q, y)`` of the program through CVXPY + Clarabel (None where absent)."""
+    prob, E, Q, ys, eta = _problem(n, len(Es), T)
+    for par, Ev in zip(E, Es):
+        par.value = Ev
+    err = solve_quietly(prob)
+    if err is not None:
+        return f"CVXPY failed ({type(err).__name__})", None, None, ()
+    if eta.value is None or Q.value is None:
+        return str(prob.status), None, None, ()
+    return (str(prob.status), float(eta.value), np.array(Q.value),
+            tuple(np.array(y.value) for y in ys))
 
 
 def sos_certificate(deltas, T: float) -> SOSSolution:
