@@ -157,6 +157,9 @@ class SOSSolution:
         The program's optimal margin (largest ``lambda_min`` of ``Q`` and the ``R_v`` with
         ``trace Q = m``; positive: strictly feasible), None when no program gave one: what
         :mod:`._sos_search` steers by (never what certifies).
+    slope : float or None, optional
+        ``d eta / d eps`` when the caller gave the vertices' tangents (the envelope theorem:
+        the program's duals on the tangent of ``R_v``, coordinates held fixed), else None.
 
     Examples
     --------
@@ -171,6 +174,7 @@ class SOSSolution:
     margin: float | None
     note: str
     eta: float | None = None
+    slope: float | None = None
 
 
 def _rel_min(S: np.ndarray) -> float:
@@ -217,7 +221,8 @@ def _problem(n: int, nv: int, T: float):
     return cp.Problem(cp.Maximize(eta), cons), E, Q, ys, eta
 
 
-def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel") -> SOSSolution:
+def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel",
+                 tangents=None) -> SOSSolution:
     """Search a quartic SOS Lyapunov function common to the vertices ``I + T Delta_v``.
 
     Parameters
@@ -231,6 +236,9 @@ def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel") -> SOSSolution:
         ``"clarabel"`` (default): the program assembled in NumPy and handed to Clarabel
         directly (:mod:`._sdp_sos`); ``"cvxpy"``: the same program through CVXPY (slower,
         kept as an independent cross-check). Either answer is re-checked in NumPy.
+    tangents : sequence of numpy.ndarray, optional
+        ``d Delta_v / d eps`` in the coordinates of ``deltas``: the result's ``slope`` (with
+        the Clarabel backend) is then ``d eta / d eps``; nothing else depends on it.
 
     Returns
     -------
@@ -258,8 +266,10 @@ def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel") -> SOSSolution:
         if r.status.startswith("solver_error"):
             return SOSSolution(False, r.status, None, (), None, f"CLARABEL failed ({r.status})")
         status, eta, Qv, ys = r.status, r.eta, r.Q, r.y
+        slope = _slope(r, Es, deltas, tangents, float(T))
     elif backend == "cvxpy":
         status, eta, Qv, ys = _solve_cvxpy(Es, float(T), n)
+        slope = None
         if Qv is None and status.startswith("CVXPY failed"):
             return SOSSolution(False, status, None, (), None, status)
     else:
@@ -268,7 +278,7 @@ def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel") -> SOSSolution:
         raise ParameterError(f"backend must be 'clarabel' or 'cvxpy', got {backend!r}")
     if eta is None or Qv is None or eta <= 0.0:
         return SOSSolution(False, status, None, (), None,
-                           f"no strictly feasible quartic SOS V (status {status})", eta)
+                           f"no strictly feasible quartic SOS V (status {status})", eta, slope)
     basis = gram_slack_basis(n)
     Qv = (Qv + Qv.T) / 2
     N = tuple(np.tensordot(np.asarray(y), basis, axes=1) for y in ys)
@@ -276,10 +286,29 @@ def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel") -> SOSSolution:
     if margin > RECHECK_TOL:
         return SOSSolution(True, status, Qv, N, margin,
                            f"quartic SOS V: CLARABEL {status}, re-checked in NumPy "
-                           f"(margin {margin:.3g})", eta)
+                           f"(margin {margin:.3g})", eta, slope)
     return SOSSolution(False, status, None, (), margin,
                        f"the quartic SOS solution failed the NumPy re-check (margin {margin:.3g}"
-                       f" <= {RECHECK_TOL:g})", eta)
+                       f" <= {RECHECK_TOL:g})", eta, slope)
+
+
+def _slope(r, Es, deltas, tangents, T: float):
+    """``d eta / d eps = sum_v Z_v . svec dR_v`` (None without tangents or duals).
+
+    ``E = lift_delta(D)`` is quadratic in ``D``: its central difference with unit step is
+    its exact derivative along ``dD``."""
+    if tangents is None or not r.duals or r.Q is None:
+        return None
+    from ._sdp import svec
+
+    out = 0.0
+    for Zv, Ev, D, dD in zip(r.duals, Es, deltas, tangents):
+        dD = np.asarray(dD, dtype=float)
+        dE = 0.5 * (lift_delta(D + dD, T) - lift_delta(D - dD, T))
+        QdE, QE = r.Q @ dE, r.Q @ Ev
+        dR = -(QdE + QdE.T) - T * (dE.T @ QE + QE.T @ dE)
+        out += float(Zv @ svec(dR))
+    return out if np.isfinite(out) else None
 
 
 def _solve_cvxpy(Es, T: float, n: int):
@@ -296,7 +325,7 @@ def _solve_cvxpy(Es, T: float, n: int):
             tuple(np.array(y.value) for y in ys))
 
 
-def sos_certificate(deltas, T: float) -> SOSSolution:
+def sos_certificate(deltas, T: float, *, tangents=None) -> SOSSolution:
     """:func:`sos_lyapunov` in well-conditioned coordinates of the vertices ``Delta_v``.
 
     A diagonal balancing (powers of 2, exact), then the Cholesky factor ``R`` of the modal
@@ -307,6 +336,8 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
     floating point (relative rounding ~1e-16, as for the modal basis of :mod:`._certify`):
     mapped back to the balanced coordinates the Gram matrices are too ill-conditioned for a
     meaningful eigenvalue margin (TRMS at eps = 0.1: ``cond L(R) = 4.8e5``, margin 7e-13).
+    ``tangents`` (``d Delta_v / d eps`` in the coordinates of ``deltas``) are carried through
+    the same similarities for the result's ``slope`` (:func:`sos_lyapunov`).
 
     Examples
     --------
@@ -316,9 +347,11 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
     True
     """
     from ._analytic import modal_lyapunov
-    from ._lmi import balance
+    from ._lmi import balance, balance_scaling
 
-    D = balance([np.asarray(x, dtype=float) for x in deltas])
+    D = [np.asarray(x, dtype=float) for x in deltas]
+    sc = balance_scaling(D)
+    D = balance(D)
     P = modal_lyapunov(sum(D) / len(D), T)
     if P is None:
         return SOSSolution(False, "not solved", None, (), None,
@@ -330,7 +363,10 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
                            "the middle vertex's modal Lyapunov matrix is not positive definite "
                            "in floating point (its modes are ill-conditioned): no coordinates "
                            "for the quartic certificate")
-    return sos_lyapunov([np.linalg.solve(R.T, (R @ x).T).T for x in D], T)
+    if tangents is not None:  # the same similarities: diag(1/s) . diag(s), then R . R^-1
+        tangents = [np.linalg.solve(R.T, (R @ (np.asarray(x, dtype=float) * sc[None, :]
+                                              / sc[:, None])).T).T for x in tangents]
+    return sos_lyapunov([np.linalg.solve(R.T, (R @ x).T).T for x in D], T, tangents=tangents)
 
 
 __all__ = ["SOSSolution", "gram_slack_basis", "lift", "lift_delta", "pairs", "recheck_sos",

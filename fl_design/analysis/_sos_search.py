@@ -1,43 +1,38 @@
-"""eps* of the quartic SOS certificate: a secant on the SOS program's margin, not a bisection.
+"""eps* of the quartic SOS certificate: Newton steps on the SOS program's margin.
 
 Each SOS program (:mod:`._sos`) returns, besides its verdict, its optimal margin ``eta`` (the
-largest ``lambda_min`` of ``Q`` and of every ``R_v``, ``trace Q = m``): positive where a
-strictly feasible quartic ``V`` exists, and a continuous function of eps (the optimal value of
-an SDP whose data are continuous in eps). A bisection of the verdict to ``rtol = 1e-2`` from
-``0.9 top`` solved about five programs; the margin's root, found by a safeguarded secant in
-``log eps`` (:func:`._search._refine`: two evaluations close the bracket when the root estimate
-is good, bisection after eight tries, a valid bracket kept at every step), needs fewer:
+largest ``lambda_min`` of ``Q`` and of every ``R_v``, ``trace Q = m``: positive where a
+strictly feasible quartic ``V`` exists) and, from its duals, ``d eta / d eps`` (the envelope
+theorem, coordinates held fixed: the sign of ``eta``, strict feasibility, does not depend on
+them). Where no ``V`` exists ``eta`` sits just below 0 (``Q`` degenerates), so the failed side
+says nothing; the certified side does. A bisection of the verdict to ``rtol = 1e-2`` from
+``0.9 top`` solved five programs on the paper's TRMS design; here:
 
-1. ``top / (1 + 0.999 rtol)`` first (``top`` the refuted end): certified there, the bracket
-   ``[x, top]`` is already within ``rtol`` (one program);
-2. else steps down from ``hint * top`` by ``step`` until a certified eps (or ``base``);
-3. then the secant between the last certified and the first failed eps.
+1. ``hint * top`` first, steps down by ``step`` until a certified eps (or ``base``), as the
+   bisection (``top`` is the refuted end, known to fail);
+2. from the last certified eps ``g`` a Newton step to the root ``r = g - eta / slope``; the
+   next eps tried is ``r (1 - rtol / 4)`` (expected certified), or ``g (1 + rtol)`` once
+   ``r`` lies below it (expected to fail: it closes the bracket);
+3. bisection (in ``log eps``) after two probes that the Newton step got wrong, without a
+   usable slope, or when the root it predicts lies beyond the bracket (``eta`` is piecewise
+   smooth: a slope of another piece); every probe kept strictly inside the bracket.
 
-The answer is an eps where a certificate was found and re-checked (never the secant's
-estimate), and ``[answer, bad]`` with ``bad / answer - 1 <= rtol`` contains the certificate's
-boundary when it is unique, as the bisection's did. A verdict of "certified" always wins over
-the margin's sign (a positive ``eta`` whose re-check fails counts as failed).
+The answer is an eps where a certificate was found and re-checked (never an estimate), and
+``[answer, bad]`` with ``bad / answer - 1 <= rtol`` contains the certificate's boundary when it
+is unique, as the bisection's did.
 
 Examples
 --------
 >>> from fl_design.analysis._sos_search import sos_eps_star
->>> # a margin 0.3 - eps: certified below 0.3 (the verdict of the margin's sign)
->>> eps, n = sos_eps_star(lambda e: (0.3 - e > 0, 0.3 - e), 0.01, 0.4, 1e-2)
->>> 0.297 <= eps <= 0.3, n <= 6
-(True, True)
+>>> # a margin 0.3 - eps (slope -1): certified below 0.3
+>>> eps, n = sos_eps_star(lambda e: (0.3 - e > 0, 0.3 - e, -1.0), 0.01, 0.4, 1e-2)
+>>> 0.297 <= eps <= 0.3, n
+(True, 5)
 """
 
 from __future__ import annotations
 
 import math
-
-from ._search import _refine
-
-#: The margin given to a failed eps with no usable ``eta`` (solver failure, a frozen loop not
-#: Schur): as bad as a margin can be (``eta <= 1`` with ``trace Q = m``).
-NO_MARGIN = 1.0
-#: The margin given to a failed eps whose ``eta`` is positive (the re-check failed).
-TINY = 1e-12
 
 
 class _Budget(Exception):
@@ -51,18 +46,19 @@ def sos_eps_star(solve, base: float, top: float, rtol: float, *, hint: float = 0
     Parameters
     ----------
     solve : callable
-        ``eps -> (certified, eta)`` (``eta`` None when no program gave one).
+        ``eps -> (certified, eta, slope)`` (``eta`` and ``slope = d eta / d eps`` None when
+        the program gave none).
     base, top : float
         Search interval: ``top`` is known to fail (a refuted eps), ``base`` the lowest tried.
     rtol : float
         Relative resolution of the final bracket.
     hint : float, optional
-        Start of the steps down, as a fraction of ``top``.
+        First eps tried, as a fraction of ``top`` (capped where the bracket is already closed).
     step : float, optional
         Factor of the steps down.
     budget : int, optional
-        Most programs solved; past it the best certified eps so far is returned (sound:
-        it was certified).
+        Most programs solved; past it the last certified eps is returned (sound: it was
+        certified).
 
     Returns
     -------
@@ -71,59 +67,59 @@ def sos_eps_star(solve, base: float, top: float, rtol: float, *, hint: float = 0
 
     Examples
     --------
-    >>> sos_eps_star(lambda e: (False, -1.0), 0.1, 1.0, 1e-2, budget=3)
+    >>> sos_eps_star(lambda e: (False, -1e-7, None), 0.1, 1.0, 1e-2, budget=3)
     (None, 3)
     """
     count = [0]
 
-    def margin(e: float) -> float:
+    def ev(e: float):
         if count[0] >= budget:
             raise _Budget
         count[0] += 1
-        ok, eta = solve(e)
-        if ok:
-            return -max(float(eta), TINY) if eta is not None else -TINY
-        if eta is None or not math.isfinite(eta):
-            return NO_MARGIN
-        return max(-float(eta), TINY)
+        return solve(e)
 
     good = None
-    x = max(base, top / (1.0 + 0.999 * rtol))
     try:
-        m = margin(x)
-        if m < 0.0:
-            return float(x), count[0]
-        bad, m_bad = x, m
-        x = max(base, min(hint * top, x / (1.0 + rtol)))
+        x = max(base, min(hint, 1.0 / (1.0 + 0.999 * rtol)) * top)
+        bad = top
         while True:
-            m = margin(x)
-            if m < 0.0:
-                good, m_good = x, m
+            ok, eta, slope = ev(x)
+            if ok:
+                good = (x, eta, slope)
                 break
-            bad, m_bad = x, m
+            bad = x
             if x <= base:
                 return None, count[0]
             x = max(base, step * x)
-        good = _refine_counted(margin, good, m_good, bad, m_bad, rtol, count)
+        misses = 0
+        while bad / good[0] - 1.0 > rtol:
+            x, expect = _next(good, bad, rtol, misses)
+            ok, eta, slope = ev(x)
+            if ok:
+                good = (x, eta, slope)
+            else:
+                bad = x
+            if expect is not None and ok != expect:
+                misses += 1
     except _Budget:
         pass
-    return (None if good is None else float(good)), count[0]
+    return (None if good is None else float(good[0])), count[0]
 
 
-def _refine_counted(margin, good, m_good, bad, m_bad, rtol, count):
-    """:func:`._search._refine`, the last certified eps kept when the budget runs out."""
-    best = [good]
-
-    def tracked(e):
-        m = margin(e)
-        if m < 0.0 and e > best[0]:
-            best[0] = e
-        return m
-
-    try:
-        return _refine(tracked, good, m_good, bad, m_bad, rtol)[0]
-    except _Budget:
-        return best[0]
+def _next(good, bad: float, rtol: float, misses: int):
+    """The next eps and whether it is expected certified (None: a bisection step)."""
+    g, eta, slope = good
+    span = math.log(bad / g)
+    lo, hi = g * math.exp(0.02 * span), bad * math.exp(-0.02 * span)
+    x, expect = math.sqrt(g * bad), None
+    if (misses < 2 and eta is not None and slope is not None and eta > 0.0 and slope < 0.0
+            and math.isfinite(eta / slope)):
+        r = g - eta / slope
+        if r < g * (1.0 + rtol):
+            x, expect = g * (1.0 + rtol) / (1.0 + 1e-6), False
+        elif r * (1.0 - 0.25 * rtol) < hi:  # a root beyond the bracket: the slope misleads
+            x, expect = r * (1.0 - 0.25 * rtol), True
+    return min(max(x, lo), hi), expect
 
 
 __all__ = ["sos_eps_star"]
