@@ -47,8 +47,8 @@ CASES = {
         "fl.certify_eps(fl.presets.paper_design(), (3.6, 6.8))",
     "certify_eps, paper design (gamma 1e-3), b in [3.6, 6.8]":
         "fl.certify_eps(fl.presets.paper_design(gamma=1e-3), (3.6, 6.8))",
-    "certify_gamma, paper design, b in [3.6, 6.8]":
-        "fl.certify_gamma(fl.presets.paper_design(), (3.6, 6.8))",
+    "certify_gamma, paper design (eps 0.1: SOS), b in [3.6, 6.8]":
+        "fl.certify_gamma(fl.presets.paper_design(eps=0.1), (3.6, 6.8))",
 }
 
 _PROG = """

@@ -71,3 +71,18 @@ def test_both_backends_give_the_same_verdict(seed):
 def test_unknown_backend_is_refused():
     with pytest.raises(ParameterError, match="backend must be 'clarabel' or 'cvxpy'"):
         sos_lyapunov([np.array([[-1.0]])], 1e-3, backend="scs")
+
+
+def test_slope_is_the_derivative_of_the_margin():
+    """``slope`` (duals, envelope theorem) against a central difference of ``eta``."""
+    rng = np.random.default_rng(5)
+    T = 1e-2
+    A = [np.array([[-0.4, 1.0], [-1.0, -0.4]]), np.array([[-0.4, 1.0], [-4.0, -0.4]])]
+    dA = [0.1 * rng.normal(size=(2, 2)) for _ in A]
+    s0 = sos_lyapunov(A, T, tangents=dA)
+    h = 1e-5
+    up = sos_lyapunov([a + h * d for a, d in zip(A, dA)], T)
+    down = sos_lyapunov([a - h * d for a, d in zip(A, dA)], T)
+    fd = (up.eta - down.eta) / (2 * h)
+    assert s0.certified and abs(s0.slope - fd) <= 1e-3 * abs(fd) + 1e-6, (s0.slope, fd)
+    assert sos_lyapunov(A, T).slope is None  # no tangents: no slope
