@@ -19,7 +19,9 @@ as in :mod:`._lmi` (Schur complement, ``Q > 0``)::
     [[-(E^T Q + Q E) + N_v,  sqrt(T) E^T Q], [sqrt(T) Q E,  Q]] > 0
 
 which is of order one at ``T = 1 ms``. Every term of ``T`` is kept: it is the exact discrete
-condition, not a continuous-time approximation.
+condition, not a continuous-time approximation. ``E^T Q E`` is linear in ``Q``: the program
+solved is ``R_v = -(E_v^T Q + Q E_v) - T E_v^T Q E_v + N_v > 0`` itself, assembled in NumPy
+and handed to Clarabel directly (:mod:`._sdp_sos`; CVXPY as ``backend="cvxpy"``).
 
 What a certificate proves: the NumPy re-check (:func:`recheck_sos`) finds ``Q`` and each
 ``R_v = -(E_v^T Q + Q E_v) - T E_v^T Q E_v + N_v`` positive definite with ``lambda_min``
