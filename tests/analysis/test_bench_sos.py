@@ -25,7 +25,7 @@ def test_bench_sos_quick_runs():
     assert "machine:" in out and "load average" in out and "conic programs" in out
     line = next(x for x in out.splitlines() if "certify_eps, paper design" in x)
     certified, covers, _, eps_star, brackets = ast.literal_eval(line.split("programs; ", 1)[1])
-    varying = dict((c, (a, b)) for c, a, b in brackets)["varying"]
+    varying = {c: (a, b) for c, a, b in brackets}["varying"]
     # the SOS certificate beyond common P, below the switching counterexample
     assert certified and covers == "varying" and eps_star == varying[0] < varying[1]
     assert varying[0] >= 0.9 * varying[1]
