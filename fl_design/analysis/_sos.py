@@ -19,7 +19,9 @@ as in :mod:`._lmi` (Schur complement, ``Q > 0``)::
     [[-(E^T Q + Q E) + N_v,  sqrt(T) E^T Q], [sqrt(T) Q E,  Q]] > 0
 
 which is of order one at ``T = 1 ms``. Every term of ``T`` is kept: it is the exact discrete
-condition, not a continuous-time approximation.
+condition, not a continuous-time approximation. ``E^T Q E`` is linear in ``Q``: the program
+solved is ``R_v = -(E_v^T Q + Q E_v) - T E_v^T Q E_v + N_v > 0`` itself, assembled in NumPy
+and handed to Clarabel directly (:mod:`._sdp_sos`; CVXPY as ``backend="cvxpy"``).
 
 What a certificate proves: the NumPy re-check (:func:`recheck_sos`) finds ``Q`` and each
 ``R_v = -(E_v^T Q + Q E_v) - T E_v^T Q E_v + N_v`` positive definite with ``lambda_min``
@@ -153,6 +155,13 @@ class SOSSolution:
         Re-check margin (smallest ``lambda_min / ||.||``).
     note : str
         How, or why not.
+    eta : float or None, optional
+        The program's optimal margin (largest ``lambda_min`` of ``Q`` and the ``R_v`` with
+        ``trace Q = m``; positive: strictly feasible), None when no program gave one: what
+        :mod:`._sos_search` steers by (never what certifies).
+    slope : float or None, optional
+        ``d eta / d eps`` when the caller gave the vertices' tangents (the envelope theorem:
+        the program's duals on the tangent of ``R_v``, coordinates held fixed), else None.
 
     Examples
     --------
@@ -166,6 +175,8 @@ class SOSSolution:
     N: tuple
     margin: float | None
     note: str
+    eta: float | None = None
+    slope: float | None = None
 
 
 def _rel_min(S: np.ndarray) -> float:
@@ -212,7 +223,8 @@ def _problem(n: int, nv: int, T: float):
     return cp.Problem(cp.Maximize(eta), cons), E, Q, ys, eta
 
 
-def sos_lyapunov(deltas, T: float) -> SOSSolution:
+def sos_lyapunov(deltas, T: float, *, backend: str = "clarabel",
+                 tangents=None) -> SOSSolution:
     """Search a quartic SOS Lyapunov function common to the vertices ``I + T Delta_v``.
 
     Parameters
@@ -222,11 +234,23 @@ def sos_lyapunov(deltas, T: float) -> SOSSolution:
         caller balances them).
     T : float
         Sampling time.
+    backend : {"clarabel", "cvxpy"}, optional
+        ``"clarabel"`` (default): the program assembled in NumPy and handed to Clarabel
+        directly (:mod:`._sdp_sos`); ``"cvxpy"``: the same program through CVXPY (slower,
+        kept as an independent cross-check). Either answer is re-checked in NumPy.
+    tangents : sequence of numpy.ndarray, optional
+        ``d Delta_v / d eps`` in the coordinates of ``deltas``: the result's ``slope`` (with
+        the Clarabel backend) is then ``d eta / d eps``; nothing else depends on it.
 
     Returns
     -------
     SOSSolution
         Never raises on a solver failure (it is a value: not certified, with the reason).
+
+    Raises
+    ------
+    ValueError
+        An unknown ``backend`` (:class:`~fl_design.errors.ParameterError`).
 
     Examples
     --------
@@ -236,33 +260,74 @@ def sos_lyapunov(deltas, T: float) -> SOSSolution:
     """
     deltas = [np.asarray(D, dtype=float) for D in deltas]
     n = deltas[0].shape[0]
-    prob, E, Q, ys, eta = _problem(n, len(deltas), float(T))
     Es = [lift_delta(D, T) for D in deltas]
-    for par, Ev in zip(E, Es):
-        par.value = Ev
-    err = solve_quietly(prob)
-    if err is not None:
-        return SOSSolution(False, f"{type(err).__name__}", None, (), None,
-                           f"CLARABEL failed ({type(err).__name__})")
-    status = str(prob.status)
-    if eta.value is None or Q.value is None or eta.value <= 0.0:
+    if backend == "clarabel":
+        from ._sdp_sos import solve_sos
+
+        r = solve_sos(Es, float(T), gram_slack_basis(n))
+        if r.status.startswith("solver_error"):
+            return SOSSolution(False, r.status, None, (), None, f"CLARABEL failed ({r.status})")
+        status, eta, Qv, ys = r.status, r.eta, r.Q, r.y
+        slope = _slope(r, Es, deltas, tangents, float(T))
+    elif backend == "cvxpy":
+        status, eta, Qv, ys = _solve_cvxpy(Es, float(T), n)
+        slope = None
+        if Qv is None and status.startswith("CVXPY failed"):
+            return SOSSolution(False, status, None, (), None, status)
+    else:
+        from ..errors import ParameterError
+
+        raise ParameterError(f"backend must be 'clarabel' or 'cvxpy', got {backend!r}")
+    if eta is None or Qv is None or eta <= 0.0:
         return SOSSolution(False, status, None, (), None,
-                           f"no strictly feasible quartic SOS V (status {status})")
+                           f"no strictly feasible quartic SOS V (status {status})", eta, slope)
     basis = gram_slack_basis(n)
-    Qv = np.array(Q.value)
     Qv = (Qv + Qv.T) / 2
-    N = tuple(np.tensordot(np.array(y.value), basis, axes=1) for y in ys)
+    N = tuple(np.tensordot(np.asarray(y), basis, axes=1) for y in ys)
     margin = recheck_sos(Qv, N, deltas, T)
     if margin > RECHECK_TOL:
         return SOSSolution(True, status, Qv, N, margin,
                            f"quartic SOS V: CLARABEL {status}, re-checked in NumPy "
-                           f"(margin {margin:.3g})")
+                           f"(margin {margin:.3g})", eta, slope)
     return SOSSolution(False, status, None, (), margin,
                        f"the quartic SOS solution failed the NumPy re-check (margin {margin:.3g}"
-                       f" <= {RECHECK_TOL:g})")
+                       f" <= {RECHECK_TOL:g})", eta, slope)
 
 
-def sos_certificate(deltas, T: float) -> SOSSolution:
+def _slope(r, Es, deltas, tangents, T: float):
+    """``d eta / d eps = sum_v Z_v . svec dR_v`` (None without tangents or duals).
+
+    ``E = lift_delta(D)`` is quadratic in ``D``: its central difference with unit step is
+    its exact derivative along ``dD``."""
+    if tangents is None or not r.duals or r.Q is None:
+        return None
+    from ._sdp import svec
+
+    out = 0.0
+    for Zv, Ev, D, dD in zip(r.duals, Es, deltas, tangents):
+        dD = np.asarray(dD, dtype=float)
+        dE = 0.5 * (lift_delta(D + dD, T) - lift_delta(D - dD, T))
+        QdE, QE = r.Q @ dE, r.Q @ Ev
+        dR = -(QdE + QdE.T) - T * (dE.T @ QE + QE.T @ dE)
+        out += float(Zv @ svec(dR))
+    return out if np.isfinite(out) else None
+
+
+def _solve_cvxpy(Es, T: float, n: int):
+    """``(status, eta, Q, y)`` of the program through CVXPY + Clarabel (None where absent)."""
+    prob, E, Q, ys, eta = _problem(n, len(Es), T)
+    for par, Ev in zip(E, Es):
+        par.value = Ev
+    err = solve_quietly(prob)
+    if err is not None:
+        return f"CVXPY failed ({type(err).__name__})", None, None, ()
+    if eta.value is None or Q.value is None:
+        return str(prob.status), None, None, ()
+    return (str(prob.status), float(eta.value), np.array(Q.value),
+            tuple(np.array(y.value) for y in ys))
+
+
+def sos_certificate(deltas, T: float, *, tangents=None) -> SOSSolution:
     """:func:`sos_lyapunov` in well-conditioned coordinates of the vertices ``Delta_v``.
 
     A diagonal balancing (powers of 2, exact), then the Cholesky factor ``R`` of the modal
@@ -273,6 +338,8 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
     floating point (relative rounding ~1e-16, as for the modal basis of :mod:`._certify`):
     mapped back to the balanced coordinates the Gram matrices are too ill-conditioned for a
     meaningful eigenvalue margin (TRMS at eps = 0.1: ``cond L(R) = 4.8e5``, margin 7e-13).
+    ``tangents`` (``d Delta_v / d eps`` in the coordinates of ``deltas``) are carried through
+    the same similarities for the result's ``slope`` (:func:`sos_lyapunov`).
 
     Examples
     --------
@@ -282,9 +349,11 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
     True
     """
     from ._analytic import modal_lyapunov
-    from ._lmi import balance
+    from ._lmi import balance, balance_scaling
 
-    D = balance([np.asarray(x, dtype=float) for x in deltas])
+    D = [np.asarray(x, dtype=float) for x in deltas]
+    sc = balance_scaling(D)
+    D = balance(D)
     P = modal_lyapunov(sum(D) / len(D), T)
     if P is None:
         return SOSSolution(False, "not solved", None, (), None,
@@ -296,7 +365,10 @@ def sos_certificate(deltas, T: float) -> SOSSolution:
                            "the middle vertex's modal Lyapunov matrix is not positive definite "
                            "in floating point (its modes are ill-conditioned): no coordinates "
                            "for the quartic certificate")
-    return sos_lyapunov([np.linalg.solve(R.T, (R @ x).T).T for x in D], T)
+    if tangents is not None:  # the same similarities: diag(1/s) . diag(s), then R . R^-1
+        tangents = [np.linalg.solve(R.T, (R @ (np.asarray(x, dtype=float) * sc[None, :]
+                                              / sc[:, None])).T).T for x in tangents]
+    return sos_lyapunov([np.linalg.solve(R.T, (R @ x).T).T for x in D], T, tangents=tangents)
 
 
 __all__ = ["SOSSolution", "gram_slack_basis", "lift", "lift_delta", "pairs", "recheck_sos",
