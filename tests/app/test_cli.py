@@ -201,8 +201,20 @@ def test_pendulum_example_config_runs_derive_and_certify(capsys):
 
 
 def test_bad_scheduler_address_is_one_line():
-    proc = _cli("sweep", "--quick", "--scheduler", "tcp://127.0.0.1:9", timeout=120)
+    """The command line in a process of its own, as ``python -m fl_design`` runs it, with the
+    scheduler's connect limit at 1 s instead of 10 s (the wait itself is bounded and tested in
+    tests/safety/test_waits.py; here what the user reads)."""
+    code = ("import sys\n"
+            "from fl_design.sim import _scheduler\n"
+            "_scheduler.connect_scheduler.__kwdefaults__['timeout'] = 1.0\n"
+            "from fl_design.app._cli import main\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, "-c", code, "sweep", "--quick", "--scheduler",
+                           "tcp://127.0.0.1:9"], capture_output=True, text=True, env=env,
+                          timeout=120, check=False)
     assert proc.returncode == 2 and "Dask scheduler" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "Traceback" not in proc.stderr
 
 

@@ -103,12 +103,15 @@ def test_a_class_without_T_or_a_bad_objective_is_refused():
         fl.tune(fl.PlantClass(rho=2, T=1e-3, b=(1, 2)), objective="overshoot")
 
 
-def test_the_class_default_is_least_noise_and_fastest_keeps_converging_members():
+def test_the_class_default_is_least_noise_and_fastest_keeps_converging_members(wide):
     """fl.tune(class) without an objective ranks by noise (the fastest certified loop of
     b in [1, 50] amplified the 1e-3 sensor noise ~5000-fold and no member converged); with
-    "fastest" a certified candidate whose members do not converge is passed over, and said."""
-    cls = fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0), noise_std=1e-3, u_limits=(-10.0, 10.0))
-    default = fl.tune(cls)
+    "fastest" a certified candidate whose members do not converge is passed over, and said.
+    ``wide`` is ``fl.tune`` of this class without an objective (the module's fixture)."""
+    cls = wide.plant_class
+    default = wide
+    assert cls == fl.PlantClass(rho=2, T=1e-3, b=(1.0, 50.0), noise_std=1e-3,
+                                u_limits=(-10.0, 10.0))
     assert default.objective == "least-noise" and default.certified
     assert all(m.converged for m in default.members)
     fast = fl.tune(cls, objective="fastest")

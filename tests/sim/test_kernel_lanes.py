@@ -92,13 +92,20 @@ def test_exact_lanes_equal_scalar_kernel_and_interpreter_bitwise(results, case):
     np.testing.assert_array_equal(exact, accs["native"])
 
 
+@pytest.fixture(scope="module")
+def small_grid_cache(tmp_path_factory):
+    """The kernel cache of the small-grid tests: both grid sizes of a level run the same
+    compiled kernels (content-addressed and verified, as in every use of the cache)."""
+    return tmp_path_factory.mktemp("small_grid")
+
+
 @pytest.mark.parametrize("isa", ISAS)
 @pytest.mark.parametrize("n_runs", [1, 3])
-def test_a_grid_smaller_than_one_block(tmp_path, isa, n_runs):
+def test_a_grid_smaller_than_one_block(small_grid_cache, isa, n_runs):
     """Fewer runs than lanes: the unused lanes never write a result (bitwise the scalar)."""
     d = _pendulum_design()
     run = prepare_run(fl.plants.pendulum(), d, fl.Scenario(0.05, 0.3))
-    _idx, runners = _runners(run, tmp_path, isa)
+    _idx, runners = _runners(run, small_grid_cache, isa)
     acc0 = run.initial_accumulator(parameter_columns(d, [0.02, 0.3, 1.0][:n_runs], [1e-2]))
     np.testing.assert_array_equal(runners["exact", isa].run(acc0, run.D),
                                   runners["native"].run(acc0, run.D))
