@@ -102,6 +102,9 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     # but the LDI's own vertex loops are switched first (2 pairs, ~40 ms): a growing period
     # proves the SDP infeasible (the TRMS's class: every gain, 16 SDPs of ~0.1 s saved)
     L.ldi_refute_pairs = 2
+    # and the LDI's LMI first in its n x n form: no strictly feasible point there refutes the
+    # point for one cheap SDP (the 2n form, whose P the contraction uses, only when it has one)
+    L.ldi_screen = True
     # two time scales (rho >= 3, slow-fast coordinates): the certificates reach the frozen
     # boundary (ratios 0.96-0.99 measured), the first search starts there
     frozen, cert = np.full(g.size, np.nan), np.full(g.size, np.nan)
