@@ -361,6 +361,9 @@ def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
     :data:`PAIRS_ADDED` of them)."""
     loop, notes = L.loop, []
     scs = getattr(L, "scs", True)  # SCS after a Clarabel failure unless the caller (the curve) says not
+    # the n x n form (same feasible set, another P: the contraction may differ) for loops of at
+    # least L.ldi_reduced_from states (the curve: 8, rho >= 3, where the 2n form costs ~0.4 s)
+    red = D[0].shape[0] >= getattr(L, "ldi_reduced_from", np.inf)
     kappas = (0.0, kappa) if getattr(L, "ldi_no_decay", False) else (kappa, 0.0)
     if getattr(L, "ldi_screen", False):  # the curve: refuted by the cheap form first
         screen = _screen(D, T, scs)
@@ -370,7 +373,7 @@ def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
         Wi = np.linalg.inv(W)
         Db = [Wi @ x @ W for x in D]
         for k in kappas if n_w == 0 else (0.0,):
-            sol = vertex_lmi(Db, T, common=True, kappa=k, fallback=scs)
+            sol = vertex_lmi(Db, T, common=True, kappa=k, fallback=scs, reduced=red)
             if sol.certified or k == 0.0:
                 break  # (no decay infeasible: a decay rate is too)
         if sol.certified:
@@ -392,7 +395,7 @@ def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
         # benchmark slope box at 40 % of the cost; all 4^k took seconds per solve)
         worst = np.argsort(_norms(sol.P[0], Dc, T))[::-1][:PAIRS_ADDED]
         again = vertex_lmi(Db + [Dc[i] for i in worst], T, common=True, kappa=k,
-                           fallback=scs)
+                           fallback=scs, reduced=red)
         if again.certified:
             q2, nu2, dP2 = _contraction(again.P[0], Dc, W, Rbar, u_row, loop, T)
             if q2 < q:

@@ -50,7 +50,11 @@ def test_attack_quick_runs_and_no_attack_beats_a_stated_coverage():
     finally:
         sys.path.remove(str(VERIFY))
     for name in CURVE_CLASSES:  # every class attacked, with a summary line
-        assert f"=> {name}: gains attacked" in out, out
+        if f"=> {name}: gains attacked" in out:
+            continue
+        # the slope boxes at rho >= 3 certify no gain (bench_certify says why): nothing to attack
+        assert f"=> {name}: no certified gain to attack" in out, out
+        assert "a-slope box" in name and not name.startswith("rho 2"), out
     stated = [ln for ln in out.splitlines() if "stated coverage: best growth" in ln]
     assert stated and not any("BEATS" in ln for ln in stated), out
     # the exit status says whether any attack (on the named classes too) beat a certificate
