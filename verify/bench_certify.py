@@ -93,8 +93,8 @@ CURVE_CLASSES = {
     "rho 2, T 0.1 ms, b in [1, 50]": (2, 1e-4, 10.0, "b=(1.0, 50.0)"),
     "rho 3, T 1 ms, b in [1, 5]": (3, 1e-3, 1.0, "b=(1.0, 5.0)"),
     # slope boxes at rho >= 3: no gain certified (the LDI LMI feasible at margins ~1e-6, its P's
-    # contraction of the second-order model 1.0002-1.002); 8.3 s -> 3.1 s at rho 3 with the n x n
-    # LMI in session 33, rho 4 still 8.4 s (27 SDPs of ~0.3 s): missed
+    # contraction of the second-order model 1.0002-1.002); with the n x n LMI without decay first
+    # (session 33) rho 3 11.3 -> 2.7 s, rho 4 21.9 -> 4.9 s (9 SDPs; ~3 s of frozen eigenvalues)
     "rho 3, T 1 ms, b in [1, 5], a-slope box": (
         3, 1e-3, 1.0, "b=(1.0, 5.0), a_slopes=[(-0.2, 0.2), (-0.1, 0.1), (-0.05, 0.05)]"),
     "rho 4, T 1 ms, b in [1, 2], a-slope box": (

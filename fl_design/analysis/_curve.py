@@ -105,10 +105,11 @@ def eps_star_curve(design: Design, b_bounds, gammas, *, a_jacobian_bounds=None,
     # and the LDI's LMI first in its n x n form: no strictly feasible point there refutes the
     # point for one cheap SDP (the 2n form, whose P the contraction uses, only when it has one)
     L.ldi_screen = True
-    # from 8 loop states on (rho >= 3) the LDI's LMI in its n x n form: measured on a rho 3 slope
-    # box, 0.07 s per solve against 0.36-0.44 s for the 2n form (12 gains 8.3 -> 3.1 s, the same
-    # 0/12 certified); below it the 2n form, whose P contracts better (rho 2 slope box: 9/12
-    # gains certified against 8/12 with the n x n form)
+    # from 8 loop states on (rho >= 3) the LDI's LMI in its n x n form, without decay first:
+    # measured on a rho 3 slope box, 0.07 s per solve against 0.36-0.44 s for the 2n form (12
+    # gains 11.3 -> 2.7 s, the same 0/12 certified), rho 4: 21.9 -> 4.9 s (9 SDPs; the rest is
+    # the frozen members' eigenvalues); below it the 2n form, whose P contracts better (rho 2
+    # slope box: 9/12 gains certified against 8/12 with the n x n form)
     L.ldi_reduced_from = 8
     # two time scales (rho >= 3, slow-fast coordinates): the certificates reach the frozen
     # boundary (ratios 0.96-0.99 measured), the first search starts there

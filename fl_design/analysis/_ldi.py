@@ -364,8 +364,10 @@ def _solve(L, D, Dchk, Rbar, u_row, T, kappa):
     # the n x n form (same feasible set, another P: the contraction may differ) for loops of at
     # least L.ldi_reduced_from states (the curve: 8, rho >= 3, where the 2n form costs ~0.4 s)
     red = D[0].shape[0] >= getattr(L, "ldi_reduced_from", np.inf)
-    kappas = (0.0, kappa) if getattr(L, "ldi_no_decay", False) else (kappa, 0.0)
-    if getattr(L, "ldi_screen", False):  # the curve: refuted by the cheap form first
+    # no decay first when the loop said so, or in the n x n form (there the first solve is the
+    # screen's own problem: a failure without decay ends the point, decay is harder)
+    kappas = (0.0, kappa) if red or getattr(L, "ldi_no_decay", False) else (kappa, 0.0)
+    if getattr(L, "ldi_screen", False) and not red:  # the curve: refuted by the cheap form first
         screen = _screen(D, T, scs)
         if screen is not None:
             return screen, screen.note
