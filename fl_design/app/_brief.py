@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._text import REACHES, fmt, overshoot_text, step_reach
+from ._text import REACHES, fmt, no_step, step_reach
 
 #: Most words of a short form (the summary's cells).
 MAX_WORDS = 25
@@ -202,10 +202,8 @@ def gamma_words(g) -> str:
     if lo is None or hi is None:  # the scan found no stable gamma at the design's eps
         return (f"no {'|gamma|' if neg else 'gamma'} of the scan gives a stable loop at this "
                 "eps")
-    where = ("" if lo is None or hi is None else
-             f", this {fmt(mag, 'none', 3)} {'inside' if lo < mag < hi else 'outside'}")
-    return (f"{'|gamma|' if neg else 'gamma'} in ({fmt(lo, 'none', 3)}, {fmt(hi, 'none', 3)})"
-            + where)
+    return (f"{'|gamma|' if neg else 'gamma'} in ({fmt(lo, 'none', 3)}, {fmt(hi, 'none', 3)}), "
+            f"this {fmt(mag, 'none', 3)} {'inside' if lo < mag < hi else 'outside'}")
 
 
 def cert_long(cert: dict, b_bounds=None) -> str:
@@ -391,7 +389,7 @@ def compare_brief(sim: dict | None) -> Brief:
         r = sim["runs"][(name, std)]
         if r.status == "diverged":
             parts.append(f"{name} diverges")
-        elif overshoot_text(r).startswith("none: no step"):
+        elif no_step(r):
             parts.append(f"{name}: no step")
         elif step_reach(r) < REACHES:
             parts.append(f"{name} never reaches r")

@@ -173,6 +173,20 @@ def step_reach(resp) -> float:
     return float(np.nanmax(np.abs(resp.y - resp.y0))) / max(abs(resp.step), 1e-300)
 
 
+def no_step(resp) -> bool:
+    """True when the run has no step: its reference is where its output starts (its
+    overshoot is NaN, its step reach meaningless).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from fl_design.app._text import no_step
+    >>> no_step(SimpleNamespace(step=0.0, y0=0.15)), no_step(SimpleNamespace(step=0.05, y0=0.15))
+    (True, False)
+    """
+    return not abs(resp.step) > 1e-12 * max(1.0, abs(resp.y0))
+
+
 def overshoot_text(resp) -> str:
     """Overshoot in %, or why it is not one (diverged; does not track).
 
@@ -197,7 +211,7 @@ def overshoot_text(resp) -> str:
     """
     if resp.status == "diverged":
         return "n/a (diverged)"
-    if not abs(resp.step) > 1e-12 * max(1.0, abs(resp.y0)):
+    if no_step(resp):
         return "none: no step (the reference is the output's start)"
     reach = step_reach(resp)
     if reach < REACHES:
@@ -226,5 +240,5 @@ def design_label(design) -> str:
             f"T = {design.T:g} s")
 
 
-__all__ = ["REACHES", "bounded_up_to", "design_label", "fmt", "linearized_text", "overshoot_text",
+__all__ = ["REACHES", "bounded_up_to", "design_label", "fmt", "linearized_text", "no_step", "overshoot_text",
            "paper_gamma_bound", "run_length_note", "step_reach"]
