@@ -140,7 +140,7 @@ def max_margin(blocks, nvar: int) -> MarginSolution:
         cones.append(clarabel.PSDTriangleConeT(d))
     q = np.zeros(nvar + 1)
     q[-1] = -1.0
-    status, z, iters = _clarabel(q, np.vstack(rows_a), np.concatenate(rows_b), cones)
+    status, z, iters, _ = _clarabel(q, np.vstack(rows_a), np.concatenate(rows_b), cones)
     if z is None:
         return MarginSolution(None, None, status, iters)
     return MarginSolution(z[:nvar], float(z[-1]), status, iters)
@@ -175,14 +175,20 @@ def min_linear(cost, blocks, nvar: int) -> MarginSolution:
     A = [-svec(np.asarray(Fi, dtype=float)).T for _, Fi in blocks]
     b = [svec(np.asarray(F0, dtype=float)) for F0, _ in blocks]
     cones = [clarabel.PSDTriangleConeT(F0.shape[0]) for F0, _ in blocks]
-    status, z, iters = _clarabel(np.asarray(cost, dtype=float).reshape(nvar), np.vstack(A),
+    status, z, iters, _ = _clarabel(np.asarray(cost, dtype=float).reshape(nvar), np.vstack(A),
                                  np.concatenate(b), cones)
     return MarginSolution(z, None, status, iters)
 
 
-def _clarabel(q, A, b, cones):
-    """``(status word, z or None, iterations)`` of Clarabel's ``min q z, A z + s = b, s in
-    cones`` (one thread; a solution only with a status of :data:`WITH_SOLUTION`)."""
+def _clarabel(q, A, b, cones, refine: bool = True):
+    """``(status word, z or None, iterations, dual or None)`` of Clarabel's ``min q z,
+    A z + s = b, s in cones`` (one thread; a solution, and its dual vector, only with a status
+    of :data:`WITH_SOLUTION`). With ``refine`` False, Clarabel's iterative refinement of each
+    KKT solve is off, and a status other than ``"optimal"`` is solved again with it.
+
+    Every direct Clarabel call of :mod:`fl_design.analysis` goes through here (:mod:`._sdp`,
+    :mod:`._sdp_sector`, :mod:`._sdp_sos`).
+    """
     import clarabel
     import scipy.sparse as sp
 
@@ -190,18 +196,22 @@ def _clarabel(q, A, b, cones):
     settings.verbose = False
     if hasattr(settings, "max_threads"):  # clarabel >= 0.10: one thread (tiny problems)
         settings.max_threads = 1
+    if not refine:
+        settings.iterative_refinement_enable = False
     n = q.size
     try:
         solver = clarabel.DefaultSolver(sp.csc_matrix((n, n)), q, sp.csc_matrix(A), b, cones,
                                         settings)
         sol = solver.solve()
     except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
-        return f"solver_error: {type(err).__name__}: {err}"[:120], None, 0
+        return f"solver_error: {type(err).__name__}: {err}"[:120], None, 0, None
     status = STATUS.get(str(sol.status), str(sol.status).lower())
+    if status != "optimal" and not refine:
+        return _clarabel(q, A, b, cones, True)
     z = np.asarray(sol.x, dtype=float)
     if status not in WITH_SOLUTION or z.shape != (n,) or not np.all(np.isfinite(z)):
-        return status, None, int(sol.iterations)
-    return status, z, int(sol.iterations)
+        return status, None, int(sol.iterations), None
+    return status, z, int(sol.iterations), np.asarray(sol.z, dtype=float)
 
 
 __all__ = ["STATUS", "WITH_SOLUTION", "MarginSolution", "max_margin", "min_linear", "svec", "sym_basis"]

@@ -26,31 +26,12 @@ Examples
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from ._sdp import STATUS, WITH_SOLUTION, MarginSolution, svec, sym_basis
+from ._sdp import MarginSolution, _clarabel, svec, sym_basis
 
 #: Cone kinds of :func:`solve_conic`.
 KINDS = ("zero", "nonneg", "soc", "psd")
-
-
-def _count() -> None:
-    """One conic program more for :func:`._lmi.solve_count`."""
-    from ._lmi import _SOLVES, solve_count
-
-    _SOLVES.n = solve_count() + 1
-
-
-def _solved() -> None:
-    """After a solve: the progress listener of :func:`._lmi.solve_progress`, if it is due."""
-    from ._lmi import _SOLVES
-
-    listener = getattr(_SOLVES, "listener", None)
-    if listener is not None and time.perf_counter() - listener[2] >= listener[1]:
-        listener[2] = time.perf_counter()
-        listener[0]()
 
 
 def solve_conic(c, blocks) -> MarginSolution:
@@ -88,7 +69,8 @@ def solve_conic(c, blocks) -> MarginSolution:
     ('optimal', 1.414214)
     """
     import clarabel
-    import scipy.sparse as sp
+
+    from ._lmi import counted
 
     c = np.asarray(c, dtype=float).ravel()
     nvar = c.size
@@ -109,25 +91,11 @@ def solve_conic(c, blocks) -> MarginSolution:
             rows_b.append(F0)
             rows_a.append(-Fi.T)
             cones.append(make[kind](F0.size))
-    A = sp.csc_matrix(np.vstack(rows_a))
-    b = np.concatenate(rows_b)
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    if hasattr(settings, "max_threads"):  # clarabel >= 0.10: one thread (tiny problems)
-        settings.max_threads = 1
-    _count()
-    try:
-        solver = clarabel.DefaultSolver(sp.csc_matrix((nvar, nvar)), c, A, b, cones, settings)
-        sol = solver.solve()
-    except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
-        return MarginSolution(None, None, f"solver_error: {type(err).__name__}: {err}"[:120], 0)
-    finally:
-        _solved()
-    status = STATUS.get(str(sol.status), str(sol.status).lower())
-    z = np.asarray(sol.x, dtype=float)
-    if status not in WITH_SOLUTION or z.shape != (nvar,) or not np.all(np.isfinite(z)):
-        return MarginSolution(None, None, status, int(sol.iterations))
-    return MarginSolution(z, float(c @ z), status, int(sol.iterations))
+    status, z, iters, _ = counted(_clarabel, c, np.vstack(rows_a), np.concatenate(rows_b),
+                                  cones)
+    if z is None:
+        return MarginSolution(None, None, status, iters)
+    return MarginSolution(z, float(c @ z), status, iters)
 
 
 def ellipsoid_program(ch, Pt, Kt, kappa: float, nbar: float):

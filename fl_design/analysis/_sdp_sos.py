@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._sdp import _svec_index, svec
+from ._sdp import _clarabel, _svec_index, svec
 
 
 @dataclass(frozen=True)
@@ -162,34 +162,6 @@ def solve_sos(Es, T: float, basis: np.ndarray, *, refine: bool = False) -> SOSPr
     y = tuple(z[nb + v * k: nb + (v + 1) * k] for v in range(nv))
     duals = tuple(dual[2 + nb * (v + 1): 2 + nb * (v + 2)] for v in range(nv))
     return SOSProgramSolution(Q, y, float(z[-1]), status, iters, duals)
-
-
-def _clarabel(q, A, b, cones, refine: bool):
-    """``(status, x or None, iterations, dual z or None)`` as :func:`._sdp._clarabel`, with
-    iterative refinement off unless ``refine``; a status other than ``"optimal"`` without
-    refinement is solved again with it (the program is always feasible and bounded: ``Q = I``
-    with a negative ``eta``, ``eta <= 1``, so any other status is a numerical one)."""
-    import clarabel
-    import scipy.sparse as sp
-
-    from ._sdp import STATUS, WITH_SOLUTION
-
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    settings.max_threads = 1
-    settings.iterative_refinement_enable = bool(refine)
-    n = q.size
-    try:
-        sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), q, A, b, cones, settings).solve()
-    except Exception as err:  # noqa: BLE001 - a solver failure is a value, not an error
-        return f"solver_error: {type(err).__name__}: {err}"[:120], None, 0, None
-    status = STATUS.get(str(sol.status), str(sol.status).lower())
-    if status != "optimal" and not refine:
-        return _clarabel(q, A, b, cones, True)
-    z = np.asarray(sol.x, dtype=float)
-    if status not in WITH_SOLUTION or z.shape != (n,) or not np.all(np.isfinite(z)):
-        return status, None, int(sol.iterations), None
-    return status, z, int(sol.iterations), np.asarray(sol.z, dtype=float)
 
 
 __all__ = ["SOSProgramSolution", "lyapunov_columns", "solve_sos"]
