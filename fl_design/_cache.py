@@ -262,15 +262,27 @@ def replace_text(path: Path, text: str) -> None:
     >>> (Path("kernels") / "note.txt").read_text()
     'hi'
     """
-    _replace_bytes(path, text.encode())
+    replace_bytes(path, text.encode())
 
 
-def _replace_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a ``mkstemp`` file (O_EXCL, 0600), renamed."""
+def replace_bytes(path: Path, data: bytes, *, mode: int | None = None) -> None:
+    """Write ``data`` to ``path`` atomically: a ``mkstemp`` file (O_EXCL, 0600, or ``mode``
+    set before the rename, e.g. ``0o755`` for a program), renamed.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from fl_design._cache import replace_bytes
+    >>> replace_bytes(Path("blob.bin"), b"fl", mode=0o644)
+    >>> Path("blob.bin").read_bytes(), oct(Path("blob.bin").stat().st_mode & 0o777)
+    (b'fl', '0o644')
+    """
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        if mode is not None:
+            os.chmod(tmp, mode)
         os.replace(tmp, path)
     finally:
         if os.path.lexists(tmp):
@@ -438,12 +450,12 @@ def write_verified(name: str, data: bytes, *, cache_dir=None) -> Path:
     True
     """
     out = cache_directory(cache_dir) / name
-    _replace_bytes(out, data)
+    replace_bytes(out, data)
     record = {"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}
     replace_text(Path(str(out) + SIDECAR_SUFFIX), json.dumps(signed_record(out, record)))
     return out
 
 
 __all__ = ["KEY_NAME", "SIDECAR_SUFFIX", "cache_directory", "check_private", "digest",
-           "key_path", "read_verified", "replace_text", "signed_record", "signing_key",
+           "key_path", "read_verified", "replace_bytes", "replace_text", "signed_record", "signing_key",
            "user_key", "verified", "write_verified"]

@@ -34,15 +34,13 @@ Examples
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from importlib import resources
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
+from .._cache import replace_bytes
 from .._toolchain import UnusableCache, build_program
 from ..errors import ComputationError, ParameterError
 from ..sim import ClosedLoop, simulate
@@ -233,15 +231,7 @@ def build_driver(pkg, plant, substeps: int, compiler=None):
                      str(driver), str(plant_c), *map(str, pkg.sources), "-lm"],
                     what="compiling the software-in-the-loop driver")
         return exe
-    fd, tmp = tempfile.mkstemp(prefix=f".{exe.name}.", dir=build)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o755)
-        os.replace(tmp, exe)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    replace_bytes(exe, data, mode=0o755)
     return exe
 
 
