@@ -263,33 +263,6 @@ class LanesRunner(ThreadsOwner):
                       "slower)", CompilationWarning, stacklevel=4)
         return None
 
-    def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
-        """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (2, nsteps).
-
-        Parameters
-        ----------
-        acc : numpy.ndarray
-            ``(nacc, ncols)`` accumulators (not modified).
-        D : numpy.ndarray
-            ``(2, nsteps)`` samples ``(r_k, w_k)``.
-        threads : int, optional
-            Threads sharing the columns (default 1).
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(nacc, ncols)`` final accumulators.
-
-        Examples
-        --------
-        >>> from fl_design.sim.kernel._lanes import LanesRunner
-        >>> callable(LanesRunner.run)
-        True
-        """
-        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
-        self.advance_rows(cols, D, threads=threads)  # a copy: the caller's acc is kept
-        return cols.T.copy()
-
     def advance_rows(self, cols: np.ndarray, D: np.ndarray, *, threads: int = 1) -> None:
         """:meth:`run` in place on accumulators stored one run per row (no transposed copies).
 

@@ -101,19 +101,6 @@ class NativeRunner(ThreadsOwner):
         self._lib = _load(str(library))
         ThreadsOwner.__init__(self)
 
-    def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
-        """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D`` (n_d, nsteps).
-
-        Examples
-        --------
-        >>> from fl_design.sim.kernel._runners import NativeRunner
-        >>> callable(NativeRunner.run)
-        True
-        """
-        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
-        self.advance_rows(cols, D, threads=threads)
-        return cols.T.copy()
-
     def advance_rows(self, cols: np.ndarray, D: np.ndarray, *, threads: int = 1) -> None:
         """:meth:`run` in place on accumulators stored one run per row (``(ncols, nacc)``,
         C-contiguous float64): no transposed copies from block to block.

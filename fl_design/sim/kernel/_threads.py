@@ -50,7 +50,8 @@ def check_rows(cols: np.ndarray, nacc: int) -> None:
 
 
 class ThreadsOwner:
-    """Kernel threads kept for a runner's life, fork-safe (base of the compiled runners).
+    """Kernel threads kept for a runner's life, fork-safe, and :meth:`run` over the subclass's
+    ``advance_rows`` (base of the compiled runners).
 
     A sweep calls the kernel once per chunk and block of samples: its threads are created
     once, on first use. A process forked from this one inherits the pool objects but not
@@ -69,6 +70,35 @@ class ThreadsOwner:
     def __init__(self):
         self._forget_threads()
         _LIVE.add(self)
+
+    def run(self, acc: np.ndarray, D: np.ndarray, *, threads: int = 1) -> np.ndarray:
+        """Advance every column of ``acc`` (``(nacc, ncols)``) over the samples ``D``
+        (``(n_d, nsteps)``): the subclass's ``advance_rows`` on a row-per-run copy.
+
+        Parameters
+        ----------
+        acc : numpy.ndarray
+            ``(nacc, ncols)`` accumulators (not modified).
+        D : numpy.ndarray
+            ``(n_d, nsteps)`` samples (``(r_k, w_k)``...).
+        threads : int, optional
+            Threads sharing the columns (default 1).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nacc, ncols)`` final accumulators.
+
+        Examples
+        --------
+        >>> from fl_design.sim.kernel._lanes import LanesRunner
+        >>> from fl_design.sim.kernel._runners import NativeRunner
+        >>> LanesRunner.run is NativeRunner.run is ThreadsOwner.run
+        True
+        """
+        cols = np.array(np.asarray(acc, dtype=float).reshape(self.nacc, -1).T, order="C")
+        self.advance_rows(cols, D, threads=threads)  # a copy: the caller's acc is kept
+        return cols.T.copy()
 
     def _forget_threads(self) -> None:
         """A fresh lock and no pool (at creation, and in a child forked from this process:
