@@ -129,15 +129,18 @@ class _Loop:
         """
         if self.box is not None:
             return self.frozen_margin(eps, gamma)
-        M0, M1 = self.loop.parts(eps, gamma)
-        idx = sorted({0, self.n_b - 1, self._worst})
-        m = schur_margins(delta(M0[None] + self.b_grid[idx, None, None] * M1[None], self.T),
-                          self.T)
-        if not np.max(m) < 0.0:
-            return float(np.max(m)) if np.all(np.isfinite(m)) else math.inf
-        m = schur_margins(delta(M0[None] + self.b_grid[:, None, None] * M1[None], self.T),
-                          self.T)
-        self._worst = int(np.argmax(m))
+        return self._screened(self._frozen_deltas(eps, gamma), "_worst")
+
+    def _screened(self, D: np.ndarray, last: str) -> float:
+        """The largest :func:`schur_margins` of ``D`` (``(corners, n_b, n, n)``), screened on
+        the ends of ``b`` and the ``b`` index kept in the attribute ``last`` (every corner): a
+        failing screen returns its margin (a lower bound), else the whole grid's, and ``last``
+        becomes its worst ``b``."""
+        idx = sorted({0, self.n_b - 1, getattr(self, last)})
+        m = schur_margins(D[:, idx], self.T)
+        if np.max(m) < 0.0:
+            m = schur_margins(D, self.T)
+            setattr(self, last, int(np.argmax(np.max(m, axis=0))))
         return float(np.max(m)) if np.all(np.isfinite(m)) else math.inf
 
     def frozen_margins(self, eps_values, gamma: float) -> np.ndarray:
@@ -159,14 +162,7 @@ class _Loop:
         ``b`` that failed last (every corner): a failing screen answers without the rest of the
         grid (half the points of a bisection fail).
         """
-        D = self._frozen_deltas(eps, gamma)
-        idx = sorted({0, self.n_b - 1, self._worst_ok})
-        m = schur_margins(D[:, idx], self.T)
-        if not np.all(m < 0.0):
-            return False
-        m = schur_margins(D, self.T)
-        self._worst_ok = int(np.argmax(np.max(m, axis=0)))
-        return bool(np.all(m < 0.0))
+        return self._screened(self._frozen_deltas(eps, gamma), "_worst_ok") < 0.0
 
     def _corners(self):
         """The distinct corners of the slope box (rows ``a``, first occurrences in order), or
